@@ -1,0 +1,169 @@
+//! `clatter bench`: the seed's table (bodies vs steps/s) on a settled pile, and the LAMMPS
+//! input for the same sphere pile (`scripts/bench-lammps.sh` runs both and prints the ratio).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use clatter::pile::{pile, PileParams, PileShape};
+use clatter::World;
+
+use crate::BenchShape;
+
+/// Arguments of `clatter bench`.
+pub struct BenchArgs {
+    pub shape: BenchShape,
+    pub bodies: Vec<usize>,
+    pub steps: u64,
+    pub settle: u64,
+    pub json: bool,
+    pub emit_lammps: Option<PathBuf>,
+}
+
+/// One row of the table.
+#[derive(serde::Serialize)]
+struct Row {
+    shape: &'static str,
+    bodies: usize,
+    steps: u64,
+    steps_per_s: f64,
+    body_steps_per_s: f64,
+    contacts_per_body: f64,
+    ms_per_step: f64,
+    threads: usize,
+    dt: f32,
+}
+
+/// Runs the benchmark for every body count.
+pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+    if args.bodies.is_empty() || args.bodies.contains(&0) {
+        anyhow::bail!("--bodies needs positive counts, e.g. --bodies 1024,4096");
+    }
+    if args.steps == 0 {
+        anyhow::bail!("--steps must be at least 1");
+    }
+    let (shape, name) = match args.shape {
+        BenchShape::Sphere => (PileShape::Sphere, "sphere"),
+        BenchShape::Cube => (PileShape::Cube, "cube"),
+        BenchShape::Mixed => (PileShape::Mixed, "mixed"),
+    };
+    if args.emit_lammps.is_some() && (shape != PileShape::Sphere || args.bodies.len() != 1) {
+        anyhow::bail!("--emit-lammps needs --shape sphere and exactly one --bodies count");
+    }
+    let params = PileParams::default();
+    if !args.json {
+        println!("# clatter bench: {name} pile, {} threads, {} settle + {} timed steps", rayon::current_num_threads(), args.settle, args.steps);
+        println!("{:>10} {:>12} {:>16} {:>18} {:>10}", "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step");
+    }
+    let mut rows = Vec::new();
+    for &n in &args.bodies {
+        let mut world = World::new(pile(shape, n, &params));
+        for _ in 0..args.settle {
+            world.step().context("the pile blew up while settling")?;
+        }
+        if let Some(dir) = &args.emit_lammps {
+            write_lammps(dir, &world, &params, args.steps)?;
+        }
+        let mut contacts = 0usize;
+        let start = Instant::now();
+        for _ in 0..args.steps {
+            contacts += world.step().context("the pile blew up while timing")?.contacts;
+        }
+        let secs = start.elapsed().as_secs_f64();
+        let sps = args.steps as f64 / secs;
+        let row = Row {
+            shape: name,
+            bodies: n,
+            steps: args.steps,
+            steps_per_s: sps,
+            body_steps_per_s: sps * n as f64,
+            contacts_per_body: 2.0 * contacts as f64 / (args.steps as f64 * n as f64),
+            ms_per_step: 1e3 * secs / args.steps as f64,
+            threads: rayon::current_num_threads(),
+            dt: world.dt,
+        };
+        if !args.json {
+            println!(
+                "{:>10} {:>12.1} {:>16.3e} {:>18.2} {:>10.3}",
+                row.bodies, row.steps_per_s, row.body_steps_per_s, row.contacts_per_body, row.ms_per_step
+            );
+        }
+        rows.push(row);
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    Ok(())
+}
+
+/// Writes `pile.data` and `in.pile` for LAMMPS (`pair_style gran/hooke/history`) with the same
+/// bodies, walls, contact law parameters, time step and step count.
+fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut lo = glam::Vec3::splat(f32::INFINITY);
+    let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
+    for x in &world.position {
+        lo = lo.min(*x);
+        hi = hi.max(*x);
+    }
+    let r = p.radius;
+    let mut data = String::new();
+    use std::fmt::Write as _;
+    writeln!(data, "clatter sphere pile\n\n{} atoms\n1 atom types\n", world.len())?;
+    // The walls are planes x = 0, x = wx, y = 0, y = wy, z = 0 (see pile.rs).
+    let wall = |n: glam::Vec3| world.walls.iter().find(|w| w.plane.normal == n).map(|w| w.plane.offset);
+    let wx = -wall(-glam::Vec3::X).unwrap_or(hi.x + r);
+    let wy = -wall(-glam::Vec3::Y).unwrap_or(hi.y + r);
+    writeln!(data, "{} {} xlo xhi\n{} {} ylo yhi\n{} {} zlo zhi\n", -r, wx + r, -r, wy + r, -r, hi.z + 4.0 * r)?;
+    writeln!(data, "Atoms # sphere\n")?;
+    for (i, x) in world.position.iter().enumerate() {
+        writeln!(data, "{} 1 {} {} {} {} {}", i + 1, 2.0 * r, p.density, x.x, x.y, x.z)?;
+    }
+    writeln!(data, "\nVelocities\n")?;
+    for i in 0..world.len() {
+        let (v, w) = (world.velocity[i], world.omega[i]);
+        writeln!(data, "{} {} {} {} {} {} {}", i + 1, v.x, v.y, v.z, w.x, w.y, w.z)?;
+    }
+    std::fs::write(dir.join("pile.data"), data)?;
+
+    let params = world.pair_params(0, 0);
+    let m = world.mass[0] as f64;
+    let k = params.stiffness as f64;
+    // LAMMPS's Hookean damping is m_eff * gamma_n * v_n; ours is eta * v_n with
+    // eta = factor * sqrt(m_eff k), so gamma_n = factor * sqrt(k / m_eff).
+    let gn_pair = params.damping_factor as f64 * (k / (m / 2.0)).sqrt();
+    let gn_wall = params.damping_factor as f64 * (k / m).sqrt();
+    let kt = k * clatter::material::LINEAR_TANGENTIAL_RATIO as f64;
+    let gt = clatter::material::TANGENTIAL_DAMPING_RATIO as f64;
+    let mu = params.friction;
+    let mut input = std::fs::File::create(dir.join("in.pile"))?;
+    writeln!(
+        input,
+        "# Generated by `clatter bench --emit-lammps`: the same settled sphere pile as clatter's bench.
+units si
+atom_style sphere
+boundary f f f
+newton off
+comm_modify vel yes
+read_data pile.data
+pair_style gran/hooke/history {k} {kt} {gn_pair} {gnt_pair} {mu} 1
+pair_coeff * *
+neighbor {skin} bin
+neigh_modify delay 0 every 1 check yes
+fix integrate all nve/sphere
+fix gravity all gravity 9.81 vector 0 0 -1
+fix floor all wall/gran hooke/history {k} {kt} {gn_wall} {gnt_wall} {mu} 1 zplane 0.0 NULL
+fix xwalls all wall/gran hooke/history {k} {kt} {gn_wall} {gnt_wall} {mu} 1 xplane 0.0 {wx}
+fix ywalls all wall/gran hooke/history {k} {kt} {gn_wall} {gnt_wall} {mu} 1 yplane 0.0 {wy}
+timestep {dt}
+thermo 1000
+run 100
+run {steps}",
+        gnt_pair = gn_pair * gt,
+        gnt_wall = gn_wall * gt,
+        skin = world.skin,
+        dt = world.dt,
+    )?;
+    Ok(())
+}

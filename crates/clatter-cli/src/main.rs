@@ -1,0 +1,112 @@
+//! `clatter`: run DEM scenes, benchmark the step, answer collision queries.
+
+mod bench;
+mod output;
+mod query;
+mod run;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+/// Simulates rigid convex polyhedra and spheres colliding (Discrete Element Method).
+#[derive(Parser)]
+#[command(name = "clatter", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Shape of the benchmark pile.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchShape {
+    /// Spheres only.
+    Sphere,
+    /// Cubes only.
+    Cube,
+    /// Tetrahedra, cubes, octahedra, dodecahedra, icosahedra and spheres in turn.
+    Mixed,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene (the embedded default scene when SCENE is omitted).
+    Run {
+        /// Scene file (TOML, see docs/scene-format.md).
+        scene: Option<PathBuf>,
+        /// Write final.csv, summary.json (and trace.csv with --trace-every) into DIR.
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Append the state of every body to DIR/trace.csv every N steps (needs --out).
+        #[arg(long, value_name = "N")]
+        trace_every: Option<u64>,
+        /// Worker threads (default: all cores). Results are identical for any count.
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+        /// Override the scene's run length with a number of steps.
+        #[arg(long, value_name = "N")]
+        steps: Option<u64>,
+        /// Print nothing but errors.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Time the step on a settled pile and print bodies vs steps/s.
+    Bench {
+        /// Shape of the bodies.
+        #[arg(long, value_enum, default_value = "sphere")]
+        shape: BenchShape,
+        /// Comma-separated body counts.
+        #[arg(long, value_delimiter = ',', default_value = "1024,4096,16384,65536")]
+        bodies: Vec<usize>,
+        /// Timed steps per body count.
+        #[arg(long, default_value_t = 200)]
+        steps: u64,
+        /// Untimed steps that let the pile settle first.
+        #[arg(long, default_value_t = 1000)]
+        settle: u64,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Worker threads (default: all cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+        /// Also write the settled sphere pile as a LAMMPS data file and input script into DIR
+        /// (for scripts/bench-lammps.sh); only with --shape sphere and one body count.
+        #[arg(long, value_name = "DIR")]
+        emit_lammps: Option<PathBuf>,
+    },
+    /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
+    Query {
+        /// Input file, or - for standard input.
+        input: String,
+    },
+}
+
+fn init_threads(threads: Option<usize>) -> anyhow::Result<()> {
+    if let Some(n) = threads {
+        if n == 0 {
+            anyhow::bail!("--threads must be at least 1");
+        }
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run { scene, out, trace_every, threads, steps, quiet } => init_threads(threads)
+            .and_then(|_| run::run(run::RunArgs { scene, out, trace_every, steps, quiet })),
+        Command::Bench { shape, bodies, steps, settle, json, threads, emit_lammps } => init_threads(threads)
+            .and_then(|_| bench::bench(bench::BenchArgs { shape, bodies, steps, settle, json, emit_lammps })),
+        Command::Query { input } => query::run(&input),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

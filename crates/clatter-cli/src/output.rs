@@ -1,0 +1,76 @@
+//! Output files: `final.csv`, `trace.csv`, `summary.json`. Every file is written under a
+//! temporary name and renamed into place when complete, so a file with its final name is
+//! always whole.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clatter::World;
+
+/// The CSV header of `final.csv` (trace.csv prefixes `step,time,`).
+pub const STATE_HEADER: &str = "id,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz";
+
+/// A file being written under `NAME.tmp`, renamed to `NAME` by [`AtomicFile::commit`] and
+/// removed if dropped uncommitted.
+pub struct AtomicFile {
+    tmp: PathBuf,
+    path: PathBuf,
+    writer: Option<BufWriter<File>>,
+}
+
+impl AtomicFile {
+    /// Creates `path.tmp` for writing.
+    pub fn create(path: &Path) -> anyhow::Result<Self> {
+        let mut name = path.file_name().unwrap_or_default().to_os_string();
+        name.push(".tmp");
+        let tmp = path.with_file_name(name);
+        let file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        Ok(Self { tmp, path: path.to_path_buf(), writer: Some(BufWriter::with_capacity(1 << 20, file)) })
+    }
+
+    /// The writer.
+    pub fn writer(&mut self) -> &mut BufWriter<File> {
+        self.writer.as_mut().expect("writer present until commit")
+    }
+
+    /// Flushes, syncs and renames into place.
+    pub fn commit(mut self) -> anyhow::Result<()> {
+        let writer = self.writer.take().expect("writer present until commit");
+        let file = writer.into_inner().map_err(|e| e.into_error()).with_context(|| format!("cannot write {}", self.tmp.display()))?;
+        file.sync_all().with_context(|| format!("cannot sync {}", self.tmp.display()))?;
+        std::fs::rename(&self.tmp, &self.path).with_context(|| format!("cannot rename {} to {}", self.tmp.display(), self.path.display()))?;
+        Ok(())
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if self.writer.is_some() {
+            self.writer = None;
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Writes one CSV row per body (`id,x,...,wz`), optionally prefixed by `prefix` (`step,time,`).
+pub fn write_state_rows(w: &mut impl Write, world: &World, prefix: &str) -> std::io::Result<()> {
+    let mut line = String::with_capacity(256);
+    for i in 0..world.len() {
+        use std::fmt::Write as _;
+        line.clear();
+        let x = world.position[i];
+        let q = world.user_orientation(i);
+        let v = world.velocity[i];
+        let o = world.omega[i];
+        let _ = write!(
+            line,
+            "{prefix}{i},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            x.x, x.y, x.z, q.w, q.x, q.y, q.z, v.x, v.y, v.z, o.x, o.y, o.z
+        );
+        line.push('\n');
+        w.write_all(line.as_bytes())?;
+    }
+    Ok(())
+}

@@ -1,0 +1,551 @@
+//! Convex hull of a point set: quickhull on exact orientation predicates, then coplanar
+//! triangles merged into polygonal faces.
+//!
+//! Why this design: floating-point quickhull breaks on exactly the inputs a user writes by hand
+//! (cube corners plus face centres, duplicated points, many coplanar points). Here the points
+//! are snapped to a 2^40 grid spanning their bounding box (far below f32 resolution, so nothing
+//! visible moves) and every visibility decision is an exact `orient3d` sign: a floating-point
+//! filter with an `i128` fallback. In exact arithmetic the visible region of a convex hull seen
+//! from an outside point is a topological disk, so the triangulated hull is always a valid
+//! closed 2-manifold whose triangles are all (weakly) convex. Geometric tolerance enters only
+//! afterwards, when triangles are merged into faces:
+//!
+//! 1. *tolerant*: adjacent triangles whose vertices lie within `tol` (relative to the cloud's
+//!    extent) of a seed triangle's plane are merged, so f32-rounded pentagons of a dodecahedron
+//!    become one face; the result is accepted only if every face is a simple, strictly convex
+//!    loop and the surface is closed;
+//! 2. *exact*: otherwise only exactly coplanar triangles are merged (always valid);
+//! 3. *triangles*: last resort, never expected, the raw triangulation.
+//!
+//! In every tier a vertex touched by at most two faces lies in the middle of an edge or a face
+//! and is dropped, so only extreme vertices remain.
+
+use glam::{DVec3, Vec3};
+
+use crate::{ConvexPolyhedron, GeomError};
+
+const NONE: u32 = u32::MAX;
+/// Distance tolerance relative to (bounding-box diagonal + largest coordinate magnitude): well
+/// above f32 rounding of authored points (~6e-8), well below any real feature size.
+const REL_TOL: f64 = 1e-6;
+/// Half-width of the integer grid the points are snapped to for exact predicates. Coordinate
+/// differences stay below 2^41, so a 3x3 determinant stays below 3 * 2^124 and fits in `i128`.
+const GRID: f64 = (1u64 << 40) as f64;
+
+/// Convex hull of `points`, with coplanar triangles merged into polygonal faces.
+///
+/// Duplicate, coplanar and nearly coplanar points are fine; points in the middle of a face or
+/// an edge are dropped, so the result holds only extreme vertices (a subset of `points`) and
+/// strictly convex counter-clockwise face loops. Fails with [`GeomError::DegenerateHull`] when
+/// the points do not span a solid (fewer than 4, or all nearly coincident, collinear or
+/// coplanar) and with [`GeomError::NonFinitePoint`] on NaN or infinite coordinates.
+pub fn convex_hull(points: &[Vec3]) -> Result<ConvexPolyhedron, GeomError> {
+    hull_with_tier(points).map(|(hull, _)| hull)
+}
+
+/// How the faces of a hull were obtained (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Tier {
+    Tolerant,
+    Exact,
+    Triangles,
+}
+
+fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError> {
+    let count = points.len();
+    let degenerate = |why| GeomError::DegenerateHull { count, why };
+    if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+        return Err(GeomError::NonFinitePoint { index });
+    }
+    if count < 4 {
+        return Err(degenerate("are fewer than four"));
+    }
+    if count >= NONE as usize / 16 {
+        return Err(degenerate("are too many"));
+    }
+    let pts: Vec<DVec3> = points.iter().map(|p| p.as_dvec3()).collect();
+    let (mut lo, mut hi) = (pts[0], pts[0]);
+    for &p in &pts {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let ext = hi - lo;
+    let diag = ext.length();
+    let big = lo.abs().max(hi.abs()).max_element();
+    let tol = REL_TOL * (diag + big);
+    if diag <= tol {
+        return Err(degenerate("are all (nearly) coincident"));
+    }
+
+    // Initial simplex from well-separated points, with the degeneracy checks.
+    let axis = ext.max_position();
+    let (mut i0, mut i1) = (0, 0);
+    for (i, p) in pts.iter().enumerate() {
+        if p[axis] < pts[i0][axis] {
+            i0 = i;
+        }
+        if p[axis] > pts[i1][axis] {
+            i1 = i;
+        }
+    }
+    let dir = (pts[i1] - pts[i0]).normalize();
+    let (i2, d2) = argmax(&pts, |p| (p - pts[i0]).cross(dir).length());
+    if d2 <= tol {
+        return Err(degenerate("are all (nearly) collinear"));
+    }
+    let normal = (pts[i1] - pts[i0]).cross(pts[i2] - pts[i0]).normalize();
+    let (i3, d3) = argmax(&pts, |p| normal.dot(p - pts[i0]).abs());
+    if d3 <= tol {
+        return Err(degenerate("are all (nearly) coplanar"));
+    }
+
+    // Snap to the integer grid used by the exact predicates.
+    let centre = (lo + hi) * 0.5;
+    let scale = GRID / (ext.max_element() * 0.5);
+    let qf: Vec<DVec3> = pts.iter().map(|&p| ((p - centre) * scale).round()).collect();
+    let q: Vec<[i64; 3]> = qf.iter().map(|p| [p.x as i64, p.y as i64, p.z as i64]).collect();
+    let pred = Predicates { q: &q, qf: &qf };
+
+    let mut qh = Quickhull::new(pred, [i0 as u32, i1 as u32, i2 as u32, i3 as u32])
+        .ok_or_else(|| degenerate("are all (nearly) coplanar"))?;
+    qh.run().ok_or_else(|| degenerate("could not be hulled robustly"))?;
+
+    // Alive triangles with compact indices and adjacency.
+    let mut local = vec![NONE; qh.tris.len()];
+    let mut tris = Vec::new();
+    for (i, t) in qh.tris.iter().enumerate() {
+        if t.alive {
+            local[i] = tris.len() as u32;
+            tris.push(t.v);
+        }
+    }
+    let adj: Vec<[u32; 3]> = qh
+        .tris
+        .iter()
+        .filter(|t| t.alive)
+        .map(|t| t.adj.map(|a| local[a as usize]))
+        .collect();
+    let mesh = TriMesh { tris, adj, pts: &pts, pred, tol };
+
+    let (loops, tier) = if let Some(l) = mesh.faces(Tier::Tolerant) {
+        (l, Tier::Tolerant)
+    } else if let Some(l) = mesh.faces(Tier::Exact) {
+        (l, Tier::Exact)
+    } else {
+        (mesh.tris.iter().map(|t| t.to_vec()).collect(), Tier::Triangles)
+    };
+
+    // Compact the vertex indices to the used ones.
+    let mut remap = vec![NONE; count];
+    let mut vertices = Vec::new();
+    let loops: Vec<Vec<u32>> = loops
+        .into_iter()
+        .map(|lp| {
+            lp.into_iter()
+                .map(|i| {
+                    if remap[i as usize] == NONE {
+                        remap[i as usize] = vertices.len() as u32;
+                        vertices.push(points[i as usize]);
+                    }
+                    remap[i as usize]
+                })
+                .collect()
+        })
+        .collect();
+    Ok((ConvexPolyhedron::from_faces(vertices, &loops), tier))
+}
+
+/// Index and value of the largest `f(p)`.
+fn argmax(pts: &[DVec3], f: impl Fn(DVec3) -> f64) -> (usize, f64) {
+    let mut best = (0, f64::NEG_INFINITY);
+    for (i, &p) in pts.iter().enumerate() {
+        let d = f(p);
+        if d > best.1 {
+            best = (i, d);
+        }
+    }
+    best
+}
+
+/// Exact orientation tests on the snapped points.
+#[derive(Clone, Copy)]
+struct Predicates<'a> {
+    q: &'a [[i64; 3]],
+    qf: &'a [DVec3],
+}
+
+impl Predicates<'_> {
+    /// Sign of `det[b - a, c - a, d - a]`: positive when `d` is on the side the normal of the
+    /// counter-clockwise triangle `abc` points to.
+    fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> i32 {
+        let pa = self.qf[a as usize];
+        let (u, v, w) = (self.qf[b as usize] - pa, self.qf[c as usize] - pa, self.qf[d as usize] - pa);
+        // Differences of integers below 2^41 are exact; only the products round.
+        let det = u.x * (v.y * w.z - v.z * w.y) + u.y * (v.z * w.x - v.x * w.z) + u.z * (v.x * w.y - v.y * w.x);
+        let perm = u.x.abs() * ((v.y * w.z).abs() + (v.z * w.y).abs())
+            + u.y.abs() * ((v.z * w.x).abs() + (v.x * w.z).abs())
+            + u.z.abs() * ((v.x * w.y).abs() + (v.y * w.x).abs());
+        let bound = 1e-14 * perm;
+        if det > bound {
+            return 1;
+        }
+        if det < -bound {
+            return -1;
+        }
+        let pa = self.q[a as usize];
+        let diff = |i: u32| {
+            let p = self.q[i as usize];
+            [(p[0] - pa[0]) as i128, (p[1] - pa[1]) as i128, (p[2] - pa[2]) as i128]
+        };
+        let (u, v, w) = (diff(b), diff(c), diff(d));
+        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) + u[1] * (v[2] * w[0] - v[0] * w[2]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        det.signum() as i32
+    }
+}
+
+/// A hull triangle: counter-clockwise from outside; `adj[i]` is across edge `v[i] -> v[i+1]`.
+struct Tri {
+    v: [u32; 3],
+    adj: [u32; 3],
+    normal: DVec3,
+    offset: f64,
+    /// The outside point furthest from the plane (approximate distance) and that distance.
+    far: u32,
+    far_dist: f64,
+    alive: bool,
+}
+
+struct Quickhull<'a> {
+    pred: Predicates<'a>,
+    tris: Vec<Tri>,
+    /// Points strictly outside each triangle (each point listed under one triangle only).
+    outside: Vec<Vec<u32>>,
+    /// Visit stamps for the visibility search, and the cached visibility.
+    stamp: Vec<u32>,
+    visible: Vec<bool>,
+    epoch: u32,
+    /// Scratch: for a horizon vertex, the new triangle whose horizon edge starts there.
+    from: Vec<u32>,
+    work: Vec<u32>,
+}
+
+impl<'a> Quickhull<'a> {
+    /// Starts from the tetrahedron `s`; `None` if it is flat in exact arithmetic.
+    fn new(pred: Predicates<'a>, s: [u32; 4]) -> Option<Self> {
+        let n = pred.qf.len();
+        let mut qh = Quickhull {
+            pred,
+            tris: Vec::new(),
+            outside: Vec::new(),
+            stamp: Vec::new(),
+            visible: Vec::new(),
+            epoch: 0,
+            from: vec![NONE; n],
+            work: Vec::new(),
+        };
+        let [a, mut b, mut c, d] = s;
+        match pred.orient(a, b, c, d) {
+            0 => return None,
+            o if o > 0 => std::mem::swap(&mut b, &mut c),
+            _ => {}
+        }
+        // d is now below abc; the four faces, counter-clockwise from outside.
+        let faces = [[a, b, c], [a, d, b], [b, d, c], [c, d, a]];
+        for f in faces {
+            qh.push_tri(f);
+        }
+        for t in 0..4 {
+            for i in 0..3 {
+                let (x, y) = (faces[t][i], faces[t][(i + 1) % 3]);
+                let u = (0..4).find(|&u| (0..3).any(|j| faces[u][j] == y && faces[u][(j + 1) % 3] == x))?;
+                qh.tris[t].adj[i] = u as u32;
+            }
+        }
+        for p in 0..n as u32 {
+            if !s.contains(&p) {
+                qh.assign(p, &[0, 1, 2, 3]);
+            }
+        }
+        qh.work.extend(0..4);
+        Some(qh)
+    }
+
+    fn push_tri(&mut self, v: [u32; 3]) -> u32 {
+        let qf = self.pred.qf;
+        let (a, b, c) = (qf[v[0] as usize], qf[v[1] as usize], qf[v[2] as usize]);
+        let normal = (b - a).cross(c - a).normalize_or_zero();
+        self.tris.push(Tri {
+            v,
+            adj: [NONE; 3],
+            normal,
+            offset: normal.dot(a),
+            far: NONE,
+            far_dist: f64::NEG_INFINITY,
+            alive: true,
+        });
+        self.outside.push(Vec::new());
+        self.stamp.push(0);
+        self.visible.push(false);
+        (self.tris.len() - 1) as u32
+    }
+
+    /// Files point `p` under the first of `cands` it is strictly outside of (or drops it).
+    fn assign(&mut self, p: u32, cands: &[u32]) {
+        for &t in cands {
+            let tri = &mut self.tris[t as usize];
+            let [a, b, c] = tri.v;
+            if self.pred.orient(a, b, c, p) > 0 {
+                let dist = tri.normal.dot(self.pred.qf[p as usize]) - tri.offset;
+                if dist > tri.far_dist || tri.far == NONE {
+                    tri.far = p;
+                    tri.far_dist = dist;
+                }
+                self.outside[t as usize].push(p);
+                return;
+            }
+        }
+    }
+
+    /// Adds outside points until none is left; `None` on an (unexpected) topological failure.
+    fn run(&mut self) -> Option<()> {
+        let cap = 4 * self.pred.qf.len() + 16;
+        let mut steps = 0;
+        while let Some(t) = self.work.pop() {
+            let tri = &self.tris[t as usize];
+            if !tri.alive || self.outside[t as usize].is_empty() {
+                continue;
+            }
+            steps += 1;
+            if steps > cap {
+                return None;
+            }
+            let eye = tri.far;
+            self.add(eye, t)?;
+        }
+        Some(())
+    }
+
+    /// Replaces the triangles visible from `eye` (starting at `start`) by a cone to `eye`.
+    fn add(&mut self, eye: u32, start: u32) -> Option<()> {
+        self.epoch = self.epoch.wrapping_add(1).max(1);
+        let epoch = self.epoch;
+        let mut visible = vec![start];
+        self.stamp[start as usize] = epoch;
+        self.visible[start as usize] = true;
+        let mut horizon: Vec<(u32, u32, u32)> = Vec::new();
+        let mut k = 0;
+        while k < visible.len() {
+            let t = visible[k];
+            k += 1;
+            for i in 0..3 {
+                let nb = self.tris[t as usize].adj[i];
+                if self.stamp[nb as usize] != epoch {
+                    self.stamp[nb as usize] = epoch;
+                    let [a, b, c] = self.tris[nb as usize].v;
+                    let vis = self.pred.orient(a, b, c, eye) > 0;
+                    self.visible[nb as usize] = vis;
+                    if vis {
+                        visible.push(nb);
+                    }
+                }
+                if !self.visible[nb as usize] {
+                    let v = self.tris[t as usize].v;
+                    horizon.push((v[i], v[(i + 1) % 3], nb));
+                }
+            }
+        }
+        // The cone: one triangle per horizon edge, linked to the outer side and to each other.
+        let first_new = self.tris.len() as u32;
+        let mut ok = horizon.len() >= 3;
+        for &(a, b, outer) in &horizon {
+            let t = self.push_tri([a, b, eye]);
+            self.tris[t as usize].adj[0] = outer;
+            let o = &mut self.tris[outer as usize];
+            match (0..3).find(|&j| o.v[j] == b && o.v[(j + 1) % 3] == a) {
+                Some(j) => o.adj[j] = t,
+                None => ok = false,
+            }
+            if self.from[a as usize] != NONE {
+                ok = false;
+            }
+            self.from[a as usize] = t;
+        }
+        let new: Vec<u32> = (first_new..self.tris.len() as u32).collect();
+        for &t in &new {
+            let b = self.tris[t as usize].v[1];
+            let u = self.from[b as usize];
+            if u == NONE || self.tris[u as usize].adj[2] != NONE {
+                ok = false;
+                continue;
+            }
+            self.tris[t as usize].adj[1] = u;
+            self.tris[u as usize].adj[2] = t;
+        }
+        for &(a, _, _) in &horizon {
+            self.from[a as usize] = NONE;
+        }
+        if !ok {
+            return None;
+        }
+        // Retire the visible triangles and re-file their outside points.
+        for &t in &visible {
+            self.tris[t as usize].alive = false;
+            for p in std::mem::take(&mut self.outside[t as usize]) {
+                if p != eye {
+                    self.assign(p, &new);
+                }
+            }
+        }
+        self.work.extend(new.iter().filter(|&&t| !self.outside[t as usize].is_empty()));
+        Some(())
+    }
+}
+
+/// The final triangulated hull, with adjacency, ready for face merging.
+struct TriMesh<'a> {
+    tris: Vec<[u32; 3]>,
+    adj: Vec<[u32; 3]>,
+    pts: &'a [DVec3],
+    pred: Predicates<'a>,
+    tol: f64,
+}
+
+impl TriMesh<'_> {
+    /// Merged face loops for `tier`, or `None` if that tier does not give a valid polyhedron.
+    fn faces(&self, tier: Tier) -> Option<Vec<Vec<u32>>> {
+        let nt = self.tris.len();
+        let p = |i: u32| self.pts[i as usize];
+        let raw_normal = |t: &[u32; 3]| (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0]));
+        // Largest triangles seed the faces: their planes are the best conditioned.
+        let mut order: Vec<u32> = (0..nt as u32).collect();
+        let area: Vec<f64> = self.tris.iter().map(|t| raw_normal(t).length()).collect();
+        order.sort_by(|&a, &b| area[b as usize].total_cmp(&area[a as usize]));
+
+        let mut region = vec![NONE; nt];
+        let mut members: Vec<Vec<u32>> = Vec::new();
+        for &s in &order {
+            if region[s as usize] != NONE {
+                continue;
+            }
+            let r = members.len() as u32;
+            let seed = self.tris[s as usize];
+            let normal = raw_normal(&seed).normalize_or_zero();
+            let offset = normal.dot(p(seed[0]));
+            region[s as usize] = r;
+            let mut m = vec![s];
+            let mut k = 0;
+            while k < m.len() {
+                let t = m[k] as usize;
+                k += 1;
+                for i in 0..3 {
+                    let u = self.adj[t][i];
+                    if region[u as usize] != NONE {
+                        continue;
+                    }
+                    let tu = self.tris[u as usize];
+                    let (a, b) = (self.tris[t][i], self.tris[t][(i + 1) % 3]);
+                    let Some(&c) = tu.iter().find(|&&x| x != a && x != b) else {
+                        continue;
+                    };
+                    let merge = match tier {
+                        Tier::Tolerant => {
+                            (normal.dot(p(c)) - offset).abs() <= self.tol
+                                && normal.dot(raw_normal(&tu)) > 0.0
+                        }
+                        _ => self.pred.orient(seed[0], seed[1], seed[2], c) == 0,
+                    };
+                    if merge {
+                        region[u as usize] = r;
+                        m.push(u);
+                    }
+                }
+            }
+            members.push(m);
+        }
+
+        // Each face must be a disk: its boundary one simple loop.
+        let mut next = vec![NONE; self.pts.len()];
+        let mut loops = Vec::with_capacity(members.len());
+        for (r, m) in members.iter().enumerate() {
+            let mut starts = Vec::new();
+            let mut simple = true;
+            for &t in m {
+                for i in 0..3 {
+                    if region[self.adj[t as usize][i] as usize] != r as u32 {
+                        let (a, b) = (self.tris[t as usize][i], self.tris[t as usize][(i + 1) % 3]);
+                        simple &= next[a as usize] == NONE;
+                        next[a as usize] = b;
+                        starts.push(a);
+                    }
+                }
+            }
+            let mut lp = Vec::with_capacity(starts.len());
+            if simple && !starts.is_empty() {
+                let mut v = starts[0];
+                while lp.len() <= starts.len() {
+                    lp.push(v);
+                    v = next[v as usize];
+                    if v == starts[0] || v == NONE {
+                        break;
+                    }
+                }
+                simple = v == starts[0] && lp.len() == starts.len();
+            }
+            for a in starts {
+                next[a as usize] = NONE;
+            }
+            if !simple {
+                return None;
+            }
+            loops.push(lp);
+        }
+
+        // Keep only vertices shared by at least three faces: the others lie on an edge.
+        let mut faces_at = vec![0u32; self.pts.len()];
+        for lp in &loops {
+            for &v in lp {
+                faces_at[v as usize] += 1;
+            }
+        }
+        for lp in &mut loops {
+            lp.retain(|&v| faces_at[v as usize] >= 3);
+            if lp.len() < 3 {
+                return None;
+            }
+        }
+        if tier == Tier::Tolerant && !loops.iter().all(|lp| strictly_convex(lp, self.pts)) {
+            return None;
+        }
+        closed_surface(&loops).then_some(loops)
+    }
+}
+
+/// Whether the loop turns strictly left at every vertex about its (Newell) normal.
+fn strictly_convex(lp: &[u32], pts: &[DVec3]) -> bool {
+    let n = lp.len();
+    let at = |k: usize| pts[lp[k % n] as usize];
+    let mut normal = DVec3::ZERO;
+    for k in 0..n {
+        normal += at(k).cross(at(k + 1));
+    }
+    (0..n).all(|k| (at(k + 1) - at(k)).cross(at(k + 2) - at(k + 1)).dot(normal) > 0.0)
+}
+
+/// Whether every directed edge appears once with its reverse, and Euler's V - E + F = 2 holds.
+fn closed_surface(loops: &[Vec<u32>]) -> bool {
+    let mut edges: Vec<(u32, u32)> = Vec::new();
+    let mut verts: Vec<u32> = Vec::new();
+    for lp in loops {
+        for k in 0..lp.len() {
+            edges.push((lp[k], lp[(k + 1) % lp.len()]));
+            verts.push(lp[k]);
+        }
+    }
+    edges.sort_unstable();
+    verts.sort_unstable();
+    verts.dedup();
+    let unique = edges.windows(2).all(|w| w[0] != w[1]);
+    let paired = edges.iter().all(|&(a, b)| edges.binary_search(&(b, a)).is_ok());
+    let (v, e, f) = (verts.len() as i64, edges.len() as i64 / 2, loops.len() as i64);
+    unique && paired && v - e + f == 2
+}

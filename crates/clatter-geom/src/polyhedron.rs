@@ -1,0 +1,119 @@
+//! The convex polyhedron: vertices, polygonal faces with outward planes, and the unique edges
+//! with their two adjacent faces (what the separating-axis test and the Gauss-map pruning need).
+
+use glam::Vec3;
+
+/// One polygonal face: outward unit normal, plane offset (`normal . x = offset` on the face) and
+/// a counter-clockwise (seen from outside) loop of vertex indices stored in
+/// [`ConvexPolyhedron::face_vertices`]`[first..first + count]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Face {
+    pub normal: Vec3,
+    pub offset: f32,
+    pub first: u32,
+    pub count: u32,
+}
+
+/// A convex polyhedron with merged coplanar faces (a cube has 6 quads, not 12 triangles).
+///
+/// Built by [`ConvexPolyhedron::from_faces`] (normally through [`crate::convex_hull`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConvexPolyhedron {
+    /// Vertex positions in the shape's local frame.
+    pub vertices: Vec<Vec3>,
+    /// Faces with outward planes.
+    pub faces: Vec<Face>,
+    /// Concatenated counter-clockwise vertex loops of all faces.
+    pub face_vertices: Vec<u32>,
+    /// Unique undirected edges `[a, b]` with `a < b`.
+    pub edges: Vec<[u32; 2]>,
+    /// For each edge, the two faces sharing it.
+    pub edge_faces: Vec<[u32; 2]>,
+    /// Largest distance of a vertex from the local origin (bounding-sphere radius).
+    pub radius: f32,
+}
+
+impl ConvexPolyhedron {
+    /// Builds the polyhedron from vertices and counter-clockwise face loops (seen from outside).
+    /// Normals come from Newell's method (robust for slightly non-planar loops); edges and their
+    /// adjacent faces are derived from the loops. The caller guarantees a closed convex surface.
+    pub fn from_faces(vertices: Vec<Vec3>, loops: &[Vec<u32>]) -> Self {
+        let mut faces = Vec::with_capacity(loops.len());
+        let mut face_vertices = Vec::new();
+        for lp in loops {
+            let mut n = Vec3::ZERO;
+            let mut centroid = Vec3::ZERO;
+            for (k, &i) in lp.iter().enumerate() {
+                let a = vertices[i as usize];
+                let b = vertices[lp[(k + 1) % lp.len()] as usize];
+                n += Vec3::new(
+                    (a.y - b.y) * (a.z + b.z),
+                    (a.z - b.z) * (a.x + b.x),
+                    (a.x - b.x) * (a.y + b.y),
+                );
+                centroid += a;
+            }
+            centroid /= lp.len() as f32;
+            let normal = n.normalize_or_zero();
+            // The face plane passes through the loop's outermost vertex so that every vertex
+            // is on or behind every face plane (no false separation from rounding).
+            let offset = lp
+                .iter()
+                .map(|&i| normal.dot(vertices[i as usize]))
+                .fold(normal.dot(centroid), f32::max);
+            faces.push(Face {
+                normal,
+                offset,
+                first: face_vertices.len() as u32,
+                count: lp.len() as u32,
+            });
+            face_vertices.extend_from_slice(lp);
+        }
+        let mut edge_map: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
+        for (f, lp) in loops.iter().enumerate() {
+            for k in 0..lp.len() {
+                let a = lp[k];
+                let b = lp[(k + 1) % lp.len()];
+                edge_map.entry((a.min(b), a.max(b))).or_default().push(f as u32);
+            }
+        }
+        let mut edges = Vec::with_capacity(edge_map.len());
+        let mut edge_faces = Vec::with_capacity(edge_map.len());
+        for ((a, b), fs) in edge_map {
+            edges.push([a, b]);
+            edge_faces.push([fs[0], *fs.get(1).unwrap_or(&fs[0])]);
+        }
+        let radius = vertices.iter().map(|v| v.length()).fold(0.0, f32::max);
+        Self { vertices, faces, face_vertices, edges, edge_faces, radius }
+    }
+
+    /// The vertex loop of face `f`.
+    #[inline]
+    pub fn face_loop(&self, f: usize) -> &[u32] {
+        let face = &self.faces[f];
+        &self.face_vertices[face.first as usize..(face.first + face.count) as usize]
+    }
+
+    /// Support point: the vertex furthest along `dir` (local frame).
+    #[inline]
+    pub fn support(&self, dir: Vec3) -> Vec3 {
+        let mut best = self.vertices[0];
+        let mut best_d = best.dot(dir);
+        for &v in &self.vertices[1..] {
+            let d = v.dot(dir);
+            if d > best_d {
+                best_d = d;
+                best = v;
+            }
+        }
+        best
+    }
+
+    /// Returns a copy with every vertex mapped by `f` (used to move a hull into its principal
+    /// frame); planes and radius are recomputed.
+    pub fn map_vertices(&self, f: impl Fn(Vec3) -> Vec3) -> Self {
+        let vertices = self.vertices.iter().map(|&v| f(v)).collect();
+        let loops: Vec<Vec<u32>> = (0..self.faces.len()).map(|i| self.face_loop(i).to_vec()).collect();
+        Self::from_faces(vertices, &loops)
+    }
+}

@@ -1,0 +1,1 @@
+//! Collision queries between any two shapes (in progress).

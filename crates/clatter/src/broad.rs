@@ -1,0 +1,151 @@
+//! Stages 1-3, **bin**, **sort** and **pairs**: the uniform grid broad phase.
+//!
+//! Cells are at least as large as the largest bounding-sphere diameter plus the Verlet skin,
+//! so every body whose (skin-inflated) bounding sphere can touch another lies in one of the 27
+//! cells around it. Bodies are binned by centre, counting-sorted by cell key, and each body
+//! looks only at bodies with a larger index in the neighbouring cells, so each pair is found
+//! once. Output is sorted by `(i, j)`, independent of the thread count.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// The grid a rebuild used: its origin, cell size and cell counts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grid {
+    /// Lower corner.
+    pub min: Vec3,
+    /// Edge length of a cubic cell.
+    pub cell_size: f32,
+    /// Number of cells along x, y, z.
+    pub dims: [u32; 3],
+}
+
+impl Grid {
+    /// A grid around `positions` with cells of at least `min_cell`; cells grow when the bodies
+    /// are so spread out that the grid would have more than about 8 cells per body.
+    pub fn around(positions: &[Vec3], min_cell: f32) -> Grid {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &p in positions {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        if positions.is_empty() {
+            lo = Vec3::ZERO;
+            hi = Vec3::ZERO;
+        }
+        let extent = (hi - lo).max(Vec3::ZERO);
+        let max_cells = 8.0 * positions.len() as f64 + 64.0;
+        let mut cell = min_cell.max(1e-12);
+        loop {
+            let d = (extent / cell).floor() + Vec3::ONE;
+            if (d.x as f64) * (d.y as f64) * (d.z as f64) <= max_cells {
+                return Grid { min: lo, cell_size: cell, dims: [d.x as u32, d.y as u32, d.z as u32] };
+            }
+            cell *= 1.5;
+        }
+    }
+
+    /// Integer cell coordinates of `p`, clamped into the grid (never dropped).
+    #[inline]
+    pub fn cell_of(&self, p: Vec3) -> [u32; 3] {
+        let g = ((p - self.min) / self.cell_size).floor();
+        [
+            (g.x.max(0.0) as u32).min(self.dims[0] - 1),
+            (g.y.max(0.0) as u32).min(self.dims[1] - 1),
+            (g.z.max(0.0) as u32).min(self.dims[2] - 1),
+        ]
+    }
+
+    /// Linear cell key, x fastest.
+    #[inline]
+    pub fn key(&self, c: [u32; 3]) -> u32 {
+        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
+    }
+
+    /// Total number of cells.
+    pub fn cell_count(&self) -> usize {
+        self.dims.iter().map(|&d| d as usize).product()
+    }
+}
+
+/// **bin**: the cell key of every body.
+pub fn bin(grid: &Grid, positions: &[Vec3]) -> Vec<u32> {
+    positions.par_iter().map(|&p| grid.key(grid.cell_of(p))).collect()
+}
+
+/// **sort**: a stable counting sort of body indices by cell key. Returns the sorted indices
+/// and `cell_start` (length `cells + 1`): cell `c` holds `sorted[cell_start[c]..cell_start[c+1]]`.
+pub fn sort(keys: &[u32], cells: usize) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; cells + 1];
+    for &k in keys {
+        start[k as usize + 1] += 1;
+    }
+    for c in 0..cells {
+        start[c + 1] += start[c];
+    }
+    let mut fill = start.clone();
+    let mut sorted = vec![0u32; keys.len()];
+    for (i, &k) in keys.iter().enumerate() {
+        sorted[fill[k as usize] as usize] = i as u32;
+        fill[k as usize] += 1;
+    }
+    (sorted, start)
+}
+
+/// **pairs**: all `(i, j)` with `i < j` whose bounding spheres, each grown by `skin / 2`,
+/// overlap. Sorted by `(i, j)`.
+pub fn pairs(grid: &Grid, positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[u32; 2]> {
+    let keys = bin(grid, positions);
+    let (sorted, start) = sort(&keys, grid.cell_count());
+    let dims = grid.dims;
+    let per_body: Vec<Vec<u32>> = (0..positions.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|i| {
+            let pi = positions[i];
+            let ri = radii[i];
+            let c = grid.cell_of(pi);
+            let mut out = Vec::new();
+            for z in c[2].saturating_sub(1)..=(c[2] + 1).min(dims[2] - 1) {
+                for y in c[1].saturating_sub(1)..=(c[1] + 1).min(dims[1] - 1) {
+                    let row = grid.key([0, y, z]);
+                    let x0 = c[0].saturating_sub(1);
+                    let x1 = (c[0] + 1).min(dims[0] - 1);
+                    // Cells x0..=x1 of this row are contiguous in key order.
+                    let s = start[(row + x0) as usize] as usize;
+                    let e = start[(row + x1 + 1) as usize] as usize;
+                    for &j in &sorted[s..e] {
+                        if j as usize > i {
+                            let reach = ri + radii[j as usize] + skin;
+                            if (positions[j as usize] - pi).length_squared() < reach * reach {
+                                out.push(j);
+                            }
+                        }
+                    }
+                }
+            }
+            out.sort_unstable();
+            out
+        })
+        .collect();
+    let total = per_body.iter().map(Vec::len).sum();
+    let mut result = Vec::with_capacity(total);
+    for (i, js) in per_body.into_iter().enumerate() {
+        result.extend(js.into_iter().map(|j| [i as u32, j]));
+    }
+    result
+}
+
+/// The same pairs by checking all `n (n-1) / 2` of them: the reference for tests.
+pub fn pairs_brute_force(positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[u32; 2]> {
+    let mut out = Vec::new();
+    for i in 0..positions.len() {
+        for j in i + 1..positions.len() {
+            let reach = radii[i] + radii[j] + skin;
+            if (positions[j] - positions[i]).length_squared() < reach * reach {
+                out.push([i as u32, j as u32]);
+            }
+        }
+    }
+    out
+}

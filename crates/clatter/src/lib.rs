@@ -1,0 +1,17 @@
+//! clatter: Discrete Element Method simulation of rigid convex polyhedra and spheres.
+//!
+//! The step is a fixed pipeline of stages named the same on every backend:
+//! **bin**, **sort**, **pairs** ([`broad`]), **narrow** ([`clatter_geom::narrow`]),
+//! **forces** ([`forces`]) and **integrate** ([`world::World::step`]).
+
+pub mod broad;
+pub mod forces;
+pub mod material;
+pub mod pile;
+pub mod scene;
+pub mod shape_spec;
+pub mod world;
+
+pub use clatter_geom as geom;
+pub use material::{ContactLaw, Material, PairParams};
+pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};

@@ -1,0 +1,120 @@
+//! Materials and how two of them combine into the parameters of one contact.
+//!
+//! Combination rules (identical materials always get the material's own values):
+//! - linear stiffness: `k = 2 k1 k2 / (k1 + k2)` (two springs in series, scaled by 2);
+//! - Hertz: the physical effective moduli `1/E* = (1-v1^2)/E1 + (1-v2^2)/E2` and
+//!   `1/G* = 2(2-v1)(1+v1)/E1 + 2(2-v2)(1+v2)/E2` (for one material these are what the
+//!   Hertz-Mindlin law uses for that material);
+//! - restitution and friction: geometric means `sqrt(e1 e2)`, `sqrt(mu1 mu2)`.
+//! Linear and Hertz materials cannot be mixed in one scene (a scene error says so).
+
+/// The normal contact law of a material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ContactLaw {
+    /// Linear spring-dashpot: normal force `k * overlap` plus damping (the seed's model).
+    Linear {
+        /// Normal stiffness, N/m.
+        stiffness: f32,
+    },
+    /// Hertz-Mindlin: normal force `4/3 E* sqrt(R* d) d` plus damping.
+    Hertz {
+        /// Young's modulus, Pa.
+        youngs_modulus: f32,
+        /// Poisson ratio, dimensionless, in [0, 0.5).
+        poisson_ratio: f32,
+    },
+}
+
+/// A material: density, contact law, restitution and friction.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Material {
+    /// Name used by scene files.
+    pub name: String,
+    /// kg/m^3.
+    pub density: f32,
+    /// Normal force law.
+    pub law: ContactLaw,
+    /// Coefficient of restitution in (0, 1]; sets the normal damping.
+    pub restitution: f32,
+    /// Coulomb friction coefficient (>= 0) capping the tangential spring force.
+    pub friction: f32,
+}
+
+/// The combined parameters of a contact between two materials (or a material and a wall).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairParams {
+    /// Hertz when true, linear otherwise.
+    pub hertz: bool,
+    /// Linear: normal stiffness k (N/m). Hertz: effective modulus E* (Pa).
+    pub stiffness: f32,
+    /// Hertz only: effective shear modulus G* (Pa).
+    pub shear: f32,
+    /// Combined restitution.
+    pub restitution: f32,
+    /// Linear: `2 (-ln e) / sqrt(pi^2 + ln^2 e)`, so that `eta = factor * sqrt(m_eff k)`.
+    /// Hertz: `2 sqrt(5/6) (-ln e) / sqrt(pi^2 + ln^2 e)` (Tsuji's damping).
+    pub damping_factor: f32,
+    /// Combined friction coefficient.
+    pub friction: f32,
+}
+
+/// Tangential stiffness over normal stiffness in the linear model (2/7, which makes the
+/// tangential and normal oscillations of a sphere contact equally fast).
+pub const LINEAR_TANGENTIAL_RATIO: f32 = 2.0 / 7.0;
+/// Tangential damping over normal damping (LAMMPS's default `gammat = gamman / 2`).
+pub const TANGENTIAL_DAMPING_RATIO: f32 = 0.5;
+
+impl PairParams {
+    /// Combines two materials with the rules in this module's documentation.
+    pub fn combine(a: &Material, b: &Material) -> PairParams {
+        let e = (a.restitution * b.restitution).sqrt();
+        let ln_e = (e as f64).ln();
+        let base = 2.0 * (-ln_e) / (std::f64::consts::PI.powi(2) + ln_e * ln_e).sqrt();
+        let friction = (a.friction * b.friction).sqrt();
+        match (a.law, b.law) {
+            (ContactLaw::Hertz { youngs_modulus: e1, poisson_ratio: v1 }, ContactLaw::Hertz { youngs_modulus: e2, poisson_ratio: v2 }) => {
+                let (e1, v1, e2, v2) = (e1 as f64, v1 as f64, e2 as f64, v2 as f64);
+                let e_star = 1.0 / ((1.0 - v1 * v1) / e1 + (1.0 - v2 * v2) / e2);
+                let g_star = 1.0 / (2.0 * (2.0 - v1) * (1.0 + v1) / e1 + 2.0 * (2.0 - v2) * (1.0 + v2) / e2);
+                PairParams {
+                    hertz: true,
+                    stiffness: e_star as f32,
+                    shear: g_star as f32,
+                    restitution: e,
+                    damping_factor: (base * (5.0f64 / 6.0).sqrt()) as f32,
+                    friction,
+                }
+            }
+            _ => {
+                let k = |m: &Material| match m.law {
+                    ContactLaw::Linear { stiffness } => stiffness as f64,
+                    ContactLaw::Hertz { .. } => f64::NAN,
+                };
+                let (k1, k2) = (k(a), k(b));
+                PairParams {
+                    hertz: false,
+                    stiffness: (2.0 * k1 * k2 / (k1 + k2)) as f32,
+                    shear: 0.0,
+                    restitution: e,
+                    damping_factor: base as f32,
+                    friction,
+                }
+            }
+        }
+    }
+
+    /// Duration of a linear contact with effective mass `m_eff`:
+    /// `t_c = pi / sqrt(k/m - (eta/2m)^2)`. For Hertz, the duration of a head-on impact at
+    /// `speed` with effective radius `r_eff` (undamped estimate `2.87 (m^2/(R E*^2 v))^(1/5)`).
+    pub fn contact_duration(&self, m_eff: f64, r_eff: f64, speed: f64) -> f64 {
+        if self.hertz {
+            let e = self.stiffness as f64;
+            2.87 * (m_eff * m_eff / (r_eff * e * e * speed.max(1e-3))).powf(0.2)
+        } else {
+            let k = self.stiffness as f64;
+            let eta = self.damping_factor as f64 * (m_eff * k).sqrt();
+            let w2 = k / m_eff - (eta / (2.0 * m_eff)).powi(2);
+            std::f64::consts::PI / w2.max(1e-30).sqrt()
+        }
+    }
+}

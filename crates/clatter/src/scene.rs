@@ -1,0 +1,660 @@
+//! Scene files (TOML): materials, shapes, walls, a box container, single bodies and groups.
+//! Every key is documented in `docs/scene-format.md`. Errors name the file, the line and
+//! column, and the field, and nothing is simulated or written before the whole file is valid.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::Path;
+
+use glam::{Quat, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::material::{ContactLaw, Material};
+use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
+use crate::world::{BodyInit, Wall, World, WorldDesc};
+use clatter_geom::narrow::Plane;
+use clatter_geom::PreparedShape;
+
+/// A scene file error: where and what.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    /// The file name as given.
+    pub file: String,
+    /// 1-based line and column, when known.
+    pub line: Option<(usize, usize)>,
+    /// The field, like `material[1].density`, when known.
+    pub field: Option<String>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some((l, c)) = self.line {
+            write!(f, ":{l}:{c}")?;
+        }
+        write!(f, ": ")?;
+        if let Some(field) = &self.field {
+            write!(f, "`{field}`: ")?;
+        }
+        write!(f, "{}", self.message)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// How long to run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RunLength {
+    /// Simulated seconds.
+    Duration(f64),
+    /// A number of steps.
+    Steps(u64),
+}
+
+/// A validated scene: the world description and how long to run it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Where it came from (file name, or `<default scene>`).
+    pub source: String,
+    /// The world to build.
+    pub desc: WorldDesc,
+    /// How long to run.
+    pub length: RunLength,
+    /// Things that are legal but probably not meant (overlapping lattice, large dt...).
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+            file: name.clone(),
+            line: None,
+            field: None,
+            message: format!("cannot read the scene file: {e}"),
+        })?;
+        Scene::parse(&text, &name)
+    }
+
+    /// Parses and validates scene text; `file` names it in errors.
+    pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
+        let cx = Cx { file, text };
+        let raw: RawScene = toml::from_str(text).map_err(|e| SceneError {
+            file: file.to_string(),
+            line: e.span().map(|s| cx.line_col(s.start)),
+            field: None,
+            message: e.message().trim().to_string(),
+        })?;
+        build(&cx, raw)
+    }
+
+    /// The world, ready to step.
+    pub fn world(&self) -> World {
+        World::new(self.desc.clone())
+    }
+
+    /// Number of steps to run with time step `dt`.
+    pub fn steps(&self, dt: f32) -> u64 {
+        match self.length {
+            RunLength::Steps(n) => n,
+            RunLength::Duration(d) => (d / dt as f64).ceil().max(0.0) as u64,
+        }
+    }
+}
+
+struct Cx<'a> {
+    file: &'a str,
+    text: &'a str,
+}
+
+impl Cx<'_> {
+    fn line_col(&self, offset: usize) -> (usize, usize) {
+        let before = &self.text[..offset.min(self.text.len())];
+        let line = before.matches('\n').count() + 1;
+        let col = before.rfind('\n').map_or(before.len(), |p| before.len() - p - 1) + 1;
+        (line, col)
+    }
+
+    fn err<T>(&self, span: std::ops::Range<usize>, field: impl Into<String>, message: impl Into<String>) -> Result<T, SceneError> {
+        Err(SceneError {
+            file: self.file.to_string(),
+            line: Some(self.line_col(span.start)),
+            field: Some(field.into()),
+            message: message.into(),
+        })
+    }
+
+    fn positive(&self, v: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
+        let x = *v.get_ref();
+        if x.is_finite() && x > 0.0 {
+            Ok(x)
+        } else {
+            self.err(v.span(), field, format!("must be a positive finite number, got {x}"))
+        }
+    }
+
+    fn non_negative(&self, v: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
+        let x = *v.get_ref();
+        if x.is_finite() && x >= 0.0 {
+            Ok(x)
+        } else {
+            self.err(v.span(), field, format!("must be a finite number >= 0, got {x}"))
+        }
+    }
+
+    fn vec3(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<Vec3, SceneError> {
+        let a = v.get_ref();
+        if a.iter().all(|c| c.is_finite()) {
+            Ok(Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32))
+        } else {
+            self.err(v.span(), field, format!("must have three finite numbers, got {a:?}"))
+        }
+    }
+
+    fn opt_vec3(&self, v: &Option<Spanned<[f64; 3]>>, field: &str) -> Result<Vec3, SceneError> {
+        v.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, field))
+    }
+
+    fn unit(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<Vec3, SceneError> {
+        let n = self.vec3(v, field)?;
+        if n.length() < 1e-12 {
+            return self.err(v.span(), field, "must not be the zero vector");
+        }
+        Ok(n.normalize())
+    }
+
+    fn quat(&self, v: &Option<Spanned<[f64; 4]>>, field: &str) -> Result<Quat, SceneError> {
+        let Some(v) = v else { return Ok(Quat::IDENTITY) };
+        let a = v.get_ref();
+        let norm = a.iter().map(|c| c * c).sum::<f64>().sqrt();
+        if !a.iter().all(|c| c.is_finite()) || norm < 1e-12 {
+            return self.err(v.span(), field, format!("must be a non-zero quaternion [w, x, y, z] of finite numbers, got {a:?}"));
+        }
+        Ok(Quat::from_xyzw(a[1] as f32, a[2] as f32, a[3] as f32, a[0] as f32).normalize())
+    }
+
+    fn lookup(&self, names: &HashMap<String, u32>, v: &Spanned<String>, field: &str, what: &str) -> Result<u32, SceneError> {
+        match names.get(v.get_ref()) {
+            Some(&i) => Ok(i),
+            None => {
+                let mut known: Vec<&str> = names.keys().map(String::as_str).collect();
+                known.sort_unstable();
+                self.err(
+                    v.span(),
+                    field,
+                    format!("unknown {what} `{}` (defined: {})", v.get_ref(), if known.is_empty() { "none".to_string() } else { known.join(", ") }),
+                )
+            }
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    simulation: Option<Spanned<RawSimulation>>,
+    #[serde(default)]
+    material: Vec<Spanned<RawMaterial>>,
+    #[serde(default)]
+    shape: Vec<Spanned<RawShape>>,
+    #[serde(default)]
+    wall: Vec<Spanned<RawWall>>,
+    container: Option<Spanned<RawContainer>>,
+    #[serde(default)]
+    body: Vec<Spanned<RawBody>>,
+    #[serde(default)]
+    group: Vec<Spanned<RawGroup>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSimulation {
+    duration: Option<Spanned<f64>>,
+    steps: Option<Spanned<i64>>,
+    dt: Option<Spanned<f64>>,
+    gravity: Option<Spanned<[f64; 3]>>,
+    skin: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    name: Spanned<String>,
+    density: Spanned<f64>,
+    model: Option<Spanned<String>>,
+    stiffness: Option<Spanned<f64>>,
+    youngs_modulus: Option<Spanned<f64>>,
+    poisson_ratio: Option<Spanned<f64>>,
+    restitution: Option<Spanned<f64>>,
+    friction: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawShape {
+    name: Spanned<String>,
+    sphere: Option<SphereSpec>,
+    #[serde(rename = "box")]
+    box_: Option<BoxSpec>,
+    polyhedron: Option<PolyhedronSpec>,
+    convex: Option<ConvexSpec>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWall {
+    point: Spanned<[f64; 3]>,
+    normal: Spanned<[f64; 3]>,
+    material: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawContainer {
+    min: Spanned<[f64; 3]>,
+    max: Spanned<[f64; 3]>,
+    material: Spanned<String>,
+    #[serde(default = "yes")]
+    top: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBody {
+    shape: Spanned<String>,
+    material: Spanned<String>,
+    position: Spanned<[f64; 3]>,
+    velocity: Option<Spanned<[f64; 3]>>,
+    angular_velocity: Option<Spanned<[f64; 3]>>,
+    orientation: Option<Spanned<[f64; 4]>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGroup {
+    shape: Spanned<String>,
+    material: Spanned<String>,
+    lattice: Option<Spanned<RawLattice>>,
+    random: Option<Spanned<RawRandom>>,
+    #[serde(default)]
+    random_orientation: bool,
+    velocity: Option<Spanned<[f64; 3]>>,
+    angular_velocity: Option<Spanned<[f64; 3]>>,
+    seed: Option<u64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLattice {
+    min: Spanned<[f64; 3]>,
+    max: Spanned<[f64; 3]>,
+    spacing: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRandom {
+    min: Spanned<[f64; 3]>,
+    max: Spanned<[f64; 3]>,
+    count: Spanned<i64>,
+    seed: Option<u64>,
+}
+
+/// Most bodies a scene may create (keeps a typo from allocating the machine away).
+pub const MAX_BODIES: usize = 50_000_000;
+
+fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
+    let mut warnings = Vec::new();
+    // [simulation]
+    let (length, dt, gravity, skin) = match &raw.simulation {
+        None => return cx.err(0..0, "simulation", "missing table [simulation] (it needs `duration` or `steps`)"),
+        Some(sim) => {
+            let s = sim.get_ref();
+            let length = match (&s.duration, &s.steps) {
+                (Some(_), Some(st)) => return cx.err(st.span(), "simulation.steps", "give either `duration` or `steps`, not both"),
+                (Some(d), None) => RunLength::Duration(cx.positive(d, "simulation.duration")?),
+                (None, Some(st)) => {
+                    if *st.get_ref() <= 0 {
+                        return cx.err(st.span(), "simulation.steps", format!("must be a positive integer, got {}", st.get_ref()));
+                    }
+                    RunLength::Steps(*st.get_ref() as u64)
+                }
+                (None, None) => return cx.err(sim.span(), "simulation", "needs `duration` (seconds) or `steps`"),
+            };
+            let dt = s.dt.as_ref().map(|d| cx.positive(d, "simulation.dt").map(|x| x as f32)).transpose()?;
+            let gravity = match &s.gravity {
+                Some(g) => cx.vec3(g, "simulation.gravity")?,
+                None => Vec3::new(0.0, 0.0, -9.81),
+            };
+            let skin = s.skin.as_ref().map(|d| cx.non_negative(d, "simulation.skin").map(|x| x as f32)).transpose()?;
+            (length, dt, gravity, skin)
+        }
+    };
+
+    // [[material]]
+    let mut materials = Vec::new();
+    let mut material_names = HashMap::new();
+    for (k, m) in raw.material.iter().enumerate() {
+        let r = m.get_ref();
+        let f = |name: &str| format!("material[{k}].{name}");
+        if material_names.insert(r.name.get_ref().clone(), k as u32).is_some() {
+            return cx.err(r.name.span(), f("name"), format!("duplicate material name `{}`", r.name.get_ref()));
+        }
+        let density = cx.positive(&r.density, &f("density"))? as f32;
+        let model = r.model.as_ref().map(|m| (m.get_ref().as_str(), m.span()));
+        let law = match model {
+            None | Some(("linear", _)) => {
+                let Some(k) = &r.stiffness else {
+                    return cx.err(m.span(), f("stiffness"), "missing field `stiffness` (N/m) for the linear model");
+                };
+                for (other, name) in [(&r.youngs_modulus, "youngs_modulus"), (&r.poisson_ratio, "poisson_ratio")] {
+                    if let Some(o) = other {
+                        return cx.err(o.span(), f(name), "only used with model = \"hertz\"");
+                    }
+                }
+                ContactLaw::Linear { stiffness: cx.positive(k, &f("stiffness"))? as f32 }
+            }
+            Some(("hertz", _)) => {
+                let Some(e) = &r.youngs_modulus else {
+                    return cx.err(m.span(), f("youngs_modulus"), "missing field `youngs_modulus` (Pa) for model = \"hertz\"");
+                };
+                let Some(nu) = &r.poisson_ratio else {
+                    return cx.err(m.span(), f("poisson_ratio"), "missing field `poisson_ratio` for model = \"hertz\"");
+                };
+                if let Some(s) = &r.stiffness {
+                    return cx.err(s.span(), f("stiffness"), "only used with the linear model; hertz takes youngs_modulus and poisson_ratio");
+                }
+                let nu_v = *nu.get_ref();
+                if !(nu_v.is_finite() && (-1.0..0.5).contains(&nu_v)) {
+                    return cx.err(nu.span(), f("poisson_ratio"), format!("must be in [-1, 0.5), got {nu_v}"));
+                }
+                ContactLaw::Hertz { youngs_modulus: cx.positive(e, &f("youngs_modulus"))? as f32, poisson_ratio: nu_v as f32 }
+            }
+            Some((other, span)) => return cx.err(span, f("model"), format!("unknown model `{other}` (expected \"linear\" or \"hertz\")")),
+        };
+        let restitution = match &r.restitution {
+            Some(e) => {
+                let v = *e.get_ref();
+                if !(v.is_finite() && v > 0.0 && v <= 1.0) {
+                    return cx.err(e.span(), f("restitution"), format!("must be in (0, 1], got {v}"));
+                }
+                v as f32
+            }
+            None => 0.5,
+        };
+        let friction = match &r.friction {
+            Some(mu) => cx.non_negative(mu, &f("friction"))? as f32,
+            None => 0.3,
+        };
+        materials.push(Material { name: r.name.get_ref().clone(), density, law, restitution, friction });
+    }
+    if let (Some(a), Some(b)) = (
+        materials.iter().position(|m| matches!(m.law, ContactLaw::Linear { .. })),
+        materials.iter().position(|m| matches!(m.law, ContactLaw::Hertz { .. })),
+    ) {
+        let span = raw.material[a.max(b)].span();
+        return cx.err(
+            span,
+            format!("material[{}].model", a.max(b)),
+            format!("materials `{}` (linear) and `{}` (hertz) use different contact models; one scene uses one model", materials[a].name, materials[b].name),
+        );
+    }
+
+    // [[shape]]
+    let mut shapes: Vec<PreparedShape> = Vec::new();
+    let mut shape_names = HashMap::new();
+    for (k, s) in raw.shape.iter().enumerate() {
+        let r = s.get_ref();
+        if shape_names.insert(r.name.get_ref().clone(), k as u32).is_some() {
+            return cx.err(r.name.span(), format!("shape[{k}].name"), format!("duplicate shape name `{}`", r.name.get_ref()));
+        }
+        let spec = ShapeSpec { sphere: r.sphere.clone(), box_: r.box_.clone(), polyhedron: r.polyhedron.clone(), convex: r.convex.clone() };
+        let kind = match spec.to_kind() {
+            Ok(kind) => kind,
+            Err(msg) => return cx.err(s.span(), format!("shape[{k}]"), msg),
+        };
+        let variant = if r.sphere.is_some() {
+            "sphere"
+        } else if r.box_.is_some() {
+            "box"
+        } else if r.polyhedron.is_some() {
+            "polyhedron"
+        } else {
+            "convex"
+        };
+        match kind.prepare() {
+            Ok(p) => shapes.push(p),
+            Err(e) => return cx.err(s.span(), format!("shape[{k}].{variant}"), format!("shape `{}`: {e}", r.name.get_ref())),
+        }
+    }
+
+    // [[wall]] and [container]
+    let mut walls = Vec::new();
+    for (k, w) in raw.wall.iter().enumerate() {
+        let r = w.get_ref();
+        let point = cx.vec3(&r.point, &format!("wall[{k}].point"))?;
+        let normal = cx.unit(&r.normal, &format!("wall[{k}].normal"))?;
+        let material = cx.lookup(&material_names, &r.material, &format!("wall[{k}].material"), "material")?;
+        walls.push(Wall { plane: Plane { normal, offset: normal.dot(point) }, material });
+    }
+    let mut container_bounds = None;
+    if let Some(c) = &raw.container {
+        let r = c.get_ref();
+        let lo = cx.vec3(&r.min, "container.min")?;
+        let hi = cx.vec3(&r.max, "container.max")?;
+        if !(hi.cmpgt(lo).all()) {
+            return cx.err(r.max.span(), "container.max", format!("must be greater than container.min on every axis ({hi} vs {lo})"));
+        }
+        let material = cx.lookup(&material_names, &r.material, "container.material", "material")?;
+        for axis in 0..3 {
+            let mut n = Vec3::ZERO;
+            n[axis] = 1.0;
+            walls.push(Wall { plane: Plane { normal: n, offset: lo[axis] }, material });
+            if axis < 2 || r.top {
+                walls.push(Wall { plane: Plane { normal: -n, offset: -hi[axis] }, material });
+            }
+        }
+        container_bounds = Some((lo, hi));
+    }
+
+    // [[body]]
+    let mut bodies = Vec::new();
+    for (k, b) in raw.body.iter().enumerate() {
+        let r = b.get_ref();
+        let f = |name: &str| format!("body[{k}].{name}");
+        let shape = cx.lookup(&shape_names, &r.shape, &f("shape"), "shape")?;
+        let material = cx.lookup(&material_names, &r.material, &f("material"), "material")?;
+        bodies.push(BodyInit {
+            shape,
+            material,
+            position: cx.vec3(&r.position, &f("position"))?,
+            orientation: cx.quat(&r.orientation, &f("orientation"))?,
+            velocity: cx.opt_vec3(&r.velocity, &f("velocity"))?,
+            angular_velocity: cx.opt_vec3(&r.angular_velocity, &f("angular_velocity"))?,
+        });
+    }
+
+    // [[group]]
+    let rmax = shapes.iter().map(|s| s.shape.bounding_radius()).fold(0.0, f32::max);
+    let mut occupancy = Occupancy::new(2.0 * rmax);
+    for b in &bodies {
+        occupancy.insert(b.position, shapes[b.shape as usize].shape.bounding_radius());
+    }
+    for (k, g) in raw.group.iter().enumerate() {
+        let r = g.get_ref();
+        let f = |name: &str| format!("group[{k}].{name}");
+        let shape = cx.lookup(&shape_names, &r.shape, &f("shape"), "shape")?;
+        let material = cx.lookup(&material_names, &r.material, &f("material"), "material")?;
+        let velocity = cx.opt_vec3(&r.velocity, &f("velocity"))?;
+        let angular_velocity = cx.opt_vec3(&r.angular_velocity, &f("angular_velocity"))?;
+        let radius = shapes[shape as usize].shape.bounding_radius();
+        let positions = match (&r.lattice, &r.random) {
+            (Some(l), None) => {
+                let l = l.get_ref();
+                let lo = cx.vec3(&l.min, &f("lattice.min"))?;
+                let hi = cx.vec3(&l.max, &f("lattice.max"))?;
+                let spacing = cx.positive(&l.spacing, &f("lattice.spacing"))?;
+                if !hi.cmpge(lo).all() {
+                    return cx.err(l.max.span(), f("lattice.max"), "must be >= lattice.min on every axis");
+                }
+                let counts = ((hi - lo).as_dvec3() / spacing).floor() + glam::DVec3::ONE;
+                let total = counts.x * counts.y * counts.z;
+                if total > MAX_BODIES as f64 {
+                    return cx.err(l.spacing.span(), f("lattice.spacing"), format!("would create {total:.0} bodies (limit {MAX_BODIES})"));
+                }
+                if (spacing as f32) < 2.0 * radius {
+                    warnings.push(format!(
+                        "group[{k}]: lattice spacing {spacing} is below the bounding diameter {} of shape `{}`: bodies may start overlapping",
+                        2.0 * radius,
+                        r.shape.get_ref()
+                    ));
+                }
+                let mut out = Vec::with_capacity(total as usize);
+                for z in 0..counts.z as u32 {
+                    for y in 0..counts.y as u32 {
+                        for x in 0..counts.x as u32 {
+                            out.push(lo + Vec3::new(x as f32, y as f32, z as f32) * spacing as f32);
+                        }
+                    }
+                }
+                out
+            }
+            (None, Some(rr)) => {
+                let rr = rr.get_ref();
+                let lo = cx.vec3(&rr.min, &f("random.min"))?;
+                let hi = cx.vec3(&rr.max, &f("random.max"))?;
+                if !hi.cmpge(lo).all() {
+                    return cx.err(rr.max.span(), f("random.max"), "must be >= random.min on every axis");
+                }
+                let count = *rr.count.get_ref();
+                if count <= 0 || count as usize > MAX_BODIES {
+                    return cx.err(rr.count.span(), f("random.count"), format!("must be between 1 and {MAX_BODIES}, got {count}"));
+                }
+                let seed = rr.seed.or(r.seed).unwrap_or(1);
+                match occupancy.place_random(lo, hi, radius, count as usize, seed) {
+                    Ok(p) => p,
+                    Err(placed) => {
+                        return cx.err(
+                            rr.count.span(),
+                            f("random.count"),
+                            format!("could place only {placed} of {count} bodies without overlap in the region; enlarge random.min/max or lower the count"),
+                        )
+                    }
+                }
+            }
+            (Some(l), Some(_)) => return cx.err(l.span(), f("lattice"), "give either `lattice` or `random`, not both"),
+            (None, None) => return cx.err(g.span(), format!("group[{k}]"), "needs `lattice = {..}` or `random = {..}`"),
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(r.seed.unwrap_or(7) ^ 0x5eed_0000 ^ k as u64);
+        if r.lattice.is_some() {
+            for &p in &positions {
+                occupancy.insert(p, radius);
+            }
+        }
+        for p in positions {
+            let orientation = if r.random_orientation { random_rotation(&mut rng) } else { Quat::IDENTITY };
+            bodies.push(BodyInit { shape, material, position: p, orientation, velocity, angular_velocity });
+        }
+    }
+    if bodies.is_empty() {
+        return cx.err(0..0, "body", "the scene has no bodies: add [[body]] or [[group]] entries");
+    }
+    if bodies.len() > MAX_BODIES {
+        return cx.err(0..0, "group", format!("the scene has {} bodies (limit {MAX_BODIES})", bodies.len()));
+    }
+    if let Some((lo, hi)) = container_bounds {
+        let outside = bodies.iter().filter(|b| !(b.position.cmpge(lo).all() && b.position.cmple(hi).all())).count();
+        if outside > 0 {
+            warnings.push(format!("{outside} bodies start outside the container"));
+        }
+    }
+    Ok(Scene {
+        source: cx.file.to_string(),
+        desc: WorldDesc { shapes, materials, walls, bodies, gravity, dt, skin },
+        length,
+        warnings,
+    })
+}
+
+/// Uniform random unit quaternion (Shoemake).
+pub fn random_rotation(rng: &mut impl Rng) -> Quat {
+    let (u1, u2, u3): (f32, f32, f32) = (rng.random(), rng.random(), rng.random());
+    let tau = std::f32::consts::TAU;
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    Quat::from_xyzw(a * (tau * u2).sin(), a * (tau * u2).cos(), b * (tau * u3).sin(), b * (tau * u3).cos()).normalize()
+}
+
+/// Bounding spheres placed so far, on a hash grid, so random groups avoid every earlier body.
+struct Occupancy {
+    cell: f32,
+    grid: HashMap<(i64, i64, i64), Vec<u32>>,
+    placed: Vec<(Vec3, f32)>,
+}
+
+impl Occupancy {
+    fn new(cell: f32) -> Self {
+        Self { cell: cell.max(1e-12), grid: HashMap::new(), placed: Vec::new() }
+    }
+
+    fn key(&self, p: Vec3) -> (i64, i64, i64) {
+        let g = (p / self.cell).floor();
+        (g.x as i64, g.y as i64, g.z as i64)
+    }
+
+    fn insert(&mut self, p: Vec3, r: f32) {
+        let k = self.key(p);
+        self.grid.entry(k).or_default().push(self.placed.len() as u32);
+        self.placed.push((p, r));
+    }
+
+    fn free(&self, p: Vec3, r: f32) -> bool {
+        let (kx, ky, kz) = self.key(p);
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    if let Some(list) = self.grid.get(&(kx + dx, ky + dy, kz + dz)) {
+                        for &j in list {
+                            let (q, rq) = self.placed[j as usize];
+                            if (q - p).length_squared() < (r + rq) * (r + rq) {
+                                return false;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Places `count` bounding spheres of `radius` uniformly in `[lo, hi]`, clear of everything
+    /// placed before (rejection sampling); `Err(placed)` after 10,000 misses in a row.
+    fn place_random(&mut self, lo: Vec3, hi: Vec3, radius: f32, count: usize, seed: u64) -> Result<Vec<Vec3>, usize> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut out = Vec::with_capacity(count);
+        let mut failures = 0usize;
+        while out.len() < count {
+            let p = lo + (hi - lo) * Vec3::new(rng.random(), rng.random(), rng.random());
+            if self.free(p, radius) {
+                self.insert(p, radius);
+                out.push(p);
+                failures = 0;
+            } else {
+                failures += 1;
+                if failures > 10_000 {
+                    return Err(out.len());
+                }
+            }
+        }
+        Ok(out)
+    }
+}

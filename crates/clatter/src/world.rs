@@ -1,0 +1,569 @@
+//! The world: body state (structure of arrays), walls, materials, the contact list with its
+//! tangential history, and the step pipeline that ties the stages together:
+//! **bin -> sort -> pairs** (only when the Verlet skin is used up) -> **narrow -> forces ->
+//! integrate** (every step).
+
+use glam::{Quat, Vec3};
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::broad::{self, Grid};
+use crate::forces::{contact_force, ContactForce, Side};
+use crate::material::{Material, PairParams};
+use clatter_geom::narrow::{self, Plane};
+use clatter_geom::{Pose, PreparedShape, Shape};
+
+/// A body as placed by a scene: which shape and material, and its initial state.
+/// `orientation` is in the frame the shape was authored in; `position` is the centre of mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BodyInit {
+    pub shape: u32,
+    pub material: u32,
+    pub position: Vec3,
+    pub orientation: Quat,
+    pub velocity: Vec3,
+    pub angular_velocity: Vec3,
+}
+
+/// An infinite wall plane with the material bodies touch it with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wall {
+    pub plane: Plane,
+    pub material: u32,
+}
+
+/// Everything needed to build a [`World`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorldDesc {
+    pub shapes: Vec<PreparedShape>,
+    pub materials: Vec<Material>,
+    pub walls: Vec<Wall>,
+    pub bodies: Vec<BodyInit>,
+    /// m/s^2.
+    pub gravity: Vec3,
+    /// Time step; `None` picks `t_c / 50` from the stiffest contact (see [`World::auto_dt`]).
+    pub dt: Option<f32>,
+    /// Verlet skin (m); `None` uses 10% of the largest bounding diameter.
+    pub skin: Option<f32>,
+}
+
+/// Why a step could not go on.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum SimError {
+    /// A body's state became NaN or infinite.
+    #[error(
+        "body {body} has a non-finite position or velocity at step {step} (t = {time:.6e} s): the simulation blew up; the time step ({dt:.3e} s) is probably too large for the stiffness, or bodies start overlapping deeply"
+    )]
+    NonFinite { body: usize, step: u64, time: f64, dt: f32 },
+}
+
+/// What one step found.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StepStats {
+    /// Body-body and body-wall contacts that touch (manifolds with at least one point).
+    pub contacts: usize,
+    /// Whether the broad phase was rebuilt this step.
+    pub rebuilt: bool,
+}
+
+/// Per-pair contact state: the pair, its tangential spring, and what this step computed.
+#[derive(Debug, Clone, Default)]
+struct ContactList {
+    /// Body pairs `(i, j)`, `i < j`, sorted.
+    pairs: Vec<[u32; 2]>,
+    /// Body-wall pairs `(body, wall)`, sorted.
+    wall_pairs: Vec<[u32; 2]>,
+    /// Tangential springs: body pairs first, then wall pairs.
+    history: Vec<Vec3>,
+    /// This step's forces, same order as `history`.
+    forces: Vec<ContactForce>,
+    /// Whether each contact touches this step.
+    touching: Vec<bool>,
+    /// CSR adjacency: body `b`'s entries are `adj[adj_start[b]..adj_start[b+1]]`, each
+    /// `(contact index << 1) | side` with side 1 for the `b` side of the contact.
+    adj_start: Vec<u32>,
+    adj: Vec<u32>,
+}
+
+/// A simulation: body state, static data and the contact list.
+#[derive(Debug, Clone)]
+pub struct World {
+    /// The shapes bodies refer to.
+    pub shapes: Vec<PreparedShape>,
+    /// The materials bodies and walls refer to.
+    pub materials: Vec<Material>,
+    /// Wall planes.
+    pub walls: Vec<Wall>,
+    /// Gravity, m/s^2.
+    pub gravity: Vec3,
+    /// Time step, s.
+    pub dt: f32,
+    /// Simulated time, s.
+    pub time: f64,
+    /// Steps taken.
+    pub step_count: u64,
+    /// Centre of mass of each body.
+    pub position: Vec<Vec3>,
+    /// Linear velocity.
+    pub velocity: Vec<Vec3>,
+    /// Orientation of the principal frame (see [`World::user_orientation`]).
+    pub orientation: Vec<Quat>,
+    /// Angular momentum about the centre of mass (world frame), the integrated quantity.
+    pub angular_momentum: Vec<Vec3>,
+    /// Angular velocity (world frame), derived from the angular momentum.
+    pub omega: Vec<Vec3>,
+    /// Shape index per body.
+    pub shape_of: Vec<u32>,
+    /// Material index per body.
+    pub material_of: Vec<u32>,
+    /// Mass per body, kg.
+    pub mass: Vec<f32>,
+    /// Principal moments of inertia per body, kg m^2.
+    pub inertia: Vec<Vec3>,
+    /// Bounding radius per body.
+    pub radius: Vec<f32>,
+    /// Volume-equivalent sphere radius per body (the Hertz law's radius).
+    pub equivalent_radius: Vec<f32>,
+    /// Verlet skin.
+    pub skin: f32,
+    /// Broad-phase rebuilds so far.
+    pub rebuilds: u64,
+    pair_table: Vec<PairParams>,
+    contacts: ContactList,
+    rebuild_position: Vec<Vec3>,
+    needs_rebuild: bool,
+}
+
+impl World {
+    /// Builds the world; the caller (the scene loader) has validated indices and values.
+    pub fn new(desc: WorldDesc) -> World {
+        let n = desc.bodies.len();
+        let nm = desc.materials.len();
+        let mut pair_table = Vec::with_capacity(nm * nm);
+        for a in &desc.materials {
+            for b in &desc.materials {
+                pair_table.push(PairParams::combine(a, b));
+            }
+        }
+        let mut w = World {
+            shapes: desc.shapes,
+            materials: desc.materials,
+            walls: desc.walls,
+            gravity: desc.gravity,
+            dt: 0.0,
+            time: 0.0,
+            step_count: 0,
+            position: Vec::with_capacity(n),
+            velocity: Vec::with_capacity(n),
+            orientation: Vec::with_capacity(n),
+            angular_momentum: Vec::with_capacity(n),
+            omega: Vec::with_capacity(n),
+            shape_of: Vec::with_capacity(n),
+            material_of: Vec::with_capacity(n),
+            mass: Vec::with_capacity(n),
+            inertia: Vec::with_capacity(n),
+            radius: Vec::with_capacity(n),
+            equivalent_radius: Vec::with_capacity(n),
+            skin: 0.0,
+            rebuilds: 0,
+            pair_table,
+            contacts: ContactList::default(),
+            rebuild_position: Vec::new(),
+            needs_rebuild: true,
+        };
+        for b in &desc.bodies {
+            let shape = &w.shapes[b.shape as usize];
+            let density = w.materials[b.material as usize].density;
+            let mass = density * shape.volume;
+            let inertia = shape.unit_inertia * density;
+            let q = (b.orientation * shape.frame).normalize();
+            w.position.push(b.position);
+            w.velocity.push(b.velocity);
+            w.orientation.push(q);
+            let body_w = q.conjugate() * b.angular_velocity;
+            w.angular_momentum.push(q * (inertia * body_w));
+            w.omega.push(b.angular_velocity);
+            w.shape_of.push(b.shape);
+            w.material_of.push(b.material);
+            w.mass.push(mass);
+            w.inertia.push(inertia);
+            w.radius.push(shape.shape.bounding_radius());
+            w.equivalent_radius.push((3.0 * shape.volume / (4.0 * std::f32::consts::PI)).cbrt());
+        }
+        let rmax = w.radius.iter().copied().fold(0.0, f32::max);
+        w.skin = desc.skin.unwrap_or(0.2 * rmax);
+        w.dt = desc.dt.unwrap_or_else(|| w.auto_dt());
+        w
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    /// True when there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Combined contact parameters of materials `a` and `b`.
+    pub fn pair_params(&self, a: u32, b: u32) -> &PairParams {
+        &self.pair_table[a as usize * self.materials.len() + b as usize]
+    }
+
+    /// The shortest contact duration over the material pairs present, for the lightest body:
+    /// body-body contacts with `m_eff = m_min / 2`, wall contacts with `m_eff = m_min`. Hertz
+    /// durations use the larger of the fastest initial speed and the free-fall speed over the
+    /// scene's height (at least 0.1 m/s).
+    pub fn shortest_contact_duration(&self) -> f64 {
+        if self.is_empty() {
+            return f64::INFINITY;
+        }
+        let m_min = self.mass.iter().copied().fold(f32::INFINITY, f32::min) as f64;
+        let r_min = self.equivalent_radius.iter().copied().fold(f32::INFINITY, f32::min) as f64;
+        let vmax = self.velocity.iter().map(|v| v.length()).fold(0.0, f32::max) as f64;
+        let (lo, hi) = self
+            .position
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                let h = p.dot(self.gravity.normalize_or_zero());
+                (lo.min(h), hi.max(h))
+            });
+        let height = ((hi - lo) as f64).max(0.0) + 2.0 * r_min;
+        let speed = vmax.max((2.0 * self.gravity.length() as f64 * height).sqrt()).max(0.1);
+        let mut used: Vec<u32> = self.material_of.clone();
+        used.sort_unstable();
+        used.dedup();
+        let mut t = f64::INFINITY;
+        for &a in &used {
+            for &b in &used {
+                t = t.min(self.pair_params(a, b).contact_duration(m_min / 2.0, r_min / 2.0, speed));
+            }
+            for wall in &self.walls {
+                t = t.min(self.pair_params(a, wall.material).contact_duration(m_min, r_min, speed));
+            }
+        }
+        t
+    }
+
+    /// The automatic time step: 1/50 of [`World::shortest_contact_duration`].
+    pub fn auto_dt(&self) -> f32 {
+        let t = self.shortest_contact_duration();
+        if t.is_finite() { (t / 50.0) as f32 } else { 1e-4 }
+    }
+
+    /// Orientation of body `i` in the frame its shape was authored in (what scene files and
+    /// outputs use).
+    pub fn user_orientation(&self, i: usize) -> Quat {
+        (self.orientation[i] * self.shapes[self.shape_of[i] as usize].frame.conjugate()).normalize()
+    }
+
+    /// Total kinetic energy, translational plus rotational, J.
+    pub fn kinetic_energy(&self) -> f64 {
+        (0..self.len())
+            .map(|i| {
+                let v = self.velocity[i];
+                0.5 * self.mass[i] as f64 * v.length_squared() as f64
+                    + 0.5 * self.omega[i].dot(self.angular_momentum[i]) as f64
+            })
+            .sum()
+    }
+
+    /// Total gravitational potential energy relative to the origin, J.
+    pub fn potential_energy(&self) -> f64 {
+        (0..self.len())
+            .map(|i| -(self.mass[i] as f64) * self.gravity.dot(self.position[i]) as f64)
+            .sum()
+    }
+
+    /// Total linear momentum, kg m/s (summed in f64).
+    pub fn momentum(&self) -> [f64; 3] {
+        let mut p = [0.0f64; 3];
+        for i in 0..self.len() {
+            let m = self.velocity[i] * self.mass[i];
+            p[0] += m.x as f64;
+            p[1] += m.y as f64;
+            p[2] += m.z as f64;
+        }
+        p
+    }
+
+    /// Number of contacts (body-body and body-wall) that touched in the last step.
+    pub fn contact_count(&self) -> usize {
+        self.contacts.touching.iter().filter(|&&t| t).count()
+    }
+
+    /// Body pairs currently in contact, sorted (for tests and output).
+    pub fn touching_pairs(&self) -> Vec<[u32; 2]> {
+        self.contacts
+            .pairs
+            .iter()
+            .zip(&self.contacts.touching)
+            .filter(|(_, t)| **t)
+            .map(|(p, _)| *p)
+            .collect()
+    }
+
+    /// The current broad-phase candidate pairs (bounding spheres within the skin).
+    pub fn candidate_pairs(&self) -> &[[u32; 2]] {
+        &self.contacts.pairs
+    }
+
+    /// Forces the broad phase to run at the next step (after positions were edited by hand).
+    pub fn invalidate_pairs(&mut self) {
+        self.needs_rebuild = true;
+    }
+
+    /// Stages 1-3 (bin, sort, pairs) plus body-wall candidates; carries the tangential
+    /// history of pairs that persist.
+    fn rebuild(&mut self) {
+        let rmax = self.radius.iter().copied().fold(0.0, f32::max);
+        let grid = Grid::around(&self.position, 2.0 * rmax + self.skin);
+        let pairs = broad::pairs(&grid, &self.position, &self.radius, self.skin);
+        let mut wall_pairs = Vec::new();
+        for i in 0..self.len() {
+            for (w, wall) in self.walls.iter().enumerate() {
+                let h = wall.plane.normal.dot(self.position[i]) - wall.plane.offset;
+                if h < self.radius[i] + self.skin {
+                    wall_pairs.push([i as u32, w as u32]);
+                }
+            }
+        }
+        let old = std::mem::take(&mut self.contacts);
+        let history = carry_history(&old.pairs, &old.history[..old.pairs.len().min(old.history.len())], &pairs)
+            .into_iter()
+            .chain(carry_history(
+                &old.wall_pairs,
+                old.history.get(old.pairs.len()..).unwrap_or(&[]),
+                &wall_pairs,
+            ))
+            .collect::<Vec<_>>();
+        // CSR adjacency, entries in contact order (deterministic gather order).
+        let n = self.len();
+        let mut count = vec![0u32; n + 1];
+        for p in &pairs {
+            count[p[0] as usize + 1] += 1;
+            count[p[1] as usize + 1] += 1;
+        }
+        for p in &wall_pairs {
+            count[p[0] as usize + 1] += 1;
+        }
+        for i in 0..n {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut adj = vec![0u32; count[n] as usize];
+        for (c, p) in pairs.iter().enumerate() {
+            adj[fill[p[0] as usize] as usize] = (c as u32) << 1;
+            fill[p[0] as usize] += 1;
+            adj[fill[p[1] as usize] as usize] = ((c as u32) << 1) | 1;
+            fill[p[1] as usize] += 1;
+        }
+        for (k, p) in wall_pairs.iter().enumerate() {
+            let c = (pairs.len() + k) as u32;
+            adj[fill[p[0] as usize] as usize] = (c << 1) | 1;
+            fill[p[0] as usize] += 1;
+        }
+        let total = pairs.len() + wall_pairs.len();
+        self.contacts = ContactList {
+            pairs,
+            wall_pairs,
+            history,
+            forces: vec![ContactForce::default(); total],
+            touching: vec![false; total],
+            adj_start: count,
+            adj,
+        };
+        self.rebuild_position.clone_from(&self.position);
+        self.needs_rebuild = false;
+        self.rebuilds += 1;
+    }
+
+    #[inline]
+    fn pose(&self, i: usize) -> Pose {
+        Pose::new(self.position[i], self.orientation[i])
+    }
+
+    #[inline]
+    fn side(&self, i: usize) -> Side {
+        Side { position: self.position[i], velocity: self.velocity[i], omega: self.omega[i] }
+    }
+
+    /// Stage 4 for one body pair: the contact manifold, if any.
+    #[inline]
+    fn narrow_pair(&self, i: usize, j: usize) -> Option<narrow::Manifold> {
+        let si = &self.shapes[self.shape_of[i] as usize].shape;
+        let sj = &self.shapes[self.shape_of[j] as usize].shape;
+        match (si, sj) {
+            (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
+                narrow::sphere_sphere(self.position[i], *ri, self.position[j], *rj)
+            }
+            _ => narrow::collide(si, &self.pose(i), sj, &self.pose(j)),
+        }
+    }
+
+    /// Advances the simulation by one time step.
+    pub fn step(&mut self) -> Result<StepStats, SimError> {
+        let mut stats = StepStats::default();
+        if self.needs_rebuild {
+            self.rebuild();
+            stats.rebuilt = true;
+        }
+        let dt = self.dt;
+        let np = self.contacts.pairs.len();
+
+        // Stages 4 and 5, narrow and forces, per contact in parallel.
+        {
+            let mut contacts = std::mem::take(&mut self.contacts);
+            let this = &*self;
+            let (hist_pairs, hist_walls) = contacts.history.split_at_mut(np);
+            let (force_pairs, force_walls) = contacts.forces.split_at_mut(np);
+            let (touch_pairs, touch_walls) = contacts.touching.split_at_mut(np);
+            contacts
+                .pairs
+                .par_iter()
+                .zip(hist_pairs.par_iter_mut())
+                .zip(force_pairs.par_iter_mut())
+                .zip(touch_pairs.par_iter_mut())
+                .with_min_len(64)
+                .for_each(|(((&[i, j], hist), force), touching)| {
+                    let (i, j) = (i as usize, j as usize);
+                    match this.narrow_pair(i, j) {
+                        Some(m) => {
+                            let params = this.pair_params(this.material_of[i], this.material_of[j]);
+                            let (mi, mj) = (this.mass[i], this.mass[j]);
+                            let (ri, rj) = (this.equivalent_radius[i], this.equivalent_radius[j]);
+                            *force = contact_force(
+                                params,
+                                mi * mj / (mi + mj),
+                                ri * rj / (ri + rj),
+                                &m,
+                                &this.side(i),
+                                &this.side(j),
+                                hist,
+                                dt,
+                            );
+                            *touching = true;
+                        }
+                        None => {
+                            *force = ContactForce::default();
+                            *hist = Vec3::ZERO;
+                            *touching = false;
+                        }
+                    }
+                });
+            contacts
+                .wall_pairs
+                .par_iter()
+                .zip(hist_walls.par_iter_mut())
+                .zip(force_walls.par_iter_mut())
+                .zip(touch_walls.par_iter_mut())
+                .with_min_len(64)
+                .for_each(|(((&[i, w], hist), force), touching)| {
+                    let (i, w) = (i as usize, w as usize);
+                    let wall = &this.walls[w];
+                    let shape = &this.shapes[this.shape_of[i] as usize].shape;
+                    match narrow::collide_plane(&wall.plane, shape, &this.pose(i)) {
+                        Some(m) => {
+                            let params = this.pair_params(wall.material, this.material_of[i]);
+                            *force = contact_force(
+                                params,
+                                this.mass[i],
+                                this.equivalent_radius[i],
+                                &m,
+                                &Side::default(),
+                                &this.side(i),
+                                hist,
+                                dt,
+                            );
+                            *touching = true;
+                        }
+                        None => {
+                            *force = ContactForce::default();
+                            *hist = Vec3::ZERO;
+                            *touching = false;
+                        }
+                    }
+                });
+            self.contacts = contacts;
+        }
+        stats.contacts = self.contact_count();
+
+        // Stage 6, integrate: gather forces in a fixed order, semi-implicit Euler.
+        let gravity = self.gravity;
+        let contacts = &self.contacts;
+        let half_skin2 = 0.25 * self.skin * self.skin;
+        let (mass, inertia) = (&self.mass, &self.inertia);
+        let rebuild_position = &self.rebuild_position;
+        let worst = self
+            .position
+            .par_iter_mut()
+            .zip(self.velocity.par_iter_mut())
+            .zip(self.orientation.par_iter_mut())
+            .zip(self.angular_momentum.par_iter_mut())
+            .zip(self.omega.par_iter_mut())
+            .enumerate()
+            .with_min_len(256)
+            .map(|(i, ((((x, v), q), l), w))| {
+                let mut f = Vec3::ZERO;
+                let mut t = Vec3::ZERO;
+                let s = contacts.adj_start[i] as usize;
+                let e = contacts.adj_start[i + 1] as usize;
+                for &entry in &contacts.adj[s..e] {
+                    let c = &contacts.forces[(entry >> 1) as usize];
+                    if entry & 1 == 1 {
+                        f += c.force_b;
+                        t += c.torque_b;
+                    } else {
+                        f -= c.force_b;
+                        t += c.torque_a;
+                    }
+                }
+                *v += (f / mass[i] + gravity) * dt;
+                *x += *v * dt;
+                *l += t * dt;
+                let body_l = q.conjugate() * *l;
+                *w = *q * (body_l / inertia[i]);
+                let angle = *w * dt;
+                *q = (Quat::from_scaled_axis(angle) * *q).normalize();
+                let d2 = (*x - rebuild_position[i]).length_squared();
+                if !(x.is_finite() && v.is_finite() && w.is_finite()) {
+                    (f32::INFINITY, i)
+                } else {
+                    (d2, i)
+                }
+            })
+            .reduce(|| (0.0, usize::MAX), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
+        self.step_count += 1;
+        self.time += dt as f64;
+        if worst.0 == f32::INFINITY {
+            // Report the first body that went bad.
+            let body = (0..self.len())
+                .find(|&i| !(self.position[i].is_finite() && self.velocity[i].is_finite() && self.omega[i].is_finite()))
+                .unwrap_or(worst.1);
+            return Err(SimError::NonFinite { body, step: self.step_count, time: self.time, dt });
+        }
+        if worst.0 > half_skin2 {
+            self.needs_rebuild = true;
+        }
+        Ok(stats)
+    }
+}
+
+/// Tangential springs for `new` pairs: the old value where the pair persists, zero otherwise.
+/// Both lists are sorted.
+fn carry_history(old: &[[u32; 2]], old_hist: &[Vec3], new: &[[u32; 2]]) -> Vec<Vec3> {
+    let mut out = Vec::with_capacity(new.len());
+    let mut k = 0;
+    for p in new {
+        while k < old.len() && old[k] < *p {
+            k += 1;
+        }
+        if k < old.len() && old[k] == *p {
+            out.push(old_hist.get(k).copied().unwrap_or(Vec3::ZERO));
+        } else {
+            out.push(Vec3::ZERO);
+        }
+    }
+    out
+}
