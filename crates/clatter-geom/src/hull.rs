@@ -3,9 +3,9 @@
 //!
 //! Why this design: floating-point quickhull breaks on exactly the inputs a user writes by hand
 //! (cube corners plus face centres, duplicated points, many coplanar points). Here the points
-//! are snapped to a 2^40 grid spanning their bounding box (far below f32 resolution, so nothing
-//! visible moves) and every visibility decision is an exact `orient3d` sign: a floating-point
-//! filter with an `i128` fallback. In exact arithmetic the visible region of a convex hull seen
+//! are scaled by a power of two onto a 2^40 integer grid (exact for all but coordinates below
+//! 2^-17 of the largest, which move by at most 2^-41 of it) and every visibility decision is
+//! an exact `orient3d` sign: a floating-point filter with an `i128` fallback. In exact arithmetic the visible region of a convex hull seen
 //! from an outside point is a topological disk, so the triangulated hull is always a valid
 //! closed 2-manifold whose triangles are all (weakly) convex. Geometric tolerance enters only
 //! afterwards, when triangles are merged into faces:
@@ -29,7 +29,7 @@ const NONE: u32 = u32::MAX;
 /// above f32 rounding of authored points (~6e-8), well below any real feature size.
 const REL_TOL: f64 = 1e-6;
 /// Half-width of the integer grid the points are snapped to for exact predicates. Coordinate
-/// differences stay below 2^41, so a 3x3 determinant stays below 3 * 2^124 and fits in `i128`.
+/// differences stay within 2^41, so a 3x3 determinant stays below 3 * 2^124 and fits in `i128`.
 const GRID: f64 = (1u64 << 40) as f64;
 
 /// Convex hull of `points`, with coplanar triangles merged into polygonal faces.
@@ -44,7 +44,7 @@ pub fn convex_hull(points: &[Vec3]) -> Result<ConvexPolyhedron, GeomError> {
 }
 
 /// How the faces of a hull were obtained (see the module documentation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 enum Tier {
     Tolerant,
     Exact,
@@ -99,16 +99,24 @@ fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError
         return Err(degenerate("are all (nearly) coplanar"));
     }
 
-    // Snap to the integer grid used by the exact predicates.
-    let centre = (lo + hi) * 0.5;
-    let scale = GRID / (ext.max_element() * 0.5);
-    let qf: Vec<DVec3> = pts.iter().map(|&p| ((p - centre) * scale).round()).collect();
+    // Snap to the integer grid used by the exact predicates. The scale is a power of two and
+    // the grid is centred on the origin, so every coordinate above 2^-17 of the largest one is
+    // represented exactly and exact degeneracies of the input (coplanar or collinear points)
+    // survive; smaller coordinates move by at most 2^-41 of the largest one.
+    let mut exp = big.log2().ceil() as i32;
+    while big * 2f64.powi(-exp) > 1.0 {
+        exp += 1;
+    }
+    let scale = GRID * 2f64.powi(-exp);
+    let qf: Vec<DVec3> = pts.iter().map(|&p| (p * scale).round()).collect();
     let q: Vec<[i64; 3]> = qf.iter().map(|p| [p.x as i64, p.y as i64, p.z as i64]).collect();
     let pred = Predicates { q: &q, qf: &qf };
 
     let mut qh = Quickhull::new(pred, [i0 as u32, i1 as u32, i2 as u32, i3 as u32])
         .ok_or_else(|| degenerate("are all (nearly) coplanar"))?;
+    let t0 = std::time::Instant::now();
     qh.run().ok_or_else(|| degenerate("could not be hulled robustly"))?;
+    eprintln!("qh {:?} tris {} tests {}", t0.elapsed(), qh.tris.len(), qh.tests);
 
     // Alive triangles with compact indices and adjacency.
     let mut local = vec![NONE; qh.tris.len()];
@@ -127,6 +135,12 @@ fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError
         .collect();
     let mesh = TriMesh { tris, adj, pts: &pts, pred, tol };
 
+    let t0 = std::time::Instant::now();
+    let tt = mesh.faces(Tier::Tolerant).is_some();
+    eprintln!("tol tier {:?} {tt}", t0.elapsed());
+    let t0 = std::time::Instant::now();
+    let tt = mesh.faces(Tier::Exact).is_some();
+    eprintln!("exact tier {:?} {tt}", t0.elapsed());
     let (loops, tier) = if let Some(l) = mesh.faces(Tier::Tolerant) {
         (l, Tier::Tolerant)
     } else if let Some(l) = mesh.faces(Tier::Exact) {
@@ -152,7 +166,10 @@ fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError
                 .collect()
         })
         .collect();
-    Ok((ConvexPolyhedron::from_faces(vertices, &loops), tier))
+    let t0 = std::time::Instant::now();
+    let p = ConvexPolyhedron::from_faces(vertices, &loops);
+    eprintln!("from_faces {:?}", t0.elapsed());
+    Ok((p, tier))
 }
 
 /// Index and value of the largest `f(p)`.
@@ -227,6 +244,7 @@ struct Quickhull<'a> {
     /// Scratch: for a horizon vertex, the new triangle whose horizon edge starts there.
     from: Vec<u32>,
     work: Vec<u32>,
+    tests: u64,
 }
 
 impl<'a> Quickhull<'a> {
@@ -242,6 +260,7 @@ impl<'a> Quickhull<'a> {
             epoch: 0,
             from: vec![NONE; n],
             work: Vec::new(),
+            tests: 0,
         };
         let [a, mut b, mut c, d] = s;
         match pred.orient(a, b, c, d) {
@@ -292,6 +311,7 @@ impl<'a> Quickhull<'a> {
     /// Files point `p` under the first of `cands` it is strictly outside of (or drops it).
     fn assign(&mut self, p: u32, cands: &[u32]) {
         for &t in cands {
+            self.tests += 1;
             let tri = &mut self.tris[t as usize];
             let [a, b, c] = tri.v;
             if self.pred.orient(a, b, c, p) > 0 {
@@ -548,4 +568,134 @@ fn closed_surface(loops: &[Vec<u32>]) -> bool {
     let paired = edges.iter().all(|&(a, b)| edges.binary_search(&(b, a)).is_ok());
     let (v, e, f) = (verts.len() as i64, edges.len() as i64 / 2, loops.len() as i64);
     unique && paired && v - e + f == 2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::RegularKind;
+    use glam::Quat;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn tier(points: &[Vec3]) -> Tier {
+        hull_with_tier(points).unwrap().1
+    }
+
+    fn valid(points: &[Vec3], h: &ConvexPolyhedron, tol: f64) -> bool {
+        let loops: Vec<Vec<u32>> = (0..h.faces.len()).map(|f| h.face_loop(f).to_vec()).collect();
+        let v: Vec<DVec3> = h.vertices.iter().map(|p| p.as_dvec3()).collect();
+        let mut ok = closed_surface(&loops) && loops.iter().all(|l| strictly_convex(l, &v));
+        for f in &h.faces {
+            let n = f.normal.as_dvec3();
+            ok &= (n.length() - 1.0).abs() < 1e-6;
+            ok &= points.iter().all(|p| n.dot(p.as_dvec3()) - f.offset as f64 <= tol);
+        }
+        for (fi, f) in h.faces.iter().enumerate() {
+            let n = f.normal.as_dvec3();
+            ok &= h.face_loop(fi).iter().all(|&i| (n.dot(v[i as usize]) - f.offset as f64).abs() <= tol);
+        }
+        ok
+    }
+
+    #[test]
+    fn explore_hard() {
+        let mut r = ChaCha8Rng::seed_from_u64(12);
+        let mut counts = std::collections::HashMap::new();
+        for trial in 0..300 {
+            let q = Quat::from_axis_angle(Vec3::new(r.random(), r.random(), r.random()).normalize(), r.random_range(0.0..6.0));
+            let n = [50, 300, 2000][trial % 3];
+            let kind = trial % 5;
+            let jit = [1e-6f32, 3e-6, 1e-5, 0.0, 0.0][kind];
+            let pts: Vec<Vec3> = (0..n)
+                .map(|k| {
+                    if kind == 3 {
+                        // big sphere cap-like dense sphere
+                        let p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0)).normalize();
+                        return p * 1.0;
+                    }
+                    if kind == 4 {
+                        // cylinder, fine subdivision
+                        let a = k as f32 * 0.001 + r.random_range(0.0..0.0001f32);
+                        return q * Vec3::new(a.cos(), a.sin(), if k % 2 == 0 { 1.0 } else { -1.0 });
+                    }
+                    let mut p = if k < 8 {
+                        Vec3::new((k & 1) as f32 * 2.0 - 1.0, (k >> 1 & 1) as f32 * 2.0 - 1.0, (k >> 2) as f32 * 2.0 - 1.0)
+                    } else {
+                        let mut p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
+                        let a = r.random_range(0..3);
+                        p[a] = p[a].signum();
+                        p
+                    };
+                    p += Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0)) * jit;
+                    q * p
+                })
+                .collect();
+            let (h, t) = hull_with_tier(&pts).unwrap();
+            let (lo, hi) = pts.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+            let tol = 1e-6 * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element()) as f64;
+            let ok = valid(&pts, &h, 4.0 * tol);
+            *counts.entry((kind, t, ok, if kind < 3 { h.faces.len().min(7) + 100 * h.vertices.len().min(9) } else { 0 })).or_insert(0) += 1;
+        }
+        let mut c: Vec<_> = counts.into_iter().collect();
+        c.sort_by_key(|x| format!("{x:?}"));
+        for x in c { println!("{x:?}"); }
+        panic!();
+    }
+
+    #[test]
+    fn explore_time() {
+        let mut r = ChaCha8Rng::seed_from_u64(13);
+        for n in [10_000usize, 100_000, 1_000_000] {
+            let pts: Vec<Vec3> = (0..n).map(|_| Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0)).normalize()).collect();
+            let t = std::time::Instant::now();
+            let (h, tier) = hull_with_tier(&pts).unwrap();
+            println!("sphere {n}: {:?} {tier:?} {} faces", t.elapsed(), h.faces.len());
+            let pts: Vec<Vec3> = (0..n).map(|_| Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0))).collect();
+            let t = std::time::Instant::now();
+            let (h, tier) = hull_with_tier(&pts).unwrap();
+            println!("cube {n}: {:?} {tier:?} {} faces", t.elapsed(), h.faces.len());
+        }
+        panic!();
+    }
+
+    #[test]
+    fn explore_tiers() {
+        let mut r = ChaCha8Rng::seed_from_u64(11);
+        let mut counts = std::collections::HashMap::new();
+        for trial in 0..400 {
+            let q = Quat::from_axis_angle(Vec3::new(r.random(), r.random(), r.random()).normalize(), r.random_range(0.0..6.0));
+            let n = [8, 50, 300, 2000][trial % 4];
+            let pts: Vec<Vec3> = (0..n)
+                .map(|k| {
+                    if k < 8 && trial % 3 != 1 {
+                        let c = Vec3::new((k & 1) as f32 * 2.0 - 1.0, (k >> 1 & 1) as f32 * 2.0 - 1.0, (k >> 2) as f32 * 2.0 - 1.0);
+                        return if trial % 3 == 0 { q * c } else { c };
+                    }
+                    let mut p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
+                    match trial % 3 {
+                        0 => {
+                            let a = r.random_range(0..3);
+                            p[a] = p[a].signum();
+                            q * p
+                        }
+                        1 => q * (p * 3.0).round(),
+                        _ => {
+                            let a = r.random_range(0..3);
+                            p[a] = p[a].signum();
+                            p + Vec3::new(r.random(), r.random(), r.random()) * 1e-6
+                        }
+                    }
+                })
+                .collect();
+            match hull_with_tier(&pts) {
+                Ok((h, t)) => *counts.entry((trial % 3, t, h.faces.len().min(7) + 100 * h.vertices.len().min(9))).or_insert(0) += 1,
+                Err(e) => println!("{e}"),
+            }
+        }
+        let mut c: Vec<_> = counts.into_iter().collect();
+        c.sort_by_key(|x| format!("{x:?}"));
+        for x in c { println!("{x:?}"); }
+        panic!();
+    }
 }

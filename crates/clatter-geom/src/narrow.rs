@@ -54,6 +54,22 @@ impl Manifold {
 
 /// Overlap of `a` at `pa` and `b` at `pb`; `None` when they do not overlap.
 pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
+    collide_with_hint(a, pa, b, pb, &mut NO_HINT.clone())
+}
+
+/// A separating axis remembered between steps for one pair (temporal coherence): bodies move
+/// little per DEM step, so the axis that separated them last step usually still does, and
+/// one test replaces the full separating-axis search. [`NO_HINT`] when there is none.
+pub type SatHint = u32;
+/// No remembered axis.
+pub const NO_HINT: SatHint = u32::MAX;
+const HINT_FACE_A: u32 = 0;
+const HINT_FACE_B: u32 = 1 << 30;
+const HINT_EDGE: u32 = 2 << 30;
+const HINT_KIND: u32 = 3 << 30;
+
+/// [`collide`] with a per-pair separating-axis `hint` that is read first and updated.
+pub fn collide_with_hint(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose, hint: &mut SatHint) -> Option<Manifold> {
     match (a, b) {
         (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
             sphere_sphere(pa.position, *ra, pb.position, *rb)
@@ -62,7 +78,7 @@ pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
         (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
             sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
         }
-        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => polyhedron_polyhedron(p, pa, q, pb),
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => polyhedron_polyhedron(p, pa, q, pb, hint),
     }
 }
 
@@ -279,32 +295,61 @@ fn face_separation(p: &ConvexPolyhedron, f: usize, q_verts: &[Vec3]) -> f32 {
     m - face.offset
 }
 
-/// Gauss-map test: do the arcs (a, b) and (c, d) on the unit sphere cross? `a, b` are the
-/// normals of the faces at one edge of A, `c, d` the *negated* normals at an edge of B.
-#[inline]
-fn is_minkowski_face(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> bool {
-    let bxa = b.cross(a);
-    let dxc = d.cross(c);
-    let cba = c.dot(bxa);
-    let dba = d.dot(bxa);
-    let adc = a.dot(dxc);
-    let bdc = b.dot(dxc);
-    cba * dba < 0.0 && adc * bdc < 0.0 && cba * bdc > 0.0
-}
-
 const MAX_VERTS: usize = 64;
 
 /// Two convex polyhedra.
-pub fn polyhedron_polyhedron(a: &ConvexPolyhedron, pa: &Pose, b: &ConvexPolyhedron, pb: &Pose) -> Option<Manifold> {
+pub fn polyhedron_polyhedron(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    hint: &mut SatHint,
+) -> Option<Manifold> {
     let d = pb.position - pa.position;
     let rs = a.radius + b.radius;
     if d.length_squared() >= rs * rs {
         return None;
     }
-    // Everything in A's frame.
+    // Everything in A's frame: B's rotation and offset relative to A.
     let inv_a = pa.rotation.conjugate();
-    let rot = inv_a * pb.rotation;
+    let rot_q = inv_a * pb.rotation;
+    let rot = glam::Mat3::from_quat(rot_q);
+    let inv_rot = rot.transpose();
     let t = inv_a * d;
+    // The axis that separated this pair last step, if any, tested on support points in each
+    // body's own frame (no vertex transformed).
+    if *hint != NO_HINT {
+        let idx = (*hint & !HINT_KIND) as usize;
+        let min_along = |p: &ConvexPolyhedron, dir: Vec3| p.vertices.iter().map(|v| dir.dot(*v)).fold(f32::INFINITY, f32::min);
+        let separated = match *hint & HINT_KIND {
+            HINT_FACE_A => idx < a.faces.len() && {
+                let f = a.faces[idx];
+                min_along(b, inv_rot * f.normal) + f.normal.dot(t) - f.offset > 0.0
+            },
+            HINT_FACE_B => idx < b.faces.len() && {
+                let f = b.faces[idx];
+                let n = rot * f.normal;
+                min_along(a, n) - n.dot(t) - f.offset > 0.0
+            },
+            _ => {
+                let (ea, eb) = (idx >> 15, idx & 0x7fff);
+                ea < a.edges.len() && eb < b.edges.len() && {
+                    let [a0, a1] = a.edges[ea];
+                    let [b0, b1] = b.edges[eb];
+                    let pa0 = a.vertices[a0 as usize];
+                    let db = rot * (b.vertices[b1 as usize] - b.vertices[b0 as usize]);
+                    let axis = (a.vertices[a1 as usize] - pa0).cross(db);
+                    let axis = if axis.dot(pa0) < 0.0 { -axis } else { axis };
+                    let lo_b = min_along(b, inv_rot * axis) + axis.dot(t);
+                    let hi_a = -min_along(a, -axis);
+                    axis.length_squared() > 0.0 && lo_b > hi_a
+                }
+            }
+        };
+        if separated {
+            return None;
+        }
+    }
     let mut heap_b = Vec::new();
     let mut buf_b = [Vec3::ZERO; MAX_VERTS];
     let bv: &[Vec3] = if b.vertices.len() <= MAX_VERTS {
@@ -316,19 +361,6 @@ pub fn polyhedron_polyhedron(a: &ConvexPolyhedron, pa: &Pose, b: &ConvexPolyhedr
         heap_b.extend(b.vertices.iter().map(|&v| rot * v + t));
         &heap_b
     };
-    // Face axes of A.
-    let mut best_a = (f32::NEG_INFINITY, 0usize);
-    for f in 0..a.faces.len() {
-        let s = face_separation(a, f, bv);
-        if s > 0.0 {
-            return None;
-        }
-        if s > best_a.0 {
-            best_a = (s, f);
-        }
-    }
-    // Face axes of B, with A's vertices in B's frame.
-    let inv_rot = rot.conjugate();
     let mut heap_a = Vec::new();
     let mut buf_a = [Vec3::ZERO; MAX_VERTS];
     let av: &[Vec3] = if a.vertices.len() <= MAX_VERTS {
@@ -340,45 +372,83 @@ pub fn polyhedron_polyhedron(a: &ConvexPolyhedron, pa: &Pose, b: &ConvexPolyhedr
         heap_a.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
         &heap_a
     };
+    // Face axes of A.
+    let mut best_a = (f32::NEG_INFINITY, 0usize);
+    for f in 0..a.faces.len() {
+        let s = face_separation(a, f, bv);
+        if s > 0.0 {
+            *hint = HINT_FACE_A | f as u32;
+            return None;
+        }
+        if s > best_a.0 {
+            best_a = (s, f);
+        }
+    }
     let mut best_b = (f32::NEG_INFINITY, 0usize);
     for f in 0..b.faces.len() {
         let s = face_separation(b, f, av);
         if s > 0.0 {
+            *hint = HINT_FACE_B | f as u32;
             return None;
         }
         if s > best_b.0 {
             best_b = (s, f);
         }
     }
-    // Edge-edge axes that are faces of the Minkowski difference.
+    // Edge-edge axes that are faces of the Minkowski difference. B's face normals are
+    // rotated into A's frame once (negated: the Minkowski difference uses -B).
+    let mut heap_n = Vec::new();
+    let mut buf_n = [Vec3::ZERO; MAX_VERTS];
+    let neg_nb: &[Vec3] = if b.faces.len() <= MAX_VERTS {
+        for (i, f) in b.faces.iter().enumerate() {
+            buf_n[i] = -(rot * f.normal);
+        }
+        &buf_n[..b.faces.len()]
+    } else {
+        heap_n.extend(b.faces.iter().map(|f| -(rot * f.normal)));
+        &heap_n
+    };
     let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     let scale = a.radius.max(b.radius);
     for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
         let [fa0, fa1] = a.edge_faces[ea];
         let na0 = a.faces[fa0 as usize].normal;
         let na1 = a.faces[fa1 as usize].normal;
+        let bxa = na1.cross(na0);
         let pa0 = a.vertices[a0 as usize];
         let da = a.vertices[a1 as usize] - pa0;
         for (eb, &[b0, b1]) in b.edges.iter().enumerate() {
             let [fb0, fb1] = b.edge_faces[eb];
-            let nb0 = rot * b.faces[fb0 as usize].normal;
-            let nb1 = rot * b.faces[fb1 as usize].normal;
-            if !is_minkowski_face(na0, na1, -nb0, -nb1) {
+            let c = neg_nb[fb0 as usize];
+            let d = neg_nb[fb1 as usize];
+            // Gauss-map test (inlined is_minkowski_face with the A-side cross hoisted).
+            let cba = c.dot(bxa);
+            let dba = d.dot(bxa);
+            if cba * dba >= 0.0 {
+                continue;
+            }
+            let dxc = d.cross(c);
+            let adc = na0.dot(dxc);
+            let bdc = na1.dot(dxc);
+            if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
                 continue;
             }
             let pb0 = bv[b0 as usize];
             let db = bv[b1 as usize] - pb0;
             let axis = da.cross(db);
-            let len = axis.length();
-            if len < 1e-5 * da.length() * db.length() {
+            let len2 = axis.length_squared();
+            if len2 < 1e-10 * da.length_squared() * db.length_squared() {
                 continue;
             }
-            let mut axis = axis / len;
+            let mut axis = axis / len2.sqrt();
             if axis.dot(pa0) < 0.0 {
                 axis = -axis;
             }
             let s = axis.dot(pb0 - pa0);
             if s > 0.0 {
+                if ea < 0x8000 && eb < 0x8000 {
+                    *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+                }
                 return None;
             }
             if s > best_e.0 {
@@ -386,6 +456,7 @@ pub fn polyhedron_polyhedron(a: &ConvexPolyhedron, pa: &Pose, b: &ConvexPolyhedr
             }
         }
     }
+    *hint = NO_HINT;
     let face_best = best_a.0.max(best_b.0);
     let tol = 1e-3 * scale;
     if best_e.0 > face_best + tol {
@@ -425,12 +496,12 @@ fn clip_faces(
     rf: usize,
     inc: &ConvexPolyhedron,
     inc_v: &[Vec3],
-    inc_rot: glam::Quat,
+    inc_rot: glam::Mat3,
 ) -> Option<Manifold> {
     let rface = refp.faces[rf];
     let n = rface.normal;
     // Incident face: the one most anti-parallel to the reference normal.
-    let n_inc = inc_rot.conjugate() * n;
+    let n_inc = inc_rot.transpose() * n;
     let mut inc_face = 0;
     let mut best = f32::INFINITY;
     for (f, face) in inc.faces.iter().enumerate() {

@@ -1,7 +1,7 @@
 //! The convex polyhedron: vertices, polygonal faces with outward planes, and the unique edges
 //! with their two adjacent faces (what the separating-axis test and the Gauss-map pruning need).
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// One polygonal face: outward unit normal, plane offset (`normal . x = offset` on the face) and
 /// a counter-clockwise (seen from outside) loop of vertex indices stored in
@@ -41,20 +41,19 @@ impl ConvexPolyhedron {
         let mut faces = Vec::with_capacity(loops.len());
         let mut face_vertices = Vec::new();
         for lp in loops {
-            let mut n = Vec3::ZERO;
+            // Newell's vector area, in f64 and relative to the first vertex: in f32 with raw
+            // coordinates the products cancel badly for small or thin faces far from the origin.
+            let origin = lp.first().map_or(DVec3::ZERO, |&i| vertices[i as usize].as_dvec3());
+            let mut n = DVec3::ZERO;
             let mut centroid = Vec3::ZERO;
             for (k, &i) in lp.iter().enumerate() {
-                let a = vertices[i as usize];
-                let b = vertices[lp[(k + 1) % lp.len()] as usize];
-                n += Vec3::new(
-                    (a.y - b.y) * (a.z + b.z),
-                    (a.z - b.z) * (a.x + b.x),
-                    (a.x - b.x) * (a.y + b.y),
-                );
-                centroid += a;
+                let a = vertices[i as usize].as_dvec3() - origin;
+                let b = vertices[lp[(k + 1) % lp.len()] as usize].as_dvec3() - origin;
+                n += a.cross(b);
+                centroid += vertices[i as usize];
             }
             centroid /= lp.len() as f32;
-            let normal = n.normalize_or_zero();
+            let normal = n.normalize_or_zero().as_vec3();
             // The face plane passes through the loop's outermost vertex so that every vertex
             // is on or behind every face plane (no false separation from rounding).
             let offset = lp

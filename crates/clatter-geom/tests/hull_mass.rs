@@ -24,12 +24,13 @@ fn check_hull(points: &[Vec3], hull: &ConvexPolyhedron, tol: f64) {
     for (f, face) in hull.faces.iter().enumerate() {
         let lp = hull.face_loop(f);
         assert!(lp.len() >= 3);
-        assert!((face.normal.length() - 1.0).abs() < 1e-5, "normal not unit");
+        assert!((face.normal.length() - 1.0).abs() < 1e-5, "normal not unit: {:?} {:?}", face, lp.iter().map(|&i| v[i as usize]).collect::<Vec<_>>());
         let n = face.normal.as_dvec3();
         let d = face.offset as f64;
         // Planar.
         for &i in lp {
-            assert!((n.dot(v[i as usize]) - d).abs() <= tol, "face {f} not planar");
+            let dev = (n.dot(v[i as usize]) - d).abs();
+            assert!(dev <= tol, "face {f} not planar: {dev} > {tol}, {} vertices", lp.len());
         }
         // Strictly convex, counter-clockwise about the outward normal.
         let k = lp.len();
@@ -64,6 +65,12 @@ fn check_hull(points: &[Vec3], hull: &ConvexPolyhedron, tol: f64) {
     // Positive volume with outward faces.
     let m = MassProperties::of_polyhedron(hull);
     assert!(m.volume > 0.0);
+}
+
+/// The hull's documented merging tolerance: 1e-6 of (bounding-box diagonal + largest coordinate).
+fn hull_tolerance(points: &[Vec3]) -> f64 {
+    let (lo, hi) = points.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    1e-6 * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element()) as f64
 }
 
 fn face_sizes(hull: &ConvexPolyhedron) -> Vec<u32> {
@@ -304,8 +311,7 @@ fn random_clouds_match_brute_force() {
             .collect();
         match convex_hull(&pts) {
             Ok(hull) => {
-                let extent = pts.iter().map(|p| p.as_dvec3().abs().max_element()).fold(0.0, f64::max);
-                check_hull(&pts, &hull, 1e-5 * extent);
+                check_hull(&pts, &hull, 4.0 * hull_tolerance(&pts));
             }
             Err(GeomError::DegenerateHull { .. }) => assert!(n < 10 && trial % 4 == 3, "trial {trial}"),
             Err(e) => panic!("{e}"),
@@ -320,9 +326,11 @@ fn large_sphere_cloud_is_fast() {
     let start = std::time::Instant::now();
     let hull = convex_hull(&pts).unwrap();
     let elapsed = start.elapsed();
-    // All points are extreme; a triangulated sphere has F = 2V - 4.
+    // All points are extreme; a triangulated sphere has F = 2V - 4 (a few nearly cocircular
+    // pairs of triangles merge into quads).
     assert_eq!(hull.vertices.len(), 10_000);
-    assert_eq!(hull.faces.len(), 2 * 10_000 - 4);
+    assert!(hull.faces.len() <= 2 * 10_000 - 4 && hull.faces.len() > 19_000);
+    check_hull(&pts, &hull, 1e-5);
     // Generous bound (shared CI machines); the release build takes a few milliseconds.
     assert!(elapsed.as_secs_f64() < 2.0, "10k-point hull took {elapsed:?}");
     let m = MassProperties::of_polyhedron(&hull);
@@ -361,7 +369,7 @@ fn degenerate_inputs_are_errors() {
     let mut thin = plane.clone();
     thin.push(Vec3::splat(5.0) + u.cross(v).normalize() * 1e-3);
     let hull = convex_hull(&thin).unwrap();
-    check_hull(&thin, &hull, 1e-5);
+    check_hull(&thin, &hull, 4.0 * hull_tolerance(&thin));
 }
 
 #[test]
@@ -373,7 +381,7 @@ fn far_from_origin() {
     let m = MassProperties::of_polyhedron(&hull);
     assert_rel(m.volume, 8.0, 1e-9, "volume");
     assert!((m.center - base.as_dvec3()).length() < 1e-9);
-    assert_diag(m.inertia, DVec3::splat(8.0 * 8.0 / 6.0), 1e-9);
+    assert_diag(m.inertia, DVec3::splat(8.0 * 4.0 / 6.0), 1e-9);
 }
 
 // ---------------------------------------------------------------- mass properties

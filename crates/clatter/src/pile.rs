@@ -71,6 +71,9 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         _ => 2.0 * p.radius,
     };
     let half = spacing / 2.0;
+    // Side by side a hair apart, so neighbours in a layer do not start exactly touching along
+    // whole faces and edges; layers rest on each other under gravity.
+    let gap = spacing * 1.001;
     let [nx, ny, _] = lattice_dims(n);
     let mut rng = ChaCha8Rng::seed_from_u64(42);
     let mut bodies = Vec::with_capacity(n);
@@ -83,7 +86,7 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         bodies.push(BodyInit {
             shape: s as u32,
             material: 0,
-            position: Vec3::new(half + x as f32 * spacing, half + y as f32 * spacing, half + z as f32 * spacing),
+            position: Vec3::new(half + x as f32 * gap, half + y as f32 * gap, half + z as f32 * spacing),
             orientation: if shape == PileShape::Mixed { random_rotation(&mut rng) } else { Quat::IDENTITY },
             velocity: Vec3::ZERO,
             angular_velocity: Vec3::ZERO,
@@ -96,7 +99,7 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         restitution: p.restitution,
         friction: p.friction,
     };
-    let (wx, wy) = (nx as f32 * spacing, ny as f32 * spacing);
+    let (wx, wy) = (nx as f32 * gap, ny as f32 * gap);
     let walls = [
         (Vec3::Z, 0.0),
         (Vec3::X, 0.0),

@@ -79,6 +79,8 @@ struct ContactList {
     forces: Vec<ContactForce>,
     /// Whether each contact touches this step.
     touching: Vec<bool>,
+    /// Separating-axis hints of the body pairs (temporal coherence of the narrow phase).
+    hints: Vec<narrow::SatHint>,
     /// CSR adjacency: body `b`'s entries are `adj[adj_start[b]..adj_start[b+1]]`, each
     /// `(contact index << 1) | side` with side 1 for the `b` side of the contact.
     adj_start: Vec<u32>,
@@ -365,7 +367,9 @@ impl World {
             fill[p[0] as usize] += 1;
         }
         let total = pairs.len() + wall_pairs.len();
+        let hints = vec![narrow::NO_HINT; pairs.len()];
         self.contacts = ContactList {
+            hints,
             pairs,
             wall_pairs,
             history,
@@ -391,14 +395,14 @@ impl World {
 
     /// Stage 4 for one body pair: the contact manifold, if any.
     #[inline]
-    fn narrow_pair(&self, i: usize, j: usize) -> Option<narrow::Manifold> {
+    fn narrow_pair(&self, i: usize, j: usize, hint: &mut narrow::SatHint) -> Option<narrow::Manifold> {
         let si = &self.shapes[self.shape_of[i] as usize].shape;
         let sj = &self.shapes[self.shape_of[j] as usize].shape;
         match (si, sj) {
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
                 narrow::sphere_sphere(self.position[i], *ri, self.position[j], *rj)
             }
-            _ => narrow::collide(si, &self.pose(i), sj, &self.pose(j)),
+            _ => narrow::collide_with_hint(si, &self.pose(i), sj, &self.pose(j), hint),
         }
     }
 
@@ -425,10 +429,11 @@ impl World {
                 .zip(hist_pairs.par_iter_mut())
                 .zip(force_pairs.par_iter_mut())
                 .zip(touch_pairs.par_iter_mut())
+                .zip(contacts.hints.par_iter_mut())
                 .with_min_len(64)
-                .for_each(|(((&[i, j], hist), force), touching)| {
+                .for_each(|((((&[i, j], hist), force), touching), hint)| {
                     let (i, j) = (i as usize, j as usize);
-                    match this.narrow_pair(i, j) {
+                    match this.narrow_pair(i, j, hint) {
                         Some(m) => {
                             let params = this.pair_params(this.material_of[i], this.material_of[j]);
                             let (mi, mj) = (this.mass[i], this.mass[j]);
