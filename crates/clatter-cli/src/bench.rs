@@ -33,6 +33,7 @@ struct Row {
     ms_per_step: f64,
     threads: usize,
     dt: f32,
+    rebuilds: u64,
 }
 
 /// Runs the benchmark for every body count.
@@ -54,7 +55,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     let params = PileParams::default();
     if !args.json {
         println!("# clatter bench: {name} pile, {} threads, {} settle + {} timed steps", rayon::current_num_threads(), args.settle, args.steps);
-        println!("{:>10} {:>12} {:>16} {:>18} {:>10}", "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step");
+        println!(
+            "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}",
+            "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step", "rebuilds"
+        );
     }
     let mut rows = Vec::new();
     for &n in &args.bodies {
@@ -66,6 +70,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             write_lammps(dir, &world, &params, args.steps)?;
         }
         let mut contacts = 0usize;
+        let rebuilds_before = world.rebuilds;
         let start = Instant::now();
         for _ in 0..args.steps {
             contacts += world.step().context("the pile blew up while timing")?.contacts;
@@ -82,11 +87,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             ms_per_step: 1e3 * secs / args.steps as f64,
             threads: rayon::current_num_threads(),
             dt: world.dt,
+            rebuilds: world.rebuilds - rebuilds_before,
         };
         if !args.json {
             println!(
-                "{:>10} {:>12.1} {:>16.3e} {:>18.2} {:>10.3}",
-                row.bodies, row.steps_per_s, row.body_steps_per_s, row.contacts_per_body, row.ms_per_step
+                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}",
+                row.bodies, row.steps_per_s, row.body_steps_per_s, row.contacts_per_body, row.ms_per_step, row.rebuilds
             );
         }
         rows.push(row);

@@ -81,11 +81,11 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         let stats = world.step()?;
         last_contacts = stats.contacts;
         max_contacts = max_contacts.max(stats.contacts);
-        if let Some((f, every)) = &mut trace {
-            if (s + 1) % *every == 0 {
-                let prefix = format!("{},{},", world.step_count, world.time);
-                write_state_rows(f.writer(), &world, &prefix)?;
-            }
+        if let Some((f, every)) = &mut trace
+            && (s + 1) % *every == 0
+        {
+            let prefix = format!("{},{},", world.step_count, world.time);
+            write_state_rows(f.writer(), &world, &prefix)?;
         }
         if s % 64 == 0 {
             bar.set_position(s);
@@ -118,7 +118,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             "scene": scene.source,
             "bodies": world.len(),
             "walls": world.walls.len(),
-            "dt": world.dt,
+            // Via the f32 shortest decimal, so a scene's dt = 2e-5 reads 2e-5, not 1.9999999494757503e-5.
+            "dt": world.dt.to_string().parse::<f64>().unwrap_or(world.dt as f64),
             "steps": steps,
             "simulated_time": world.time,
             "wall_time_s": elapsed,

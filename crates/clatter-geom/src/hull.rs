@@ -5,17 +5,17 @@
 //! (cube corners plus face centres, duplicated points, many coplanar points). Here the points
 //! are scaled by a power of two onto a 2^40 integer grid (exact for all but coordinates below
 //! 2^-17 of the largest, which move by at most 2^-41 of it) and every visibility decision is
-//! an exact `orient3d` sign: a floating-point filter with an `i128` fallback. In exact arithmetic the visible region of a convex hull seen
-//! from an outside point is a topological disk, so the triangulated hull is always a valid
-//! closed 2-manifold whose triangles are all (weakly) convex. Geometric tolerance enters only
-//! afterwards, when triangles are merged into faces:
+//! an exact `orient3d` sign: a floating-point filter with an `i128` fallback. In exact
+//! arithmetic the visible region of a convex hull seen from an outside point is a topological
+//! disk, so the triangulated hull is always a valid closed 2-manifold and exactly convex.
+//! Geometric tolerance enters only afterwards, when triangles are merged into faces:
 //!
 //! 1. *tolerant*: adjacent triangles whose vertices lie within `tol` (relative to the cloud's
 //!    extent) of a seed triangle's plane are merged, so f32-rounded pentagons of a dodecahedron
 //!    become one face; the result is accepted only if every face is a simple, strictly convex
 //!    loop and the surface is closed;
 //! 2. *exact*: otherwise only exactly coplanar triangles are merged (always valid);
-//! 3. *triangles*: last resort, never expected, the raw triangulation.
+//! 3. *triangles*: the raw triangulation, a last resort that is never expected to be needed.
 //!
 //! In every tier a vertex touched by at most two faces lies in the middle of an edge or a face
 //! and is dropped, so only extreme vertices remain.
@@ -34,24 +34,27 @@ const GRID: f64 = (1u64 << 40) as f64;
 
 /// Convex hull of `points`, with coplanar triangles merged into polygonal faces.
 ///
-/// Duplicate, coplanar and nearly coplanar points are fine; points in the middle of a face or
-/// an edge are dropped, so the result holds only extreme vertices (a subset of `points`) and
-/// strictly convex counter-clockwise face loops. Fails with [`GeomError::DegenerateHull`] when
+/// Duplicate, coplanar and nearly coplanar points are fine ("nearly": within 1e-6 of the
+/// bounding-box diagonal plus the largest coordinate magnitude, which covers f32 rounding of
+/// authored points); points in the middle of a face or an edge are dropped, so the result
+/// holds only extreme vertices (a subset of `points`) and strictly convex counter-clockwise
+/// face loops. Fails with [`GeomError::DegenerateHull`] when
 /// the points do not span a solid (fewer than 4, or all nearly coincident, collinear or
 /// coplanar) and with [`GeomError::NonFinitePoint`] on NaN or infinite coordinates.
 pub fn convex_hull(points: &[Vec3]) -> Result<ConvexPolyhedron, GeomError> {
-    hull_with_tier(points).map(|(hull, _)| hull)
+    hull_with_tier(points, &[Tier::Tolerant, Tier::Exact]).map(|(hull, _)| hull)
 }
 
 /// How the faces of a hull were obtained (see the module documentation).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Tier {
     Tolerant,
     Exact,
     Triangles,
 }
 
-fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError> {
+/// The hull with faces from the first of `tiers` that succeeds (raw triangles if none does).
+fn hull_with_tier(points: &[Vec3], tiers: &[Tier]) -> Result<(ConvexPolyhedron, Tier), GeomError> {
     let count = points.len();
     let degenerate = |why| GeomError::DegenerateHull { count, why };
     if let Some(index) = points.iter().position(|p| !p.is_finite()) {
@@ -109,14 +112,16 @@ fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError
     }
     let scale = GRID * 2f64.powi(-exp);
     let qf: Vec<DVec3> = pts.iter().map(|&p| (p * scale).round()).collect();
-    let q: Vec<[i64; 3]> = qf.iter().map(|p| [p.x as i64, p.y as i64, p.z as i64]).collect();
+    let q: Vec<[i64; 3]> = qf
+        .iter()
+        .map(|p| [p.x as i64, p.y as i64, p.z as i64])
+        .collect();
     let pred = Predicates { q: &q, qf: &qf };
 
     let mut qh = Quickhull::new(pred, [i0 as u32, i1 as u32, i2 as u32, i3 as u32])
         .ok_or_else(|| degenerate("are all (nearly) coplanar"))?;
-    let t0 = std::time::Instant::now();
-    qh.run().ok_or_else(|| degenerate("could not be hulled robustly"))?;
-    eprintln!("qh {:?} tris {} tests {}", t0.elapsed(), qh.tris.len(), qh.tests);
+    qh.run()
+        .ok_or_else(|| degenerate("could not be hulled robustly"))?;
 
     // Alive triangles with compact indices and adjacency.
     let mut local = vec![NONE; qh.tris.len()];
@@ -133,21 +138,23 @@ fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError
         .filter(|t| t.alive)
         .map(|t| t.adj.map(|a| local[a as usize]))
         .collect();
-    let mesh = TriMesh { tris, adj, pts: &pts, pred, tol };
-
-    let t0 = std::time::Instant::now();
-    let tt = mesh.faces(Tier::Tolerant).is_some();
-    eprintln!("tol tier {:?} {tt}", t0.elapsed());
-    let t0 = std::time::Instant::now();
-    let tt = mesh.faces(Tier::Exact).is_some();
-    eprintln!("exact tier {:?} {tt}", t0.elapsed());
-    let (loops, tier) = if let Some(l) = mesh.faces(Tier::Tolerant) {
-        (l, Tier::Tolerant)
-    } else if let Some(l) = mesh.faces(Tier::Exact) {
-        (l, Tier::Exact)
-    } else {
-        (mesh.tris.iter().map(|t| t.to_vec()).collect(), Tier::Triangles)
+    let mesh = TriMesh {
+        tris,
+        adj,
+        pts: &pts,
+        pred,
+        tol,
     };
+
+    let (loops, tier) = tiers
+        .iter()
+        .find_map(|&tier| mesh.faces(tier).map(|l| (l, tier)))
+        .unwrap_or_else(|| {
+            (
+                mesh.tris.iter().map(|t| t.to_vec()).collect(),
+                Tier::Triangles,
+            )
+        });
 
     // Compact the vertex indices to the used ones.
     let mut remap = vec![NONE; count];
@@ -166,10 +173,7 @@ fn hull_with_tier(points: &[Vec3]) -> Result<(ConvexPolyhedron, Tier), GeomError
                 .collect()
         })
         .collect();
-    let t0 = std::time::Instant::now();
-    let p = ConvexPolyhedron::from_faces(vertices, &loops);
-    eprintln!("from_faces {:?}", t0.elapsed());
-    Ok((p, tier))
+    Ok((ConvexPolyhedron::from_faces(vertices, &loops), tier))
 }
 
 /// Index and value of the largest `f(p)`.
@@ -196,9 +200,15 @@ impl Predicates<'_> {
     /// counter-clockwise triangle `abc` points to.
     fn orient(&self, a: u32, b: u32, c: u32, d: u32) -> i32 {
         let pa = self.qf[a as usize];
-        let (u, v, w) = (self.qf[b as usize] - pa, self.qf[c as usize] - pa, self.qf[d as usize] - pa);
+        let (u, v, w) = (
+            self.qf[b as usize] - pa,
+            self.qf[c as usize] - pa,
+            self.qf[d as usize] - pa,
+        );
         // Differences of integers below 2^41 are exact; only the products round.
-        let det = u.x * (v.y * w.z - v.z * w.y) + u.y * (v.z * w.x - v.x * w.z) + u.z * (v.x * w.y - v.y * w.x);
+        let det = u.x * (v.y * w.z - v.z * w.y)
+            + u.y * (v.z * w.x - v.x * w.z)
+            + u.z * (v.x * w.y - v.y * w.x);
         let perm = u.x.abs() * ((v.y * w.z).abs() + (v.z * w.y).abs())
             + u.y.abs() * ((v.z * w.x).abs() + (v.x * w.z).abs())
             + u.z.abs() * ((v.x * w.y).abs() + (v.y * w.x).abs());
@@ -212,10 +222,16 @@ impl Predicates<'_> {
         let pa = self.q[a as usize];
         let diff = |i: u32| {
             let p = self.q[i as usize];
-            [(p[0] - pa[0]) as i128, (p[1] - pa[1]) as i128, (p[2] - pa[2]) as i128]
+            [
+                (p[0] - pa[0]) as i128,
+                (p[1] - pa[1]) as i128,
+                (p[2] - pa[2]) as i128,
+            ]
         };
         let (u, v, w) = (diff(b), diff(c), diff(d));
-        let det = u[0] * (v[1] * w[2] - v[2] * w[1]) + u[1] * (v[2] * w[0] - v[0] * w[2]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        let det = u[0] * (v[1] * w[2] - v[2] * w[1])
+            + u[1] * (v[2] * w[0] - v[0] * w[2])
+            + u[2] * (v[0] * w[1] - v[1] * w[0]);
         det.signum() as i32
     }
 }
@@ -244,7 +260,6 @@ struct Quickhull<'a> {
     /// Scratch: for a horizon vertex, the new triangle whose horizon edge starts there.
     from: Vec<u32>,
     work: Vec<u32>,
-    tests: u64,
 }
 
 impl<'a> Quickhull<'a> {
@@ -260,7 +275,6 @@ impl<'a> Quickhull<'a> {
             epoch: 0,
             from: vec![NONE; n],
             work: Vec::new(),
-            tests: 0,
         };
         let [a, mut b, mut c, d] = s;
         match pred.orient(a, b, c, d) {
@@ -276,7 +290,8 @@ impl<'a> Quickhull<'a> {
         for t in 0..4 {
             for i in 0..3 {
                 let (x, y) = (faces[t][i], faces[t][(i + 1) % 3]);
-                let u = (0..4).find(|&u| (0..3).any(|j| faces[u][j] == y && faces[u][(j + 1) % 3] == x))?;
+                let u = (0..4)
+                    .find(|&u| (0..3).any(|j| faces[u][j] == y && faces[u][(j + 1) % 3] == x))?;
                 qh.tris[t].adj[i] = u as u32;
             }
         }
@@ -311,7 +326,6 @@ impl<'a> Quickhull<'a> {
     /// Files point `p` under the first of `cands` it is strictly outside of (or drops it).
     fn assign(&mut self, p: u32, cands: &[u32]) {
         for &t in cands {
-            self.tests += 1;
             let tri = &mut self.tris[t as usize];
             let [a, b, c] = tri.v;
             if self.pred.orient(a, b, c, p) > 0 {
@@ -416,7 +430,10 @@ impl<'a> Quickhull<'a> {
                 }
             }
         }
-        self.work.extend(new.iter().filter(|&&t| !self.outside[t as usize].is_empty()));
+        self.work.extend(
+            new.iter()
+                .filter(|&&t| !self.outside[t as usize].is_empty()),
+        );
         Some(())
     }
 }
@@ -433,30 +450,34 @@ struct TriMesh<'a> {
 impl TriMesh<'_> {
     /// Merged face loops for `tier`, or `None` if that tier does not give a valid polyhedron.
     fn faces(&self, tier: Tier) -> Option<Vec<Vec<u32>>> {
+        if tier == Tier::Triangles {
+            return Some(self.tris.iter().map(|t| t.to_vec()).collect());
+        }
         let nt = self.tris.len();
         let p = |i: u32| self.pts[i as usize];
         let raw_normal = |t: &[u32; 3]| (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0]));
         // Largest triangles seed the faces: their planes are the best conditioned.
-        let mut order: Vec<u32> = (0..nt as u32).collect();
         let area: Vec<f64> = self.tris.iter().map(|t| raw_normal(t).length()).collect();
-        order.sort_by(|&a, &b| area[b as usize].total_cmp(&area[a as usize]));
+        let mut order: Vec<u32> = (0..nt as u32).collect();
+        order.sort_unstable_by(|&a, &b| area[b as usize].total_cmp(&area[a as usize]));
 
+        // Grow each face from its seed over adjacent triangles in the seed's plane.
         let mut region = vec![NONE; nt];
-        let mut members: Vec<Vec<u32>> = Vec::new();
+        let mut regions = 0u32;
+        let mut stack = Vec::new();
         for &s in &order {
             if region[s as usize] != NONE {
                 continue;
             }
-            let r = members.len() as u32;
+            let r = regions;
+            regions += 1;
             let seed = self.tris[s as usize];
             let normal = raw_normal(&seed).normalize_or_zero();
             let offset = normal.dot(p(seed[0]));
             region[s as usize] = r;
-            let mut m = vec![s];
-            let mut k = 0;
-            while k < m.len() {
-                let t = m[k] as usize;
-                k += 1;
+            stack.push(s);
+            while let Some(t) = stack.pop() {
+                let t = t as usize;
                 for i in 0..3 {
                     let u = self.adj[t][i];
                     if region[u as usize] != NONE {
@@ -476,45 +497,60 @@ impl TriMesh<'_> {
                     };
                     if merge {
                         region[u as usize] = r;
-                        m.push(u);
+                        stack.push(u);
                     }
                 }
             }
-            members.push(m);
         }
 
-        // Each face must be a disk: its boundary one simple loop.
-        let mut next = vec![NONE; self.pts.len()];
-        let mut loops = Vec::with_capacity(members.len());
-        for (r, m) in members.iter().enumerate() {
-            let mut starts = Vec::new();
-            let mut simple = true;
-            for &t in m {
-                for i in 0..3 {
-                    if region[self.adj[t as usize][i] as usize] != r as u32 {
-                        let (a, b) = (self.tris[t as usize][i], self.tris[t as usize][(i + 1) % 3]);
-                        simple &= next[a as usize] == NONE;
-                        next[a as usize] = b;
-                        starts.push(a);
-                    }
+        // Boundary half-edges: how many per face, and one to start each face's walk from.
+        let is_boundary = |t: usize, i: usize| region[self.adj[t][i] as usize] != region[t];
+        let mut boundary = vec![0usize; regions as usize];
+        let mut start = vec![(NONE, 0); regions as usize];
+        for (t, &r) in region.iter().enumerate() {
+            for i in 0..3 {
+                if is_boundary(t, i) {
+                    let r = r as usize;
+                    boundary[r] += 1;
+                    start[r] = (t as u32, i);
                 }
             }
-            let mut lp = Vec::with_capacity(starts.len());
-            if simple && !starts.is_empty() {
-                let mut v = starts[0];
-                while lp.len() <= starts.len() {
-                    lp.push(v);
-                    v = next[v as usize];
-                    if v == starts[0] || v == NONE {
-                        break;
+        }
+
+        // Each face must be a disk: its boundary one simple loop. Walk it by turning around
+        // each boundary vertex inside the face until the next boundary half-edge.
+        let mut seen = vec![NONE; self.pts.len()];
+        let mut loops = Vec::with_capacity(regions as usize);
+        for r in 0..regions as usize {
+            let (t0, i0) = start[r];
+            if t0 == NONE {
+                return None;
+            }
+            let (mut t, mut i) = (t0 as usize, i0);
+            let mut lp = Vec::new();
+            loop {
+                let a = self.tris[t][i];
+                if seen[a as usize] == r as u32 || lp.len() >= boundary[r] {
+                    return None;
+                }
+                seen[a as usize] = r as u32;
+                lp.push(a);
+                let b = self.tris[t][(i + 1) % 3];
+                i = (i + 1) % 3;
+                let mut turns = 0;
+                while !is_boundary(t, i) {
+                    t = self.adj[t][i] as usize;
+                    i = (0..3).find(|&j| self.tris[t][j] == b)?;
+                    turns += 1;
+                    if turns > nt {
+                        return None;
                     }
                 }
-                simple = v == starts[0] && lp.len() == starts.len();
+                if (t, i) == (t0 as usize, i0) {
+                    break;
+                }
             }
-            for a in starts {
-                next[a as usize] = NONE;
-            }
-            if !simple {
+            if lp.len() != boundary[r] {
                 return None;
             }
             loops.push(lp);
@@ -536,7 +572,7 @@ impl TriMesh<'_> {
         if tier == Tier::Tolerant && !loops.iter().all(|lp| strictly_convex(lp, self.pts)) {
             return None;
         }
-        closed_surface(&loops).then_some(loops)
+        closed_surface(&loops, self.pts.len()).then_some(loops)
     }
 }
 
@@ -544,30 +580,48 @@ impl TriMesh<'_> {
 fn strictly_convex(lp: &[u32], pts: &[DVec3]) -> bool {
     let n = lp.len();
     let at = |k: usize| pts[lp[k % n] as usize];
+    let origin = at(0);
     let mut normal = DVec3::ZERO;
     for k in 0..n {
-        normal += at(k).cross(at(k + 1));
+        normal += (at(k) - origin).cross(at(k + 1) - origin);
     }
     (0..n).all(|k| (at(k + 1) - at(k)).cross(at(k + 2) - at(k + 1)).dot(normal) > 0.0)
 }
 
-/// Whether every directed edge appears once with its reverse, and Euler's V - E + F = 2 holds.
-fn closed_surface(loops: &[Vec<u32>]) -> bool {
-    let mut edges: Vec<(u32, u32)> = Vec::new();
-    let mut verts: Vec<u32> = Vec::new();
+/// Whether every directed edge appears once with its reverse, and Euler's V - E + F = 2 holds
+/// (`n`: number of points the loops index).
+fn closed_surface(loops: &[Vec<u32>], n: usize) -> bool {
+    // Outgoing edges per vertex, in compressed rows.
+    let mut first = vec![0u32; n + 1];
     for lp in loops {
-        for k in 0..lp.len() {
-            edges.push((lp[k], lp[(k + 1) % lp.len()]));
-            verts.push(lp[k]);
+        for &a in lp {
+            first[a as usize + 1] += 1;
         }
     }
-    edges.sort_unstable();
-    verts.sort_unstable();
-    verts.dedup();
-    let unique = edges.windows(2).all(|w| w[0] != w[1]);
-    let paired = edges.iter().all(|&(a, b)| edges.binary_search(&(b, a)).is_ok());
-    let (v, e, f) = (verts.len() as i64, edges.len() as i64 / 2, loops.len() as i64);
-    unique && paired && v - e + f == 2
+    for i in 0..n {
+        first[i + 1] += first[i];
+    }
+    let mut fill = first.clone();
+    let mut to = vec![0u32; first[n] as usize];
+    for lp in loops {
+        for k in 0..lp.len() {
+            let a = lp[k] as usize;
+            to[fill[a] as usize] = lp[(k + 1) % lp.len()];
+            fill[a] += 1;
+        }
+    }
+    let out = |a: u32| &to[first[a as usize] as usize..first[a as usize + 1] as usize];
+    let mut vertices = 0i64;
+    for a in 0..n as u32 {
+        let o = out(a);
+        vertices += !o.is_empty() as i64;
+        for (k, &b) in o.iter().enumerate() {
+            if o[k + 1..].contains(&b) || !out(b).contains(&a) {
+                return false;
+            }
+        }
+    }
+    vertices - to.len() as i64 / 2 + loops.len() as i64 == 2
 }
 
 #[cfg(test)]
@@ -578,124 +632,195 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn tier(points: &[Vec3]) -> Tier {
-        hull_with_tier(points).unwrap().1
-    }
+    const ALL: [Tier; 3] = [Tier::Tolerant, Tier::Exact, Tier::Triangles];
 
-    fn valid(points: &[Vec3], h: &ConvexPolyhedron, tol: f64) -> bool {
-        let loops: Vec<Vec<u32>> = (0..h.faces.len()).map(|f| h.face_loop(f).to_vec()).collect();
+    /// Brute-force validity: closed genus-0 surface, strictly convex planar faces with unit
+    /// normals, every point inside or on every face plane (`tol`).
+    fn assert_valid(points: &[Vec3], h: &ConvexPolyhedron, tol: f64) {
+        let loops: Vec<Vec<u32>> = (0..h.faces.len())
+            .map(|f| h.face_loop(f).to_vec())
+            .collect();
         let v: Vec<DVec3> = h.vertices.iter().map(|p| p.as_dvec3()).collect();
-        let mut ok = closed_surface(&loops) && loops.iter().all(|l| strictly_convex(l, &v));
-        for f in &h.faces {
-            let n = f.normal.as_dvec3();
-            ok &= (n.length() - 1.0).abs() < 1e-6;
-            ok &= points.iter().all(|p| n.dot(p.as_dvec3()) - f.offset as f64 <= tol);
-        }
+        assert!(closed_surface(&loops, v.len()));
         for (fi, f) in h.faces.iter().enumerate() {
+            assert!(strictly_convex(h.face_loop(fi), &v));
             let n = f.normal.as_dvec3();
-            ok &= h.face_loop(fi).iter().all(|&i| (n.dot(v[i as usize]) - f.offset as f64).abs() <= tol);
-        }
-        ok
-    }
-
-    #[test]
-    fn explore_hard() {
-        let mut r = ChaCha8Rng::seed_from_u64(12);
-        let mut counts = std::collections::HashMap::new();
-        for trial in 0..300 {
-            let q = Quat::from_axis_angle(Vec3::new(r.random(), r.random(), r.random()).normalize(), r.random_range(0.0..6.0));
-            let n = [50, 300, 2000][trial % 3];
-            let kind = trial % 5;
-            let jit = [1e-6f32, 3e-6, 1e-5, 0.0, 0.0][kind];
-            let pts: Vec<Vec3> = (0..n)
-                .map(|k| {
-                    if kind == 3 {
-                        // big sphere cap-like dense sphere
-                        let p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0)).normalize();
-                        return p * 1.0;
-                    }
-                    if kind == 4 {
-                        // cylinder, fine subdivision
-                        let a = k as f32 * 0.001 + r.random_range(0.0..0.0001f32);
-                        return q * Vec3::new(a.cos(), a.sin(), if k % 2 == 0 { 1.0 } else { -1.0 });
-                    }
-                    let mut p = if k < 8 {
-                        Vec3::new((k & 1) as f32 * 2.0 - 1.0, (k >> 1 & 1) as f32 * 2.0 - 1.0, (k >> 2) as f32 * 2.0 - 1.0)
-                    } else {
-                        let mut p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
-                        let a = r.random_range(0..3);
-                        p[a] = p[a].signum();
-                        p
-                    };
-                    p += Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0)) * jit;
-                    q * p
-                })
-                .collect();
-            let (h, t) = hull_with_tier(&pts).unwrap();
-            let (lo, hi) = pts.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-            let tol = 1e-6 * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element()) as f64;
-            let ok = valid(&pts, &h, 4.0 * tol);
-            *counts.entry((kind, t, ok, if kind < 3 { h.faces.len().min(7) + 100 * h.vertices.len().min(9) } else { 0 })).or_insert(0) += 1;
-        }
-        let mut c: Vec<_> = counts.into_iter().collect();
-        c.sort_by_key(|x| format!("{x:?}"));
-        for x in c { println!("{x:?}"); }
-        panic!();
-    }
-
-    #[test]
-    fn explore_time() {
-        let mut r = ChaCha8Rng::seed_from_u64(13);
-        for n in [10_000usize, 100_000, 1_000_000] {
-            let pts: Vec<Vec3> = (0..n).map(|_| Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0)).normalize()).collect();
-            let t = std::time::Instant::now();
-            let (h, tier) = hull_with_tier(&pts).unwrap();
-            println!("sphere {n}: {:?} {tier:?} {} faces", t.elapsed(), h.faces.len());
-            let pts: Vec<Vec3> = (0..n).map(|_| Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0))).collect();
-            let t = std::time::Instant::now();
-            let (h, tier) = hull_with_tier(&pts).unwrap();
-            println!("cube {n}: {:?} {tier:?} {} faces", t.elapsed(), h.faces.len());
-        }
-        panic!();
-    }
-
-    #[test]
-    fn explore_tiers() {
-        let mut r = ChaCha8Rng::seed_from_u64(11);
-        let mut counts = std::collections::HashMap::new();
-        for trial in 0..400 {
-            let q = Quat::from_axis_angle(Vec3::new(r.random(), r.random(), r.random()).normalize(), r.random_range(0.0..6.0));
-            let n = [8, 50, 300, 2000][trial % 4];
-            let pts: Vec<Vec3> = (0..n)
-                .map(|k| {
-                    if k < 8 && trial % 3 != 1 {
-                        let c = Vec3::new((k & 1) as f32 * 2.0 - 1.0, (k >> 1 & 1) as f32 * 2.0 - 1.0, (k >> 2) as f32 * 2.0 - 1.0);
-                        return if trial % 3 == 0 { q * c } else { c };
-                    }
-                    let mut p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
-                    match trial % 3 {
-                        0 => {
-                            let a = r.random_range(0..3);
-                            p[a] = p[a].signum();
-                            q * p
-                        }
-                        1 => q * (p * 3.0).round(),
-                        _ => {
-                            let a = r.random_range(0..3);
-                            p[a] = p[a].signum();
-                            p + Vec3::new(r.random(), r.random(), r.random()) * 1e-6
-                        }
-                    }
-                })
-                .collect();
-            match hull_with_tier(&pts) {
-                Ok((h, t)) => *counts.entry((trial % 3, t, h.faces.len().min(7) + 100 * h.vertices.len().min(9))).or_insert(0) += 1,
-                Err(e) => println!("{e}"),
+            assert!((n.length() - 1.0).abs() < 1e-6);
+            for &i in h.face_loop(fi) {
+                assert!((n.dot(v[i as usize]) - f.offset as f64).abs() <= tol);
+            }
+            for p in points {
+                assert!(n.dot(p.as_dvec3()) - f.offset as f64 <= tol);
             }
         }
-        let mut c: Vec<_> = counts.into_iter().collect();
-        c.sort_by_key(|x| format!("{x:?}"));
-        for x in c { println!("{x:?}"); }
-        panic!();
+        for p in &h.vertices {
+            assert!(points.contains(p));
+        }
+    }
+
+    fn tolerance(points: &[Vec3]) -> f64 {
+        let (lo, hi) = points.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+        REL_TOL * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element()) as f64
+    }
+
+    fn random_rotation(r: &mut ChaCha8Rng) -> Quat {
+        let axis = Vec3::new(
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+            r.random_range(0.1..1.0),
+        );
+        Quat::from_axis_angle(axis.normalize(), r.random_range(0.0..6.0))
+    }
+
+    /// The 8 corners of the cube [-1, 1]^3 and `n` random points on its faces, jittered.
+    fn cube_surface(r: &mut ChaCha8Rng, n: usize, jitter: f32) -> Vec<Vec3> {
+        let mut pts: Vec<Vec3> = RegularKind::Cube.points(3f64.sqrt());
+        for _ in 0..n {
+            let mut p = Vec3::new(
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+            );
+            let a = r.random_range(0..3);
+            p[a] = p[a].signum();
+            pts.push(p);
+        }
+        for p in &mut pts {
+            *p += Vec3::new(
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+            ) * jitter;
+        }
+        pts
+    }
+
+    #[test]
+    fn orient_is_exact() {
+        // Points on a plane far from the grid origin, nudged by one grid unit: the float filter
+        // cannot decide these, the integer fallback must.
+        let mut r = ChaCha8Rng::seed_from_u64(1);
+        for _ in 0..1000 {
+            let base = [
+                r.random_range(-(1i64 << 39)..1i64 << 39),
+                r.random_range(-(1i64 << 39)..1i64 << 39),
+                0,
+            ];
+            let pick = |r: &mut ChaCha8Rng| {
+                let (s, t) = (
+                    r.random_range(-1000i64..1000),
+                    r.random_range(-1000i64..1000),
+                );
+                [
+                    base[0] + s * 999_999_937,
+                    base[1] + t * 999_999_929,
+                    base[2] + s * 12_345 + t * 67_891,
+                ]
+            };
+            let mut q = vec![pick(&mut r), pick(&mut r), pick(&mut r), pick(&mut r)];
+            let nudge = r.random_range(-1i64..=1);
+            q[3][2] += nudge;
+            let qf: Vec<DVec3> = q
+                .iter()
+                .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+                .collect();
+            let pred = Predicates { q: &q, qf: &qf };
+            let d = |i: usize, k: usize| (q[i][k] - q[0][k]) as i128;
+            let det = d(1, 0) * (d(2, 1) * d(3, 2) - d(2, 2) * d(3, 1))
+                + d(1, 1) * (d(2, 2) * d(3, 0) - d(2, 0) * d(3, 2))
+                + d(1, 2) * (d(2, 0) * d(3, 1) - d(2, 1) * d(3, 0));
+            assert_eq!(pred.orient(0, 1, 2, 3), det.signum() as i32);
+            assert_eq!(pred.orient(0, 2, 1, 3), -det.signum() as i32);
+        }
+    }
+
+    #[test]
+    fn platonic_solids_merge_with_tolerance() {
+        let faces = [4, 6, 8, 12, 20];
+        for (kind, nf) in RegularKind::ALL.into_iter().zip(faces) {
+            for radius in [1e-4, 0.37, 1.0, 123.0, 1e5] {
+                let pts = kind.points(radius);
+                let (h, tier) = hull_with_tier(&pts, &ALL).unwrap();
+                assert_eq!(
+                    (tier, h.faces.len()),
+                    (Tier::Tolerant, nf),
+                    "{kind:?} r {radius}"
+                );
+                assert_valid(&pts, &h, 2.0 * tolerance(&pts));
+            }
+        }
+    }
+
+    #[test]
+    fn rotated_and_jittered_cubes_stay_cubes() {
+        let mut r = ChaCha8Rng::seed_from_u64(2);
+        for trial in 0..60 {
+            let jitter = [0.0, 1e-7, 5e-7][trial % 3];
+            let q = random_rotation(&mut r);
+            let pts: Vec<Vec3> = cube_surface(&mut r, [20, 200, 2000][trial % 3], jitter)
+                .into_iter()
+                .map(|p| q * p)
+                .collect();
+            let (h, tier) = hull_with_tier(&pts, &ALL).unwrap();
+            assert_eq!(
+                (tier, h.faces.len(), h.vertices.len()),
+                (Tier::Tolerant, 6, 8),
+                "trial {trial}"
+            );
+            assert_valid(&pts, &h, 2.0 * tolerance(&pts));
+        }
+    }
+
+    #[test]
+    fn every_tier_is_valid() {
+        // Inputs near the merging tolerance, where the tolerant tier may give up, and the
+        // fallbacks forced on each.
+        let mut r = ChaCha8Rng::seed_from_u64(3);
+        for trial in 0..90 {
+            let n = [50, 300, 1000][trial % 3];
+            let pts: Vec<Vec3> = match trial % 6 {
+                0 => cube_surface(&mut r, n, 3e-6),
+                1 => cube_surface(&mut r, n, 1e-5),
+                2 => {
+                    let q = random_rotation(&mut r);
+                    (0..n)
+                        .map(|_| q * (Vec3::new(r.random(), r.random(), r.random()) * 4.0).round())
+                        .collect()
+                }
+                3 => (0..n)
+                    .map(|_| Vec3::new(r.random(), r.random(), r.random()).normalize())
+                    .collect(),
+                4 => {
+                    // Finely divided cylinder.
+                    let q = random_rotation(&mut r);
+                    (0..n)
+                        .map(|k| {
+                            let a = k as f32 * 0.001 + r.random_range(0.0..1e-4f32);
+                            q * Vec3::new(a.cos(), a.sin(), if k % 2 == 0 { 1.0 } else { -1.0 })
+                        })
+                        .collect()
+                }
+                _ => (0..n)
+                    .map(|_| (Vec3::new(r.random(), r.random(), r.random()) * 8.0).floor())
+                    .collect(),
+            };
+            let tol = 4.0 * tolerance(&pts);
+            for tier in ALL {
+                let (h, got) = hull_with_tier(&pts, &[tier]).unwrap();
+                if got == tier {
+                    assert_valid(&pts, &h, tol);
+                }
+            }
+            let (h, _) = hull_with_tier(&pts, &ALL).unwrap();
+            assert_valid(&pts, &h, tol);
+            // Exact arithmetic merges exactly coplanar faces: integer lattices come out the same.
+            if trial % 6 == 5 {
+                let (e, tier) = hull_with_tier(&pts, &[Tier::Exact]).unwrap();
+                assert_eq!(tier, Tier::Exact);
+                assert_eq!(e.faces.len(), h.faces.len());
+            }
+        }
     }
 }

@@ -6,8 +6,11 @@ use crate::ConvexPolyhedron;
 /// Volume, centre of mass and inertia tensor (about the centre of mass) at unit density.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MassProperties {
+    /// Volume (the mass at unit density).
     pub volume: f64,
+    /// Centre of mass, in the frame the shape was given in.
     pub center: DVec3,
+    /// Inertia tensor about the centre of mass at unit density (symmetric).
     pub inertia: DMat3,
 }
 
@@ -20,7 +23,11 @@ impl MassProperties {
     /// Solid sphere of radius `r`.
     pub fn of_sphere(r: f64) -> Self {
         let volume = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
-        Self { volume, center: DVec3::ZERO, inertia: DMat3::from_diagonal(DVec3::splat(0.4 * volume * r * r)) }
+        Self {
+            volume,
+            center: DVec3::ZERO,
+            inertia: DMat3::from_diagonal(DVec3::splat(0.4 * volume * r * r)),
+        }
     }
 
     /// Solid convex polyhedron, exactly (up to f64 rounding).
@@ -53,12 +60,20 @@ impl MassProperties {
             }
         }
         if !(volume > 0.0 && volume.is_finite()) {
-            return Self { volume: 0.0, center: apex, inertia: DMat3::ZERO };
+            return Self {
+                volume: 0.0,
+                center: apex,
+                inertia: DMat3::ZERO,
+            };
         }
         let d = first / volume;
         let cov = second - outer(d, d) * volume;
         let trace = cov.x_axis.x + cov.y_axis.y + cov.z_axis.z;
-        Self { volume, center: apex + d, inertia: DMat3::from_diagonal(DVec3::splat(trace)) - cov }
+        Self {
+            volume,
+            center: apex + d,
+            inertia: DMat3::from_diagonal(DVec3::splat(trace)) - cov,
+        }
     }
 
     /// Principal moments and the proper rotation `R` (det +1) whose columns are the principal
@@ -80,13 +95,13 @@ impl MassProperties {
         let diagonal = DVec3::new(a[0][0], a[1][1], a[2][2]);
         let scale = (a[0][0] + a[1][1] + a[2][2]).abs();
         let off = a[0][1].abs().max(a[0][2].abs()).max(a[1][2].abs());
-        if !(off > 1e-9 * scale) {
+        if off <= 1e-9 * scale || !a.iter().flatten().all(|x| x.is_finite()) {
             return (diagonal, DQuat::IDENTITY);
         }
         let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0f64]];
         for _sweep in 0..64 {
             let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
-            if !(off > 1e-17 * scale) {
+            if off <= 1e-17 * scale {
                 break;
             }
             for (p, q) in [(0, 1), (0, 2), (1, 2)] {

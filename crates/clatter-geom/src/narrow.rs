@@ -286,16 +286,56 @@ fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
 
 /// Separation of `q`'s vertices (given in `p`'s frame) along `p`'s face `f`.
 #[inline]
-fn face_separation(p: &ConvexPolyhedron, f: usize, q_verts: &[Vec3]) -> f32 {
+fn face_separation(p: &ConvexPolyhedron, f: usize, q: &SoaPoints) -> f32 {
     let face = p.faces[f];
-    let mut m = f32::INFINITY;
-    for &v in q_verts {
-        m = m.min(face.normal.dot(v));
-    }
-    m - face.offset
+    q.min_along(face.normal) - face.offset
 }
 
-const MAX_VERTS: usize = 64;
+/// Points as separate x, y, z arrays padded to a multiple of 4 (with copies of the first
+/// point), so that "smallest projection on an axis" compiles to packed SIMD.
+#[derive(Default)]
+struct SoaPoints {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl SoaPoints {
+    fn fill(&mut self, pts: &[Vec3]) {
+        self.x.clear();
+        self.y.clear();
+        self.z.clear();
+        let pad = pts.len().next_multiple_of(4);
+        for k in 0..pad {
+            let v = pts[if k < pts.len() { k } else { 0 }];
+            self.x.push(v.x);
+            self.y.push(v.y);
+            self.z.push(v.z);
+        }
+    }
+
+    /// Largest projection on `n`.
+    #[inline]
+    fn max_along(&self, n: Vec3) -> f32 {
+        -self.min_along(-n)
+    }
+
+    /// Smallest projection on `n`.
+    #[inline]
+    fn min_along(&self, n: Vec3) -> f32 {
+        let mut m = [f32::INFINITY; 4];
+        for ((xs, ys), zs) in self.x.chunks_exact(4).zip(self.y.chunks_exact(4)).zip(self.z.chunks_exact(4)) {
+            for k in 0..4 {
+                let d = n.x * xs[k] + n.y * ys[k] + n.z * zs[k];
+                m[k] = if d < m[k] { d } else { m[k] };
+            }
+        }
+        let a = if m[0] < m[1] { m[0] } else { m[1] };
+        let b = if m[2] < m[3] { m[2] } else { m[3] };
+        if a < b { a } else { b }
+    }
+}
+
 
 /// Two convex polyhedra.
 pub fn polyhedron_polyhedron(
@@ -350,32 +390,58 @@ pub fn polyhedron_polyhedron(
             return None;
         }
     }
-    let mut heap_b = Vec::new();
-    let mut buf_b = [Vec3::ZERO; MAX_VERTS];
-    let bv: &[Vec3] = if b.vertices.len() <= MAX_VERTS {
-        for (i, &v) in b.vertices.iter().enumerate() {
-            buf_b[i] = rot * v + t;
-        }
-        &buf_b[..b.vertices.len()]
-    } else {
-        heap_b.extend(b.vertices.iter().map(|&v| rot * v + t));
-        &heap_b
-    };
-    let mut heap_a = Vec::new();
-    let mut buf_a = [Vec3::ZERO; MAX_VERTS];
-    let av: &[Vec3] = if a.vertices.len() <= MAX_VERTS {
-        for (i, &v) in a.vertices.iter().enumerate() {
-            buf_a[i] = inv_rot * (v - t);
-        }
-        &buf_a[..a.vertices.len()]
-    } else {
-        heap_a.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
-        &heap_a
-    };
+    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint))
+}
+
+/// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
+#[derive(Default)]
+struct Scratch {
+    av: Vec<Vec3>,
+    bv: Vec<Vec3>,
+    a_soa: SoaPoints,
+    b_soa: SoaPoints,
+    a_local: SoaPoints,
+    tables: Vec<f32>,
+    clip: ClipBuffers,
+}
+
+/// Buffers of the face clipping.
+#[derive(Default)]
+struct ClipBuffers {
+    poly: Vec<Vec3>,
+    tmp: Vec<Vec3>,
+    pts: Vec<(Vec3, f32)>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// The full separating-axis test with B at rotation `rot` and offset `t` in A's frame.
+#[allow(clippy::too_many_arguments)]
+fn sat_full(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    rot: glam::Mat3,
+    inv_rot: glam::Mat3,
+    t: Vec3,
+    sc: &mut Scratch,
+    hint: &mut SatHint,
+) -> Option<Manifold> {
+    let Scratch { av, bv, a_soa, b_soa, a_local, tables, clip } = sc;
+    bv.clear();
+    bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+    av.clear();
+    av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
+    let (av, bv): (&[Vec3], &[Vec3]) = (av, bv);
+    a_soa.fill(av);
+    b_soa.fill(bv);
     // Face axes of A.
     let mut best_a = (f32::NEG_INFINITY, 0usize);
     for f in 0..a.faces.len() {
-        let s = face_separation(a, f, bv);
+        let s = face_separation(a, f, b_soa);
         if s > 0.0 {
             *hint = HINT_FACE_A | f as u32;
             return None;
@@ -386,7 +452,7 @@ pub fn polyhedron_polyhedron(
     }
     let mut best_b = (f32::NEG_INFINITY, 0usize);
     for f in 0..b.faces.len() {
-        let s = face_separation(b, f, av);
+        let s = face_separation(b, f, a_soa);
         if s > 0.0 {
             *hint = HINT_FACE_B | f as u32;
             return None;
@@ -395,44 +461,96 @@ pub fn polyhedron_polyhedron(
             best_b = (s, f);
         }
     }
-    // Edge-edge axes that are faces of the Minkowski difference. B's face normals are
-    // rotated into A's frame once (negated: the Minkowski difference uses -B).
-    let mut heap_n = Vec::new();
-    let mut buf_n = [Vec3::ZERO; MAX_VERTS];
-    let neg_nb: &[Vec3] = if b.faces.len() <= MAX_VERTS {
-        for (i, f) in b.faces.iter().enumerate() {
-            buf_n[i] = -(rot * f.normal);
-        }
-        &buf_n[..b.faces.len()]
+    let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
+    let cost_dirs = nda * ndb * (av.len() + bv.len());
+    let cost_tables = a.edges.len() * b.faces.len() + b.edges.len() * a.faces.len() + a.edges.len() * b.edges.len();
+    let best_e = if cost_dirs <= 2 * cost_tables {
+        a_local.fill(&a.vertices);
+        edge_axes_by_direction(a, b, rot, a_local, b_soa, bv, hint)?
     } else {
-        heap_n.extend(b.faces.iter().map(|f| -(rot * f.normal)));
-        &heap_n
+        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, hint)?
     };
-    let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     let scale = a.radius.max(b.radius);
+    *hint = NO_HINT;
+    let face_best = best_a.0.max(best_b.0);
+    let tol = 1e-3 * scale;
+    if best_e.0 > face_best + tol {
+        let (s, ea, eb, axis) = best_e;
+        let [a0, a1] = a.edges[ea];
+        let [b0, b1] = b.edges[eb];
+        let (qa, qb) = segment_closest(
+            a.vertices[a0 as usize],
+            a.vertices[a1 as usize],
+            bv[b0 as usize],
+            bv[b1 as usize],
+        );
+        let mid = 0.5 * (qa + qb);
+        return Some(Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s));
+    }
+    // Face contact: prefer A's face unless B's is clearly better.
+    if best_b.0 > best_a.0 + tol {
+        // Reference face on B: work in B's frame with A as incident.
+        clip_faces(b, best_b.1, a, av, inv_rot, clip).map(|m| to_world(m, pb).flipped())
+    } else {
+        clip_faces(a, best_a.1, b, bv, rot, clip).map(|m| to_world(m, pa))
+    }
+}
+
+/// The best edge-edge axis `(separation, edge of A, edge of B, axis in A's frame)`, or `None`
+/// when an edge axis separates the bodies (recorded in `hint`).
+type EdgeAxis = (f32, usize, usize, Vec3);
+
+/// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
+#[allow(clippy::too_many_arguments)]
+fn edge_axes_gauss_map(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    rot: glam::Mat3,
+    inv_rot: glam::Mat3,
+    bv: &[Vec3],
+    tables: &mut Vec<f32>,
+    hint: &mut SatHint,
+) -> Option<EdgeAxis> {
+    // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
+    // of edge `ea` of A and of edge `eb` of -B must cross). The four arc/normal products of
+    // each pair come from two small tables instead of being recomputed per pair.
+    let (nfa, nfb) = (a.faces.len(), b.faces.len());
+    let (nea, neb) = (a.edges.len(), b.edges.len());
+    tables.clear();
+    tables.resize(nea * nfb + neb * nfa, 0.0);
+    let (t1, t2) = tables.split_at_mut(nea * nfb);
+    // t1[ea][kb] = (-nb_kb) . arcA_ea, with B's normal rotated into A's frame.
+    for (ea, arc) in a.edge_arcs.iter().enumerate() {
+        let arc = inv_rot * *arc;
+        for (kb, f) in b.faces.iter().enumerate() {
+            t1[ea * nfb + kb] = -f.normal.dot(arc);
+        }
+    }
+    // t2[eb][ka] = na_ka . arcB_eb (arc rotated into A's frame).
+    for (eb, arc) in b.edge_arcs.iter().enumerate() {
+        let arc = rot * *arc;
+        for (ka, f) in a.faces.iter().enumerate() {
+            t2[eb * nfa + ka] = f.normal.dot(arc);
+        }
+    }
+    let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
         let [fa0, fa1] = a.edge_faces[ea];
-        let na0 = a.faces[fa0 as usize].normal;
-        let na1 = a.faces[fa1 as usize].normal;
-        let bxa = na1.cross(na0);
+        let row1 = &t1[ea * nfb..(ea + 1) * nfb];
         let pa0 = a.vertices[a0 as usize];
         let da = a.vertices[a1 as usize] - pa0;
-        for (eb, &[b0, b1]) in b.edges.iter().enumerate() {
-            let [fb0, fb1] = b.edge_faces[eb];
-            let c = neg_nb[fb0 as usize];
-            let d = neg_nb[fb1 as usize];
-            // Gauss-map test (inlined is_minkowski_face with the A-side cross hoisted).
-            let cba = c.dot(bxa);
-            let dba = d.dot(bxa);
+        for (eb, &[fb0, fb1]) in b.edge_faces.iter().enumerate() {
+            let cba = row1[fb0 as usize];
+            let dba = row1[fb1 as usize];
             if cba * dba >= 0.0 {
                 continue;
             }
-            let dxc = d.cross(c);
-            let adc = na0.dot(dxc);
-            let bdc = na1.dot(dxc);
+            let adc = t2[eb * nfa + fa0 as usize];
+            let bdc = t2[eb * nfa + fa1 as usize];
             if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
                 continue;
             }
+            let [b0, b1] = b.edges[eb];
             let pb0 = bv[b0 as usize];
             let db = bv[b1 as usize] - pb0;
             let axis = da.cross(db);
@@ -456,29 +574,74 @@ pub fn polyhedron_polyhedron(
             }
         }
     }
-    *hint = NO_HINT;
-    let face_best = best_a.0.max(best_b.0);
-    let tol = 1e-3 * scale;
-    if best_e.0 > face_best + tol {
-        let (s, ea, eb, axis) = best_e;
-        let [a0, a1] = a.edges[ea];
-        let [b0, b1] = b.edges[eb];
-        let (qa, qb) = segment_closest(
-            a.vertices[a0 as usize],
-            a.vertices[a1 as usize],
-            bv[b0 as usize],
-            bv[b1 as usize],
-        );
-        let mid = 0.5 * (qa + qb);
-        return Some(Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s));
+    Some(best_e)
+}
+
+/// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
+/// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
+/// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
+#[allow(clippy::too_many_arguments)]
+fn edge_axes_by_direction(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    rot: glam::Mat3,
+    a_local: &SoaPoints,
+    b_soa: &SoaPoints,
+    bv: &[Vec3],
+    hint: &mut SatHint,
+) -> Option<EdgeAxis> {
+    let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    for (ia, &ua) in a.edge_dirs.iter().enumerate() {
+        for (ib, ub) in b.edge_dirs.iter().enumerate() {
+            let axis = ua.cross(rot * *ub);
+            let len2 = axis.length_squared();
+            if len2 < 1e-10 {
+                continue;
+            }
+            let axis = axis / len2.sqrt();
+            let (min_a, max_a) = (a_local.min_along(axis), a_local.max_along(axis));
+            let (min_b, max_b) = (b_soa.min_along(axis), b_soa.max_along(axis));
+            // Separation pushing B along +axis, and along -axis; keep the larger.
+            let (s, axis) = if min_b - max_a >= min_a - max_b { (min_b - max_a, axis) } else { (min_a - max_b, -axis) };
+            if s > 0.0 {
+                // Remember one concrete edge pair with these directions for the next step.
+                let ea = a.edge_dir_of.iter().position(|&d| d as usize == ia).unwrap_or(0);
+                let eb = b.edge_dir_of.iter().position(|&d| d as usize == ib).unwrap_or(0);
+                if ea < 0x8000 && eb < 0x8000 {
+                    *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+                }
+                return None;
+            }
+            if s > best.0 {
+                best = (s, ia, ib, axis);
+            }
+        }
     }
-    // Face contact: prefer A's face unless B's is clearly better.
-    if best_b.0 > best_a.0 + tol {
-        // Reference face on B: work in B's frame with A as incident.
-        clip_faces(b, best_b.1, a, av, inv_rot).map(|m| to_world(m, pb).flipped())
-    } else {
-        clip_faces(a, best_a.1, b, bv, rot).map(|m| to_world(m, pa))
+    if best.0 == f32::NEG_INFINITY {
+        return Some(best);
     }
+    // The supporting edges: A's edge of direction ia furthest along the axis, B's edge of
+    // direction ib furthest against it.
+    let (_, ia, ib, axis) = best;
+    let mut ea_best = (f32::NEG_INFINITY, 0usize);
+    for (e, &[v0, v1]) in a.edges.iter().enumerate() {
+        if a.edge_dir_of[e] as usize == ia {
+            let h = axis.dot(a.vertices[v0 as usize] + a.vertices[v1 as usize]);
+            if h > ea_best.0 {
+                ea_best = (h, e);
+            }
+        }
+    }
+    let mut eb_best = (f32::INFINITY, 0usize);
+    for (e, &[v0, v1]) in b.edges.iter().enumerate() {
+        if b.edge_dir_of[e] as usize == ib {
+            let h = axis.dot(bv[v0 as usize] + bv[v1 as usize]);
+            if h < eb_best.0 {
+                eb_best = (h, e);
+            }
+        }
+    }
+    Some((best.0, ea_best.1, eb_best.1, axis))
 }
 
 fn to_world(mut m: Manifold, pose: &Pose) -> Manifold {
@@ -497,6 +660,7 @@ fn clip_faces(
     inc: &ConvexPolyhedron,
     inc_v: &[Vec3],
     inc_rot: glam::Mat3,
+    clip: &mut ClipBuffers,
 ) -> Option<Manifold> {
     let rface = refp.faces[rf];
     let n = rface.normal;
@@ -511,8 +675,9 @@ fn clip_faces(
             inc_face = f;
         }
     }
-    let mut poly: Vec<Vec3> = inc.face_loop(inc_face).iter().map(|&i| inc_v[i as usize]).collect();
-    let mut tmp = Vec::with_capacity(poly.len() + 4);
+    let ClipBuffers { poly, tmp, pts } = clip;
+    poly.clear();
+    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v[i as usize]));
     let rl = refp.face_loop(rf);
     for k in 0..rl.len() {
         let v0 = refp.vertices[rl[k] as usize];
@@ -532,13 +697,13 @@ fn clip_faces(
                 tmp.push(p + (q - p) * (dp / (dp - dq)));
             }
         }
-        std::mem::swap(&mut poly, &mut tmp);
+        std::mem::swap(poly, tmp);
         if poly.is_empty() {
             break;
         }
     }
-    let mut pts: Vec<(Vec3, f32)> = Vec::with_capacity(poly.len());
-    for p in poly {
+    pts.clear();
+    for &p in poly.iter() {
         let depth = rface.offset - n.dot(p);
         if depth > 0.0 {
             pts.push((p + n * (0.5 * depth), depth));
@@ -547,7 +712,7 @@ fn clip_faces(
     if pts.is_empty() {
         return None;
     }
-    Some(reduce(&pts, n))
+    Some(reduce(pts, n))
 }
 
 /// Closest points of segments `p0-p1` and `q0-q1`.

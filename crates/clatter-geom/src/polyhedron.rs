@@ -29,6 +29,13 @@ pub struct ConvexPolyhedron {
     pub edges: Vec<[u32; 2]>,
     /// For each edge, the two faces sharing it.
     pub edge_faces: Vec<[u32; 2]>,
+    /// For each edge, `n1 x n0` of its two faces' normals: the plane of the edge's arc on the
+    /// Gauss map (used to prune edge-edge axes in the separating-axis test).
+    pub edge_arcs: Vec<Vec3>,
+    /// Unique edge directions up to sign (unit vectors): a cube has 3, an icosahedron 15.
+    pub edge_dirs: Vec<Vec3>,
+    /// For each edge, the index of its direction in `edge_dirs`.
+    pub edge_dir_of: Vec<u32>,
     /// Largest distance of a vertex from the local origin (bounding-sphere radius).
     pub radius: f32,
 }
@@ -43,7 +50,9 @@ impl ConvexPolyhedron {
         for lp in loops {
             // Newell's vector area, in f64 and relative to the first vertex: in f32 with raw
             // coordinates the products cancel badly for small or thin faces far from the origin.
-            let origin = lp.first().map_or(DVec3::ZERO, |&i| vertices[i as usize].as_dvec3());
+            let origin = lp
+                .first()
+                .map_or(DVec3::ZERO, |&i| vertices[i as usize].as_dvec3());
             let mut n = DVec3::ZERO;
             let mut centroid = Vec3::ZERO;
             for (k, &i) in lp.iter().enumerate() {
@@ -73,7 +82,10 @@ impl ConvexPolyhedron {
             for k in 0..lp.len() {
                 let a = lp[k];
                 let b = lp[(k + 1) % lp.len()];
-                edge_map.entry((a.min(b), a.max(b))).or_default().push(f as u32);
+                edge_map
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push(f as u32);
             }
         }
         let mut edges = Vec::with_capacity(edge_map.len());
@@ -83,7 +95,37 @@ impl ConvexPolyhedron {
             edge_faces.push([fs[0], *fs.get(1).unwrap_or(&fs[0])]);
         }
         let radius = vertices.iter().map(|v| v.length()).fold(0.0, f32::max);
-        Self { vertices, faces, face_vertices, edges, edge_faces, radius }
+        let edge_arcs = edge_faces
+            .iter()
+            .map(|&[f0, f1]| faces[f1 as usize].normal.cross(faces[f0 as usize].normal))
+            .collect();
+        let mut edge_dirs: Vec<Vec3> = Vec::new();
+        let mut edge_dir_of = Vec::with_capacity(edges.len());
+        for &[a, b] in &edges {
+            let d = (vertices[b as usize] - vertices[a as usize]).normalize_or_zero();
+            let k = match edge_dirs
+                .iter()
+                .position(|u| u.cross(d).length_squared() < 1e-10)
+            {
+                Some(k) => k,
+                None => {
+                    edge_dirs.push(d);
+                    edge_dirs.len() - 1
+                }
+            };
+            edge_dir_of.push(k as u32);
+        }
+        Self {
+            vertices,
+            faces,
+            face_vertices,
+            edges,
+            edge_faces,
+            edge_arcs,
+            edge_dirs,
+            edge_dir_of,
+            radius,
+        }
     }
 
     /// The vertex loop of face `f`.
@@ -112,7 +154,9 @@ impl ConvexPolyhedron {
     /// frame); planes and radius are recomputed.
     pub fn map_vertices(&self, f: impl Fn(Vec3) -> Vec3) -> Self {
         let vertices = self.vertices.iter().map(|&v| f(v)).collect();
-        let loops: Vec<Vec<u32>> = (0..self.faces.len()).map(|i| self.face_loop(i).to_vec()).collect();
+        let loops: Vec<Vec<u32>> = (0..self.faces.len())
+            .map(|i| self.face_loop(i).to_vec())
+            .collect();
         Self::from_faces(vertices, &loops)
     }
 }

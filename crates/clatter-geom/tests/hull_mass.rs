@@ -1,7 +1,9 @@
 //! Convex hulls and mass properties checked against brute force and closed-form formulas.
 
 use clatter_geom::shape::Shape;
-use clatter_geom::{ConvexPolyhedron, GeomError, MassProperties, RegularKind, ShapeKind, convex_hull};
+use clatter_geom::{
+    ConvexPolyhedron, GeomError, MassProperties, RegularKind, ShapeKind, convex_hull,
+};
 use glam::{DMat3, DQuat, DVec3, Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -20,23 +22,42 @@ fn check_hull(points: &[Vec3], hull: &ConvexPolyhedron, tol: f64) {
         }
     }
     // Extreme vertices only: every vertex is a corner of at least three faces.
-    assert!(used.iter().all(|&u| u >= 3), "vertex on fewer than 3 faces: {used:?}");
+    assert!(
+        used.iter().all(|&u| u >= 3),
+        "vertex on fewer than 3 faces: {used:?}"
+    );
     for (f, face) in hull.faces.iter().enumerate() {
         let lp = hull.face_loop(f);
         assert!(lp.len() >= 3);
-        assert!((face.normal.length() - 1.0).abs() < 1e-5, "normal not unit: {:?} {:?}", face, lp.iter().map(|&i| v[i as usize]).collect::<Vec<_>>());
+        assert!(
+            (face.normal.length() - 1.0).abs() < 1e-5,
+            "normal not unit: {:?} {:?}",
+            face,
+            lp.iter().map(|&i| v[i as usize]).collect::<Vec<_>>()
+        );
         let n = face.normal.as_dvec3();
         let d = face.offset as f64;
         // Planar.
         for &i in lp {
             let dev = (n.dot(v[i as usize]) - d).abs();
-            assert!(dev <= tol, "face {f} not planar: {dev} > {tol}, {} vertices", lp.len());
+            assert!(
+                dev <= tol,
+                "face {f} not planar: {dev} > {tol}, {} vertices",
+                lp.len()
+            );
         }
         // Strictly convex, counter-clockwise about the outward normal.
         let k = lp.len();
         for j in 0..k {
-            let (a, b, c) = (v[lp[j] as usize], v[lp[(j + 1) % k] as usize], v[lp[(j + 2) % k] as usize]);
-            assert!((b - a).cross(c - b).dot(n) > 0.0, "face {f} not strictly convex at {j}");
+            let (a, b, c) = (
+                v[lp[j] as usize],
+                v[lp[(j + 1) % k] as usize],
+                v[lp[(j + 2) % k] as usize],
+            );
+            assert!(
+                (b - a).cross(c - b).dot(n) > 0.0,
+                "face {f} not strictly convex at {j}"
+            );
         }
         // Every input point is inside or on the face plane.
         for p in points {
@@ -52,11 +73,18 @@ fn check_hull(points: &[Vec3], hull: &ConvexPolyhedron, tol: f64) {
         }
     }
     directed.sort();
-    assert!(directed.windows(2).all(|w| w[0] != w[1]), "repeated directed edge");
+    assert!(
+        directed.windows(2).all(|w| w[0] != w[1]),
+        "repeated directed edge"
+    );
     for &(a, b) in &directed {
         assert!(directed.binary_search(&(b, a)).is_ok(), "unpaired edge");
     }
-    let (nv, ne, nf) = (v.len() as i64, hull.edges.len() as i64, hull.faces.len() as i64);
+    let (nv, ne, nf) = (
+        v.len() as i64,
+        hull.edges.len() as i64,
+        hull.faces.len() as i64,
+    );
     assert_eq!(ne * 2, directed.len() as i64);
     assert_eq!(nv - ne + nf, 2, "Euler characteristic");
     for (e, f) in hull.edge_faces.iter().enumerate() {
@@ -69,7 +97,9 @@ fn check_hull(points: &[Vec3], hull: &ConvexPolyhedron, tol: f64) {
 
 /// The hull's documented merging tolerance: 1e-6 of (bounding-box diagonal + largest coordinate).
 fn hull_tolerance(points: &[Vec3]) -> f64 {
-    let (lo, hi) = points.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = points.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), &p| {
+        (lo.min(p), hi.max(p))
+    });
     1e-6 * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element()) as f64
 }
 
@@ -85,7 +115,11 @@ fn rng(seed: u64) -> ChaCha8Rng {
 
 fn random_unit(r: &mut ChaCha8Rng) -> DVec3 {
     loop {
-        let p = DVec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
+        let p = DVec3::new(
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+        );
         let l = p.length();
         if l > 0.1 && l <= 1.0 {
             return p / l;
@@ -109,7 +143,10 @@ fn shortest_distance(points: &[Vec3]) -> f64 {
 }
 
 fn assert_rel(got: f64, want: f64, rel: f64, what: &str) {
-    assert!((got - want).abs() <= rel * want.abs(), "{what}: got {got}, want {want}");
+    assert!(
+        (got - want).abs() <= rel * want.abs(),
+        "{what}: got {got}, want {want}"
+    );
 }
 
 fn assert_diag(i: DMat3, want: DVec3, rel: f64) {
@@ -117,7 +154,11 @@ fn assert_diag(i: DMat3, want: DVec3, rel: f64) {
     for r in 0..3 {
         for c in 0..3 {
             let w = if r == c { want[r] } else { 0.0 };
-            assert!((i.col(c)[r] - w).abs() <= rel * scale, "inertia[{r}][{c}] = {}, want {w}", i.col(c)[r]);
+            assert!(
+                (i.col(c)[r] - w).abs() <= rel * scale,
+                "inertia[{r}][{c}] = {}, want {w}",
+                i.col(c)[r]
+            );
         }
     }
 }
@@ -139,7 +180,10 @@ fn platonic_solids_have_merged_faces() {
             let hull = convex_hull(&pts).unwrap();
             assert_eq!(hull.faces.len(), nf, "{kind:?} faces");
             assert_eq!(hull.vertices.len(), nv, "{kind:?} vertices");
-            assert!(hull.faces.iter().all(|f| f.count == sides), "{kind:?} face sizes");
+            assert!(
+                hull.faces.iter().all(|f| f.count == sides),
+                "{kind:?} face sizes"
+            );
             check_hull(&pts, &hull, 1e-5 * radius);
             // Every face is at the inradius and all vertices at the circumradius.
             let inradius = hull.faces[0].offset;
@@ -171,7 +215,11 @@ fn cube_with_face_and_edge_points_is_six_quads() {
     let mut r = rng(1);
     for _ in 0..500 {
         // Random points on random faces, some on edges (one more coordinate at +-1).
-        let mut p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
+        let mut p = Vec3::new(
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+        );
         let axis = r.random_range(0..3);
         p[axis] = if r.random_bool(0.5) { 1.0 } else { -1.0 };
         if r.random_bool(0.2) {
@@ -205,11 +253,19 @@ fn duplicates_and_coplanar_points_do_not_change_faces() {
             for _ in 0..20 {
                 let w: Vec<f32> = lp.iter().map(|_| r.random_range(0.0..1.0f32)).collect();
                 let sum: f32 = w.iter().sum();
-                let p: Vec3 = lp.iter().zip(&w).map(|(&i, &w)| reference.vertices[i as usize] * w).sum::<Vec3>() / sum;
+                let p: Vec3 = lp
+                    .iter()
+                    .zip(&w)
+                    .map(|(&i, &w)| reference.vertices[i as usize] * w)
+                    .sum::<Vec3>()
+                    / sum;
                 pts.push(p);
                 pts.push(p * 0.3);
             }
-            let (a, b) = (reference.vertices[lp[0] as usize], reference.vertices[lp[1] as usize]);
+            let (a, b) = (
+                reference.vertices[lp[0] as usize],
+                reference.vertices[lp[1] as usize],
+            );
             pts.push(a.lerp(b, r.random_range(0.0..1.0)));
         }
         // Shuffle.
@@ -239,7 +295,11 @@ fn nearly_coplanar_points_merge() {
         ));
     }
     for _ in 0..2000 {
-        let mut p = Vec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-1.0..1.0));
+        let mut p = Vec3::new(
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+        );
         let axis = r.random_range(0..3);
         p[axis] = if r.random_bool(0.5) { 1.0 } else { -1.0 };
         pts.push(p * h);
@@ -288,7 +348,11 @@ fn random_clouds_match_brute_force() {
             _ => 1000,
         };
         let rot = random_rotation(&mut r);
-        let offset = DVec3::new(r.random_range(-50.0..50.0), r.random_range(-50.0..50.0), 0.0);
+        let offset = DVec3::new(
+            r.random_range(-50.0..50.0),
+            r.random_range(-50.0..50.0),
+            0.0,
+        );
         let scale = 10f64.powf(r.random_range(-2.0..2.0));
         let pts: Vec<Vec3> = (0..n)
             .map(|_| {
@@ -298,7 +362,11 @@ fn random_clouds_match_brute_force() {
                     // On a sphere.
                     1 => random_unit(&mut r),
                     // In a flattened box.
-                    2 => DVec3::new(r.random_range(-1.0..1.0), r.random_range(-1.0..1.0), r.random_range(-0.05..0.05)),
+                    2 => DVec3::new(
+                        r.random_range(-1.0..1.0),
+                        r.random_range(-1.0..1.0),
+                        r.random_range(-0.05..0.05),
+                    ),
                     // On a small integer lattice (many coplanar and collinear points).
                     _ => DVec3::new(
                         r.random_range(-2..=2) as f64,
@@ -306,14 +374,20 @@ fn random_clouds_match_brute_force() {
                         r.random_range(-2..=2) as f64,
                     ),
                 };
-                if trial % 4 == 3 { p.as_vec3() } else { (rot * p * scale + offset * scale).as_vec3() }
+                if trial % 4 == 3 {
+                    p.as_vec3()
+                } else {
+                    (rot * p * scale + offset * scale).as_vec3()
+                }
             })
             .collect();
         match convex_hull(&pts) {
             Ok(hull) => {
                 check_hull(&pts, &hull, 4.0 * hull_tolerance(&pts));
             }
-            Err(GeomError::DegenerateHull { .. }) => assert!(n < 10 && trial % 4 == 3, "trial {trial}"),
+            Err(GeomError::DegenerateHull { .. }) => {
+                assert!(n < 10 && trial % 4 == 3, "trial {trial}")
+            }
             Err(e) => panic!("{e}"),
         }
     }
@@ -332,23 +406,40 @@ fn large_sphere_cloud_is_fast() {
     assert!(hull.faces.len() <= 2 * 10_000 - 4 && hull.faces.len() > 19_000);
     check_hull(&pts, &hull, 1e-5);
     // Generous bound (shared CI machines); the release build takes a few milliseconds.
-    assert!(elapsed.as_secs_f64() < 2.0, "10k-point hull took {elapsed:?}");
+    assert!(
+        elapsed.as_secs_f64() < 2.0,
+        "10k-point hull took {elapsed:?}"
+    );
     let m = MassProperties::of_polyhedron(&hull);
-    assert_rel(m.volume, 4.0 / 3.0 * std::f64::consts::PI, 2e-3, "sphere volume");
+    assert_rel(
+        m.volume,
+        4.0 / 3.0 * std::f64::consts::PI,
+        2e-3,
+        "sphere volume",
+    );
 }
 
 #[test]
 fn degenerate_inputs_are_errors() {
-    let degenerate = |pts: &[Vec3]| matches!(convex_hull(pts), Err(GeomError::DegenerateHull { .. }));
+    let degenerate =
+        |pts: &[Vec3]| matches!(convex_hull(pts), Err(GeomError::DegenerateHull { .. }));
     assert!(degenerate(&[]));
     assert!(degenerate(&[Vec3::ONE]));
     assert!(degenerate(&[Vec3::X, Vec3::Y, Vec3::Z]));
     assert!(degenerate(&[Vec3::ONE; 100]));
     let mut r = rng(6);
-    let mut jitter = |s: f32| Vec3::new(r.random_range(-s..s), r.random_range(-s..s), r.random_range(-s..s));
+    let mut jitter = |s: f32| {
+        Vec3::new(
+            r.random_range(-s..s),
+            r.random_range(-s..s),
+            r.random_range(-s..s),
+        )
+    };
     let near_point: Vec<Vec3> = (0..50).map(|_| Vec3::splat(3.0) + jitter(1e-7)).collect();
     assert!(degenerate(&near_point));
-    let line: Vec<Vec3> = (0..50).map(|k| Vec3::new(1.0, 2.0, 3.0) * (k as f32 * 0.1)).collect();
+    let line: Vec<Vec3> = (0..50)
+        .map(|k| Vec3::new(1.0, 2.0, 3.0) * (k as f32 * 0.1))
+        .collect();
     assert!(degenerate(&line));
     let near_line: Vec<Vec3> = line.iter().map(|&p| p + jitter(1e-7)).collect();
     assert!(degenerate(&near_line));
@@ -359,7 +450,14 @@ fn degenerate_inputs_are_errors() {
     assert!(degenerate(&plane));
     let near_plane: Vec<Vec3> = plane.iter().map(|&p| p + jitter(1e-6)).collect();
     assert!(degenerate(&near_plane));
-    let square = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X + Vec3::Y, Vec3::ZERO, Vec3::X];
+    let square = [
+        Vec3::ZERO,
+        Vec3::X,
+        Vec3::Y,
+        Vec3::X + Vec3::Y,
+        Vec3::ZERO,
+        Vec3::X,
+    ];
     assert!(degenerate(&square));
     assert_eq!(
         convex_hull(&[Vec3::ZERO, Vec3::X, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Z]),
@@ -375,7 +473,11 @@ fn degenerate_inputs_are_errors() {
 #[test]
 fn far_from_origin() {
     let base = Vec3::new(1000.0, -2000.0, 500.0);
-    let pts: Vec<Vec3> = RegularKind::Cube.points(3f64.sqrt()).into_iter().map(|p| p + base).collect();
+    let pts: Vec<Vec3> = RegularKind::Cube
+        .points(3f64.sqrt())
+        .into_iter()
+        .map(|p| p + base)
+        .collect();
     let hull = convex_hull(&pts).unwrap();
     assert_eq!(face_sizes(&hull), vec![4; 6]);
     let m = MassProperties::of_polyhedron(&hull);
@@ -415,11 +517,23 @@ fn platonic_mass_properties() {
     // the face pyramids: V = sum A h / 3, int |x|^2 dV = sum h (A h^2 + J) / 5, I = 2/3 of that.
     let s5 = 5f64.sqrt();
     let table = [
-        (RegularKind::Tetrahedron, 1.0 / (6.0 * 2f64.sqrt()), 1.0 / 20.0),
+        (
+            RegularKind::Tetrahedron,
+            1.0 / (6.0 * 2f64.sqrt()),
+            1.0 / 20.0,
+        ),
         (RegularKind::Cube, 1.0, 1.0 / 6.0),
         (RegularKind::Octahedron, 2f64.sqrt() / 3.0, 1.0 / 10.0),
-        (RegularKind::Dodecahedron, (15.0 + 7.0 * s5) / 4.0, (95.0 + 39.0 * s5) / 300.0),
-        (RegularKind::Icosahedron, 5.0 * (3.0 + s5) / 12.0, (3.0 + s5) / 20.0),
+        (
+            RegularKind::Dodecahedron,
+            (15.0 + 7.0 * s5) / 4.0,
+            (95.0 + 39.0 * s5) / 300.0,
+        ),
+        (
+            RegularKind::Icosahedron,
+            5.0 * (3.0 + s5) / 12.0,
+            (3.0 + s5) / 20.0,
+        ),
     ];
     for (kind, kv, ki) in table {
         let pts = kind.points(1.3);
@@ -452,10 +566,17 @@ fn sphere_hull_converges_to_sphere() {
             .collect();
         let m = MassProperties::of_polyhedron(&convex_hull(&pts).unwrap());
         let err_v = (m.volume - exact.volume).abs() / exact.volume;
-        let err_i = (m.inertia - exact.inertia).abs().to_cols_array().into_iter().fold(0.0, f64::max)
+        let err_i = (m.inertia - exact.inertia)
+            .abs()
+            .to_cols_array()
+            .into_iter()
+            .fold(0.0, f64::max)
             / exact.inertia.x_axis.x;
         assert!(m.volume < exact.volume);
-        assert!(err_v < last && err_i < 2.0 * err_v.max(1e-4), "n {n}: {err_v} {err_i}");
+        assert!(
+            err_v < last && err_i < 2.0 * err_v.max(1e-4),
+            "n {n}: {err_v} {err_i}"
+        );
         assert!(m.center.length() < 1e-2);
         last = err_v;
     }
@@ -467,10 +588,18 @@ fn rotated_translated_box_principal_frame() {
     let mut r = rng(7);
     let h = DVec3::new(0.3, 0.8, 1.7);
     let v = 8.0 * h.x * h.y * h.z;
-    let want = DVec3::new(h.y * h.y + h.z * h.z, h.x * h.x + h.z * h.z, h.x * h.x + h.y * h.y) * (v / 3.0);
+    let want = DVec3::new(
+        h.y * h.y + h.z * h.z,
+        h.x * h.x + h.z * h.z,
+        h.x * h.x + h.y * h.y,
+    ) * (v / 3.0);
     for _ in 0..20 {
         let rot = random_rotation(&mut r);
-        let t = DVec3::new(r.random_range(-5.0..5.0), r.random_range(-5.0..5.0), r.random_range(-5.0..5.0));
+        let t = DVec3::new(
+            r.random_range(-5.0..5.0),
+            r.random_range(-5.0..5.0),
+            r.random_range(-5.0..5.0),
+        );
         let pts: Vec<Vec3> = (0..8)
             .map(|i| {
                 let c = DVec3::new(
@@ -508,9 +637,17 @@ fn principal_axes_of_general_tensors() {
     let mut r = rng(8);
     for _ in 0..100 {
         let rot = DMat3::from_quat(random_rotation(&mut r));
-        let d = DVec3::new(r.random_range(0.1..2.0), r.random_range(0.1..2.0), r.random_range(0.1..2.0));
+        let d = DVec3::new(
+            r.random_range(0.1..2.0),
+            r.random_range(0.1..2.0),
+            r.random_range(0.1..2.0),
+        );
         let inertia = rot * DMat3::from_diagonal(d) * rot.transpose();
-        let m = MassProperties { volume: 1.0, center: DVec3::ZERO, inertia };
+        let m = MassProperties {
+            volume: 1.0,
+            center: DVec3::ZERO,
+            inertia,
+        };
         let (moments, q) = m.principal_axes();
         let rm = DMat3::from_quat(q);
         assert!((rm.determinant() - 1.0).abs() < 1e-12);
@@ -526,7 +663,12 @@ fn principal_axes_of_general_tensors() {
     let mut i = DMat3::from_diagonal(DVec3::new(3.0, 1.0, 2.0));
     i.x_axis.y = 1e-12;
     i.y_axis.x = 1e-12;
-    let (moments, q) = MassProperties { volume: 1.0, center: DVec3::ZERO, inertia: i }.principal_axes();
+    let (moments, q) = MassProperties {
+        volume: 1.0,
+        center: DVec3::ZERO,
+        inertia: i,
+    }
+    .principal_axes();
     assert_eq!(q, DQuat::IDENTITY);
     assert_eq!(moments, DVec3::new(3.0, 1.0, 2.0));
 }
@@ -537,20 +679,33 @@ fn principal_axes_of_general_tensors() {
 fn prepare_all_shape_kinds() {
     let sphere = ShapeKind::Sphere { radius: 0.5 }.prepare().unwrap();
     assert_eq!(sphere.shape, Shape::Sphere { radius: 0.5 });
-    assert_rel(sphere.volume as f64, MassProperties::of_sphere(0.5).volume, 1e-6, "sphere");
+    assert_rel(
+        sphere.volume as f64,
+        MassProperties::of_sphere(0.5).volume,
+        1e-6,
+        "sphere",
+    );
 
-    let b = ShapeKind::Box { half_extents: [0.5, 1.0, 2.0] }.prepare().unwrap();
+    let b = ShapeKind::Box {
+        half_extents: [0.5, 1.0, 2.0],
+    }
+    .prepare()
+    .unwrap();
     assert_eq!(b.frame, Quat::IDENTITY);
     assert_rel(b.volume as f64, 8.0, 1e-6, "box volume");
     assert!((b.unit_inertia - Vec3::new(5.0, 4.25, 1.25) * 8.0 / 3.0).length() < 1e-4);
-    let Shape::Polyhedron(p) = &b.shape else { panic!() };
+    let Shape::Polyhedron(p) = &b.shape else {
+        panic!()
+    };
     assert_eq!(face_sizes(p), vec![4; 6]);
 
     for kind in RegularKind::ALL {
         let s = ShapeKind::Regular { kind, radius: 2.0 }.prepare().unwrap();
         assert_eq!(s.frame, Quat::IDENTITY, "{kind:?}");
         assert!(s.com.length() < 1e-5);
-        let Shape::Polyhedron(p) = &s.shape else { panic!() };
+        let Shape::Polyhedron(p) = &s.shape else {
+            panic!()
+        };
         assert!((p.radius - 2.0).abs() < 1e-5);
     }
 
@@ -567,29 +722,56 @@ fn prepare_all_shape_kinds() {
             (rot * c + off).to_array()
         })
         .collect();
-    let s = ShapeKind::Convex { points: points.clone() }.prepare().unwrap();
+    let s = ShapeKind::Convex {
+        points: points.clone(),
+    }
+    .prepare()
+    .unwrap();
     assert!((s.com.as_dvec3() - off).length() < 1e-5);
-    let Shape::Polyhedron(p) = &s.shape else { panic!() };
+    let Shape::Polyhedron(p) = &s.shape else {
+        panic!()
+    };
     let m = MassProperties::of_polyhedron(p);
     assert!(m.center.length() < 1e-5);
     assert_diag(m.inertia, s.unit_inertia.as_dvec3(), 1e-4);
     // frame maps principal coordinates back to the authored ones.
     for v in &p.vertices {
         let authored = s.frame * *v + s.com;
-        assert!(points.iter().any(|q| (DVec3::from_array(*q).as_vec3() - authored).length() < 1e-5));
+        assert!(
+            points
+                .iter()
+                .any(|q| (DVec3::from_array(*q).as_vec3() - authored).length() < 1e-5)
+        );
     }
 
-    assert!(matches!(ShapeKind::Sphere { radius: -1.0 }.prepare(), Err(GeomError::NotPositive { .. })));
     assert!(matches!(
-        ShapeKind::Box { half_extents: [1.0, f64::NAN, 1.0] }.prepare(),
+        ShapeKind::Sphere { radius: -1.0 }.prepare(),
         Err(GeomError::NotPositive { .. })
     ));
     assert!(matches!(
-        ShapeKind::Convex { points: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, f64::INFINITY, 0.0], [0.0; 3]] }.prepare(),
+        ShapeKind::Box {
+            half_extents: [1.0, f64::NAN, 1.0]
+        }
+        .prepare(),
+        Err(GeomError::NotPositive { .. })
+    ));
+    assert!(matches!(
+        ShapeKind::Convex {
+            points: vec![
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, f64::INFINITY, 0.0],
+                [0.0; 3]
+            ]
+        }
+        .prepare(),
         Err(GeomError::NonFinitePoint { index: 2 })
     ));
     assert!(matches!(
-        ShapeKind::Convex { points: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]] }.prepare(),
+        ShapeKind::Convex {
+            points: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]
+        }
+        .prepare(),
         Err(GeomError::DegenerateHull { count: 4, .. })
     ));
 }

@@ -45,10 +45,71 @@ pub struct ContactForce {
     pub normal_force: f32,
 }
 
+/// Normal force of one manifold point carrying `1/count` of the contact, and its damping
+/// coefficient (already divided by `count`). `vn` is the normal relative velocity (negative
+/// when approaching).
+#[inline(always)]
+fn normal_law(p: &PairParams, m_eff: f32, r_eff: f32, eta_lin: f32, depth: f32, vn: f32, inv_count: f32) -> (f32, f32) {
+    let (f, eta) = if p.hertz {
+        let contact = (r_eff * depth).sqrt();
+        let eta = p.damping_factor * (2.0 * p.stiffness * contact * m_eff).sqrt();
+        (4.0 / 3.0 * p.stiffness * contact * depth - eta * vn, eta)
+    } else {
+        (p.stiffness * depth - eta_lin * vn, eta_lin)
+    };
+    (f * inv_count, eta * inv_count)
+}
+
+/// The Cundall-Strack spring at a point moving with tangential relative velocity from `vrel`:
+/// rotates `history` into the tangent plane of `n`, stretches it, caps it by Coulomb, and
+/// returns the tangential force on side b.
+#[inline(always)]
+fn tangential_law(
+    p: &PairParams,
+    r_eff: f32,
+    n: Vec3,
+    vrel: Vec3,
+    mean_depth: f32,
+    normal_force: f32,
+    eta_n: f32,
+    history: &mut Vec3,
+    dt: f32,
+) -> Vec3 {
+    let vt = vrel - n * vrel.dot(n);
+    let mut xi = *history;
+    let along = xi.dot(n);
+    if along != 0.0 {
+        // Rotate the spring into the current tangent plane, keeping its length.
+        let old_len2 = xi.length_squared();
+        xi -= n * along;
+        let new_len2 = xi.length_squared();
+        if new_len2 > 0.0 {
+            xi *= (old_len2 / new_len2).sqrt();
+        }
+    }
+    xi += vt * dt;
+    let kt = if p.hertz {
+        8.0 * p.shear * (r_eff * mean_depth).sqrt()
+    } else {
+        LINEAR_TANGENTIAL_RATIO * p.stiffness
+    };
+    let mut ft = -kt * xi - (TANGENTIAL_DAMPING_RATIO * eta_n) * vt;
+    let cap = p.friction * normal_force.max(0.0);
+    let ft_len2 = ft.length_squared();
+    if ft_len2 > cap * cap {
+        ft *= cap / ft_len2.sqrt();
+        // Keep the spring at the length that the capped force corresponds to.
+        xi = if kt > 0.0 { -ft / kt } else { Vec3::ZERO };
+    }
+    *history = xi;
+    ft
+}
+
 /// Computes the contact force of `manifold` between `a` and `b` and updates the tangential
 /// spring `history` (zero for a new contact). `m_eff` and `r_eff` are the effective mass and
 /// radius of the pair.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 pub fn contact_force(
     p: &PairParams,
     m_eff: f32,
@@ -60,68 +121,45 @@ pub fn contact_force(
     dt: f32,
 ) -> ContactForce {
     let n = manifold.normal;
-    let count = manifold.count as f32;
-    let inv_count = 1.0 / count;
+    let eta_lin = if p.hertz { 0.0 } else { p.damping_factor * (m_eff * p.stiffness).sqrt() };
+    if manifold.count == 1 {
+        // One point (spheres, vertex and edge contacts): normal and tangential act there.
+        let cp = manifold.points[0];
+        let vrel = b.point_velocity(cp.point) - a.point_velocity(cp.point);
+        let (fn_, eta) = normal_law(p, m_eff, r_eff, eta_lin, cp.depth, vrel.dot(n), 1.0);
+        let ft = tangential_law(p, r_eff, n, vrel, cp.depth, fn_, eta, history, dt);
+        let f = n * fn_ + ft;
+        return ContactForce {
+            force_b: f,
+            torque_a: f.cross(cp.point - a.position),
+            torque_b: (cp.point - b.position).cross(f),
+            normal_force: fn_,
+        };
+    }
+    let inv_count = 1.0 / manifold.count as f32;
     let mut out = ContactForce::default();
     let mut centroid = Vec3::ZERO;
     let mut mean_depth = 0.0;
-    let (kn_lin, eta_lin) = if p.hertz {
-        (0.0, 0.0)
-    } else {
-        (p.stiffness, p.damping_factor * (m_eff * p.stiffness).sqrt())
-    };
-    let mut eta_n_total = 0.0;
+    let mut eta_n = 0.0;
     for cp in manifold.points() {
         let vrel = b.point_velocity(cp.point) - a.point_velocity(cp.point);
-        let vn = vrel.dot(n);
-        let (fn_i, eta) = if p.hertz {
-            let contact = (r_eff * cp.depth).sqrt();
-            let sn = 2.0 * p.stiffness * contact;
-            let eta = p.damping_factor * (sn * m_eff).sqrt();
-            (4.0 / 3.0 * p.stiffness * contact * cp.depth - eta * vn, eta)
-        } else {
-            (kn_lin * cp.depth - eta_lin * vn, eta_lin)
-        };
-        let fn_i = fn_i * inv_count;
-        eta_n_total += eta * inv_count;
+        let (fn_i, eta) = normal_law(p, m_eff, r_eff, eta_lin, cp.depth, vrel.dot(n), inv_count);
+        eta_n += eta;
         let f = n * fn_i;
         out.force_b += f;
         out.torque_b += (cp.point - b.position).cross(f);
-        out.torque_a -= (cp.point - a.position).cross(f);
+        out.torque_a += f.cross(cp.point - a.position);
         out.normal_force += fn_i;
         centroid += cp.point;
         mean_depth += cp.depth;
     }
+    // One tangential spring for the whole patch, at its centroid.
     centroid *= inv_count;
     mean_depth *= inv_count;
-
-    // Tangential spring at the centroid.
     let vrel = b.point_velocity(centroid) - a.point_velocity(centroid);
-    let vt = vrel - n * vrel.dot(n);
-    let old_len2 = history.length_squared();
-    let mut xi = *history - n * history.dot(n);
-    let new_len2 = xi.length_squared();
-    if new_len2 > 0.0 && old_len2 > new_len2 {
-        xi *= (old_len2 / new_len2).sqrt();
-    }
-    xi += vt * dt;
-    let kt = if p.hertz {
-        8.0 * p.shear * (r_eff * mean_depth).sqrt()
-    } else {
-        LINEAR_TANGENTIAL_RATIO * kn_lin
-    };
-    let eta_t = TANGENTIAL_DAMPING_RATIO * eta_n_total;
-    let mut ft = -kt * xi - eta_t * vt;
-    let cap = p.friction * out.normal_force.max(0.0);
-    let ft_len2 = ft.length_squared();
-    if ft_len2 > cap * cap {
-        ft *= cap / ft_len2.sqrt();
-        // Keep the spring at the length that the capped force corresponds to.
-        xi = if kt > 0.0 { -ft / kt } else { Vec3::ZERO };
-    }
-    *history = xi;
+    let ft = tangential_law(p, r_eff, n, vrel, mean_depth, out.normal_force, eta_n, history, dt);
     out.force_b += ft;
     out.torque_b += (centroid - b.position).cross(ft);
-    out.torque_a -= (centroid - a.position).cross(ft);
+    out.torque_a += ft.cross(centroid - a.position);
     out
 }

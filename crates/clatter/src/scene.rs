@@ -16,7 +16,7 @@ use crate::material::{ContactLaw, Material};
 use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
 use crate::world::{BodyInit, Wall, World, WorldDesc};
 use clatter_geom::narrow::Plane;
-use clatter_geom::PreparedShape;
+use clatter_geom::{GeomError, PreparedShape};
 
 /// A scene file error: where and what.
 #[derive(Debug, Clone, PartialEq)]
@@ -103,7 +103,14 @@ impl Scene {
     pub fn steps(&self, dt: f32) -> u64 {
         match self.length {
             RunLength::Steps(n) => n,
-            RunLength::Duration(d) => (d / dt as f64).ceil().max(0.0) as u64,
+            RunLength::Duration(d) => {
+                // `dt` is an f32, so `d / dt` lands just above an integer for round values
+                // (0.35 / 1e-4 = 3500.00009): count those as the integer, not one step more.
+                let n = d / dt as f64;
+                let r = n.round();
+                let n = if (n - r).abs() <= 1e-6 * r.max(1.0) { r } else { n.ceil() };
+                n.max(0.0) as u64
+            }
         }
     }
 }
@@ -239,11 +246,11 @@ struct RawMaterial {
 #[serde(deny_unknown_fields)]
 struct RawShape {
     name: Spanned<String>,
-    sphere: Option<SphereSpec>,
+    sphere: Option<Spanned<SphereSpec>>,
     #[serde(rename = "box")]
-    box_: Option<BoxSpec>,
-    polyhedron: Option<PolyhedronSpec>,
-    convex: Option<ConvexSpec>,
+    box_: Option<Spanned<BoxSpec>>,
+    polyhedron: Option<Spanned<PolyhedronSpec>>,
+    convex: Option<Spanned<ConvexSpec>>,
 }
 
 #[derive(Deserialize)]
@@ -375,8 +382,9 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                     return cx.err(s.span(), f("stiffness"), "only used with the linear model; hertz takes youngs_modulus and poisson_ratio");
                 }
                 let nu_v = *nu.get_ref();
-                if !(nu_v.is_finite() && (-1.0..0.5).contains(&nu_v)) {
-                    return cx.err(nu.span(), f("poisson_ratio"), format!("must be in [-1, 0.5), got {nu_v}"));
+                // -1 itself would make the effective modulus infinite.
+                if !(nu_v.is_finite() && nu_v > -1.0 && nu_v < 0.5) {
+                    return cx.err(nu.span(), f("poisson_ratio"), format!("must be in (-1, 0.5), got {nu_v}"));
                 }
                 ContactLaw::Hertz { youngs_modulus: cx.positive(e, &f("youngs_modulus"))? as f32, poisson_ratio: nu_v as f32 }
             }
@@ -402,7 +410,8 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
         materials.iter().position(|m| matches!(m.law, ContactLaw::Linear { .. })),
         materials.iter().position(|m| matches!(m.law, ContactLaw::Hertz { .. })),
     ) {
-        let span = raw.material[a.max(b)].span();
+        let later = &raw.material[a.max(b)];
+        let span = later.get_ref().model.as_ref().map_or_else(|| later.span(), |m| m.span());
         return cx.err(
             span,
             format!("material[{}].model", a.max(b)),
@@ -418,23 +427,40 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
         if shape_names.insert(r.name.get_ref().clone(), k as u32).is_some() {
             return cx.err(r.name.span(), format!("shape[{k}].name"), format!("duplicate shape name `{}`", r.name.get_ref()));
         }
-        let spec = ShapeSpec { sphere: r.sphere.clone(), box_: r.box_.clone(), polyhedron: r.polyhedron.clone(), convex: r.convex.clone() };
+        let spec = ShapeSpec {
+            sphere: r.sphere.as_ref().map(|v| v.get_ref().clone()),
+            box_: r.box_.as_ref().map(|v| v.get_ref().clone()),
+            polyhedron: r.polyhedron.as_ref().map(|v| v.get_ref().clone()),
+            convex: r.convex.as_ref().map(|v| v.get_ref().clone()),
+        };
+        let given = [
+            r.sphere.as_ref().map(|v| ("sphere", v.span())),
+            r.box_.as_ref().map(|v| ("box", v.span())),
+            r.polyhedron.as_ref().map(|v| ("polyhedron", v.span())),
+            r.convex.as_ref().map(|v| ("convex", v.span())),
+        ];
         let kind = match spec.to_kind() {
             Ok(kind) => kind,
-            Err(msg) => return cx.err(s.span(), format!("shape[{k}]"), msg),
+            Err(msg) => {
+                // With exactly one variant given, the only failure is an unknown polyhedron kind.
+                return match (&r.polyhedron, given.iter().flatten().count()) {
+                    (Some(p), 1) => cx.err(p.span(), format!("shape[{k}].polyhedron.kind"), msg),
+                    _ => cx.err(s.span(), format!("shape[{k}]"), msg),
+                };
+            }
         };
-        let variant = if r.sphere.is_some() {
-            "sphere"
-        } else if r.box_.is_some() {
-            "box"
-        } else if r.polyhedron.is_some() {
-            "polyhedron"
-        } else {
-            "convex"
-        };
+        let (variant, span) = given.into_iter().flatten().next().expect("to_kind checked one variant");
         match kind.prepare() {
             Ok(p) => shapes.push(p),
-            Err(e) => return cx.err(s.span(), format!("shape[{k}].{variant}"), format!("shape `{}`: {e}", r.name.get_ref())),
+            Err(e) => {
+                let field = match &e {
+                    GeomError::NotPositive { what, .. } => format!("shape[{k}].{variant}.{what}"),
+                    GeomError::NonFinitePoint { index } => format!("shape[{k}].{variant}.points[{index}]"),
+                    GeomError::DegenerateHull { .. } if variant == "convex" => format!("shape[{k}].convex.points"),
+                    GeomError::DegenerateHull { .. } => format!("shape[{k}].{variant}"),
+                };
+                return cx.err(span, field, format!("shape `{}`: {e}", r.name.get_ref()));
+            }
         }
     }
 
@@ -507,7 +533,9 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                 if !hi.cmpge(lo).all() {
                     return cx.err(l.max.span(), f("lattice.max"), "must be >= lattice.min on every axis");
                 }
-                let counts = ((hi - lo).as_dvec3() / spacing).floor() + glam::DVec3::ONE;
+                // The tolerance keeps `max = min + n * spacing` at n + 1 bodies despite rounding
+                // (0.06 / 0.02 = 2.9999999 in f32).
+                let counts = ((hi - lo).as_dvec3() / spacing + glam::DVec3::splat(1e-4)).floor() + glam::DVec3::ONE;
                 let total = counts.x * counts.y * counts.z;
                 if total > MAX_BODIES as f64 {
                     return cx.err(l.spacing.span(), f("lattice.spacing"), format!("would create {total:.0} bodies (limit {MAX_BODIES})"));

@@ -451,9 +451,11 @@ impl World {
                             *touching = true;
                         }
                         None => {
-                            *force = ContactForce::default();
-                            *hist = Vec3::ZERO;
-                            *touching = false;
+                            // Released spring; the stale force is skipped by the gather.
+                            if *touching {
+                                *hist = Vec3::ZERO;
+                                *touching = false;
+                            }
                         }
                     }
                 });
@@ -484,9 +486,11 @@ impl World {
                             *touching = true;
                         }
                         None => {
-                            *force = ContactForce::default();
-                            *hist = Vec3::ZERO;
-                            *touching = false;
+                            // Released spring; the stale force is skipped by the gather.
+                            if *touching {
+                                *hist = Vec3::ZERO;
+                                *touching = false;
+                            }
                         }
                     }
                 });
@@ -515,7 +519,11 @@ impl World {
                 let s = contacts.adj_start[i] as usize;
                 let e = contacts.adj_start[i + 1] as usize;
                 for &entry in &contacts.adj[s..e] {
-                    let c = &contacts.forces[(entry >> 1) as usize];
+                    let k = (entry >> 1) as usize;
+                    if !contacts.touching[k] {
+                        continue;
+                    }
+                    let c = &contacts.forces[k];
                     if entry & 1 == 1 {
                         f += c.force_b;
                         t += c.torque_b;
@@ -527,10 +535,19 @@ impl World {
                 *v += (f / mass[i] + gravity) * dt;
                 *x += *v * dt;
                 *l += t * dt;
-                let body_l = q.conjugate() * *l;
-                *w = *q * (body_l / inertia[i]);
-                let angle = *w * dt;
-                *q = (Quat::from_scaled_axis(angle) * *q).normalize();
+                let inertia_i = inertia[i];
+                *w = if inertia_i.x == inertia_i.y && inertia_i.y == inertia_i.z {
+                    // Spheres, cubes, Platonic solids: isotropic inertia, no frame change needed.
+                    *l / inertia_i.x
+                } else {
+                    *q * ((q.conjugate() * *l) / inertia_i)
+                };
+                // First-order quaternion update, renormalised: dq/dt = (w, 0) q / 2. The
+                // rotation per DEM step is tiny, so this matches the exponential map to
+                // O((|w| dt)^2) without the trigonometry.
+                let h = 0.5 * dt;
+                let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
+                *q = (*q + dq).normalize();
                 let d2 = (*x - rebuild_position[i]).length_squared();
                 if !(x.is_finite() && v.is_finite() && w.is_finite()) {
                     (f32::INFINITY, i)

@@ -63,13 +63,17 @@ impl Simplex {
         (pa, pb)
     }
 
+    /// Keeps the vertices `s.idx` (increasing, so compaction in place is safe).
+    #[inline]
     fn apply(&mut self, s: &Sub) {
-        let old = *self;
         for k in 0..s.n {
             let i = s.idx[k];
-            self.w[k] = old.w[i];
-            self.a[k] = old.a[i];
-            self.b[k] = old.b[i];
+            debug_assert!(i >= k);
+            if i != k {
+                self.w[k] = self.w[i];
+                self.a[k] = self.a[i];
+                self.b[k] = self.b[i];
+            }
             self.l[k] = s.l[k];
         }
         self.n = s.n;
@@ -285,23 +289,26 @@ pub(crate) fn gjk(a: &Core, b: &Core, dir: DVec3, margin: Option<f64>) -> Gjk {
             status = GjkStatus::Separated;
             break;
         }
-        let prev = s;
+        let before = s.n;
         s.push(pa, pb);
+        let mut inside = [0.0; 4];
         let sub = match s.n {
             2 => Some(segment(&s.w, 0, 1)),
             3 => Some(triangle(&s.w, 0, 1, 2)),
-            _ => tetrahedron(&s.w, &mut s.l),
+            _ => tetrahedron(&s.w, &mut inside),
         };
         let Some(sub) = sub else {
-            // Origin inside the tetrahedron (weights already stored in `s.l`).
+            // Origin inside the tetrahedron.
+            s.l = inside;
             status = GjkStatus::Overlapping;
             v = DVec3::ZERO;
             break;
         };
         let nvv = sub.v.length_squared();
         if !(nvv < vv) {
-            // No progress in floating point: keep the previous (better or equal) simplex.
-            s = prev;
+            // No progress in floating point: keep the previous (better or equal) simplex,
+            // which the push left untouched.
+            s.n = before;
             status = GjkStatus::Separated;
             break;
         }

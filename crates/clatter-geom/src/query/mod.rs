@@ -21,6 +21,7 @@
 //! near ties; distances and depths are therefore exact to about `1e-7 x size` absolute plus
 //! the relative tolerances above.
 
+mod boxes;
 mod epa;
 mod gjk;
 mod manifold;
@@ -36,7 +37,7 @@ pub use toi::{Motion, TOI_MAX_ITERATIONS, TOI_REL_TOL, Toi, time_of_impact};
 
 use crate::{ConvexPolyhedron, Pose, Shape};
 use gjk::{GjkStatus, gjk};
-use support::{Core, DPose};
+use support::{Core, DPose, Obb, as_box};
 
 /// Result of [`distance`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -97,9 +98,23 @@ pub(crate) enum Pair<'a> {
     Spheres { ca: DVec3, ra: f64, cb: DVec3, rb: f64 },
     /// A polyhedron at `frame` and a sphere of centre `c` (in the polyhedron's frame).
     /// `swapped`: the user's `a` is the sphere.
-    SpherePoly { poly: &'a ConvexPolyhedron, frame: DPose, c: DVec3, r: f64, swapped: bool },
+    SpherePoly {
+        poly: &'a ConvexPolyhedron,
+        obb: Option<Obb>,
+        frame: DPose,
+        c: DVec3,
+        r: f64,
+        swapped: bool,
+    },
     /// Two polyhedra: `a` at `frame`, `b` at `frame * rel`.
-    Polys { a: &'a ConvexPolyhedron, b: &'a ConvexPolyhedron, frame: DPose, rel: DPose },
+    Polys {
+        a: &'a ConvexPolyhedron,
+        b: &'a ConvexPolyhedron,
+        oa: Option<Obb>,
+        ob: Option<Obb>,
+        frame: DPose,
+        rel: DPose,
+    },
 }
 
 impl<'a> Pair<'a> {
@@ -110,6 +125,7 @@ impl<'a> Pair<'a> {
             }
             (Shape::Polyhedron(p), Shape::Sphere { radius }) => Pair::SpherePoly {
                 poly: p,
+                obb: as_box(p),
                 frame: *pa,
                 c: pa.rot.transpose() * (pb.pos - pa.pos),
                 r: *radius as f64,
@@ -117,14 +133,20 @@ impl<'a> Pair<'a> {
             },
             (Shape::Sphere { radius }, Shape::Polyhedron(p)) => Pair::SpherePoly {
                 poly: p,
+                obb: as_box(p),
                 frame: *pb,
                 c: pb.rot.transpose() * (pa.pos - pb.pos),
                 r: *radius as f64,
                 swapped: true,
             },
-            (Shape::Polyhedron(x), Shape::Polyhedron(y)) => {
-                Pair::Polys { a: x, b: y, frame: *pa, rel: pa.inv_mul(pb) }
-            }
+            (Shape::Polyhedron(x), Shape::Polyhedron(y)) => Pair::Polys {
+                a: x,
+                b: y,
+                oa: as_box(x),
+                ob: as_box(y),
+                frame: *pa,
+                rel: pa.inv_mul(pb),
+            },
         }
     }
 }
@@ -178,7 +200,10 @@ fn spheres(ca: DVec3, ra: f64, cb: DVec3, rb: f64) -> Raw {
 }
 
 /// Distance-type result for a polyhedron (internal `a`) and a sphere (internal `b`).
-fn sphere_poly_distance(p: &ConvexPolyhedron, c: DVec3, r: f64) -> Raw {
+fn sphere_poly_distance(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f64) -> Raw {
+    if let Some(o) = obb {
+        return boxes::sphere_box(o, c, r, true);
+    }
     let (s, _) = face_separation(p, c);
     if s <= 0.0 {
         return Raw { sep: 0.0, normal: DVec3::ZERO, pa: c, pb: c, overlap: true };
@@ -194,7 +219,10 @@ fn sphere_poly_distance(p: &ConvexPolyhedron, c: DVec3, r: f64) -> Raw {
 }
 
 /// Contact-type result for a polyhedron (internal `a`) and a sphere (internal `b`).
-fn sphere_poly_contact(p: &ConvexPolyhedron, c: DVec3, r: f64) -> Raw {
+fn sphere_poly_contact(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f64) -> Raw {
+    if let Some(o) = obb {
+        return boxes::sphere_box(o, c, r, false);
+    }
     let (s, f) = face_separation(p, c);
     if s > 0.0 {
         let g = gjk(&Core::Local(p), &Core::Point(c), -c, None);
@@ -211,8 +239,8 @@ fn sphere_poly_contact(p: &ConvexPolyhedron, c: DVec3, r: f64) -> Raw {
 }
 
 /// Distance-type result for two polyhedra in the query frame.
-fn polys_distance(a: &ConvexPolyhedron, b: &ConvexPolyhedron, rel: &DPose) -> Raw {
-    let g = gjk(&Core::Local(a), &Core::moved(b, rel.rot, rel.pos), -rel.pos, None);
+fn polys_distance(a: &Core, b: &Core, dir: DVec3) -> Raw {
+    let g = gjk(a, b, dir, None);
     if g.status == GjkStatus::Overlapping {
         return Raw { sep: 0.0, normal: DVec3::ZERO, pa: g.pa, pb: g.pb, overlap: true };
     }
@@ -221,15 +249,20 @@ fn polys_distance(a: &ConvexPolyhedron, b: &ConvexPolyhedron, rel: &DPose) -> Ra
 }
 
 /// Contact-type result (without manifold) for two polyhedra in the query frame.
-fn polys_contact(a: &ConvexPolyhedron, b: &ConvexPolyhedron, rel: &DPose) -> Raw {
-    let ca = Core::Local(a);
-    let cb = Core::moved(b, rel.rot, rel.pos);
-    let g = gjk(&ca, &cb, -rel.pos, None);
+#[allow(clippy::too_many_arguments)]
+fn polys_contact(oa: &Option<Obb>, ob: &Option<Obb>, ca: &Core, cb: &Core, rel: &DPose) -> Raw {
+    if let (Some(x), Some(y)) = (oa, ob) {
+        if let Some(r) = boxes::box_box(x, y, rel, false) {
+            return r;
+        }
+        return polys_distance(ca, cb, -rel.pos);
+    }
+    let g = gjk(ca, cb, -rel.pos, None);
     if g.status != GjkStatus::Overlapping {
         let d = g.v.length();
         return Raw { sep: d, normal: -g.v / d, pa: g.pa, pb: g.pb, overlap: false };
     }
-    let e = epa::epa(&ca, &cb, &g.simplex);
+    let e = epa::epa(ca, cb, &g.simplex);
     Raw { sep: -e.depth, normal: e.normal, pa: e.pa, pb: e.pb, overlap: true }
 }
 
@@ -250,10 +283,13 @@ impl Pair<'_> {
                 }
                 (r, IDENTITY, false)
             }
-            Pair::SpherePoly { poly, frame, c, r, swapped } => {
-                (sphere_poly_distance(poly, c, r), frame, swapped)
+            Pair::SpherePoly { poly, obb, frame, c, r, swapped } => {
+                (sphere_poly_distance(poly, &obb, c, r), frame, swapped)
             }
-            Pair::Polys { a, b, frame, rel } => (polys_distance(a, b, &rel), frame, false),
+            Pair::Polys { a, b, oa, ob, frame, rel } => {
+                let (ca, cb) = (Core::local(a, &oa), Core::posed(b, &ob, &rel));
+                (polys_distance(&ca, &cb, -rel.pos), frame, false)
+            }
         }
     }
 }
@@ -268,14 +304,23 @@ fn dposes(pa: &Pose, pb: &Pose) -> (DPose, DPose) {
 /// True when the shapes touch or overlap (distance <= 0, with touching decided to about
 /// [`GJK_ABS_TOL`] x the configuration scale).
 pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
-    let (pa, pb) = dposes(pose_a, pose_b);
-    let reach = (a.bounding_radius() + b.bounding_radius()) as f64;
-    if (pb.pos - pa.pos).length_squared() > reach * reach {
+    let d = (pose_b.position - pose_a.position).as_dvec3();
+    let reach = a.bounding_radius() as f64 + b.bounding_radius() as f64;
+    if d.length_squared() > reach * reach {
         return false;
     }
+    if let (Shape::Sphere { .. }, Shape::Sphere { .. }) = (a, b) {
+        return true; // the bounding test above is exact for two spheres
+    }
+    let (pa, pb) = dposes(pose_a, pose_b);
     match Pair::new(a, &pa, b, &pb) {
-        Pair::Spheres { .. } => true, // the bounding test above is exact for two spheres
-        Pair::SpherePoly { poly, c, r, .. } => {
+        Pair::Spheres { .. } => true,
+        Pair::SpherePoly { poly, obb, c, r, .. } => {
+            if let Some(o) = obb {
+                let cb = o.axes.transpose() * c;
+                let q = cb.clamp(-o.half, o.half);
+                return (cb - q).length_squared() <= r * r;
+            }
             let (s, _) = face_separation(poly, c);
             if s > r {
                 return false;
@@ -290,8 +335,12 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
                 GjkStatus::Separated | GjkStatus::MaxIterations => g.v.length() <= r,
             }
         }
-        Pair::Polys { a, b, rel, .. } => {
-            let g = gjk(&Core::Local(a), &Core::moved(b, rel.rot, rel.pos), -rel.pos, Some(0.0));
+        Pair::Polys { a, b, oa, ob, rel, .. } => {
+            if let (Some(x), Some(y)) = (&oa, &ob) {
+                return boxes::box_box(x, y, &rel, true).is_some();
+            }
+            let (ca, cb) = (Core::local(a, &oa), Core::posed(b, &ob, &rel));
+            let g = gjk(&ca, &cb, -rel.pos, Some(0.0));
             matches!(g.status, GjkStatus::Overlapping | GjkStatus::WithinMargin)
         }
     }
@@ -300,7 +349,14 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
 /// Distance and closest points (world frame). Overlapping shapes give distance 0, a common
 /// point as both points and a zero normal.
 pub fn distance(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Distance {
-    let (pa, pb) = dposes(pose_a, pose_b);
+    // Two spheres need no rotation: skip the pose conversion.
+    let (pa, pb) = match (a, b) {
+        (Shape::Sphere { .. }, Shape::Sphere { .. }) => (
+            DPose { rot: glam::DMat3::IDENTITY, pos: pose_a.position.as_dvec3() },
+            DPose { rot: glam::DMat3::IDENTITY, pos: pose_b.position.as_dvec3() },
+        ),
+        _ => dposes(pose_a, pose_b),
+    };
     let (r, frame, swapped) = Pair::new(a, &pa, b, &pb).distance_raw();
     let (points, normal) = to_world(&frame, swapped, &r);
     Distance { distance: r.sep.max(0.0) as f32, points, normal }
@@ -310,18 +366,32 @@ pub fn distance(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Distance 
 /// that are apart, the depth is minus the distance and the points are the closest points, so
 /// the result is continuous through first contact.
 pub fn contact(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Contact {
+    if let (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) = (a, b) {
+        let (ca, cb) = (pose_a.position.as_dvec3(), pose_b.position.as_dvec3());
+        let r = spheres(ca, *ra as f64, cb, *rb as f64);
+        let mut manifold = Manifold::default();
+        manifold.points[0] = ((r.pa + r.pb) * 0.5).as_vec3();
+        manifold.len = 1;
+        return Contact {
+            depth: (-r.sep) as f32,
+            normal: r.normal.as_vec3(),
+            points: [r.pa.as_vec3(), r.pb.as_vec3()],
+            manifold,
+        };
+    }
     let (pa, pb) = dposes(pose_a, pose_b);
     let (r, frame, swapped, pts) = match Pair::new(a, &pa, b, &pb) {
         Pair::Spheres { ca, ra, cb, rb } => {
             let r = spheres(ca, ra, cb, rb);
             (r, IDENTITY, false, manifold::Points::single((r.pa + r.pb) * 0.5))
         }
-        Pair::SpherePoly { poly, frame, c, r, swapped } => {
-            let r = sphere_poly_contact(poly, c, r);
+        Pair::SpherePoly { poly, obb, frame, c, r, swapped } => {
+            let r = sphere_poly_contact(poly, &obb, c, r);
             (r, frame, swapped, manifold::Points::single((r.pa + r.pb) * 0.5))
         }
-        Pair::Polys { a, b, frame, rel } => {
-            let r = polys_contact(a, b, &rel);
+        Pair::Polys { a, b, oa, ob, frame, rel } => {
+            let (ca, cb) = (Core::local(a, &oa), Core::posed(b, &ob, &rel));
+            let r = polys_contact(&oa, &ob, &ca, &cb, &rel);
             let m = manifold::clip(a, b, &rel, r.normal, r.pa, r.pb, r.sep);
             (r, frame, false, m)
         }

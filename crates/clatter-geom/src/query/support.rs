@@ -22,11 +22,101 @@ pub(crate) enum Core<'a> {
         rot_t: DMat3,
         pos: DVec3,
     },
+    /// A rectangular box `pos + Σ s_i m_i`, `s_i = ±1`: the columns of `m` are the box axes
+    /// (query frame) scaled by the half extents. Support is a sign test per axis.
+    Box { m: DMat3, pos: DVec3 },
+}
+
+/// A rectangular box recognised in a polyhedron's principal frame: orthonormal axes (columns,
+/// right-handed) and half extents. The centre is the principal-frame origin (the centre of mass).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Obb {
+    pub axes: DMat3,
+    pub half: DVec3,
+}
+
+impl Obb {
+    /// Columns = axes scaled by the half extents, after mapping the axes by `rot`.
+    #[inline]
+    pub(crate) fn scaled(&self, rot: &DMat3) -> DMat3 {
+        let a = *rot * self.axes;
+        DMat3::from_cols(a.x_axis * self.half.x, a.y_axis * self.half.y, a.z_axis * self.half.z)
+    }
+}
+
+/// Recognises a rectangular box: 8 vertices and 6 faces whose normals come in three mutually
+/// orthogonal antiparallel pairs (within 1e-5). Such a hexahedron is a box; its half extents
+/// are the mean offsets of each pair of opposite faces.
+pub(crate) fn as_box(p: &ConvexPolyhedron) -> Option<Obb> {
+    if p.vertices.len() != 8 || p.faces.len() != 6 {
+        return None;
+    }
+    // Fast path: a box authored axis-aligned keeps its axes in the principal frame.
+    let mut half = [0.0f32; 3];
+    let mut seen = 0u8;
+    for f in &p.faces {
+        let a = f.normal.abs();
+        let i = if a.x > 0.99999 {
+            0
+        } else if a.y > 0.99999 {
+            1
+        } else if a.z > 0.99999 {
+            2
+        } else {
+            break;
+        };
+        seen |= 1 << (2 * i + (f.normal[i] < 0.0) as usize);
+        half[i] += f.offset;
+    }
+    if seen == 0b11_1111 {
+        return Some(Obb {
+            axes: DMat3::IDENTITY,
+            half: DVec3::new(half[0] as f64, half[1] as f64, half[2] as f64) * 0.5,
+        });
+    }
+    as_box_general(p)
+}
+
+fn as_box_general(p: &ConvexPolyhedron) -> Option<Obb> {
+    const TOL: f32 = 1e-5;
+    let mut axes = [Vec3::ZERO; 3];
+    let mut sum = [0.0f32; 3];
+    let mut count = [0u8; 3];
+    let mut k = 0;
+    'faces: for f in &p.faces {
+        for i in 0..k {
+            let d = f.normal.dot(axes[i]);
+            if d.abs() >= 1.0 - TOL {
+                sum[i] += f.offset;
+                count[i] += 1;
+                continue 'faces;
+            }
+            if d.abs() > TOL {
+                return None;
+            }
+        }
+        if k == 3 {
+            return None;
+        }
+        axes[k] = f.normal;
+        sum[k] = f.offset;
+        count[k] = 1;
+        k += 1;
+    }
+    if k != 3 || count != [2, 2, 2] {
+        return None;
+    }
+    let x = axes[0].as_dvec3();
+    let y = axes[1].as_dvec3();
+    Some(Obb {
+        axes: DMat3::from_cols(x, y, x.cross(y)),
+        half: DVec3::new(sum[0] as f64, sum[1] as f64, sum[2] as f64) * 0.5,
+    })
 }
 
 /// Index of the vertex furthest along `d` (f32 scan: the selection can be off by about
 /// 1e-7 x the polyhedron's size on near ties, which moves a support value by that much only).
-#[inline]
+#[inline(always)]
 pub(crate) fn support_index(p: &ConvexPolyhedron, d: Vec3) -> usize {
     let v = &p.vertices;
     let mut best = 0;
@@ -47,8 +137,26 @@ impl<'a> Core<'a> {
         Core::Moved { poly, rot, rot_t: rot.transpose(), pos }
     }
 
-    /// The point of the core furthest along `d` (query frame).
+    /// The core of a polyhedron at the query-frame origin (a box core when `obb` is given).
     #[inline]
+    pub(crate) fn local(poly: &'a ConvexPolyhedron, obb: &Option<Obb>) -> Self {
+        match obb {
+            Some(o) => Core::Box { m: o.scaled(&DMat3::IDENTITY), pos: DVec3::ZERO },
+            None => Core::Local(poly),
+        }
+    }
+
+    /// The core of a polyhedron posed by `rel` (a box core when `obb` is given).
+    #[inline]
+    pub(crate) fn posed(poly: &'a ConvexPolyhedron, obb: &Option<Obb>, rel: &DPose) -> Self {
+        match obb {
+            Some(o) => Core::Box { m: o.scaled(&rel.rot), pos: rel.pos },
+            None => Core::moved(poly, rel.rot, rel.pos),
+        }
+    }
+
+    /// The point of the core furthest along `d` (query frame).
+    #[inline(always)]
     pub(crate) fn support(&self, d: DVec3) -> DVec3 {
         match self {
             Core::Point(p) => *p,
@@ -56,6 +164,10 @@ impl<'a> Core<'a> {
             Core::Moved { poly, rot, rot_t, pos } => {
                 let ld = *rot_t * d;
                 *rot * poly.vertices[support_index(poly, ld.as_vec3())].as_dvec3() + *pos
+            }
+            Core::Box { m, pos } => {
+                let pick = |c: DVec3| if d.dot(c) >= 0.0 { c } else { -c };
+                *pos + pick(m.x_axis) + pick(m.y_axis) + pick(m.z_axis)
             }
         }
     }
@@ -66,16 +178,7 @@ impl<'a> Core<'a> {
         match self {
             Core::Point(_) => 0.0,
             Core::Local(p) | Core::Moved { poly: p, .. } => p.radius as f64,
-        }
-    }
-
-    /// The core's reference point (centre of mass) in the query frame.
-    #[inline]
-    pub(crate) fn center(&self) -> DVec3 {
-        match self {
-            Core::Point(p) => *p,
-            Core::Local(_) => DVec3::ZERO,
-            Core::Moved { pos, .. } => *pos,
+            Core::Box { m, .. } => (m.x_axis + m.y_axis + m.z_axis).length(),
         }
     }
 }

@@ -1,0 +1,722 @@
+//! `clatter run BAD.toml --out DIR` on invalid scene files: the command fails without a panic,
+//! the error names the file, the line and the field, and nothing is written to DIR.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A valid scene; the cases below edit it. One linear material, one sphere, one body.
+const BASE: &str = r#"[simulation]
+steps = 10
+gravity = [0.0, 0.0, -9.81]
+
+[[material]]
+name = "steel"
+density = 7800.0
+stiffness = 1.0e5
+restitution = 0.5
+friction = 0.3
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.01 }
+
+[[body]]
+shape = "ball"
+material = "steel"
+position = [0.0, 0.0, 0.1]
+"#;
+
+/// A fresh, empty directory for one case (removed again when the case passes).
+fn case_dir(case: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!(
+        "clatter-scene-errors-{}-{case}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create the case directory");
+    dir
+}
+
+/// The 1-based number of the only line of `text` that contains `marker`.
+fn line_of(text: &str, marker: &str) -> usize {
+    let hits: Vec<usize> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.contains(marker))
+        .map(|(i, _)| i + 1)
+        .collect();
+    assert_eq!(
+        hits.len(),
+        1,
+        "marker {marker:?} must be on exactly one line of:\n{text}"
+    );
+    hits[0]
+}
+
+/// Files left under `dir` (recursively), for the nothing-written check.
+fn files_under(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                out.extend(files_under(&p));
+            }
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// Runs `clatter run` on `text` and checks that it fails cleanly with an error at
+/// `FILE:LINE:` (LINE: the line containing `marker`) that mentions every string in `needles`.
+fn check(case: &str, text: &str, marker: &str, needles: &[&str]) {
+    check_line(case, text, line_of(text, marker), needles);
+}
+
+fn check_line(case: &str, text: &str, line: usize, needles: &[&str]) {
+    let dir = case_dir(case);
+    let scene = dir.join("bad.toml");
+    std::fs::write(&scene, text).expect("write the scene");
+    let out = dir.join("out");
+    let output = Command::new(env!("CARGO_BIN_EXE_clatter"))
+        .arg("run")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .arg("--quiet")
+        .output()
+        .expect("run clatter");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        !output.status.success(),
+        "{case}: expected failure, got success; stderr:\n{stderr}"
+    );
+    assert!(
+        !stderr.contains("panicked"),
+        "{case}: clatter panicked:\n{stderr}"
+    );
+    let location = format!("{}:{line}:", scene.display());
+    assert!(
+        stderr.contains(&location),
+        "{case}: stderr does not name {location}:\n{stderr}\nscene:\n{text}"
+    );
+    for needle in needles {
+        assert!(
+            stderr.contains(needle),
+            "{case}: stderr does not mention {needle:?}:\n{stderr}"
+        );
+    }
+    let left = files_under(&out);
+    assert!(left.is_empty(), "{case}: files written to --out: {left:?}");
+    assert!(
+        !out.exists(),
+        "{case}: --out directory created for an invalid scene"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `BASE` with `from` replaced by `to` (which must occur once).
+fn edit(from: &str, to: &str) -> String {
+    assert_eq!(
+        BASE.matches(from).count(),
+        1,
+        "{from:?} must occur once in BASE"
+    );
+    BASE.replace(from, to)
+}
+
+#[test]
+fn base_scene_is_valid() {
+    clatter::scene::Scene::parse(BASE, "base.toml")
+        .expect("the base scene of these tests is valid");
+}
+
+#[test]
+fn toml_syntax_error() {
+    let text = edit("density = 7800.0\n", "density = 7800.0.0\n");
+    check("syntax", &text, "7800.0.0", &["invalid float"]);
+}
+
+#[test]
+fn toml_unclosed_array() {
+    // Arrays may span lines, so the parser only sees the problem at the next token: the
+    // `[[material]]` header after the blank line.
+    let text = edit(
+        "gravity = [0.0, 0.0, -9.81]\n",
+        "gravity = [0.0, 0.0, -9.81\n",
+    );
+    check("unclosed", &text, "[[material]]", &["expected `,`"]);
+}
+
+#[test]
+fn wrong_value_type() {
+    let text = edit("density = 7800.0\n", "density = \"heavy\"\n");
+    check(
+        "wrong-type",
+        &text,
+        "heavy",
+        &["invalid type", "expected f64"],
+    );
+}
+
+#[test]
+fn unknown_top_level_key() {
+    let text = format!("frobnicate = 1\n{BASE}");
+    check("unknown-top", &text, "frobnicate", &["frobnicate"]);
+}
+
+#[test]
+fn unknown_top_level_table() {
+    let text = format!("{BASE}\n[[particle]]\nshape = \"ball\"\n");
+    check("unknown-table", &text, "[[particle]]", &["particle"]);
+}
+
+#[test]
+fn unknown_key_in_simulation() {
+    let text = edit("steps = 10\n", "steps = 10\ntimestep = 1.0e-4\n");
+    check("unknown-sim", &text, "timestep", &["timestep", "dt"]);
+}
+
+#[test]
+fn unknown_key_in_body() {
+    let text = format!("{BASE}colour = \"red\"\n");
+    check("unknown-body", &text, "colour", &["colour", "position"]);
+}
+
+#[test]
+fn unknown_key_in_shape_inline_table() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "sphere = { radius = 0.01, mass = 2.0 }",
+    );
+    check("unknown-inline", &text, "mass = 2.0", &["mass", "radius"]);
+}
+
+#[test]
+fn missing_simulation_table() {
+    let text = BASE.replace(
+        "[simulation]\nsteps = 10\ngravity = [0.0, 0.0, -9.81]\n",
+        "",
+    );
+    check_line("no-simulation", &text, 1, &["simulation"]);
+}
+
+#[test]
+fn missing_run_length() {
+    let text = edit("steps = 10\n", "");
+    check(
+        "no-length",
+        &text,
+        "[simulation]",
+        &["simulation", "duration", "steps"],
+    );
+}
+
+#[test]
+fn missing_material_density() {
+    let text = edit("density = 7800.0\n", "");
+    check(
+        "no-density",
+        &text,
+        "[[material]]",
+        &["missing field", "density"],
+    );
+}
+
+#[test]
+fn missing_material_stiffness() {
+    let text = edit("stiffness = 1.0e5\n", "");
+    check(
+        "no-stiffness",
+        &text,
+        "[[material]]",
+        &["material[0].stiffness"],
+    );
+}
+
+#[test]
+fn missing_body_position() {
+    let text = edit("position = [0.0, 0.0, 0.1]\n", "");
+    check(
+        "no-position",
+        &text,
+        "[[body]]",
+        &["missing field", "position"],
+    );
+}
+
+#[test]
+fn negative_radius() {
+    let text = edit("radius = 0.01", "radius = -0.01");
+    check(
+        "neg-radius",
+        &text,
+        "radius = -0.01",
+        &["shape[0].sphere.radius", "-0.01"],
+    );
+}
+
+#[test]
+fn zero_radius() {
+    let text = edit("radius = 0.01", "radius = 0.0");
+    check(
+        "zero-radius",
+        &text,
+        "radius = 0.0",
+        &["shape[0].sphere.radius"],
+    );
+}
+
+#[test]
+fn zero_box_half_extent() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "box = { half_extents = [0.01, 0.0, 0.01] }",
+    );
+    check(
+        "zero-box",
+        &text,
+        "half_extents",
+        &["shape[0].box.half_extents[1]"],
+    );
+}
+
+#[test]
+fn negative_polyhedron_radius() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "polyhedron = { kind = \"cube\", radius = -1.0 }",
+    );
+    check(
+        "neg-poly",
+        &text,
+        "polyhedron",
+        &["shape[0].polyhedron.radius"],
+    );
+}
+
+#[test]
+fn negative_density() {
+    let text = edit("density = 7800.0", "density = -7800.0");
+    check(
+        "neg-density",
+        &text,
+        "density",
+        &["material[0].density", "positive"],
+    );
+}
+
+#[test]
+fn zero_density() {
+    let text = edit("density = 7800.0", "density = 0.0");
+    check(
+        "zero-density",
+        &text,
+        "density",
+        &["material[0].density", "positive"],
+    );
+}
+
+#[test]
+fn negative_stiffness() {
+    let text = edit("stiffness = 1.0e5", "stiffness = -1.0e5");
+    check(
+        "neg-stiffness",
+        &text,
+        "stiffness",
+        &["material[0].stiffness", "positive"],
+    );
+}
+
+#[test]
+fn zero_stiffness() {
+    let text = edit("stiffness = 1.0e5", "stiffness = 0.0");
+    check(
+        "zero-stiffness",
+        &text,
+        "stiffness",
+        &["material[0].stiffness", "positive"],
+    );
+}
+
+#[test]
+fn negative_friction() {
+    let text = edit("friction = 0.3", "friction = -0.3");
+    check("neg-friction", &text, "friction", &["material[0].friction"]);
+}
+
+#[test]
+fn nan_position() {
+    let text = edit("position = [0.0, 0.0, 0.1]", "position = [0.0, nan, 0.1]");
+    check(
+        "nan-position",
+        &text,
+        "position",
+        &["body[0].position", "finite"],
+    );
+}
+
+#[test]
+fn inf_position() {
+    let text = edit("position = [0.0, 0.0, 0.1]", "position = [0.0, 0.0, inf]");
+    check(
+        "inf-position",
+        &text,
+        "position",
+        &["body[0].position", "finite"],
+    );
+}
+
+#[test]
+fn negative_inf_velocity() {
+    let text = format!("{BASE}velocity = [-inf, 0.0, 0.0]\n");
+    check(
+        "inf-velocity",
+        &text,
+        "velocity",
+        &["body[0].velocity", "finite"],
+    );
+}
+
+#[test]
+fn nan_gravity() {
+    let text = edit("gravity = [0.0, 0.0, -9.81]", "gravity = [0.0, 0.0, nan]");
+    check("nan-gravity", &text, "gravity", &["simulation.gravity"]);
+}
+
+#[test]
+fn nan_convex_point() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "convex = { points = [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, nan, 0.0], [0.0, 0.0, 0.01]] }",
+    );
+    check("nan-point", &text, "convex", &["shape[0].convex.points[2]"]);
+}
+
+#[test]
+fn zero_quaternion() {
+    let text = format!("{BASE}orientation = [0.0, 0.0, 0.0, 0.0]\n");
+    check("zero-quat", &text, "orientation", &["body[0].orientation"]);
+}
+
+#[test]
+fn unknown_shape_name() {
+    let text = edit("shape = \"ball\"", "shape = \"bal\"");
+    check(
+        "unknown-shape",
+        &text,
+        "shape = \"bal\"",
+        &["body[0].shape", "unknown shape `bal`", "ball"],
+    );
+}
+
+#[test]
+fn unknown_material_name() {
+    let text = edit("material = \"steel\"", "material = \"stel\"");
+    check(
+        "unknown-material",
+        &text,
+        "material = \"stel\"",
+        &["body[0].material", "unknown material `stel`", "steel"],
+    );
+}
+
+#[test]
+fn unknown_wall_material() {
+    let text = format!(
+        "{BASE}\n[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nmaterial = \"rubber\"\n"
+    );
+    check(
+        "unknown-wall-material",
+        &text,
+        "rubber",
+        &["wall[0].material", "rubber"],
+    );
+}
+
+#[test]
+fn zero_wall_normal() {
+    let text = format!(
+        "{BASE}\n[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 0.0]\nmaterial = \"steel\"\n"
+    );
+    check("zero-normal", &text, "normal", &["wall[0].normal"]);
+}
+
+#[test]
+fn unknown_polyhedron_kind() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "polyhedron = { kind = \"cubeoid\", radius = 0.01 }",
+    );
+    check(
+        "unknown-kind",
+        &text,
+        "cubeoid",
+        &["shape[0].polyhedron.kind", "cubeoid", "icosahedron"],
+    );
+}
+
+#[test]
+fn two_shape_variants() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "sphere = { radius = 0.01 }\nbox = { half_extents = [0.01, 0.01, 0.01] }",
+    );
+    check(
+        "two-variants",
+        &text,
+        "[[shape]]",
+        &["shape[0]", "exactly one"],
+    );
+}
+
+#[test]
+fn degenerate_hull_coplanar() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "convex = { points = [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.01, 0.01, 0.0], [0.005, 0.005, 0.0]] }",
+    );
+    check(
+        "coplanar",
+        &text,
+        "convex",
+        &["shape[0].convex.points", "degenerate hull", "coplanar"],
+    );
+}
+
+#[test]
+fn degenerate_hull_three_points() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "convex = { points = [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0]] }",
+    );
+    check(
+        "three-points",
+        &text,
+        "convex",
+        &[
+            "shape[0].convex.points",
+            "degenerate hull",
+            "fewer than four",
+        ],
+    );
+}
+
+#[test]
+fn empty_scene() {
+    let text = "[simulation]\nsteps = 10\n\n[[material]]\nname = \"steel\"\ndensity = 7800.0\nstiffness = 1.0e5\n";
+    check_line("empty", text, 1, &["`body`", "no bodies"]);
+}
+
+#[test]
+fn duration_and_steps() {
+    let text = edit("steps = 10\n", "duration = 0.1\nsteps = 10\n");
+    check(
+        "duration-and-steps",
+        &text,
+        "steps = 10",
+        &["simulation.steps", "duration"],
+    );
+}
+
+#[test]
+fn zero_steps() {
+    let text = edit("steps = 10\n", "steps = 0\n");
+    check("zero-steps", &text, "steps = 0", &["simulation.steps"]);
+}
+
+#[test]
+fn negative_duration() {
+    let text = edit("steps = 10\n", "duration = -1.0\n");
+    check("neg-duration", &text, "duration", &["simulation.duration"]);
+}
+
+#[test]
+fn negative_dt() {
+    let text = edit("steps = 10\n", "steps = 10\ndt = -1.0e-5\n");
+    check("neg-dt", &text, "dt =", &["simulation.dt"]);
+}
+
+#[test]
+fn restitution_zero() {
+    let text = edit("restitution = 0.5", "restitution = 0.0");
+    check(
+        "restitution-0",
+        &text,
+        "restitution",
+        &["material[0].restitution", "(0, 1]"],
+    );
+}
+
+#[test]
+fn restitution_above_one() {
+    let text = edit("restitution = 0.5", "restitution = 1.5");
+    check(
+        "restitution-1.5",
+        &text,
+        "restitution",
+        &["material[0].restitution", "1.5"],
+    );
+}
+
+#[test]
+fn duplicate_material_name() {
+    let text = edit(
+        "\n[[shape]]",
+        "\n[[material]]\nname = \"steel\" # again\ndensity = 1000.0\nstiffness = 1.0e4\n\n[[shape]]",
+    );
+    check(
+        "dup-material",
+        &text,
+        "# again",
+        &["material[1].name", "duplicate", "steel"],
+    );
+}
+
+#[test]
+fn duplicate_shape_name() {
+    let text = edit(
+        "\n[[body]]",
+        "\n[[shape]]\nname = \"ball\" # again\nsphere = { radius = 0.02 }\n\n[[body]]",
+    );
+    check(
+        "dup-shape",
+        &text,
+        "# again",
+        &["shape[1].name", "duplicate", "ball"],
+    );
+}
+
+#[test]
+fn linear_and_hertz_mixed() {
+    let text = edit(
+        "\n[[shape]]",
+        "\n[[material]]\nname = \"rubber\"\ndensity = 1100.0\nmodel = \"hertz\"\nyoungs_modulus = 1.0e7\npoisson_ratio = 0.45\n\n[[shape]]",
+    );
+    check(
+        "mixed-models",
+        &text,
+        "model = \"hertz\"",
+        &["material[1].model", "linear", "hertz"],
+    );
+}
+
+#[test]
+fn hertz_with_stiffness() {
+    let text = edit(
+        "stiffness = 1.0e5\n",
+        "model = \"hertz\"\nyoungs_modulus = 2.0e11\npoisson_ratio = 0.3\nstiffness = 1.0e5\n",
+    );
+    check(
+        "hertz-stiffness",
+        &text,
+        "stiffness",
+        &["material[0].stiffness", "hertz"],
+    );
+}
+
+#[test]
+fn hertz_poisson_out_of_range() {
+    let text = edit(
+        "stiffness = 1.0e5\n",
+        "model = \"hertz\"\nyoungs_modulus = 2.0e11\npoisson_ratio = -1.0\n",
+    );
+    check(
+        "poisson",
+        &text,
+        "poisson_ratio",
+        &["material[0].poisson_ratio"],
+    );
+}
+
+#[test]
+fn unknown_model() {
+    let text = edit(
+        "stiffness = 1.0e5\n",
+        "model = \"hooke\"\nstiffness = 1.0e5\n",
+    );
+    check(
+        "unknown-model",
+        &text,
+        "hooke",
+        &["material[0].model", "hooke"],
+    );
+}
+
+#[test]
+fn container_max_below_min() {
+    let text = format!(
+        "{BASE}\n[container]\nmin = [0.0, 0.0, 0.0]\nmax = [1.0, -1.0, 1.0]\nmaterial = \"steel\"\n"
+    );
+    check(
+        "container",
+        &text,
+        "max = [1.0, -1.0, 1.0]",
+        &["container.max"],
+    );
+}
+
+#[test]
+fn group_without_placement() {
+    let text = format!("{BASE}\n[[group]]\nshape = \"ball\"\nmaterial = \"steel\"\n");
+    check(
+        "group-no-placement",
+        &text,
+        "[[group]]",
+        &["group[0]", "lattice", "random"],
+    );
+}
+
+#[test]
+fn group_lattice_and_random() {
+    let text = format!(
+        "{BASE}\n[[group]]\nshape = \"ball\"\nmaterial = \"steel\"\nlattice = {{ min = [0.0, 0.0, 1.0], max = [0.1, 0.1, 1.0], spacing = 0.05 }}\nrandom = {{ min = [0.0, 0.0, 2.0], max = [1.0, 1.0, 3.0], count = 3 }}\n"
+    );
+    check(
+        "lattice-and-random",
+        &text,
+        "lattice =",
+        &["group[0].lattice"],
+    );
+}
+
+#[test]
+fn group_lattice_too_many_bodies() {
+    let text = format!(
+        "{BASE}\n[[group]]\nshape = \"ball\"\nmaterial = \"steel\"\nlattice = {{ min = [0.0, 0.0, 1.0], max = [100.0, 100.0, 100.0], spacing = 0.01 }}\n"
+    );
+    check(
+        "lattice-huge",
+        &text,
+        "lattice =",
+        &["group[0].lattice.spacing", "limit"],
+    );
+}
+
+#[test]
+fn random_placement_impossible() {
+    // 1000 balls of diameter 0.02 cannot fit without overlap with centres in a 0.05 m cube.
+    let text = format!(
+        "{BASE}\n[[group]]\nshape = \"ball\"\nmaterial = \"steel\"\nrandom = {{ min = [1.0, 1.0, 1.0], max = [1.05, 1.05, 1.05], count = 1000, seed = 3 }}\n"
+    );
+    check(
+        "random-impossible",
+        &text,
+        "count = 1000",
+        &["group[0].random.count", "could place only"],
+    );
+}
+
+#[test]
+fn random_count_zero() {
+    let text = format!(
+        "{BASE}\n[[group]]\nshape = \"ball\"\nmaterial = \"steel\"\nrandom = {{ min = [1.0, 1.0, 1.0], max = [2.0, 2.0, 2.0], count = 0 }}\n"
+    );
+    check(
+        "random-zero",
+        &text,
+        "count = 0",
+        &["group[0].random.count"],
+    );
+}

@@ -1,0 +1,251 @@
+//! Normal impacts against closed forms: the linear spring-dashpot's coefficient of restitution
+//! `e` and contact duration `t_c = pi / sqrt(k/m - (eta/2m)^2)` (sphere on a wall and
+//! sphere on sphere, head-on, no friction, no gravity), and the Hertz law's restitution against
+//! an independent high-accuracy integration of the same ODE.
+
+use clatter::geom::narrow::Plane;
+use clatter::geom::ShapeKind;
+use clatter::{BodyInit, ContactLaw, Material, PairParams, Wall, World, WorldDesc};
+use glam::{Quat, Vec3};
+
+const R: f64 = 0.01;
+const DENSITY: f32 = 2500.0;
+const K: f32 = 2.0e4;
+const V0: f32 = 0.5;
+
+fn material(law: ContactLaw, e: f32) -> Material {
+    Material { name: "m".into(), density: DENSITY, law, restitution: e, friction: 0.0 }
+}
+
+fn body(shape: u32, position: Vec3, velocity: Vec3) -> BodyInit {
+    BodyInit {
+        shape,
+        material: 0,
+        position,
+        orientation: Quat::IDENTITY,
+        velocity,
+        angular_velocity: Vec3::ZERO,
+    }
+}
+
+/// A sphere just above the floor `z = 0`, moving down at `V0`; no gravity.
+fn wall_world(law: ContactLaw, e: f32, dt_fraction: f64) -> (World, f64) {
+    wall_world_phase(law, e, dt_fraction, 0.0)
+}
+
+/// `phase` in [0, 1) shifts the start by that fraction of a step's travel.
+fn wall_world_phase(law: ContactLaw, e: f32, dt_fraction: f64, phase: f64) -> (World, f64) {
+    let m = material(law, e);
+    let shape = ShapeKind::Sphere { radius: R }.prepare().unwrap();
+    let mass = DENSITY as f64 * shape.volume as f64;
+    let params = PairParams::combine(&m, &m);
+    let t_c = params.contact_duration(mass, R, V0 as f64);
+    let gap = (2.0e-4 + V0 as f64 * t_c / dt_fraction * phase) as f32;
+    let desc = WorldDesc {
+        shapes: vec![shape],
+        materials: vec![m],
+        walls: vec![Wall { plane: Plane { normal: Vec3::Z, offset: 0.0 }, material: 0 }],
+        bodies: vec![body(0, Vec3::new(0.0, 0.0, R as f32 + gap), Vec3::new(0.0, 0.0, -V0))],
+        gravity: Vec3::ZERO,
+        dt: Some((t_c / dt_fraction) as f32),
+        skin: None,
+    };
+    (World::new(desc), t_c)
+}
+
+/// Two spheres of radii `ra`, `rb` on the x axis, approaching head-on at relative speed `2 V0`.
+fn pair_world(law: ContactLaw, e: f32, ra: f64, rb: f64, dt_fraction: f64) -> (World, f64) {
+    let m = material(law, e);
+    let sa = ShapeKind::Sphere { radius: ra }.prepare().unwrap();
+    let sb = ShapeKind::Sphere { radius: rb }.prepare().unwrap();
+    let (ma, mb) = (DENSITY as f64 * sa.volume as f64, DENSITY as f64 * sb.volume as f64);
+    let m_eff = ma * mb / (ma + mb);
+    let params = PairParams::combine(&m, &m);
+    let t_c = params.contact_duration(m_eff, ra * rb / (ra + rb), 2.0 * V0 as f64);
+    let gap = 2.0e-4f32;
+    let desc = WorldDesc {
+        shapes: vec![sa, sb],
+        materials: vec![m],
+        walls: vec![],
+        bodies: vec![
+            body(0, Vec3::new(-(ra as f32) - gap / 2.0, 0.0, 0.0), Vec3::new(V0, 0.0, 0.0)),
+            body(1, Vec3::new(rb as f32 + gap / 2.0, 0.0, 0.0), Vec3::new(-V0, 0.0, 0.0)),
+        ],
+        gravity: Vec3::ZERO,
+        dt: Some((t_c / dt_fraction) as f32),
+        skin: None,
+    };
+    (World::new(desc), t_c)
+}
+
+/// Steps until the single contact has come and gone; returns (steps in contact * dt, world).
+/// `rel_normal_velocity` gives the relative normal velocity (positive = separating).
+fn run_impact(w: &mut World) -> f64 {
+    let mut contact_steps = 0u64;
+    let mut was_in_contact = false;
+    for _ in 0..1_000_000 {
+        let s = w.step().unwrap();
+        if s.contacts > 0 {
+            contact_steps += 1;
+            was_in_contact = true;
+        } else if was_in_contact {
+            // One more force-free step: the velocity is final.
+            let s = w.step().unwrap();
+            assert_eq!(s.contacts, 0, "bodies touched again");
+            return contact_steps as f64 * w.dt as f64;
+        }
+    }
+    panic!("the impact never ended");
+}
+
+/// Steps per contact duration for the 1% assertions. The integrator (semi-implicit Euler,
+/// damping from the half-step-old velocity) is first order: at `t_c / 200` the error in `e`
+/// reaches about 1% for strong damping (see `restitution_error_is_first_order_in_dt`).
+const FINE: f64 = 1000.0;
+
+const RESTITUTIONS: [f32; 6] = [0.1, 0.3, 0.5, 0.7, 0.9, 1.0];
+
+#[test]
+fn linear_sphere_wall_restitution_and_duration() {
+    for &e in &RESTITUTIONS {
+        let (mut w, t_c) = wall_world(ContactLaw::Linear { stiffness: K }, e, FINE);
+        let v_in = w.velocity[0].z as f64;
+        let measured_tc = run_impact(&mut w);
+        let v_out = w.velocity[0].z as f64;
+        let e_meas = -v_out / v_in;
+        eprintln!("wall e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
+            e_meas / e as f64 - 1.0, measured_tc / t_c - 1.0);
+        assert!((e_meas / e as f64 - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}");
+        assert!((measured_tc / t_c - 1.0).abs() < 0.02, "e = {e}: t_c {t_c} measured {measured_tc}");
+        // Head-on and frictionless: nothing sideways, no spin.
+        assert_eq!(w.velocity[0].x, 0.0);
+        assert_eq!(w.velocity[0].y, 0.0);
+        assert_eq!(w.omega[0], Vec3::ZERO);
+    }
+}
+
+#[test]
+fn linear_sphere_sphere_restitution_and_duration() {
+    for &e in &RESTITUTIONS {
+        let (mut w, t_c) = pair_world(ContactLaw::Linear { stiffness: K }, e, R, R, FINE);
+        let v_in = (w.velocity[1].x - w.velocity[0].x) as f64;
+        let p0 = w.momentum();
+        let measured_tc = run_impact(&mut w);
+        let v_out = (w.velocity[1].x - w.velocity[0].x) as f64;
+        let e_meas = -v_out / v_in;
+        eprintln!("pair e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
+            e_meas / e as f64 - 1.0, measured_tc / t_c - 1.0);
+        assert!((e_meas / e as f64 - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}");
+        assert!((measured_tc / t_c - 1.0).abs() < 0.02, "e = {e}: t_c {t_c} measured {measured_tc}");
+        // Equal masses: symmetric outcome, momentum (zero) kept.
+        let p1 = w.momentum();
+        let scale = w.mass[0] as f64 * V0 as f64;
+        assert!((p1[0] - p0[0]).abs() < 1e-6 * scale, "momentum {p0:?} -> {p1:?}");
+        assert_eq!(w.velocity[0].y, 0.0);
+        assert_eq!(w.velocity[0].z, 0.0);
+    }
+}
+
+/// The Hertz-Mindlin normal law with Tsuji's damping, integrated independently (RK4 in f64,
+/// 200 000 steps per contact): `m x'' = -(4/3 E* sqrt(R x) x + c sqrt(2 E* sqrt(R x) m) x')`.
+/// Returns (restitution, contact duration).
+fn hertz_reference(e_star: f64, damping_factor: f64, m: f64, r: f64, v0: f64) -> (f64, f64) {
+    let acc = |x: f64, v: f64| {
+        if x <= 0.0 {
+            return 0.0;
+        }
+        let a = (r * x).sqrt();
+        let f = 4.0 / 3.0 * e_star * a * x + damping_factor * (2.0 * e_star * a * m).sqrt() * v;
+        -f / m
+    };
+    let t_est = 2.87 * (m * m / (r * e_star * e_star * v0)).powf(0.2);
+    let h = t_est / 200_000.0;
+    let (mut x, mut v, mut t) = (0.0f64, v0, 0.0f64);
+    loop {
+        let (k1x, k1v) = (v, acc(x, v));
+        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
+        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        if t > 0.0 && xn <= 0.0 {
+            // Linear interpolation of the exit.
+            let frac = x / (x - xn);
+            return (-(v + frac * (vn - v)) / v0, t + frac * h);
+        }
+        x = xn;
+        v = vn;
+        t += h;
+    }
+}
+
+#[test]
+fn hertz_sphere_wall_restitution() {
+    let (youngs, poisson) = (5.0e7f32, 0.3f32);
+    let law = ContactLaw::Hertz { youngs_modulus: youngs, poisson_ratio: poisson };
+    for &e in &RESTITUTIONS {
+        let m = material(law, e);
+        let params = PairParams::combine(&m, &m);
+        let (mut w, t_c) = wall_world(law, e, FINE);
+        let mass = w.mass[0] as f64;
+        let (e_ref, tc_ref) = hertz_reference(params.stiffness as f64, params.damping_factor as f64, mass, R, V0 as f64);
+        let v_in = w.velocity[0].z as f64;
+        let measured_tc = run_impact(&mut w);
+        let e_meas = -w.velocity[0].z as f64 / v_in;
+        eprintln!(
+            "hertz e={e}: measured e={e_meas:.5} reference ODE e={e_ref:.5} (requested rel err {:.2e}, vs ODE {:.2e}); t_c est {t_c:.4e} ODE {tc_ref:.4e} measured {measured_tc:.4e}",
+            e_meas / e as f64 - 1.0,
+            e_meas / e_ref - 1.0
+        );
+        // The simulation integrates the law it claims to (tight).
+        assert!((e_meas / e_ref - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}, ODE {e_ref}");
+        assert!((measured_tc / tc_ref - 1.0).abs() < 0.02, "e = {e}: t_c ODE {tc_ref} measured {measured_tc}");
+        // Undamped estimate of the duration (2.87 (m^2 / (R E*^2 v))^(1/5)) holds for e = 1.
+        if e == 1.0 {
+            assert!((measured_tc / t_c - 1.0).abs() < 0.02, "t_c {t_c} measured {measured_tc}");
+        }
+        // Tsuji's damping `2 sqrt(5/6) beta sqrt(S_n m)` with the linear model's e -> beta map
+        // is often said to give e only approximately; the independent ODE integration above
+        // finds it exact to 1e-7 for every e here (the restitution of this dashpot depends on
+        // beta alone, and the sqrt(5/6) makes the map match). So the requested e must be met
+        // as tightly as in the linear model: 1% at t_c / 1000.
+        assert!((e_ref / e as f64 - 1.0).abs() < 1e-4, "e = {e}: ODE gives {e_ref}");
+        assert!((e_meas / e as f64 - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}");
+    }
+}
+
+/// Worst relative error of `e` over a few initial gaps (the fraction of a step at which the
+/// contact starts and ends varies with the gap).
+fn worst_wall_restitution_error(e: f32, dt_fraction: f64) -> f64 {
+    (0..7)
+        .map(|k| {
+            let (mut w, _) = wall_world_phase(ContactLaw::Linear { stiffness: K }, e, dt_fraction, k as f64 / 7.0);
+            let v_in = w.velocity[0].z as f64;
+            run_impact(&mut w);
+            (-w.velocity[0].z as f64 / v_in / e as f64 - 1.0).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The error in `e` shrinks with the time step, in proportion to it: the dashpot force jumps
+/// to `eta v` when the contact starts (and from `-eta v` to zero when it ends), so where in a
+/// step those happen costs up to about `(eta / m) dt` of the speed; hence the worst case over
+/// several starting phases. Measured (worst over 7 phases) for e = 0.1: 13% at the default
+/// `t_c / 50`, 3.3% at `t_c / 200`, 0.66% at `t_c / 1000`.
+#[test]
+fn restitution_error_is_first_order_in_dt() {
+    for &e in &[0.1f32, 0.3, 0.5, 0.7, 0.9] {
+        let errs: Vec<f64> = [50.0, 200.0, 1000.0].iter().map(|&f| worst_wall_restitution_error(e, f)).collect();
+        eprintln!("e={e}: worst rel err at t_c/50 {:.2e}, t_c/200 {:.2e}, t_c/1000 {:.2e}", errs[0], errs[1], errs[2]);
+        assert!(errs[2] < 0.01, "e = {e}: error {} at t_c/1000", errs[2]);
+        // First order: 20 times smaller step, 10 to 40 times smaller error (e = 0.9 is so
+        // lightly damped that its error is tiny at every step).
+        if e < 0.9 {
+            let ratio = errs[0] / errs[2];
+            assert!((10.0..40.0).contains(&ratio), "e = {e}: errors {errs:?}");
+        }
+        // The worst case at the default step, as a regression bound: the error scales with the
+        // damping, `(eta / m) dt ~ -ln e`; measured at most 0.057 (-ln e) for these e.
+        assert!(errs[0] < 0.07 * -(e as f64).ln(), "e = {e}: error {} at t_c/50", errs[0]);
+    }
+}
