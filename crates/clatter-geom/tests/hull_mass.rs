@@ -167,14 +167,15 @@ fn assert_diag(i: DMat3, want: DVec3, rel: f64) {
 
 #[test]
 fn platonic_solids_have_merged_faces() {
+    // (kind, faces, vertices, sides per face, edge directions up to sign)
     let expect = [
-        (RegularKind::Tetrahedron, 4, 4, 3),
-        (RegularKind::Cube, 6, 8, 4),
-        (RegularKind::Octahedron, 8, 6, 3),
-        (RegularKind::Dodecahedron, 12, 20, 5),
-        (RegularKind::Icosahedron, 20, 12, 3),
+        (RegularKind::Tetrahedron, 4, 4, 3, 6),
+        (RegularKind::Cube, 6, 8, 4, 3),
+        (RegularKind::Octahedron, 8, 6, 3, 6),
+        (RegularKind::Dodecahedron, 12, 20, 5, 15),
+        (RegularKind::Icosahedron, 20, 12, 3, 15),
     ];
-    for (kind, nf, nv, sides) in expect {
+    for (kind, nf, nv, sides, ndirs) in expect {
         for radius in [1e-3, 1.0, 7.5, 1e3] {
             let pts = kind.points(radius);
             let hull = convex_hull(&pts).unwrap();
@@ -184,6 +185,7 @@ fn platonic_solids_have_merged_faces() {
                 hull.faces.iter().all(|f| f.count == sides),
                 "{kind:?} face sizes"
             );
+            assert_eq!(hull.edge_dirs.len(), ndirs, "{kind:?} edge directions");
             check_hull(&pts, &hull, 1e-5 * radius);
             // Every face is at the inradius and all vertices at the circumradius.
             let inradius = hull.faces[0].offset;
@@ -400,6 +402,7 @@ fn large_sphere_cloud_is_fast() {
     let start = std::time::Instant::now();
     let hull = convex_hull(&pts).unwrap();
     let elapsed = start.elapsed();
+    println!("10k-point sphere hull: {elapsed:?}");
     // All points are extreme; a triangulated sphere has F = 2V - 4 (a few nearly cocircular
     // pairs of triangles merge into quads).
     assert_eq!(hull.vertices.len(), 10_000);
@@ -417,6 +420,42 @@ fn large_sphere_cloud_is_fast() {
         2e-3,
         "sphere volume",
     );
+}
+
+#[test]
+fn edge_directions_match_brute_force() {
+    let mut r = rng(9);
+    let mut clouds: Vec<Vec<Vec3>> =
+        vec![(0..2000).map(|_| random_unit(&mut r).as_vec3()).collect()];
+    // Prisms: many parallel edges.
+    clouds.push(
+        (0..64)
+            .flat_map(|k| {
+                let a = std::f32::consts::TAU * k as f32 / 64.0;
+                [
+                    Vec3::new(a.cos(), a.sin(), -1.0),
+                    Vec3::new(a.cos(), a.sin(), 1.0),
+                ]
+            })
+            .collect(),
+    );
+    for pts in clouds {
+        let hull = convex_hull(&pts).unwrap();
+        // Edge directions deduplicated as by a brute-force scan (first match in edge order).
+        let mut dirs: Vec<Vec3> = Vec::new();
+        for (e, &[a, b]) in hull.edges.iter().enumerate() {
+            let d = (hull.vertices[b as usize] - hull.vertices[a as usize]).normalize();
+            let k = dirs
+                .iter()
+                .position(|u| u.cross(d).length_squared() < 1e-10);
+            let k = k.unwrap_or_else(|| {
+                dirs.push(d);
+                dirs.len() - 1
+            });
+            assert_eq!(hull.edge_dir_of[e] as usize, k);
+        }
+        assert_eq!(dirs, hull.edge_dirs);
+    }
 }
 
 #[test]

@@ -81,10 +81,13 @@ struct ContactList {
     touching: Vec<bool>,
     /// Separating-axis hints of the body pairs (temporal coherence of the narrow phase).
     hints: Vec<narrow::SatHint>,
-    /// CSR adjacency: body `b`'s entries are `adj[adj_start[b]..adj_start[b+1]]`, each
-    /// `(contact index << 1) | side` with side 1 for the `b` side of the contact.
-    adj_start: Vec<u32>,
-    adj: Vec<u32>,
+    /// Body `i` is side a of body pairs `a_start[i]..a_start[i+1]` (pairs are sorted by `i`).
+    a_start: Vec<u32>,
+    /// Body `i` is side b of body pairs `b_adj[b_start[i]..b_start[i+1]]`.
+    b_start: Vec<u32>,
+    b_adj: Vec<u32>,
+    /// Body `i`'s wall contacts are `w_start[i]..w_start[i+1]` (indices into `forces`).
+    w_start: Vec<u32>,
 }
 
 /// A simulation: body state, static data and the contact list.
@@ -122,6 +125,10 @@ pub struct World {
     pub mass: Vec<f32>,
     /// Principal moments of inertia per body, kg m^2.
     pub inertia: Vec<Vec3>,
+    /// `1 / mass`, per body.
+    pub inv_mass: Vec<f32>,
+    /// `1 / inertia`, per body and principal axis.
+    pub inv_inertia: Vec<Vec3>,
     /// Bounding radius per body.
     pub radius: Vec<f32>,
     /// Volume-equivalent sphere radius per body (the Hertz law's radius).
@@ -164,6 +171,8 @@ impl World {
             material_of: Vec::with_capacity(n),
             mass: Vec::with_capacity(n),
             inertia: Vec::with_capacity(n),
+            inv_mass: Vec::with_capacity(n),
+            inv_inertia: Vec::with_capacity(n),
             radius: Vec::with_capacity(n),
             equivalent_radius: Vec::with_capacity(n),
             skin: 0.0,
@@ -189,6 +198,8 @@ impl World {
             w.material_of.push(b.material);
             w.mass.push(mass);
             w.inertia.push(inertia);
+            w.inv_mass.push(1.0 / mass);
+            w.inv_inertia.push(inertia.recip());
             w.radius.push(shape.shape.bounding_radius());
             w.equivalent_radius.push((3.0 * shape.volume / (4.0 * std::f32::consts::PI)).cbrt());
         }
@@ -340,31 +351,29 @@ impl World {
                 &wall_pairs,
             ))
             .collect::<Vec<_>>();
-        // CSR adjacency, entries in contact order (deterministic gather order).
+        // Gather ranges, in contact order (a fixed, thread-independent summation order).
         let n = self.len();
-        let mut count = vec![0u32; n + 1];
+        let np = pairs.len();
+        let mut a_start = vec![0u32; n + 1];
+        let mut b_start = vec![0u32; n + 1];
+        let mut w_start = vec![np as u32; n + 1];
         for p in &pairs {
-            count[p[0] as usize + 1] += 1;
-            count[p[1] as usize + 1] += 1;
+            a_start[p[0] as usize + 1] += 1;
+            b_start[p[1] as usize + 1] += 1;
         }
         for p in &wall_pairs {
-            count[p[0] as usize + 1] += 1;
+            w_start[p[0] as usize + 1] += 1;
         }
         for i in 0..n {
-            count[i + 1] += count[i];
+            a_start[i + 1] += a_start[i];
+            b_start[i + 1] += b_start[i];
+            w_start[i + 1] += w_start[i] - np as u32;
         }
-        let mut fill = count.clone();
-        let mut adj = vec![0u32; count[n] as usize];
+        let mut fill = b_start.clone();
+        let mut b_adj = vec![0u32; np];
         for (c, p) in pairs.iter().enumerate() {
-            adj[fill[p[0] as usize] as usize] = (c as u32) << 1;
-            fill[p[0] as usize] += 1;
-            adj[fill[p[1] as usize] as usize] = ((c as u32) << 1) | 1;
+            b_adj[fill[p[1] as usize] as usize] = c as u32;
             fill[p[1] as usize] += 1;
-        }
-        for (k, p) in wall_pairs.iter().enumerate() {
-            let c = (pairs.len() + k) as u32;
-            adj[fill[p[0] as usize] as usize] = (c << 1) | 1;
-            fill[p[0] as usize] += 1;
         }
         let total = pairs.len() + wall_pairs.len();
         let hints = vec![narrow::NO_HINT; pairs.len()];
@@ -375,8 +384,10 @@ impl World {
             history,
             forces: vec![ContactForce::default(); total],
             touching: vec![false; total],
-            adj_start: count,
-            adj,
+            a_start,
+            b_start,
+            b_adj,
+            w_start,
         };
         self.rebuild_position.clone_from(&self.position);
         self.needs_rebuild = false;
@@ -451,8 +462,9 @@ impl World {
                             *touching = true;
                         }
                         None => {
-                            // Released spring; the stale force is skipped by the gather.
+                            // Released: zero spring and force (written only on the change).
                             if *touching {
+                                *force = ContactForce::default();
                                 *hist = Vec3::ZERO;
                                 *touching = false;
                             }
@@ -486,8 +498,9 @@ impl World {
                             *touching = true;
                         }
                         None => {
-                            // Released spring; the stale force is skipped by the gather.
+                            // Released: zero spring and force (written only on the change).
                             if *touching {
+                                *force = ContactForce::default();
                                 *hist = Vec3::ZERO;
                                 *touching = false;
                             }
@@ -502,7 +515,7 @@ impl World {
         let gravity = self.gravity;
         let contacts = &self.contacts;
         let half_skin2 = 0.25 * self.skin * self.skin;
-        let (mass, inertia) = (&self.mass, &self.inertia);
+        let (inv_mass, inv_inertia) = (&self.inv_mass, &self.inv_inertia);
         let rebuild_position = &self.rebuild_position;
         let worst = self
             .position
@@ -514,33 +527,32 @@ impl World {
             .enumerate()
             .with_min_len(256)
             .map(|(i, ((((x, v), q), l), w))| {
+                // Forces of non-touching contacts are zero, so no branch is needed here.
                 let mut f = Vec3::ZERO;
                 let mut t = Vec3::ZERO;
-                let s = contacts.adj_start[i] as usize;
-                let e = contacts.adj_start[i + 1] as usize;
-                for &entry in &contacts.adj[s..e] {
-                    let k = (entry >> 1) as usize;
-                    if !contacts.touching[k] {
-                        continue;
-                    }
-                    let c = &contacts.forces[k];
-                    if entry & 1 == 1 {
-                        f += c.force_b;
-                        t += c.torque_b;
-                    } else {
-                        f -= c.force_b;
-                        t += c.torque_a;
-                    }
+                let forces = &contacts.forces;
+                for c in &forces[contacts.a_start[i] as usize..contacts.a_start[i + 1] as usize] {
+                    f -= c.force_b;
+                    t += c.torque_a;
                 }
-                *v += (f / mass[i] + gravity) * dt;
+                for &k in &contacts.b_adj[contacts.b_start[i] as usize..contacts.b_start[i + 1] as usize] {
+                    let c = &forces[k as usize];
+                    f += c.force_b;
+                    t += c.torque_b;
+                }
+                for c in &forces[contacts.w_start[i] as usize..contacts.w_start[i + 1] as usize] {
+                    f += c.force_b;
+                    t += c.torque_b;
+                }
+                *v += (f * inv_mass[i] + gravity) * dt;
                 *x += *v * dt;
                 *l += t * dt;
-                let inertia_i = inertia[i];
-                *w = if inertia_i.x == inertia_i.y && inertia_i.y == inertia_i.z {
+                let inv_inertia_i = inv_inertia[i];
+                *w = if inv_inertia_i.x == inv_inertia_i.y && inv_inertia_i.y == inv_inertia_i.z {
                     // Spheres, cubes, Platonic solids: isotropic inertia, no frame change needed.
-                    *l / inertia_i.x
+                    *l * inv_inertia_i.x
                 } else {
-                    *q * ((q.conjugate() * *l) / inertia_i)
+                    *q * ((q.conjugate() * *l) * inv_inertia_i)
                 };
                 // First-order quaternion update, renormalised: dq/dt = (w, 0) q / 2. The
                 // rotation per DEM step is tiny, so this matches the exponential map to
@@ -549,23 +561,22 @@ impl World {
                 let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
                 *q = (*q + dq).normalize();
                 let d2 = (*x - rebuild_position[i]).length_squared();
-                if !(x.is_finite() && v.is_finite() && w.is_finite()) {
-                    (f32::INFINITY, i)
-                } else {
-                    (d2, i)
-                }
+                // NaN or infinity anywhere in the state shows up in d2 or in q.
+                if d2.is_finite() && q.w.is_finite() { d2 } else { f32::INFINITY }
             })
-            .reduce(|| (0.0, usize::MAX), |a, b| if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) { b } else { a });
+            .reduce(|| 0.0, f32::max);
         self.step_count += 1;
         self.time += dt as f64;
-        if worst.0 == f32::INFINITY {
+        if worst == f32::INFINITY {
             // Report the first body that went bad.
             let body = (0..self.len())
-                .find(|&i| !(self.position[i].is_finite() && self.velocity[i].is_finite() && self.omega[i].is_finite()))
-                .unwrap_or(worst.1);
+                .find(|&i| {
+                    !(self.position[i].is_finite() && self.velocity[i].is_finite() && self.orientation[i].is_finite())
+                })
+                .unwrap_or(0);
             return Err(SimError::NonFinite { body, step: self.step_count, time: self.time, dt });
         }
-        if worst.0 > half_skin2 {
+        if worst > half_skin2 {
             self.needs_rebuild = true;
         }
         Ok(stats)

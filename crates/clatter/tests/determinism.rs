@@ -35,7 +35,7 @@ fn run(threads: usize, n: usize, steps: usize) -> Run {
         let mut desc = pile(PileShape::Mixed, n, &PileParams::default());
         for (i, b) in desc.bodies.iter_mut().enumerate() {
             let f = i as f32;
-            b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 0.3;
+            b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
             b.angular_velocity = Vec3::new((f * 0.29).cos(), (f * 0.53).sin(), (f * 0.97).cos()) * 30.0;
         }
         let mut w = World::new(desc);
@@ -53,11 +53,11 @@ fn first_difference(a: &[u32], b: &[u32]) -> Option<usize> {
 
 #[test]
 fn same_bits_for_1_2_3_threads_and_repeated_runs() {
-    let (n, steps) = (400, 400);
+    let (n, steps) = (400, 600);
     let reference = run(1, n, steps);
     let total: usize = reference.contacts.iter().sum();
     eprintln!("{n} bodies, {steps} steps: {total} contact-steps, {} at the end, {} rebuilds", reference.contacts[steps - 1], reference.rebuilds);
-    assert!(reference.contacts[steps / 2..].iter().all(|&c| c > n / 4), "the pile should be in contact");
+    assert!(reference.contacts[steps / 2..].iter().all(|&c| c > n / 10), "the pile should be in contact");
     assert!(reference.rebuilds > 1, "the broad phase should have been rebuilt");
     for threads in [1, 2, 3, 2] {
         let other = run(threads, n, steps);

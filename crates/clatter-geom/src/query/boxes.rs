@@ -12,8 +12,14 @@ use super::support::{DPose, Obb};
 /// With `common_point`, an overlapping result carries a point common to both shapes in `pa`
 /// and `pb` (distance-type result) instead of the deepest points.
 pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
-    let at = o.axes.transpose();
-    let cb = at * c;
+    if !o.aligned {
+        // Solve in the box's axes and map back.
+        let al = Obb { axes: DMat3::IDENTITY, half: o.half, aligned: true };
+        let x = sphere_box(&al, o.axes.transpose() * c, r, common_point);
+        let m = o.axes;
+        return Raw { normal: m * x.normal, pa: m * x.pa, pb: m * x.pb, ..x };
+    }
+    let cb = c;
     let h = o.half;
     let q = cb.clamp(-h, h);
     let d = cb - q;
@@ -23,17 +29,9 @@ pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
         let n = d / dist;
         let overlap = dist <= r;
         if overlap && common_point {
-            let p = o.axes * q;
-            return Raw { sep: 0.0, normal: DVec3::ZERO, pa: p, pb: p, overlap };
+            return Raw { sep: 0.0, normal: DVec3::ZERO, pa: q, pb: q, overlap };
         }
-        let normal = o.axes * n;
-        return Raw {
-            sep: dist - r,
-            normal,
-            pa: o.axes * q,
-            pb: c - normal * r,
-            overlap,
-        };
+        return Raw { sep: dist - r, normal: n, pa: q, pb: c - n * r, overlap };
     }
     // Centre inside: the nearest face.
     if common_point {
@@ -47,9 +45,8 @@ pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
     } else {
         2
     };
-    let mut nb = DVec3::ZERO;
-    nb[i] = if cb[i] >= 0.0 { 1.0 } else { -1.0 };
-    let normal = o.axes * nb;
+    let mut normal = DVec3::ZERO;
+    normal[i] = if cb[i] >= 0.0 { 1.0 } else { -1.0 };
     Raw {
         sep: -room[i] - r,
         normal,
@@ -63,64 +60,83 @@ pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
 /// `None` when an axis separates them (strictly positive gap); otherwise the contact-type
 /// result with the exact depth, the normal from `a` to `b` and the deepest points.
 /// With `early`, returns as soon as the overlap is known, with a placeholder result.
+///
+/// In `a`'s box frame, `r[i][j] = a_i · b_j`; the 15 axes are `a_i`, `b_j` and `a_i × b_j`
+/// (Gottschalk's OBB test, with the depth of each axis kept for the contact).
 pub(crate) fn box_box(a: &Obb, b: &Obb, rel: &DPose, early: bool) -> Option<Raw> {
-    // Everything in a's box frame: a's axes are e0, e1, e2.
-    let at = a.axes.transpose();
-    let bm = at * rel.rot * b.axes; // columns: b's axes
-    let t = at * rel.pos;
+    let (bm, t) = if a.aligned {
+        (if b.aligned { rel.rot } else { rel.rot * b.axes }, rel.pos)
+    } else {
+        let at = a.axes.transpose();
+        (at * rel.rot * b.axes, at * rel.pos)
+    };
     let (ha, hb) = (a.half, b.half);
     let bc = [bm.x_axis, bm.y_axis, bm.z_axis];
+    // r[i][j] = a_i · b_j = component i of b's axis j.
+    let r = [[bc[0].x, bc[1].x, bc[2].x], [bc[0].y, bc[1].y, bc[2].y], [bc[0].z, bc[1].z, bc[2].z]];
+    let ar = r.map(|row| row.map(f64::abs));
+    let hav = [ha.x, ha.y, ha.z];
     let hbv = [hb.x, hb.y, hb.z];
-    let radius_a = |l: DVec3| ha.dot(l.abs());
-    let radius_b = |l: DVec3| {
-        hbv[0] * l.dot(bc[0]).abs() + hbv[1] * l.dot(bc[1]).abs() + hbv[2] * l.dot(bc[2]).abs()
-    };
-    // (penetration, unit axis oriented from a to b, feature: 0..3 a's face, 3..6 b's face,
-    // 6.. edge pair 3 i + j).
-    let mut best = (f64::INFINITY, DVec3::X, 0usize);
+    let tv = [t.x, t.y, t.z];
+    // (penetration, signed distance of centres along the axis, axis length, feature):
+    // feature 0..3 a's face, 3..6 b's face, 6.. edge pair 6 + 3 i + j.
+    let mut best = (f64::INFINITY, 0.0, 1.0, 0usize);
     let scale = ha.length() + hb.length();
-    let mut test = |l: DVec3, len: f64, feature: usize| -> bool {
-        let tl = t.dot(l);
-        let pen = (radius_a(l) + radius_b(l) - tl.abs()) / len;
+    for i in 0..3 {
+        let rb = hbv[0] * ar[i][0] + hbv[1] * ar[i][1] + hbv[2] * ar[i][2];
+        let pen = hav[i] + rb - tv[i].abs();
         if pen < 0.0 {
-            return false;
-        }
-        // Edge axes must win by a margin over face axes (flat contacts stay face contacts).
-        let bias = if feature >= 6 { 1e-9 * scale } else { 0.0 };
-        if pen + bias < best.0 {
-            let n = l / len;
-            best = (pen, if tl >= 0.0 { n } else { -n }, feature);
-        }
-        true
-    };
-    for (i, e) in [DVec3::X, DVec3::Y, DVec3::Z].into_iter().enumerate() {
-        if !test(e, 1.0, i) {
             return None;
         }
-    }
-    for (j, &c) in bc.iter().enumerate() {
-        if !test(c, 1.0, 3 + j) {
-            return None;
+        if pen < best.0 {
+            best = (pen, tv[i], 1.0, i);
         }
     }
-    for (i, e) in [DVec3::X, DVec3::Y, DVec3::Z].into_iter().enumerate() {
-        for (j, &c) in bc.iter().enumerate() {
-            let l = e.cross(c);
-            let len = l.length();
-            // Parallel edges: the face axes already cover this direction.
-            if len < 1e-6 {
+    for j in 0..3 {
+        let ra = hav[0] * ar[0][j] + hav[1] * ar[1][j] + hav[2] * ar[2][j];
+        let tl = tv[0] * r[0][j] + tv[1] * r[1][j] + tv[2] * r[2][j];
+        let pen = ra + hbv[j] - tl.abs();
+        if pen < 0.0 {
+            return None;
+        }
+        if pen < best.0 {
+            best = (pen, tl, 1.0, 3 + j);
+        }
+    }
+    for i in 0..3 {
+        let (i1, i2) = ((i + 1) % 3, (i + 2) % 3);
+        for j in 0..3 {
+            let (j1, j2) = ((j + 1) % 3, (j + 2) % 3);
+            // |a_i × b_j|² = 1 - r[i][j]²; parallel edges are covered by the face axes.
+            let len2 = 1.0 - r[i][j] * r[i][j];
+            if len2 < 1e-12 {
                 continue;
             }
-            if !test(l, len, 6 + 3 * i + j) {
+            let ra = hav[i1] * ar[i2][j] + hav[i2] * ar[i1][j];
+            let rb = hbv[j1] * ar[i][j2] + hbv[j2] * ar[i][j1];
+            let tl = tv[i2] * r[i1][j] - tv[i1] * r[i2][j];
+            let pen = ra + rb - tl.abs();
+            if pen < 0.0 {
                 return None;
+            }
+            let len = len2.sqrt();
+            // Edge axes must win by a margin over face axes (flat contacts stay face contacts).
+            if pen / len + 1e-9 * scale < best.0 {
+                best = (pen / len, tl, len, 6 + 3 * i + j);
             }
         }
     }
     if early {
         return Some(Raw { sep: 0.0, normal: DVec3::X, pa: DVec3::ZERO, pb: DVec3::ZERO, overlap: true });
     }
-    let (depth, n, feature) = best;
+    let (depth, tl, len, feature) = best;
     let sgn = |x: f64| if x >= 0.0 { 1.0 } else { -1.0 };
+    let axis = match feature {
+        0..3 => DVec3::AXES[feature],
+        3..6 => bc[feature - 3],
+        _ => DVec3::AXES[(feature - 6) / 3].cross(bc[(feature - 6) % 3]) / len,
+    };
+    let n = axis * sgn(tl);
     let support_a = |d: DVec3| DVec3::new(sgn(d.x) * ha.x, sgn(d.y) * ha.y, sgn(d.z) * ha.z);
     let support_b = |d: DVec3| {
         t + bc[0] * (sgn(d.dot(bc[0])) * hbv[0])
@@ -138,11 +154,13 @@ pub(crate) fn box_box(a: &Obb, b: &Obb, rel: &DPose, early: bool) -> Option<Raw>
         // a's edge along e_i through its support vertex, b's edge along b_j likewise.
         let mut ca = support_a(n);
         ca[i] = 0.0;
-        let da = DVec3::AXES[i];
-        let cb = support_b(-n) - bc[j] * (bc[j].dot(support_b(-n) - t));
-        let (sa, sb) = closest_on_segments(ca, da, ha[i], cb, bc[j], hbv[j]);
-        (sa, sb)
+        let sb = support_b(-n);
+        let cb = sb - bc[j] * bc[j].dot(sb - t);
+        closest_on_segments(ca, DVec3::AXES[i], hav[i], cb, bc[j], hbv[j])
     };
+    if a.aligned {
+        return Some(Raw { sep: -depth, normal: n, pa, pb, overlap: true });
+    }
     let m: DMat3 = a.axes;
     Some(Raw { sep: -depth, normal: m * n, pa: m * pa, pb: m * pb, overlap: true })
 }

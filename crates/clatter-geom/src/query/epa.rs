@@ -16,7 +16,7 @@
 use glam::DVec3;
 
 use super::gjk::Simplex;
-use super::support::Core;
+use super::support::Support;
 
 /// Iteration cap of the EPA loop.
 pub const EPA_MAX_ITERATIONS: usize = 128;
@@ -57,7 +57,7 @@ pub(crate) struct Epa {
 }
 
 #[inline]
-fn sup(a: &Core, b: &Core, d: DVec3) -> Vert {
+fn sup<A: Support, B: Support>(a: &A, b: &B, d: DVec3) -> Vert {
     let pa = a.support(d);
     let pb = b.support(-d);
     Vert { w: pa - pb, a: pa, b: pb }
@@ -78,7 +78,7 @@ fn make_face(verts: &[Vert], i: u32, j: u32, k: u32) -> Face {
 
 /// Builds a tetrahedron of CSO points from the GJK simplex (which contains or touches the
 /// origin), completing it with support points when GJK stopped with fewer than 4 points.
-fn initial(a: &Core, b: &Core, s: &Simplex, scale: f64) -> Vec<Vert> {
+fn initial<A: Support, B: Support>(a: &A, b: &B, s: &Simplex, scale: f64) -> Vec<Vert> {
     let mut v: Vec<Vert> = (0..s.n).map(|i| Vert { w: s.w[i], a: s.a[i], b: s.b[i] }).collect();
     let eps = 1e-9 * scale.max(f64::MIN_POSITIVE);
     if v.len() == 4 {
@@ -163,7 +163,7 @@ fn initial(a: &Core, b: &Core, s: &Simplex, scale: f64) -> Vec<Vert> {
 }
 
 /// Runs EPA on `a - b` from the GJK simplex `s` (which must contain or touch the origin).
-pub(crate) fn epa(a: &Core, b: &Core, s: &Simplex) -> Epa {
+pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
     let scale = (0..s.n).map(|i| s.w[i].length()).fold(0.0, f64::max)
         + a.radius()
         + b.radius();

@@ -20,7 +20,7 @@
 
 use glam::DVec3;
 
-use super::support::Core;
+use super::support::Support;
 
 /// Iteration cap of the GJK loop (typical runs take 3-15 iterations).
 pub const GJK_MAX_ITERATIONS: usize = 64;
@@ -250,7 +250,7 @@ impl Gjk {
 /// With `margin = Some(m)` the run stops as soon as the distance is known to be above `m`
 /// (`BeyondMargin`) or at most `m` (`WithinMargin`): the boolean intersection test of rounded
 /// shapes (spheres are points with a margin).
-pub(crate) fn gjk(a: &Core, b: &Core, dir: DVec3, margin: Option<f64>) -> Gjk {
+pub(crate) fn gjk<A: Support, B: Support>(a: &A, b: &B, dir: DVec3, margin: Option<f64>) -> Gjk {
     let d0 = if dir.length_squared() > 0.0 && dir.is_finite() { dir } else { DVec3::X };
     let mut s = Simplex::default();
     let (a0, b0) = (a.support(-d0), b.support(d0));

@@ -37,7 +37,7 @@ pub use toi::{Motion, TOI_MAX_ITERATIONS, TOI_REL_TOL, Toi, time_of_impact};
 
 use crate::{ConvexPolyhedron, Pose, Shape};
 use gjk::{GjkStatus, gjk};
-use support::{Core, DPose, Obb, as_box};
+use support::{Core, DPose, LocalPoly, Obb, PointCore, as_box, with_cores};
 
 /// Result of [`distance`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -118,6 +118,24 @@ pub(crate) enum Pair<'a> {
 }
 
 impl<'a> Pair<'a> {
+    /// The pair for single-precision poses, converting only the rotations that matter.
+    #[inline]
+    pub(crate) fn from_poses(a: &'a Shape, pa: &Pose, b: &'a Shape, pb: &Pose) -> Self {
+        let sphere_pose = |p: &Pose| DPose { rot: glam::DMat3::IDENTITY, pos: p.position.as_dvec3() };
+        match (a, b) {
+            (Shape::Sphere { .. }, Shape::Sphere { .. }) => {
+                Pair::new(a, &sphere_pose(pa), b, &sphere_pose(pb))
+            }
+            (Shape::Polyhedron(_), Shape::Sphere { .. }) => {
+                Pair::new(a, &DPose::from_pose(pa), b, &sphere_pose(pb))
+            }
+            (Shape::Sphere { .. }, Shape::Polyhedron(_)) => {
+                Pair::new(a, &sphere_pose(pa), b, &DPose::from_pose(pb))
+            }
+            _ => Pair::new(a, &DPose::from_pose(pa), b, &DPose::from_pose(pb)),
+        }
+    }
+
     pub(crate) fn new(a: &'a Shape, pa: &DPose, b: &'a Shape, pb: &DPose) -> Self {
         match (a, b) {
             (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
@@ -127,7 +145,7 @@ impl<'a> Pair<'a> {
                 poly: p,
                 obb: as_box(p),
                 frame: *pa,
-                c: pa.rot.transpose() * (pb.pos - pa.pos),
+                c: pa.inverse_vector(pb.pos - pa.pos),
                 r: *radius as f64,
                 swapped: false,
             },
@@ -135,7 +153,7 @@ impl<'a> Pair<'a> {
                 poly: p,
                 obb: as_box(p),
                 frame: *pb,
-                c: pb.rot.transpose() * (pa.pos - pb.pos),
+                c: pb.inverse_vector(pa.pos - pb.pos),
                 r: *radius as f64,
                 swapped: true,
             },
@@ -199,6 +217,21 @@ fn spheres(ca: DVec3, ra: f64, cb: DVec3, rb: f64) -> Raw {
     Raw { sep: len - ra - rb, normal: n, pa: ca + n * ra, pb: cb - n * rb, overlap: len <= ra + rb }
 }
 
+/// Distance-type result for two spheres: for overlapping spheres, a common point (the middle
+/// of the overlap of the two diameters on the centre line) and a zero normal.
+#[inline]
+fn spheres_distance(ca: DVec3, ra: f64, cb: DVec3, rb: f64) -> Raw {
+    let r = spheres(ca, ra, cb, rb);
+    if !r.overlap {
+        return r;
+    }
+    let len = (cb - ca).dot(r.normal);
+    let lo = (-ra).max(len - rb);
+    let hi = ra.min(len + rb);
+    let q = ca + r.normal * (0.5 * (lo + hi));
+    Raw { sep: 0.0, normal: DVec3::ZERO, pa: q, pb: q, overlap: true }
+}
+
 /// Distance-type result for a polyhedron (internal `a`) and a sphere (internal `b`).
 fn sphere_poly_distance(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f64) -> Raw {
     if let Some(o) = obb {
@@ -208,7 +241,7 @@ fn sphere_poly_distance(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f6
     if s <= 0.0 {
         return Raw { sep: 0.0, normal: DVec3::ZERO, pa: c, pb: c, overlap: true };
     }
-    let g = gjk(&Core::Local(p), &Core::Point(c), -c, None);
+    let g = gjk(&LocalPoly(p), &PointCore(c), -c, None);
     let d = g.distance();
     if g.status == GjkStatus::Overlapping || d <= r {
         let q = g.pa;
@@ -225,7 +258,7 @@ fn sphere_poly_contact(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f64
     }
     let (s, f) = face_separation(p, c);
     if s > 0.0 {
-        let g = gjk(&Core::Local(p), &Core::Point(c), -c, None);
+        let g = gjk(&LocalPoly(p), &PointCore(c), -c, None);
         let d = g.distance();
         if g.status != GjkStatus::Overlapping && d > 0.0 {
             let n = (c - g.pa) / d;
@@ -240,7 +273,7 @@ fn sphere_poly_contact(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f64
 
 /// Distance-type result for two polyhedra in the query frame.
 fn polys_distance(a: &Core, b: &Core, dir: DVec3) -> Raw {
-    let g = gjk(a, b, dir, None);
+    let g = with_cores!(a, b, |x, y| gjk(x, y, dir, None));
     if g.status == GjkStatus::Overlapping {
         return Raw { sep: 0.0, normal: DVec3::ZERO, pa: g.pa, pb: g.pb, overlap: true };
     }
@@ -257,12 +290,15 @@ fn polys_contact(oa: &Option<Obb>, ob: &Option<Obb>, ca: &Core, cb: &Core, rel: 
         }
         return polys_distance(ca, cb, -rel.pos);
     }
-    let g = gjk(ca, cb, -rel.pos, None);
-    if g.status != GjkStatus::Overlapping {
+    let (g, e) = with_cores!(ca, cb, |x, y| {
+        let g = gjk(x, y, -rel.pos, None);
+        let e = (g.status == GjkStatus::Overlapping).then(|| epa::epa(x, y, &g.simplex));
+        (g, e)
+    });
+    let Some(e) = e else {
         let d = g.v.length();
         return Raw { sep: d, normal: -g.v / d, pa: g.pa, pb: g.pb, overlap: false };
-    }
-    let e = epa::epa(ca, cb, &g.simplex);
+    };
     Raw { sep: -e.depth, normal: e.normal, pa: e.pa, pb: e.pb, overlap: true }
 }
 
@@ -270,19 +306,7 @@ impl Pair<'_> {
     /// Distance-type result and how to map it to the world.
     pub(crate) fn distance_raw(&self) -> (Raw, DPose, bool) {
         match *self {
-            Pair::Spheres { ca, ra, cb, rb } => {
-                let mut r = spheres(ca, ra, cb, rb);
-                if r.overlap {
-                    // A common point: the middle of the overlap of the two diameters on the
-                    // centre line.
-                    let len = (cb - ca).dot(r.normal);
-                    let lo = (-ra).max(len - rb);
-                    let hi = ra.min(len + rb);
-                    let q = ca + r.normal * (0.5 * (lo + hi));
-                    r = Raw { sep: 0.0, normal: DVec3::ZERO, pa: q, pb: q, overlap: true };
-                }
-                (r, IDENTITY, false)
-            }
+            Pair::Spheres { ca, ra, cb, rb } => (spheres_distance(ca, ra, cb, rb), IDENTITY, false),
             Pair::SpherePoly { poly, obb, frame, c, r, swapped } => {
                 (sphere_poly_distance(poly, &obb, c, r), frame, swapped)
             }
@@ -296,10 +320,6 @@ impl Pair<'_> {
 
 const IDENTITY: DPose = DPose { rot: glam::DMat3::IDENTITY, pos: DVec3::ZERO };
 
-#[inline]
-fn dposes(pa: &Pose, pb: &Pose) -> (DPose, DPose) {
-    (DPose::from_pose(pa), DPose::from_pose(pb))
-}
 
 /// True when the shapes touch or overlap (distance <= 0, with touching decided to about
 /// [`GJK_ABS_TOL`] x the configuration scale).
@@ -312,8 +332,7 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
     if let (Shape::Sphere { .. }, Shape::Sphere { .. }) = (a, b) {
         return true; // the bounding test above is exact for two spheres
     }
-    let (pa, pb) = dposes(pose_a, pose_b);
-    match Pair::new(a, &pa, b, &pb) {
+    match Pair::from_poses(a, pose_a, b, pose_b) {
         Pair::Spheres { .. } => true,
         Pair::SpherePoly { poly, obb, c, r, .. } => {
             if let Some(o) = obb {
@@ -328,7 +347,7 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
             if s <= 0.0 {
                 return true;
             }
-            let g = gjk(&Core::Local(poly), &Core::Point(c), -c, Some(r));
+            let g = gjk(&LocalPoly(poly), &PointCore(c), -c, Some(r));
             match g.status {
                 GjkStatus::BeyondMargin => false,
                 GjkStatus::WithinMargin | GjkStatus::Overlapping => true,
@@ -340,7 +359,7 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
                 return boxes::box_box(x, y, &rel, true).is_some();
             }
             let (ca, cb) = (Core::local(a, &oa), Core::posed(b, &ob, &rel));
-            let g = gjk(&ca, &cb, -rel.pos, Some(0.0));
+            let g = with_cores!(&ca, &cb, |x, y| gjk(x, y, -rel.pos, Some(0.0)));
             matches!(g.status, GjkStatus::Overlapping | GjkStatus::WithinMargin)
         }
     }
@@ -349,15 +368,16 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
 /// Distance and closest points (world frame). Overlapping shapes give distance 0, a common
 /// point as both points and a zero normal.
 pub fn distance(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Distance {
-    // Two spheres need no rotation: skip the pose conversion.
-    let (pa, pb) = match (a, b) {
-        (Shape::Sphere { .. }, Shape::Sphere { .. }) => (
-            DPose { rot: glam::DMat3::IDENTITY, pos: pose_a.position.as_dvec3() },
-            DPose { rot: glam::DMat3::IDENTITY, pos: pose_b.position.as_dvec3() },
-        ),
-        _ => dposes(pose_a, pose_b),
-    };
-    let (r, frame, swapped) = Pair::new(a, &pa, b, &pb).distance_raw();
+    if let (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) = (a, b) {
+        let (ca, cb) = (pose_a.position.as_dvec3(), pose_b.position.as_dvec3());
+        let r = spheres_distance(ca, *ra as f64, cb, *rb as f64);
+        return Distance {
+            distance: r.sep.max(0.0) as f32,
+            points: [r.pa.as_vec3(), r.pb.as_vec3()],
+            normal: r.normal.as_vec3(),
+        };
+    }
+    let (r, frame, swapped) = Pair::from_poses(a, pose_a, b, pose_b).distance_raw();
     let (points, normal) = to_world(&frame, swapped, &r);
     Distance { distance: r.sep.max(0.0) as f32, points, normal }
 }
@@ -379,8 +399,7 @@ pub fn contact(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Contact {
             manifold,
         };
     }
-    let (pa, pb) = dposes(pose_a, pose_b);
-    let (r, frame, swapped, pts) = match Pair::new(a, &pa, b, &pb) {
+    let (r, frame, swapped, pts) = match Pair::from_poses(a, pose_a, b, pose_b) {
         Pair::Spheres { ca, ra, cb, rb } => {
             let r = spheres(ca, ra, cb, rb);
             (r, IDENTITY, false, manifold::Points::single((r.pa + r.pb) * 0.5))

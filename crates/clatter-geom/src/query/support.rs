@@ -1,8 +1,9 @@
 //! Convex "cores" placed in a common query frame, with their support mappings in `f64`.
 //!
-//! A sphere is handled as its centre point (a core with no extent) plus a radius that the
-//! callers add back; a polyhedron is either in its own local frame (`Local`, no transform on the
-//! support path) or moved into the query frame by a rigid transform (`Moved`).
+//! A sphere is handled as its centre point (a core with no extent, [`PointCore`]) plus a radius
+//! that the callers add back; a polyhedron is either in its own local frame (`Local`, no
+//! transform on the support path) or moved into the query frame by a rigid transform
+//! (`Moved`); a recognised rectangular box gets a sign-test support (`Box`).
 
 use glam::{DMat3, DQuat, DVec3, Vec3};
 
@@ -11,8 +12,6 @@ use crate::{ConvexPolyhedron, Pose};
 /// A convex point set in the query frame.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Core<'a> {
-    /// A single point (the centre of a sphere).
-    Point(DVec3),
     /// A polyhedron whose local frame is the query frame.
     Local(&'a ConvexPolyhedron),
     /// A polyhedron mapped by `x -> rot * x + pos` into the query frame (`rot_t` = `rot`ᵀ).
@@ -33,13 +32,15 @@ pub(crate) enum Core<'a> {
 pub(crate) struct Obb {
     pub axes: DMat3,
     pub half: DVec3,
+    /// `axes` is the identity (the usual case: a box authored axis-aligned).
+    pub aligned: bool,
 }
 
 impl Obb {
     /// Columns = axes scaled by the half extents, after mapping the axes by `rot`.
     #[inline]
     pub(crate) fn scaled(&self, rot: &DMat3) -> DMat3 {
-        let a = *rot * self.axes;
+        let a = if self.aligned { *rot } else { *rot * self.axes };
         DMat3::from_cols(a.x_axis * self.half.x, a.y_axis * self.half.y, a.z_axis * self.half.z)
     }
 }
@@ -72,6 +73,7 @@ pub(crate) fn as_box(p: &ConvexPolyhedron) -> Option<Obb> {
         return Some(Obb {
             axes: DMat3::IDENTITY,
             half: DVec3::new(half[0] as f64, half[1] as f64, half[2] as f64) * 0.5,
+            aligned: true,
         });
     }
     as_box_general(p)
@@ -111,6 +113,7 @@ fn as_box_general(p: &ConvexPolyhedron) -> Option<Obb> {
     Some(Obb {
         axes: DMat3::from_cols(x, y, x.cross(y)),
         half: DVec3::new(sum[0] as f64, sum[1] as f64, sum[2] as f64) * 0.5,
+        aligned: false,
     })
 }
 
@@ -130,6 +133,133 @@ pub(crate) fn support_index(p: &ConvexPolyhedron, d: Vec3) -> usize {
     }
     best
 }
+
+/// A convex set with a support mapping in the query frame. GJK and EPA are generic over it so
+/// that each pair of core types gets its own straight-line code.
+pub(crate) trait Support {
+    /// The point of the set furthest along `d` (query frame).
+    fn support(&self, d: DVec3) -> DVec3;
+    /// Largest distance from the set's reference point (centre of mass) to the set.
+    fn radius(&self) -> f64;
+}
+
+/// A single point.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PointCore(pub DVec3);
+
+/// A polyhedron in its own frame.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LocalPoly<'a>(pub &'a ConvexPolyhedron);
+
+/// A polyhedron mapped by `x -> rot * x + pos`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MovedPoly<'a> {
+    pub poly: &'a ConvexPolyhedron,
+    pub rot: DMat3,
+    pub rot_t: DMat3,
+    pub pos: DVec3,
+}
+
+/// A box `pos + Σ ±m_i`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct BoxCore {
+    pub m: DMat3,
+    pub pos: DVec3,
+}
+
+impl Support for PointCore {
+    #[inline(always)]
+    fn support(&self, _d: DVec3) -> DVec3 {
+        self.0
+    }
+    #[inline(always)]
+    fn radius(&self) -> f64 {
+        0.0
+    }
+}
+
+impl Support for LocalPoly<'_> {
+    #[inline(always)]
+    fn support(&self, d: DVec3) -> DVec3 {
+        self.0.vertices[support_index(self.0, d.as_vec3())].as_dvec3()
+    }
+    #[inline(always)]
+    fn radius(&self) -> f64 {
+        self.0.radius as f64
+    }
+}
+
+impl Support for MovedPoly<'_> {
+    #[inline(always)]
+    fn support(&self, d: DVec3) -> DVec3 {
+        let ld = self.rot_t * d;
+        self.rot * self.poly.vertices[support_index(self.poly, ld.as_vec3())].as_dvec3() + self.pos
+    }
+    #[inline(always)]
+    fn radius(&self) -> f64 {
+        self.poly.radius as f64
+    }
+}
+
+impl Support for BoxCore {
+    #[inline(always)]
+    fn support(&self, d: DVec3) -> DVec3 {
+        let m = &self.m;
+        let pick = |c: DVec3| if d.dot(c) >= 0.0 { c } else { -c };
+        self.pos + pick(m.x_axis) + pick(m.y_axis) + pick(m.z_axis)
+    }
+    #[inline(always)]
+    fn radius(&self) -> f64 {
+        (self.m.x_axis + self.m.y_axis + self.m.z_axis).length()
+    }
+}
+
+impl Support for Core<'_> {
+    #[inline(always)]
+    fn support(&self, d: DVec3) -> DVec3 {
+        Core::support(self, d)
+    }
+    #[inline(always)]
+    fn radius(&self) -> f64 {
+        Core::radius(self)
+    }
+}
+
+/// Runs `$body` with `$x`, `$y` bound to the concrete core types of the enum cores `$a`, `$b`
+/// (monomorphised GJK/EPA for the common pairs, the enum dispatch otherwise).
+macro_rules! with_cores {
+    ($a:expr, $b:expr, |$x:ident, $y:ident| $body:expr) => {{
+        use $crate::query::support::{BoxCore, Core, LocalPoly, MovedPoly};
+        match ($a, $b) {
+            (Core::Local(p), Core::Moved { poly, rot, rot_t, pos }) => {
+                let $x = &LocalPoly(p);
+                let $y = &MovedPoly { poly, rot: *rot, rot_t: *rot_t, pos: *pos };
+                $body
+            }
+            (Core::Box { m, pos }, Core::Box { m: m2, pos: p2 }) => {
+                let $x = &BoxCore { m: *m, pos: *pos };
+                let $y = &BoxCore { m: *m2, pos: *p2 };
+                $body
+            }
+            (Core::Local(p), Core::Box { m, pos }) => {
+                let $x = &LocalPoly(p);
+                let $y = &BoxCore { m: *m, pos: *pos };
+                $body
+            }
+            (Core::Box { m, pos: p1 }, Core::Moved { poly, rot, rot_t, pos }) => {
+                let $x = &BoxCore { m: *m, pos: *p1 };
+                let $y = &MovedPoly { poly, rot: *rot, rot_t: *rot_t, pos: *pos };
+                $body
+            }
+            (x, y) => {
+                let $x = x;
+                let $y = y;
+                $body
+            }
+        }
+    }};
+}
+pub(crate) use with_cores;
 
 impl<'a> Core<'a> {
     /// Builds the core of a polyhedron posed by `rot`, `pos` relative to the query frame.
@@ -159,7 +289,6 @@ impl<'a> Core<'a> {
     #[inline(always)]
     pub(crate) fn support(&self, d: DVec3) -> DVec3 {
         match self {
-            Core::Point(p) => *p,
             Core::Local(p) => p.vertices[support_index(p, d.as_vec3())].as_dvec3(),
             Core::Moved { poly, rot, rot_t, pos } => {
                 let ld = *rot_t * d;
@@ -176,7 +305,6 @@ impl<'a> Core<'a> {
     #[inline]
     pub(crate) fn radius(&self) -> f64 {
         match self {
-            Core::Point(_) => 0.0,
             Core::Local(p) | Core::Moved { poly: p, .. } => p.radius as f64,
             Core::Box { m, .. } => (m.x_axis + m.y_axis + m.z_axis).length(),
         }
@@ -197,19 +325,33 @@ impl DPose {
         Self::new(p.rotation.as_dquat(), p.position.as_dvec3())
     }
 
-    /// From a quaternion (normalised here) and a translation.
+    /// From a quaternion (of any non-zero length: the matrix is that of the normalised
+    /// quaternion, built with one division and no square root) and a translation.
     #[inline]
     pub(crate) fn new(q: DQuat, pos: DVec3) -> Self {
-        let q = q.normalize();
-        let q = if q.is_finite() { q } else { DQuat::IDENTITY };
-        Self { rot: DMat3::from_quat(q), pos }
+        let n = q.length_squared();
+        if !(n > 0.0 && n.is_finite()) {
+            return Self { rot: DMat3::IDENTITY, pos };
+        }
+        let s = 2.0 / n;
+        let (x, y, z, w) = (q.x, q.y, q.z, q.w);
+        let (xs, ys, zs) = (x * s, y * s, z * s);
+        let (wx, wy, wz) = (w * xs, w * ys, w * zs);
+        let (xx, xy, xz) = (x * xs, x * ys, x * zs);
+        let (yy, yz, zz) = (y * ys, y * zs, z * zs);
+        let rot = DMat3::from_cols(
+            DVec3::new(1.0 - (yy + zz), xy + wz, xz - wy),
+            DVec3::new(xy - wz, 1.0 - (xx + zz), yz + wx),
+            DVec3::new(xz + wy, yz - wx, 1.0 - (xx + yy)),
+        );
+        Self { rot, pos }
     }
 
     /// `self⁻¹ * other`: `other` expressed in the frame of `self`.
     #[inline]
     pub(crate) fn inv_mul(&self, other: &DPose) -> DPose {
         let rt = self.rot.transpose();
-        DPose { rot: rt * other.rot, pos: rt * (other.pos - self.pos) }
+        DPose { rot: rt * other.rot, pos: self.inverse_vector(other.pos - self.pos) }
     }
 
     #[inline]
@@ -220,5 +362,11 @@ impl DPose {
     #[inline]
     pub(crate) fn vector(&self, x: DVec3) -> DVec3 {
         self.rot * x
+    }
+
+    /// `rotᵀ x`.
+    #[inline]
+    pub(crate) fn inverse_vector(&self, x: DVec3) -> DVec3 {
+        DVec3::new(self.rot.x_axis.dot(x), self.rot.y_axis.dot(x), self.rot.z_axis.dot(x))
     }
 }
