@@ -40,6 +40,7 @@ impl Manifold {
         self.points().iter().map(|p| p.depth).fold(0.0, f32::max)
     }
 
+    #[inline(always)]
     fn single(normal: Vec3, point: Vec3, depth: f32) -> Self {
         let mut m = Manifold { normal, count: 1, ..Default::default() };
         m.points[0] = ContactPoint { point, depth };

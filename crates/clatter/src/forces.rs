@@ -105,6 +105,35 @@ fn tangential_law(
     ft
 }
 
+/// The contact force of a one-point contact (spheres, vertex and edge contacts): normal and
+/// tangential forces act at `point`, overlap `depth` along the unit normal `n` (from a to b).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn point_contact_force(
+    p: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    n: Vec3,
+    point: Vec3,
+    depth: f32,
+    a: &Side,
+    b: &Side,
+    history: &mut Vec3,
+    dt: f32,
+) -> ContactForce {
+    let eta_lin = if p.hertz { 0.0 } else { p.damping_factor * (m_eff * p.stiffness).sqrt() };
+    let vrel = b.point_velocity(point) - a.point_velocity(point);
+    let (fn_, eta) = normal_law(p, m_eff, r_eff, eta_lin, depth, vrel.dot(n), 1.0);
+    let ft = tangential_law(p, r_eff, n, vrel, depth, fn_, eta, history, dt);
+    let f = n * fn_ + ft;
+    ContactForce {
+        force_b: f,
+        torque_a: f.cross(point - a.position),
+        torque_b: (point - b.position).cross(f),
+        normal_force: fn_,
+    }
+}
+
 /// Computes the contact force of `manifold` between `a` and `b` and updates the tangential
 /// spring `history` (zero for a new contact). `m_eff` and `r_eff` are the effective mass and
 /// radius of the pair.
@@ -123,18 +152,8 @@ pub fn contact_force(
     let n = manifold.normal;
     let eta_lin = if p.hertz { 0.0 } else { p.damping_factor * (m_eff * p.stiffness).sqrt() };
     if manifold.count == 1 {
-        // One point (spheres, vertex and edge contacts): normal and tangential act there.
         let cp = manifold.points[0];
-        let vrel = b.point_velocity(cp.point) - a.point_velocity(cp.point);
-        let (fn_, eta) = normal_law(p, m_eff, r_eff, eta_lin, cp.depth, vrel.dot(n), 1.0);
-        let ft = tangential_law(p, r_eff, n, vrel, cp.depth, fn_, eta, history, dt);
-        let f = n * fn_ + ft;
-        return ContactForce {
-            force_b: f,
-            torque_a: f.cross(cp.point - a.position),
-            torque_b: (cp.point - b.position).cross(f),
-            normal_force: fn_,
-        };
+        return point_contact_force(p, m_eff, r_eff, n, cp.point, cp.depth, a, b, history, dt);
     }
     let inv_count = 1.0 / manifold.count as f32;
     let mut out = ContactForce::default();

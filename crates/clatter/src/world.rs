@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::broad::{self, Grid};
-use crate::forces::{contact_force, ContactForce, Side};
+use crate::forces::{contact_force, point_contact_force, ContactForce, Side};
 use crate::material::{Material, PairParams};
 use clatter_geom::narrow::{self, Plane};
 use clatter_geom::{Pose, PreparedShape, Shape};
@@ -138,6 +138,8 @@ pub struct World {
     /// Broad-phase rebuilds so far.
     pub rebuilds: u64,
     pair_table: Vec<PairParams>,
+    /// Every body is a sphere: the pair loop takes the sphere-sphere fast path.
+    spheres_only: bool,
     contacts: ContactList,
     rebuild_position: Vec<Vec3>,
     needs_rebuild: bool,
@@ -178,6 +180,7 @@ impl World {
             skin: 0.0,
             rebuilds: 0,
             pair_table,
+            spheres_only: false,
             contacts: ContactList::default(),
             rebuild_position: Vec::new(),
             needs_rebuild: true,
@@ -203,6 +206,7 @@ impl World {
             w.radius.push(shape.shape.bounding_radius());
             w.equivalent_radius.push((3.0 * shape.volume / (4.0 * std::f32::consts::PI)).cbrt());
         }
+        w.spheres_only = w.shape_of.iter().all(|&s| matches!(w.shapes[s as usize].shape, Shape::Sphere { .. }));
         let rmax = w.radius.iter().copied().fold(0.0, f32::max);
         w.skin = desc.skin.unwrap_or(0.2 * rmax);
         w.dt = desc.dt.unwrap_or_else(|| w.auto_dt());
@@ -441,9 +445,41 @@ impl World {
                 .zip(force_pairs.par_iter_mut())
                 .zip(touch_pairs.par_iter_mut())
                 .zip(contacts.hints.par_iter_mut())
-                .with_min_len(64)
+                .with_min_len(1024)
                 .for_each(|((((&[i, j], hist), force), touching), hint)| {
                     let (i, j) = (i as usize, j as usize);
+                    if this.spheres_only {
+                        // Sphere-sphere without building a manifold (the common DEM case).
+                        let (xi, xj) = (this.position[i], this.position[j]);
+                        let (ri, rj) = (this.radius[i], this.radius[j]);
+                        let d = xj - xi;
+                        let dist2 = d.length_squared();
+                        if dist2 < (ri + rj) * (ri + rj) {
+                            let dist = dist2.sqrt();
+                            let n = if dist > 0.0 { d / dist } else { Vec3::Z };
+                            let depth = ri + rj - dist;
+                            let params = this.pair_params(this.material_of[i], this.material_of[j]);
+                            let (mi, mj) = (this.mass[i], this.mass[j]);
+                            *force = point_contact_force(
+                                params,
+                                mi * mj / (mi + mj),
+                                ri * rj / (ri + rj),
+                                n,
+                                xi + n * (ri - 0.5 * depth),
+                                depth,
+                                &this.side(i),
+                                &this.side(j),
+                                hist,
+                                dt,
+                            );
+                            *touching = true;
+                        } else if *touching {
+                            *force = ContactForce::default();
+                            *hist = Vec3::ZERO;
+                            *touching = false;
+                        }
+                        return;
+                    }
                     match this.narrow_pair(i, j, hint) {
                         Some(m) => {
                             let params = this.pair_params(this.material_of[i], this.material_of[j]);
@@ -477,7 +513,7 @@ impl World {
                 .zip(hist_walls.par_iter_mut())
                 .zip(force_walls.par_iter_mut())
                 .zip(touch_walls.par_iter_mut())
-                .with_min_len(64)
+                .with_min_len(1024)
                 .for_each(|(((&[i, w], hist), force), touching)| {
                     let (i, w) = (i as usize, w as usize);
                     let wall = &this.walls[w];
@@ -525,7 +561,7 @@ impl World {
             .zip(self.angular_momentum.par_iter_mut())
             .zip(self.omega.par_iter_mut())
             .enumerate()
-            .with_min_len(256)
+            .with_min_len(1024)
             .map(|(i, ((((x, v), q), l), w))| {
                 // Forces of non-touching contacts are zero, so no branch is needed here.
                 let mut f = Vec3::ZERO;
@@ -559,7 +595,10 @@ impl World {
                 // O((|w| dt)^2) without the trigonometry.
                 let h = 0.5 * dt;
                 let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
-                *q = (*q + dq).normalize();
+                let q2 = *q + dq;
+                // Renormalise with one Newton step of 1/sqrt around 1 (|q|^2 = 1 + O(|w dt|^2)):
+                // exact to O(eps^2), no square root or division on the critical path.
+                *q = q2 * (1.5 - 0.5 * q2.length_squared());
                 let d2 = (*x - rebuild_position[i]).length_squared();
                 // NaN or infinity anywhere in the state shows up in d2 or in q.
                 if d2.is_finite() && q.w.is_finite() { d2 } else { f32::INFINITY }

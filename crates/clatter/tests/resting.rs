@@ -72,7 +72,7 @@ fn assert_rests_on_face(w: &mut World, i: usize, inradius: f64, what: &str) {
     let z = w.position[i].z as f64;
     let v = w.velocity[i].length();
     let omega = w.omega[i].length();
-    eprintln!("{what}: dt {:.3e}, v {:?}, omega {:?}", w.dt, w.velocity[i], w.omega[i]);
+    eprintln!("{what}: v {:?}, omega {:?}", w.velocity[i], w.omega[i]);
     eprintln!(
         "{what}: down face {angle:.4} deg from -z, z = {z:.7} (inradius {inradius:.7} - mg/k {overlap:.3e} = {:.7}), |v| = {v:.2e}, |omega| = {omega:.2e}",
         inradius - overlap
@@ -118,47 +118,86 @@ fn authored_down_face(w: &World, i: usize) -> Vec3 {
         .unwrap()
 }
 
+/// A cube rotated about x by `deg` (45 +- a bit: an edge parallel to x is lowest), its
+/// lowest vertex 2 mm above the floor.
+fn cube_on_edge(deg: f32) -> World {
+    let q = Quat::from_rotation_x(deg.to_radians());
+    let mut w = world(cube(), vec![body(Vec3::ZERO, q)]);
+    let lift = 0.002 - lowest_vertex(&w, 0);
+    w.position[0].z += lift;
+    w
+}
+
+/// Gravity tips the cube towards the face that is already closer to the floor: -y for 46 deg,
+/// -z for 44 deg. It must then rest there, not creep.
+fn tip_and_rest(deg: f32, expected_face: Vec3) {
+    let mut w = cube_on_edge(deg);
+    run_for(&mut w, 1.5);
+    let face = authored_down_face(&w, 0);
+    eprintln!("{deg} deg: face {face} down");
+    assert_eq!(face, expected_face, "{deg} deg: tipped onto the wrong face");
+    assert_rests_on_face(&mut w, 0, H, &format!("cube on edge {deg} deg"));
+}
+
 #[test]
-fn cube_dropped_on_an_edge_tips_onto_a_face() {
-    // Rotated about x by 45 deg +- 1 deg: an edge parallel to x is lowest, and gravity tips
-    // the cube towards the face that is already closer to the floor: -y for 46 deg, -z for 44.
-    for (deg, expected_face) in [(46.0f32, -Vec3::Y), (44.0, -Vec3::Z)] {
-        let q = Quat::from_rotation_x(deg.to_radians());
-        let mut w = world(cube(), vec![body(Vec3::ZERO, q)]);
-        let lift = 0.002 - lowest_vertex(&w, 0);
+fn cube_dropped_on_an_edge_at_46_deg_tips_onto_a_face() {
+    tip_and_rest(46.0, -Vec3::Y);
+}
+
+#[test]
+fn cube_dropped_on_an_edge_at_44_deg_tips_onto_a_face() {
+    tip_and_rest(44.0, -Vec3::Z);
+}
+
+/// Diagnosis of the creep seen by the 46 deg case: the same run with the orientation
+/// integrated by the test in f64 (`q = exp(omega dt) q`, written back every step) comes to
+/// rest. So the contact law and the tipping are right; what keeps the cube creeping is the
+/// f32 quaternion update in `World::step` (`q = normalize(q + (omega dt / 2) q)`), which drops
+/// any increment below half an ulp of `q`'s components: `|omega| < ~2^-24 / dt` (1.3e-3 rad/s
+/// at this dt) never turns a generically oriented body. The rotation the contact needs (to
+/// lift an edge and build the restoring torque) is lost, while the translation
+/// `v = omega x r` that rolls the face without slip is not.
+#[test]
+fn cube_on_edge_rests_with_precise_orientation_update() {
+    let mut w = cube_on_edge(46.0);
+    let mut q64 = w.orientation[0].as_dquat();
+    let steps = (2.5 / w.dt as f64) as usize;
+    let mut x_mid = Vec3::ZERO;
+    for s in 0..steps {
+        w.step().unwrap();
+        q64 = (glam::DQuat::from_scaled_axis(w.omega[0].as_dvec3() * w.dt as f64) * q64).normalize();
+        w.orientation[0] = q64.as_quat();
+        if s == (1.5 / w.dt as f64) as usize {
+            x_mid = w.position[0];
+        }
+    }
+    let drift = (w.position[0] - x_mid).length();
+    eprintln!("precise orientation: moved {drift:.2e} m in the last second, v {:?}, omega {:?}", w.velocity[0], w.omega[0]);
+    assert!(drift < 1e-6, "crept {drift} m");
+    assert!(down_face(&w, 0).0 < 2.0);
+}
+
+fn regular_rests_on_a_face(kind: RegularKind, inradius_over_circumradius: f64) {
+    let r = 0.012;
+    let orientations = [Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, 1.1), Quat::from_euler(glam::EulerRot::XYZ, 2.0, -0.4, 0.2)];
+    for (k, q) in orientations.into_iter().enumerate() {
+        let shape = ShapeKind::Regular { kind, radius: r }.prepare().unwrap();
+        let mut w = world(shape, vec![body(Vec3::ZERO, q)]);
+        let lift = 0.004 - lowest_vertex(&w, 0);
         w.position[0].z += lift;
-        w.invalidate_pairs();
-        run_for(&mut w, 1.5);
-        let face = authored_down_face(&w, 0);
-        eprintln!("{deg} deg: face {face} down");
-        assert_eq!(face, expected_face, "{deg} deg: tipped onto the wrong face");
-        assert_rests_on_face(&mut w, 0, H, &format!("cube on edge {deg} deg"));
+        run_for(&mut w, 2.0);
+        assert_rests_on_face(&mut w, 0, r * inradius_over_circumradius, &format!("{} #{k}", kind.name()));
     }
 }
 
 #[test]
-fn tetrahedron_and_icosahedron_come_to_rest_on_a_face() {
-    let r = 0.012;
-    // Inradius over circumradius: 1/3 for the tetrahedron, sqrt(1/3 + 2 sqrt(5)/15) for the
-    // icosahedron.
-    let cases = [
-        (RegularKind::Tetrahedron, r / 3.0),
-        (RegularKind::Icosahedron, r * (1.0 / 3.0 + 2.0 * 5f64.sqrt() / 15.0).sqrt()),
-    ];
-    for (kind, inradius) in cases {
-        for (k, q) in [Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, 1.1), Quat::from_euler(glam::EulerRot::XYZ, 2.0, -0.4, 0.2)]
-            .into_iter()
-            .enumerate()
-        {
-            let shape = ShapeKind::Regular { kind, radius: r }.prepare().unwrap();
-            let mut w = world(shape, vec![body(Vec3::ZERO, q)]);
-            let lift = 0.004 - lowest_vertex(&w, 0);
-            w.position[0].z += lift;
-            w.invalidate_pairs();
-            run_for(&mut w, 2.0);
-            assert_rests_on_face(&mut w, 0, inradius, &format!("{} #{k}", kind.name()));
-        }
-    }
+fn tetrahedron_comes_to_rest_on_a_face() {
+    regular_rests_on_a_face(RegularKind::Tetrahedron, 1.0 / 3.0);
+}
+
+#[test]
+fn icosahedron_comes_to_rest_on_a_face() {
+    regular_rests_on_a_face(RegularKind::Icosahedron, (1.0 / 3.0 + 2.0 * 5f64.sqrt() / 15.0).sqrt());
 }
 
 #[test]
@@ -185,4 +224,25 @@ fn three_cubes_stay_stacked() {
         assert!((w.position[i] - snapshot[i].0).length() < 1e-6, "cube {i} crept");
         assert!(angle_between(snapshot[i].1, w.orientation[i]) < 1e-3, "cube {i} turned");
     }
+}
+
+/// Torsional friction: a cube resting flat and spinning about the vertical must stop. With
+/// Coulomb friction spread over the face (uniform pressure) the friction torque is
+/// `mu m g h (sqrt 2 + ln(1 + sqrt 2)) / 3 = 0.765 mu m g h` and the spin stops after
+/// `t = I w0 / torque` with `I = 2/3 m h^2`: 9 ms for w0 = 5 rad/s. Contact models that
+/// resist twisting differently (friction at the four corners: 1.41 mu m g h) stop it sooner;
+/// 20 t is allowed.
+#[test]
+fn spinning_cube_on_its_face_stops() {
+    let h = H as f32;
+    let mass = 2500.0 * 8.0 * h * h * h;
+    let mut b = body(Vec3::new(0.0, 0.0, h - mass * G / K), Quat::IDENTITY);
+    let w0 = 5.0f32;
+    b.angular_velocity = Vec3::new(0.0, 0.0, w0);
+    let mut w = world(cube(), vec![b]);
+    let mu = 0.5; // material()
+    let t_stop = (2.0 / 3.0 * h * w0) as f64 / (0.765 * mu * G) as f64;
+    run_for(&mut w, 20.0 * t_stop);
+    eprintln!("spinning cube after {:.3} s (t_stop {t_stop:.4} s): omega {:?}", w.time, w.omega[0]);
+    assert!(w.omega[0].z.abs() < 0.01 * w0, "still spinning at {} rad/s after {} s", w.omega[0].z, w.time);
 }

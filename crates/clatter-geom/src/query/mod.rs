@@ -377,6 +377,22 @@ pub fn distance(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Distance 
             normal: r.normal.as_vec3(),
         };
     }
+    // A sphere against a polyhedron: only the polyhedron's pose is converted.
+    let sphere_poly = match (a, b) {
+        (Shape::Polyhedron(p), Shape::Sphere { radius }) => Some((p, pose_a, pose_b, radius, false)),
+        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => Some((p, pose_b, pose_a, radius, true)),
+        _ => None,
+    };
+    if let Some((poly, pp, ps, radius, swapped)) = sphere_poly {
+        let frame = DPose::from_pose(pp);
+        let c = frame.inverse_vector(ps.position.as_dvec3() - frame.pos);
+        let r = match as_box(poly) {
+            Some(o) => boxes::sphere_box(&o, c, *radius as f64, true),
+            None => sphere_poly_distance(poly, &None, c, *radius as f64),
+        };
+        let (points, normal) = to_world(&frame, swapped, &r);
+        return Distance { distance: r.sep.max(0.0) as f32, points, normal };
+    }
     let (r, frame, swapped) = Pair::from_poses(a, pose_a, b, pose_b).distance_raw();
     let (points, normal) = to_world(&frame, swapped, &r);
     Distance { distance: r.sep.max(0.0) as f32, points, normal }

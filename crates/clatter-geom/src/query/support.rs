@@ -48,6 +48,7 @@ impl Obb {
 /// Recognises a rectangular box: 8 vertices and 6 faces whose normals come in three mutually
 /// orthogonal antiparallel pairs (within 1e-5). Such a hexahedron is a box; its half extents
 /// are the mean offsets of each pair of opposite faces.
+#[inline]
 pub(crate) fn as_box(p: &ConvexPolyhedron) -> Option<Obb> {
     if p.vertices.len() != 8 || p.faces.len() != 6 {
         return None;
@@ -79,6 +80,7 @@ pub(crate) fn as_box(p: &ConvexPolyhedron) -> Option<Obb> {
     as_box_general(p)
 }
 
+#[inline(never)]
 fn as_box_general(p: &ConvexPolyhedron) -> Option<Obb> {
     const TOL: f32 = 1e-5;
     let mut axes = [Vec3::ZERO; 3];
