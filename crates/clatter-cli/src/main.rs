@@ -1,9 +1,11 @@
 //! `clatter`: run DEM scenes, benchmark the step, answer collision queries.
 
 mod bench;
+mod energy;
 mod output;
 mod query;
 mod run;
+mod vtk;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -35,16 +37,29 @@ enum Command {
     Run {
         /// Scene file (TOML, see docs/scene-format.md).
         scene: Option<PathBuf>,
-        /// Write final.csv, summary.json (and trace.csv with --trace-every) into DIR.
-        #[arg(long, value_name = "DIR")]
-        out: Option<PathBuf>,
-        /// Append the state of every body to DIR/trace.csv every N steps (needs --out).
-        #[arg(long, value_name = "N")]
-        trace_every: Option<u64>,
+        #[command(flatten)]
+        output: run::OutputArgs,
         /// Worker threads (default: all cores). Results are identical for any count.
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
         /// Override the scene's run length with a number of steps.
+        #[arg(long, value_name = "N")]
+        steps: Option<u64>,
+        /// Print nothing but errors.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Continue a run from a checkpoint (DIR/checkpoint.ckpt or DIR/last_good.ckpt) to the
+    /// end of its run, with the output options it was started with unless given again.
+    Resume {
+        /// Checkpoint file written by `clatter run --checkpoint-every`.
+        checkpoint: PathBuf,
+        #[command(flatten)]
+        output: run::OutputArgs,
+        /// Worker threads (default: all cores). Results are identical for any count.
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+        /// Run N more steps instead of going on to the end of the original run.
         #[arg(long, value_name = "N")]
         steps: Option<u64>,
         /// Print nothing but errors.
@@ -96,14 +111,21 @@ fn init_threads(threads: Option<usize>) -> anyhow::Result<()> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run { scene, out, trace_every, threads, steps, quiet } => init_threads(threads)
-            .and_then(|_| run::run(run::RunArgs { scene, out, trace_every, steps, quiet })),
+        Command::Run { scene, output, threads, steps, quiet } => {
+            init_threads(threads).and_then(|_| run::run(run::RunArgs { scene, output, steps, quiet }))
+        }
+        Command::Resume { checkpoint, output, threads, steps, quiet } => init_threads(threads)
+            .and_then(|_| run::resume(run::ResumeArgs { checkpoint, output, steps, quiet })),
         Command::Bench { shape, bodies, steps, settle, json, threads, emit_lammps } => init_threads(threads)
             .and_then(|_| bench::bench(bench::BenchArgs { shape, bodies, steps, settle, json, emit_lammps })),
         Command::Query { input } => query::run(&input),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.is::<run::BlownUp>() => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(run::BLOW_UP_EXIT)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

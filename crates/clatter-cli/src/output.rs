@@ -1,4 +1,5 @@
-//! Output files: `final.csv`, `trace.csv`, `summary.json`. Every file is written under a
+//! Output files: `final.csv`, `trace.csv`, `summary.json` (and, in their own modules, VTK
+//! frames, `energy.csv`, checkpoints). Every file is written under a
 //! temporary name and renamed into place when complete, so a file with its final name is
 //! always whole.
 
@@ -41,6 +42,8 @@ impl AtomicFile {
         let file = writer.into_inner().map_err(|e| e.into_error()).with_context(|| format!("cannot write {}", self.tmp.display()))?;
         file.sync_all().with_context(|| format!("cannot sync {}", self.tmp.display()))?;
         std::fs::rename(&self.tmp, &self.path).with_context(|| format!("cannot rename {} to {}", self.tmp.display(), self.path.display()))?;
+        // The rename itself is durable only once the directory is synced.
+        clatter::checkpoint::sync_dir(&self.path);
         Ok(())
     }
 }
@@ -71,6 +74,27 @@ pub fn write_state_rows(w: &mut impl Write, world: &World, prefix: &str) -> std:
         );
         line.push('\n');
         w.write_all(line.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// Copies the rows of an existing CSV file `src` with header `header` whose first column (the
+/// step) is below `before` into `dst`: a resumed run continues the series it was written by.
+/// Does nothing when `src` does not exist or has another header.
+pub fn carry_rows(src: &Path, header: &str, before: u64, dst: &mut impl Write) -> anyhow::Result<()> {
+    use std::io::BufRead;
+    let Ok(file) = File::open(src) else { return Ok(()) };
+    let mut lines = std::io::BufReader::new(file).lines();
+    if lines.next().transpose()?.as_deref() != Some(header) {
+        return Ok(());
+    }
+    for line in lines {
+        let line = line?;
+        let step = line.split(',').next().and_then(|s| s.parse::<u64>().ok());
+        if step.is_some_and(|s| s < before) {
+            dst.write_all(line.as_bytes())?;
+            dst.write_all(b"\n")?;
+        }
     }
     Ok(())
 }

@@ -1,56 +1,342 @@
-//! `clatter run`: load a scene (or the embedded default), step it with a progress bar, print a
-//! summary, and write outputs atomically.
+//! `clatter run` and `clatter resume`: load a scene (or the embedded default) or a checkpoint,
+//! step it with a progress bar and the blow-up checks, print a summary, and write outputs
+//! atomically (see docs/outputs.md).
 
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::scene::Scene;
+use clap::ValueEnum;
+use clatter::health::{BlowUp, Health};
+use clatter::scene::{Scene, SceneError};
+use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
+use serde::{Deserialize, Serialize};
 
-use crate::output::{write_state_rows, AtomicFile, STATE_HEADER};
+use crate::energy::EnergySeries;
+use crate::output::{carry_rows, write_state_rows, AtomicFile, STATE_HEADER};
+use crate::vtk;
 
 /// The embedded default scene: mixed polyhedra poured into a box.
 pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 
+/// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
+/// steps (and at every output step and the last step).
+pub const FULL_CHECK_EVERY: u64 = 100;
+
+/// Exit status of a run stopped by a blow-up (1 is any other error, 2 a usage error).
+pub const BLOW_UP_EXIT: u8 = 3;
+
+/// Format of the series written every `--output-every` steps.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// `trace.csv`: one row per body and output step.
+    Csv,
+    /// `bodies_NNNNNN.vtu` per output step and `bodies.pvd` (ParaView).
+    Vtk,
+}
+
+/// Output options shared by `run` and `resume`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct OutputArgs {
+    /// Write final.csv, summary.json, energy.csv and energy.svg (and the series and
+    /// checkpoints asked for) into DIR, created if needed.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Format(s) of the series written every --output-every steps: csv (DIR/trace.csv), vtk
+    /// (DIR/bodies_NNNNNN.vtu and DIR/bodies.pvd), or csv,vtk. Default csv.
+    #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT")]
+    pub format: Vec<Format>,
+    /// Write the series every N steps (vtk without it: the first and last step only).
+    #[arg(long, value_name = "N")]
+    pub output_every: Option<u64>,
+    /// The same as --output-every (the name of earlier versions).
+    #[arg(long, value_name = "N")]
+    pub trace_every: Option<u64>,
+    /// With --format vtk: also write the touching contacts (DIR/contacts_NNNNNN.vtu and
+    /// DIR/contacts.pvd): point, normal, force.
+    #[arg(long)]
+    pub contacts: bool,
+    /// Write the complete state to DIR/checkpoint.ckpt every T simulated seconds and at the
+    /// end (`clatter resume` continues from it).
+    #[arg(long, value_name = "T")]
+    pub checkpoint_every: Option<f64>,
+    /// Sample energy.csv every N steps (default: about 1000 samples over the run).
+    #[arg(long, value_name = "N")]
+    pub energy_every: Option<u64>,
+    /// Run the cheap blow-up checks (escape, energy growth, deep overlaps) every N steps
+    /// (default 10); the
+    /// overlap check of all contacts runs every 100 steps and at output steps.
+    #[arg(long, value_name = "N")]
+    pub check_every: Option<u64>,
+}
+
 /// Arguments of `clatter run`.
 pub struct RunArgs {
     pub scene: Option<PathBuf>,
-    pub out: Option<PathBuf>,
-    pub trace_every: Option<u64>,
+    pub output: OutputArgs,
     pub steps: Option<u64>,
     pub quiet: bool,
 }
 
-/// Runs a scene to the end.
-pub fn run(args: RunArgs) -> anyhow::Result<()> {
-    let scene = match &args.scene {
-        Some(path) => Scene::load(path)?,
-        None => Scene::parse(DEFAULT_SCENE, "<default scene>")?,
+/// Arguments of `clatter resume`.
+pub struct ResumeArgs {
+    pub checkpoint: PathBuf,
+    pub output: OutputArgs,
+    pub steps: Option<u64>,
+    pub quiet: bool,
+}
+
+/// A run stopped by a blow-up; `main` exits with [`BLOW_UP_EXIT`].
+#[derive(Debug)]
+pub struct BlownUp(pub String);
+
+impl std::fmt::Display for BlownUp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for BlownUp {}
+
+/// What a checkpoint written by the CLI carries besides the state: how the run was going to
+/// go on, so that `clatter resume` continues it the same way.
+#[derive(Serialize, Deserialize, Debug, Clone, Default)]
+struct RunState {
+    end_step: u64,
+    formats: Vec<Format>,
+    output_every: Option<u64>,
+    contacts: bool,
+    checkpoint_every: Option<f64>,
+    energy_every: Option<u64>,
+    check_every: Option<u64>,
+    health_baseline: Option<f64>,
+}
+
+/// Everything one invocation does.
+struct Plan {
+    scene: Scene,
+    scene_text: String,
+    end_step: u64,
+    out: Option<PathBuf>,
+    csv: bool,
+    vtk: bool,
+    output_every: Option<u64>,
+    contacts: bool,
+    checkpoint_every: Option<f64>,
+    energy_every: u64,
+    check_every: u64,
+    health: Health,
+    resumed: bool,
+    quiet: bool,
+}
+
+impl Plan {
+    fn run_state(&self) -> RunState {
+        let mut formats = Vec::new();
+        if self.csv {
+            formats.push(Format::Csv);
+        }
+        if self.vtk {
+            formats.push(Format::Vtk);
+        }
+        RunState {
+            end_step: self.end_step,
+            formats,
+            output_every: self.output_every,
+            contacts: self.contacts,
+            checkpoint_every: self.checkpoint_every,
+            energy_every: Some(self.energy_every),
+            check_every: Some(self.check_every),
+            health_baseline: Some(self.health.baseline()),
+        }
+    }
+
+    fn checkpoint(&self, world: &World, path: &Path) -> anyhow::Result<()> {
+        let app = serde_json::to_vec(&self.run_state())?;
+        let mut f = AtomicFile::create(path)?;
+        f.writer().write_all(&world.checkpoint_bytes(&self.scene.source, &self.scene_text, &app))?;
+        f.commit()
+    }
+}
+
+/// Checks the output options; `stored` are the options of the run being resumed.
+fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<(bool, bool, Option<u64>, bool, Option<f64>, Option<u64>, u64)> {
+    let every = match (o.output_every, o.trace_every) {
+        (Some(a), Some(b)) if a != b => anyhow::bail!("--output-every {a} and --trace-every {b} disagree (they are the same option)"),
+        (Some(a), _) | (None, Some(a)) => Some(a),
+        (None, None) => stored.and_then(|s| s.output_every),
     };
-    if args.trace_every == Some(0) {
-        anyhow::bail!("--trace-every must be at least 1");
+    let flag = if o.trace_every.is_some() && o.output_every.is_none() { "--trace-every" } else { "--output-every" };
+    if every == Some(0) {
+        anyhow::bail!("{flag} must be at least 1");
     }
-    if args.trace_every.is_some() && args.out.is_none() {
-        anyhow::bail!("--trace-every needs --out DIR (trace.csv is written there)");
+    let formats = if !o.format.is_empty() {
+        o.format.clone()
+    } else {
+        stored.map(|s| s.formats.clone()).filter(|f| !f.is_empty()).unwrap_or_else(|| vec![Format::Csv])
+    };
+    let (csv, vtk) = (formats.contains(&Format::Csv), formats.contains(&Format::Vtk));
+    let contacts = o.contacts || (o.format.is_empty() && stored.is_some_and(|s| s.contacts));
+    if o.out.is_none() {
+        if o.output_every.is_some() || o.trace_every.is_some() {
+            anyhow::bail!("{flag} needs --out DIR (the series is written there)");
+        }
+        if !o.format.is_empty() {
+            anyhow::bail!("--format needs --out DIR (the series is written there)");
+        }
+        if o.checkpoint_every.is_some() {
+            anyhow::bail!("--checkpoint-every needs --out DIR (checkpoint.ckpt is written there)");
+        }
     }
-    for w in &scene.warnings {
+    if o.contacts && !vtk {
+        anyhow::bail!("--contacts needs --format vtk (the contact series is VTK only)");
+    }
+    let checkpoint_every = o.checkpoint_every.or(stored.and_then(|s| s.checkpoint_every));
+    if let Some(t) = checkpoint_every
+        && !(t.is_finite() && t > 0.0)
+    {
+        anyhow::bail!("--checkpoint-every must be a positive number of simulated seconds, got {t}");
+    }
+    let energy_every = o.energy_every.or(stored.and_then(|s| s.energy_every));
+    if energy_every == Some(0) {
+        anyhow::bail!("--energy-every must be at least 1");
+    }
+    let check_every = o.check_every.or(stored.and_then(|s| s.check_every)).unwrap_or(10);
+    if check_every == 0 {
+        anyhow::bail!("--check-every must be at least 1");
+    }
+    Ok((csv, vtk, every, contacts, checkpoint_every, energy_every, check_every))
+}
+
+/// `clatter run`: a scene from the start.
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    let (text, name) = match &args.scene {
+        Some(path) => {
+            let name = path.display().to_string();
+            let text = std::fs::read_to_string(path).map_err(|e| SceneError {
+                file: name.clone(),
+                line: None,
+                field: None,
+                message: format!("cannot read the scene file: {e}"),
+            })?;
+            (text, name)
+        }
+        None => (DEFAULT_SCENE.to_string(), "<default scene>".to_string()),
+    };
+    let scene = Scene::parse(&text, &name)?;
+    let (csv, vtk, output_every, contacts, checkpoint_every, energy_every, check_every) = resolve(&args.output, None)?;
+    let world = scene.world();
+    let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
+    let health = Health::new(&world);
+    execute(Plan {
+        end_step,
+        out: args.output.out,
+        csv,
+        vtk,
+        output_every,
+        contacts,
+        checkpoint_every,
+        energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+        check_every,
+        health,
+        resumed: false,
+        quiet: args.quiet,
+        scene,
+        scene_text: text,
+    }, world)
+}
+
+/// `clatter resume`: a run continued from a checkpoint.
+pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
+    let path = &args.checkpoint;
+    let ckpt = Checkpoint::load(path).with_context(|| format!("cannot resume from {}", path.display()))?;
+    let stored: Option<RunState> = if ckpt.app.is_empty() { None } else { serde_json::from_slice(&ckpt.app).ok() };
+    let (csv, vtk, output_every, contacts, checkpoint_every, energy_every, check_every) = resolve(&args.output, stored.as_ref())?;
+    let (scene, world) = ckpt.world().with_context(|| format!("cannot resume from {}", path.display()))?;
+    let start = world.step_count;
+    let end_step = match (args.steps, &stored) {
+        (Some(n), _) => start.saturating_add(n),
+        (None, Some(s)) => s.end_step,
+        (None, None) => scene.steps(world.dt),
+    };
+    if end_step < start {
+        anyhow::bail!("{} is at step {start}, past the end of its run (step {end_step}); give --steps N to go on", path.display());
+    }
+    let health = match stored.as_ref().and_then(|s| s.health_baseline) {
+        Some(b) => Health::with_baseline(&world, b),
+        None => Health::new(&world),
+    };
+    execute(Plan {
+        end_step,
+        out: args.output.out,
+        csv,
+        vtk,
+        output_every,
+        contacts,
+        checkpoint_every,
+        energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+        check_every,
+        health,
+        resumed: true,
+        quiet: args.quiet,
+        scene_text: ckpt.scene_text.clone(),
+        scene,
+    }, world)
+}
+
+/// The frame series of one run: trace.csv and the VTK files.
+struct Series {
+    trace: Option<AtomicFile>,
+    bodies: Option<vtk::Pvd>,
+    contacts: Option<vtk::Pvd>,
+    last_frame: Option<u64>,
+}
+
+impl Series {
+    fn write(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
+        let step = world.step_count;
+        if let Some(f) = &mut self.trace {
+            write_state_rows(f.writer(), world, &format!("{},{},", step, world.time))?;
+        }
+        self.write_vtk(dir, world)
+    }
+
+    fn write_vtk(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
+        let step = world.step_count;
+        if let Some(pvd) = &mut self.bodies {
+            let name = format!("bodies_{step:06}.vtu");
+            vtk::write_bodies(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        if let Some(pvd) = &mut self.contacts {
+            let name = format!("contacts_{step:06}.vtu");
+            vtk::write_contacts(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        self.last_frame = Some(step);
+        Ok(())
+    }
+}
+
+fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
+    let start = world.step_count;
+    let steps = plan.end_step - start;
+    if !plan.resumed {
+        for w in &plan.scene.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    for w in plan.health.warnings(&world) {
         eprintln!("warning: {w}");
     }
-    let mut world = scene.world();
-    let steps = args.steps.unwrap_or_else(|| scene.steps(world.dt));
-    let tc = world.shortest_contact_duration();
-    if tc.is_finite() && (world.dt as f64) > tc / 10.0 {
+    if !plan.quiet {
+        let from = if plan.resumed { format!(" from step {start} (t = {:.6} s)", world.time) } else { String::new() };
         eprintln!(
-            "warning: dt = {:.3e} s is more than 1/10 of the shortest contact duration {:.3e} s: contacts will be poorly resolved or blow up",
-            world.dt, tc
-        );
-    }
-    if !args.quiet {
-        eprintln!(
-            "{}: {} bodies, {} walls, dt = {:.3e} s, {} steps ({:.4} s simulated), {} threads",
-            scene.source,
+            "{}: {} bodies, {} walls, dt = {:.3e} s, {} steps{from} ({:.4} s simulated), {} threads",
+            plan.scene.source,
             world.len(),
             world.walls.len(),
             world.dt,
@@ -59,83 +345,176 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             rayon::current_num_threads()
         );
     }
-    let mut trace = None;
-    if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
-        if let Some(every) = args.trace_every {
-            let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
-            writeln!(f.writer(), "step,time,{STATE_HEADER}")?;
-            write_state_rows(f.writer(), &world, "0,0,")?;
-            trace = Some((f, every));
-        }
+    let mut last_good = world.clone();
+    if !plan.resumed
+        && let Err(b) = plan.health.check_initial(&world)
+    {
+        return Err(blown_up(&plan, b, &last_good, None));
     }
-    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(steps) };
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} steps {per_sec} eta {eta} {msg}")
-            .expect("valid template"),
-    );
-    let start = Instant::now();
-    let mut max_contacts = 0usize;
-    let mut last_contacts = 0usize;
-    for s in 0..steps {
-        let stats = world.step()?;
-        last_contacts = stats.contacts;
-        max_contacts = max_contacts.max(stats.contacts);
-        if let Some((f, every)) = &mut trace
-            && (s + 1) % *every == 0
-        {
-            let prefix = format!("{},{},", world.step_count, world.time);
-            write_state_rows(f.writer(), &world, &prefix)?;
+
+    // Outputs: everything is created before the first step and committed (renamed into
+    // place) when complete.
+    let mut series = Series { trace: None, bodies: None, contacts: None, last_frame: None };
+    let mut energy = None;
+    if let Some(dir) = &plan.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+        if plan.csv && plan.output_every.is_some() {
+            let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
+            let header = format!("step,time,{STATE_HEADER}");
+            writeln!(f.writer(), "{header}")?;
+            carry_rows(&dir.join("trace.csv"), &header, start, f.writer())?;
+            series.trace = Some(f);
         }
-        if s % 64 == 0 {
-            bar.set_position(s);
+        if plan.vtk {
+            series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
+            if plan.contacts {
+                series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
+            }
+        }
+        series.write(dir, &world)?;
+        let mut e = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
+        e.sample(&world)?;
+        energy = Some(e);
+    }
+    let period = plan.checkpoint_every;
+    let half_dt = 0.5 * world.dt as f64;
+    let mut next_checkpoint = period.map(|t| ((world.time + half_dt) / t).floor() + 1.0);
+
+    let bar = if plan.quiet { ProgressBar::hidden() } else { ProgressBar::new(steps) };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} steps {per_sec} eta {eta} {msg}").expect("valid template"),
+    );
+    let started = Instant::now();
+    let mut max_contacts = world.contact_count();
+    for k in 0..steps {
+        let stats = match world.step() {
+            Ok(stats) => stats,
+            Err(e) => {
+                bar.finish_and_clear();
+                let b = plan.health.non_finite(&last_good, &e);
+                return Err(blown_up(&plan, b, &last_good, energy));
+            }
+        };
+        max_contacts = max_contacts.max(stats.contacts);
+        let s = world.step_count;
+        let output_step = plan.output_every.is_some_and(|n| s % n == 0);
+        let full = s % FULL_CHECK_EVERY == 0 || output_step || s == plan.end_step;
+        if full || s % plan.check_every == 0 {
+            if let Err(b) = plan.health.check(&world, full) {
+                bar.finish_and_clear();
+                return Err(blown_up(&plan, b, &last_good, energy));
+            }
+            if full {
+                last_good.clone_from(&world);
+            }
+        }
+        if let Some(dir) = &plan.out {
+            if output_step {
+                series.write(dir, &world)?;
+            }
+            if let Some(e) = &mut energy
+                && s % plan.energy_every == 0
+            {
+                e.sample(&world)?;
+            }
+            if let (Some(t), Some(next)) = (period, &mut next_checkpoint)
+                && world.time + half_dt >= *next * t
+            {
+                plan.checkpoint(&world, &dir.join("checkpoint.ckpt"))?;
+                *next = ((world.time + half_dt) / t).floor() + 1.0;
+            }
+        }
+        if k % 64 == 0 {
+            bar.set_position(k);
             bar.set_message(format!("{} contacts", stats.contacts));
         }
     }
     bar.finish_and_clear();
-    let elapsed = start.elapsed().as_secs_f64();
+    let elapsed = started.elapsed().as_secs_f64();
     let ke = world.kinetic_energy();
     let steps_per_s = steps as f64 / elapsed.max(1e-9);
-    if !args.quiet {
+    let contacts = world.contact_count();
+    if !plan.quiet {
         println!("simulated time   {:.6} s", world.time);
         println!("steps            {steps}");
         println!("wall time        {elapsed:.3} s");
         println!("steps/s          {steps_per_s:.1}");
         println!("body-steps/s     {:.3e}", steps_per_s * world.len() as f64);
-        println!("contacts         {last_contacts} (max {max_contacts})");
+        println!("contacts         {contacts} (max {max_contacts})");
         println!("kinetic energy   {ke:.6e} J");
     }
-    if let Some(dir) = &args.out {
-        if let Some((f, _)) = trace {
-            f.commit()?;
-        }
-        let mut f = AtomicFile::create(&dir.join("final.csv"))?;
-        writeln!(f.writer(), "{STATE_HEADER}")?;
-        write_state_rows(f.writer(), &world, "")?;
-        f.commit()?;
-        let momentum = world.momentum();
-        let summary = serde_json::json!({
-            "scene": scene.source,
-            "bodies": world.len(),
-            "walls": world.walls.len(),
-            // Via the f32 shortest decimal, so a scene's dt = 2e-5 reads 2e-5, not 1.9999999494757503e-5.
-            "dt": world.dt.to_string().parse::<f64>().unwrap_or(world.dt as f64),
-            "steps": steps,
-            "simulated_time": world.time,
-            "wall_time_s": elapsed,
-            "steps_per_s": steps_per_s,
-            "threads": rayon::current_num_threads(),
-            "contacts": last_contacts,
-            "max_contacts": max_contacts,
-            "kinetic_energy": ke,
-            "potential_energy": world.potential_energy(),
-            "momentum": momentum,
-            "broad_phase_rebuilds": world.rebuilds,
-        });
-        let mut f = AtomicFile::create(&dir.join("summary.json"))?;
-        serde_json::to_writer_pretty(f.writer(), &summary)?;
-        writeln!(f.writer())?;
+    let Some(dir) = &plan.out else { return Ok(()) };
+    // The last step: a VTK frame, an energy sample and a checkpoint even off the period.
+    if plan.vtk && series.last_frame != Some(world.step_count) {
+        series.write_vtk(dir, &world)?;
+    }
+    if let Some(f) = series.trace.take() {
         f.commit()?;
     }
+    if let Some(mut e) = energy.take() {
+        e.sample(&world)?;
+        e.finish(Some(&dir.join("energy.svg")), &format!("{}: energy and momentum", plan.scene.source))?;
+    }
+    if period.is_some() {
+        plan.checkpoint(&world, &dir.join("checkpoint.ckpt"))?;
+    }
+    let mut f = AtomicFile::create(&dir.join("final.csv"))?;
+    writeln!(f.writer(), "{STATE_HEADER}")?;
+    write_state_rows(f.writer(), &world, "")?;
+    f.commit()?;
+    let momentum = world.momentum();
+    let summary = serde_json::json!({
+        "scene": plan.scene.source,
+        "bodies": world.len(),
+        "walls": world.walls.len(),
+        // Via the f32 shortest decimal, so a scene's dt = 2e-5 reads 2e-5, not 1.9999999494757503e-5.
+        "dt": world.dt.to_string().parse::<f64>().unwrap_or(world.dt as f64),
+        "steps": steps,
+        "step": world.step_count,
+        "resumed_from_step": plan.resumed.then_some(start),
+        "simulated_time": world.time,
+        "wall_time_s": elapsed,
+        "steps_per_s": steps_per_s,
+        "threads": rayon::current_num_threads(),
+        "contacts": contacts,
+        "max_contacts": max_contacts,
+        "kinetic_energy": ke,
+        "potential_energy": world.potential_energy(),
+        "momentum": momentum,
+        "broad_phase_rebuilds": world.rebuilds,
+    });
+    let mut f = AtomicFile::create(&dir.join("summary.json"))?;
+    serde_json::to_writer_pretty(f.writer(), &summary)?;
+    writeln!(f.writer())?;
+    f.commit()?;
     Ok(())
+}
+
+/// The error of a blown-up run: the report, and where the last good state went. Writes
+/// `last_good.ckpt` and commits the energy series up to the failure; the trace being written
+/// is dropped (its temporary file removed), and no final.csv or summary.json is written.
+fn blown_up(plan: &Plan, b: BlowUp, last_good: &World, energy: Option<EnergySeries>) -> anyhow::Error {
+    let mut msg = b.to_string();
+    match &plan.out {
+        Some(dir) => {
+            let path = dir.join("last_good.ckpt");
+            let written = std::fs::create_dir_all(dir).map_err(anyhow::Error::from).and_then(|_| plan.checkpoint(last_good, &path));
+            match written {
+                Ok(()) => msg.push_str(&format!(
+                    "\nthe last good state (step {}, t = {:.6e} s) is in {}; `clatter resume` continues from it",
+                    last_good.step_count,
+                    last_good.time,
+                    path.display()
+                )),
+                Err(e) => msg.push_str(&format!("\ncould not write the last good state to {}: {e:#}", path.display())),
+            }
+            if let Some(e) = energy
+                && let Err(e) = e.finish(Some(&dir.join("energy.svg")), &format!("{}: energy and momentum (blew up)", plan.scene.source))
+            {
+                msg.push_str(&format!("\ncould not write energy.csv: {e:#}"));
+            }
+        }
+        None => msg.push_str("\nno checkpoint was written (no --out DIR)"),
+    }
+    anyhow::Error::new(BlownUp(msg))
 }

@@ -15,7 +15,7 @@ pub mod shape;
 
 pub use hull::convex_hull;
 pub use mass::MassProperties;
-pub use polyhedron::{ConvexPolyhedron, Face};
+pub use polyhedron::{BoxFrame, ConvexPolyhedron, Face};
 pub use shape::{PreparedShape, Shape, ShapeKind, RegularKind};
 
 use thiserror::Error;

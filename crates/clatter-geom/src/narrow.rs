@@ -711,7 +711,15 @@ fn clip_faces(
         }
     }
     if pts.is_empty() {
-        return None;
+        // The separating-axis test found overlap but the incident face clips away entirely
+        // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
+        // rather than losing it.
+        let deepest = inc_v.iter().copied().min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
+        let depth = rface.offset - n.dot(deepest);
+        if depth <= 0.0 {
+            return None;
+        }
+        return Some(Manifold::single(n, deepest + n * (0.5 * depth), depth));
     }
     Some(reduce(pts, n))
 }

@@ -38,6 +38,21 @@ pub struct ConvexPolyhedron {
     pub edge_dir_of: Vec<u32>,
     /// Largest distance of a vertex from the local origin (bounding-sphere radius).
     pub radius: f32,
+    /// When the polyhedron is a rectangular box centred on the origin: its axes and half
+    /// extents, recognised once here so that queries take the closed-form box paths.
+    pub box_frame: Option<BoxFrame>,
+}
+
+/// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
+/// extents, centred on the local origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoxFrame {
+    /// Box axes as columns.
+    pub axes: glam::DMat3,
+    /// Half extents along the axes.
+    pub half: glam::DVec3,
+    /// `axes` is the identity (the usual case: a box authored axis-aligned).
+    pub aligned: bool,
 }
 
 impl ConvexPolyhedron {
@@ -138,7 +153,7 @@ impl ConvexPolyhedron {
             });
             edge_dir_of.push(k);
         }
-        Self {
+        let mut p = Self {
             vertices,
             faces,
             face_vertices,
@@ -148,7 +163,10 @@ impl ConvexPolyhedron {
             edge_dirs,
             edge_dir_of,
             radius,
-        }
+            box_frame: None,
+        };
+        p.box_frame = crate::query::support::detect_box(&p);
+        p
     }
 
     /// The vertex loop of face `f`.

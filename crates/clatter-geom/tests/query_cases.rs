@@ -19,7 +19,9 @@ struct Body {
 
 impl Body {
     fn new(kind: ShapeKind) -> Self {
-        Body { prep: kind.prepare().expect("valid shape") }
+        Body {
+            prep: kind.prepare().expect("valid shape"),
+        }
     }
     fn boxed(edges: [f64; 3]) -> Self {
         Body::new(ShapeKind::Box {
@@ -34,7 +36,10 @@ impl Body {
     }
     /// Pose of the principal frame for an authored-frame position and orientation.
     fn at(&self, position: Vec3, orientation: Quat) -> Pose {
-        Pose::new(position + orientation * self.prep.com, orientation * self.prep.frame)
+        Pose::new(
+            position + orientation * self.prep.com,
+            orientation * self.prep.frame,
+        )
     }
 }
 
@@ -51,14 +56,7 @@ fn vclose(a: Vec3, b: Vec3, tol: f32) -> bool {
 }
 
 #[track_caller]
-fn check_pen(
-    a: &Body,
-    pa: Pose,
-    b: &Body,
-    pb: Pose,
-    depth: f32,
-    dir: Vec3,
-) -> query::Contact {
+fn check_pen(a: &Body, pa: Pose, b: &Body, pb: Pose, depth: f32, dir: Vec3) -> query::Contact {
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
     assert!(
         close(c.depth, depth, 1e-5),
@@ -66,7 +64,11 @@ fn check_pen(
         c.depth,
         c.normal
     );
-    assert!(vclose(c.normal, dir, 1e-4), "normal {:?} expected {dir:?}", c.normal);
+    assert!(
+        vclose(c.normal, dir, 1e-4),
+        "normal {:?} expected {dir:?}",
+        c.normal
+    );
     // Moving b along the normal by the depth leaves the shapes touching, not overlapping.
     let moved = Pose::new(pb.position + c.normal * (c.depth + 1e-4), pb.rotation);
     assert!(!query::intersects(a.shape(), &pa, b.shape(), &moved));
@@ -74,7 +76,11 @@ fn check_pen(
     assert!(query::intersects(a.shape(), &pa, b.shape(), &moved));
     // Witness points: b's deepest point is depth behind a's along the normal.
     let gap = (c.points[1] - c.points[0]).dot(c.normal);
-    assert!(close(gap, -c.depth, 1e-4), "witness gap {gap} vs depth {}", c.depth);
+    assert!(
+        close(gap, -c.depth, 1e-4),
+        "witness gap {gap} vs depth {}",
+        c.depth
+    );
     assert!(!c.manifold.is_empty());
     c
 }
@@ -92,6 +98,17 @@ fn libccd_pen1() {
         b.at(Vec3::new(0.1, 0.0, 0.0), Quat::IDENTITY),
         0.65,
         Vec3::X,
+    );
+    // The witness points lie on both boxes (in the overlap of the contact faces).
+    let inside = |p: Vec3, h: Vec3, c: Vec3| ((p - c).abs() - h).max_element() <= 1e-5;
+    assert!(inside(c.points[0], Vec3::splat(0.5), Vec3::ZERO), "{c:?}");
+    assert!(
+        inside(
+            c.points[1],
+            Vec3::new(0.25, 0.5, 0.75),
+            Vec3::new(0.1, 0.0, 0.0)
+        ),
+        "{c:?}"
     );
     // Face-face contact: the manifold is the 0.5 x 1 rectangle overlap, four corners.
     assert_eq!(c.manifold.len(), 4);
@@ -141,9 +158,17 @@ fn libccd_pen4_to_8() {
     let qz = aa(PI / 4.0, Vec3::Z);
     let s = std::f32::consts::FRAC_1_SQRT_2;
     // Pen 4.
-    check_pen(&a, a.at(Vec3::new(-0.5, 0.0, 0.0), qz), &b, pb, 0.707107, Vec3::X);
+    // Published as 0.707107, i.e. 1/sqrt(2).
+    check_pen(&a, a.at(Vec3::new(-0.5, 0.0, 0.0), qz), &b, pb, s, Vec3::X);
     // Pen 5: edge against face along the diagonal.
-    check_pen(&a, a.at(Vec3::new(-0.5, 0.5, 0.0), qz), &b, pb, 0.5, Vec3::new(s, -s, 0.0));
+    check_pen(
+        &a,
+        a.at(Vec3::new(-0.5, 0.5, 0.0), qz),
+        &b,
+        pb,
+        0.5,
+        Vec3::new(s, -s, 0.0),
+    );
     // Pen 6: edge-edge normal.
     let q6 = aa(PI / 4.0, Vec3::new(0.0, 1.0, 1.0));
     check_pen(
@@ -156,10 +181,24 @@ fn libccd_pen4_to_8() {
     );
     // Pen 7.
     let q7 = q6 * aa(PI / 4.0, Vec3::ONE);
-    check_pen(&a, a.at(Vec3::new(-0.5, 0.1, 0.4), q7), &b, pb, 0.722622, Vec3::X);
+    check_pen(
+        &a,
+        a.at(Vec3::new(-0.5, 0.1, 0.4), q7),
+        &b,
+        pb,
+        0.722622,
+        Vec3::X,
+    );
     // Pen 8: a corner just poking in.
     let q8 = qz * aa(PI / 4.0, Vec3::X);
-    check_pen(&a, a.at(Vec3::new(-1.3, 0.0, 0.0), q8), &b, pb, 0.053553, Vec3::X);
+    check_pen(
+        &a,
+        a.at(Vec3::new(-1.3, 0.0, 0.0), q8),
+        &b,
+        pb,
+        0.053553,
+        Vec3::X,
+    );
 }
 
 /// `boxboxPenetration2`: a small box resting 0.025 deep on a 20 x 0.1 x 20 slab; the contact
@@ -191,22 +230,34 @@ fn libccd_separate() {
     let pa = a.at(Vec3::new(-0.5, 0.5, 0.2), Quat::IDENTITY);
     assert!(query::intersects(a.shape(), &pa, b.shape(), &pb));
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
-    assert!(vclose(c.normal * c.depth, Vec3::new(0.25, 0.0, 0.0), 1e-5), "{c:?}");
+    assert!(
+        vclose(c.normal * c.depth, Vec3::new(0.25, 0.0, 0.0), 1e-5),
+        "{c:?}"
+    );
     // Moving a back by the separation vector leaves the boxes touching: depth 0.
     let pa = a.at(Vec3::new(-0.75, 0.5, 0.2), Quat::IDENTITY);
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
     assert!(close(c.depth, 0.0, 1e-6), "{c:?}");
     assert!(query::intersects(a.shape(), &pa, b.shape(), &pb));
-    assert_eq!(query::distance(a.shape(), &pa, b.shape(), &pb).distance, 0.0);
+    assert_eq!(
+        query::distance(a.shape(), &pa, b.shape(), &pb).distance,
+        0.0
+    );
     let pa = a.at(Vec3::new(-0.3, 0.5, 1.0), Quat::IDENTITY);
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
-    assert!(vclose(c.normal * c.depth, Vec3::new(0.0, 0.0, -0.25), 1e-5), "{c:?}");
+    assert!(
+        vclose(c.normal * c.depth, Vec3::new(0.0, 0.0, -0.25), 1e-5),
+        "{c:?}"
+    );
     // Two unit cubes, one turned 45 degrees about z, same centre: separate along +-z by 1.
     let b = Body::boxed([1.0, 1.0, 1.0]);
     let pb = b.at(Vec3::ZERO, Quat::IDENTITY);
     let pa = a.at(Vec3::ZERO, aa(PI / 4.0, Vec3::Z));
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
-    assert!(close(c.depth, 1.0, 1e-5) && close(c.normal.z.abs(), 1.0, 1e-5), "{c:?}");
+    assert!(
+        close(c.depth, 1.0, 1e-5) && close(c.normal.z.abs(), 1.0, 1e-5),
+        "{c:?}"
+    );
 }
 
 /// `boxboxAlignedX/Y/Z` and `mprBoxboxAligned*`: sliding a 1 x 2 x 1 box through a 2 x 1 x 2
@@ -267,7 +318,10 @@ fn libccd_rot_sweeps() {
     let b = Body::boxed([1.0, 1.0, 1.0]);
     let pb = b.at(Vec3::ZERO, Quat::IDENTITY);
     for i in 0..30 {
-        let pa = a.at(Vec3::new(-1.01, 0.0, 0.0), aa(i as f32 * PI / 20.0, Vec3::Y));
+        let pa = a.at(
+            Vec3::new(-1.01, 0.0, 0.0),
+            aa(i as f32 * PI / 20.0, Vec3::Y),
+        );
         let hit = query::intersects(a.shape(), &pa, b.shape(), &pb);
         assert_eq!(hit, !(i == 0 || i == 10 || i == 20), "step {i}");
         if !hit {
@@ -293,7 +347,12 @@ fn spheres_distance_touching_nested_far() {
     // Touching.
     let pb = b.at(dir * 1.5, Quat::IDENTITY);
     assert!(query::intersects(a.shape(), &pa, b.shape(), &pb));
-    assert!(query::distance(a.shape(), &pa, b.shape(), &pb).distance.abs() < 1e-6);
+    assert!(
+        query::distance(a.shape(), &pa, b.shape(), &pb)
+            .distance
+            .abs()
+            < 1e-6
+    );
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
     assert!(c.depth.abs() < 1e-6 && vclose(c.normal, dir, 1e-6));
     // Nested: b entirely inside a.
@@ -307,7 +366,9 @@ fn spheres_distance_touching_nested_far() {
     // Concentric: any normal, depth = sum of radii, no NaN.
     let pb = b.at(Vec3::ZERO, Quat::IDENTITY);
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
-    assert!(close(c.depth, 1.5, 1e-6) && c.normal.is_finite() && close(c.normal.length(), 1.0, 1e-6));
+    assert!(
+        close(c.depth, 1.5, 1e-6) && c.normal.is_finite() && close(c.normal.length(), 1.0, 1e-6)
+    );
     // Far apart.
     let pb = b.at(Vec3::new(1e5, 0.0, 0.0), Quat::IDENTITY);
     let d = query::distance(a.shape(), &pa, b.shape(), &pb);
@@ -322,7 +383,10 @@ fn sphere_box_cases() {
     // Facing a face, apart by 0.5.
     let ps = s.at(Vec3::new(0.0, 2.0, 0.0), Quat::IDENTITY);
     let d = query::distance(s.shape(), &ps, b.shape(), &pb);
-    assert!(close(d.distance, 0.5, 1e-6) && vclose(d.normal, Vec3::NEG_Y, 1e-6), "{d:?}");
+    assert!(
+        close(d.distance, 0.5, 1e-6) && vclose(d.normal, Vec3::NEG_Y, 1e-6),
+        "{d:?}"
+    );
     assert!(vclose(d.points[0], Vec3::new(0.0, 1.5, 0.0), 1e-6));
     assert!(vclose(d.points[1], Vec3::new(0.0, 1.0, 0.0), 1e-6));
     // Facing a corner.
@@ -333,23 +397,35 @@ fn sphere_box_cases() {
     // Centre inside the box: depth = radius + distance to the nearest face.
     let ps = s.at(Vec3::new(0.1, 0.7, -0.2), Quat::IDENTITY);
     let c = query::contact(b.shape(), &pb, s.shape(), &ps);
-    assert!(close(c.depth, 0.5 + 0.3, 1e-6) && vclose(c.normal, Vec3::Y, 1e-6), "{c:?}");
+    assert!(
+        close(c.depth, 0.5 + 0.3, 1e-6) && vclose(c.normal, Vec3::Y, 1e-6),
+        "{c:?}"
+    );
     assert!(query::intersects(s.shape(), &ps, b.shape(), &pb));
     // Straddling a face.
     let ps = s.at(Vec3::new(1.2, 0.0, 0.0), Quat::IDENTITY);
     let c = query::contact(s.shape(), &ps, b.shape(), &pb);
-    assert!(close(c.depth, 0.3, 1e-6) && vclose(c.normal, Vec3::NEG_X, 1e-6), "{c:?}");
+    assert!(
+        close(c.depth, 0.3, 1e-6) && vclose(c.normal, Vec3::NEG_X, 1e-6),
+        "{c:?}"
+    );
 }
 
 #[test]
 fn polyhedra_touching_coplanar_nested_far() {
-    let a = Body::new(ShapeKind::Regular { kind: RegularKind::Icosahedron, radius: 1.0 });
+    let a = Body::new(ShapeKind::Regular {
+        kind: RegularKind::Icosahedron,
+        radius: 1.0,
+    });
     let b = Body::boxed([0.2, 0.2, 0.2]);
     let pa = a.at(Vec3::ZERO, Quat::IDENTITY);
     // Nested: a small box deep inside the icosahedron.
     let pb = b.at(Vec3::new(0.05, 0.0, 0.0), aa(0.3, Vec3::ONE));
     assert!(query::intersects(a.shape(), &pa, b.shape(), &pb));
-    assert_eq!(query::distance(a.shape(), &pa, b.shape(), &pb).distance, 0.0);
+    assert_eq!(
+        query::distance(a.shape(), &pa, b.shape(), &pb).distance,
+        0.0
+    );
     let c = query::contact(a.shape(), &pa, b.shape(), &pb);
     assert!(c.depth > 0.5 && c.depth.is_finite() && c.normal.is_finite());
     // Far apart.
@@ -363,9 +439,15 @@ fn polyhedra_touching_coplanar_nested_far() {
         let p2 = c1.at(Vec3::new(0.3, 1.0 + gap, -0.2), Quat::IDENTITY);
         let d = query::distance(c1.shape(), &p1, c1.shape(), &p2);
         assert!(close(d.distance, gap, 1e-6), "{d:?}");
-        assert_eq!(query::intersects(c1.shape(), &p1, c1.shape(), &p2), gap == 0.0);
+        assert_eq!(
+            query::intersects(c1.shape(), &p1, c1.shape(), &p2),
+            gap == 0.0
+        );
         let c = query::contact(c1.shape(), &p1, c1.shape(), &p2);
-        assert!(close(c.depth, -gap, 1e-6) && vclose(c.normal, Vec3::Y, 1e-5), "{c:?}");
+        assert!(
+            close(c.depth, -gap, 1e-6) && vclose(c.normal, Vec3::Y, 1e-5),
+            "{c:?}"
+        );
         assert_eq!(c.manifold.len(), 4, "{c:?}");
     }
     // Identical poses (fully coincident shapes).
@@ -379,8 +461,14 @@ fn toi_spheres_head_on() {
     let b = Body::sphere(0.5);
     let pa = a.at(Vec3::new(-3.0, 0.0, 0.0), Quat::IDENTITY);
     let pb = b.at(Vec3::new(4.0, 0.0, 0.0), Quat::IDENTITY);
-    let ma = Motion { linear: Vec3::new(2.0, 0.0, 0.0), angular: Vec3::new(0.0, 5.0, 0.0) };
-    let mb = Motion { linear: Vec3::new(-1.5, 0.0, 0.0), angular: Vec3::ZERO };
+    let ma = Motion {
+        linear: Vec3::new(2.0, 0.0, 0.0),
+        angular: Vec3::new(0.0, 5.0, 0.0),
+    };
+    let mb = Motion {
+        linear: Vec3::new(-1.5, 0.0, 0.0),
+        angular: Vec3::ZERO,
+    };
     // Gap 7 - 1.5 = 5.5 closed at 3.5 per unit time.
     let t = query::time_of_impact(a.shape(), &pa, &ma, b.shape(), &pb, &mb, 10.0).unwrap();
     assert!(close(t.time, 5.5 / 3.5, 1e-6), "{t:?}");
@@ -388,7 +476,10 @@ fn toi_spheres_head_on() {
     assert!(vclose(t.points[0], Vec3::new(x, 0.0, 0.0), 1e-5) && vclose(t.normal, Vec3::X, 1e-6));
     // Horizon too short, moving apart, and passing by.
     assert!(query::time_of_impact(a.shape(), &pa, &ma, b.shape(), &pb, &mb, 1.5).is_none());
-    let away = Motion { linear: Vec3::new(-2.0, 0.0, 0.0), angular: Vec3::ZERO };
+    let away = Motion {
+        linear: Vec3::new(-2.0, 0.0, 0.0),
+        angular: Vec3::ZERO,
+    };
     assert!(query::time_of_impact(a.shape(), &pa, &away, b.shape(), &pb, &mb, 100.0).is_none());
     let pb2 = b.at(Vec3::new(4.0, 1.6, 0.0), Quat::IDENTITY);
     assert!(query::time_of_impact(a.shape(), &pa, &ma, b.shape(), &pb2, &mb, 100.0).is_none());
@@ -396,10 +487,16 @@ fn toi_spheres_head_on() {
     // conservative-advancement path, face-on: gap 7 - 0.5 - 0.5 = 6 at 3.5 per unit time.
     let c = Body::boxed([1.0, 1.0, 1.0]);
     let pc = c.at(Vec3::new(-3.0, 0.0, 0.0), Quat::IDENTITY);
-    let still = Motion { linear: Vec3::new(2.0, 0.0, 0.0), angular: Vec3::ZERO };
+    let still = Motion {
+        linear: Vec3::new(2.0, 0.0, 0.0),
+        angular: Vec3::ZERO,
+    };
     let t = query::time_of_impact(c.shape(), &pc, &still, b.shape(), &pb, &mb, 10.0).unwrap();
     let tol = query::TOI_REL_TOL as f32 * (c.shape().bounding_radius() + 0.5);
-    assert!(t.time <= 6.0 / 3.5 + 1e-6 && t.time >= 6.0 / 3.5 - tol / 3.5 - 1e-6, "{t:?}");
+    assert!(
+        t.time <= 6.0 / 3.5 + 1e-6 && t.time >= 6.0 / 3.5 - tol / 3.5 - 1e-6,
+        "{t:?}"
+    );
     assert!(t.converged && vclose(t.normal, Vec3::X, 1e-5));
 }
 
@@ -413,7 +510,10 @@ fn toi_spinning_box() {
     let wall = Body::boxed([10.0, 1.0, 10.0]);
     let pa = a.at(Vec3::ZERO, Quat::IDENTITY);
     let pw = wall.at(Vec3::new(0.0, 1.1, 0.0), Quat::IDENTITY);
-    let ma = Motion { linear: Vec3::ZERO, angular: Vec3::new(0.0, 0.0, 1.0) };
+    let ma = Motion {
+        linear: Vec3::ZERO,
+        angular: Vec3::new(0.0, 0.0, 1.0),
+    };
     let mw = Motion::default();
     let r = 1.04f64.sqrt();
     let phi = 0.2f64.atan();
@@ -422,17 +522,23 @@ fn toi_spinning_box() {
     assert!(t.converged, "{t:?}");
     // Conservative and within the distance tolerance: the corner approaches the wall at
     // r cos(phi + t) ~ 0.8 per unit time at impact.
-    let tol = query::TOI_REL_TOL as f32 * (a.shape().bounding_radius() + wall.shape().bounding_radius());
+    let tol =
+        query::TOI_REL_TOL as f32 * (a.shape().bounding_radius() + wall.shape().bounding_radius());
     assert!(t.time <= exact + 1e-6, "{} vs {exact}", t.time);
     assert!(t.time >= exact - tol / 0.8 - 1e-5, "{} vs {exact}", t.time);
     assert!(vclose(t.normal, Vec3::Y, 1e-3), "{t:?}");
     assert!(close(t.points[1].y, 0.6, 1e-5), "{t:?}");
     // Spinning the other way the first impact is the opposite corner's, by symmetry the same
     // time; spinning too slowly for the horizon gives none.
-    let mb = Motion { linear: Vec3::ZERO, angular: Vec3::new(0.0, 0.0, -1.0) };
+    let mb = Motion {
+        linear: Vec3::ZERO,
+        angular: Vec3::new(0.0, 0.0, -1.0),
+    };
     let t2 = query::time_of_impact(a.shape(), &pa, &mb, wall.shape(), &pw, &mw, 2.0).unwrap();
     assert!(close(t2.time, t.time, 1e-5), "{t2:?}");
-    assert!(query::time_of_impact(a.shape(), &pa, &ma, wall.shape(), &pw, &mw, exact * 0.9).is_none());
+    assert!(
+        query::time_of_impact(a.shape(), &pa, &ma, wall.shape(), &pw, &mw, exact * 0.9).is_none()
+    );
     // Overlapping at the start: time 0.
     let pw = wall.at(Vec3::new(0.0, 0.6, 0.0), Quat::IDENTITY);
     let t = query::time_of_impact(a.shape(), &pa, &ma, wall.shape(), &pw, &mw, 2.0).unwrap();
@@ -447,9 +553,18 @@ fn no_nan_on_degenerate_inputs() {
     let shapes = [
         Body::sphere(0.3),
         Body::boxed([1.0, 1.0, 1.0]),
-        Body::new(ShapeKind::Regular { kind: RegularKind::Tetrahedron, radius: 1.0 }),
-        Body::new(ShapeKind::Regular { kind: RegularKind::Dodecahedron, radius: 1e-3 }),
-        Body::new(ShapeKind::Regular { kind: RegularKind::Octahedron, radius: 1e3 }),
+        Body::new(ShapeKind::Regular {
+            kind: RegularKind::Tetrahedron,
+            radius: 1.0,
+        }),
+        Body::new(ShapeKind::Regular {
+            kind: RegularKind::Dodecahedron,
+            radius: 1e-3,
+        }),
+        Body::new(ShapeKind::Regular {
+            kind: RegularKind::Octahedron,
+            radius: 1e3,
+        }),
     ];
     let poses = [
         Pose::new(Vec3::ZERO, Quat::IDENTITY),
@@ -463,13 +578,17 @@ fn no_nan_on_degenerate_inputs() {
                 for pb in &poses {
                     let d = query::distance(a.shape(), pa, b.shape(), pb);
                     assert!(d.distance.is_finite() && d.distance >= 0.0);
-                    assert!(d.points[0].is_finite() && d.points[1].is_finite() && d.normal.is_finite());
+                    assert!(
+                        d.points[0].is_finite() && d.points[1].is_finite() && d.normal.is_finite()
+                    );
                     let c = query::contact(a.shape(), pa, b.shape(), pb);
                     assert!(c.depth.is_finite() && c.normal.is_finite(), "{c:?}");
                     assert!(c.manifold.points().iter().all(|p| p.is_finite()));
                     let _ = query::intersects(a.shape(), pa, b.shape(), pb);
                     let m = Motion::default();
-                    if let Some(t) = query::time_of_impact(a.shape(), pa, &m, b.shape(), pb, &m, 1.0) {
+                    if let Some(t) =
+                        query::time_of_impact(a.shape(), pa, &m, b.shape(), pb, &m, 1.0)
+                    {
                         assert!(t.time == 0.0 && t.normal.is_finite());
                     }
                 }

@@ -95,7 +95,14 @@ fn random_in_ball(rng: &mut ChaCha8Rng) -> Vec3 {
 
 fn make(kind: ShapeKind, parry: Box<dyn PShape>, poly: Option<PPoly>, name: &'static str) -> Body {
     let p = kind.prepare().expect("valid random shape");
-    Body { shape: p.shape, frame: p.frame, com: p.com, parry, poly, name }
+    Body {
+        shape: p.shape,
+        frame: p.frame,
+        com: p.com,
+        parry,
+        poly,
+        name,
+    }
 }
 
 fn random_hull(rng: &mut ChaCha8Rng) -> Body {
@@ -107,13 +114,18 @@ fn random_hull(rng: &mut ChaCha8Rng) -> Body {
     );
     let offset = random_in_ball(rng) * 0.5;
     loop {
-        let pts: Vec<Vec3> = (0..n).map(|_| random_in_ball(rng) * scale + offset).collect();
+        let pts: Vec<Vec3> = (0..n)
+            .map(|_| random_in_ball(rng) * scale + offset)
+            .collect();
         let Some(pp) = PPoly::from_convex_hull(&pts.iter().map(|&p| pv(p)).collect::<Vec<_>>())
         else {
             continue;
         };
         let kind = ShapeKind::Convex {
-            points: pts.iter().map(|p| [p.x as f64, p.y as f64, p.z as f64]).collect(),
+            points: pts
+                .iter()
+                .map(|p| [p.x as f64, p.y as f64, p.z as f64])
+                .collect(),
         };
         if let Ok(prep) = kind.prepare() {
             // Skip slivers: both libraries need a proper solid.
@@ -138,7 +150,12 @@ fn random_body(rng: &mut ChaCha8Rng, mixed: bool) -> Body {
     match rng.random_range(0..4) {
         0 => {
             let r: f32 = rng.random_range(0.1..1.0);
-            make(ShapeKind::Sphere { radius: r as f64 }, Box::new(Ball::new(r as f64)), None, "sphere")
+            make(
+                ShapeKind::Sphere { radius: r as f64 },
+                Box::new(Ball::new(r as f64)),
+                None,
+                "sphere",
+            )
         }
         1 => {
             let h = Vec3::new(
@@ -156,7 +173,9 @@ fn random_body(rng: &mut ChaCha8Rng, mixed: bool) -> Body {
                 })
                 .collect();
             make(
-                ShapeKind::Box { half_extents: [h.x as f64, h.y as f64, h.z as f64] },
+                ShapeKind::Box {
+                    half_extents: [h.x as f64, h.y as f64, h.z as f64],
+                },
                 Box::new(Cuboid::new(pv(h))),
                 PPoly::from_convex_hull(&corners),
                 "box",
@@ -168,7 +187,10 @@ fn random_body(rng: &mut ChaCha8Rng, mixed: bool) -> Body {
             let pts: Vec<PVec> = kind.points(r as f64).into_iter().map(pv).collect();
             let pp = PPoly::from_convex_hull(&pts).expect("regular hull");
             make(
-                ShapeKind::Regular { kind, radius: r as f64 },
+                ShapeKind::Regular {
+                    kind,
+                    radius: r as f64,
+                },
                 Box::new(pp.clone()),
                 Some(pp),
                 kind.name(),
@@ -229,8 +251,9 @@ fn run_intersects(seed: u64, mixed: bool) {
         let c = random_pair(&mut rng, mixed, if mixed { 1.2 } else { 1.0 });
         let (ma, mb, pa, pb) = c.poses();
         let ours = query::intersects(&c.a.shape, &ma, &c.b.shape, &mb);
-        let theirs =
-            pq::intersection_test(&pa, &*c.a.parry, &pb, &*c.b.parry).expect("supported").intersecting;
+        let theirs = pq::intersection_test(&pa, &*c.a.parry, &pb, &*c.b.parry)
+            .expect("supported")
+            .intersecting;
         // Near touching (by either library's measure) the verdict is not compared.
         let sep_theirs = parry_contact(&c, &pa, &pb);
         let sep_ours = -query::contact(&c.a.shape, &ma, &c.b.shape, &mb).depth;
@@ -246,7 +269,9 @@ fn run_intersects(seed: u64, mixed: bool) {
             c.label()
         );
     }
-    eprintln!("intersects (mixed={mixed}): {yes} overlapping of {PAIRS}, {skipped} near-touching skipped");
+    eprintln!(
+        "intersects (mixed={mixed}): {yes} overlapping of {PAIRS}, {skipped} near-touching skipped"
+    );
     assert!(yes > PAIRS / 5 && yes < PAIRS * 4 / 5, "a balanced sample");
 }
 
@@ -268,8 +293,9 @@ fn run_distance(seed: u64, mixed: bool) {
         let c = random_pair(&mut rng, mixed, 2.0);
         let (ma, mb, pa, pb) = c.poses();
         let ours = query::distance(&c.a.shape, &ma, &c.b.shape, &mb);
-        let theirs =
-            pq::distance(&pa, &*c.a.parry, &pb, &*c.b.parry).expect("supported").distance as f32;
+        let theirs = pq::distance(&pa, &*c.a.parry, &pb, &*c.b.parry)
+            .expect("supported")
+            .distance as f32;
         let err = (ours.distance - theirs).abs();
         let allowed = 1e-4 * theirs.max(ours.distance) + 1e-6;
         assert!(
@@ -305,7 +331,10 @@ fn run_distance(seed: u64, mixed: bool) {
             )
             .unwrap()
             .distance;
-            assert!(on_a == 0.0 && on_b == 0.0, "pair {i}: witness points off the shapes");
+            assert!(
+                on_a == 0.0 && on_b == 0.0,
+                "pair {i}: witness points off the shapes"
+            );
         } else {
             assert_eq!(ours.distance, 0.0, "pair {i}");
         }
@@ -328,8 +357,16 @@ fn distance_mixed() {
 
 /// Support value of the CSO `A - B` along the world direction `n`, with parry's support maps.
 fn cso_support(c: &PairCase, pa: &PPose, pb: &PPose, n: PVec) -> f64 {
-    let sa = c.a.parry.as_support_map().expect("convex").support_point(pa, n);
-    let sb = c.b.parry.as_support_map().expect("convex").support_point(pb, -n);
+    let sa =
+        c.a.parry
+            .as_support_map()
+            .expect("convex")
+            .support_point(pa, n);
+    let sb =
+        c.b.parry
+            .as_support_map()
+            .expect("convex")
+            .support_point(pb, -n);
     (sa - sb).dot(n)
 }
 
@@ -376,7 +413,11 @@ fn run_contact(seed: u64, mixed: bool) {
         let ours = query::contact(&c.a.shape, &ma, &c.b.shape, &mb);
         let theirs = pq::contact(&pa, &*c.a.parry, &pb, &*c.b.parry, 0.0).expect("supported");
         let Some(theirs) = theirs else {
-            assert!(ours.depth <= 1e-5, "pair {i} ({}): ours {ours:?}, parry none", c.label());
+            assert!(
+                ours.depth <= 1e-5,
+                "pair {i} ({}): ours {ours:?}, parry none",
+                c.label()
+            );
             continue;
         };
         let tdepth = -theirs.dist as f32;
@@ -417,15 +458,44 @@ fn run_contact(seed: u64, mixed: bool) {
         let size = c.a.shape.bounding_radius() + c.b.shape.bounding_radius();
         let moved = |by: f32| ppose(c.xb + ours.normal * by, c.qb);
         let hit = |p: &PPose| {
-            pq::intersection_test(&pa, &*c.a.parry, p, &*c.b.parry).unwrap().intersecting
+            pq::intersection_test(&pa, &*c.a.parry, p, &*c.b.parry)
+                .unwrap()
+                .intersecting
         };
-        assert!(!hit(&moved(ours.depth + 1e-4 * size)), "pair {i} ({}): not separated", c.label());
+        assert!(
+            !hit(&moved(ours.depth + 1e-4 * size)),
+            "pair {i} ({}): not separated",
+            c.label()
+        );
         if ours.depth > 1e-3 * size {
-            assert!(hit(&moved(ours.depth - 1e-4 * size)), "pair {i} ({}): over-separated", c.label());
+            assert!(
+                hit(&moved(ours.depth - 1e-4 * size)),
+                "pair {i} ({}): over-separated",
+                c.label()
+            );
         }
-        // Deepest points: b's is depth behind a's along the normal; contact points exist.
+        // Witness points: on (within 1e-5 of) each shape, b's depth behind a's along the normal;
+        // contact points exist.
+        for (k, shape, pose) in [(0, &c.a.parry, &pa), (1, &c.b.parry, &pb)] {
+            let off = pq::distance(
+                pose,
+                &**shape,
+                &ppose(ours.points[k], Quat::IDENTITY),
+                &Ball::new(1e-5),
+            )
+            .unwrap()
+            .distance;
+            assert!(
+                off == 0.0,
+                "pair {i} ({}): witness point {k} off its shape by {off}",
+                c.label()
+            );
+        }
         let gap = (ours.points[1] - ours.points[0]).dot(ours.normal);
-        assert!((gap + ours.depth).abs() <= 1e-4 * (1.0 + ours.depth), "pair {i}");
+        assert!(
+            (gap + ours.depth).abs() <= 1e-4 * (1.0 + ours.depth),
+            "pair {i}"
+        );
         assert!(!ours.manifold.is_empty());
     }
     eprintln!(
@@ -453,13 +523,18 @@ fn random_motion(rng: &mut ChaCha8Rng, toward: Vec3) -> Motion {
 
 /// parry's separation (negative: penetration) at time `t` of the motions.
 fn parry_sep_at(c: &PairCase, m1: &NonlinearRigidMotion, m2: &NonlinearRigidMotion, t: f32) -> f32 {
-    parry_contact(c, &m1.position_at_time(t as f64), &m2.position_at_time(t as f64))
+    parry_contact(
+        c,
+        &m1.position_at_time(t as f64),
+        &m2.position_at_time(t as f64),
+    )
 }
 
 fn run_toi(seed: u64, mixed: bool) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let horizon = 1.0f32;
     let (mut hits, mut both, mut not_converged, mut worst_dt) = (0, 0, 0, 0.0f32);
+    let mut agree = 0;
     let mut parry_missed = 0;
     for i in 0..PAIRS {
         let c = random_pair(&mut rng, mixed, 2.5);
@@ -469,13 +544,30 @@ fn run_toi(seed: u64, mixed: bool) {
         let motb = random_motion(&mut rng, -toward);
         let ours = query::time_of_impact(&c.a.shape, &ma, &mota, &c.b.shape, &mb, &motb, horizon);
         // parry rotates about the centre of mass, given in the shape's (authored) frame.
-        let m1 = NonlinearRigidMotion::new(ppose(c.xa, c.qa), pv(c.a.com), pv(mota.linear), pv(mota.angular));
-        let m2 = NonlinearRigidMotion::new(ppose(c.xb, c.qb), pv(c.b.com), pv(motb.linear), pv(motb.angular));
-        let theirs =
-            pq::cast_shapes_nonlinear(&m1, &*c.a.parry, &m2, &*c.b.parry, 0.0, horizon as f64, true)
-                .expect("supported")
-                .filter(|h| h.status != pq::ShapeCastStatus::Failed)
-                .map(|h| h.time_of_impact as f32);
+        let m1 = NonlinearRigidMotion::new(
+            ppose(c.xa, c.qa),
+            pv(c.a.com),
+            pv(mota.linear),
+            pv(mota.angular),
+        );
+        let m2 = NonlinearRigidMotion::new(
+            ppose(c.xb, c.qb),
+            pv(c.b.com),
+            pv(motb.linear),
+            pv(motb.angular),
+        );
+        let theirs = pq::cast_shapes_nonlinear(
+            &m1,
+            &*c.a.parry,
+            &m2,
+            &*c.b.parry,
+            0.0,
+            horizon as f64,
+            true,
+        )
+        .expect("supported")
+        .filter(|h| h.status != pq::ShapeCastStatus::Failed)
+        .map(|h| h.time_of_impact as f32);
         let size = c.a.shape.bounding_radius() + c.b.shape.bounding_radius();
         let tol = query::TOI_REL_TOL as f32 * size;
         match ours {
@@ -499,13 +591,24 @@ fn run_toi(seed: u64, mixed: bool) {
                 for k in 0..8 * (t.time > 0.0) as usize {
                     let tk = t.time * k as f32 / 8.0;
                     let sk = parry_sep_at(&c, &m1, &m2, tk);
-                    assert!(sk > -1e-6, "pair {i} ({}): penetration {sk} at {tk} < {}", c.label(), t.time);
+                    assert!(
+                        sk > -1e-6,
+                        "pair {i} ({}): penetration {sk} at {tk} < {}",
+                        c.label(),
+                        t.time
+                    );
                 }
                 // Never later than parry's impact (which parry places at or just after contact).
                 if let Some(tp) = theirs {
                     both += 1;
-                    assert!(t.time <= tp + 1e-4, "pair {i} ({}): ours {} after parry {tp}", c.label(), t.time);
+                    assert!(
+                        t.time <= tp + 1e-4,
+                        "pair {i} ({}): ours {} after parry {tp}",
+                        c.label(),
+                        t.time
+                    );
                     worst_dt = worst_dt.max(tp - t.time);
+                    agree += (tp - t.time <= 1e-3 * horizon) as usize;
                 } else {
                     parry_missed += 1;
                 }
@@ -514,13 +617,17 @@ fn run_toi(seed: u64, mixed: bool) {
                 if let Some(tp) = theirs {
                     // parry claims an impact we did not find: it must not be a real one.
                     let s = parry_sep_at(&c, &m1, &m2, tp);
-                    assert!(s > 1e-4 * size, "pair {i} ({}): parry impact at {tp} (separation {s}) missed", c.label());
+                    assert!(
+                        s > 1e-4 * size,
+                        "pair {i} ({}): parry impact at {tp} (separation {s}) missed",
+                        c.label()
+                    );
                 }
             }
         }
     }
     eprintln!(
-        "toi (mixed={mixed}): {hits} impacts of {PAIRS} ({both} also found by parry, {parry_missed} found only by us), {not_converged} not converged, largest lead over parry {worst_dt:e}"
+        "toi (mixed={mixed}): {hits} impacts of {PAIRS} ({both} also found by parry, {agree} of them within 1e-3 of parry's time; {parry_missed} found only by us), {not_converged} not converged, largest lead over parry {worst_dt:e}"
     );
     assert!(hits > PAIRS / 5);
 }
@@ -535,4 +642,113 @@ fn toi_mixed() {
     run_toi(8, true);
 }
 
+/// Exactly touching configurations (the harder case for GJK/EPA termination): an overlapping
+/// pair is pulled apart along our contact normal by our depth. Then the distance (by parry and
+/// by us) and our depth are zero to within 1e-5, and nothing is NaN.
+#[test]
+fn touching_pairs() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let mut n = 0;
+    while n < 2_000 {
+        let mut c = random_pair(&mut rng, n % 2 == 0, 0.6);
+        let (ma, mb, _, _) = c.poses();
+        let k = query::contact(&c.a.shape, &ma, &c.b.shape, &mb);
+        if k.depth <= 1e-3 {
+            continue;
+        }
+        n += 1;
+        c.xb += k.normal * k.depth;
+        let (ma, mb, pa, pb) = c.poses();
+        let d = query::distance(&c.a.shape, &ma, &c.b.shape, &mb);
+        let k2 = query::contact(&c.a.shape, &ma, &c.b.shape, &mb);
+        let theirs = pq::distance(&pa, &*c.a.parry, &pb, &*c.b.parry)
+            .unwrap()
+            .distance;
+        let size = c.a.shape.bounding_radius() + c.b.shape.bounding_radius();
+        assert!(d.distance.is_finite() && d.points[0].is_finite() && d.normal.is_finite());
+        assert!(k2.depth.is_finite() && k2.normal.is_finite() && k2.points[1].is_finite());
+        assert!(
+            d.distance <= 1e-5 * size,
+            "pair {n} ({}): distance {}",
+            c.label(),
+            d.distance
+        );
+        assert!(
+            theirs <= 1e-5 * size as f64,
+            "pair {n} ({}): parry distance {theirs}",
+            c.label()
+        );
+        assert!(
+            k2.depth.abs() <= 1e-5 * size,
+            "pair {n} ({}): depth {}",
+            c.label(),
+            k2.depth
+        );
+        let _ = query::intersects(&c.a.shape, &ma, &c.b.shape, &mb);
+    }
+}
 
+/// The simulator's narrow phase (`narrow::collide`: separating axes, clipped manifolds) against
+/// the exact penetration depth and parry: the same overlap verdict, a normal along which
+/// moving `b` by the exact depth (plus the face-preference hysteresis of 1e-3 of the size,
+/// doubled for rounding)
+/// separates the shapes, manifold depths never beyond the exact depth (same allowance), and every contact
+/// point inside the overlap region (within the depth of both shapes).
+fn run_narrow(seed: u64, mixed: bool) {
+    use clatter_geom::narrow;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let (mut touching, mut separated, mut points) = (0, 0, 0);
+    for i in 0..PAIRS {
+        let c = random_pair(&mut rng, mixed, 0.8);
+        let (ma, mb, pa, pb) = c.poses();
+        let size = c.a.shape.bounding_radius() + c.b.shape.bounding_radius();
+        let ours = narrow::collide(&c.a.shape, &ma, &c.b.shape, &mb);
+        let theirs = pq::contact(&pa, &*c.a.parry, &pb, &*c.b.parry, 0.0).expect("supported");
+        let depth = match (exact_depth(&c, &pa, &pb), &theirs) {
+            (Some((d, _)), _) => d as f32,
+            (None, Some(t)) => -t.dist as f32,
+            (None, None) => f32::NEG_INFINITY,
+        };
+        let label = c.label();
+        if depth < -1e-5 * size {
+            separated += 1;
+            assert!(ours.is_none(), "pair {i} ({label}): separated by {} but narrow gave {ours:?}", -depth);
+            continue;
+        }
+        if depth < 1e-4 * size {
+            continue; // touching within rounding: either verdict is fine
+        }
+        let m = ours.unwrap_or_else(|| panic!("pair {i} ({label}): overlap {depth} missed"));
+        touching += 1;
+        assert!((m.normal.length() - 1.0).abs() < 1e-4, "pair {i} ({label})");
+        assert!(m.count >= 1 && m.count <= 4);
+        let moved = ppose(c.xb + m.normal * (depth + 2e-3 * size), c.qb);
+        assert!(
+            !pq::intersection_test(&pa, &*c.a.parry, &moved, &*c.b.parry).unwrap().intersecting,
+            "pair {i} ({label}): moving b by the exact depth {depth} along {:?} does not separate",
+            m.normal
+        );
+        for p in m.points() {
+            points += 1;
+            assert!(p.depth > 0.0 && p.depth <= depth + 2e-3 * size, "pair {i} ({label}): point depth {} vs exact {depth}", p.depth);
+            for (shape, pose) in [(&c.a.parry, &pa), (&c.b.parry, &pb)] {
+                let off = pq::distance(pose, &**shape, &ppose(p.point, Quat::IDENTITY), &Ball::new(1e-9))
+                    .unwrap()
+                    .distance as f32;
+                assert!(off <= depth + 2e-3 * size, "pair {i} ({label}): contact point {off} outside a shape (depth {depth})");
+            }
+        }
+    }
+    eprintln!("narrow (mixed={mixed}): {touching} overlapping, {separated} separated, {points} contact points checked");
+    assert!(touching > PAIRS / 4 && separated > PAIRS / 20);
+}
+
+#[test]
+fn narrow_hulls() {
+    run_narrow(11, false);
+}
+
+#[test]
+fn narrow_mixed() {
+    run_narrow(12, true);
+}

@@ -5,7 +5,9 @@
 //! **forces** ([`forces`]) and **integrate** ([`world::World::step`]).
 
 pub mod broad;
+pub mod checkpoint;
 pub mod forces;
+pub mod health;
 pub mod material;
 pub mod pile;
 pub mod scene;
@@ -13,5 +15,7 @@ pub mod shape_spec;
 pub mod world;
 
 pub use clatter_geom as geom;
+pub use checkpoint::{Checkpoint, CheckpointError};
+pub use health::{BlowUp, Health};
 pub use material::{ContactLaw, Material, PairParams};
 pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};

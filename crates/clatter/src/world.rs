@@ -68,19 +68,19 @@ pub struct StepStats {
 
 /// Per-pair contact state: the pair, its tangential spring, and what this step computed.
 #[derive(Debug, Clone, Default)]
-struct ContactList {
+pub(crate) struct ContactList {
     /// Body pairs `(i, j)`, `i < j`, sorted.
-    pairs: Vec<[u32; 2]>,
+    pub(crate) pairs: Vec<[u32; 2]>,
     /// Body-wall pairs `(body, wall)`, sorted.
-    wall_pairs: Vec<[u32; 2]>,
+    pub(crate) wall_pairs: Vec<[u32; 2]>,
     /// Tangential springs: body pairs first, then wall pairs.
-    history: Vec<Vec3>,
+    pub(crate) history: Vec<Vec3>,
     /// This step's forces, same order as `history`.
-    forces: Vec<ContactForce>,
+    pub(crate) forces: Vec<ContactForce>,
     /// Whether each contact touches this step.
-    touching: Vec<bool>,
+    pub(crate) touching: Vec<bool>,
     /// Separating-axis hints of the body pairs (temporal coherence of the narrow phase).
-    hints: Vec<narrow::SatHint>,
+    pub(crate) hints: Vec<narrow::SatHint>,
     /// Body `i` is side a of body pairs `a_start[i]..a_start[i+1]` (pairs are sorted by `i`).
     a_start: Vec<u32>,
     /// Body `i` is side b of body pairs `b_adj[b_start[i]..b_start[i+1]]`.
@@ -140,9 +140,9 @@ pub struct World {
     pair_table: Vec<PairParams>,
     /// Every body is a sphere: the pair loop takes the sphere-sphere fast path.
     spheres_only: bool,
-    contacts: ContactList,
-    rebuild_position: Vec<Vec3>,
-    needs_rebuild: bool,
+    pub(crate) contacts: ContactList,
+    pub(crate) rebuild_position: Vec<Vec3>,
+    pub(crate) needs_rebuild: bool,
 }
 
 impl World {
@@ -333,7 +333,7 @@ impl World {
 
     /// Stages 1-3 (bin, sort, pairs) plus body-wall candidates; carries the tangential
     /// history of pairs that persist.
-    fn rebuild(&mut self) {
+    pub(crate) fn rebuild(&mut self) {
         let rmax = self.radius.iter().copied().fold(0.0, f32::max);
         let grid = Grid::around(&self.position, 2.0 * rmax + self.skin);
         let pairs = broad::pairs(&grid, &self.position, &self.radius, self.skin);

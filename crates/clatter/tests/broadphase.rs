@@ -7,7 +7,7 @@
 use clatter::broad::{self, Grid};
 use clatter::geom::narrow;
 use clatter::geom::{Pose, RegularKind, ShapeKind};
-use clatter::pile::{pile, PileParams, PileShape};
+use clatter::pile::{PileParams, PileShape, pile};
 use clatter::scene::random_rotation;
 use clatter::{BodyInit, ContactLaw, Material, World, WorldDesc};
 use glam::{Quat, Vec3};
@@ -21,23 +21,43 @@ fn check(positions: &[Vec3], radii: &[f32], skin: f32, what: &str) -> usize {
     let grid = Grid::around(positions, 2.0 * rmax + skin);
     let fast = broad::pairs(&grid, positions, radii, skin);
     let slow = broad::pairs_brute_force(positions, radii, skin);
-    assert!(fast.windows(2).all(|w| w[0] < w[1]), "{what}: pairs not sorted or duplicated");
+    assert!(
+        fast.windows(2).all(|w| w[0] < w[1]),
+        "{what}: pairs not sorted or duplicated"
+    );
     assert!(fast.iter().all(|p| p[0] < p[1]), "{what}: pair with i >= j");
     if fast != slow {
         let missing: Vec<_> = slow.iter().filter(|p| !fast.contains(p)).take(5).collect();
         let extra: Vec<_> = fast.iter().filter(|p| !slow.contains(p)).take(5).collect();
-        panic!("{what}: grid found {} pairs, brute force {}; missing {missing:?}, extra {extra:?}", fast.len(), slow.len());
+        panic!(
+            "{what}: grid found {} pairs, brute force {}; missing {missing:?}, extra {extra:?}",
+            fast.len(),
+            slow.len()
+        );
     }
     // The cells are sized as promised and every body is binned into the grid.
-    assert!(grid.cell_size >= 2.0 * rmax + skin, "{what}: cell {} too small", grid.cell_size);
+    assert!(
+        grid.cell_size >= 2.0 * rmax + skin,
+        "{what}: cell {} too small",
+        grid.cell_size
+    );
     let keys = broad::bin(&grid, positions);
-    assert!(keys.iter().all(|&k| (k as usize) < grid.cell_count()), "{what}: key outside the grid");
+    assert!(
+        keys.iter().all(|&k| (k as usize) < grid.cell_count()),
+        "{what}: key outside the grid"
+    );
     fast.len()
 }
 
 fn uniform(rng: &mut ChaCha8Rng, n: usize, extent: f32) -> Vec<Vec3> {
     (0..n)
-        .map(|_| Vec3::new(rng.random_range(-extent..extent), rng.random_range(-extent..extent), rng.random_range(-extent..extent)))
+        .map(|_| {
+            Vec3::new(
+                rng.random_range(-extent..extent),
+                rng.random_range(-extent..extent),
+                rng.random_range(-extent..extent),
+            )
+        })
         .collect()
 }
 
@@ -49,12 +69,31 @@ fn radii(rng: &mut ChaCha8Rng, n: usize, lo: f32, hi: f32) -> Vec<f32> {
 fn tiny_scenes() {
     // n = 0, 1, 2: nothing, nothing, and a pair exactly when the skin-grown spheres overlap.
     assert_eq!(check(&[], &[], 0.0, "empty"), 0);
-    assert_eq!(check(&[Vec3::new(3.0, -2.0, 1.0)], &[0.5], 0.1, "one body"), 0);
+    assert_eq!(
+        check(&[Vec3::new(3.0, -2.0, 1.0)], &[0.5], 0.1, "one body"),
+        0
+    );
     let a = Vec3::new(0.1, 0.2, 0.3);
-    for (d, skin, expected) in [(1.9f32, 0.0, 1), (2.05, 0.0, 0), (2.05, 0.1, 1), (2.2, 0.1, 0), (0.0, 0.0, 1)] {
-        let n = check(&[a, a + Vec3::new(d, 0.0, 0.0)], &[1.0, 1.0], skin, "two bodies");
+    for (d, skin, expected) in [
+        (1.9f32, 0.0, 1),
+        (2.05, 0.0, 0),
+        (2.05, 0.1, 1),
+        (2.2, 0.1, 0),
+        (0.0, 0.0, 1),
+    ] {
+        let n = check(
+            &[a, a + Vec3::new(d, 0.0, 0.0)],
+            &[1.0, 1.0],
+            skin,
+            "two bodies",
+        );
         assert_eq!(n, expected, "distance {d}, skin {skin}");
-        let n = check(&[a + Vec3::new(0.0, d, d) / 2f32.sqrt(), a], &[1.0, 1.0], skin, "two bodies, diagonal");
+        let n = check(
+            &[a + Vec3::new(0.0, d, d) / 2f32.sqrt(), a],
+            &[1.0, 1.0],
+            skin,
+            "two bodies, diagonal",
+        );
         assert_eq!(n, expected, "diagonal distance {d}, skin {skin}");
     }
 }
@@ -73,7 +112,9 @@ fn random_scenes_match_brute_force() {
         total += check(&uniform(&mut rng, n, 0.05), &r, skin, "dense");
         // Clustered: a few tight gaussian-ish blobs far apart.
         let centres = uniform(&mut rng, 5, 1.0);
-        let p: Vec<Vec3> = (0..n).map(|i| centres[i % 5] + uniform(&mut rng, 1, 0.04)[0]).collect();
+        let p: Vec<Vec3> = (0..n)
+            .map(|i| centres[i % 5] + uniform(&mut rng, 1, 0.04)[0])
+            .collect();
         total += check(&p, &r, skin, "clusters");
         // One giant among small ones: cells sized by the giant.
         let mut r2 = radii(&mut rng, n, 0.001, 0.005);
@@ -91,11 +132,21 @@ fn random_scenes_match_brute_force() {
         let cell = 2.0 * 0.01 + skin;
         let side = 7;
         let p: Vec<Vec3> = (0..side * side * side)
-            .map(|i| Vec3::new((i % side) as f32, ((i / side) % side) as f32, (i / (side * side)) as f32) * cell - Vec3::splat(0.03))
+            .map(|i| {
+                Vec3::new(
+                    (i % side) as f32,
+                    ((i / side) % side) as f32,
+                    (i / (side * side)) as f32,
+                ) * cell
+                    - Vec3::splat(0.03)
+            })
             .collect();
         total += check(&p, &vec![0.01; p.len()], skin, "lattice");
         // Shifted half a cell and scaled a hair down so neighbours overlap.
-        let p: Vec<Vec3> = p.iter().map(|&x| x * 0.999 + Vec3::splat(0.5 * cell)).collect();
+        let p: Vec<Vec3> = p
+            .iter()
+            .map(|&x| x * 0.999 + Vec3::splat(0.5 * cell))
+            .collect();
         total += check(&p, &vec![0.01; p.len()], skin, "lattice, touching");
     }
     eprintln!("{total} pairs checked");
@@ -113,7 +164,13 @@ fn mixed_cloud(n: usize, seed: u64) -> WorldDesc {
             shapes.push(ShapeKind::Regular { kind, radius: r }.prepare().unwrap());
         }
     }
-    shapes.push(ShapeKind::Box { half_extents: [0.012, 0.006, 0.003] }.prepare().unwrap());
+    shapes.push(
+        ShapeKind::Box {
+            half_extents: [0.012, 0.006, 0.003],
+        }
+        .prepare()
+        .unwrap(),
+    );
     let spacing = 0.024f32;
     let half = (n as f32 - 1.0) / 2.0;
     let bodies = (0..n * n * n)
@@ -156,7 +213,13 @@ fn compare_with_all_pairs(w: &mut World, steps: usize, every: usize) -> (usize, 
     let mut seen = 0;
     for s in 0..steps {
         let check = s % every == every - 1;
-        let poses: Vec<Pose> = if check { (0..w.len()).map(|i| Pose::new(w.position[i], w.orientation[i])).collect() } else { Vec::new() };
+        let poses: Vec<Pose> = if check {
+            (0..w.len())
+                .map(|i| Pose::new(w.position[i], w.orientation[i]))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let stats = w.step().unwrap();
         if !check {
             continue;
@@ -171,20 +234,38 @@ fn compare_with_all_pairs(w: &mut World, steps: usize, every: usize) -> (usize, 
             }
         }
         let mut wall_contacts = 0;
-        for i in 0..w.len() {
+        for (i, pose) in poses.iter().enumerate() {
             for wall in &w.walls {
-                if narrow::collide_plane(&wall.plane, shape(i), &poses[i]).is_some() {
+                if narrow::collide_plane(&wall.plane, shape(i), pose).is_some() {
                     wall_contacts += 1;
                 }
             }
         }
         let found = w.touching_pairs();
         if found != brute {
-            let missing: Vec<_> = brute.iter().filter(|p| !found.contains(p)).take(5).collect();
-            let extra: Vec<_> = found.iter().filter(|p| !brute.contains(p)).take(5).collect();
-            panic!("step {}: pipeline has {} touching pairs, all-pairs narrow phase {}; missing {missing:?}, extra {extra:?}", w.step_count, found.len(), brute.len());
+            let missing: Vec<_> = brute
+                .iter()
+                .filter(|p| !found.contains(p))
+                .take(5)
+                .collect();
+            let extra: Vec<_> = found
+                .iter()
+                .filter(|p| !brute.contains(p))
+                .take(5)
+                .collect();
+            panic!(
+                "step {}: pipeline has {} touching pairs, all-pairs narrow phase {}; missing {missing:?}, extra {extra:?}",
+                w.step_count,
+                found.len(),
+                brute.len()
+            );
         }
-        assert_eq!(stats.contacts, brute.len() + wall_contacts, "step {}: contact count", w.step_count);
+        assert_eq!(
+            stats.contacts,
+            brute.len() + wall_contacts,
+            "step {}: contact count",
+            w.step_count
+        );
         checks += 1;
         seen += brute.len();
     }
@@ -194,10 +275,17 @@ fn compare_with_all_pairs(w: &mut World, steps: usize, every: usize) -> (usize, 
 #[test]
 fn pipeline_contacts_match_all_pairs_narrow_phase_in_a_cloud() {
     let mut w = World::new(mixed_cloud(6, 3));
-    let (checks, seen) = compare_with_all_pairs(&mut w, 3000, 100);
-    eprintln!("cloud: {checks} checks, {seen} touching pairs compared, {} rebuilds", w.rebuilds);
+    let (checks, seen) = compare_with_all_pairs(&mut w, 3000, 50);
+    eprintln!(
+        "cloud: {checks} checks, {seen} touching pairs compared, {} rebuilds",
+        w.rebuilds
+    );
     assert!(seen > 1000, "too few contacts to mean anything: {seen}");
-    assert!(w.rebuilds > 3, "the Verlet list was never rebuilt: {}", w.rebuilds);
+    assert!(
+        w.rebuilds > 3,
+        "the Verlet list was never rebuilt: {}",
+        w.rebuilds
+    );
 }
 
 #[test]
@@ -209,7 +297,10 @@ fn pipeline_contacts_match_all_pairs_narrow_phase_in_a_pile() {
         b.orientation = Quat::from_rotation_z(f) * b.orientation;
     }
     let mut w = World::new(desc);
-    let (checks, seen) = compare_with_all_pairs(&mut w, 3000, 150);
-    eprintln!("pile: {checks} checks, {seen} touching pairs compared, {} rebuilds", w.rebuilds);
+    let (checks, seen) = compare_with_all_pairs(&mut w, 3000, 50);
+    eprintln!(
+        "pile: {checks} checks, {seen} touching pairs compared, {} rebuilds",
+        w.rebuilds
+    );
     assert!(seen > 1000, "too few contacts to mean anything: {seen}");
 }

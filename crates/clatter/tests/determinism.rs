@@ -2,8 +2,8 @@
 //! number of rayon threads, and run after run (forces are gathered per body in a fixed order,
 //! pair lists are sorted, no float atomics).
 
-use clatter::pile::{pile, PileParams, PileShape};
 use clatter::World;
+use clatter::pile::{PileParams, PileShape, pile};
 use glam::Vec3;
 
 /// Every state bit of every body, in order.
@@ -30,20 +30,29 @@ struct Run {
 /// box and given a shake: every body starts with a different velocity and spin so contacts
 /// form and break all the time.
 fn run(threads: usize, n: usize, steps: usize) -> Run {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
     pool.install(|| {
         let mut desc = pile(PileShape::Mixed, n, &PileParams::default());
         for (i, b) in desc.bodies.iter_mut().enumerate() {
             let f = i as f32;
             b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
-            b.angular_velocity = Vec3::new((f * 0.29).cos(), (f * 0.53).sin(), (f * 0.97).cos()) * 30.0;
+            b.angular_velocity =
+                Vec3::new((f * 0.29).cos(), (f * 0.53).sin(), (f * 0.97).cos()) * 30.0;
         }
         let mut w = World::new(desc);
         let mut contacts = Vec::with_capacity(steps);
         for _ in 0..steps {
             contacts.push(w.step().unwrap().contacts);
         }
-        Run { state: snapshot(&w), contacts, pairs: w.touching_pairs(), rebuilds: w.rebuilds }
+        Run {
+            state: snapshot(&w),
+            contacts,
+            pairs: w.touching_pairs(),
+            rebuilds: w.rebuilds,
+        }
     })
 }
 
@@ -56,16 +65,39 @@ fn same_bits_for_1_2_3_threads_and_repeated_runs() {
     let (n, steps) = (400, 600);
     let reference = run(1, n, steps);
     let total: usize = reference.contacts.iter().sum();
-    eprintln!("{n} bodies, {steps} steps: {total} contact-steps, {} at the end, {} rebuilds", reference.contacts[steps - 1], reference.rebuilds);
-    assert!(reference.contacts[steps / 2..].iter().all(|&c| c > n / 10), "the pile should be in contact");
-    assert!(reference.rebuilds > 1, "the broad phase should have been rebuilt");
+    eprintln!(
+        "{n} bodies, {steps} steps: {total} contact-steps, {} at the end, {} rebuilds",
+        reference.contacts[steps - 1],
+        reference.rebuilds
+    );
+    assert!(
+        reference.contacts[steps / 2..].iter().all(|&c| c > n / 10),
+        "the pile should be in contact"
+    );
+    assert!(
+        reference.rebuilds > 1,
+        "the broad phase should have been rebuilt"
+    );
     for threads in [1, 2, 3, 2] {
         let other = run(threads, n, steps);
-        assert_eq!(other.contacts, reference.contacts, "{threads} threads: contact counts differ");
-        assert_eq!(other.pairs, reference.pairs, "{threads} threads: touching pairs differ");
-        assert_eq!(other.rebuilds, reference.rebuilds, "{threads} threads: rebuilds differ");
+        assert_eq!(
+            other.contacts, reference.contacts,
+            "{threads} threads: contact counts differ"
+        );
+        assert_eq!(
+            other.pairs, reference.pairs,
+            "{threads} threads: touching pairs differ"
+        );
+        assert_eq!(
+            other.rebuilds, reference.rebuilds,
+            "{threads} threads: rebuilds differ"
+        );
         if let Some(k) = first_difference(&other.state, &reference.state) {
-            panic!("{threads} threads: state differs first at body {}, word {}", k / 16, k % 16);
+            panic!(
+                "{threads} threads: state differs first at body {}, word {}",
+                k / 16,
+                k % 16
+            );
         }
     }
 }

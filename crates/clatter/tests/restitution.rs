@@ -3,8 +3,8 @@
 //! sphere on sphere, head-on, no friction, no gravity), and the Hertz law's restitution against
 //! an independent high-accuracy integration of the same ODE.
 
-use clatter::geom::narrow::Plane;
 use clatter::geom::ShapeKind;
+use clatter::geom::narrow::Plane;
 use clatter::{BodyInit, ContactLaw, Material, PairParams, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
 
@@ -14,7 +14,13 @@ const K: f32 = 2.0e4;
 const V0: f32 = 0.5;
 
 fn material(law: ContactLaw, e: f32) -> Material {
-    Material { name: "m".into(), density: DENSITY, law, restitution: e, friction: 0.0 }
+    Material {
+        name: "m".into(),
+        density: DENSITY,
+        law,
+        restitution: e,
+        friction: 0.0,
+    }
 }
 
 fn body(shape: u32, position: Vec3, velocity: Vec3) -> BodyInit {
@@ -44,8 +50,18 @@ fn wall_world_phase(law: ContactLaw, e: f32, dt_fraction: f64, phase: f64) -> (W
     let desc = WorldDesc {
         shapes: vec![shape],
         materials: vec![m],
-        walls: vec![Wall { plane: Plane { normal: Vec3::Z, offset: 0.0 }, material: 0 }],
-        bodies: vec![body(0, Vec3::new(0.0, 0.0, R as f32 + gap), Vec3::new(0.0, 0.0, -V0))],
+        walls: vec![Wall {
+            plane: Plane {
+                normal: Vec3::Z,
+                offset: 0.0,
+            },
+            material: 0,
+        }],
+        bodies: vec![body(
+            0,
+            Vec3::new(0.0, 0.0, R as f32 + gap),
+            Vec3::new(0.0, 0.0, -V0),
+        )],
         gravity: Vec3::ZERO,
         dt: Some((t_c / dt_fraction) as f32),
         skin: None,
@@ -58,7 +74,10 @@ fn pair_world(law: ContactLaw, e: f32, ra: f64, rb: f64, dt_fraction: f64) -> (W
     let m = material(law, e);
     let sa = ShapeKind::Sphere { radius: ra }.prepare().unwrap();
     let sb = ShapeKind::Sphere { radius: rb }.prepare().unwrap();
-    let (ma, mb) = (DENSITY as f64 * sa.volume as f64, DENSITY as f64 * sb.volume as f64);
+    let (ma, mb) = (
+        DENSITY as f64 * sa.volume as f64,
+        DENSITY as f64 * sb.volume as f64,
+    );
     let m_eff = ma * mb / (ma + mb);
     let params = PairParams::combine(&m, &m);
     let t_c = params.contact_duration(m_eff, ra * rb / (ra + rb), 2.0 * V0 as f64);
@@ -68,8 +87,16 @@ fn pair_world(law: ContactLaw, e: f32, ra: f64, rb: f64, dt_fraction: f64) -> (W
         materials: vec![m],
         walls: vec![],
         bodies: vec![
-            body(0, Vec3::new(-(ra as f32) - gap / 2.0, 0.0, 0.0), Vec3::new(V0, 0.0, 0.0)),
-            body(1, Vec3::new(rb as f32 + gap / 2.0, 0.0, 0.0), Vec3::new(-V0, 0.0, 0.0)),
+            body(
+                0,
+                Vec3::new(-(ra as f32) - gap / 2.0, 0.0, 0.0),
+                Vec3::new(V0, 0.0, 0.0),
+            ),
+            body(
+                1,
+                Vec3::new(rb as f32 + gap / 2.0, 0.0, 0.0),
+                Vec3::new(-V0, 0.0, 0.0),
+            ),
         ],
         gravity: Vec3::ZERO,
         dt: Some((t_c / dt_fraction) as f32),
@@ -78,8 +105,8 @@ fn pair_world(law: ContactLaw, e: f32, ra: f64, rb: f64, dt_fraction: f64) -> (W
     (World::new(desc), t_c)
 }
 
-/// Steps until the single contact has come and gone; returns (steps in contact * dt, world).
-/// `rel_normal_velocity` gives the relative normal velocity (positive = separating).
+/// Steps until the single contact has come and gone; returns the time in contact (steps whose
+/// narrow phase found an overlap, times dt). The velocities are then the outgoing ones.
 fn run_impact(w: &mut World) -> f64 {
     let mut contact_steps = 0u64;
     let mut was_in_contact = false;
@@ -98,9 +125,10 @@ fn run_impact(w: &mut World) -> f64 {
     panic!("the impact never ended");
 }
 
-/// Steps per contact duration for the 1% assertions. The integrator (semi-implicit Euler,
-/// damping from the half-step-old velocity) is first order: at `t_c / 200` the error in `e`
-/// reaches about 1% for strong damping (see `restitution_error_is_first_order_in_dt`).
+/// Steps per contact duration for the 1% assertions. The error in `e` is first order in dt:
+/// at `t_c / 200` it reaches 3.3% for e = 0.1 and 1.0% for e = 0.3 in the worst case over the
+/// phase at which the contact starts (see `restitution_error_is_first_order_in_dt`), so the
+/// 1% requirement needs about `t_c / 700` for e = 0.1.
 const FINE: f64 = 1000.0;
 
 const RESTITUTIONS: [f32; 6] = [0.1, 0.3, 0.5, 0.7, 0.9, 1.0];
@@ -113,10 +141,19 @@ fn linear_sphere_wall_restitution_and_duration() {
         let measured_tc = run_impact(&mut w);
         let v_out = w.velocity[0].z as f64;
         let e_meas = -v_out / v_in;
-        eprintln!("wall e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
-            e_meas / e as f64 - 1.0, measured_tc / t_c - 1.0);
-        assert!((e_meas / e as f64 - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}");
-        assert!((measured_tc / t_c - 1.0).abs() < 0.02, "e = {e}: t_c {t_c} measured {measured_tc}");
+        eprintln!(
+            "wall e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
+            e_meas / e as f64 - 1.0,
+            measured_tc / t_c - 1.0
+        );
+        assert!(
+            (e_meas / e as f64 - 1.0).abs() < 0.01,
+            "e = {e}: measured {e_meas}"
+        );
+        assert!(
+            (measured_tc / t_c - 1.0).abs() < 0.02,
+            "e = {e}: t_c {t_c} measured {measured_tc}"
+        );
         // Head-on and frictionless: nothing sideways, no spin.
         assert_eq!(w.velocity[0].x, 0.0);
         assert_eq!(w.velocity[0].y, 0.0);
@@ -133,14 +170,26 @@ fn linear_sphere_sphere_restitution_and_duration() {
         let measured_tc = run_impact(&mut w);
         let v_out = (w.velocity[1].x - w.velocity[0].x) as f64;
         let e_meas = -v_out / v_in;
-        eprintln!("pair e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
-            e_meas / e as f64 - 1.0, measured_tc / t_c - 1.0);
-        assert!((e_meas / e as f64 - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}");
-        assert!((measured_tc / t_c - 1.0).abs() < 0.02, "e = {e}: t_c {t_c} measured {measured_tc}");
+        eprintln!(
+            "pair e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
+            e_meas / e as f64 - 1.0,
+            measured_tc / t_c - 1.0
+        );
+        assert!(
+            (e_meas / e as f64 - 1.0).abs() < 0.01,
+            "e = {e}: measured {e_meas}"
+        );
+        assert!(
+            (measured_tc / t_c - 1.0).abs() < 0.02,
+            "e = {e}: t_c {t_c} measured {measured_tc}"
+        );
         // Equal masses: symmetric outcome, momentum (zero) kept.
         let p1 = w.momentum();
         let scale = w.mass[0] as f64 * V0 as f64;
-        assert!((p1[0] - p0[0]).abs() < 1e-6 * scale, "momentum {p0:?} -> {p1:?}");
+        assert!(
+            (p1[0] - p0[0]).abs() < 1e-6 * scale,
+            "momentum {p0:?} -> {p1:?}"
+        );
         assert_eq!(w.velocity[0].y, 0.0);
         assert_eq!(w.velocity[0].z, 0.0);
     }
@@ -182,13 +231,22 @@ fn hertz_reference(e_star: f64, damping_factor: f64, m: f64, r: f64, v0: f64) ->
 #[test]
 fn hertz_sphere_wall_restitution() {
     let (youngs, poisson) = (5.0e7f32, 0.3f32);
-    let law = ContactLaw::Hertz { youngs_modulus: youngs, poisson_ratio: poisson };
+    let law = ContactLaw::Hertz {
+        youngs_modulus: youngs,
+        poisson_ratio: poisson,
+    };
     for &e in &RESTITUTIONS {
         let m = material(law, e);
         let params = PairParams::combine(&m, &m);
         let (mut w, t_c) = wall_world(law, e, FINE);
         let mass = w.mass[0] as f64;
-        let (e_ref, tc_ref) = hertz_reference(params.stiffness as f64, params.damping_factor as f64, mass, R, V0 as f64);
+        let (e_ref, tc_ref) = hertz_reference(
+            params.stiffness as f64,
+            params.damping_factor as f64,
+            mass,
+            R,
+            V0 as f64,
+        );
         let v_in = w.velocity[0].z as f64;
         let measured_tc = run_impact(&mut w);
         let e_meas = -w.velocity[0].z as f64 / v_in;
@@ -198,19 +256,34 @@ fn hertz_sphere_wall_restitution() {
             e_meas / e_ref - 1.0
         );
         // The simulation integrates the law it claims to (tight).
-        assert!((e_meas / e_ref - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}, ODE {e_ref}");
-        assert!((measured_tc / tc_ref - 1.0).abs() < 0.02, "e = {e}: t_c ODE {tc_ref} measured {measured_tc}");
+        assert!(
+            (e_meas / e_ref - 1.0).abs() < 0.01,
+            "e = {e}: measured {e_meas}, ODE {e_ref}"
+        );
+        assert!(
+            (measured_tc / tc_ref - 1.0).abs() < 0.02,
+            "e = {e}: t_c ODE {tc_ref} measured {measured_tc}"
+        );
         // Undamped estimate of the duration (2.87 (m^2 / (R E*^2 v))^(1/5)) holds for e = 1.
         if e == 1.0 {
-            assert!((measured_tc / t_c - 1.0).abs() < 0.02, "t_c {t_c} measured {measured_tc}");
+            assert!(
+                (measured_tc / t_c - 1.0).abs() < 0.02,
+                "t_c {t_c} measured {measured_tc}"
+            );
         }
         // Tsuji's damping `2 sqrt(5/6) beta sqrt(S_n m)` with the linear model's e -> beta map
         // is often said to give e only approximately; the independent ODE integration above
         // finds it exact to 1e-7 for every e here (the restitution of this dashpot depends on
         // beta alone, and the sqrt(5/6) makes the map match). So the requested e must be met
         // as tightly as in the linear model: 1% at t_c / 1000.
-        assert!((e_ref / e as f64 - 1.0).abs() < 1e-4, "e = {e}: ODE gives {e_ref}");
-        assert!((e_meas / e as f64 - 1.0).abs() < 0.01, "e = {e}: measured {e_meas}");
+        assert!(
+            (e_ref / e as f64 - 1.0).abs() < 1e-4,
+            "e = {e}: ODE gives {e_ref}"
+        );
+        assert!(
+            (e_meas / e as f64 - 1.0).abs() < 0.01,
+            "e = {e}: measured {e_meas}"
+        );
     }
 }
 
@@ -219,7 +292,12 @@ fn hertz_sphere_wall_restitution() {
 fn worst_wall_restitution_error(e: f32, dt_fraction: f64) -> f64 {
     (0..7)
         .map(|k| {
-            let (mut w, _) = wall_world_phase(ContactLaw::Linear { stiffness: K }, e, dt_fraction, k as f64 / 7.0);
+            let (mut w, _) = wall_world_phase(
+                ContactLaw::Linear { stiffness: K },
+                e,
+                dt_fraction,
+                k as f64 / 7.0,
+            );
             let v_in = w.velocity[0].z as f64;
             run_impact(&mut w);
             (-w.velocity[0].z as f64 / v_in / e as f64 - 1.0).abs()
@@ -235,8 +313,14 @@ fn worst_wall_restitution_error(e: f32, dt_fraction: f64) -> f64 {
 #[test]
 fn restitution_error_is_first_order_in_dt() {
     for &e in &[0.1f32, 0.3, 0.5, 0.7, 0.9] {
-        let errs: Vec<f64> = [50.0, 200.0, 1000.0].iter().map(|&f| worst_wall_restitution_error(e, f)).collect();
-        eprintln!("e={e}: worst rel err at t_c/50 {:.2e}, t_c/200 {:.2e}, t_c/1000 {:.2e}", errs[0], errs[1], errs[2]);
+        let errs: Vec<f64> = [50.0, 200.0, 1000.0]
+            .iter()
+            .map(|&f| worst_wall_restitution_error(e, f))
+            .collect();
+        eprintln!(
+            "e={e}: worst rel err at t_c/50 {:.2e}, t_c/200 {:.2e}, t_c/1000 {:.2e}",
+            errs[0], errs[1], errs[2]
+        );
         assert!(errs[2] < 0.01, "e = {e}: error {} at t_c/1000", errs[2]);
         // First order: 20 times smaller step, 10 to 40 times smaller error (e = 0.9 is so
         // lightly damped that its error is tiny at every step).
@@ -246,6 +330,10 @@ fn restitution_error_is_first_order_in_dt() {
         }
         // The worst case at the default step, as a regression bound: the error scales with the
         // damping, `(eta / m) dt ~ -ln e`; measured at most 0.057 (-ln e) for these e.
-        assert!(errs[0] < 0.07 * -(e as f64).ln(), "e = {e}: error {} at t_c/50", errs[0]);
+        assert!(
+            errs[0] < 0.07 * -(e as f64).ln(),
+            "e = {e}: error {} at t_c/50",
+            errs[0]
+        );
     }
 }

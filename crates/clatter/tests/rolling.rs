@@ -7,8 +7,8 @@
 //! without slipping means `omega = (z x v) / R` (for `u = x`, `omega_y = v_x / R`). Backspin of
 //! magnitude `w0` is `omega = -w0 (z x u)`. Then `v_final = (5 v0 - 2 R w0) / 7` along `u`.
 
-use clatter::geom::narrow::Plane;
 use clatter::geom::ShapeKind;
+use clatter::geom::narrow::Plane;
 use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
 
@@ -32,7 +32,13 @@ fn world(velocity: Vec3, omega: Vec3) -> World {
     World::new(WorldDesc {
         shapes: vec![shape],
         materials: vec![material],
-        walls: vec![Wall { plane: Plane { normal: Vec3::Z, offset: 0.0 }, material: 0 }],
+        walls: vec![Wall {
+            plane: Plane {
+                normal: Vec3::Z,
+                offset: 0.0,
+            },
+            material: 0,
+        }],
         bodies: vec![BodyInit {
             shape: 0,
             material: 0,
@@ -74,9 +80,17 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         let w_expected = 2.5 * (MU * G) as f64 * t / R as f64;
         let v = w.velocity[0].dot(u) as f64;
         let spin = w.omega[0].dot(Vec3::Z.cross(u)) as f64;
-        eprintln!("angle {angle}: at t={t:.4}: v={v:.5} (expected {v_expected:.5}), omega={spin:.3} (expected {w_expected:.3})");
-        assert!((v / v_expected - 1.0).abs() < 0.01, "sliding v {v}, expected {v_expected}");
-        assert!((spin / w_expected - 1.0).abs() < 0.02, "sliding omega {spin}, expected {w_expected}");
+        eprintln!(
+            "angle {angle}: at t={t:.4}: v={v:.5} (expected {v_expected:.5}), omega={spin:.3} (expected {w_expected:.3})"
+        );
+        assert!(
+            (v / v_expected - 1.0).abs() < 0.01,
+            "sliding v {v}, expected {v_expected}"
+        );
+        assert!(
+            (spin / w_expected - 1.0).abs() < 0.02,
+            "sliding omega {spin}, expected {w_expected}"
+        );
 
         // Slip stops at t_roll.
         let mut t_stop = None;
@@ -88,14 +102,28 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         }
         let t_stop = t_stop.expect("the sphere never stopped slipping");
         eprintln!("angle {angle}: slip stops at {t_stop:.5} s, expected {t_roll:.5} s");
-        assert!((t_stop / t_roll - 1.0).abs() < 0.03, "slip stopped at {t_stop}, expected {t_roll}");
+        assert!(
+            (t_stop / t_roll - 1.0).abs() < 0.03,
+            "slip stopped at {t_stop}, expected {t_roll}"
+        );
 
         run_for(&mut w, 0.3);
         let v = w.velocity[0];
         let vr = (w.omega[0].cross(Vec3::Z) * R).dot(u);
-        eprintln!("angle {angle}: final v={v:?}, omega={:?}, v.u={}, omega R={vr}", w.omega[0], v.dot(u));
-        assert!((v.dot(u) / (5.0 / 7.0 * v0) - 1.0).abs() < 0.01, "final speed {v}, expected {}", 5.0 / 7.0 * v0);
-        assert!((vr / v.dot(u) - 1.0).abs() < 0.01, "v = {v}, omega R = {vr}: not rolling");
+        eprintln!(
+            "angle {angle}: final v={v:?}, omega={:?}, v.u={}, omega R={vr}",
+            w.omega[0],
+            v.dot(u)
+        );
+        assert!(
+            (v.dot(u) / (5.0 / 7.0 * v0) - 1.0).abs() < 0.01,
+            "final speed {v}, expected {}",
+            5.0 / 7.0 * v0
+        );
+        assert!(
+            (vr / v.dot(u) - 1.0).abs() < 0.01,
+            "v = {v}, omega R = {vr}: not rolling"
+        );
         // Straight on: nothing across the launch direction, no spin about z or u.
         assert!(v.dot(Vec3::Z.cross(u)).abs() < 1e-4 * v0);
         assert!(w.omega[0].dot(u).abs() * R < 1e-4 * v0 && w.omega[0].z.abs() * R < 1e-4 * v0);
@@ -104,11 +132,17 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         let before = v.dot(u);
         run_for(&mut w, 0.3);
         let after = w.velocity[0].dot(u);
-        assert!((after / before - 1.0).abs() < 0.005, "rolling speed {before} -> {after}");
+        assert!(
+            (after / before - 1.0).abs() < 0.005,
+            "rolling speed {before} -> {after}"
+        );
         // Still on the floor at its static overlap.
         let sink = (R - w.position[0].z) as f64;
         let static_overlap = (w.mass[0] * G / K) as f64;
-        assert!((sink - static_overlap).abs() < 0.05 * static_overlap, "overlap {sink} vs {static_overlap}");
+        assert!(
+            (sink - static_overlap).abs() < 0.05 * static_overlap,
+            "overlap {sink} vs {static_overlap}"
+        );
     }
 }
 
@@ -128,12 +162,21 @@ fn spinning_sphere_final_velocity() {
         let v = w.velocity[0].dot(u);
         let vr = w.omega[0].dot(Vec3::Z.cross(u)) * R;
         eprintln!("R w0 = {r_w0}: v = {v:.5}, omega R = {vr:.5}, expected {expected:.5}");
-        assert!((v - expected).abs() < 0.01 * expected.abs(), "R w0 = {r_w0}: v = {v}, expected {expected}");
-        assert!((vr - v).abs() < 0.01 * v.abs(), "R w0 = {r_w0}: v = {v}, omega R = {vr}: not rolling");
+        assert!(
+            (v - expected).abs() < 0.01 * expected.abs(),
+            "R w0 = {r_w0}: v = {v}, expected {expected}"
+        );
+        assert!(
+            (vr - v).abs() < 0.01 * v.abs(),
+            "R w0 = {r_w0}: v = {v}, omega R = {vr}: not rolling"
+        );
         // Angular momentum about the contact point is conserved.
         let m = w.mass[0];
         let l0 = m * v0 * R + 0.4 * m * R * R * (-w0);
         let l1 = m * v * R + 0.4 * m * R * R * (vr / R);
-        assert!((l1 - l0).abs() < 0.01 * m * v0 * R, "L about contact {l0} -> {l1}");
+        assert!(
+            (l1 - l0).abs() < 0.01 * m * v0 * R,
+            "L about contact {l0} -> {l1}"
+        );
     }
 }

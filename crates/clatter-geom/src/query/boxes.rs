@@ -10,14 +10,23 @@ use super::support::{DPose, Obb};
 /// Sphere of centre `c` (box principal frame) and radius `r` against the box: a
 /// contact-type result (signed separation, normal from box to sphere, points on each).
 /// With `common_point`, an overlapping result carries a point common to both shapes in `pa`
-/// and `pb` (distance-type result) instead of the deepest points.
+/// and `pb` (distance-type result) instead of the witness points.
 pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
     if !o.aligned {
         // Solve in the box's axes and map back.
-        let al = Obb { axes: DMat3::IDENTITY, half: o.half, aligned: true };
+        let al = Obb {
+            axes: DMat3::IDENTITY,
+            half: o.half,
+            aligned: true,
+        };
         let x = sphere_box(&al, o.axes.transpose() * c, r, common_point);
         let m = o.axes;
-        return Raw { normal: m * x.normal, pa: m * x.pa, pb: m * x.pb, ..x };
+        return Raw {
+            normal: m * x.normal,
+            pa: m * x.pa,
+            pb: m * x.pb,
+            ..x
+        };
     }
     let cb = c;
     let h = o.half;
@@ -29,13 +38,31 @@ pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
         let n = d / dist;
         let overlap = dist <= r;
         if overlap && common_point {
-            return Raw { sep: 0.0, normal: DVec3::ZERO, pa: q, pb: q, overlap };
+            return Raw {
+                sep: 0.0,
+                normal: DVec3::ZERO,
+                pa: q,
+                pb: q,
+                overlap,
+            };
         }
-        return Raw { sep: dist - r, normal: n, pa: q, pb: c - n * r, overlap };
+        return Raw {
+            sep: dist - r,
+            normal: n,
+            pa: q,
+            pb: c - n * r,
+            overlap,
+        };
     }
     // Centre inside: the nearest face.
     if common_point {
-        return Raw { sep: 0.0, normal: DVec3::ZERO, pa: c, pb: c, overlap: true };
+        return Raw {
+            sep: 0.0,
+            normal: DVec3::ZERO,
+            pa: c,
+            pb: c,
+            overlap: true,
+        };
     }
     let room = h - cb.abs();
     let i = if room.x <= room.y && room.x <= room.z {
@@ -58,7 +85,8 @@ pub(crate) fn sphere_box(o: &Obb, c: DVec3, r: f64, common_point: bool) -> Raw {
 
 /// Separating-axis test of box `a` (at the query-frame origin) and box `b` at `rel`.
 /// `None` when an axis separates them (strictly positive gap); otherwise the contact-type
-/// result with the exact depth, the normal from `a` to `b` and the deepest points.
+/// result with the exact depth, the normal from `a` to `b` and witness points
+/// (`pa - pb = depth * normal`).
 /// With `early`, returns as soon as the overlap is known, with a placeholder result.
 ///
 /// In `a`'s box frame, `r[i][j] = a_i · b_j`; the 15 axes are `a_i`, `b_j` and `a_i × b_j`
@@ -73,7 +101,11 @@ pub(crate) fn box_box(a: &Obb, b: &Obb, rel: &DPose, early: bool) -> Option<Raw>
     let (ha, hb) = (a.half, b.half);
     let bc = [bm.x_axis, bm.y_axis, bm.z_axis];
     // r[i][j] = a_i · b_j = component i of b's axis j.
-    let r = [[bc[0].x, bc[1].x, bc[2].x], [bc[0].y, bc[1].y, bc[2].y], [bc[0].z, bc[1].z, bc[2].z]];
+    let r = [
+        [bc[0].x, bc[1].x, bc[2].x],
+        [bc[0].y, bc[1].y, bc[2].y],
+        [bc[0].z, bc[1].z, bc[2].z],
+    ];
     let ar = r.map(|row| row.map(f64::abs));
     let hav = [ha.x, ha.y, ha.z];
     let hbv = [hb.x, hb.y, hb.z];
@@ -127,7 +159,13 @@ pub(crate) fn box_box(a: &Obb, b: &Obb, rel: &DPose, early: bool) -> Option<Raw>
         }
     }
     if early {
-        return Some(Raw { sep: 0.0, normal: DVec3::X, pa: DVec3::ZERO, pb: DVec3::ZERO, overlap: true });
+        return Some(Raw {
+            sep: 0.0,
+            normal: DVec3::X,
+            pa: DVec3::ZERO,
+            pb: DVec3::ZERO,
+            overlap: true,
+        });
     }
     let (depth, tl, len, feature) = best;
     let sgn = |x: f64| if x >= 0.0 { 1.0 } else { -1.0 };
@@ -159,21 +197,44 @@ pub(crate) fn box_box(a: &Obb, b: &Obb, rel: &DPose, early: bool) -> Option<Raw>
         closest_on_segments(ca, DVec3::AXES[i], hav[i], cb, bc[j], hbv[j])
     };
     if a.aligned {
-        return Some(Raw { sep: -depth, normal: n, pa, pb, overlap: true });
+        return Some(Raw {
+            sep: -depth,
+            normal: n,
+            pa,
+            pb,
+            overlap: true,
+        });
     }
     let m: DMat3 = a.axes;
-    Some(Raw { sep: -depth, normal: m * n, pa: m * pa, pb: m * pb, overlap: true })
+    Some(Raw {
+        sep: -depth,
+        normal: m * n,
+        pa: m * pa,
+        pb: m * pb,
+        overlap: true,
+    })
 }
 
 /// Closest points of the segments `ca ± s da` (|s| <= ea) and `cb ± s db` (|s| <= eb), unit
 /// directions.
-fn closest_on_segments(ca: DVec3, da: DVec3, ea: f64, cb: DVec3, db: DVec3, eb: f64) -> (DVec3, DVec3) {
+fn closest_on_segments(
+    ca: DVec3,
+    da: DVec3,
+    ea: f64,
+    cb: DVec3,
+    db: DVec3,
+    eb: f64,
+) -> (DVec3, DVec3) {
     let r = ca - cb;
     let b = da.dot(db);
     let c = da.dot(r);
     let f = db.dot(r);
     let den = 1.0 - b * b;
-    let mut s = if den > 1e-12 { ((b * f - c) / den).clamp(-ea, ea) } else { 0.0 };
+    let mut s = if den > 1e-12 {
+        ((b * f - c) / den).clamp(-ea, ea)
+    } else {
+        0.0
+    };
     let tt = (b * s + f).clamp(-eb, eb);
     s = (b * tt - c).clamp(-ea, ea);
     (ca + da * s, cb + db * tt)

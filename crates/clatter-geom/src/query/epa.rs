@@ -53,37 +53,66 @@ pub(crate) struct Epa {
     pub pa: DVec3,
     /// Deepest point of `b` (inside `a`).
     pub pb: DVec3,
-    pub converged: bool,
 }
 
 #[inline]
 fn sup<A: Support, B: Support>(a: &A, b: &B, d: DVec3) -> Vert {
     let pa = a.support(d);
     let pb = b.support(-d);
-    Vert { w: pa - pb, a: pa, b: pb }
+    Vert {
+        w: pa - pb,
+        a: pa,
+        b: pb,
+    }
 }
 
 fn make_face(verts: &[Vert], i: u32, j: u32, k: u32) -> Face {
-    let (x0, x1, x2) = (verts[i as usize].w, verts[j as usize].w, verts[k as usize].w);
+    let (x0, x1, x2) = (
+        verts[i as usize].w,
+        verts[j as usize].w,
+        verts[k as usize].w,
+    );
     let n = (x1 - x0).cross(x2 - x0);
     let len = n.length();
-    if !(len > 0.0) || !len.is_finite() {
+    if !(len.is_finite() && len > 0.0) {
         // Zero-area face: keep it for the topology but never select it.
-        return Face { v: [i, j, k], n: DVec3::ZERO, d: f64::INFINITY, alive: true };
+        return Face {
+            v: [i, j, k],
+            n: DVec3::ZERO,
+            d: f64::INFINITY,
+            alive: true,
+        };
     }
     let n = n / len;
     let d = (n.dot(x0) + n.dot(x1) + n.dot(x2)) / 3.0;
-    Face { v: [i, j, k], n, d, alive: true }
+    Face {
+        v: [i, j, k],
+        n,
+        d,
+        alive: true,
+    }
 }
 
 /// Builds a tetrahedron of CSO points from the GJK simplex (which contains or touches the
 /// origin), completing it with support points when GJK stopped with fewer than 4 points.
 fn initial<A: Support, B: Support>(a: &A, b: &B, s: &Simplex, scale: f64) -> Vec<Vert> {
-    let mut v: Vec<Vert> = (0..s.n).map(|i| Vert { w: s.w[i], a: s.a[i], b: s.b[i] }).collect();
+    let mut v: Vec<Vert> = (0..s.n)
+        .map(|i| Vert {
+            w: s.w[i],
+            a: s.a[i],
+            b: s.b[i],
+        })
+        .collect();
     let eps = 1e-9 * scale.max(f64::MIN_POSITIVE);
     if v.len() == 4 {
-        let vol = (v[1].w - v[0].w).cross(v[2].w - v[0].w).dot(v[3].w - v[0].w).abs();
-        let edge = v.iter().map(|x| (x.w - v[0].w).length()).fold(0.0, f64::max);
+        let vol = (v[1].w - v[0].w)
+            .cross(v[2].w - v[0].w)
+            .dot(v[3].w - v[0].w)
+            .abs();
+        let edge = v
+            .iter()
+            .map(|x| (x.w - v[0].w).length())
+            .fold(0.0, f64::max);
         if vol > 1e-12 * edge * edge * edge {
             return v;
         }
@@ -124,7 +153,14 @@ fn initial<A: Support, B: Support>(a: &A, b: &B, s: &Simplex, scale: f64) -> Vec
     if v.len() == 1 {
         let mut best = None;
         let mut bd = eps;
-        for d in [DVec3::X, DVec3::NEG_X, DVec3::Y, DVec3::NEG_Y, DVec3::Z, DVec3::NEG_Z] {
+        for d in [
+            DVec3::X,
+            DVec3::NEG_X,
+            DVec3::Y,
+            DVec3::NEG_Y,
+            DVec3::Z,
+            DVec3::NEG_Z,
+        ] {
             let p = sup(a, b, d);
             let dd = (p.w - v[0].w).length();
             if dd > bd {
@@ -164,9 +200,7 @@ fn initial<A: Support, B: Support>(a: &A, b: &B, s: &Simplex, scale: f64) -> Vec
 
 /// Runs EPA on `a - b` from the GJK simplex `s` (which must contain or touch the origin).
 pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
-    let scale = (0..s.n).map(|i| s.w[i].length()).fold(0.0, f64::max)
-        + a.radius()
-        + b.radius();
+    let scale = (0..s.n).map(|i| s.w[i].length()).fold(0.0, f64::max) + a.radius() + b.radius();
     let mut verts = initial(a, b, s, scale);
     verts.reserve(48);
     let mut faces: Vec<Face> = Vec::with_capacity(96);
@@ -180,7 +214,6 @@ pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
     }
     let mut edges: Vec<(u32, u32)> = Vec::with_capacity(32);
     let mut best = 0usize;
-    let mut converged = false;
     for _ in 0..EPA_MAX_ITERATIONS {
         // Closest live face.
         let mut bd = f64::INFINITY;
@@ -197,11 +230,9 @@ pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
         let p = sup(a, b, f.n);
         let dw = p.w.dot(f.n);
         if dw - f.d <= EPA_ABS_TOL * scale + EPA_REL_TOL * f.d.max(0.0) {
-            converged = true;
             break;
         }
         if verts.iter().any(|x| x.a == p.a && x.b == p.b) || verts.len() >= EPA_MAX_VERTICES {
-            converged = verts.len() < EPA_MAX_VERTICES;
             break;
         }
         let ni = verts.len() as u32;
@@ -231,7 +262,6 @@ pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
         }
         // The chosen face is always visible (dw > d); guard against rounding anyway.
         if faces[best].alive {
-            converged = false;
             break;
         }
         // Recycle dead slots to keep the face list short.
@@ -270,10 +300,23 @@ pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
         l1 = l1.max(0.0);
         l2 = l2.max(0.0);
         let s = l0 + l1 + l2;
-        (l0, l1, l2) = if s > 0.0 { (l0 / s, l1 / s, l2 / s) } else { (1.0, 0.0, 0.0) };
+        (l0, l1, l2) = if s > 0.0 {
+            (l0 / s, l1 / s, l2 / s)
+        } else {
+            (1.0, 0.0, 0.0)
+        };
     }
     let pa = x0.a * l0 + x1.a * l1 + x2.a * l2;
     let pb = x0.b * l0 + x1.b * l1 + x2.b * l2;
-    let normal = if f.n.length_squared() > 0.0 { f.n } else { DVec3::X };
-    Epa { depth, normal, pa, pb, converged }
+    let normal = if f.n.length_squared() > 0.0 {
+        f.n
+    } else {
+        DVec3::X
+    };
+    Epa {
+        depth,
+        normal,
+        pa,
+        pb,
+    }
 }

@@ -92,11 +92,21 @@ struct Sub {
 impl Sub {
     #[inline]
     fn one(i: usize, p: DVec3) -> Self {
-        Sub { n: 1, idx: [i, 0, 0, 0], l: [1.0, 0.0, 0.0, 0.0], v: p }
+        Sub {
+            n: 1,
+            idx: [i, 0, 0, 0],
+            l: [1.0, 0.0, 0.0, 0.0],
+            v: p,
+        }
     }
     #[inline]
     fn two(i: usize, j: usize, t: f64, a: DVec3, b: DVec3) -> Self {
-        Sub { n: 2, idx: [i, j, 0, 0], l: [1.0 - t, t, 0.0, 0.0], v: a + (b - a) * t }
+        Sub {
+            n: 2,
+            idx: [i, j, 0, 0],
+            l: [1.0 - t, t, 0.0, 0.0],
+            v: a + (b - a) * t,
+        }
     }
 }
 
@@ -135,7 +145,11 @@ fn triangle(w: &[DVec3; 4], i: usize, j: usize, k: usize) -> Sub {
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
         let den = d1 - d3; // = |ab|² > 0 here unless ab degenerates
-        return if den > 0.0 { Sub::two(i, j, d1 / den, a, b) } else { Sub::one(i, a) };
+        return if den > 0.0 {
+            Sub::two(i, j, d1 / den, a, b)
+        } else {
+            Sub::one(i, a)
+        };
     }
     let d5 = -ab.dot(c);
     let d6 = -ac.dot(c);
@@ -145,17 +159,26 @@ fn triangle(w: &[DVec3; 4], i: usize, j: usize, k: usize) -> Sub {
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
         let den = d2 - d6;
-        return if den > 0.0 { Sub::two(i, k, d2 / den, a, c) } else { Sub::one(i, a) };
+        return if den > 0.0 {
+            Sub::two(i, k, d2 / den, a, c)
+        } else {
+            Sub::one(i, a)
+        };
     }
     let va = d3 * d6 - d5 * d4;
     let e1 = d4 - d3;
     let e2 = d5 - d6;
     if va <= 0.0 && e1 >= 0.0 && e2 >= 0.0 {
         let den = e1 + e2;
-        return if den > 0.0 { Sub::two(j, k, e1 / den, b, c) } else { Sub::one(j, b) };
+        return if den > 0.0 {
+            Sub::two(j, k, e1 / den, b, c)
+        } else {
+            Sub::one(j, b)
+        };
     }
     let den = va + vb + vc; // = |ab × ac|²
-    if !(den > 1e-14 * ab.length_squared() * ac.length_squared()) {
+    let degenerate = 1e-14 * ab.length_squared() * ac.length_squared();
+    if den.is_nan() || den <= degenerate {
         // Degenerate (collinear) triangle: the best of its edges.
         return best_of(&[segment(w, i, j), segment(w, i, k), segment(w, j, k)]);
     }
@@ -165,7 +188,12 @@ fn triangle(w: &[DVec3; 4], i: usize, j: usize, k: usize) -> Sub {
     // when the triangle is far from the origin compared with its distance.
     let n = ab.cross(ac);
     let v = n * (n.dot(a) / n.length_squared());
-    Sub { n: 3, idx: [i, j, k, 0], l: [1.0 - l1 - l2, l1, l2, 0.0], v }
+    Sub {
+        n: 3,
+        idx: [i, j, k, 0],
+        l: [1.0 - l1 - l2, l1, l2, 0.0],
+        v,
+    }
 }
 
 #[inline]
@@ -186,7 +214,11 @@ fn best_of(c: &[Sub]) -> Sub {
 /// (then `l` receives the barycentric coordinates of the origin).
 fn tetrahedron(w: &[DVec3; 4], l: &mut [f64; 4]) -> Option<Sub> {
     const FACES: [[usize; 4]; 4] = [[0, 1, 2, 3], [0, 1, 3, 2], [0, 2, 3, 1], [1, 2, 3, 0]];
-    let scale = w.iter().map(|p| p.length_squared()).fold(0.0, f64::max).sqrt();
+    let scale = w
+        .iter()
+        .map(|p| p.length_squared())
+        .fold(0.0, f64::max)
+        .sqrt();
     let mut best: Option<Sub> = None;
     let mut bd = f64::INFINITY;
     let mut inside = true;
@@ -241,7 +273,11 @@ impl Gjk {
     /// Distance between the cores (0 when overlapping).
     #[inline]
     pub(crate) fn distance(&self) -> f64 {
-        if self.status == GjkStatus::Overlapping { 0.0 } else { self.v.length() }
+        if self.status == GjkStatus::Overlapping {
+            0.0
+        } else {
+            self.v.length()
+        }
     }
 }
 
@@ -251,7 +287,11 @@ impl Gjk {
 /// (`BeyondMargin`) or at most `m` (`WithinMargin`): the boolean intersection test of rounded
 /// shapes (spheres are points with a margin).
 pub(crate) fn gjk<A: Support, B: Support>(a: &A, b: &B, dir: DVec3, margin: Option<f64>) -> Gjk {
-    let d0 = if dir.length_squared() > 0.0 && dir.is_finite() { dir } else { DVec3::X };
+    let d0 = if dir.length_squared() > 0.0 && dir.is_finite() {
+        dir
+    } else {
+        DVec3::X
+    };
     let mut s = Simplex::default();
     let (a0, b0) = (a.support(-d0), b.support(d0));
     s.push(a0, b0);
@@ -265,21 +305,22 @@ pub(crate) fn gjk<A: Support, B: Support>(a: &A, b: &B, dir: DVec3, margin: Opti
             status = GjkStatus::Overlapping;
             break;
         }
-        if let Some(m) = margin {
-            if vv <= m * m {
-                status = GjkStatus::WithinMargin;
-                break;
-            }
+        if let Some(m) = margin
+            && vv <= m * m
+        {
+            status = GjkStatus::WithinMargin;
+            break;
         }
         let (pa, pb) = (a.support(-v), b.support(v));
         let w = pa - pb;
         scale2 = scale2.max(w.length_squared());
         let vw = v.dot(w);
-        if let Some(m) = margin {
-            if vw > 0.0 && vw * vw > m * m * vv {
-                status = GjkStatus::BeyondMargin;
-                break;
-            }
+        if let Some(m) = margin
+            && vw > 0.0
+            && vw * vw > m * m * vv
+        {
+            status = GjkStatus::BeyondMargin;
+            break;
         }
         if vv - vw <= GJK_REL_TOL * vv {
             status = GjkStatus::Separated;
@@ -305,7 +346,7 @@ pub(crate) fn gjk<A: Support, B: Support>(a: &A, b: &B, dir: DVec3, margin: Opti
             break;
         };
         let nvv = sub.v.length_squared();
-        if !(nvv < vv) {
+        if nvv.is_nan() || nvv >= vv {
             // No progress in floating point: keep the previous (better or equal) simplex,
             // which the push left untouched.
             s.n = before;
@@ -320,7 +361,19 @@ pub(crate) fn gjk<A: Support, B: Support>(a: &A, b: &B, dir: DVec3, margin: Opti
     if status == GjkStatus::Overlapping {
         // A common point of both shapes: Σλa = Σλb when v = 0; average the two for rounding.
         let m = (pa + pb) * 0.5;
-        return Gjk { status, v: DVec3::ZERO, pa: m, pb: m, simplex: s };
+        return Gjk {
+            status,
+            v: DVec3::ZERO,
+            pa: m,
+            pb: m,
+            simplex: s,
+        };
     }
-    Gjk { status, v, pa, pb, simplex: s }
+    Gjk {
+        status,
+        v,
+        pa,
+        pb,
+        simplex: s,
+    }
 }

@@ -24,6 +24,10 @@ pub const FACE_ALIGNMENT_COS: f64 = 0.999;
 pub(crate) struct Points {
     pub p: [DVec3; MAX_MANIFOLD_POINTS],
     pub n: usize,
+    /// Deepest clipped point pair `(on a, on b)` when it agrees with the given separation:
+    /// witness points inside the overlap of the two faces (the separating-axis path otherwise
+    /// only knows a support vertex, which may lie beside the other face).
+    pub witness: Option<(DVec3, DVec3)>,
 }
 
 impl Points {
@@ -71,16 +75,33 @@ pub(crate) fn clip(
     let mut r: Vec<DVec3> = Vec::with_capacity(8);
     let mut inc: Vec<DVec3> = Vec::with_capacity(16);
     let rn;
-    if ala >= alb - 1e-9 {
+    let ref_is_a = ala >= alb - 1e-9;
+    if ref_is_a {
         rn = a.faces[fa].normal.as_dvec3();
-        r.extend(a.face_loop(fa).iter().map(|&i| a.vertices[i as usize].as_dvec3()));
+        r.extend(
+            a.face_loop(fa)
+                .iter()
+                .map(|&i| a.vertices[i as usize].as_dvec3()),
+        );
         let (fi, _) = best_face(b, rt * -rn);
-        inc.extend(b.face_loop(fi).iter().map(|&i| rel.point(b.vertices[i as usize].as_dvec3())));
+        inc.extend(
+            b.face_loop(fi)
+                .iter()
+                .map(|&i| rel.point(b.vertices[i as usize].as_dvec3())),
+        );
     } else {
         rn = rel.vector(b.faces[fb].normal.as_dvec3());
-        r.extend(b.face_loop(fb).iter().map(|&i| rel.point(b.vertices[i as usize].as_dvec3())));
+        r.extend(
+            b.face_loop(fb)
+                .iter()
+                .map(|&i| rel.point(b.vertices[i as usize].as_dvec3())),
+        );
         let (fi, _) = best_face(a, -rn);
-        inc.extend(a.face_loop(fi).iter().map(|&i| a.vertices[i as usize].as_dvec3()));
+        inc.extend(
+            a.face_loop(fi)
+                .iter()
+                .map(|&i| a.vertices[i as usize].as_dvec3()),
+        );
     }
     let rn = rn.normalize_or_zero();
     // Sutherland-Hodgman against each side plane of the reference face (outward side normal
@@ -114,16 +135,27 @@ pub(crate) fn clip(
     let limit = sep.max(0.0) + 1e-5 * size;
     let origin = r[0];
     let mut kept: Vec<(DVec3, f64)> = Vec::with_capacity(inc.len());
+    let mut deepest = (f64::INFINITY, DVec3::ZERO);
     for &p in &inc {
         let s = (p - origin).dot(rn);
         if s <= limit {
             kept.push((p - rn * (0.5 * s), s));
+            if s < deepest.0 {
+                deepest = (s, p);
+            }
         }
     }
     if kept.is_empty() {
         return Points::single((pa + pb) * 0.5);
     }
-    reduce(&kept, rn)
+    let mut out = reduce(&kept, rn);
+    let (s, p) = deepest;
+    let on_ref = p - rn * s;
+    let (wa, wb) = if ref_is_a { (on_ref, p) } else { (p, on_ref) };
+    if ((wb - wa).dot(n) - sep).abs() <= 1e-6 * size {
+        out.witness = Some((wa, wb));
+    }
+    out
 }
 
 /// At most four points: the deepest, the farthest from it, then the two adding most area.
@@ -136,17 +168,25 @@ fn reduce(kept: &[(DVec3, f64)], n: DVec3) -> Points {
         out.n = kept.len();
         return out;
     }
-    let i0 = (0..kept.len()).min_by(|&i, &j| kept[i].1.total_cmp(&kept[j].1)).unwrap_or(0);
+    let i0 = (0..kept.len())
+        .min_by(|&i, &j| kept[i].1.total_cmp(&kept[j].1))
+        .unwrap_or(0);
     let p0 = kept[i0].0;
     let i1 = (0..kept.len())
         .max_by(|&i, &j| {
-            (kept[i].0 - p0).length_squared().total_cmp(&(kept[j].0 - p0).length_squared())
+            (kept[i].0 - p0)
+                .length_squared()
+                .total_cmp(&(kept[j].0 - p0).length_squared())
         })
         .unwrap_or(0);
     let p1 = kept[i1].0;
     let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).dot(n);
     let i2 = (0..kept.len())
-        .max_by(|&i, &j| area(p0, p1, kept[i].0).abs().total_cmp(&area(p0, p1, kept[j].0).abs()))
+        .max_by(|&i, &j| {
+            area(p0, p1, kept[i].0)
+                .abs()
+                .total_cmp(&area(p0, p1, kept[j].0).abs())
+        })
         .unwrap_or(0);
     let mut p2 = kept[i2].0;
     let (q0, mut q1) = (p0, p1);
@@ -156,8 +196,11 @@ fn reduce(kept: &[(DVec3, f64)], n: DVec3) -> Points {
     // Triangle q0 q1 p2 is now counter-clockwise about n; the fourth point is the one
     // furthest outside one of its edges.
     let tri = [q0, q1, p2];
-    let out_of =
-        |p: DVec3| (0..3).map(|e| -area(tri[e], tri[(e + 1) % 3], p)).fold(0.0, f64::max);
+    let out_of = |p: DVec3| {
+        (0..3)
+            .map(|e| -area(tri[e], tri[(e + 1) % 3], p))
+            .fold(0.0, f64::max)
+    };
     let i3 = (0..kept.len())
         .max_by(|&i, &j| out_of(kept[i].0).total_cmp(&out_of(kept[j].0)))
         .unwrap_or(0);

@@ -25,7 +25,7 @@ mod boxes;
 mod epa;
 mod gjk;
 mod manifold;
-mod support;
+pub(crate) mod support;
 mod toi;
 
 use glam::{DVec3, Vec3};
@@ -83,8 +83,9 @@ pub struct Contact {
     pub depth: f32,
     /// Unit contact normal from `a` to `b`.
     pub normal: Vec3,
-    /// Deepest points when penetrating (`points[0]` is the point of `a` deepest inside `b`,
-    /// and conversely), closest points when apart. `points[1] - points[0] = -depth * normal`.
+    /// Witness points on the surfaces of `a` and `b`: `points[0] - points[1] = depth * normal`,
+    /// so moving `b` by `depth` along `normal` brings `points[1]` onto `points[0]`, where the
+    /// shapes then touch. For shapes that are apart, the closest points.
     pub points: [Vec3; 2],
     /// Contact manifold: points half-way between the two surfaces, from clipping the
     /// reference and incident faces (one point for spheres and edge contacts).
@@ -95,7 +96,12 @@ pub struct Contact {
 #[derive(Clone, Copy)]
 pub(crate) enum Pair<'a> {
     /// Two spheres, world frame.
-    Spheres { ca: DVec3, ra: f64, cb: DVec3, rb: f64 },
+    Spheres {
+        ca: DVec3,
+        ra: f64,
+        cb: DVec3,
+        rb: f64,
+    },
     /// A polyhedron at `frame` and a sphere of centre `c` (in the polyhedron's frame).
     /// `swapped`: the user's `a` is the sphere.
     SpherePoly {
@@ -121,7 +127,10 @@ impl<'a> Pair<'a> {
     /// The pair for single-precision poses, converting only the rotations that matter.
     #[inline]
     pub(crate) fn from_poses(a: &'a Shape, pa: &Pose, b: &'a Shape, pb: &Pose) -> Self {
-        let sphere_pose = |p: &Pose| DPose { rot: glam::DMat3::IDENTITY, pos: p.position.as_dvec3() };
+        let sphere_pose = |p: &Pose| DPose {
+            rot: glam::DMat3::IDENTITY,
+            pos: p.position.as_dvec3(),
+        };
         match (a, b) {
             (Shape::Sphere { .. }, Shape::Sphere { .. }) => {
                 Pair::new(a, &sphere_pose(pa), b, &sphere_pose(pb))
@@ -138,9 +147,12 @@ impl<'a> Pair<'a> {
 
     pub(crate) fn new(a: &'a Shape, pa: &DPose, b: &'a Shape, pb: &DPose) -> Self {
         match (a, b) {
-            (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
-                Pair::Spheres { ca: pa.pos, ra: *ra as f64, cb: pb.pos, rb: *rb as f64 }
-            }
+            (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => Pair::Spheres {
+                ca: pa.pos,
+                ra: *ra as f64,
+                cb: pb.pos,
+                rb: *rb as f64,
+            },
             (Shape::Polyhedron(p), Shape::Sphere { radius }) => Pair::SpherePoly {
                 poly: p,
                 obb: as_box(p),
@@ -188,7 +200,11 @@ fn to_world(frame: &DPose, swapped: bool, r: &Raw) -> ([Vec3; 2], Vec3) {
     let pa = frame.point(r.pa).as_vec3();
     let pb = frame.point(r.pb).as_vec3();
     let n = frame.vector(r.normal).as_vec3();
-    if swapped { ([pb, pa], -n) } else { ([pa, pb], n) }
+    if swapped {
+        ([pb, pa], -n)
+    } else {
+        ([pa, pb], n)
+    }
 }
 
 /// Largest `n·c - offset` over the faces (positive: `c` is outside that face's plane).
@@ -214,7 +230,13 @@ fn spheres(ca: DVec3, ra: f64, cb: DVec3, rb: f64) -> Raw {
     let d = cb - ca;
     let len = d.length();
     let n = if len > 0.0 { d / len } else { DVec3::X };
-    Raw { sep: len - ra - rb, normal: n, pa: ca + n * ra, pb: cb - n * rb, overlap: len <= ra + rb }
+    Raw {
+        sep: len - ra - rb,
+        normal: n,
+        pa: ca + n * ra,
+        pb: cb - n * rb,
+        overlap: len <= ra + rb,
+    }
 }
 
 /// Distance-type result for two spheres: for overlapping spheres, a common point (the middle
@@ -229,7 +251,13 @@ fn spheres_distance(ca: DVec3, ra: f64, cb: DVec3, rb: f64) -> Raw {
     let lo = (-ra).max(len - rb);
     let hi = ra.min(len + rb);
     let q = ca + r.normal * (0.5 * (lo + hi));
-    Raw { sep: 0.0, normal: DVec3::ZERO, pa: q, pb: q, overlap: true }
+    Raw {
+        sep: 0.0,
+        normal: DVec3::ZERO,
+        pa: q,
+        pb: q,
+        overlap: true,
+    }
 }
 
 /// Distance-type result for a polyhedron (internal `a`) and a sphere (internal `b`).
@@ -239,16 +267,34 @@ fn sphere_poly_distance(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f6
     }
     let (s, _) = face_separation(p, c);
     if s <= 0.0 {
-        return Raw { sep: 0.0, normal: DVec3::ZERO, pa: c, pb: c, overlap: true };
+        return Raw {
+            sep: 0.0,
+            normal: DVec3::ZERO,
+            pa: c,
+            pb: c,
+            overlap: true,
+        };
     }
     let g = gjk(&LocalPoly(p), &PointCore(c), -c, None);
     let d = g.distance();
     if g.status == GjkStatus::Overlapping || d <= r {
         let q = g.pa;
-        return Raw { sep: 0.0, normal: DVec3::ZERO, pa: q, pb: q, overlap: true };
+        return Raw {
+            sep: 0.0,
+            normal: DVec3::ZERO,
+            pa: q,
+            pb: q,
+            overlap: true,
+        };
     }
     let n = (c - g.pa) / d;
-    Raw { sep: d - r, normal: n, pa: g.pa, pb: c - n * r, overlap: false }
+    Raw {
+        sep: d - r,
+        normal: n,
+        pa: g.pa,
+        pb: c - n * r,
+        overlap: false,
+    }
 }
 
 /// Contact-type result for a polyhedron (internal `a`) and a sphere (internal `b`).
@@ -262,23 +308,47 @@ fn sphere_poly_contact(p: &ConvexPolyhedron, obb: &Option<Obb>, c: DVec3, r: f64
         let d = g.distance();
         if g.status != GjkStatus::Overlapping && d > 0.0 {
             let n = (c - g.pa) / d;
-            return Raw { sep: d - r, normal: n, pa: g.pa, pb: c - n * r, overlap: d <= r };
+            return Raw {
+                sep: d - r,
+                normal: n,
+                pa: g.pa,
+                pb: c - n * r,
+                overlap: d <= r,
+            };
         }
     }
     // Centre inside (or on the surface): the nearest face plane gives the exact depth.
     let n = p.faces[f].normal.as_dvec3();
     let s = s.min(0.0);
-    Raw { sep: s - r, normal: n, pa: c - n * s, pb: c - n * r, overlap: true }
+    Raw {
+        sep: s - r,
+        normal: n,
+        pa: c - n * s,
+        pb: c - n * r,
+        overlap: true,
+    }
 }
 
 /// Distance-type result for two polyhedra in the query frame.
 fn polys_distance(a: &Core, b: &Core, dir: DVec3) -> Raw {
     let g = with_cores!(a, b, |x, y| gjk(x, y, dir, None));
     if g.status == GjkStatus::Overlapping {
-        return Raw { sep: 0.0, normal: DVec3::ZERO, pa: g.pa, pb: g.pb, overlap: true };
+        return Raw {
+            sep: 0.0,
+            normal: DVec3::ZERO,
+            pa: g.pa,
+            pb: g.pb,
+            overlap: true,
+        };
     }
     let d = g.v.length();
-    Raw { sep: d, normal: -g.v / d, pa: g.pa, pb: g.pb, overlap: false }
+    Raw {
+        sep: d,
+        normal: -g.v / d,
+        pa: g.pa,
+        pb: g.pb,
+        overlap: false,
+    }
 }
 
 /// Contact-type result (without manifold) for two polyhedra in the query frame.
@@ -297,9 +367,21 @@ fn polys_contact(oa: &Option<Obb>, ob: &Option<Obb>, ca: &Core, cb: &Core, rel: 
     });
     let Some(e) = e else {
         let d = g.v.length();
-        return Raw { sep: d, normal: -g.v / d, pa: g.pa, pb: g.pb, overlap: false };
+        return Raw {
+            sep: d,
+            normal: -g.v / d,
+            pa: g.pa,
+            pb: g.pb,
+            overlap: false,
+        };
     };
-    Raw { sep: -e.depth, normal: e.normal, pa: e.pa, pb: e.pb, overlap: true }
+    Raw {
+        sep: -e.depth,
+        normal: e.normal,
+        pa: e.pa,
+        pb: e.pb,
+        overlap: true,
+    }
 }
 
 impl Pair<'_> {
@@ -307,10 +389,22 @@ impl Pair<'_> {
     pub(crate) fn distance_raw(&self) -> (Raw, DPose, bool) {
         match *self {
             Pair::Spheres { ca, ra, cb, rb } => (spheres_distance(ca, ra, cb, rb), IDENTITY, false),
-            Pair::SpherePoly { poly, obb, frame, c, r, swapped } => {
-                (sphere_poly_distance(poly, &obb, c, r), frame, swapped)
-            }
-            Pair::Polys { a, b, oa, ob, frame, rel } => {
+            Pair::SpherePoly {
+                poly,
+                obb,
+                frame,
+                c,
+                r,
+                swapped,
+            } => (sphere_poly_distance(poly, &obb, c, r), frame, swapped),
+            Pair::Polys {
+                a,
+                b,
+                oa,
+                ob,
+                frame,
+                rel,
+            } => {
                 let (ca, cb) = (Core::local(a, &oa), Core::posed(b, &ob, &rel));
                 (polys_distance(&ca, &cb, -rel.pos), frame, false)
             }
@@ -318,8 +412,10 @@ impl Pair<'_> {
     }
 }
 
-const IDENTITY: DPose = DPose { rot: glam::DMat3::IDENTITY, pos: DVec3::ZERO };
-
+const IDENTITY: DPose = DPose {
+    rot: glam::DMat3::IDENTITY,
+    pos: DVec3::ZERO,
+};
 
 /// True when the shapes touch or overlap (distance <= 0, with touching decided to about
 /// [`GJK_ABS_TOL`] x the configuration scale).
@@ -334,7 +430,9 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
     }
     match Pair::from_poses(a, pose_a, b, pose_b) {
         Pair::Spheres { .. } => true,
-        Pair::SpherePoly { poly, obb, c, r, .. } => {
+        Pair::SpherePoly {
+            poly, obb, c, r, ..
+        } => {
             if let Some(o) = obb {
                 let cb = o.axes.transpose() * c;
                 let q = cb.clamp(-o.half, o.half);
@@ -354,7 +452,9 @@ pub fn intersects(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> bool {
                 GjkStatus::Separated | GjkStatus::MaxIterations => g.v.length() <= r,
             }
         }
-        Pair::Polys { a, b, oa, ob, rel, .. } => {
+        Pair::Polys {
+            a, b, oa, ob, rel, ..
+        } => {
             if let (Some(x), Some(y)) = (&oa, &ob) {
                 return boxes::box_box(x, y, &rel, true).is_some();
             }
@@ -379,7 +479,9 @@ pub fn distance(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Distance 
     }
     // A sphere against a polyhedron: only the polyhedron's pose is converted.
     let sphere_poly = match (a, b) {
-        (Shape::Polyhedron(p), Shape::Sphere { radius }) => Some((p, pose_a, pose_b, radius, false)),
+        (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+            Some((p, pose_a, pose_b, radius, false))
+        }
         (Shape::Sphere { radius }, Shape::Polyhedron(p)) => Some((p, pose_b, pose_a, radius, true)),
         _ => None,
     };
@@ -390,15 +492,36 @@ pub fn distance(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Distance 
             Some(o) => boxes::sphere_box(&o, c, *radius as f64, true),
             None => sphere_poly_distance(poly, &None, c, *radius as f64),
         };
-        let (points, normal) = to_world(&frame, swapped, &r);
-        return Distance { distance: r.sep.max(0.0) as f32, points, normal };
+        // The sphere's point is its centre moved back along the normal (one rotation saved).
+        let pa = frame.point(r.pa);
+        let n = frame.vector(r.normal);
+        let pb = if r.overlap {
+            pa
+        } else {
+            ps.position.as_dvec3() - n * *radius as f64
+        };
+        let (pa, pb, n) = (pa.as_vec3(), pb.as_vec3(), n.as_vec3());
+        let (points, normal) = if swapped {
+            ([pb, pa], -n)
+        } else {
+            ([pa, pb], n)
+        };
+        return Distance {
+            distance: r.sep.max(0.0) as f32,
+            points,
+            normal,
+        };
     }
     let (r, frame, swapped) = Pair::from_poses(a, pose_a, b, pose_b).distance_raw();
     let (points, normal) = to_world(&frame, swapped, &r);
-    Distance { distance: r.sep.max(0.0) as f32, points, normal }
+    Distance {
+        distance: r.sep.max(0.0) as f32,
+        points,
+        normal,
+    }
 }
 
-/// Penetration depth, normal, deepest points and contact manifold (world frame). For shapes
+/// Penetration depth, normal, witness points and contact manifold (world frame). For shapes
 /// that are apart, the depth is minus the distance and the points are the closest points, so
 /// the result is continuous through first contact.
 pub fn contact(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Contact {
@@ -418,16 +541,43 @@ pub fn contact(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Contact {
     let (r, frame, swapped, pts) = match Pair::from_poses(a, pose_a, b, pose_b) {
         Pair::Spheres { ca, ra, cb, rb } => {
             let r = spheres(ca, ra, cb, rb);
-            (r, IDENTITY, false, manifold::Points::single((r.pa + r.pb) * 0.5))
+            (
+                r,
+                IDENTITY,
+                false,
+                manifold::Points::single((r.pa + r.pb) * 0.5),
+            )
         }
-        Pair::SpherePoly { poly, obb, frame, c, r, swapped } => {
+        Pair::SpherePoly {
+            poly,
+            obb,
+            frame,
+            c,
+            r,
+            swapped,
+        } => {
             let r = sphere_poly_contact(poly, &obb, c, r);
-            (r, frame, swapped, manifold::Points::single((r.pa + r.pb) * 0.5))
+            (
+                r,
+                frame,
+                swapped,
+                manifold::Points::single((r.pa + r.pb) * 0.5),
+            )
         }
-        Pair::Polys { a, b, oa, ob, frame, rel } => {
+        Pair::Polys {
+            a,
+            b,
+            oa,
+            ob,
+            frame,
+            rel,
+        } => {
             let (ca, cb) = (Core::local(a, &oa), Core::posed(b, &ob, &rel));
-            let r = polys_contact(&oa, &ob, &ca, &cb, &rel);
+            let mut r = polys_contact(&oa, &ob, &ca, &cb, &rel);
             let m = manifold::clip(a, b, &rel, r.normal, r.pa, r.pb, r.sep);
+            if let Some((wa, wb)) = m.witness {
+                (r.pa, r.pb) = (wa, wb);
+            }
             (r, frame, false, m)
         }
     };
@@ -437,5 +587,10 @@ pub fn contact(a: &Shape, pose_a: &Pose, b: &Shape, pose_b: &Pose) -> Contact {
         manifold.points[i] = frame.point(pts.p[i]).as_vec3();
     }
     manifold.len = pts.n;
-    Contact { depth: (-r.sep) as f32, normal, points, manifold }
+    Contact {
+        depth: (-r.sep) as f32,
+        normal,
+        points,
+        manifold,
+    }
 }

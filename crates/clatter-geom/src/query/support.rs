@@ -28,59 +28,66 @@ pub(crate) enum Core<'a> {
 
 /// A rectangular box recognised in a polyhedron's principal frame: orthonormal axes (columns,
 /// right-handed) and half extents. The centre is the principal-frame origin (the centre of mass).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Obb {
-    pub axes: DMat3,
-    pub half: DVec3,
-    /// `axes` is the identity (the usual case: a box authored axis-aligned).
-    pub aligned: bool,
-}
+pub(crate) use crate::polyhedron::BoxFrame as Obb;
 
 impl Obb {
     /// Columns = axes scaled by the half extents, after mapping the axes by `rot`.
     #[inline]
     pub(crate) fn scaled(&self, rot: &DMat3) -> DMat3 {
         let a = if self.aligned { *rot } else { *rot * self.axes };
-        DMat3::from_cols(a.x_axis * self.half.x, a.y_axis * self.half.y, a.z_axis * self.half.z)
+        DMat3::from_cols(
+            a.x_axis * self.half.x,
+            a.y_axis * self.half.y,
+            a.z_axis * self.half.z,
+        )
     }
 }
 
-/// Recognises a rectangular box: 8 vertices and 6 faces whose normals come in three mutually
-/// orthogonal antiparallel pairs (within 1e-5). Such a hexahedron is a box; its half extents
-/// are the mean offsets of each pair of opposite faces.
-#[inline]
-pub(crate) fn as_box(p: &ConvexPolyhedron) -> Option<Obb> {
+/// Recognises a rectangular box centred on the origin: 8 vertices and 6 faces whose normals
+/// come in three mutually orthogonal antiparallel pairs (within 1e-5). Such a hexahedron is a
+/// box; its half extents come from the vertex bounds along each axis. Boxes not centred on the
+/// origin (never the case for prepared shapes) are left to the general polyhedron path.
+///
+/// Run once per polyhedron by [`ConvexPolyhedron::from_faces`]; queries read the cached
+/// [`ConvexPolyhedron::box_frame`] through [`as_box`].
+pub(crate) fn detect_box(p: &ConvexPolyhedron) -> Option<Obb> {
     if p.vertices.len() != 8 || p.faces.len() != 6 {
         return None;
     }
-    // Fast path: a box authored axis-aligned keeps its axes in the principal frame.
-    let mut half = [0.0f32; 3];
-    let mut seen = 0u8;
+    // Fast path: a box authored axis-aligned keeps its axes in the principal frame. A unit
+    // normal is a signed axis iff its L1 norm is 1; six faces of a convex polyhedron with
+    // axis normals are the six signed axes, i.e. an axis-aligned box. With `n·x = offset` on
+    // each face, `Σ |n| offset` is twice the half extents and `Σ n offset` twice the centre.
+    let mut ok = true;
+    let mut twice_half = Vec3::ZERO;
+    let mut twice_centre = Vec3::ZERO;
     for f in &p.faces {
         let a = f.normal.abs();
-        let i = if a.x > 0.99999 {
-            0
-        } else if a.y > 0.99999 {
-            1
-        } else if a.z > 0.99999 {
-            2
-        } else {
-            break;
-        };
-        seen |= 1 << (2 * i + (f.normal[i] < 0.0) as usize);
-        half[i] += f.offset;
+        ok &= a.x + a.y + a.z < 1.0 + 1e-5;
+        twice_half += a * f.offset;
+        twice_centre += f.normal * f.offset;
     }
-    if seen == 0b11_1111 {
+    if ok {
+        // A box not centred on the origin (never the case for prepared shapes) is left to the
+        // general polyhedron path.
+        if twice_centre.abs().max_element() > 1e-5 * twice_half.max_element() {
+            return None;
+        }
         return Some(Obb {
             axes: DMat3::IDENTITY,
-            half: DVec3::new(half[0] as f64, half[1] as f64, half[2] as f64) * 0.5,
+            half: (twice_half * 0.5).as_dvec3(),
             aligned: true,
         });
     }
     as_box_general(p)
 }
 
-#[inline(never)]
+/// The cached box frame of `p`, if it is a rectangular box centred on the origin.
+#[inline(always)]
+pub(crate) fn as_box(p: &ConvexPolyhedron) -> Option<Obb> {
+    p.box_frame
+}
+
 fn as_box_general(p: &ConvexPolyhedron) -> Option<Obb> {
     const TOL: f32 = 1e-5;
     let mut axes = [Vec3::ZERO; 3];
@@ -109,6 +116,18 @@ fn as_box_general(p: &ConvexPolyhedron) -> Option<Obb> {
     }
     if k != 3 || count != [2, 2, 2] {
         return None;
+    }
+    // Centred on the origin: opposite faces at the same distance (sum of offsets = 2 half,
+    // difference = 2 centre); the first face of each pair set `sum`, check the vertex bounds.
+    for (i, axis) in axes.iter().enumerate() {
+        let (lo, hi) = p.vertices.iter().fold((f32::MAX, f32::MIN), |(lo, hi), v| {
+            let d = v.dot(*axis);
+            (lo.min(d), hi.max(d))
+        });
+        if (hi + lo).abs() > 1e-5 * (hi - lo) {
+            return None;
+        }
+        sum[i] = hi - lo;
     }
     let x = axes[0].as_dvec3();
     let y = axes[1].as_dvec3();
@@ -233,9 +252,22 @@ macro_rules! with_cores {
     ($a:expr, $b:expr, |$x:ident, $y:ident| $body:expr) => {{
         use $crate::query::support::{BoxCore, Core, LocalPoly, MovedPoly};
         match ($a, $b) {
-            (Core::Local(p), Core::Moved { poly, rot, rot_t, pos }) => {
+            (
+                Core::Local(p),
+                Core::Moved {
+                    poly,
+                    rot,
+                    rot_t,
+                    pos,
+                },
+            ) => {
                 let $x = &LocalPoly(p);
-                let $y = &MovedPoly { poly, rot: *rot, rot_t: *rot_t, pos: *pos };
+                let $y = &MovedPoly {
+                    poly,
+                    rot: *rot,
+                    rot_t: *rot_t,
+                    pos: *pos,
+                };
                 $body
             }
             (Core::Box { m, pos }, Core::Box { m: m2, pos: p2 }) => {
@@ -248,9 +280,22 @@ macro_rules! with_cores {
                 let $y = &BoxCore { m: *m, pos: *pos };
                 $body
             }
-            (Core::Box { m, pos: p1 }, Core::Moved { poly, rot, rot_t, pos }) => {
+            (
+                Core::Box { m, pos: p1 },
+                Core::Moved {
+                    poly,
+                    rot,
+                    rot_t,
+                    pos,
+                },
+            ) => {
                 let $x = &BoxCore { m: *m, pos: *p1 };
-                let $y = &MovedPoly { poly, rot: *rot, rot_t: *rot_t, pos: *pos };
+                let $y = &MovedPoly {
+                    poly,
+                    rot: *rot,
+                    rot_t: *rot_t,
+                    pos: *pos,
+                };
                 $body
             }
             (x, y) => {
@@ -266,14 +311,22 @@ pub(crate) use with_cores;
 impl<'a> Core<'a> {
     /// Builds the core of a polyhedron posed by `rot`, `pos` relative to the query frame.
     pub(crate) fn moved(poly: &'a ConvexPolyhedron, rot: DMat3, pos: DVec3) -> Self {
-        Core::Moved { poly, rot, rot_t: rot.transpose(), pos }
+        Core::Moved {
+            poly,
+            rot,
+            rot_t: rot.transpose(),
+            pos,
+        }
     }
 
     /// The core of a polyhedron at the query-frame origin (a box core when `obb` is given).
     #[inline]
     pub(crate) fn local(poly: &'a ConvexPolyhedron, obb: &Option<Obb>) -> Self {
         match obb {
-            Some(o) => Core::Box { m: o.scaled(&DMat3::IDENTITY), pos: DVec3::ZERO },
+            Some(o) => Core::Box {
+                m: o.scaled(&DMat3::IDENTITY),
+                pos: DVec3::ZERO,
+            },
             None => Core::Local(poly),
         }
     }
@@ -282,7 +335,10 @@ impl<'a> Core<'a> {
     #[inline]
     pub(crate) fn posed(poly: &'a ConvexPolyhedron, obb: &Option<Obb>, rel: &DPose) -> Self {
         match obb {
-            Some(o) => Core::Box { m: o.scaled(&rel.rot), pos: rel.pos },
+            Some(o) => Core::Box {
+                m: o.scaled(&rel.rot),
+                pos: rel.pos,
+            },
             None => Core::moved(poly, rel.rot, rel.pos),
         }
     }
@@ -292,7 +348,12 @@ impl<'a> Core<'a> {
     pub(crate) fn support(&self, d: DVec3) -> DVec3 {
         match self {
             Core::Local(p) => p.vertices[support_index(p, d.as_vec3())].as_dvec3(),
-            Core::Moved { poly, rot, rot_t, pos } => {
+            Core::Moved {
+                poly,
+                rot,
+                rot_t,
+                pos,
+            } => {
                 let ld = *rot_t * d;
                 *rot * poly.vertices[support_index(poly, ld.as_vec3())].as_dvec3() + *pos
             }
@@ -333,7 +394,10 @@ impl DPose {
     pub(crate) fn new(q: DQuat, pos: DVec3) -> Self {
         let n = q.length_squared();
         if !(n > 0.0 && n.is_finite()) {
-            return Self { rot: DMat3::IDENTITY, pos };
+            return Self {
+                rot: DMat3::IDENTITY,
+                pos,
+            };
         }
         let s = 2.0 / n;
         let (x, y, z, w) = (q.x, q.y, q.z, q.w);
@@ -353,7 +417,10 @@ impl DPose {
     #[inline]
     pub(crate) fn inv_mul(&self, other: &DPose) -> DPose {
         let rt = self.rot.transpose();
-        DPose { rot: rt * other.rot, pos: self.inverse_vector(other.pos - self.pos) }
+        DPose {
+            rot: rt * other.rot,
+            pos: self.inverse_vector(other.pos - self.pos),
+        }
     }
 
     #[inline]
@@ -369,6 +436,10 @@ impl DPose {
     /// `rotᵀ x`.
     #[inline]
     pub(crate) fn inverse_vector(&self, x: DVec3) -> DVec3 {
-        DVec3::new(self.rot.x_axis.dot(x), self.rot.y_axis.dot(x), self.rot.z_axis.dot(x))
+        DVec3::new(
+            self.rot.x_axis.dot(x),
+            self.rot.y_axis.dot(x),
+            self.rot.z_axis.dot(x),
+        )
     }
 }

@@ -23,9 +23,9 @@
 
 use glam::{DQuat, DVec3, Vec3};
 
+use super::support::DPose;
 use super::{Pair, contact, to_world};
 use crate::{Pose, Shape};
-use super::support::DPose;
 
 /// Iteration cap of conservative advancement.
 pub const TOI_MAX_ITERATIONS: usize = 1000;
@@ -46,7 +46,7 @@ pub struct Toi {
     /// Time of first contact (0 when overlapping at the start).
     pub time: f32,
     /// Witness points on `a` and `b` at that time (world frame), at most the tolerance apart
-    /// (deepest points when overlapping at the start).
+    /// (the contact's witness points when overlapping at the start).
     pub points: [Vec3; 2],
     /// Unit contact normal from `a` to `b` at that time.
     pub normal: Vec3,
@@ -71,7 +71,7 @@ pub fn time_of_impact(
     horizon: f32,
 ) -> Option<Toi> {
     let horizon = horizon as f64;
-    if !(horizon >= 0.0) {
+    if horizon.is_nan() || horizon < 0.0 {
         return None;
     }
     let (qa, xa) = (pose_a.rotation.as_dquat(), pose_a.position.as_dvec3());
@@ -96,28 +96,49 @@ pub fn time_of_impact(
         let (raw, frame, swapped) = Pair::new(a, &pa, b, &pb).distance_raw();
         if raw.overlap {
             // Only at t = 0 in exact arithmetic; report the penetration there.
-            let pa32 = Pose::new(pa.pos.as_vec3(), (DQuat::from_scaled_axis(wa * t) * qa).as_quat());
-            let pb32 = Pose::new(pb.pos.as_vec3(), (DQuat::from_scaled_axis(wb * t) * qb).as_quat());
+            let pa32 = Pose::new(
+                pa.pos.as_vec3(),
+                (DQuat::from_scaled_axis(wa * t) * qa).as_quat(),
+            );
+            let pb32 = Pose::new(
+                pb.pos.as_vec3(),
+                (DQuat::from_scaled_axis(wb * t) * qb).as_quat(),
+            );
             let c = contact(a, &pa32, b, &pb32);
-            return Some(Toi { time: t as f32, points: c.points, normal: c.normal, converged: true });
+            return Some(Toi {
+                time: t as f32,
+                points: c.points,
+                normal: c.normal,
+                converged: true,
+            });
         }
         let (points, normal) = to_world(&frame, swapped, &raw);
         if raw.sep <= tol {
-            return Some(Toi { time: t as f32, points, normal, converged: true });
+            return Some(Toi {
+                time: t as f32,
+                points,
+                normal,
+                converged: true,
+            });
         }
         let n = {
             let n = frame.vector(raw.normal);
             if swapped { -n } else { n }
         };
         let mu = (va - vb).dot(n) + n.cross(wa).length() * ra + n.cross(wb).length() * rb;
-        if !(mu > 0.0) {
+        if mu.is_nan() || mu <= 0.0 {
             return None;
         }
         t += (raw.sep - 0.5 * tol) / mu;
         if t > horizon {
             return None;
         }
-        last = Some(Toi { time: t as f32, points, normal, converged: false });
+        last = Some(Toi {
+            time: t as f32,
+            points,
+            normal,
+            converged: false,
+        });
     }
     last
 }

@@ -1,0 +1,124 @@
+//! `clatter query FILE|-` end to end: JSON lines in, one answer line per query line, an error
+//! object (with its line number) for a malformed line while the others go on, and a hard error
+//! for a missing file.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+
+use serde_json::Value;
+
+const LINES: &str = concat!(
+    // 1: two spheres 1.5 apart, b approaching at 1 m/s: impact at t = 1.5.
+    r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "position": [0, 0, 0]}, "b": {"shape": {"sphere": {"radius": 0.5}}, "position": [3, 0, 0], "velocity": [-1, 0, 0]}, "queries": ["intersects", "distance", "toi"], "toi_horizon": 2.0}"#,
+    "\n",
+    // 2: malformed JSON.
+    r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "position": [0, 0, 0]}, "b": "#,
+    "\n",
+    // 3: libccd's box-box case: depth 0.65 along +x.
+    r#"{"a": {"shape": {"box": {"half_extents": [0.5, 0.5, 0.5]}}, "position": [0, 0, 0]}, "b": {"shape": {"box": {"half_extents": [0.25, 0.5, 0.75]}}, "position": [0.1, 0, 0]}, "queries": ["contact"]}"#,
+    "\n",
+    // 4: an unknown polyhedron kind.
+    r#"{"a": {"shape": {"polyhedron": {"kind": "prism", "radius": 1.0}}, "position": [0, 0, 0]}, "b": {"shape": {"sphere": {"radius": 1.0}}, "position": [5, 0, 0]}}"#,
+    "\n",
+    // 5: an icosahedron and a convex hull (a unit tetrahedron-ish point set), far apart.
+    r#"{"a": {"shape": {"polyhedron": {"kind": "icosahedron", "radius": 1.0}}, "position": [0, 0, 0], "orientation": [0.7071068, 0, 0, 0.7071068]}, "b": {"shape": {"convex": {"points": [[0,0,0],[1,0,0],[0,1,0],[0,0,1]]}}, "position": [10, 0, 0]}, "queries": ["intersects", "distance", "contact", "toi"]}"#,
+    "\n",
+);
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_clatter"))
+}
+
+fn check(stdout: &[u8]) {
+    let text = String::from_utf8(stdout.to_vec()).expect("utf-8 output");
+    let v: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    assert_eq!(v.len(), 5, "{text}");
+    // 1
+    assert_eq!(v[0]["intersects"], false);
+    assert!((v[0]["distance"].as_f64().unwrap() - 1.5).abs() < 1e-6);
+    assert!((v[0]["toi"].as_f64().unwrap() - 1.5).abs() < 1e-6);
+    assert_eq!(v[0]["points"][0][0].as_f64().unwrap(), 1.0);
+    assert!(v[0].get("depth").is_none() && v[0].get("contacts").is_none());
+    // 2
+    assert_eq!(v[1]["line"], 2);
+    assert!(v[1]["error"].as_str().unwrap().len() > 5);
+    // 3
+    assert!(
+        (v[2]["depth"].as_f64().unwrap() - 0.65).abs() < 1e-6,
+        "{}",
+        v[2]
+    );
+    assert!((v[2]["normal"][0].as_f64().unwrap() - 1.0).abs() < 1e-6);
+    assert_eq!(v[2]["contacts"].as_array().unwrap().len(), 4);
+    assert!(v[2].get("intersects").is_none() && v[2].get("toi").is_none());
+    // 4
+    assert_eq!(v[3]["line"], 4);
+    assert!(
+        v[3]["error"].as_str().unwrap().contains("prism"),
+        "{}",
+        v[3]
+    );
+    // 5: the hull's centre of mass is at the given position; its nearest point to the
+    // icosahedron is at x = 10 - 0.25 (the vertex set's centroid sits 0.25 from each face of
+    // the corner).
+    assert_eq!(v[4]["intersects"], false);
+    let d = v[4]["distance"].as_f64().unwrap();
+    assert!(d > 8.0 && d < 9.0, "{}", v[4]);
+    assert!(v[4]["toi"].is_null());
+    assert!(v[4]["depth"].as_f64().unwrap() < 0.0);
+}
+
+#[test]
+fn query_file() {
+    let dir = std::env::temp_dir().join(format!("clatter-query-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path: PathBuf = dir.join("queries.jsonl");
+    std::fs::write(&path, LINES).unwrap();
+    let out = bin().arg("query").arg(&path).output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    check(&out.stdout);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn query_stdin() {
+    let mut child = bin()
+        .args(["query", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    child
+        .stdin
+        .take()
+        .unwrap()
+        .write_all(LINES.as_bytes())
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    check(&out.stdout);
+}
+
+#[test]
+fn missing_file_is_an_error() {
+    let out = bin()
+        .args(["query", "/nonexistent/clatter/queries.jsonl"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("queries.jsonl"), "{err}");
+}

@@ -1,0 +1,679 @@
+//! Checkpoints: the complete state of a run in a versioned binary file, so that a run of
+//! `2N` steps and a run of `N` steps, a restart from the checkpoint and `N` more steps end in
+//! bitwise identical states.
+//!
+//! # Format (version 1)
+//!
+//! All integers and floats little-endian; floats are stored as their bit patterns.
+//!
+//! ```text
+//! magic        8 bytes   "CLATCKPT"
+//! version      u32       1
+//! length       u64       the whole file, checksum included
+//! sections     u32       number of sections
+//! section*     tag [u8; 4], payload length u64, payload
+//! checksum     u32       CRC-32 (IEEE) of every byte before it
+//! ```
+//!
+//! Sections (unknown tags are skipped, so later versions can add optional ones):
+//! - `SCEN`: the producer (`clatter 0.1.0`), the scene's name and its full TOML text: the
+//!   static data (shapes, materials, walls, masses) is rebuilt from it on restore.
+//! - `META`: body and wall counts, `dt`, `time`, `step_count`, broad-phase rebuilds, skin,
+//!   gravity, the pending-rebuild flag, and a fingerprint of the bodies' mass properties (a
+//!   scene that builds different bodies than when the checkpoint was written is refused).
+//! - `BODY`: per body position, velocity, orientation, angular momentum, angular velocity.
+//! - `RBLD`: the positions the Verlet list was built at (empty before the first step).
+//! - `CONT`: the contact list: body pairs, body-wall pairs, tangential springs, last forces,
+//!   touching flags and separating-axis hints. The derived gather ranges are rebuilt by
+//!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
+//!   stored ones.
+//! - `APP `: opaque bytes of the program that wrote the file (the CLI stores its run options).
+//!
+//! Files are written under `NAME.tmp`, synced and renamed ([`write_atomic`]), so a file with
+//! its final name is always complete; a truncated or altered file fails the length or
+//! checksum test with a clear [`CheckpointError`] and nothing is restored from it.
+//!
+//! Whoever adds per-pair or per-body *state* to [`World`] (not derived data) must add it here,
+//! or restarts stop being bitwise exact (`tests/checkpoint.rs` checks that they are).
+
+use std::io::Write;
+use std::path::Path;
+
+use glam::{Quat, Vec3};
+use thiserror::Error;
+
+use crate::forces::ContactForce;
+use crate::scene::{Scene, SceneError};
+use crate::world::World;
+
+/// The first eight bytes of every checkpoint.
+pub const MAGIC: [u8; 8] = *b"CLATCKPT";
+/// The format version this build writes and reads.
+pub const FORMAT_VERSION: u32 = 1;
+const HEADER_LEN: usize = 8 + 4 + 8 + 4;
+const TRAILER_LEN: usize = 4;
+/// Bodies further than this from the origin are refused (the broad phase needs finite extents).
+const MAX_COORDINATE: f32 = 1e30;
+
+/// Why a checkpoint could not be read or restored.
+#[derive(Debug, Error)]
+pub enum CheckpointError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    /// The magic bytes are missing.
+    #[error("not a clatter checkpoint (the file does not start with the bytes `CLATCKPT`)")]
+    NotACheckpoint,
+    /// Written by a version of clatter with another format.
+    #[error("checkpoint format version {found} is not supported (this build reads version {supported})")]
+    UnsupportedVersion { found: u32, supported: u32 },
+    /// Shorter than its header says: an interrupted write or a cut file.
+    #[error("truncated checkpoint: {actual} bytes, {}", match .expected { Some(e) => format!("the header says {e}"), None => "too short for the header".to_string() })]
+    Truncated { actual: u64, expected: Option<u64> },
+    /// The bytes were altered.
+    #[error("corrupt checkpoint: checksum mismatch (stored {stored:08x}, computed {computed:08x})")]
+    Checksum { stored: u32, computed: u32 },
+    /// Structurally invalid although the checksum matched (a bug, or a hand-made file).
+    #[error("malformed checkpoint: {0}")]
+    Malformed(String),
+    /// The stored scene builds a world that does not fit the stored state.
+    #[error("checkpoint does not match its scene: {0}")]
+    Mismatch(String),
+    /// The stored scene text no longer parses.
+    #[error("the checkpoint's scene is invalid: {0}")]
+    Scene(#[from] SceneError),
+}
+
+/// A parsed checkpoint: the scene it came from, the dynamic state, and the writer's app data.
+#[derive(Debug, Clone)]
+pub struct Checkpoint {
+    /// What wrote it, e.g. `clatter 0.1.0`.
+    pub producer: String,
+    /// The scene's name (file name as given, or `<default scene>`).
+    pub scene_source: String,
+    /// The full scene text.
+    pub scene_text: String,
+    /// Opaque bytes of the program that wrote the checkpoint.
+    pub app: Vec<u8>,
+    state: State,
+}
+
+#[derive(Debug, Clone, Default)]
+struct State {
+    bodies: u64,
+    walls: u64,
+    fingerprint: u32,
+    dt: f32,
+    time: f64,
+    step_count: u64,
+    rebuilds: u64,
+    skin: f32,
+    gravity: Vec3,
+    needs_rebuild: bool,
+    position: Vec<Vec3>,
+    velocity: Vec<Vec3>,
+    orientation: Vec<Quat>,
+    angular_momentum: Vec<Vec3>,
+    omega: Vec<Vec3>,
+    rebuild_position: Vec<Vec3>,
+    pairs: Vec<[u32; 2]>,
+    wall_pairs: Vec<[u32; 2]>,
+    history: Vec<Vec3>,
+    forces: Vec<ContactForce>,
+    touching: Vec<bool>,
+    hints: Vec<u32>,
+}
+
+impl Checkpoint {
+    /// Parses and checks a checkpoint (magic, version, length, checksum, sections).
+    pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
+        let len = bytes.len();
+        if len < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+            return if len < MAGIC.len() && bytes == &MAGIC[..len] && len > 0 {
+                Err(CheckpointError::Truncated { actual: len as u64, expected: None })
+            } else {
+                Err(CheckpointError::NotACheckpoint)
+            };
+        }
+        if len < 12 {
+            return Err(CheckpointError::Truncated { actual: len as u64, expected: None });
+        }
+        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+        if version != FORMAT_VERSION {
+            return Err(CheckpointError::UnsupportedVersion { found: version, supported: FORMAT_VERSION });
+        }
+        if len < 20 {
+            return Err(CheckpointError::Truncated { actual: len as u64, expected: None });
+        }
+        let declared = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+        if (len as u64) < declared {
+            return Err(CheckpointError::Truncated { actual: len as u64, expected: Some(declared) });
+        }
+        if len < HEADER_LEN + TRAILER_LEN {
+            return Err(CheckpointError::Malformed(format!("the header declares {declared} bytes, less than a header")));
+        }
+        if (len as u64) > declared {
+            return Err(CheckpointError::Malformed(format!(
+                "{} bytes after the end the header declares ({declared} bytes)",
+                len as u64 - declared
+            )));
+        }
+        let body_end = len - TRAILER_LEN;
+        let stored = u32::from_le_bytes(bytes[body_end..].try_into().expect("4 bytes"));
+        let computed = crc32(&bytes[..body_end]);
+        if stored != computed {
+            return Err(CheckpointError::Checksum { stored, computed });
+        }
+        let sections = u32::from_le_bytes(bytes[20..24].try_into().expect("4 bytes"));
+        let mut r = Reader { buf: &bytes[HEADER_LEN..body_end], pos: 0, what: "section table" };
+        let mut found: Vec<[u8; 4]> = Vec::new();
+        let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) = (None, None, None, None, None, None);
+        for _ in 0..sections {
+            let tag: [u8; 4] = r.bytes(4)?.try_into().expect("4 bytes");
+            let n = r.len_u64()?;
+            let payload = r.bytes(n)?;
+            if found.contains(&tag) {
+                return Err(CheckpointError::Malformed(format!("section `{}` appears twice", tag_name(&tag))));
+            }
+            found.push(tag);
+            let reader = Reader { buf: payload, pos: 0, what: tag_str(&tag) };
+            match &tag {
+                b"SCEN" => scene = Some(reader),
+                b"META" => meta = Some(reader),
+                b"BODY" => body = Some(reader),
+                b"RBLD" => rbld = Some(reader),
+                b"CONT" => cont = Some(reader),
+                b"APP " => app = Some(payload.to_vec()),
+                _ => {} // optional section of a later version
+            }
+        }
+        if r.pos != r.buf.len() {
+            return Err(CheckpointError::Malformed(format!("{} bytes after the last section", r.buf.len() - r.pos)));
+        }
+        let mut s = need(scene, "SCEN")?;
+        let producer = s.string()?;
+        let scene_source = s.string()?;
+        let scene_text = s.string()?;
+        s.finish()?;
+        let mut st = State::default();
+        read_meta(&mut need(meta, "META")?, &mut st)?;
+        read_bodies(&mut need(body, "BODY")?, &mut st)?;
+        let mut rb = need(rbld, "RBLD")?;
+        let nr = rb.count(12)?;
+        if nr != 0 && nr != st.bodies as usize {
+            return Err(CheckpointError::Malformed(format!("{nr} rebuild positions for {} bodies", st.bodies)));
+        }
+        st.rebuild_position = rb.vec3s(nr)?;
+        rb.finish()?;
+        read_contacts(&mut need(cont, "CONT")?, &mut st)?;
+        Ok(Checkpoint { producer, scene_source, scene_text, app: app.unwrap_or_default(), state: st })
+    }
+
+    /// Reads and checks a checkpoint file.
+    pub fn load(path: &Path) -> Result<Checkpoint, CheckpointError> {
+        let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io { path: path.display().to_string(), source })?;
+        Checkpoint::from_bytes(&bytes)
+    }
+
+    /// Steps taken when the checkpoint was written.
+    pub fn step_count(&self) -> u64 {
+        self.state.step_count
+    }
+
+    /// Simulated time when the checkpoint was written, s.
+    pub fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// Number of bodies.
+    pub fn bodies(&self) -> u64 {
+        self.state.bodies
+    }
+
+    /// Parses the stored scene.
+    pub fn scene(&self) -> Result<Scene, CheckpointError> {
+        Ok(Scene::parse(&self.scene_text, &self.scene_source)?)
+    }
+
+    /// The world exactly as it was when the checkpoint was written, built on `scene` (which
+    /// must be [`Checkpoint::scene`]).
+    pub fn restore(&self, scene: &Scene) -> Result<World, CheckpointError> {
+        let st = &self.state;
+        let mut w = scene.world();
+        if w.len() as u64 != st.bodies || w.walls.len() as u64 != st.walls {
+            return Err(CheckpointError::Mismatch(format!(
+                "the scene has {} bodies and {} walls, the checkpoint {} and {}",
+                w.len(),
+                w.walls.len(),
+                st.bodies,
+                st.walls
+            )));
+        }
+        if fingerprint(&w) != st.fingerprint {
+            return Err(CheckpointError::Mismatch(
+                "the scene builds bodies with other masses or sizes than when the checkpoint was written (written by another version of clatter?)"
+                    .to_string(),
+            ));
+        }
+        w.dt = st.dt;
+        w.skin = st.skin;
+        w.gravity = st.gravity;
+        if st.rebuild_position.is_empty() {
+            if !(st.pairs.is_empty() && st.wall_pairs.is_empty()) || !st.needs_rebuild {
+                return Err(CheckpointError::Malformed("a contact list without the positions it was built at".into()));
+            }
+        } else {
+            // Rebuild the derived gather ranges exactly as the run did, from the same positions.
+            w.position.clone_from(&st.rebuild_position);
+            w.rebuild();
+            if w.contacts.pairs != st.pairs || w.contacts.wall_pairs != st.wall_pairs {
+                return Err(CheckpointError::Mismatch(format!(
+                    "the broad phase finds {} body pairs and {} wall pairs at the stored positions, the checkpoint lists {} and {}",
+                    w.contacts.pairs.len(),
+                    w.contacts.wall_pairs.len(),
+                    st.pairs.len(),
+                    st.wall_pairs.len()
+                )));
+            }
+            w.contacts.history.clone_from(&st.history);
+            w.contacts.forces.clone_from(&st.forces);
+            w.contacts.touching.clone_from(&st.touching);
+            w.contacts.hints.clone_from(&st.hints);
+        }
+        w.position.clone_from(&st.position);
+        w.velocity.clone_from(&st.velocity);
+        w.orientation.clone_from(&st.orientation);
+        w.angular_momentum.clone_from(&st.angular_momentum);
+        w.omega.clone_from(&st.omega);
+        w.rebuilds = st.rebuilds;
+        w.needs_rebuild = st.needs_rebuild;
+        w.time = st.time;
+        w.step_count = st.step_count;
+        Ok(w)
+    }
+
+    /// [`Checkpoint::scene`] and [`Checkpoint::restore`] in one.
+    pub fn world(&self) -> Result<(Scene, World), CheckpointError> {
+        let scene = self.scene()?;
+        let world = self.restore(&scene)?;
+        Ok((scene, world))
+    }
+}
+
+impl World {
+    /// The complete state as checkpoint bytes. `scene_text` must be the text the world was
+    /// built from (named `scene_source`); `app` is stored as is and returned by
+    /// [`Checkpoint::app`](Checkpoint#structfield.app).
+    pub fn checkpoint_bytes(&self, scene_source: &str, scene_text: &str, app: &[u8]) -> Vec<u8> {
+        let n = self.len();
+        let c = &self.contacts;
+        let nc = c.history.len();
+        let mut w = Writer::with_capacity(HEADER_LEN + 64 * n + 80 * nc + scene_text.len() + app.len() + 256);
+        w.buf.extend_from_slice(&MAGIC);
+        w.u32(FORMAT_VERSION);
+        w.u64(0); // length, patched below
+        w.u32(6);
+        w.section(b"SCEN", |w| {
+            w.string(concat!("clatter ", env!("CARGO_PKG_VERSION")));
+            w.string(scene_source);
+            w.string(scene_text);
+        });
+        w.section(b"META", |w| {
+            w.u64(n as u64);
+            w.u64(self.walls.len() as u64);
+            w.u32(fingerprint(self));
+            w.f32(self.dt);
+            w.f64(self.time);
+            w.u64(self.step_count);
+            w.u64(self.rebuilds);
+            w.f32(self.skin);
+            w.vec3(self.gravity);
+            w.buf.push(self.needs_rebuild as u8);
+        });
+        w.section(b"BODY", |w| {
+            w.u64(n as u64);
+            for i in 0..n {
+                w.vec3(self.position[i]);
+                w.vec3(self.velocity[i]);
+                let q = self.orientation[i];
+                for v in [q.x, q.y, q.z, q.w] {
+                    w.f32(v);
+                }
+                w.vec3(self.angular_momentum[i]);
+                w.vec3(self.omega[i]);
+            }
+        });
+        w.section(b"RBLD", |w| {
+            w.u64(self.rebuild_position.len() as u64);
+            for &p in &self.rebuild_position {
+                w.vec3(p);
+            }
+        });
+        w.section(b"CONT", |w| {
+            w.u64(c.pairs.len() as u64);
+            for p in &c.pairs {
+                w.u32(p[0]);
+                w.u32(p[1]);
+            }
+            w.u64(c.wall_pairs.len() as u64);
+            for p in &c.wall_pairs {
+                w.u32(p[0]);
+                w.u32(p[1]);
+            }
+            for k in 0..nc {
+                w.vec3(c.history[k]);
+                let f = &c.forces[k];
+                w.vec3(f.force_b);
+                w.vec3(f.torque_a);
+                w.vec3(f.torque_b);
+                w.f32(f.normal_force);
+                w.buf.push(c.touching[k] as u8);
+            }
+            for &h in &c.hints {
+                w.u32(h);
+            }
+        });
+        w.section(b"APP ", |w| w.buf.extend_from_slice(app));
+        let total = (w.buf.len() + TRAILER_LEN) as u64;
+        w.buf[12..20].copy_from_slice(&total.to_le_bytes());
+        let crc = crc32(&w.buf);
+        w.u32(crc);
+        w.buf
+    }
+}
+
+fn read_meta(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
+    st.bodies = r.u64()?;
+    st.walls = r.u64()?;
+    st.fingerprint = r.u32()?;
+    st.dt = r.f32()?;
+    st.time = r.f64()?;
+    st.step_count = r.u64()?;
+    st.rebuilds = r.u64()?;
+    st.skin = r.f32()?;
+    st.gravity = r.vec3()?;
+    st.needs_rebuild = match r.bytes(1)?[0] {
+        0 => false,
+        1 => true,
+        b => return Err(CheckpointError::Malformed(format!("rebuild flag {b} is neither 0 nor 1"))),
+    };
+    r.finish()?;
+    if !(st.dt.is_finite() && st.dt > 0.0) {
+        return Err(CheckpointError::Malformed(format!("time step {} is not a positive number", st.dt)));
+    }
+    if !(st.time.is_finite() && st.skin.is_finite() && st.skin >= 0.0 && st.gravity.is_finite()) {
+        return Err(CheckpointError::Malformed("non-finite time, skin or gravity".into()));
+    }
+    Ok(())
+}
+
+fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
+    let n = r.count(16 * 4)?;
+    if n as u64 != st.bodies {
+        return Err(CheckpointError::Malformed(format!("{n} body states for {} bodies", st.bodies)));
+    }
+    for i in 0..n {
+        let x = r.vec3()?;
+        let v = r.vec3()?;
+        let q = Quat::from_xyzw(r.f32()?, r.f32()?, r.f32()?, r.f32()?);
+        let l = r.vec3()?;
+        let w = r.vec3()?;
+        if !(x.is_finite() && v.is_finite() && q.is_finite() && l.is_finite() && w.is_finite()) {
+            return Err(CheckpointError::Malformed(format!("body {i} has a non-finite state")));
+        }
+        if x.abs().max_element() > MAX_COORDINATE {
+            return Err(CheckpointError::Malformed(format!("body {i} is at {x}, too far from the origin")));
+        }
+        st.position.push(x);
+        st.velocity.push(v);
+        st.orientation.push(q);
+        st.angular_momentum.push(l);
+        st.omega.push(w);
+    }
+    r.finish()
+}
+
+fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
+    if st.rebuild_position.iter().any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE) {
+        return Err(CheckpointError::Malformed("a rebuild position is non-finite or too far from the origin".into()));
+    }
+    let np = r.count(8)?;
+    for _ in 0..np {
+        st.pairs.push([r.u32()?, r.u32()?]);
+    }
+    let nw = r.count(8)?;
+    for _ in 0..nw {
+        st.wall_pairs.push([r.u32()?, r.u32()?]);
+    }
+    let nc = np + nw;
+    r.need(nc.checked_mul(53).ok_or_else(|| CheckpointError::Malformed("contact count overflows".into()))?)?;
+    for _ in 0..nc {
+        st.history.push(r.vec3()?);
+        st.forces.push(ContactForce { force_b: r.vec3()?, torque_a: r.vec3()?, torque_b: r.vec3()?, normal_force: r.f32()? });
+        st.touching.push(match r.bytes(1)?[0] {
+            0 => false,
+            1 => true,
+            b => return Err(CheckpointError::Malformed(format!("touching flag {b} is neither 0 nor 1"))),
+        });
+    }
+    r.need(np * 4)?;
+    for _ in 0..np {
+        st.hints.push(r.u32()?);
+    }
+    r.finish()
+}
+
+/// A CRC-32 of the bits of every body's mass properties and size: equal when a scene builds
+/// the same bodies.
+fn fingerprint(w: &World) -> u32 {
+    let mut bytes = Vec::with_capacity(w.len() * 28);
+    for i in 0..w.len() {
+        bytes.extend_from_slice(&w.shape_of[i].to_le_bytes());
+        bytes.extend_from_slice(&w.material_of[i].to_le_bytes());
+        bytes.extend_from_slice(&w.mass[i].to_le_bytes());
+        for c in w.inertia[i].to_array() {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
+        bytes.extend_from_slice(&w.radius[i].to_le_bytes());
+    }
+    crc32(&bytes)
+}
+
+/// Writes `bytes` to `path` atomically: to `path.tmp`, synced, renamed over `path`, and the
+/// directory synced, so that `path` is either the old file or the complete new one.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    let tmp = path.with_file_name(name);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)?;
+        sync_dir(path);
+        Ok(())
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Syncs the directory holding `path` so a rename in it is durable (best effort; a no-op
+/// where directories cannot be opened).
+pub fn sync_dir(path: &Path) {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+const CRC_TABLE: [u32; 256] = {
+    let mut table = [0u32; 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut c = i as u32;
+        let mut k = 0;
+        while k < 8 {
+            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            k += 1;
+        }
+        table[i] = c;
+        i += 1;
+    }
+    table
+};
+
+/// CRC-32 (IEEE 802.3, the one of zip and PNG) of `bytes`.
+pub fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c = CRC_TABLE[((c ^ b as u32) & 0xff) as usize] ^ (c >> 8);
+    }
+    !c
+}
+
+fn need<'a>(r: Option<Reader<'a>>, tag: &str) -> Result<Reader<'a>, CheckpointError> {
+    r.ok_or_else(|| CheckpointError::Malformed(format!("the `{tag}` section is missing")))
+}
+
+fn tag_str(tag: &[u8; 4]) -> &'static str {
+    match tag {
+        b"SCEN" => "SCEN section",
+        b"META" => "META section",
+        b"BODY" => "BODY section",
+        b"RBLD" => "RBLD section",
+        b"CONT" => "CONT section",
+        _ => "section",
+    }
+}
+
+fn tag_name(tag: &[u8; 4]) -> String {
+    tag.iter().map(|&b| if b.is_ascii_graphic() || b == b' ' { b as char } else { '?' }).collect()
+}
+
+struct Writer {
+    buf: Vec<u8>,
+}
+
+impl Writer {
+    fn with_capacity(n: usize) -> Self {
+        Self { buf: Vec::with_capacity(n) }
+    }
+    fn u32(&mut self, v: u32) {
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    fn u64(&mut self, v: u64) {
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    fn f32(&mut self, v: f32) {
+        self.u32(v.to_bits());
+    }
+    fn f64(&mut self, v: f64) {
+        self.u64(v.to_bits());
+    }
+    fn vec3(&mut self, v: Vec3) {
+        self.f32(v.x);
+        self.f32(v.y);
+        self.f32(v.z);
+    }
+    fn string(&mut self, s: &str) {
+        self.u64(s.len() as u64);
+        self.buf.extend_from_slice(s.as_bytes());
+    }
+    fn section(&mut self, tag: &[u8; 4], body: impl FnOnce(&mut Writer)) {
+        self.buf.extend_from_slice(tag);
+        let at = self.buf.len();
+        self.u64(0);
+        body(self);
+        let len = (self.buf.len() - at - 8) as u64;
+        self.buf[at..at + 8].copy_from_slice(&len.to_le_bytes());
+    }
+}
+
+/// Bounds-checked reading: every length is checked against the bytes left before anything
+/// is allocated, so hostile input cannot make the reader allocate more than the file's size.
+struct Reader<'a> {
+    buf: &'a [u8],
+    pos: usize,
+    what: &'static str,
+}
+
+impl<'a> Reader<'a> {
+    fn need(&self, n: usize) -> Result<(), CheckpointError> {
+        if n > self.buf.len() - self.pos {
+            return Err(CheckpointError::Malformed(format!(
+                "{} ends early ({} bytes left, {n} needed)",
+                self.what,
+                self.buf.len() - self.pos
+            )));
+        }
+        Ok(())
+    }
+    fn bytes(&mut self, n: u64) -> Result<&'a [u8], CheckpointError> {
+        let n = usize::try_from(n).map_err(|_| CheckpointError::Malformed(format!("length {n} in the {} is too large", self.what)))?;
+        self.need(n)?;
+        let out = &self.buf[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(out)
+    }
+    fn array<const N: usize>(&mut self) -> Result<[u8; N], CheckpointError> {
+        Ok(self.bytes(N as u64)?.try_into().expect("N bytes"))
+    }
+    fn u32(&mut self) -> Result<u32, CheckpointError> {
+        Ok(u32::from_le_bytes(self.array()?))
+    }
+    fn u64(&mut self) -> Result<u64, CheckpointError> {
+        Ok(u64::from_le_bytes(self.array()?))
+    }
+    fn len_u64(&mut self) -> Result<u64, CheckpointError> {
+        self.u64()
+    }
+    fn f32(&mut self) -> Result<f32, CheckpointError> {
+        Ok(f32::from_bits(self.u32()?))
+    }
+    fn f64(&mut self) -> Result<f64, CheckpointError> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    fn vec3(&mut self) -> Result<Vec3, CheckpointError> {
+        Ok(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
+    }
+    /// A count of items of `size` bytes each, checked against the bytes left.
+    fn count(&mut self, size: usize) -> Result<usize, CheckpointError> {
+        let n = self.u64()?;
+        let left = (self.buf.len() - self.pos) as u64;
+        if n.checked_mul(size as u64).is_none_or(|b| b > left) {
+            return Err(CheckpointError::Malformed(format!("count {n} in the {} exceeds the bytes left ({left})", self.what)));
+        }
+        Ok(n as usize)
+    }
+    fn vec3s(&mut self, n: usize) -> Result<Vec<Vec3>, CheckpointError> {
+        (0..n).map(|_| self.vec3()).collect()
+    }
+    fn string(&mut self) -> Result<String, CheckpointError> {
+        let n = self.count(1)?;
+        let b = self.bytes(n as u64)?;
+        String::from_utf8(b.to_vec()).map_err(|_| CheckpointError::Malformed(format!("a string in the {} is not UTF-8", self.what)))
+    }
+    fn finish(&self) -> Result<(), CheckpointError> {
+        if self.pos != self.buf.len() {
+            return Err(CheckpointError::Malformed(format!("{} bytes left over at the end of the {}", self.buf.len() - self.pos, self.what)));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::crc32;
+
+    #[test]
+    fn crc32_check_value() {
+        assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
+        assert_eq!(crc32(b""), 0);
+    }
+}

@@ -1,0 +1,742 @@
+//! Blow-up detection: the checks that stop a run that has gone wrong, with a message that
+//! names the body, the step and the likely cause.
+//!
+//! - **Non-finite state** (NaN or infinity): found by [`World::step`] itself, every step.
+//! - **Escape**: a body entirely on the solid side of a wall (its centre more than its
+//!   bounding radius behind the plane) has tunnelled through it: it moved more than its size
+//!   in one step.
+//! - **Energy growth**: the kinetic energy exceeds [`ENERGY_FACTOR`] times the energy the run
+//!   can have: the initial kinetic energy, plus the potential energy released since the start,
+//!   plus the elastic energy of initial overlaps, plus a floor (every body lifted by its own
+//!   size and moving one size per second). Contacts only dissipate, so a physical run stays
+//!   below 1x; an unstable integration grows exponentially past any factor.
+//! - **Deep overlap**: a contact deeper than [`OVERLAP_LIMIT`] of the smaller body's size
+//!   (its inradius: a sphere's radius, a polyhedron's smallest centre-to-face distance).
+//! - **Before the run**: an overlap deeper than [`INITIAL_OVERLAP_LIMIT`] at step 0 (bodies
+//!   placed on top of each other or behind a wall) refuses to start, and a time step above the
+//!   stability bound of the stiffest contact is warned about.
+//!
+//! The cheap checks ([`Health::check`] without `full`: escape and energy, `O(bodies x walls)`)
+//! are meant for every few steps; the full check adds the overlap test (a narrow phase over
+//! the touching contacts) and is meant for every hundred steps or so and at output steps.
+
+use std::fmt;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::broad::{self, Grid};
+use crate::forces::ContactForce;
+use crate::world::{SimError, World};
+use clatter_geom::narrow::{self, Manifold};
+use clatter_geom::{Pose, Shape};
+
+/// A contact deeper than this fraction of the smaller body's size stops the run.
+pub const OVERLAP_LIMIT: f32 = 0.5;
+/// At step 0, an overlap deeper than this fraction of the smaller body's size refuses to start.
+pub const INITIAL_OVERLAP_LIMIT: f32 = 0.25;
+/// Kinetic energy above this multiple of the energy available to the run stops it.
+pub const ENERGY_FACTOR: f64 = 10.0;
+
+/// The other side of a contact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Other {
+    /// A body, by id.
+    Body(u32),
+    /// A wall, by index (scene `[[wall]]`s first, then the container's faces).
+    Wall(u32),
+}
+
+impl fmt::Display for Other {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Other::Body(j) => write!(f, "body {j}"),
+            Other::Wall(w) => write!(f, "wall {w}"),
+        }
+    }
+}
+
+/// One contact at the current positions: who touches whom, the manifold (normal from `other`
+/// towards `body` for walls, from `body` towards `other` for body pairs, as
+/// [`narrow::collide`] returns it), and the force of the last step.
+#[derive(Debug, Clone, Copy)]
+pub struct ContactReport {
+    /// The body (for a body pair, the lower id).
+    pub body: u32,
+    /// The other side.
+    pub other: Other,
+    /// The contact manifold recomputed at the current positions.
+    pub manifold: Manifold,
+    /// The force of the last step; for a body pair `force_b` acts on `other` and
+    /// `-force_b` on `body`, for a wall `force_b` acts on `body`.
+    pub force: ContactForce,
+}
+
+impl World {
+    /// Contacts that touched in the last step, with their manifolds recomputed at the current
+    /// positions (those that no longer overlap are left out) and the last step's forces. In
+    /// contact-list order: body pairs sorted by id, then wall contacts.
+    pub fn touching_contacts(&self) -> Vec<ContactReport> {
+        (0..self.contacts.touching.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter_map(|k| self.contact_report(k))
+            .collect()
+    }
+
+    /// Contact `k` of the contact list (body pairs, then wall pairs) if it touched in the last
+    /// step and still overlaps now.
+    fn contact_report(&self, k: usize) -> Option<ContactReport> {
+        let c = &self.contacts;
+        if !c.touching[k] {
+            return None;
+        }
+        let np = c.pairs.len();
+        if k < np {
+            let [i, j] = c.pairs[k];
+            let m = self.collide_bodies(i as usize, j as usize)?;
+            Some(ContactReport {
+                body: i,
+                other: Other::Body(j),
+                manifold: m,
+                force: c.forces[k],
+            })
+        } else {
+            let [i, w] = c.wall_pairs[k - np];
+            let m = self.collide_wall(i as usize, w as usize)?;
+            Some(ContactReport {
+                body: i,
+                other: Other::Wall(w),
+                manifold: m,
+                force: c.forces[k],
+            })
+        }
+    }
+
+    /// Overlap depth implied by the last step's normal force of contact `k` (damping ignored),
+    /// or 0 for a contact that did not touch: a cheap estimate that picks which contacts get
+    /// the exact test.
+    fn estimated_depth(&self, k: usize) -> f32 {
+        let c = &self.contacts;
+        if !c.touching[k] {
+            return 0.0;
+        }
+        let np = c.pairs.len();
+        let (params, r_eff) = if k < np {
+            let [i, j] = c.pairs[k];
+            let (ri, rj) = (
+                self.equivalent_radius[i as usize],
+                self.equivalent_radius[j as usize],
+            );
+            (
+                self.pair_params(self.material_of[i as usize], self.material_of[j as usize]),
+                ri * rj / (ri + rj),
+            )
+        } else {
+            let [i, w] = c.wall_pairs[k - np];
+            (
+                self.pair_params(
+                    self.walls[w as usize].material,
+                    self.material_of[i as usize],
+                ),
+                self.equivalent_radius[i as usize],
+            )
+        };
+        let f = c.forces[k].normal_force.abs();
+        if params.hertz {
+            (f / (4.0 / 3.0 * params.stiffness * r_eff.sqrt())).powf(2.0 / 3.0)
+        } else {
+            f / params.stiffness
+        }
+    }
+
+    /// Per body, the number of contacts (body and wall) that touched in the last step.
+    pub fn contact_counts(&self) -> Vec<u32> {
+        let c = &self.contacts;
+        let mut counts = vec![0u32; self.len()];
+        for (k, p) in c.pairs.iter().enumerate() {
+            if c.touching[k] {
+                counts[p[0] as usize] += 1;
+                counts[p[1] as usize] += 1;
+            }
+        }
+        let np = c.pairs.len();
+        for (k, p) in c.wall_pairs.iter().enumerate() {
+            if c.touching[np + k] {
+                counts[p[0] as usize] += 1;
+            }
+        }
+        counts
+    }
+
+    /// Every overlap at the current positions, found from scratch (a broad phase without skin
+    /// and the narrow phase); forces are zero. Does not touch the contact list.
+    pub fn find_contacts(&self) -> Vec<ContactReport> {
+        if self.is_empty() {
+            return Vec::new();
+        }
+        let rmax = self.radius.iter().copied().fold(0.0, f32::max);
+        let grid = Grid::around(&self.position, 2.0 * rmax);
+        let pairs = broad::pairs(&grid, &self.position, &self.radius, 0.0);
+        let mut out: Vec<ContactReport> = pairs
+            .par_iter()
+            .with_min_len(256)
+            .filter_map(|&[i, j]| {
+                let m = self.collide_bodies(i as usize, j as usize)?;
+                Some(ContactReport {
+                    body: i,
+                    other: Other::Body(j),
+                    manifold: m,
+                    force: ContactForce::default(),
+                })
+            })
+            .collect();
+        for i in 0..self.len() {
+            for w in 0..self.walls.len() {
+                if let Some(m) = self.collide_wall(i, w) {
+                    out.push(ContactReport {
+                        body: i as u32,
+                        other: Other::Wall(w as u32),
+                        manifold: m,
+                        force: ContactForce::default(),
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    fn collide_bodies(&self, i: usize, j: usize) -> Option<Manifold> {
+        let si = &self.shapes[self.shape_of[i] as usize].shape;
+        let sj = &self.shapes[self.shape_of[j] as usize].shape;
+        narrow::collide(
+            si,
+            &Pose::new(self.position[i], self.orientation[i]),
+            sj,
+            &Pose::new(self.position[j], self.orientation[j]),
+        )
+    }
+
+    fn collide_wall(&self, i: usize, w: usize) -> Option<Manifold> {
+        let s = &self.shapes[self.shape_of[i] as usize].shape;
+        narrow::collide_plane(
+            &self.walls[w].plane,
+            s,
+            &Pose::new(self.position[i], self.orientation[i]),
+        )
+    }
+}
+
+/// What went wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BlowUpKind {
+    /// A position, velocity or orientation became NaN or infinite.
+    NonFinite,
+    /// The kinetic energy exceeds [`ENERGY_FACTOR`] times the energy available.
+    EnergyGrowth {
+        /// Total kinetic energy, J.
+        kinetic: f64,
+        /// The energy available to the run at this point, J.
+        available: f64,
+        /// The body's own kinetic energy, J.
+        body_kinetic: f64,
+    },
+    /// The body is entirely on the solid side of a wall.
+    Escaped {
+        /// The wall.
+        wall: u32,
+        /// How far its centre is behind the wall plane, m.
+        distance: f32,
+    },
+    /// A contact deeper than the limit.
+    DeepOverlap {
+        /// The other side.
+        other: Other,
+        /// Overlap depth, m.
+        depth: f32,
+        /// The size (inradius) it is compared with, m.
+        size: f32,
+        /// The limit, as a fraction of `size`.
+        limit: f32,
+    },
+}
+
+/// A run that went wrong: what, which body, when, and the likely cause.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlowUp {
+    /// What was found.
+    pub kind: BlowUpKind,
+    /// The body it concerns.
+    pub body: usize,
+    /// The step at which it was found (0: before the run).
+    pub step: u64,
+    /// Simulated time then, s.
+    pub time: f64,
+    /// The likely cause, in words, with what to change.
+    pub cause: String,
+}
+
+impl fmt::Display for BlowUp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (b, s, t) = (self.body, self.step, self.time);
+        match &self.kind {
+            BlowUpKind::NonFinite => write!(
+                f,
+                "the simulation blew up at step {s} (t = {t:.6e} s): body {b} has a non-finite position or velocity (NaN or infinity)"
+            )?,
+            BlowUpKind::EnergyGrowth {
+                kinetic,
+                available,
+                body_kinetic,
+            } => write!(
+                f,
+                "the simulation blew up at step {s} (t = {t:.6e} s): the kinetic energy grows without bound ({kinetic:.3e} J, more than {ENERGY_FACTOR}x the {available:.3e} J available to the run); body {b} is the fastest ({body_kinetic:.3e} J)"
+            )?,
+            BlowUpKind::Escaped { wall, distance } => write!(
+                f,
+                "the simulation blew up at step {s} (t = {t:.6e} s): body {b} escaped through wall {wall} (its centre is {distance:.3e} m behind the wall, on the solid side)"
+            )?,
+            BlowUpKind::DeepOverlap {
+                other,
+                depth,
+                size,
+                limit,
+            } if s == 0 => write!(
+                f,
+                "the bodies start overlapping: body {b} and {other} overlap by {depth:.3e} m at step 0, {:.0}% of the body's size {size:.3e} m (the limit is {:.0}%)",
+                100.0 * depth / size,
+                100.0 * limit
+            )?,
+            BlowUpKind::DeepOverlap {
+                other,
+                depth,
+                size,
+                limit,
+            } => write!(
+                f,
+                "the simulation blew up at step {s} (t = {t:.6e} s): body {b} and {other} overlap by {depth:.3e} m, {:.0}% of the body's size {size:.3e} m (the limit is {:.0}%)",
+                100.0 * depth / size,
+                100.0 * limit
+            )?,
+        }
+        write!(f, ". Likely cause: {}", self.cause)
+    }
+}
+
+impl std::error::Error for BlowUp {}
+
+/// The blow-up checks of one run, with the baseline they compare against.
+#[derive(Debug, Clone)]
+pub struct Health {
+    /// Inradius per shape.
+    size: Vec<f32>,
+    /// `KE0 + PE0 + E_elastic0 + floor`: the available energy is this minus the current PE.
+    budget: f64,
+    /// Shortest contact duration, s.
+    t_c: f64,
+    /// Largest stable time step of the stiffest contact, s.
+    stable_dt: f64,
+    /// Deepest initial overlap: body, other side, depth over size.
+    initial_overlap: Option<(u32, Other, f32)>,
+    /// Fastest body at the start relative to its size: body, speed, size moved per step.
+    initial_travel: Option<(usize, f32, f32)>,
+    /// The smallest normal force any contact can have at an overlap of [`OVERLAP_LIMIT`]:
+    /// contacts below it are not looked at by the cheap check.
+    force_floor: f32,
+}
+
+impl Health {
+    /// The checks for a run starting from `world`'s current state (the baseline energy is
+    /// measured now; overlaps are found from scratch).
+    pub fn new(world: &World) -> Health {
+        let mut h = Health::bare(world);
+        let contacts = world.find_contacts();
+        let mut elastic = 0.0f64;
+        for c in &contacts {
+            elastic += h.elastic_energy(world, c);
+            let (depth, size) = (c.manifold.max_depth(), h.contact_size(world, c));
+            let ratio = depth / size;
+            if h.initial_overlap.is_none_or(|(_, _, r)| ratio > r) {
+                h.initial_overlap = Some((c.body, c.other, ratio));
+            }
+        }
+        h.budget = world.kinetic_energy() + world.potential_energy() + elastic + h.floor(world);
+        h
+    }
+
+    /// The checks with a baseline saved earlier ([`Health::baseline`]), for a resumed run.
+    pub fn with_baseline(world: &World, baseline: f64) -> Health {
+        let mut h = Health::bare(world);
+        h.budget = baseline;
+        h
+    }
+
+    fn bare(world: &World) -> Health {
+        let size = world
+            .shapes
+            .iter()
+            .map(|s| match &s.shape {
+                Shape::Sphere { radius } => *radius,
+                Shape::Polyhedron(p) => p
+                    .faces
+                    .iter()
+                    .map(|f| f.offset)
+                    .fold(f32::INFINITY, f32::min)
+                    .max(1e-12),
+            })
+            .collect();
+        let t_c = world.shortest_contact_duration();
+        let mut h = Health {
+            size,
+            budget: 0.0,
+            t_c,
+            stable_dt: 2.0 / std::f64::consts::PI * t_c,
+            initial_overlap: None,
+            initial_travel: None,
+            force_floor: 0.0,
+        };
+        // Lower bounds of stiffness, size and radius over everything present.
+        let min_size = h.size.iter().copied().fold(f32::INFINITY, f32::min);
+        let min_r = world.equivalent_radius.iter().copied().fold(f32::INFINITY, f32::min);
+        let nm = world.materials.len() as u32;
+        let (min_k, hertz) = (0..nm)
+            .flat_map(|a| (0..nm).map(move |b| (a, b)))
+            .map(|(a, b)| world.pair_params(a, b))
+            .fold((f32::INFINITY, false), |(k, h), p| (k.min(p.stiffness), h || p.hertz));
+        let d = OVERLAP_LIMIT * min_size;
+        let floor = if hertz { 4.0 / 3.0 * min_k * (0.5 * min_r).sqrt() * d.powf(1.5) } else { min_k * d };
+        h.force_floor = if floor.is_finite() { 0.5 * floor } else { 0.0 };
+        let dt = world.dt;
+        for i in 0..world.len() {
+            let speed = world.velocity[i].length();
+            let travel = speed * dt / h.body_size(world, i);
+            if travel > 0.0 && h.initial_travel.is_none_or(|(_, _, t)| travel > t) {
+                h.initial_travel = Some((i, speed, travel));
+            }
+        }
+        h
+    }
+
+    /// The energy baseline, to be saved with a checkpoint and given to [`Health::with_baseline`].
+    pub fn baseline(&self) -> f64 {
+        self.budget
+    }
+
+    /// The largest stable time step of the stiffest contact (`2 / omega`, about `0.64 t_c`), s.
+    pub fn stable_dt(&self) -> f64 {
+        self.stable_dt
+    }
+
+    /// Warnings before the run: a time step above the stability bound, or above `t_c / 10`.
+    pub fn warnings(&self, world: &World) -> Vec<String> {
+        let dt = world.dt as f64;
+        let mut out = Vec::new();
+        if self.t_c.is_finite() && dt > self.stable_dt {
+            out.push(format!(
+                "dt = {dt:.3e} s is above the stability bound {:.3e} s of the stiffest contact (shortest contact duration {:.3e} s): the run will blow up; lower dt (or omit it for t_c/50) or the stiffness",
+                self.stable_dt, self.t_c
+            ));
+        } else if self.t_c.is_finite() && dt > self.t_c / 10.0 {
+            out.push(format!(
+                "dt = {dt:.3e} s is more than 1/10 of the shortest contact duration {:.3e} s: contacts will be poorly resolved or blow up",
+                self.t_c
+            ));
+        }
+        out
+    }
+
+    /// The check before the first step: no overlap deeper than [`INITIAL_OVERLAP_LIMIT`].
+    pub fn check_initial(&self, world: &World) -> Result<(), BlowUp> {
+        if let Some((body, other, ratio)) = self.initial_overlap
+            && ratio > INITIAL_OVERLAP_LIMIT
+        {
+            let size = self.body_size(world, body as usize).min(match other {
+                Other::Body(j) => self.body_size(world, j as usize),
+                Other::Wall(_) => f32::INFINITY,
+            });
+            let cause = match other {
+                Other::Body(_) => "overlapping initial placement: place the bodies apart (a lattice's spacing at least the bodies' bounding diameter, random groups clear of `[[body]]` entries)".to_string(),
+                Other::Wall(_) => "initial placement across a wall: a body starts (partly) on the solid side of a wall or outside the container; move it inside".to_string(),
+            };
+            return Err(BlowUp {
+                kind: BlowUpKind::DeepOverlap {
+                    other,
+                    depth: ratio * size,
+                    size,
+                    limit: INITIAL_OVERLAP_LIMIT,
+                },
+                body: body as usize,
+                step: world.step_count,
+                time: world.time,
+                cause,
+            });
+        }
+        Ok(())
+    }
+
+    /// The checks during the run: escape and energy growth, and with `full` also the overlap
+    /// depth of every touching contact.
+    pub fn check(&self, world: &World, full: bool) -> Result<(), BlowUp> {
+        let fail = |kind, body| {
+            Err(BlowUp {
+                kind,
+                body,
+                step: world.step_count,
+                time: world.time,
+                cause: self.likely_cause(world, body),
+            })
+        };
+        // One parallel pass over the bodies: escape, non-finite state, energies.
+        // Sequential: a few ns per body, less than waking the thread pool up.
+        let scan = (0..world.len()).fold(Scan::default(), |mut acc, i| {
+            let (x, v) = (world.position[i], world.velocity[i]);
+            if acc.bad.is_none() && !(x.is_finite() && v.is_finite()) {
+                acc.bad = Some(i);
+            }
+            if acc.escaped.is_none()
+                && world
+                    .walls
+                    .iter()
+                    .any(|w| w.plane.normal.dot(x) - w.plane.offset < -world.radius[i])
+            {
+                acc.escaped = Some(i);
+            }
+            let m = world.mass[i];
+            acc.kinetic += (0.5 * m * v.length_squared()
+                + 0.5 * world.omega[i].dot(world.angular_momentum[i]))
+                as f64;
+            acc.potential -= (m * world.gravity.dot(x)) as f64;
+            acc
+        });
+        if let Some(i) = scan.escaped {
+            let (wall, h) = world
+                .walls
+                .iter()
+                .enumerate()
+                .map(|(k, w)| {
+                    (
+                        k as u32,
+                        w.plane.normal.dot(world.position[i]) - w.plane.offset,
+                    )
+                })
+                .fold((0, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+            return fail(BlowUpKind::Escaped { wall, distance: -h }, i);
+        }
+        if let Some(i) = scan.bad {
+            return fail(BlowUpKind::NonFinite, i);
+        }
+        let kinetic = scan.kinetic;
+        let available = self.budget - scan.potential;
+        if !kinetic.is_finite() || kinetic > ENERGY_FACTOR * available.max(0.0) {
+            let (body, body_kinetic) = (0..world.len())
+                .map(|i| (i, body_kinetic(world, i)))
+                .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+            return fail(
+                BlowUpKind::EnergyGrowth {
+                    kinetic,
+                    available,
+                    body_kinetic,
+                },
+                body,
+            );
+        }
+        // Deep overlaps: every touching contact in a full check, otherwise those whose last
+        // force implies a deep overlap.
+        let contacts = if full {
+            world.touching_contacts()
+        } else {
+            let c = &world.contacts;
+            (0..c.touching.len())
+                .filter(|&k| {
+                    c.touching[k]
+                        && c.forces[k].normal_force.abs() > self.force_floor
+                        && world.estimated_depth(k) > OVERLAP_LIMIT * self.smallest_size(world, k)
+                })
+                .filter_map(|k| world.contact_report(k))
+                .collect()
+        };
+        {
+            let mut worst: Option<(f32, &ContactReport)> = None;
+            for c in &contacts {
+                let ratio = c.manifold.max_depth() / self.contact_size(world, c);
+                if worst.is_none_or(|(r, _)| ratio > r) {
+                    worst = Some((ratio, c));
+                }
+            }
+            if let Some((ratio, c)) = worst
+                && ratio > OVERLAP_LIMIT
+            {
+                let size = self.contact_size(world, c);
+                let body = c.body as usize;
+                return Err(BlowUp {
+                    kind: BlowUpKind::DeepOverlap {
+                        other: c.other,
+                        depth: ratio * size,
+                        size,
+                        limit: OVERLAP_LIMIT,
+                    },
+                    body,
+                    step: world.step_count,
+                    time: world.time,
+                    cause: self.cause(world, body, true),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The report for a step that failed with a non-finite state.
+    pub fn non_finite(&self, world: &World, err: &SimError) -> BlowUp {
+        let SimError::NonFinite {
+            body, step, time, ..
+        } = *err;
+        BlowUp {
+            kind: BlowUpKind::NonFinite,
+            body,
+            step,
+            time,
+            cause: self.likely_cause(world, body),
+        }
+    }
+
+    /// Why a run probably blew up, in words: the time step against the stiffness, initial
+    /// overlaps, bodies too fast for the time step.
+    pub fn likely_cause(&self, world: &World, body: usize) -> String {
+        self.cause(world, body, false)
+    }
+
+    fn cause(&self, world: &World, body: usize, overlap: bool) -> String {
+        let dt = world.dt as f64;
+        let mut causes = Vec::new();
+        if self.t_c.is_finite() && dt > self.stable_dt {
+            causes.push(format!(
+                "the time step dt = {dt:.3e} s is above the stability bound {:.3e} s of the stiffest contact (shortest contact duration t_c = {:.3e} s): lower dt (omit it for t_c/50) or the stiffness",
+                self.stable_dt, self.t_c
+            ));
+        } else if self.t_c.is_finite() && dt > self.t_c / 10.0 {
+            causes.push(format!(
+                "the time step dt = {dt:.3e} s is more than 1/10 of the shortest contact duration t_c = {:.3e} s (too large for the stiffness; the automatic dt is t_c/50)",
+                self.t_c
+            ));
+        }
+        if let Some((b, other, ratio)) = self.initial_overlap
+            && ratio > 0.05
+        {
+            causes.push(format!(
+                "overlapping initial placement (body {b} and {other} start overlapping by {:.0}% of the body's size)",
+                100.0 * ratio
+            ));
+        }
+        let current = (body < world.len() && world.velocity[body].is_finite())
+            .then(|| {
+                let v = world.velocity[body].length();
+                (body, v, v * world.dt / self.body_size(world, body))
+            })
+            .filter(|t| t.2 > 0.2);
+        if let Some((b, v, travel)) = self.initial_travel.filter(|t| t.2 > 0.2).or(current) {
+            causes.push(format!(
+                "body {b} moves {travel:.2} of its size per step (speed {v:.3e} m/s): too fast for dt = {dt:.3e} s; lower dt so that a body moves a small fraction of its size per step"
+            ));
+        }
+        if causes.is_empty() && overlap {
+            let m = world
+                .materials
+                .get(world.material_of.get(body).copied().unwrap_or(0) as usize);
+            causes.push(format!(
+                "the contacts are too soft for the load (weight, pressure or impact speed) on body {body}{}: raise the stiffness (youngs_modulus for Hertz), or lower the speeds",
+                m.map_or(String::new(), |m| format!(" (material `{}`)", m.name))
+            ));
+        }
+        if causes.is_empty() {
+            causes.push(format!(
+                "the time step dt = {dt:.3e} s is probably too large for the stiffness (shortest contact duration t_c = {:.3e} s) or the speeds, or bodies started overlapping",
+                self.t_c
+            ));
+        }
+        causes.join("; or ")
+    }
+
+    fn body_size(&self, world: &World, i: usize) -> f32 {
+        self.size[world.shape_of[i] as usize]
+    }
+
+    /// The size the overlap of contact `k` of the contact list is compared with.
+    fn smallest_size(&self, world: &World, k: usize) -> f32 {
+        let c = &world.contacts;
+        let np = c.pairs.len();
+        if k < np {
+            let [i, j] = c.pairs[k];
+            self.body_size(world, i as usize)
+                .min(self.body_size(world, j as usize))
+        } else {
+            self.body_size(world, c.wall_pairs[k - np][0] as usize)
+        }
+    }
+
+    fn contact_size(&self, world: &World, c: &ContactReport) -> f32 {
+        let a = self.body_size(world, c.body as usize);
+        match c.other {
+            Other::Body(j) => a.min(self.body_size(world, j as usize)),
+            Other::Wall(_) => a,
+        }
+    }
+
+    /// Elastic energy stored in an (initial) overlap, J.
+    fn elastic_energy(&self, world: &World, c: &ContactReport) -> f64 {
+        let i = c.body as usize;
+        let (params, r_eff) = match c.other {
+            Other::Body(j) => {
+                let j = j as usize;
+                let (ri, rj) = (world.equivalent_radius[i], world.equivalent_radius[j]);
+                (
+                    world.pair_params(world.material_of[i], world.material_of[j]),
+                    ri * rj / (ri + rj),
+                )
+            }
+            Other::Wall(w) => (
+                world.pair_params(world.walls[w as usize].material, world.material_of[i]),
+                world.equivalent_radius[i],
+            ),
+        };
+        let inv = 1.0 / c.manifold.count.max(1) as f64;
+        c.manifold
+            .points()
+            .iter()
+            .map(|p| {
+                let d = p.depth.max(0.0) as f64;
+                let k = params.stiffness as f64;
+                if params.hertz {
+                    8.0 / 15.0 * k * (r_eff as f64).sqrt() * d.powf(2.5) * inv
+                } else {
+                    0.5 * k * d * d * inv
+                }
+            })
+            .sum()
+    }
+
+    /// Every body lifted by its own size, and moving its own size per second.
+    fn floor(&self, world: &World) -> f64 {
+        let g = world.gravity.length() as f64;
+        (0..world.len())
+            .map(|i| {
+                let (m, s) = (world.mass[i] as f64, self.body_size(world, i) as f64);
+                m * g * s + 0.5 * m * s * s
+            })
+            .sum()
+    }
+}
+
+/// What one pass over the bodies finds (lowest ids first: merged in order).
+#[derive(Default)]
+struct Scan {
+    escaped: Option<usize>,
+    bad: Option<usize>,
+    kinetic: f64,
+    potential: f64,
+}
+
+fn body_kinetic(world: &World, i: usize) -> f64 {
+    let v: Vec3 = world.velocity[i];
+    0.5 * world.mass[i] as f64 * v.length_squared() as f64
+        + 0.5 * world.omega[i].dot(world.angular_momentum[i]) as f64
+}
