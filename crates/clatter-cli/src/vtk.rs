@@ -78,7 +78,11 @@ fn write_vtu(path: &Path, step: u64, time: f64, points: &[f32], arrays: &[Array]
 }
 
 fn data_array(w: &mut impl Write, a: &Array) -> std::io::Result<()> {
-    write!(w, "        <DataArray type=\"{}\" Name=\"{}\" NumberOfComponents=\"{}\" format=\"binary\">", a.ty, a.name, a.components)?;
+    write!(w, "        <DataArray type=\"{}\" Name=\"{}\"", a.ty, a.name)?;
+    if a.components > 1 {
+        write!(w, " NumberOfComponents=\"{}\"", a.components)?;
+    }
+    write!(w, " format=\"binary\">")?;
     let mut block = Vec::with_capacity(4 + a.bytes.len());
     block.extend_from_slice(&(a.bytes.len() as u32).to_le_bytes());
     block.extend_from_slice(&a.bytes);
@@ -186,7 +190,7 @@ impl Pvd {
                     let len = line[start..].find('"')?;
                     Some(line[start..start + len].to_string())
                 };
-                let (Some(time), Some(file), Some(s)) = (attr("timestep"), attr("file"), attr("step")) else { continue };
+                let (Some(time), Some(file), Some(s)) = (attr(" timestep"), attr(" file"), attr(" step")) else { continue };
                 if let (Ok(time), Ok(s)) = (time.parse::<f64>(), s.parse::<u64>())
                     && s < step
                 {

@@ -117,13 +117,16 @@ fn small_scene_outputs() {
     assert_ok(&output, "clatter run small.toml");
     assert!(!String::from_utf8_lossy(&output.stderr).contains("panicked"));
 
-    // Only the three outputs, no temporary files left behind.
+    // Only the outputs (energy.csv and its plot always come with --out), no temporary files.
     let mut names: Vec<String> = std::fs::read_dir(&out)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["final.csv", "summary.json", "trace.csv"]);
+    assert_eq!(
+        names,
+        ["energy.csv", "energy.svg", "final.csv", "summary.json", "trace.csv"]
+    );
 
     // Scene order: [[body]] entries first, then groups in file order, lattices x fastest.
     let mut expected: Vec<[f32; 3]> = vec![[0.5, 0.5, 0.3], [0.6, 0.5, 0.3]];

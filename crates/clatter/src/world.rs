@@ -75,6 +75,8 @@ pub(crate) struct ContactList {
     pub(crate) wall_pairs: Vec<[u32; 2]>,
     /// Tangential springs: body pairs first, then wall pairs.
     pub(crate) history: Vec<Vec3>,
+    /// Twisting springs (rad), same order as `history`.
+    pub(crate) twist: Vec<f32>,
     /// This step's forces, same order as `history`.
     pub(crate) forces: Vec<ContactForce>,
     /// Whether each contact touches this step.
@@ -113,6 +115,10 @@ pub struct World {
     pub velocity: Vec<Vec3>,
     /// Orientation of the principal frame (see [`World::user_orientation`]).
     pub orientation: Vec<Quat>,
+    /// Rounding carried over from the orientation updates (compensated summation), so that
+    /// slow rotations, whose per-step increment is below the precision of `orientation`,
+    /// still turn the body.
+    pub(crate) orientation_residual: Vec<Quat>,
     /// Angular momentum about the centre of mass (world frame), the integrated quantity.
     pub angular_momentum: Vec<Vec3>,
     /// Angular velocity (world frame), derived from the angular momentum.
@@ -167,6 +173,7 @@ impl World {
             position: Vec::with_capacity(n),
             velocity: Vec::with_capacity(n),
             orientation: Vec::with_capacity(n),
+            orientation_residual: vec![Quat::from_xyzw(0.0, 0.0, 0.0, 0.0); n],
             angular_momentum: Vec::with_capacity(n),
             omega: Vec::with_capacity(n),
             shape_of: Vec::with_capacity(n),
@@ -347,14 +354,15 @@ impl World {
             }
         }
         let old = std::mem::take(&mut self.contacts);
-        let history = carry_history(&old.pairs, &old.history[..old.pairs.len().min(old.history.len())], &pairs)
-            .into_iter()
-            .chain(carry_history(
-                &old.wall_pairs,
-                old.history.get(old.pairs.len()..).unwrap_or(&[]),
-                &wall_pairs,
-            ))
-            .collect::<Vec<_>>();
+        let np_old = old.pairs.len();
+        let carry = |list: &[[u32; 2]], walls: bool, new: &[[u32; 2]]| {
+            let range = if walls { np_old..old.history.len() } else { 0..np_old.min(old.history.len()) };
+            carry_history(list, &old.history[range.clone()], &old.twist[range.start.min(old.twist.len())..range.end.min(old.twist.len())], new)
+        };
+        let (mut history, mut twist) = carry(&old.pairs, false, &pairs);
+        let (wall_history, wall_twist) = carry(&old.wall_pairs, true, &wall_pairs);
+        history.extend(wall_history);
+        twist.extend(wall_twist);
         // Gather ranges, in contact order (a fixed, thread-independent summation order).
         let n = self.len();
         let np = pairs.len();
@@ -386,6 +394,7 @@ impl World {
             pairs,
             wall_pairs,
             history,
+            twist,
             forces: vec![ContactForce::default(); total],
             touching: vec![false; total],
             a_start,
@@ -401,6 +410,15 @@ impl World {
     #[inline]
     fn pose(&self, i: usize) -> Pose {
         Pose::new(self.position[i], self.orientation[i])
+    }
+
+    /// Fraction of the material's contact law each manifold point carries: 1 for contacts
+    /// with a sphere (always one point), 1/4 for polyhedron-polyhedron and polyhedron-wall
+    /// contacts (up to four points; `i == j` for a wall). See [`crate::forces`].
+    #[inline]
+    fn point_share(&self, i: usize, j: usize) -> f32 {
+        let sphere = |k: usize| matches!(self.shapes[self.shape_of[k] as usize].shape, Shape::Sphere { .. });
+        if sphere(i) || sphere(j) { 1.0 } else { 0.25 }
     }
 
     #[inline]
@@ -436,6 +454,7 @@ impl World {
             let mut contacts = std::mem::take(&mut self.contacts);
             let this = &*self;
             let (hist_pairs, hist_walls) = contacts.history.split_at_mut(np);
+            let (twist_pairs, twist_walls) = contacts.twist.split_at_mut(np);
             let (force_pairs, force_walls) = contacts.forces.split_at_mut(np);
             let (touch_pairs, touch_walls) = contacts.touching.split_at_mut(np);
             contacts
@@ -445,8 +464,9 @@ impl World {
                 .zip(force_pairs.par_iter_mut())
                 .zip(touch_pairs.par_iter_mut())
                 .zip(contacts.hints.par_iter_mut())
+                .zip(twist_pairs.par_iter_mut())
                 .with_min_len(1024)
-                .for_each(|((((&[i, j], hist), force), touching), hint)| {
+                .for_each(|(((((&[i, j], hist), force), touching), hint), twist)| {
                     let (i, j) = (i as usize, j as usize);
                     if this.spheres_only {
                         // Sphere-sphere without building a manifold (the common DEM case).
@@ -464,6 +484,7 @@ impl World {
                                 params,
                                 mi * mj / (mi + mj),
                                 ri * rj / (ri + rj),
+                                1.0,
                                 n,
                                 xi + n * (ri - 0.5 * depth),
                                 depth,
@@ -489,10 +510,12 @@ impl World {
                                 params,
                                 mi * mj / (mi + mj),
                                 ri * rj / (ri + rj),
+                                this.point_share(i, j),
                                 &m,
                                 &this.side(i),
                                 &this.side(j),
                                 hist,
+                                twist,
                                 dt,
                             );
                             *touching = true;
@@ -502,6 +525,7 @@ impl World {
                             if *touching {
                                 *force = ContactForce::default();
                                 *hist = Vec3::ZERO;
+                                *twist = 0.0;
                                 *touching = false;
                             }
                         }
@@ -513,8 +537,9 @@ impl World {
                 .zip(hist_walls.par_iter_mut())
                 .zip(force_walls.par_iter_mut())
                 .zip(touch_walls.par_iter_mut())
+                .zip(twist_walls.par_iter_mut())
                 .with_min_len(1024)
-                .for_each(|(((&[i, w], hist), force), touching)| {
+                .for_each(|((((&[i, w], hist), force), touching), twist)| {
                     let (i, w) = (i as usize, w as usize);
                     let wall = &this.walls[w];
                     let shape = &this.shapes[this.shape_of[i] as usize].shape;
@@ -525,10 +550,12 @@ impl World {
                                 params,
                                 this.mass[i],
                                 this.equivalent_radius[i],
+                                this.point_share(i, i),
                                 &m,
                                 &Side::default(),
                                 &this.side(i),
                                 hist,
+                                twist,
                                 dt,
                             );
                             *touching = true;
@@ -538,6 +565,7 @@ impl World {
                             if *touching {
                                 *force = ContactForce::default();
                                 *hist = Vec3::ZERO;
+                                *twist = 0.0;
                                 *touching = false;
                             }
                         }
@@ -560,9 +588,10 @@ impl World {
             .zip(self.orientation.par_iter_mut())
             .zip(self.angular_momentum.par_iter_mut())
             .zip(self.omega.par_iter_mut())
+            .zip(self.orientation_residual.par_iter_mut())
             .enumerate()
             .with_min_len(1024)
-            .map(|(i, ((((x, v), q), l), w))| {
+            .map(|(i, (((((x, v), q), l), w), residual))| {
                 // Forces of non-touching contacts are zero, so no branch is needed here.
                 let mut f = Vec3::ZERO;
                 let mut t = Vec3::ZERO;
@@ -595,10 +624,15 @@ impl World {
                 // O((|w| dt)^2) without the trigonometry.
                 let h = 0.5 * dt;
                 let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
-                let q2 = *q + dq;
-                // Renormalise with one Newton step of 1/sqrt around 1 (|q|^2 = 1 + O(|w dt|^2)):
-                // exact to O(eps^2), no square root or division on the critical path.
-                *q = q2 * (1.5 - 0.5 * q2.length_squared());
+                // Compensated (Kahan) sum: the part of dq lost to rounding is kept in
+                // `residual` and added back next step.
+                let y = dq - *residual;
+                let q2 = *q + y;
+                *residual = (q2 - *q) - y;
+                // Renormalise only when |q| has drifted by more than a few ulps, with one
+                // Newton step of 1/sqrt around 1: no square root or division.
+                let n2 = q2.length_squared();
+                *q = if (n2 - 1.0).abs() > 4.0 * f32::EPSILON { q2 * (1.5 - 0.5 * n2) } else { q2 };
                 let d2 = (*x - rebuild_position[i]).length_squared();
                 // NaN or infinity anywhere in the state shows up in d2 or in q.
                 if d2.is_finite() && q.w.is_finite() { d2 } else { f32::INFINITY }
@@ -622,20 +656,23 @@ impl World {
     }
 }
 
-/// Tangential springs for `new` pairs: the old value where the pair persists, zero otherwise.
-/// Both lists are sorted.
-fn carry_history(old: &[[u32; 2]], old_hist: &[Vec3], new: &[[u32; 2]]) -> Vec<Vec3> {
-    let mut out = Vec::with_capacity(new.len());
+/// Tangential and twisting springs for `new` pairs: the old values where the pair persists,
+/// zero otherwise. Both pair lists are sorted.
+fn carry_history(old: &[[u32; 2]], old_hist: &[Vec3], old_twist: &[f32], new: &[[u32; 2]]) -> (Vec<Vec3>, Vec<f32>) {
+    let mut hist = Vec::with_capacity(new.len());
+    let mut twist = Vec::with_capacity(new.len());
     let mut k = 0;
     for p in new {
         while k < old.len() && old[k] < *p {
             k += 1;
         }
         if k < old.len() && old[k] == *p {
-            out.push(old_hist.get(k).copied().unwrap_or(Vec3::ZERO));
+            hist.push(old_hist.get(k).copied().unwrap_or(Vec3::ZERO));
+            twist.push(old_twist.get(k).copied().unwrap_or(0.0));
         } else {
-            out.push(Vec3::ZERO);
+            hist.push(Vec3::ZERO);
+            twist.push(0.0);
         }
     }
-    out
+    (hist, twist)
 }
