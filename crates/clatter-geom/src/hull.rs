@@ -572,6 +572,37 @@ impl TriMesh<'_> {
         if tier == Tier::Tolerant && !loops.iter().all(|lp| strictly_convex(lp, self.pts)) {
             return None;
         }
+        // In a slab about as thin as `tol`, merging can leave an extreme vertex on only two
+        // faces, and it is dropped above although it lies far outside the merged faces
+        // (found by fuzzing). Accept the tolerant faces only if every vertex of the exact
+        // triangulation is still inside every face.
+        if tier == Tier::Tolerant {
+            let planes: Vec<(DVec3, f64)> = loops
+                .iter()
+                .map(|lp| {
+                    let origin = p(lp[0]);
+                    let mut n = DVec3::ZERO;
+                    for k in 0..lp.len() {
+                        n += (p(lp[k]) - origin).cross(p(lp[(k + 1) % lp.len()]) - origin);
+                    }
+                    let n = n.normalize_or_zero();
+                    let offset = lp.iter().map(|&v| n.dot(p(v))).sum::<f64>() / lp.len() as f64;
+                    (n, offset)
+                })
+                .collect();
+            let mut used = vec![false; self.pts.len()];
+            for t in &self.tris {
+                for &v in t {
+                    used[v as usize] = true;
+                }
+            }
+            let outside = used.iter().enumerate().filter(|(_, u)| **u).any(|(v, _)| {
+                planes.iter().any(|(n, o)| n.dot(self.pts[v]) - o > 2.0 * self.tol)
+            });
+            if outside {
+                return None;
+            }
+        }
         closed_surface(&loops, self.pts.len()).then_some(loops)
     }
 }

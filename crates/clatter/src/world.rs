@@ -441,6 +441,8 @@ impl World {
 
     /// Advances the simulation by one time step.
     pub fn step(&mut self) -> Result<StepStats, SimError> {
+        /// Items per parallel task in the per-contact and per-body stages.
+        const CHUNK: usize = 1024;
         let mut stats = StepStats::default();
         if self.needs_rebuild {
             self.rebuild();
@@ -457,16 +459,12 @@ impl World {
             let (twist_pairs, twist_walls) = contacts.twist.split_at_mut(np);
             let (force_pairs, force_walls) = contacts.forces.split_at_mut(np);
             let (touch_pairs, touch_walls) = contacts.touching.split_at_mut(np);
-            contacts
-                .pairs
-                .par_iter()
-                .zip(hist_pairs.par_iter_mut())
-                .zip(force_pairs.par_iter_mut())
-                .zip(touch_pairs.par_iter_mut())
-                .zip(contacts.hints.par_iter_mut())
-                .zip(twist_pairs.par_iter_mut())
-                .with_min_len(1024)
-                .for_each(|(((((&[i, j], hist), force), touching), hint), twist)| {
+            let pair_task = |&[i, j]: &[u32; 2],
+                             hist: &mut Vec3,
+                             force: &mut ContactForce,
+                             touching: &mut bool,
+                             hint: &mut narrow::SatHint,
+                             twist: &mut f32| {
                     let (i, j) = (i as usize, j as usize);
                     if this.spheres_only {
                         // Sphere-sphere without building a manifold (the common DEM case).
@@ -530,7 +528,17 @@ impl World {
                             }
                         }
                     }
-                });
+            };
+            contacts
+                .pairs
+                .par_iter()
+                .zip(hist_pairs.par_iter_mut())
+                .zip(force_pairs.par_iter_mut())
+                .zip(touch_pairs.par_iter_mut())
+                .zip(contacts.hints.par_iter_mut())
+                .zip(twist_pairs.par_iter_mut())
+                .with_min_len(CHUNK)
+                .for_each(|(((((p, h), f), t), hn), tw)| pair_task(p, h, f, t, hn, tw));
             contacts
                 .wall_pairs
                 .par_iter()
@@ -581,61 +589,69 @@ impl World {
         let half_skin2 = 0.25 * self.skin * self.skin;
         let (inv_mass, inv_inertia) = (&self.inv_mass, &self.inv_inertia);
         let rebuild_position = &self.rebuild_position;
+        // Plain loops over chunks of bodies: each chunk is one task, and the loop body sees
+        // slices, not a chain of zipped iterators.
         let worst = self
             .position
-            .par_iter_mut()
-            .zip(self.velocity.par_iter_mut())
-            .zip(self.orientation.par_iter_mut())
-            .zip(self.angular_momentum.par_iter_mut())
-            .zip(self.omega.par_iter_mut())
-            .zip(self.orientation_residual.par_iter_mut())
+            .par_chunks_mut(CHUNK)
+            .zip(self.velocity.par_chunks_mut(CHUNK))
+            .zip(self.orientation.par_chunks_mut(CHUNK))
+            .zip(self.angular_momentum.par_chunks_mut(CHUNK))
+            .zip(self.omega.par_chunks_mut(CHUNK))
+            .zip(self.orientation_residual.par_chunks_mut(CHUNK))
             .enumerate()
-            .with_min_len(1024)
-            .map(|(i, (((((x, v), q), l), w), residual))| {
-                // Forces of non-touching contacts are zero, so no branch is needed here.
-                let mut f = Vec3::ZERO;
-                let mut t = Vec3::ZERO;
-                let forces = &contacts.forces;
-                for c in &forces[contacts.a_start[i] as usize..contacts.a_start[i + 1] as usize] {
-                    f -= c.force_b;
-                    t += c.torque_a;
+            .map(|(chunk, (((((xs, vs), qs), ls), ws), rs))| {
+                let mut worst = 0.0f32;
+                for k in 0..xs.len() {
+                    let i = chunk * CHUNK + k;
+                    let (x, v, q, l, w, residual) = (&mut xs[k], &mut vs[k], &mut qs[k], &mut ls[k], &mut ws[k], &mut rs[k]);
+                        // Forces of non-touching contacts are zero, so no branch is needed here.
+                        let mut f = Vec3::ZERO;
+                        let mut t = Vec3::ZERO;
+                        let forces = &contacts.forces;
+                        for c in &forces[contacts.a_start[i] as usize..contacts.a_start[i + 1] as usize] {
+                            f -= c.force_b;
+                            t += c.torque_a;
+                        }
+                        for &k in &contacts.b_adj[contacts.b_start[i] as usize..contacts.b_start[i + 1] as usize] {
+                            let c = &forces[k as usize];
+                            f += c.force_b;
+                            t += c.torque_b;
+                        }
+                        for c in &forces[contacts.w_start[i] as usize..contacts.w_start[i + 1] as usize] {
+                            f += c.force_b;
+                            t += c.torque_b;
+                        }
+                        *v += (f * inv_mass[i] + gravity) * dt;
+                        *x += *v * dt;
+                        *l += t * dt;
+                        let inv_inertia_i = inv_inertia[i];
+                        *w = if inv_inertia_i.x == inv_inertia_i.y && inv_inertia_i.y == inv_inertia_i.z {
+                            // Spheres, cubes, Platonic solids: isotropic inertia, no frame change needed.
+                            *l * inv_inertia_i.x
+                        } else {
+                            *q * ((q.conjugate() * *l) * inv_inertia_i)
+                        };
+                        // First-order quaternion update, renormalised: dq/dt = (w, 0) q / 2. The
+                        // rotation per DEM step is tiny, so this matches the exponential map to
+                        // O((|w| dt)^2) without the trigonometry.
+                        let h = 0.5 * dt;
+                        let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
+                        // Compensated (Kahan) sum: the part of dq lost to rounding is kept in
+                        // `residual` and added back next step.
+                        let y = dq - *residual;
+                        let q2 = *q + y;
+                        *residual = (q2 - *q) - y;
+                        // Renormalise only when |q| has drifted by more than a few ulps, with one
+                        // Newton step of 1/sqrt around 1: no square root or division.
+                        let n2 = q2.length_squared();
+                        *q = if (n2 - 1.0).abs() > 4.0 * f32::EPSILON { q2 * (1.5 - 0.5 * n2) } else { q2 };
+                        let d2 = (*x - rebuild_position[i]).length_squared();
+                        // NaN or infinity anywhere in the state shows up in d2 or in q.
+                        let d2 = if d2.is_finite() && q.w.is_finite() { d2 } else { f32::INFINITY };
+                        worst = if d2 > worst { d2 } else { worst };
                 }
-                for &k in &contacts.b_adj[contacts.b_start[i] as usize..contacts.b_start[i + 1] as usize] {
-                    let c = &forces[k as usize];
-                    f += c.force_b;
-                    t += c.torque_b;
-                }
-                for c in &forces[contacts.w_start[i] as usize..contacts.w_start[i + 1] as usize] {
-                    f += c.force_b;
-                    t += c.torque_b;
-                }
-                *v += (f * inv_mass[i] + gravity) * dt;
-                *x += *v * dt;
-                *l += t * dt;
-                let inv_inertia_i = inv_inertia[i];
-                *w = if inv_inertia_i.x == inv_inertia_i.y && inv_inertia_i.y == inv_inertia_i.z {
-                    // Spheres, cubes, Platonic solids: isotropic inertia, no frame change needed.
-                    *l * inv_inertia_i.x
-                } else {
-                    *q * ((q.conjugate() * *l) * inv_inertia_i)
-                };
-                // First-order quaternion update, renormalised: dq/dt = (w, 0) q / 2. The
-                // rotation per DEM step is tiny, so this matches the exponential map to
-                // O((|w| dt)^2) without the trigonometry.
-                let h = 0.5 * dt;
-                let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
-                // Compensated (Kahan) sum: the part of dq lost to rounding is kept in
-                // `residual` and added back next step.
-                let y = dq - *residual;
-                let q2 = *q + y;
-                *residual = (q2 - *q) - y;
-                // Renormalise only when |q| has drifted by more than a few ulps, with one
-                // Newton step of 1/sqrt around 1: no square root or division.
-                let n2 = q2.length_squared();
-                *q = if (n2 - 1.0).abs() > 4.0 * f32::EPSILON { q2 * (1.5 - 0.5 * n2) } else { q2 };
-                let d2 = (*x - rebuild_position[i]).length_squared();
-                // NaN or infinity anywhere in the state shows up in d2 or in q.
-                if d2.is_finite() && q.w.is_finite() { d2 } else { f32::INFINITY }
+                worst
             })
             .reduce(|| 0.0, f32::max);
         self.step_count += 1;

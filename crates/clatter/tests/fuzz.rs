@@ -403,3 +403,23 @@ proptest! {
 fn the_good_checkpoint_round_trips() {
     assert!(read_and_run(good_checkpoint().to_vec(), "the good checkpoint"));
 }
+
+/// Found by `hull_builder_on_hostile_points`: a slab 1 thick and 6e5 wide, about as thin as
+/// the merging tolerance, lost an extreme vertex (it ended up 2.5e5 outside a face).
+#[test]
+fn hull_of_a_thin_slab_keeps_its_extreme_points() {
+    let pts = [
+        Vec3::new(0.0, 415320.78, -0.61275655),
+        Vec3::new(566014.56, 0.0, -0.33485398),
+        Vec3::new(615168.6, 457577.7, 0.0),
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(-0.8410584, 0.0, 0.5548965),
+    ];
+    let h = convex_hull(&pts).expect("a solid, if a thin one");
+    assert_eq!(h.vertices.len(), 5);
+    for f in &h.faces {
+        for p in &pts {
+            assert!(f.normal.dot(*p) - f.offset <= 1.0, "{p} outside a face");
+        }
+    }
+}
