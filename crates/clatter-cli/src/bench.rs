@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::pile::{pile, PileParams, PileShape};
 use clatter::World;
+use clatter::pile::{PileParams, PileShape, pile};
 
 use crate::BenchShape;
 
@@ -54,7 +54,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     }
     let params = PileParams::default();
     if !args.json {
-        println!("# clatter bench: {name} pile, {} threads, {} settle + {} timed steps", rayon::current_num_threads(), args.settle, args.steps);
+        println!(
+            "# clatter bench: {name} pile, {} threads, {} settle + {} timed steps",
+            rayon::current_num_threads(),
+            args.settle,
+            args.steps
+        );
         println!(
             "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}",
             "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step", "rebuilds"
@@ -73,7 +78,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         let rebuilds_before = world.rebuilds;
         let start = Instant::now();
         for _ in 0..args.steps {
-            contacts += world.step().context("the pile blew up while timing")?.contacts;
+            contacts += world
+                .step()
+                .context("the pile blew up while timing")?
+                .contacts;
         }
         let secs = start.elapsed().as_secs_f64();
         let sps = args.steps as f64 / secs;
@@ -92,7 +100,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         if !args.json {
             println!(
                 "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}",
-                row.bodies, row.steps_per_s, row.body_steps_per_s, row.contacts_per_body, row.ms_per_step, row.rebuilds
+                row.bodies,
+                row.steps_per_s,
+                row.body_steps_per_s,
+                row.contacts_per_body,
+                row.ms_per_step,
+                row.rebuilds
             );
         }
         rows.push(row);
@@ -116,20 +129,58 @@ fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow
     let r = p.radius;
     let mut data = String::new();
     use std::fmt::Write as _;
-    writeln!(data, "clatter sphere pile\n\n{} atoms\n1 atom types\n", world.len())?;
+    writeln!(
+        data,
+        "clatter sphere pile\n\n{} atoms\n1 atom types\n",
+        world.len()
+    )?;
     // The walls are planes x = 0, x = wx, y = 0, y = wy, z = 0 (see pile.rs).
-    let wall = |n: glam::Vec3| world.walls.iter().find(|w| w.plane.normal == n).map(|w| w.plane.offset);
+    let wall = |n: glam::Vec3| {
+        world
+            .walls
+            .iter()
+            .find(|w| w.plane.normal == n)
+            .map(|w| w.plane.offset)
+    };
     let wx = -wall(-glam::Vec3::X).unwrap_or(hi.x + r);
     let wy = -wall(-glam::Vec3::Y).unwrap_or(hi.y + r);
-    writeln!(data, "{} {} xlo xhi\n{} {} ylo yhi\n{} {} zlo zhi\n", -r, wx + r, -r, wy + r, -r, hi.z + 4.0 * r)?;
+    writeln!(
+        data,
+        "{} {} xlo xhi\n{} {} ylo yhi\n{} {} zlo zhi\n",
+        -r,
+        wx + r,
+        -r,
+        wy + r,
+        -r,
+        hi.z + 4.0 * r
+    )?;
     writeln!(data, "Atoms # sphere\n")?;
     for (i, x) in world.position.iter().enumerate() {
-        writeln!(data, "{} 1 {} {} {} {} {}", i + 1, 2.0 * r, p.density, x.x, x.y, x.z)?;
+        writeln!(
+            data,
+            "{} 1 {} {} {} {} {}",
+            i + 1,
+            2.0 * r,
+            p.density,
+            x.x,
+            x.y,
+            x.z
+        )?;
     }
     writeln!(data, "\nVelocities\n")?;
     for i in 0..world.len() {
         let (v, w) = (world.velocity[i], world.omega[i]);
-        writeln!(data, "{} {} {} {} {} {} {}", i + 1, v.x, v.y, v.z, w.x, w.y, w.z)?;
+        writeln!(
+            data,
+            "{} {} {} {} {} {} {}",
+            i + 1,
+            v.x,
+            v.y,
+            v.z,
+            w.x,
+            w.y,
+            w.z
+        )?;
     }
     std::fs::write(dir.join("pile.data"), data)?;
 

@@ -38,7 +38,8 @@ impl EnergySeries {
                     && text.lines().next() == Some(ENERGY_HEADER)
                 {
                     for line in text.lines().skip(1) {
-                        let row: Vec<f64> = line.split(',').filter_map(|c| c.parse().ok()).collect();
+                        let row: Vec<f64> =
+                            line.split(',').filter_map(|c| c.parse().ok()).collect();
                         if let Ok(row) = Sample::try_from(row)
                             && (row[0] as u64) < step
                         {
@@ -62,7 +63,16 @@ impl EnergySeries {
     pub fn sample(&mut self, world: &World) -> anyhow::Result<()> {
         let (k, p) = (world.kinetic_energy(), world.potential_energy());
         let m = world.momentum();
-        let s = [world.step_count as f64, world.time, k, p, k + p, m[0], m[1], m[2]];
+        let s = [
+            world.step_count as f64,
+            world.time,
+            k,
+            p,
+            k + p,
+            m[0],
+            m[1],
+            m[2],
+        ];
         if self.samples.last().is_some_and(|l| l[0] == s[0]) {
             return Ok(());
         }
@@ -80,7 +90,8 @@ impl EnergySeries {
         }
         if let Some(svg) = svg {
             let mut f = AtomicFile::create(svg)?;
-            f.writer().write_all(plot(&self.samples, title).as_bytes())?;
+            f.writer()
+                .write_all(plot(&self.samples, title).as_bytes())?;
             f.commit()?;
         }
         Ok(())
@@ -88,7 +99,11 @@ impl EnergySeries {
 }
 
 fn write_row(w: &mut impl Write, s: &Sample) -> std::io::Result<()> {
-    writeln!(w, "{},{},{},{},{},{},{},{}", s[0] as u64, s[1], s[2], s[3], s[4], s[5], s[6], s[7])
+    writeln!(
+        w,
+        "{},{},{},{},{},{},{},{}",
+        s[0] as u64, s[1], s[2], s[3], s[4], s[5], s[6], s[7]
+    )
 }
 
 const WIDTH: f64 = 900.0;
@@ -109,16 +124,42 @@ pub fn plot(samples: &[Sample], title: &str) -> String {
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{WIDTH}\" height=\"{height}\" viewBox=\"0 0 {WIDTH} {height}\" font-family=\"sans-serif\" font-size=\"12\">"
     );
     let _ = writeln!(s, "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>");
-    let _ = writeln!(s, "<text x=\"{}\" y=\"22\" font-size=\"15\" text-anchor=\"middle\">{}</text>", WIDTH / 2.0, xml_escape(title));
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"22\" font-size=\"15\" text-anchor=\"middle\">{}</text>",
+        WIDTH / 2.0,
+        xml_escape(title)
+    );
     let t: Vec<f64> = samples.iter().map(|r| r[1]).collect();
     let col = |c: usize| samples.iter().map(|r| r[c]).collect::<Vec<f64>>();
     let (p0, e0) = samples.first().map_or((0.0, 0.0), |r| (r[3], r[4]));
     let kinetic = col(2);
     let potential: Vec<f64> = col(3).iter().map(|p| p - p0).collect();
     let total: Vec<f64> = col(4).iter().map(|e| e - e0).collect();
-    panel(&mut s, 0, "kinetic energy (J, log)", &t, &[("kinetic", &kinetic)], true);
-    panel(&mut s, 1, "energy - value at start (J)", &t, &[("potential", &potential), ("total", &total)], false);
-    panel(&mut s, 2, "momentum (kg m/s)", &t, &[("px", &col(5)), ("py", &col(6)), ("pz", &col(7))], false);
+    panel(
+        &mut s,
+        0,
+        "kinetic energy (J, log)",
+        &t,
+        &[("kinetic", &kinetic)],
+        true,
+    );
+    panel(
+        &mut s,
+        1,
+        "energy - value at start (J)",
+        &t,
+        &[("potential", &potential), ("total", &total)],
+        false,
+    );
+    panel(
+        &mut s,
+        2,
+        "momentum (kg m/s)",
+        &t,
+        &[("px", &col(5)), ("py", &col(6)), ("pz", &col(7))],
+        false,
+    );
     s.push_str("</svg>\n");
     s
 }
@@ -126,7 +167,10 @@ pub fn plot(samples: &[Sample], title: &str) -> String {
 fn panel(s: &mut String, k: usize, label: &str, t: &[f64], series: &[(&str, &[f64])], log: bool) {
     let y0 = TOP + k as f64 * (PANEL + GAP);
     let (x1, w) = (LEFT, WIDTH - LEFT - RIGHT);
-    let _ = writeln!(s, "<rect x=\"{x1}\" y=\"{y0}\" width=\"{w}\" height=\"{PANEL}\" fill=\"none\" stroke=\"#444\"/>");
+    let _ = writeln!(
+        s,
+        "<rect x=\"{x1}\" y=\"{y0}\" width=\"{w}\" height=\"{PANEL}\" fill=\"none\" stroke=\"#444\"/>"
+    );
     let _ = writeln!(
         s,
         "<text x=\"18\" y=\"{}\" text-anchor=\"middle\" transform=\"rotate(-90 18 {})\">{}</text>",
@@ -135,7 +179,12 @@ fn panel(s: &mut String, k: usize, label: &str, t: &[f64], series: &[(&str, &[f6
         xml_escape(label)
     );
     let map = |v: f64| if log { (v.max(1e-300)).log10() } else { v };
-    let values: Vec<f64> = series.iter().flat_map(|(_, v)| v.iter()).filter(|v| v.is_finite() && (!log || **v > 0.0)).map(|&v| map(v)).collect();
+    let values: Vec<f64> = series
+        .iter()
+        .flat_map(|(_, v)| v.iter())
+        .filter(|v| v.is_finite() && (!log || **v > 0.0))
+        .map(|&v| map(v))
+        .collect();
     let (tmin, tmax) = range(t.iter().copied());
     let (mut vmin, mut vmax) = range(values.iter().copied());
     if vmax - vmin <= f64::EPSILON * vmax.abs().max(1e-300) {
@@ -150,14 +199,41 @@ fn panel(s: &mut String, k: usize, label: &str, t: &[f64], series: &[(&str, &[f6
         let f = i as f64 / 4.0;
         let (xt, vt) = (tmin + f * (tmax - tmin), vmin + f * (vmax - vmin));
         let (x, y) = (x1 + f * w, y0 + PANEL - f * PANEL);
-        let _ = writeln!(s, "<line x1=\"{x:.1}\" y1=\"{y0}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/>", y0 + PANEL);
-        let _ = writeln!(s, "<line x1=\"{x1}\" y1=\"{y:.1}\" x2=\"{}\" y2=\"{y:.1}\" stroke=\"#ddd\"/>", x1 + w);
-        let _ = writeln!(s, "<text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{}</text>", y0 + PANEL + 15.0, number(xt));
-        let shown = if log { format!("1e{vt:.1}") } else { number(vt) };
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{shown}</text>", x1 - 5.0, y + 4.0);
+        let _ = writeln!(
+            s,
+            "<line x1=\"{x:.1}\" y1=\"{y0}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/>",
+            y0 + PANEL
+        );
+        let _ = writeln!(
+            s,
+            "<line x1=\"{x1}\" y1=\"{y:.1}\" x2=\"{}\" y2=\"{y:.1}\" stroke=\"#ddd\"/>",
+            x1 + w
+        );
+        let _ = writeln!(
+            s,
+            "<text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
+            y0 + PANEL + 15.0,
+            number(xt)
+        );
+        let shown = if log {
+            format!("{:.1e}", 10f64.powf(vt))
+        } else {
+            number(vt)
+        };
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{:.1}\" text-anchor=\"end\">{shown}</text>",
+            x1 - 5.0,
+            y + 4.0
+        );
     }
     if k == 2 {
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">time (s)</text>", x1 + w / 2.0, y0 + PANEL + 32.0);
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">time (s)</text>",
+            x1 + w / 2.0,
+            y0 + PANEL + 32.0
+        );
     }
     for (c, (name, v)) in series.iter().enumerate() {
         let colour = COLOURS[c % COLOURS.len()];
@@ -168,32 +244,65 @@ fn panel(s: &mut String, k: usize, label: &str, t: &[f64], series: &[(&str, &[f6
                 pen_down = false;
                 continue;
             }
-            let _ = write!(d, "{}{:.2},{:.2} ", if pen_down { "L" } else { "M" }, px(*x), py(*y));
+            let _ = write!(
+                d,
+                "{}{:.2},{:.2} ",
+                if pen_down { "L" } else { "M" },
+                px(*x),
+                py(*y)
+            );
             pen_down = true;
         }
-        let _ = writeln!(s, "<path d=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>", d.trim_end());
+        let _ = writeln!(
+            s,
+            "<path d=\"{}\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
+            d.trim_end()
+        );
         let ly = y0 + 20.0 + 18.0 * c as f64;
         let lx = x1 + w + 15.0;
-        let _ = writeln!(s, "<line x1=\"{lx}\" y1=\"{ly}\" x2=\"{}\" y2=\"{ly}\" stroke=\"{colour}\" stroke-width=\"2\"/>", lx + 25.0);
-        let _ = writeln!(s, "<text x=\"{}\" y=\"{}\">{name}</text>", lx + 32.0, ly + 4.0);
+        let _ = writeln!(
+            s,
+            "<line x1=\"{lx}\" y1=\"{ly}\" x2=\"{}\" y2=\"{ly}\" stroke=\"{colour}\" stroke-width=\"2\"/>",
+            lx + 25.0
+        );
+        let _ = writeln!(
+            s,
+            "<text x=\"{}\" y=\"{}\">{name}</text>",
+            lx + 32.0,
+            ly + 4.0
+        );
     }
 }
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values.filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     if lo.is_finite() { (lo, hi) } else { (0.0, 1.0) }
 }
 
+/// A tick label: at most four significant digits.
 fn number(v: f64) -> String {
     if v == 0.0 {
         "0".into()
     } else if (1e-3..1e4).contains(&v.abs()) {
-        format!("{}", (v * 1e4).round() / 1e4)
+        let decimals = (3 - v.abs().log10().floor() as i32).max(0) as usize;
+        let s = format!("{v:.decimals$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     } else {
         format!("{v:.2e}")
     }
 }
 
 fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
 }

@@ -103,7 +103,9 @@ fn init_threads(threads: Option<usize>) -> anyhow::Result<()> {
         if n == 0 {
             anyhow::bail!("--threads must be at least 1");
         }
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()?;
     }
     Ok(())
 }
@@ -111,13 +113,52 @@ fn init_threads(threads: Option<usize>) -> anyhow::Result<()> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run { scene, output, threads, steps, quiet } => {
-            init_threads(threads).and_then(|_| run::run(run::RunArgs { scene, output, steps, quiet }))
-        }
-        Command::Resume { checkpoint, output, threads, steps, quiet } => init_threads(threads)
-            .and_then(|_| run::resume(run::ResumeArgs { checkpoint, output, steps, quiet })),
-        Command::Bench { shape, bodies, steps, settle, json, threads, emit_lammps } => init_threads(threads)
-            .and_then(|_| bench::bench(bench::BenchArgs { shape, bodies, steps, settle, json, emit_lammps })),
+        Command::Run {
+            scene,
+            output,
+            threads,
+            steps,
+            quiet,
+        } => init_threads(threads).and_then(|_| {
+            run::run(run::RunArgs {
+                scene,
+                output,
+                steps,
+                quiet,
+            })
+        }),
+        Command::Resume {
+            checkpoint,
+            output,
+            threads,
+            steps,
+            quiet,
+        } => init_threads(threads).and_then(|_| {
+            run::resume(run::ResumeArgs {
+                checkpoint,
+                output,
+                steps,
+                quiet,
+            })
+        }),
+        Command::Bench {
+            shape,
+            bodies,
+            steps,
+            settle,
+            json,
+            threads,
+            emit_lammps,
+        } => init_threads(threads).and_then(|_| {
+            bench::bench(bench::BenchArgs {
+                shape,
+                bodies,
+                steps,
+                settle,
+                json,
+                emit_lammps,
+            })
+        }),
         Command::Query { input } => query::run(&input),
     };
     match result {

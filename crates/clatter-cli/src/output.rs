@@ -27,8 +27,13 @@ impl AtomicFile {
         let mut name = path.file_name().unwrap_or_default().to_os_string();
         name.push(".tmp");
         let tmp = path.with_file_name(name);
-        let file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        Ok(Self { tmp, path: path.to_path_buf(), writer: Some(BufWriter::with_capacity(1 << 20, file)) })
+        let file =
+            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        Ok(Self {
+            tmp,
+            path: path.to_path_buf(),
+            writer: Some(BufWriter::with_capacity(1 << 20, file)),
+        })
     }
 
     /// The writer.
@@ -39,9 +44,19 @@ impl AtomicFile {
     /// Flushes, syncs and renames into place.
     pub fn commit(mut self) -> anyhow::Result<()> {
         let writer = self.writer.take().expect("writer present until commit");
-        let file = writer.into_inner().map_err(|e| e.into_error()).with_context(|| format!("cannot write {}", self.tmp.display()))?;
-        file.sync_all().with_context(|| format!("cannot sync {}", self.tmp.display()))?;
-        std::fs::rename(&self.tmp, &self.path).with_context(|| format!("cannot rename {} to {}", self.tmp.display(), self.path.display()))?;
+        let file = writer
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .with_context(|| format!("cannot write {}", self.tmp.display()))?;
+        file.sync_all()
+            .with_context(|| format!("cannot sync {}", self.tmp.display()))?;
+        std::fs::rename(&self.tmp, &self.path).with_context(|| {
+            format!(
+                "cannot rename {} to {}",
+                self.tmp.display(),
+                self.path.display()
+            )
+        })?;
         // The rename itself is durable only once the directory is synced.
         clatter::checkpoint::sync_dir(&self.path);
         Ok(())
@@ -81,9 +96,16 @@ pub fn write_state_rows(w: &mut impl Write, world: &World, prefix: &str) -> std:
 /// Copies the rows of an existing CSV file `src` with header `header` whose first column (the
 /// step) is below `before` into `dst`: a resumed run continues the series it was written by.
 /// Does nothing when `src` does not exist or has another header.
-pub fn carry_rows(src: &Path, header: &str, before: u64, dst: &mut impl Write) -> anyhow::Result<()> {
+pub fn carry_rows(
+    src: &Path,
+    header: &str,
+    before: u64,
+    dst: &mut impl Write,
+) -> anyhow::Result<()> {
     use std::io::BufRead;
-    let Ok(file) = File::open(src) else { return Ok(()) };
+    let Ok(file) = File::open(src) else {
+        return Ok(());
+    };
     let mut lines = std::io::BufReader::new(file).lines();
     if lines.next().transpose()?.as_deref() != Some(header) {
         return Ok(());

@@ -15,7 +15,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
 use crate::energy::EnergySeries;
-use crate::output::{carry_rows, write_state_rows, AtomicFile, STATE_HEADER};
+use crate::output::{AtomicFile, STATE_HEADER, carry_rows, write_state_rows};
 use crate::vtk;
 
 /// The embedded default scene: mixed polyhedra poured into a box.
@@ -157,28 +157,55 @@ impl Plan {
     fn checkpoint(&self, world: &World, path: &Path) -> anyhow::Result<()> {
         let app = serde_json::to_vec(&self.run_state())?;
         let mut f = AtomicFile::create(path)?;
-        f.writer().write_all(&world.checkpoint_bytes(&self.scene.source, &self.scene_text, &app))?;
+        f.writer().write_all(&world.checkpoint_bytes(
+            &self.scene.source,
+            &self.scene_text,
+            &app,
+        ))?;
         f.commit()
     }
 }
 
 /// Checks the output options; `stored` are the options of the run being resumed.
-fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<(bool, bool, Option<u64>, bool, Option<f64>, Option<u64>, u64)> {
+/// The output options after checking, with a resumed run's stored ones filled in.
+struct Resolved {
+    csv: bool,
+    vtk: bool,
+    output_every: Option<u64>,
+    contacts: bool,
+    checkpoint_every: Option<f64>,
+    energy_every: Option<u64>,
+    check_every: u64,
+}
+
+fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved> {
     let every = match (o.output_every, o.trace_every) {
-        (Some(a), Some(b)) if a != b => anyhow::bail!("--output-every {a} and --trace-every {b} disagree (they are the same option)"),
+        (Some(a), Some(b)) if a != b => anyhow::bail!(
+            "--output-every {a} and --trace-every {b} disagree (they are the same option)"
+        ),
         (Some(a), _) | (None, Some(a)) => Some(a),
         (None, None) => stored.and_then(|s| s.output_every),
     };
-    let flag = if o.trace_every.is_some() && o.output_every.is_none() { "--trace-every" } else { "--output-every" };
+    let flag = if o.trace_every.is_some() && o.output_every.is_none() {
+        "--trace-every"
+    } else {
+        "--output-every"
+    };
     if every == Some(0) {
         anyhow::bail!("{flag} must be at least 1");
     }
     let formats = if !o.format.is_empty() {
         o.format.clone()
     } else {
-        stored.map(|s| s.formats.clone()).filter(|f| !f.is_empty()).unwrap_or_else(|| vec![Format::Csv])
+        stored
+            .map(|s| s.formats.clone())
+            .filter(|f| !f.is_empty())
+            .unwrap_or_else(|| vec![Format::Csv])
     };
-    let (csv, vtk) = (formats.contains(&Format::Csv), formats.contains(&Format::Vtk));
+    let (csv, vtk) = (
+        formats.contains(&Format::Csv),
+        formats.contains(&Format::Vtk),
+    );
     let contacts = o.contacts || (o.format.is_empty() && stored.is_some_and(|s| s.contacts));
     if o.out.is_none() {
         if o.output_every.is_some() || o.trace_every.is_some() {
@@ -194,7 +221,9 @@ fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<(bool, b
     if o.contacts && !vtk {
         anyhow::bail!("--contacts needs --format vtk (the contact series is VTK only)");
     }
-    let checkpoint_every = o.checkpoint_every.or(stored.and_then(|s| s.checkpoint_every));
+    let checkpoint_every = o
+        .checkpoint_every
+        .or(stored.and_then(|s| s.checkpoint_every));
     if let Some(t) = checkpoint_every
         && !(t.is_finite() && t > 0.0)
     {
@@ -204,11 +233,22 @@ fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<(bool, b
     if energy_every == Some(0) {
         anyhow::bail!("--energy-every must be at least 1");
     }
-    let check_every = o.check_every.or(stored.and_then(|s| s.check_every)).unwrap_or(10);
+    let check_every = o
+        .check_every
+        .or(stored.and_then(|s| s.check_every))
+        .unwrap_or(10);
     if check_every == 0 {
         anyhow::bail!("--check-every must be at least 1");
     }
-    Ok((csv, vtk, every, contacts, checkpoint_every, energy_every, check_every))
+    Ok(Resolved {
+        csv,
+        vtk,
+        output_every: every,
+        contacts,
+        checkpoint_every,
+        energy_every,
+        check_every,
+    })
 }
 
 /// `clatter run`: a scene from the start.
@@ -227,35 +267,61 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         None => (DEFAULT_SCENE.to_string(), "<default scene>".to_string()),
     };
     let scene = Scene::parse(&text, &name)?;
-    let (csv, vtk, output_every, contacts, checkpoint_every, energy_every, check_every) = resolve(&args.output, None)?;
-    let world = scene.world();
-    let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
-    let health = Health::new(&world);
-    execute(Plan {
-        end_step,
-        out: args.output.out,
+    let Resolved {
         csv,
         vtk,
         output_every,
         contacts,
         checkpoint_every,
-        energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+        energy_every,
         check_every,
-        health,
-        resumed: false,
-        quiet: args.quiet,
-        scene,
-        scene_text: text,
-    }, world)
+    } = resolve(&args.output, None)?;
+    let world = scene.world();
+    let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
+    let health = Health::new(&world);
+    execute(
+        Plan {
+            end_step,
+            out: args.output.out,
+            csv,
+            vtk,
+            output_every,
+            contacts,
+            checkpoint_every,
+            energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+            check_every,
+            health,
+            resumed: false,
+            quiet: args.quiet,
+            scene,
+            scene_text: text,
+        },
+        world,
+    )
 }
 
 /// `clatter resume`: a run continued from a checkpoint.
 pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
     let path = &args.checkpoint;
-    let ckpt = Checkpoint::load(path).with_context(|| format!("cannot resume from {}", path.display()))?;
-    let stored: Option<RunState> = if ckpt.app.is_empty() { None } else { serde_json::from_slice(&ckpt.app).ok() };
-    let (csv, vtk, output_every, contacts, checkpoint_every, energy_every, check_every) = resolve(&args.output, stored.as_ref())?;
-    let (scene, world) = ckpt.world().with_context(|| format!("cannot resume from {}", path.display()))?;
+    let ckpt =
+        Checkpoint::load(path).with_context(|| format!("cannot resume from {}", path.display()))?;
+    let stored: Option<RunState> = if ckpt.app.is_empty() {
+        None
+    } else {
+        serde_json::from_slice(&ckpt.app).ok()
+    };
+    let Resolved {
+        csv,
+        vtk,
+        output_every,
+        contacts,
+        checkpoint_every,
+        energy_every,
+        check_every,
+    } = resolve(&args.output, stored.as_ref())?;
+    let (scene, world) = ckpt
+        .world()
+        .with_context(|| format!("cannot resume from {}", path.display()))?;
     let start = world.step_count;
     let end_step = match (args.steps, &stored) {
         (Some(n), _) => start.saturating_add(n),
@@ -263,28 +329,34 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
         (None, None) => scene.steps(world.dt),
     };
     if end_step < start {
-        anyhow::bail!("{} is at step {start}, past the end of its run (step {end_step}); give --steps N to go on", path.display());
+        anyhow::bail!(
+            "{} is at step {start}, past the end of its run (step {end_step}); give --steps N to go on",
+            path.display()
+        );
     }
     let health = match stored.as_ref().and_then(|s| s.health_baseline) {
         Some(b) => Health::with_baseline(&world, b),
         None => Health::new(&world),
     };
-    execute(Plan {
-        end_step,
-        out: args.output.out,
-        csv,
-        vtk,
-        output_every,
-        contacts,
-        checkpoint_every,
-        energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
-        check_every,
-        health,
-        resumed: true,
-        quiet: args.quiet,
-        scene_text: ckpt.scene_text.clone(),
-        scene,
-    }, world)
+    execute(
+        Plan {
+            end_step,
+            out: args.output.out,
+            csv,
+            vtk,
+            output_every,
+            contacts,
+            checkpoint_every,
+            energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+            check_every,
+            health,
+            resumed: true,
+            quiet: args.quiet,
+            scene_text: ckpt.scene_text.clone(),
+            scene,
+        },
+        world,
+    )
 }
 
 /// The frame series of one run: trace.csv and the VTK files.
@@ -333,7 +405,11 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         eprintln!("warning: {w}");
     }
     if !plan.quiet {
-        let from = if plan.resumed { format!(" from step {start} (t = {:.6} s)", world.time) } else { String::new() };
+        let from = if plan.resumed {
+            format!(" from step {start} (t = {:.6} s)", world.time)
+        } else {
+            String::new()
+        };
         eprintln!(
             "{}: {} bodies, {} walls, dt = {:.3e} s, {} steps{from} ({:.4} s simulated), {} threads",
             plan.scene.source,
@@ -354,10 +430,16 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
 
     // Outputs: everything is created before the first step and committed (renamed into
     // place) when complete.
-    let mut series = Series { trace: None, bodies: None, contacts: None, last_frame: None };
+    let mut series = Series {
+        trace: None,
+        bodies: None,
+        contacts: None,
+        last_frame: None,
+    };
     let mut energy = None;
     if let Some(dir) = &plan.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create output directory {}", dir.display()))?;
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create output directory {}", dir.display()))?;
         if plan.csv && plan.output_every.is_some() {
             let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
             let header = format!("step,time,{STATE_HEADER}");
@@ -380,9 +462,16 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     let half_dt = 0.5 * world.dt as f64;
     let mut next_checkpoint = period.map(|t| ((world.time + half_dt) / t).floor() + 1.0);
 
-    let bar = if plan.quiet { ProgressBar::hidden() } else { ProgressBar::new(steps) };
+    let bar = if plan.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(steps)
+    };
     bar.set_style(
-        ProgressStyle::with_template("{bar:40.cyan/blue} {pos}/{len} steps {per_sec} eta {eta} {msg}").expect("valid template"),
+        ProgressStyle::with_template(
+            "{bar:40.cyan/blue} {pos}/{len} steps {per_sec} eta {eta} {msg}",
+        )
+        .expect("valid template"),
     );
     let started = Instant::now();
     let mut max_contacts = world.contact_count();
@@ -397,9 +486,9 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         };
         max_contacts = max_contacts.max(stats.contacts);
         let s = world.step_count;
-        let output_step = plan.output_every.is_some_and(|n| s % n == 0);
-        let full = s % FULL_CHECK_EVERY == 0 || output_step || s == plan.end_step;
-        if full || s % plan.check_every == 0 {
+        let output_step = plan.output_every.is_some_and(|n| s.is_multiple_of(n));
+        let full = s.is_multiple_of(FULL_CHECK_EVERY) || output_step || s == plan.end_step;
+        if full || s.is_multiple_of(plan.check_every) {
             if let Err(b) = plan.health.check(&world, full) {
                 bar.finish_and_clear();
                 return Err(blown_up(&plan, b, &last_good, energy));
@@ -413,7 +502,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
                 series.write(dir, &world)?;
             }
             if let Some(e) = &mut energy
-                && s % plan.energy_every == 0
+                && s.is_multiple_of(plan.energy_every)
             {
                 e.sample(&world)?;
             }
@@ -453,7 +542,10 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     }
     if let Some(mut e) = energy.take() {
         e.sample(&world)?;
-        e.finish(Some(&dir.join("energy.svg")), &format!("{}: energy and momentum", plan.scene.source))?;
+        e.finish(
+            Some(&dir.join("energy.svg")),
+            &format!("{}: energy and momentum", plan.scene.source),
+        )?;
     }
     if period.is_some() {
         plan.checkpoint(&world, &dir.join("checkpoint.ckpt"))?;
@@ -493,13 +585,23 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
 /// The error of a blown-up run: the report, and where the last good state went. Writes
 /// `last_good.ckpt` and commits the energy series up to the failure; the trace being written
 /// is dropped (its temporary file removed), and no final.csv or summary.json is written.
-fn blown_up(plan: &Plan, b: BlowUp, last_good: &World, energy: Option<EnergySeries>) -> anyhow::Error {
+fn blown_up(
+    plan: &Plan,
+    b: BlowUp,
+    last_good: &World,
+    energy: Option<EnergySeries>,
+) -> anyhow::Error {
     let mut msg = b.to_string();
     match &plan.out {
         Some(dir) => {
             let path = dir.join("last_good.ckpt");
-            let written = std::fs::create_dir_all(dir).map_err(anyhow::Error::from).and_then(|_| plan.checkpoint(last_good, &path));
+            let written = std::fs::create_dir_all(dir)
+                .map_err(anyhow::Error::from)
+                .and_then(|_| plan.checkpoint(last_good, &path));
             match written {
+                Ok(()) if last_good.step_count == 0 => {
+                    msg.push_str(&format!("\nthe last good state (step 0, the initial state) is in {}", path.display()))
+                }
                 Ok(()) => msg.push_str(&format!(
                     "\nthe last good state (step {}, t = {:.6e} s) is in {}; `clatter resume` continues from it",
                     last_good.step_count,
@@ -509,7 +611,10 @@ fn blown_up(plan: &Plan, b: BlowUp, last_good: &World, energy: Option<EnergySeri
                 Err(e) => msg.push_str(&format!("\ncould not write the last good state to {}: {e:#}", path.display())),
             }
             if let Some(e) = energy
-                && let Err(e) = e.finish(Some(&dir.join("energy.svg")), &format!("{}: energy and momentum (blew up)", plan.scene.source))
+                && let Err(e) = e.finish(
+                    Some(&dir.join("energy.svg")),
+                    &format!("{}: energy and momentum (blew up)", plan.scene.source),
+                )
             {
                 msg.push_str(&format!("\ncould not write energy.csv: {e:#}"));
             }

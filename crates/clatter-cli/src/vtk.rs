@@ -38,38 +38,83 @@ struct Array {
 
 impl Array {
     fn f32(name: &'static str, components: usize, values: impl IntoIterator<Item = f32>) -> Array {
-        Array { name, ty: "Float32", components, bytes: values.into_iter().flat_map(f32::to_le_bytes).collect() }
+        Array {
+            name,
+            ty: "Float32",
+            components,
+            bytes: values.into_iter().flat_map(f32::to_le_bytes).collect(),
+        }
     }
     fn i32(name: &'static str, values: impl IntoIterator<Item = i32>) -> Array {
-        Array { name, ty: "Int32", components: 1, bytes: values.into_iter().flat_map(i32::to_le_bytes).collect() }
+        Array {
+            name,
+            ty: "Int32",
+            components: 1,
+            bytes: values.into_iter().flat_map(i32::to_le_bytes).collect(),
+        }
     }
 }
 
 /// Writes a vertex-cell UnstructuredGrid with `points` and `arrays` of point data.
-fn write_vtu(path: &Path, step: u64, time: f64, points: &[f32], arrays: &[Array], vectors: &str) -> anyhow::Result<()> {
+fn write_vtu(
+    path: &Path,
+    step: u64,
+    time: f64,
+    points: &[f32],
+    arrays: &[Array],
+    vectors: &str,
+) -> anyhow::Result<()> {
     let n = points.len() / 3;
     let mut f = AtomicFile::create(path)?;
     let w = f.writer();
     writeln!(w, "<?xml version=\"1.0\"?>")?;
-    writeln!(w, "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt32\">")?;
+    writeln!(
+        w,
+        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt32\">"
+    )?;
     writeln!(w, "  <UnstructuredGrid>")?;
     writeln!(w, "    <FieldData>")?;
-    writeln!(w, "      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">{time:e}</DataArray>")?;
-    writeln!(w, "      <DataArray type=\"Int64\" Name=\"Step\" NumberOfTuples=\"1\" format=\"ascii\">{step}</DataArray>")?;
+    writeln!(
+        w,
+        "      <DataArray type=\"Float64\" Name=\"TimeValue\" NumberOfTuples=\"1\" format=\"ascii\">{time:e}</DataArray>"
+    )?;
+    writeln!(
+        w,
+        "      <DataArray type=\"Int64\" Name=\"Step\" NumberOfTuples=\"1\" format=\"ascii\">{step}</DataArray>"
+    )?;
     writeln!(w, "    </FieldData>")?;
-    writeln!(w, "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">")?;
+    writeln!(
+        w,
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">"
+    )?;
     writeln!(w, "      <PointData Vectors=\"{vectors}\">")?;
     for a in arrays {
         data_array(w, a)?;
     }
     writeln!(w, "      </PointData>")?;
     writeln!(w, "      <Points>")?;
-    data_array(w, &Array { name: "Points", ty: "Float32", components: 3, bytes: points.iter().flat_map(|v| v.to_le_bytes()).collect() })?;
+    data_array(
+        w,
+        &Array {
+            name: "Points",
+            ty: "Float32",
+            components: 3,
+            bytes: points.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        },
+    )?;
     writeln!(w, "      </Points>")?;
     writeln!(w, "      <Cells>")?;
     data_array(w, &Array::i32("connectivity", 0..n as i32))?;
     data_array(w, &Array::i32("offsets", 1..=n as i32))?;
-    data_array(w, &Array { name: "types", ty: "UInt8", components: 1, bytes: vec![1u8; n] })?;
+    data_array(
+        w,
+        &Array {
+            name: "types",
+            ty: "UInt8",
+            components: 1,
+            bytes: vec![1u8; n],
+        },
+    )?;
     writeln!(w, "      </Cells>")?;
     writeln!(w, "    </Piece>")?;
     writeln!(w, "  </UnstructuredGrid>")?;
@@ -78,7 +123,11 @@ fn write_vtu(path: &Path, step: u64, time: f64, points: &[f32], arrays: &[Array]
 }
 
 fn data_array(w: &mut impl Write, a: &Array) -> std::io::Result<()> {
-    write!(w, "        <DataArray type=\"{}\" Name=\"{}\"", a.ty, a.name)?;
+    write!(
+        w,
+        "        <DataArray type=\"{}\" Name=\"{}\"",
+        a.ty, a.name
+    )?;
     if a.components > 1 {
         write!(w, " NumberOfComponents=\"{}\"", a.components)?;
     }
@@ -95,12 +144,24 @@ pub fn base64(bytes: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = Vec::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
         let v = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
         out.push(ALPHABET[(v >> 18) as usize & 63]);
         out.push(ALPHABET[(v >> 12) as usize & 63]);
-        out.push(if chunk.len() > 1 { ALPHABET[(v >> 6) as usize & 63] } else { b'=' });
-        out.push(if chunk.len() > 2 { ALPHABET[v as usize & 63] } else { b'=' });
+        out.push(if chunk.len() > 1 {
+            ALPHABET[(v >> 6) as usize & 63]
+        } else {
+            b'='
+        });
+        out.push(if chunk.len() > 2 {
+            ALPHABET[v as usize & 63]
+        } else {
+            b'='
+        });
     }
     String::from_utf8(out).expect("base64 is ASCII")
 }
@@ -127,12 +188,27 @@ pub fn write_bodies(path: &Path, world: &World) -> anyhow::Result<()> {
         Array::i32("material", world.material_of.iter().map(|&m| m as i32)),
         Array::i32("contacts", counts.iter().map(|&c| c as i32)),
         Array::f32("radius", 1, world.radius.iter().copied()),
-        Array::f32("velocity", 3, world.velocity.iter().flat_map(|v| v.to_array())),
-        Array::f32("angular_velocity", 3, world.omega.iter().flat_map(|v| v.to_array())),
+        Array::f32(
+            "velocity",
+            3,
+            world.velocity.iter().flat_map(|v| v.to_array()),
+        ),
+        Array::f32(
+            "angular_velocity",
+            3,
+            world.omega.iter().flat_map(|v| v.to_array()),
+        ),
         Array::f32("orientation", 4, quats),
         Array::f32("rotation", 9, rotations),
     ];
-    write_vtu(path, world.step_count, world.time, &points, &arrays, "velocity")
+    write_vtu(
+        path,
+        world.step_count,
+        world.time,
+        &points,
+        &arrays,
+        "velocity",
+    )
 }
 
 /// Writes the touching contacts of `world` at its current step.
@@ -159,13 +235,32 @@ pub fn write_contacts(path: &Path, world: &World) -> anyhow::Result<()> {
                 Other::Wall(_) => c.body as i32,
             }),
         ),
-        Array::f32("normal", 3, contacts.iter().flat_map(|c| c.manifold.normal.to_array())),
-        Array::f32("force", 3, contacts.iter().flat_map(|c| c.force.force_b.to_array())),
-        Array::f32("normal_force", 1, contacts.iter().map(|c| c.force.normal_force)),
+        Array::f32(
+            "normal",
+            3,
+            contacts.iter().flat_map(|c| c.manifold.normal.to_array()),
+        ),
+        Array::f32(
+            "force",
+            3,
+            contacts.iter().flat_map(|c| c.force.force_b.to_array()),
+        ),
+        Array::f32(
+            "normal_force",
+            1,
+            contacts.iter().map(|c| c.force.normal_force),
+        ),
         Array::f32("depth", 1, contacts.iter().map(|c| c.manifold.max_depth())),
         Array::i32("points", contacts.iter().map(|c| c.manifold.count as i32)),
     ];
-    write_vtu(path, world.step_count, world.time, &points, &arrays, "force")
+    write_vtu(
+        path,
+        world.step_count,
+        world.time,
+        &points,
+        &arrays,
+        "force",
+    )
 }
 
 /// A `.pvd` collection: the frames of one series with their times, rewritten atomically after
@@ -190,7 +285,11 @@ impl Pvd {
                     let len = line[start..].find('"')?;
                     Some(line[start..start + len].to_string())
                 };
-                let (Some(time), Some(file), Some(s)) = (attr(" timestep"), attr(" file"), attr(" step")) else { continue };
+                let (Some(time), Some(file), Some(s)) =
+                    (attr(" timestep"), attr(" file"), attr(" step"))
+                else {
+                    continue;
+                };
                 if let (Ok(time), Ok(s)) = (time.parse::<f64>(), s.parse::<u64>())
                     && s < step
                 {
@@ -198,7 +297,10 @@ impl Pvd {
                 }
             }
         }
-        Pvd { path: path.to_path_buf(), entries }
+        Pvd {
+            path: path.to_path_buf(),
+            entries,
+        }
     }
 
     /// Adds a frame and rewrites the index.
@@ -208,10 +310,16 @@ impl Pvd {
         let mut f = AtomicFile::create(&self.path)?;
         let w = f.writer();
         writeln!(w, "<?xml version=\"1.0\"?>")?;
-        writeln!(w, "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">")?;
+        writeln!(
+            w,
+            "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">"
+        )?;
         writeln!(w, "  <Collection>")?;
         for (s, t, file) in &self.entries {
-            writeln!(w, "    <DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{file}\" step=\"{s}\"/>")?;
+            writeln!(
+                w,
+                "    <DataSet timestep=\"{t:e}\" group=\"\" part=\"0\" file=\"{file}\" step=\"{s}\"/>"
+            )?;
         }
         writeln!(w, "  </Collection>")?;
         writeln!(w, "</VTKFile>")?;
@@ -225,7 +333,15 @@ mod tests {
 
     #[test]
     fn base64_rfc4648_vectors() {
-        for (input, out) in [("", ""), ("f", "Zg=="), ("fo", "Zm8="), ("foo", "Zm9v"), ("foob", "Zm9vYg=="), ("fooba", "Zm9vYmE="), ("foobar", "Zm9vYmFy")] {
+        for (input, out) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
             assert_eq!(base64(input.as_bytes()), out);
         }
     }

@@ -125,7 +125,13 @@ fn small_scene_outputs() {
     names.sort();
     assert_eq!(
         names,
-        ["energy.csv", "energy.svg", "final.csv", "summary.json", "trace.csv"]
+        [
+            "energy.csv",
+            "energy.svg",
+            "final.csv",
+            "summary.json",
+            "trace.csv"
+        ]
     );
 
     // Scene order: [[body]] entries first, then groups in file order, lattices x fastest.

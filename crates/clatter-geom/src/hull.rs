@@ -597,7 +597,9 @@ impl TriMesh<'_> {
                 }
             }
             let outside = used.iter().enumerate().filter(|(_, u)| **u).any(|(v, _)| {
-                planes.iter().any(|(n, o)| n.dot(self.pts[v]) - o > 2.0 * self.tol)
+                planes
+                    .iter()
+                    .any(|(n, o)| n.dot(self.pts[v]) - o > 2.0 * self.tol)
             });
             if outside {
                 return None;

@@ -16,7 +16,7 @@ pub mod shape;
 pub use hull::convex_hull;
 pub use mass::MassProperties;
 pub use polyhedron::{BoxFrame, ConvexPolyhedron, Face};
-pub use shape::{PreparedShape, Shape, ShapeKind, RegularKind};
+pub use shape::{PreparedShape, RegularKind, Shape, ShapeKind};
 
 use thiserror::Error;
 
@@ -30,7 +30,9 @@ pub enum GeomError {
     #[error("point {index} has a non-finite coordinate")]
     NonFinitePoint { index: usize },
     /// The point set spans less than three dimensions (fewer than 4 non-coplanar points).
-    #[error("degenerate hull: the {count} points {why}; a convex hull needs at least 4 points that are not all coplanar")]
+    #[error(
+        "degenerate hull: the {count} points {why}; a convex hull needs at least 4 points that are not all coplanar"
+    )]
     DegenerateHull { count: usize, why: &'static str },
 }
 

@@ -42,7 +42,11 @@ impl Manifold {
 
     #[inline(always)]
     fn single(normal: Vec3, point: Vec3, depth: f32) -> Self {
-        let mut m = Manifold { normal, count: 1, ..Default::default() };
+        let mut m = Manifold {
+            normal,
+            count: 1,
+            ..Default::default()
+        };
         m.points[0] = ContactPoint { point, depth };
         m
     }
@@ -70,12 +74,20 @@ const HINT_EDGE: u32 = 2 << 30;
 const HINT_KIND: u32 = 3 << 30;
 
 /// [`collide`] with a per-pair separating-axis `hint` that is read first and updated.
-pub fn collide_with_hint(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose, hint: &mut SatHint) -> Option<Manifold> {
+pub fn collide_with_hint(
+    a: &Shape,
+    pa: &Pose,
+    b: &Shape,
+    pb: &Pose,
+    hint: &mut SatHint,
+) -> Option<Manifold> {
     match (a, b) {
         (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
             sphere_sphere(pa.position, *ra, pb.position, *rb)
         }
-        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => sphere_polyhedron(pa.position, *radius, p, pb),
+        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+            sphere_polyhedron(pa.position, *radius, p, pb)
+        }
         (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
             sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
         }
@@ -93,9 +105,17 @@ pub fn sphere_sphere(ca: Vec3, ra: f32, cb: Vec3, rb: f32) -> Option<Manifold> {
         return None;
     }
     let dist = dist2.sqrt();
-    let normal = if dist > 1e-12 * rsum { d / dist } else { Vec3::Z };
+    let normal = if dist > 1e-12 * rsum {
+        d / dist
+    } else {
+        Vec3::Z
+    };
     let depth = rsum - dist;
-    Some(Manifold::single(normal, ca + normal * (ra - 0.5 * depth), depth))
+    Some(Manifold::single(
+        normal,
+        ca + normal * (ra - 0.5 * depth),
+        depth,
+    ))
 }
 
 /// Closest point of a convex polygon (a face loop of `p`) to `x`, all in `p`'s local frame.
@@ -141,7 +161,12 @@ fn closest_on_segment(a: Vec3, b: Vec3, x: Vec3) -> Vec3 {
 }
 
 /// Sphere `a` (centre, radius) against polyhedron `b` at `pose`; normal from sphere to polyhedron.
-pub fn sphere_polyhedron(centre: Vec3, radius: f32, p: &ConvexPolyhedron, pose: &Pose) -> Option<Manifold> {
+pub fn sphere_polyhedron(
+    centre: Vec3,
+    radius: f32,
+    p: &ConvexPolyhedron,
+    pose: &Pose,
+) -> Option<Manifold> {
     let c = pose.inverse_transform_point(centre);
     if c.length_squared() >= (p.radius + radius) * (p.radius + radius) {
         return None;
@@ -179,12 +204,20 @@ pub fn sphere_polyhedron(centre: Vec3, radius: f32, p: &ConvexPolyhedron, pose: 
         if dist >= radius {
             return None;
         }
-        let n = if dist > 1e-12 { (q - c) / dist } else { -p.faces[best_face].normal };
+        let n = if dist > 1e-12 {
+            (q - c) / dist
+        } else {
+            -p.faces[best_face].normal
+        };
         (q, n, radius - dist)
     };
     let deepest = c + n_local * radius;
     let mid = 0.5 * (surface + deepest);
-    Some(Manifold::single(pose.rotation * n_local, pose.transform_point(mid), depth))
+    Some(Manifold::single(
+        pose.rotation * n_local,
+        pose.transform_point(mid),
+        depth,
+    ))
 }
 
 /// A wall: the half-space `normal . x <= offset` is solid; bodies live on the side the unit
@@ -205,7 +238,11 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
             if depth <= 0.0 {
                 return None;
             }
-            Some(Manifold::single(n, pose.position - n * (radius - 0.5 * depth), depth))
+            Some(Manifold::single(
+                n,
+                pose.position - n * (radius - 0.5 * depth),
+                depth,
+            ))
         }
         Shape::Polyhedron(p) => {
             if centre_height >= p.radius {
@@ -244,7 +281,10 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
 /// Keeps at most four points of a contact patch: the deepest, the one furthest from it, then
 /// those that enlarge the covered area most (so the patch's support polygon is preserved).
 fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
-    let mut m = Manifold { normal, ..Default::default() };
+    let mut m = Manifold {
+        normal,
+        ..Default::default()
+    };
     if pts.len() <= 4 {
         for (i, &(p, d)) in pts.iter().enumerate() {
             m.points[i] = ContactPoint { point: p, depth: d };
@@ -252,15 +292,25 @@ fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
         m.count = pts.len();
         return m;
     }
-    let a = (0..pts.len()).max_by(|&i, &j| pts[i].1.total_cmp(&pts[j].1)).unwrap_or(0);
+    let a = (0..pts.len())
+        .max_by(|&i, &j| pts[i].1.total_cmp(&pts[j].1))
+        .unwrap_or(0);
     let pa = pts[a].0;
     let b = (0..pts.len())
-        .max_by(|&i, &j| (pts[i].0 - pa).length_squared().total_cmp(&(pts[j].0 - pa).length_squared()))
+        .max_by(|&i, &j| {
+            (pts[i].0 - pa)
+                .length_squared()
+                .total_cmp(&(pts[j].0 - pa).length_squared())
+        })
         .unwrap_or(0);
     let pb = pts[b].0;
     let area = |p: Vec3, q: Vec3, r: Vec3| (q - p).cross(r - p).dot(normal);
     let c = (0..pts.len())
-        .max_by(|&i, &j| area(pa, pb, pts[i].0).abs().total_cmp(&area(pa, pb, pts[j].0).abs()))
+        .max_by(|&i, &j| {
+            area(pa, pb, pts[i].0)
+                .abs()
+                .total_cmp(&area(pa, pb, pts[j].0).abs())
+        })
         .unwrap_or(0);
     let pc = pts[c].0;
     // The fourth point: the one furthest outside the triangle, i.e. adding the most area.
@@ -279,7 +329,10 @@ fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
     }
     idx.dedup();
     for (k, &i) in idx.iter().enumerate() {
-        m.points[k] = ContactPoint { point: pts[i].0, depth: pts[i].1 };
+        m.points[k] = ContactPoint {
+            point: pts[i].0,
+            depth: pts[i].1,
+        };
     }
     m.count = idx.len();
     m
@@ -325,7 +378,12 @@ impl SoaPoints {
     #[inline]
     fn min_along(&self, n: Vec3) -> f32 {
         let mut m = [f32::INFINITY; 4];
-        for ((xs, ys), zs) in self.x.chunks_exact(4).zip(self.y.chunks_exact(4)).zip(self.z.chunks_exact(4)) {
+        for ((xs, ys), zs) in self
+            .x
+            .chunks_exact(4)
+            .zip(self.y.chunks_exact(4))
+            .zip(self.z.chunks_exact(4))
+        {
             for k in 0..4 {
                 let d = n.x * xs[k] + n.y * ys[k] + n.z * zs[k];
                 m[k] = if d < m[k] { d } else { m[k] };
@@ -336,7 +394,6 @@ impl SoaPoints {
         if a < b { a } else { b }
     }
 }
-
 
 /// Two convex polyhedra.
 pub fn polyhedron_polyhedron(
@@ -361,17 +418,26 @@ pub fn polyhedron_polyhedron(
     // body's own frame (no vertex transformed).
     if *hint != NO_HINT {
         let idx = (*hint & !HINT_KIND) as usize;
-        let min_along = |p: &ConvexPolyhedron, dir: Vec3| p.vertices.iter().map(|v| dir.dot(*v)).fold(f32::INFINITY, f32::min);
+        let min_along = |p: &ConvexPolyhedron, dir: Vec3| {
+            p.vertices
+                .iter()
+                .map(|v| dir.dot(*v))
+                .fold(f32::INFINITY, f32::min)
+        };
         let separated = match *hint & HINT_KIND {
-            HINT_FACE_A => idx < a.faces.len() && {
-                let f = a.faces[idx];
-                min_along(b, inv_rot * f.normal) + f.normal.dot(t) - f.offset > 0.0
-            },
-            HINT_FACE_B => idx < b.faces.len() && {
-                let f = b.faces[idx];
-                let n = rot * f.normal;
-                min_along(a, n) - n.dot(t) - f.offset > 0.0
-            },
+            HINT_FACE_A => {
+                idx < a.faces.len() && {
+                    let f = a.faces[idx];
+                    min_along(b, inv_rot * f.normal) + f.normal.dot(t) - f.offset > 0.0
+                }
+            }
+            HINT_FACE_B => {
+                idx < b.faces.len() && {
+                    let f = b.faces[idx];
+                    let n = rot * f.normal;
+                    min_along(a, n) - n.dot(t) - f.offset > 0.0
+                }
+            }
             _ => {
                 let (ea, eb) = (idx >> 15, idx & 0x7fff);
                 ea < a.edges.len() && eb < b.edges.len() && {
@@ -431,7 +497,15 @@ fn sat_full(
     sc: &mut Scratch,
     hint: &mut SatHint,
 ) -> Option<Manifold> {
-    let Scratch { av, bv, a_soa, b_soa, a_local, tables, clip } = sc;
+    let Scratch {
+        av,
+        bv,
+        a_soa,
+        b_soa,
+        a_local,
+        tables,
+        clip,
+    } = sc;
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rot * v + t));
     av.clear();
@@ -464,7 +538,9 @@ fn sat_full(
     }
     let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
     let cost_dirs = nda * ndb * (av.len() + bv.len());
-    let cost_tables = a.edges.len() * b.faces.len() + b.edges.len() * a.faces.len() + a.edges.len() * b.edges.len();
+    let cost_tables = a.edges.len() * b.faces.len()
+        + b.edges.len() * a.faces.len()
+        + a.edges.len() * b.edges.len();
     let best_e = if cost_dirs <= 2 * cost_tables {
         a_local.fill(&a.vertices);
         edge_axes_by_direction(a, b, rot, a_local, b_soa, bv, hint)?
@@ -486,7 +562,11 @@ fn sat_full(
             bv[b1 as usize],
         );
         let mid = 0.5 * (qa + qb);
-        return Some(Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s));
+        return Some(Manifold::single(
+            pa.rotation * axis,
+            pa.transform_point(mid),
+            -s,
+        ));
     }
     // Face contact: prefer A's face unless B's is clearly better.
     if best_b.0 > best_a.0 + tol {
@@ -603,11 +683,23 @@ fn edge_axes_by_direction(
             let (min_a, max_a) = (a_local.min_along(axis), a_local.max_along(axis));
             let (min_b, max_b) = (b_soa.min_along(axis), b_soa.max_along(axis));
             // Separation pushing B along +axis, and along -axis; keep the larger.
-            let (s, axis) = if min_b - max_a >= min_a - max_b { (min_b - max_a, axis) } else { (min_a - max_b, -axis) };
+            let (s, axis) = if min_b - max_a >= min_a - max_b {
+                (min_b - max_a, axis)
+            } else {
+                (min_a - max_b, -axis)
+            };
             if s > 0.0 {
                 // Remember one concrete edge pair with these directions for the next step.
-                let ea = a.edge_dir_of.iter().position(|&d| d as usize == ia).unwrap_or(0);
-                let eb = b.edge_dir_of.iter().position(|&d| d as usize == ib).unwrap_or(0);
+                let ea = a
+                    .edge_dir_of
+                    .iter()
+                    .position(|&d| d as usize == ia)
+                    .unwrap_or(0);
+                let eb = b
+                    .edge_dir_of
+                    .iter()
+                    .position(|&d| d as usize == ib)
+                    .unwrap_or(0);
                 if ea < 0x8000 && eb < 0x8000 {
                     *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
                 }
@@ -714,7 +806,10 @@ fn clip_faces(
         // The separating-axis test found overlap but the incident face clips away entirely
         // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
         // rather than losing it.
-        let deepest = inc_v.iter().copied().min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
+        let deepest = inc_v
+            .iter()
+            .copied()
+            .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
         let depth = rface.offset - n.dot(deepest);
         if depth <= 0.0 {
             return None;
@@ -735,14 +830,26 @@ fn segment_closest(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (Vec3, Vec3) {
     let c = d1.dot(r);
     let b = d1.dot(d2);
     let denom = a * e - b * b;
-    let mut s = if denom > 1e-12 * a * e { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+    let mut s = if denom > 1e-12 * a * e {
+        ((b * f - c * e) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let mut t = if e > 0.0 { (b * s + f) / e } else { 0.0 };
     if t < 0.0 {
         t = 0.0;
-        s = if a > 0.0 { (-c / a).clamp(0.0, 1.0) } else { 0.0 };
+        s = if a > 0.0 {
+            (-c / a).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
     } else if t > 1.0 {
         t = 1.0;
-        s = if a > 0.0 { ((b - c) / a).clamp(0.0, 1.0) } else { 0.0 };
+        s = if a > 0.0 {
+            ((b - c) / a).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
     }
     (p0 + d1 * s, q0 + d2 * t)
 }

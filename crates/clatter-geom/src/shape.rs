@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use glam::{DVec3, Quat, Vec3};
 
-use crate::{convex_hull, ConvexPolyhedron, GeomError, MassProperties};
+use crate::{ConvexPolyhedron, GeomError, MassProperties, convex_hull};
 
 /// The five Platonic solids, sized by circumradius.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

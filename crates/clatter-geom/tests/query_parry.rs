@@ -712,7 +712,11 @@ fn run_narrow(seed: u64, mixed: bool) {
         let label = c.label();
         if depth < -1e-5 * size {
             separated += 1;
-            assert!(ours.is_none(), "pair {i} ({label}): separated by {} but narrow gave {ours:?}", -depth);
+            assert!(
+                ours.is_none(),
+                "pair {i} ({label}): separated by {} but narrow gave {ours:?}",
+                -depth
+            );
             continue;
         }
         if depth < 1e-4 * size {
@@ -724,22 +728,38 @@ fn run_narrow(seed: u64, mixed: bool) {
         assert!(m.count >= 1 && m.count <= 4);
         let moved = ppose(c.xb + m.normal * (depth + 2e-3 * size), c.qb);
         assert!(
-            !pq::intersection_test(&pa, &*c.a.parry, &moved, &*c.b.parry).unwrap().intersecting,
+            !pq::intersection_test(&pa, &*c.a.parry, &moved, &*c.b.parry)
+                .unwrap()
+                .intersecting,
             "pair {i} ({label}): moving b by the exact depth {depth} along {:?} does not separate",
             m.normal
         );
         for p in m.points() {
             points += 1;
-            assert!(p.depth > 0.0 && p.depth <= depth + 2e-3 * size, "pair {i} ({label}): point depth {} vs exact {depth}", p.depth);
+            assert!(
+                p.depth > 0.0 && p.depth <= depth + 2e-3 * size,
+                "pair {i} ({label}): point depth {} vs exact {depth}",
+                p.depth
+            );
             for (shape, pose) in [(&c.a.parry, &pa), (&c.b.parry, &pb)] {
-                let off = pq::distance(pose, &**shape, &ppose(p.point, Quat::IDENTITY), &Ball::new(1e-9))
-                    .unwrap()
-                    .distance as f32;
-                assert!(off <= depth + 2e-3 * size, "pair {i} ({label}): contact point {off} outside a shape (depth {depth})");
+                let off = pq::distance(
+                    pose,
+                    &**shape,
+                    &ppose(p.point, Quat::IDENTITY),
+                    &Ball::new(1e-9),
+                )
+                .unwrap()
+                .distance as f32;
+                assert!(
+                    off <= depth + 2e-3 * size,
+                    "pair {i} ({label}): contact point {off} outside a shape (depth {depth})"
+                );
             }
         }
     }
-    eprintln!("narrow (mixed={mixed}): {touching} overlapping, {separated} separated, {points} contact points checked");
+    eprintln!(
+        "narrow (mixed={mixed}): {touching} overlapping, {separated} separated, {points} contact points checked"
+    );
     assert!(touching > PAIRS / 4 && separated > PAIRS / 20);
 }
 

@@ -39,7 +39,11 @@ impl Grid {
         loop {
             let d = (extent / cell).floor() + Vec3::ONE;
             if (d.x as f64) * (d.y as f64) * (d.z as f64) <= max_cells {
-                return Grid { min: lo, cell_size: cell, dims: [d.x as u32, d.y as u32, d.z as u32] };
+                return Grid {
+                    min: lo,
+                    cell_size: cell,
+                    dims: [d.x as u32, d.y as u32, d.z as u32],
+                };
             }
             cell *= 1.5;
         }
@@ -70,7 +74,10 @@ impl Grid {
 
 /// **bin**: the cell key of every body.
 pub fn bin(grid: &Grid, positions: &[Vec3]) -> Vec<u32> {
-    positions.par_iter().map(|&p| grid.key(grid.cell_of(p))).collect()
+    positions
+        .par_iter()
+        .map(|&p| grid.key(grid.cell_of(p)))
+        .collect()
 }
 
 /// **sort**: a stable counting sort of body indices by cell key. Returns the sorted indices

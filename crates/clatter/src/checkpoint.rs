@@ -2,13 +2,13 @@
 //! `2N` steps and a run of `N` steps, a restart from the checkpoint and `N` more steps end in
 //! bitwise identical states.
 //!
-//! # Format (version 1)
+//! # Format (version 2)
 //!
 //! All integers and floats little-endian; floats are stored as their bit patterns.
 //!
 //! ```text
 //! magic        8 bytes   "CLATCKPT"
-//! version      u32       1
+//! version      u32       2
 //! length       u64       the whole file, checksum included
 //! sections     u32       number of sections
 //! section*     tag [u8; 4], payload length u64, payload
@@ -21,10 +21,11 @@
 //! - `META`: body and wall counts, `dt`, `time`, `step_count`, broad-phase rebuilds, skin,
 //!   gravity, the pending-rebuild flag, and a fingerprint of the bodies' mass properties (a
 //!   scene that builds different bodies than when the checkpoint was written is refused).
-//! - `BODY`: per body position, velocity, orientation, angular momentum, angular velocity.
+//! - `BODY`: per body position, velocity, orientation, the rounding residual of the
+//!   compensated orientation update, angular momentum, angular velocity.
 //! - `RBLD`: the positions the Verlet list was built at (empty before the first step).
-//! - `CONT`: the contact list: body pairs, body-wall pairs, tangential springs, last forces,
-//!   touching flags and separating-axis hints. The derived gather ranges are rebuilt by
+//! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
+//!   last forces, touching flags and separating-axis hints. The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
 //! - `APP `: opaque bytes of the program that wrote the file (the CLI stores its run options).
@@ -49,7 +50,7 @@ use crate::world::World;
 /// The first eight bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"CLATCKPT";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 const HEADER_LEN: usize = 8 + 4 + 8 + 4;
 const TRAILER_LEN: usize = 4;
 /// Bodies further than this from the origin are refused (the broad phase needs finite extents).
@@ -60,12 +61,17 @@ const MAX_COORDINATE: f32 = 1e30;
 pub enum CheckpointError {
     /// The file could not be read.
     #[error("cannot read {path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     /// The magic bytes are missing.
     #[error("not a clatter checkpoint (the file does not start with the bytes `CLATCKPT`)")]
     NotACheckpoint,
     /// Written by a version of clatter with another format.
-    #[error("checkpoint format version {found} is not supported (this build reads version {supported})")]
+    #[error(
+        "checkpoint format version {found} is not supported (this build reads version {supported})"
+    )]
     UnsupportedVersion { found: u32, supported: u32 },
     /// Shorter than its header says: an interrupted write or a cut file.
     #[error("truncated checkpoint: {actual} bytes, {}", match .expected { Some(e) => format!("the header says {e}"), None => "too short for the header".to_string() })]
@@ -113,12 +119,14 @@ struct State {
     position: Vec<Vec3>,
     velocity: Vec<Vec3>,
     orientation: Vec<Quat>,
+    orientation_residual: Vec<Quat>,
     angular_momentum: Vec<Vec3>,
     omega: Vec<Vec3>,
     rebuild_position: Vec<Vec3>,
     pairs: Vec<[u32; 2]>,
     wall_pairs: Vec<[u32; 2]>,
     history: Vec<Vec3>,
+    twist: Vec<f32>,
     forces: Vec<ContactForce>,
     touching: Vec<bool>,
     hints: Vec<u32>,
@@ -130,27 +138,44 @@ impl Checkpoint {
         let len = bytes.len();
         if len < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
             return if len < MAGIC.len() && bytes == &MAGIC[..len] && len > 0 {
-                Err(CheckpointError::Truncated { actual: len as u64, expected: None })
+                Err(CheckpointError::Truncated {
+                    actual: len as u64,
+                    expected: None,
+                })
             } else {
                 Err(CheckpointError::NotACheckpoint)
             };
         }
         if len < 12 {
-            return Err(CheckpointError::Truncated { actual: len as u64, expected: None });
+            return Err(CheckpointError::Truncated {
+                actual: len as u64,
+                expected: None,
+            });
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
         if version != FORMAT_VERSION {
-            return Err(CheckpointError::UnsupportedVersion { found: version, supported: FORMAT_VERSION });
+            return Err(CheckpointError::UnsupportedVersion {
+                found: version,
+                supported: FORMAT_VERSION,
+            });
         }
         if len < 20 {
-            return Err(CheckpointError::Truncated { actual: len as u64, expected: None });
+            return Err(CheckpointError::Truncated {
+                actual: len as u64,
+                expected: None,
+            });
         }
         let declared = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
         if (len as u64) < declared {
-            return Err(CheckpointError::Truncated { actual: len as u64, expected: Some(declared) });
+            return Err(CheckpointError::Truncated {
+                actual: len as u64,
+                expected: Some(declared),
+            });
         }
         if len < HEADER_LEN + TRAILER_LEN {
-            return Err(CheckpointError::Malformed(format!("the header declares {declared} bytes, less than a header")));
+            return Err(CheckpointError::Malformed(format!(
+                "the header declares {declared} bytes, less than a header"
+            )));
         }
         if (len as u64) > declared {
             return Err(CheckpointError::Malformed(format!(
@@ -165,18 +190,30 @@ impl Checkpoint {
             return Err(CheckpointError::Checksum { stored, computed });
         }
         let sections = u32::from_le_bytes(bytes[20..24].try_into().expect("4 bytes"));
-        let mut r = Reader { buf: &bytes[HEADER_LEN..body_end], pos: 0, what: "section table" };
+        let mut r = Reader {
+            buf: &bytes[HEADER_LEN..body_end],
+            pos: 0,
+            what: "section table",
+        };
         let mut found: Vec<[u8; 4]> = Vec::new();
-        let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) = (None, None, None, None, None, None);
+        let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) =
+            (None, None, None, None, None, None);
         for _ in 0..sections {
             let tag: [u8; 4] = r.bytes(4)?.try_into().expect("4 bytes");
             let n = r.len_u64()?;
             let payload = r.bytes(n)?;
             if found.contains(&tag) {
-                return Err(CheckpointError::Malformed(format!("section `{}` appears twice", tag_name(&tag))));
+                return Err(CheckpointError::Malformed(format!(
+                    "section `{}` appears twice",
+                    tag_name(&tag)
+                )));
             }
             found.push(tag);
-            let reader = Reader { buf: payload, pos: 0, what: tag_str(&tag) };
+            let reader = Reader {
+                buf: payload,
+                pos: 0,
+                what: tag_str(&tag),
+            };
             match &tag {
                 b"SCEN" => scene = Some(reader),
                 b"META" => meta = Some(reader),
@@ -188,7 +225,10 @@ impl Checkpoint {
             }
         }
         if r.pos != r.buf.len() {
-            return Err(CheckpointError::Malformed(format!("{} bytes after the last section", r.buf.len() - r.pos)));
+            return Err(CheckpointError::Malformed(format!(
+                "{} bytes after the last section",
+                r.buf.len() - r.pos
+            )));
         }
         let mut s = need(scene, "SCEN")?;
         let producer = s.string()?;
@@ -201,17 +241,29 @@ impl Checkpoint {
         let mut rb = need(rbld, "RBLD")?;
         let nr = rb.count(12)?;
         if nr != 0 && nr != st.bodies as usize {
-            return Err(CheckpointError::Malformed(format!("{nr} rebuild positions for {} bodies", st.bodies)));
+            return Err(CheckpointError::Malformed(format!(
+                "{nr} rebuild positions for {} bodies",
+                st.bodies
+            )));
         }
         st.rebuild_position = rb.vec3s(nr)?;
         rb.finish()?;
         read_contacts(&mut need(cont, "CONT")?, &mut st)?;
-        Ok(Checkpoint { producer, scene_source, scene_text, app: app.unwrap_or_default(), state: st })
+        Ok(Checkpoint {
+            producer,
+            scene_source,
+            scene_text,
+            app: app.unwrap_or_default(),
+            state: st,
+        })
     }
 
     /// Reads and checks a checkpoint file.
     pub fn load(path: &Path) -> Result<Checkpoint, CheckpointError> {
-        let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io { path: path.display().to_string(), source })?;
+        let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
         Checkpoint::from_bytes(&bytes)
     }
 
@@ -259,8 +311,10 @@ impl Checkpoint {
         w.skin = st.skin;
         w.gravity = st.gravity;
         if st.rebuild_position.is_empty() {
-            if !(st.pairs.is_empty() && st.wall_pairs.is_empty()) || !st.needs_rebuild {
-                return Err(CheckpointError::Malformed("a contact list without the positions it was built at".into()));
+            if !(st.pairs.is_empty() && st.wall_pairs.is_empty() && st.needs_rebuild) {
+                return Err(CheckpointError::Malformed(
+                    "a contact list without the positions it was built at".into(),
+                ));
             }
         } else {
             // Rebuild the derived gather ranges exactly as the run did, from the same positions.
@@ -276,6 +330,7 @@ impl Checkpoint {
                 )));
             }
             w.contacts.history.clone_from(&st.history);
+            w.contacts.twist.clone_from(&st.twist);
             w.contacts.forces.clone_from(&st.forces);
             w.contacts.touching.clone_from(&st.touching);
             w.contacts.hints.clone_from(&st.hints);
@@ -283,6 +338,7 @@ impl Checkpoint {
         w.position.clone_from(&st.position);
         w.velocity.clone_from(&st.velocity);
         w.orientation.clone_from(&st.orientation);
+        w.orientation_residual.clone_from(&st.orientation_residual);
         w.angular_momentum.clone_from(&st.angular_momentum);
         w.omega.clone_from(&st.omega);
         w.rebuilds = st.rebuilds;
@@ -308,7 +364,9 @@ impl World {
         let n = self.len();
         let c = &self.contacts;
         let nc = c.history.len();
-        let mut w = Writer::with_capacity(HEADER_LEN + 64 * n + 80 * nc + scene_text.len() + app.len() + 256);
+        let mut w = Writer::with_capacity(
+            HEADER_LEN + 80 * n + 84 * nc + scene_text.len() + app.len() + 256,
+        );
         w.buf.extend_from_slice(&MAGIC);
         w.u32(FORMAT_VERSION);
         w.u64(0); // length, patched below
@@ -335,9 +393,10 @@ impl World {
             for i in 0..n {
                 w.vec3(self.position[i]);
                 w.vec3(self.velocity[i]);
-                let q = self.orientation[i];
-                for v in [q.x, q.y, q.z, q.w] {
-                    w.f32(v);
+                for q in [self.orientation[i], self.orientation_residual[i]] {
+                    for v in [q.x, q.y, q.z, q.w] {
+                        w.f32(v);
+                    }
                 }
                 w.vec3(self.angular_momentum[i]);
                 w.vec3(self.omega[i]);
@@ -362,6 +421,7 @@ impl World {
             }
             for k in 0..nc {
                 w.vec3(c.history[k]);
+                w.f32(c.twist[k]);
                 let f = &c.forces[k];
                 w.vec3(f.force_b);
                 w.vec3(f.torque_a);
@@ -395,38 +455,62 @@ fn read_meta(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> 
     st.needs_rebuild = match r.bytes(1)?[0] {
         0 => false,
         1 => true,
-        b => return Err(CheckpointError::Malformed(format!("rebuild flag {b} is neither 0 nor 1"))),
+        b => {
+            return Err(CheckpointError::Malformed(format!(
+                "rebuild flag {b} is neither 0 nor 1"
+            )));
+        }
     };
     r.finish()?;
     if !(st.dt.is_finite() && st.dt > 0.0) {
-        return Err(CheckpointError::Malformed(format!("time step {} is not a positive number", st.dt)));
+        return Err(CheckpointError::Malformed(format!(
+            "time step {} is not a positive number",
+            st.dt
+        )));
     }
     if !(st.time.is_finite() && st.skin.is_finite() && st.skin >= 0.0 && st.gravity.is_finite()) {
-        return Err(CheckpointError::Malformed("non-finite time, skin or gravity".into()));
+        return Err(CheckpointError::Malformed(
+            "non-finite time, skin or gravity".into(),
+        ));
     }
     Ok(())
 }
 
 fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
-    let n = r.count(16 * 4)?;
+    let n = r.count(20 * 4)?;
     if n as u64 != st.bodies {
-        return Err(CheckpointError::Malformed(format!("{n} body states for {} bodies", st.bodies)));
+        return Err(CheckpointError::Malformed(format!(
+            "{n} body states for {} bodies",
+            st.bodies
+        )));
     }
     for i in 0..n {
         let x = r.vec3()?;
         let v = r.vec3()?;
         let q = Quat::from_xyzw(r.f32()?, r.f32()?, r.f32()?, r.f32()?);
+        let residual = Quat::from_xyzw(r.f32()?, r.f32()?, r.f32()?, r.f32()?);
         let l = r.vec3()?;
         let w = r.vec3()?;
-        if !(x.is_finite() && v.is_finite() && q.is_finite() && l.is_finite() && w.is_finite()) {
-            return Err(CheckpointError::Malformed(format!("body {i} has a non-finite state")));
+        if !(x.is_finite()
+            && v.is_finite()
+            && q.is_finite()
+            && residual.is_finite()
+            && l.is_finite()
+            && w.is_finite())
+        {
+            return Err(CheckpointError::Malformed(format!(
+                "body {i} has a non-finite state"
+            )));
         }
         if x.abs().max_element() > MAX_COORDINATE {
-            return Err(CheckpointError::Malformed(format!("body {i} is at {x}, too far from the origin")));
+            return Err(CheckpointError::Malformed(format!(
+                "body {i} is at {x}, too far from the origin"
+            )));
         }
         st.position.push(x);
         st.velocity.push(v);
         st.orientation.push(q);
+        st.orientation_residual.push(residual);
         st.angular_momentum.push(l);
         st.omega.push(w);
     }
@@ -434,8 +518,14 @@ fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError
 }
 
 fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
-    if st.rebuild_position.iter().any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE) {
-        return Err(CheckpointError::Malformed("a rebuild position is non-finite or too far from the origin".into()));
+    if st
+        .rebuild_position
+        .iter()
+        .any(|p| !p.is_finite() || p.abs().max_element() > MAX_COORDINATE)
+    {
+        return Err(CheckpointError::Malformed(
+            "a rebuild position is non-finite or too far from the origin".into(),
+        ));
     }
     let np = r.count(8)?;
     for _ in 0..np {
@@ -446,14 +536,27 @@ fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErr
         st.wall_pairs.push([r.u32()?, r.u32()?]);
     }
     let nc = np + nw;
-    r.need(nc.checked_mul(53).ok_or_else(|| CheckpointError::Malformed("contact count overflows".into()))?)?;
+    r.need(
+        nc.checked_mul(57)
+            .ok_or_else(|| CheckpointError::Malformed("contact count overflows".into()))?,
+    )?;
     for _ in 0..nc {
         st.history.push(r.vec3()?);
-        st.forces.push(ContactForce { force_b: r.vec3()?, torque_a: r.vec3()?, torque_b: r.vec3()?, normal_force: r.f32()? });
+        st.twist.push(r.f32()?);
+        st.forces.push(ContactForce {
+            force_b: r.vec3()?,
+            torque_a: r.vec3()?,
+            torque_b: r.vec3()?,
+            normal_force: r.f32()?,
+        });
         st.touching.push(match r.bytes(1)?[0] {
             0 => false,
             1 => true,
-            b => return Err(CheckpointError::Malformed(format!("touching flag {b} is neither 0 nor 1"))),
+            b => {
+                return Err(CheckpointError::Malformed(format!(
+                    "touching flag {b} is neither 0 nor 1"
+                )));
+            }
         });
     }
     r.need(np * 4)?;
@@ -521,7 +624,11 @@ const CRC_TABLES: [[u32; 256]; 8] = {
         let mut c = i as u32;
         let mut k = 0;
         while k < 8 {
-            c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
             k += 1;
         }
         t[0][i] = c;
@@ -579,7 +686,15 @@ fn tag_str(tag: &[u8; 4]) -> &'static str {
 }
 
 fn tag_name(tag: &[u8; 4]) -> String {
-    tag.iter().map(|&b| if b.is_ascii_graphic() || b == b' ' { b as char } else { '?' }).collect()
+    tag.iter()
+        .map(|&b| {
+            if b.is_ascii_graphic() || b == b' ' {
+                b as char
+            } else {
+                '?'
+            }
+        })
+        .collect()
 }
 
 struct Writer {
@@ -588,7 +703,9 @@ struct Writer {
 
 impl Writer {
     fn with_capacity(n: usize) -> Self {
-        Self { buf: Vec::with_capacity(n) }
+        Self {
+            buf: Vec::with_capacity(n),
+        }
     }
     fn u32(&mut self, v: u32) {
         self.buf.extend_from_slice(&v.to_le_bytes());
@@ -641,7 +758,9 @@ impl<'a> Reader<'a> {
         Ok(())
     }
     fn bytes(&mut self, n: u64) -> Result<&'a [u8], CheckpointError> {
-        let n = usize::try_from(n).map_err(|_| CheckpointError::Malformed(format!("length {n} in the {} is too large", self.what)))?;
+        let n = usize::try_from(n).map_err(|_| {
+            CheckpointError::Malformed(format!("length {n} in the {} is too large", self.what))
+        })?;
         self.need(n)?;
         let out = &self.buf[self.pos..self.pos + n];
         self.pos += n;
@@ -673,7 +792,10 @@ impl<'a> Reader<'a> {
         let n = self.u64()?;
         let left = (self.buf.len() - self.pos) as u64;
         if n.checked_mul(size as u64).is_none_or(|b| b > left) {
-            return Err(CheckpointError::Malformed(format!("count {n} in the {} exceeds the bytes left ({left})", self.what)));
+            return Err(CheckpointError::Malformed(format!(
+                "count {n} in the {} exceeds the bytes left ({left})",
+                self.what
+            )));
         }
         Ok(n as usize)
     }
@@ -683,11 +805,17 @@ impl<'a> Reader<'a> {
     fn string(&mut self) -> Result<String, CheckpointError> {
         let n = self.count(1)?;
         let b = self.bytes(n as u64)?;
-        String::from_utf8(b.to_vec()).map_err(|_| CheckpointError::Malformed(format!("a string in the {} is not UTF-8", self.what)))
+        String::from_utf8(b.to_vec()).map_err(|_| {
+            CheckpointError::Malformed(format!("a string in the {} is not UTF-8", self.what))
+        })
     }
     fn finish(&self) -> Result<(), CheckpointError> {
         if self.pos != self.buf.len() {
-            return Err(CheckpointError::Malformed(format!("{} bytes left over at the end of the {}", self.buf.len() - self.pos, self.what)));
+            return Err(CheckpointError::Malformed(format!(
+                "{} bytes left over at the end of the {}",
+                self.buf.len() - self.pos,
+                self.what
+            )));
         }
         Ok(())
     }
@@ -702,7 +830,9 @@ mod tests {
         assert_eq!(crc32(b"123456789"), 0xCBF4_3926);
         assert_eq!(crc32(b""), 0);
         // Against the bit-at-a-time definition, on every length and alignment up to 64.
-        let data: Vec<u8> = (0..200u32).map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8).collect();
+        let data: Vec<u8> = (0..200u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 13) as u8)
+            .collect();
         for start in 0..8 {
             for len in 0..64 {
                 let bytes = &data[start..start + len];
@@ -710,7 +840,11 @@ mod tests {
                 for &b in bytes {
                     c ^= b as u32;
                     for _ in 0..8 {
-                        c = if c & 1 != 0 { 0xEDB8_8320 ^ (c >> 1) } else { c >> 1 };
+                        c = if c & 1 != 0 {
+                            0xEDB8_8320 ^ (c >> 1)
+                        } else {
+                            c >> 1
+                        };
                     }
                 }
                 assert_eq!(crc32(bytes), !c, "start {start} len {len}");

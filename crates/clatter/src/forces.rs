@@ -19,7 +19,7 @@
 
 use glam::Vec3;
 
-use crate::material::{PairParams, LINEAR_TANGENTIAL_RATIO, TANGENTIAL_DAMPING_RATIO};
+use crate::material::{LINEAR_TANGENTIAL_RATIO, PairParams, TANGENTIAL_DAMPING_RATIO};
 use clatter_geom::narrow::Manifold;
 
 /// Rigid motion of one side of a contact (a wall has zero velocities).
@@ -59,7 +59,10 @@ pub struct ContactForce {
 fn spring(p: &PairParams, r_eff: f32, depth: f32, share: f32) -> (f32, f32) {
     if p.hertz {
         let contact = (r_eff * depth.max(0.0)).sqrt();
-        (share * 4.0 / 3.0 * p.stiffness * contact * depth, share * 2.0 * p.stiffness * contact)
+        (
+            share * 4.0 / 3.0 * p.stiffness * contact * depth,
+            share * 2.0 * p.stiffness * contact,
+        )
     } else {
         (share * p.stiffness * depth, share * p.stiffness)
     }
@@ -176,7 +179,9 @@ pub fn contact_force(
     if manifold.count == 1 {
         *twist = 0.0;
         let cp = manifold.points[0];
-        return point_contact_force(p, m_eff, r_eff, share, n, cp.point, cp.depth, a, b, history, dt);
+        return point_contact_force(
+            p, m_eff, r_eff, share, n, cp.point, cp.depth, a, b, history, dt,
+        );
     }
     let pts = manifold.points();
     let inv_count = 1.0 / pts.len() as f32;
@@ -197,7 +202,11 @@ pub fn contact_force(
     let mut out = ContactForce::default();
     for (&(fs, k), cp) in springs.iter().zip(pts) {
         let vrel = b.point_velocity(cp.point) - a.point_velocity(cp.point);
-        let eta = if k_total > 0.0 { eta_total * k / k_total } else { 0.0 };
+        let eta = if k_total > 0.0 {
+            eta_total * k / k_total
+        } else {
+            0.0
+        };
         let fn_i = fs - eta * vrel.dot(n);
         let f = n * fn_i;
         out.force_b += f;
@@ -214,7 +223,11 @@ pub fn contact_force(
     out.torque_b += (centroid - b.position).cross(ft);
     out.torque_a += ft.cross(centroid - a.position);
     // Twisting about the normal, resisted over the patch radius.
-    let r_patch = pts.iter().map(|cp| (cp.point - centroid).reject_from_normalized(n).length()).sum::<f32>() * inv_count;
+    let r_patch = pts
+        .iter()
+        .map(|cp| (cp.point - centroid).reject_from_normalized(n).length())
+        .sum::<f32>()
+        * inv_count;
     if r_patch > 0.0 {
         let w_n = (b.omega - a.omega).dot(n);
         let r2 = r_patch * r_patch;

@@ -11,7 +11,9 @@
 //!   size and moving one size per second). Contacts only dissipate, so a physical run stays
 //!   below 1x; an unstable integration grows exponentially past any factor.
 //! - **Deep overlap**: a contact deeper than [`OVERLAP_LIMIT`] of the smaller body's size
-//!   (its inradius: a sphere's radius, a polyhedron's smallest centre-to-face distance).
+//!   (its volume-equivalent radius: a sphere's radius; for a polyhedron the radius of the
+//!   sphere of the same volume, which, unlike the inradius, does not make a vertex of a
+//!   tetrahedron resting on a soft floor look like tunnelling).
 //! - **Before the run**: an overlap deeper than [`INITIAL_OVERLAP_LIMIT`] at step 0 (bodies
 //!   placed on top of each other or behind a wall) refuses to start, and a time step above the
 //!   stability bound of the stiffest contact is warned about.
@@ -33,8 +35,8 @@ use rayon::prelude::*;
 use crate::broad::{self, Grid};
 use crate::forces::ContactForce;
 use crate::world::{SimError, World};
+use clatter_geom::Pose;
 use clatter_geom::narrow::{self, Manifold};
-use clatter_geom::{Pose, Shape};
 
 /// A contact deeper than this fraction of the smaller body's size stops the run.
 pub const OVERLAP_LIMIT: f32 = 0.5;
@@ -259,7 +261,7 @@ pub enum BlowUpKind {
         other: Other,
         /// Overlap depth, m.
         depth: f32,
-        /// The size (inradius) it is compared with, m.
+        /// The size (volume-equivalent radius) it is compared with, m.
         size: f32,
         /// The limit, as a fraction of `size`.
         limit: f32,
@@ -333,7 +335,7 @@ impl std::error::Error for BlowUp {}
 /// The blow-up checks of one run, with the baseline they compare against.
 #[derive(Debug, Clone)]
 pub struct Health {
-    /// Inradius per shape.
+    /// Size (volume-equivalent radius) per shape.
     size: Vec<f32>,
     /// `KE0 + PE0 + E_elastic0 + floor`: the available energy is this minus the current PE.
     budget: f64,
@@ -380,14 +382,10 @@ impl Health {
         let size = world
             .shapes
             .iter()
-            .map(|s| match &s.shape {
-                Shape::Sphere { radius } => *radius,
-                Shape::Polyhedron(p) => p
-                    .faces
-                    .iter()
-                    .map(|f| f.offset)
-                    .fold(f32::INFINITY, f32::min)
-                    .max(1e-12),
+            .map(|s| {
+                (3.0 * s.volume / (4.0 * std::f32::consts::PI))
+                    .cbrt()
+                    .max(1e-12)
             })
             .collect();
         let t_c = world.shortest_contact_duration();
@@ -402,14 +400,24 @@ impl Health {
         };
         // Lower bounds of stiffness, size and radius over everything present.
         let min_size = h.size.iter().copied().fold(f32::INFINITY, f32::min);
-        let min_r = world.equivalent_radius.iter().copied().fold(f32::INFINITY, f32::min);
+        let min_r = world
+            .equivalent_radius
+            .iter()
+            .copied()
+            .fold(f32::INFINITY, f32::min);
         let nm = world.materials.len() as u32;
         let (min_k, hertz) = (0..nm)
             .flat_map(|a| (0..nm).map(move |b| (a, b)))
             .map(|(a, b)| world.pair_params(a, b))
-            .fold((f32::INFINITY, false), |(k, h), p| (k.min(p.stiffness), h || p.hertz));
+            .fold((f32::INFINITY, false), |(k, h), p| {
+                (k.min(p.stiffness), h || p.hertz)
+            });
         let d = OVERLAP_LIMIT * min_size;
-        let floor = if hertz { 4.0 / 3.0 * min_k * (0.5 * min_r).sqrt() * d.powf(1.5) } else { min_k * d };
+        let floor = if hertz {
+            4.0 / 3.0 * min_k * (0.5 * min_r).sqrt() * d.powf(1.5)
+        } else {
+            min_k * d
+        };
         h.force_floor = if floor.is_finite() { 0.5 * floor } else { 0.0 };
         let dt = world.dt;
         for i in 0..world.len() {
@@ -491,34 +499,21 @@ impl Health {
                 cause: self.likely_cause(world, body),
             })
         };
-        // One pass over the bodies: escape, non-finite state, energies. Sequential: about
-        // 10 ns per body, less than waking the thread pool up for typical sizes.
-        let scan = (0..world.len()).fold(Scan::default(), |mut acc, i| {
-            let (x, v) = (world.position[i], world.velocity[i]);
-            if acc.bad.is_none() && !(x.is_finite() && v.is_finite()) {
-                acc.bad = Some(i);
+        // Energies; a NaN or infinity anywhere in the state shows up in their sums.
+        let kinetic = world.kinetic_energy();
+        let potential = world.potential_energy();
+        if !(kinetic.is_finite() && potential.is_finite()) {
+            let bad = (0..world.len()).find(|&i| {
+                !(world.position[i].is_finite()
+                    && world.velocity[i].is_finite()
+                    && world.omega[i].is_finite()
+                    && world.angular_momentum[i].is_finite())
+            });
+            if let Some(i) = bad {
+                return fail(BlowUpKind::NonFinite, i);
             }
-            // The lowest height over the walls, without branches.
-            let h = world
-                .walls
-                .iter()
-                .map(|w| w.plane.normal.dot(x) - w.plane.offset)
-                .fold(f32::INFINITY, f32::min);
-            if acc.escaped.is_none() && h < -world.radius[i] {
-                acc.escaped = Some(i);
-            }
-            let m = world.mass[i];
-            acc.kinetic += (0.5 * m * v.length_squared()
-                + 0.5 * world.omega[i].dot(world.angular_momentum[i]))
-                as f64;
-            acc.potential -= (m * world.gravity.dot(x)) as f64;
-            acc
-        });
-        if let Some(i) = scan.bad {
-            return fail(BlowUpKind::NonFinite, i);
         }
-        let kinetic = scan.kinetic;
-        let available = self.budget - scan.potential;
+        let available = self.budget - potential;
         if !kinetic.is_finite() || kinetic > ENERGY_FACTOR * available.max(0.0) {
             let (body, body_kinetic) = (0..world.len())
                 .map(|i| (i, body_kinetic(world, i)))
@@ -532,7 +527,28 @@ impl Health {
                 body,
             );
         }
-        if let Some(i) = scan.escaped {
+        // Escape: per wall, how many bodies are entirely behind it (a count has no loop-carried
+        // float dependency, unlike a running minimum); only when some are, which body.
+        let (x, r) = (&world.position, &world.radius);
+        let escaped = world.walls.iter().any(|w| {
+            let (n, o) = (w.plane.normal, w.plane.offset);
+            x.iter()
+                .zip(r)
+                .map(|(x, r)| (n.dot(*x) - o < -r) as u32)
+                .sum::<u32>()
+                > 0
+        });
+        let escaped = escaped
+            .then(|| {
+                (0..world.len()).find(|&i| {
+                    world
+                        .walls
+                        .iter()
+                        .any(|w| w.plane.normal.dot(x[i]) - w.plane.offset < -r[i])
+                })
+            })
+            .flatten();
+        if let Some(i) = escaped {
             let (wall, h) = world
                 .walls
                 .iter()
@@ -724,15 +740,6 @@ impl Health {
             })
             .sum()
     }
-}
-
-/// What one pass over the bodies finds (lowest ids first: merged in order).
-#[derive(Default)]
-struct Scan {
-    escaped: Option<usize>,
-    bad: Option<usize>,
-    kinetic: f64,
-    potential: f64,
 }
 
 fn body_kinetic(world: &World, i: usize) -> f64 {

@@ -14,8 +14,8 @@ pub mod scene;
 pub mod shape_spec;
 pub mod world;
 
-pub use clatter_geom as geom;
 pub use checkpoint::{Checkpoint, CheckpointError};
+pub use clatter_geom as geom;
 pub use health::{BlowUp, Health};
 pub use material::{ContactLaw, Material, PairParams};
 pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};

@@ -6,6 +6,7 @@
 //!   `1/G* = 2(2-v1)(1+v1)/E1 + 2(2-v2)(1+v2)/E2` (for one material these are what the
 //!   Hertz-Mindlin law uses for that material);
 //! - restitution and friction: geometric means `sqrt(e1 e2)`, `sqrt(mu1 mu2)`.
+//!
 //! Linear and Hertz materials cannot be mixed in one scene (a scene error says so).
 
 /// The normal contact law of a material.
@@ -72,10 +73,20 @@ impl PairParams {
         let base = 2.0 * (-ln_e) / (std::f64::consts::PI.powi(2) + ln_e * ln_e).sqrt();
         let friction = (a.friction * b.friction).sqrt();
         match (a.law, b.law) {
-            (ContactLaw::Hertz { youngs_modulus: e1, poisson_ratio: v1 }, ContactLaw::Hertz { youngs_modulus: e2, poisson_ratio: v2 }) => {
+            (
+                ContactLaw::Hertz {
+                    youngs_modulus: e1,
+                    poisson_ratio: v1,
+                },
+                ContactLaw::Hertz {
+                    youngs_modulus: e2,
+                    poisson_ratio: v2,
+                },
+            ) => {
                 let (e1, v1, e2, v2) = (e1 as f64, v1 as f64, e2 as f64, v2 as f64);
                 let e_star = 1.0 / ((1.0 - v1 * v1) / e1 + (1.0 - v2 * v2) / e2);
-                let g_star = 1.0 / (2.0 * (2.0 - v1) * (1.0 + v1) / e1 + 2.0 * (2.0 - v2) * (1.0 + v2) / e2);
+                let g_star =
+                    1.0 / (2.0 * (2.0 - v1) * (1.0 + v1) / e1 + 2.0 * (2.0 - v2) * (1.0 + v2) / e2);
                 PairParams {
                     hertz: true,
                     stiffness: e_star as f32,

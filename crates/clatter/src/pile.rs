@@ -41,7 +41,13 @@ pub struct PileParams {
 
 impl Default for PileParams {
     fn default() -> Self {
-        Self { radius: 0.01, density: 2500.0, stiffness: 2.0e4, restitution: 0.5, friction: 0.5 }
+        Self {
+            radius: 0.01,
+            density: 2500.0,
+            stiffness: 2.0e4,
+            restitution: 0.5,
+            friction: 0.5,
+        }
     }
 }
 
@@ -57,14 +63,20 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
     let r = p.radius as f64;
     let kinds: Vec<ShapeKind> = match shape {
         PileShape::Sphere => vec![ShapeKind::Sphere { radius: r }],
-        PileShape::Cube => vec![ShapeKind::Regular { kind: RegularKind::Cube, radius: r }],
+        PileShape::Cube => vec![ShapeKind::Regular {
+            kind: RegularKind::Cube,
+            radius: r,
+        }],
         PileShape::Mixed => RegularKind::ALL
             .into_iter()
             .map(|kind| ShapeKind::Regular { kind, radius: r })
             .chain([ShapeKind::Sphere { radius: r }])
             .collect(),
     };
-    let shapes: Vec<_> = kinds.iter().map(|k| k.prepare().expect("valid built-in shape")).collect();
+    let shapes: Vec<_> = kinds
+        .iter()
+        .map(|k| k.prepare().expect("valid built-in shape"))
+        .collect();
     // Spacing: touching spheres / face-to-face cubes / touching bounding spheres.
     let spacing = match shape {
         PileShape::Cube => 2.0 * p.radius / 3f32.sqrt(),
@@ -86,8 +98,16 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         bodies.push(BodyInit {
             shape: s as u32,
             material: 0,
-            position: Vec3::new(half + x as f32 * gap, half + y as f32 * gap, half + z as f32 * spacing),
-            orientation: if shape == PileShape::Mixed { random_rotation(&mut rng) } else { Quat::IDENTITY },
+            position: Vec3::new(
+                half + x as f32 * gap,
+                half + y as f32 * gap,
+                half + z as f32 * spacing,
+            ),
+            orientation: if shape == PileShape::Mixed {
+                random_rotation(&mut rng)
+            } else {
+                Quat::IDENTITY
+            },
             velocity: Vec3::ZERO,
             angular_velocity: Vec3::ZERO,
         });
@@ -95,7 +115,9 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
     let material = Material {
         name: "grain".into(),
         density: p.density,
-        law: ContactLaw::Linear { stiffness: p.stiffness },
+        law: ContactLaw::Linear {
+            stiffness: p.stiffness,
+        },
         restitution: p.restitution,
         friction: p.friction,
     };
@@ -108,7 +130,10 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         (-Vec3::Y, -wy),
     ]
     .into_iter()
-    .map(|(normal, offset)| Wall { plane: Plane { normal, offset }, material: 0 })
+    .map(|(normal, offset)| Wall {
+        plane: Plane { normal, offset },
+        material: 0,
+    })
     .collect();
     WorldDesc {
         shapes,

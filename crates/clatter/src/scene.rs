@@ -108,7 +108,11 @@ impl Scene {
                 // (0.35 / 1e-4 = 3500.00009): count those as the integer, not one step more.
                 let n = d / dt as f64;
                 let r = n.round();
-                let n = if (n - r).abs() <= 1e-6 * r.max(1.0) { r } else { n.ceil() };
+                let n = if (n - r).abs() <= 1e-6 * r.max(1.0) {
+                    r
+                } else {
+                    n.ceil()
+                };
                 n.max(0.0) as u64
             }
         }
@@ -124,11 +128,19 @@ impl Cx<'_> {
     fn line_col(&self, offset: usize) -> (usize, usize) {
         let before = &self.text[..offset.min(self.text.len())];
         let line = before.matches('\n').count() + 1;
-        let col = before.rfind('\n').map_or(before.len(), |p| before.len() - p - 1) + 1;
+        let col = before
+            .rfind('\n')
+            .map_or(before.len(), |p| before.len() - p - 1)
+            + 1;
         (line, col)
     }
 
-    fn err<T>(&self, span: std::ops::Range<usize>, field: impl Into<String>, message: impl Into<String>) -> Result<T, SceneError> {
+    fn err<T>(
+        &self,
+        span: std::ops::Range<usize>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Result<T, SceneError> {
         Err(SceneError {
             file: self.file.to_string(),
             line: Some(self.line_col(span.start)),
@@ -142,7 +154,11 @@ impl Cx<'_> {
         if x.is_finite() && x > 0.0 {
             Ok(x)
         } else {
-            self.err(v.span(), field, format!("must be a positive finite number, got {x}"))
+            self.err(
+                v.span(),
+                field,
+                format!("must be a positive finite number, got {x}"),
+            )
         }
     }
 
@@ -151,7 +167,11 @@ impl Cx<'_> {
         if x.is_finite() && x >= 0.0 {
             Ok(x)
         } else {
-            self.err(v.span(), field, format!("must be a finite number >= 0, got {x}"))
+            self.err(
+                v.span(),
+                field,
+                format!("must be a finite number >= 0, got {x}"),
+            )
         }
     }
 
@@ -160,7 +180,11 @@ impl Cx<'_> {
         if a.iter().all(|c| c.is_finite()) {
             Ok(Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32))
         } else {
-            self.err(v.span(), field, format!("must have three finite numbers, got {a:?}"))
+            self.err(
+                v.span(),
+                field,
+                format!("must have three finite numbers, got {a:?}"),
+            )
         }
     }
 
@@ -177,16 +201,28 @@ impl Cx<'_> {
     }
 
     fn quat(&self, v: &Option<Spanned<[f64; 4]>>, field: &str) -> Result<Quat, SceneError> {
-        let Some(v) = v else { return Ok(Quat::IDENTITY) };
+        let Some(v) = v else {
+            return Ok(Quat::IDENTITY);
+        };
         let a = v.get_ref();
         let norm = a.iter().map(|c| c * c).sum::<f64>().sqrt();
         if !a.iter().all(|c| c.is_finite()) || norm < 1e-12 {
-            return self.err(v.span(), field, format!("must be a non-zero quaternion [w, x, y, z] of finite numbers, got {a:?}"));
+            return self.err(
+                v.span(),
+                field,
+                format!("must be a non-zero quaternion [w, x, y, z] of finite numbers, got {a:?}"),
+            );
         }
         Ok(Quat::from_xyzw(a[1] as f32, a[2] as f32, a[3] as f32, a[0] as f32).normalize())
     }
 
-    fn lookup(&self, names: &HashMap<String, u32>, v: &Spanned<String>, field: &str, what: &str) -> Result<u32, SceneError> {
+    fn lookup(
+        &self,
+        names: &HashMap<String, u32>,
+        v: &Spanned<String>,
+        field: &str,
+        what: &str,
+    ) -> Result<u32, SceneError> {
         match names.get(v.get_ref()) {
             Some(&i) => Ok(i),
             None => {
@@ -195,7 +231,15 @@ impl Cx<'_> {
                 self.err(
                     v.span(),
                     field,
-                    format!("unknown {what} `{}` (defined: {})", v.get_ref(), if known.is_empty() { "none".to_string() } else { known.join(", ") }),
+                    format!(
+                        "unknown {what} `{}` (defined: {})",
+                        v.get_ref(),
+                        if known.is_empty() {
+                            "none".to_string()
+                        } else {
+                            known.join(", ")
+                        }
+                    ),
                 )
             }
         }
@@ -324,26 +368,55 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
     let mut warnings = Vec::new();
     // [simulation]
     let (length, dt, gravity, skin) = match &raw.simulation {
-        None => return cx.err(0..0, "simulation", "missing table [simulation] (it needs `duration` or `steps`)"),
+        None => {
+            return cx.err(
+                0..0,
+                "simulation",
+                "missing table [simulation] (it needs `duration` or `steps`)",
+            );
+        }
         Some(sim) => {
             let s = sim.get_ref();
             let length = match (&s.duration, &s.steps) {
-                (Some(_), Some(st)) => return cx.err(st.span(), "simulation.steps", "give either `duration` or `steps`, not both"),
+                (Some(_), Some(st)) => {
+                    return cx.err(
+                        st.span(),
+                        "simulation.steps",
+                        "give either `duration` or `steps`, not both",
+                    );
+                }
                 (Some(d), None) => RunLength::Duration(cx.positive(d, "simulation.duration")?),
                 (None, Some(st)) => {
                     if *st.get_ref() <= 0 {
-                        return cx.err(st.span(), "simulation.steps", format!("must be a positive integer, got {}", st.get_ref()));
+                        return cx.err(
+                            st.span(),
+                            "simulation.steps",
+                            format!("must be a positive integer, got {}", st.get_ref()),
+                        );
                     }
                     RunLength::Steps(*st.get_ref() as u64)
                 }
-                (None, None) => return cx.err(sim.span(), "simulation", "needs `duration` (seconds) or `steps`"),
+                (None, None) => {
+                    return cx.err(
+                        sim.span(),
+                        "simulation",
+                        "needs `duration` (seconds) or `steps`",
+                    );
+                }
             };
-            let dt = s.dt.as_ref().map(|d| cx.positive(d, "simulation.dt").map(|x| x as f32)).transpose()?;
+            let dt =
+                s.dt.as_ref()
+                    .map(|d| cx.positive(d, "simulation.dt").map(|x| x as f32))
+                    .transpose()?;
             let gravity = match &s.gravity {
                 Some(g) => cx.vec3(g, "simulation.gravity")?,
                 None => Vec3::new(0.0, 0.0, -9.81),
             };
-            let skin = s.skin.as_ref().map(|d| cx.non_negative(d, "simulation.skin").map(|x| x as f32)).transpose()?;
+            let skin = s
+                .skin
+                .as_ref()
+                .map(|d| cx.non_negative(d, "simulation.skin").map(|x| x as f32))
+                .transpose()?;
             (length, dt, gravity, skin)
         }
     };
@@ -354,29 +427,53 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
     for (k, m) in raw.material.iter().enumerate() {
         let r = m.get_ref();
         let f = |name: &str| format!("material[{k}].{name}");
-        if material_names.insert(r.name.get_ref().clone(), k as u32).is_some() {
-            return cx.err(r.name.span(), f("name"), format!("duplicate material name `{}`", r.name.get_ref()));
+        if material_names
+            .insert(r.name.get_ref().clone(), k as u32)
+            .is_some()
+        {
+            return cx.err(
+                r.name.span(),
+                f("name"),
+                format!("duplicate material name `{}`", r.name.get_ref()),
+            );
         }
         let density = cx.positive(&r.density, &f("density"))? as f32;
         let model = r.model.as_ref().map(|m| (m.get_ref().as_str(), m.span()));
         let law = match model {
             None | Some(("linear", _)) => {
                 let Some(k) = &r.stiffness else {
-                    return cx.err(m.span(), f("stiffness"), "missing field `stiffness` (N/m) for the linear model");
+                    return cx.err(
+                        m.span(),
+                        f("stiffness"),
+                        "missing field `stiffness` (N/m) for the linear model",
+                    );
                 };
-                for (other, name) in [(&r.youngs_modulus, "youngs_modulus"), (&r.poisson_ratio, "poisson_ratio")] {
+                for (other, name) in [
+                    (&r.youngs_modulus, "youngs_modulus"),
+                    (&r.poisson_ratio, "poisson_ratio"),
+                ] {
                     if let Some(o) = other {
                         return cx.err(o.span(), f(name), "only used with model = \"hertz\"");
                     }
                 }
-                ContactLaw::Linear { stiffness: cx.positive(k, &f("stiffness"))? as f32 }
+                ContactLaw::Linear {
+                    stiffness: cx.positive(k, &f("stiffness"))? as f32,
+                }
             }
             Some(("hertz", _)) => {
                 let Some(e) = &r.youngs_modulus else {
-                    return cx.err(m.span(), f("youngs_modulus"), "missing field `youngs_modulus` (Pa) for model = \"hertz\"");
+                    return cx.err(
+                        m.span(),
+                        f("youngs_modulus"),
+                        "missing field `youngs_modulus` (Pa) for model = \"hertz\"",
+                    );
                 };
                 let Some(nu) = &r.poisson_ratio else {
-                    return cx.err(m.span(), f("poisson_ratio"), "missing field `poisson_ratio` for model = \"hertz\"");
+                    return cx.err(
+                        m.span(),
+                        f("poisson_ratio"),
+                        "missing field `poisson_ratio` for model = \"hertz\"",
+                    );
                 };
                 if let Some(s) = &r.stiffness {
                     return cx.err(s.span(), f("stiffness"), "only used with the linear model; hertz takes youngs_modulus and poisson_ratio");
@@ -384,17 +481,34 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                 let nu_v = *nu.get_ref();
                 // -1 itself would make the effective modulus infinite.
                 if !(nu_v.is_finite() && nu_v > -1.0 && nu_v < 0.5) {
-                    return cx.err(nu.span(), f("poisson_ratio"), format!("must be in (-1, 0.5), got {nu_v}"));
+                    return cx.err(
+                        nu.span(),
+                        f("poisson_ratio"),
+                        format!("must be in (-1, 0.5), got {nu_v}"),
+                    );
                 }
-                ContactLaw::Hertz { youngs_modulus: cx.positive(e, &f("youngs_modulus"))? as f32, poisson_ratio: nu_v as f32 }
+                ContactLaw::Hertz {
+                    youngs_modulus: cx.positive(e, &f("youngs_modulus"))? as f32,
+                    poisson_ratio: nu_v as f32,
+                }
             }
-            Some((other, span)) => return cx.err(span, f("model"), format!("unknown model `{other}` (expected \"linear\" or \"hertz\")")),
+            Some((other, span)) => {
+                return cx.err(
+                    span,
+                    f("model"),
+                    format!("unknown model `{other}` (expected \"linear\" or \"hertz\")"),
+                );
+            }
         };
         let restitution = match &r.restitution {
             Some(e) => {
                 let v = *e.get_ref();
                 if !(v.is_finite() && v > 0.0 && v <= 1.0) {
-                    return cx.err(e.span(), f("restitution"), format!("must be in (0, 1], got {v}"));
+                    return cx.err(
+                        e.span(),
+                        f("restitution"),
+                        format!("must be in (0, 1], got {v}"),
+                    );
                 }
                 v as f32
             }
@@ -404,14 +518,28 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
             Some(mu) => cx.non_negative(mu, &f("friction"))? as f32,
             None => 0.3,
         };
-        materials.push(Material { name: r.name.get_ref().clone(), density, law, restitution, friction });
+        materials.push(Material {
+            name: r.name.get_ref().clone(),
+            density,
+            law,
+            restitution,
+            friction,
+        });
     }
     if let (Some(a), Some(b)) = (
-        materials.iter().position(|m| matches!(m.law, ContactLaw::Linear { .. })),
-        materials.iter().position(|m| matches!(m.law, ContactLaw::Hertz { .. })),
+        materials
+            .iter()
+            .position(|m| matches!(m.law, ContactLaw::Linear { .. })),
+        materials
+            .iter()
+            .position(|m| matches!(m.law, ContactLaw::Hertz { .. })),
     ) {
         let later = &raw.material[a.max(b)];
-        let span = later.get_ref().model.as_ref().map_or_else(|| later.span(), |m| m.span());
+        let span = later
+            .get_ref()
+            .model
+            .as_ref()
+            .map_or_else(|| later.span(), |m| m.span());
         return cx.err(
             span,
             format!("material[{}].model", a.max(b)),
@@ -424,8 +552,15 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
     let mut shape_names = HashMap::new();
     for (k, s) in raw.shape.iter().enumerate() {
         let r = s.get_ref();
-        if shape_names.insert(r.name.get_ref().clone(), k as u32).is_some() {
-            return cx.err(r.name.span(), format!("shape[{k}].name"), format!("duplicate shape name `{}`", r.name.get_ref()));
+        if shape_names
+            .insert(r.name.get_ref().clone(), k as u32)
+            .is_some()
+        {
+            return cx.err(
+                r.name.span(),
+                format!("shape[{k}].name"),
+                format!("duplicate shape name `{}`", r.name.get_ref()),
+            );
         }
         let spec = ShapeSpec {
             sphere: r.sphere.as_ref().map(|v| v.get_ref().clone()),
@@ -449,14 +584,22 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                 };
             }
         };
-        let (variant, span) = given.into_iter().flatten().next().expect("to_kind checked one variant");
+        let (variant, span) = given
+            .into_iter()
+            .flatten()
+            .next()
+            .expect("to_kind checked one variant");
         match kind.prepare() {
             Ok(p) => shapes.push(p),
             Err(e) => {
                 let field = match &e {
                     GeomError::NotPositive { what, .. } => format!("shape[{k}].{variant}.{what}"),
-                    GeomError::NonFinitePoint { index } => format!("shape[{k}].{variant}.points[{index}]"),
-                    GeomError::DegenerateHull { .. } if variant == "convex" => format!("shape[{k}].convex.points"),
+                    GeomError::NonFinitePoint { index } => {
+                        format!("shape[{k}].{variant}.points[{index}]")
+                    }
+                    GeomError::DegenerateHull { .. } if variant == "convex" => {
+                        format!("shape[{k}].convex.points")
+                    }
                     GeomError::DegenerateHull { .. } => format!("shape[{k}].{variant}"),
                 };
                 return cx.err(span, field, format!("shape `{}`: {e}", r.name.get_ref()));
@@ -470,8 +613,19 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
         let r = w.get_ref();
         let point = cx.vec3(&r.point, &format!("wall[{k}].point"))?;
         let normal = cx.unit(&r.normal, &format!("wall[{k}].normal"))?;
-        let material = cx.lookup(&material_names, &r.material, &format!("wall[{k}].material"), "material")?;
-        walls.push(Wall { plane: Plane { normal, offset: normal.dot(point) }, material });
+        let material = cx.lookup(
+            &material_names,
+            &r.material,
+            &format!("wall[{k}].material"),
+            "material",
+        )?;
+        walls.push(Wall {
+            plane: Plane {
+                normal,
+                offset: normal.dot(point),
+            },
+            material,
+        });
     }
     let mut container_bounds = None;
     if let Some(c) = &raw.container {
@@ -479,15 +633,36 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
         let lo = cx.vec3(&r.min, "container.min")?;
         let hi = cx.vec3(&r.max, "container.max")?;
         if !(hi.cmpgt(lo).all()) {
-            return cx.err(r.max.span(), "container.max", format!("must be greater than container.min on every axis ({hi} vs {lo})"));
+            return cx.err(
+                r.max.span(),
+                "container.max",
+                format!("must be greater than container.min on every axis ({hi} vs {lo})"),
+            );
         }
-        let material = cx.lookup(&material_names, &r.material, "container.material", "material")?;
+        let material = cx.lookup(
+            &material_names,
+            &r.material,
+            "container.material",
+            "material",
+        )?;
         for axis in 0..3 {
             let mut n = Vec3::ZERO;
             n[axis] = 1.0;
-            walls.push(Wall { plane: Plane { normal: n, offset: lo[axis] }, material });
+            walls.push(Wall {
+                plane: Plane {
+                    normal: n,
+                    offset: lo[axis],
+                },
+                material,
+            });
             if axis < 2 || r.top {
-                walls.push(Wall { plane: Plane { normal: -n, offset: -hi[axis] }, material });
+                walls.push(Wall {
+                    plane: Plane {
+                        normal: -n,
+                        offset: -hi[axis],
+                    },
+                    material,
+                });
             }
         }
         container_bounds = Some((lo, hi));
@@ -511,7 +686,10 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
     }
 
     // [[group]]
-    let rmax = shapes.iter().map(|s| s.shape.bounding_radius()).fold(0.0, f32::max);
+    let rmax = shapes
+        .iter()
+        .map(|s| s.shape.bounding_radius())
+        .fold(0.0, f32::max);
     let mut occupancy = Occupancy::new(2.0 * rmax);
     for b in &bodies {
         occupancy.insert(b.position, shapes[b.shape as usize].shape.bounding_radius());
@@ -531,14 +709,23 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                 let hi = cx.vec3(&l.max, &f("lattice.max"))?;
                 let spacing = cx.positive(&l.spacing, &f("lattice.spacing"))?;
                 if !hi.cmpge(lo).all() {
-                    return cx.err(l.max.span(), f("lattice.max"), "must be >= lattice.min on every axis");
+                    return cx.err(
+                        l.max.span(),
+                        f("lattice.max"),
+                        "must be >= lattice.min on every axis",
+                    );
                 }
                 // The tolerance keeps `max = min + n * spacing` at n + 1 bodies despite rounding
                 // (0.06 / 0.02 = 2.9999999 in f32).
-                let counts = ((hi - lo).as_dvec3() / spacing + glam::DVec3::splat(1e-4)).floor() + glam::DVec3::ONE;
+                let counts = ((hi - lo).as_dvec3() / spacing + glam::DVec3::splat(1e-4)).floor()
+                    + glam::DVec3::ONE;
                 let total = counts.x * counts.y * counts.z;
                 if total > MAX_BODIES as f64 {
-                    return cx.err(l.spacing.span(), f("lattice.spacing"), format!("would create {total:.0} bodies (limit {MAX_BODIES})"));
+                    return cx.err(
+                        l.spacing.span(),
+                        f("lattice.spacing"),
+                        format!("would create {total:.0} bodies (limit {MAX_BODIES})"),
+                    );
                 }
                 if (spacing as f32) < 2.0 * radius {
                     warnings.push(format!(
@@ -562,11 +749,19 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                 let lo = cx.vec3(&rr.min, &f("random.min"))?;
                 let hi = cx.vec3(&rr.max, &f("random.max"))?;
                 if !hi.cmpge(lo).all() {
-                    return cx.err(rr.max.span(), f("random.max"), "must be >= random.min on every axis");
+                    return cx.err(
+                        rr.max.span(),
+                        f("random.max"),
+                        "must be >= random.min on every axis",
+                    );
                 }
                 let count = *rr.count.get_ref();
                 if count <= 0 || count as usize > MAX_BODIES {
-                    return cx.err(rr.count.span(), f("random.count"), format!("must be between 1 and {MAX_BODIES}, got {count}"));
+                    return cx.err(
+                        rr.count.span(),
+                        f("random.count"),
+                        format!("must be between 1 and {MAX_BODIES}, got {count}"),
+                    );
                 }
                 let seed = rr.seed.or(r.seed).unwrap_or(1);
                 match occupancy.place_random(lo, hi, radius, count as usize, seed) {
@@ -580,8 +775,20 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
                     }
                 }
             }
-            (Some(l), Some(_)) => return cx.err(l.span(), f("lattice"), "give either `lattice` or `random`, not both"),
-            (None, None) => return cx.err(g.span(), format!("group[{k}]"), "needs `lattice = {..}` or `random = {..}`"),
+            (Some(l), Some(_)) => {
+                return cx.err(
+                    l.span(),
+                    f("lattice"),
+                    "give either `lattice` or `random`, not both",
+                );
+            }
+            (None, None) => {
+                return cx.err(
+                    g.span(),
+                    format!("group[{k}]"),
+                    "needs `lattice = {..}` or `random = {..}`",
+                );
+            }
         };
         let mut rng = ChaCha8Rng::seed_from_u64(r.seed.unwrap_or(7) ^ 0x5eed_0000 ^ k as u64);
         if r.lattice.is_some() {
@@ -590,25 +797,55 @@ fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
             }
         }
         for p in positions {
-            let orientation = if r.random_orientation { random_rotation(&mut rng) } else { Quat::IDENTITY };
-            bodies.push(BodyInit { shape, material, position: p, orientation, velocity, angular_velocity });
+            let orientation = if r.random_orientation {
+                random_rotation(&mut rng)
+            } else {
+                Quat::IDENTITY
+            };
+            bodies.push(BodyInit {
+                shape,
+                material,
+                position: p,
+                orientation,
+                velocity,
+                angular_velocity,
+            });
         }
     }
     if bodies.is_empty() {
-        return cx.err(0..0, "body", "the scene has no bodies: add [[body]] or [[group]] entries");
+        return cx.err(
+            0..0,
+            "body",
+            "the scene has no bodies: add [[body]] or [[group]] entries",
+        );
     }
     if bodies.len() > MAX_BODIES {
-        return cx.err(0..0, "group", format!("the scene has {} bodies (limit {MAX_BODIES})", bodies.len()));
+        return cx.err(
+            0..0,
+            "group",
+            format!("the scene has {} bodies (limit {MAX_BODIES})", bodies.len()),
+        );
     }
     if let Some((lo, hi)) = container_bounds {
-        let outside = bodies.iter().filter(|b| !(b.position.cmpge(lo).all() && b.position.cmple(hi).all())).count();
+        let outside = bodies
+            .iter()
+            .filter(|b| !(b.position.cmpge(lo).all() && b.position.cmple(hi).all()))
+            .count();
         if outside > 0 {
             warnings.push(format!("{outside} bodies start outside the container"));
         }
     }
     Ok(Scene {
         source: cx.file.to_string(),
-        desc: WorldDesc { shapes, materials, walls, bodies, gravity, dt, skin },
+        desc: WorldDesc {
+            shapes,
+            materials,
+            walls,
+            bodies,
+            gravity,
+            dt,
+            skin,
+        },
         length,
         warnings,
     })
@@ -619,7 +856,13 @@ pub fn random_rotation(rng: &mut impl Rng) -> Quat {
     let (u1, u2, u3): (f32, f32, f32) = (rng.random(), rng.random(), rng.random());
     let tau = std::f32::consts::TAU;
     let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
-    Quat::from_xyzw(a * (tau * u2).sin(), a * (tau * u2).cos(), b * (tau * u3).sin(), b * (tau * u3).cos()).normalize()
+    Quat::from_xyzw(
+        a * (tau * u2).sin(),
+        a * (tau * u2).cos(),
+        b * (tau * u3).sin(),
+        b * (tau * u3).cos(),
+    )
+    .normalize()
 }
 
 /// Bounding spheres placed so far, on a hash grid, so random groups avoid every earlier body.
@@ -631,7 +874,11 @@ struct Occupancy {
 
 impl Occupancy {
     fn new(cell: f32) -> Self {
-        Self { cell: cell.max(1e-12), grid: HashMap::new(), placed: Vec::new() }
+        Self {
+            cell: cell.max(1e-12),
+            grid: HashMap::new(),
+            placed: Vec::new(),
+        }
     }
 
     fn key(&self, p: Vec3) -> (i64, i64, i64) {
@@ -641,7 +888,10 @@ impl Occupancy {
 
     fn insert(&mut self, p: Vec3, r: f32) {
         let k = self.key(p);
-        self.grid.entry(k).or_default().push(self.placed.len() as u32);
+        self.grid
+            .entry(k)
+            .or_default()
+            .push(self.placed.len() as u32);
         self.placed.push((p, r));
     }
 
@@ -666,7 +916,14 @@ impl Occupancy {
 
     /// Places `count` bounding spheres of `radius` uniformly in `[lo, hi]`, clear of everything
     /// placed before (rejection sampling); `Err(placed)` after 10,000 misses in a row.
-    fn place_random(&mut self, lo: Vec3, hi: Vec3, radius: f32, count: usize, seed: u64) -> Result<Vec<Vec3>, usize> {
+    fn place_random(
+        &mut self,
+        lo: Vec3,
+        hi: Vec3,
+        radius: f32,
+        count: usize,
+        seed: u64,
+    ) -> Result<Vec<Vec3>, usize> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut out = Vec::with_capacity(count);
         let mut failures = 0usize;

@@ -71,7 +71,9 @@ impl ShapeSpec {
             return Ok(ShapeKind::Sphere { radius: s.radius });
         }
         if let Some(b) = &self.box_ {
-            return Ok(ShapeKind::Box { half_extents: b.half_extents });
+            return Ok(ShapeKind::Box {
+                half_extents: b.half_extents,
+            });
         }
         if let Some(p) = &self.polyhedron {
             let kind = RegularKind::from_name(&p.kind).ok_or_else(|| {
@@ -80,9 +82,17 @@ impl ShapeSpec {
                     p.kind
                 )
             })?;
-            return Ok(ShapeKind::Regular { kind, radius: p.radius });
+            return Ok(ShapeKind::Regular {
+                kind,
+                radius: p.radius,
+            });
         }
-        let c = self.convex.as_ref().expect("exactly one variant is present");
-        Ok(ShapeKind::Convex { points: c.points.clone() })
+        let c = self
+            .convex
+            .as_ref()
+            .expect("exactly one variant is present");
+        Ok(ShapeKind::Convex {
+            points: c.points.clone(),
+        })
     }
 }

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::broad::{self, Grid};
-use crate::forces::{contact_force, point_contact_force, ContactForce, Side};
+use crate::forces::{ContactForce, Side, contact_force, point_contact_force};
 use crate::material::{Material, PairParams};
 use clatter_geom::narrow::{self, Plane};
 use clatter_geom::{Pose, PreparedShape, Shape};
@@ -54,7 +54,12 @@ pub enum SimError {
     #[error(
         "body {body} has a non-finite position or velocity at step {step} (t = {time:.6e} s): the simulation blew up; the time step ({dt:.3e} s) is probably too large for the stiffness, or bodies start overlapping deeply"
     )]
-    NonFinite { body: usize, step: u64, time: f64, dt: f32 },
+    NonFinite {
+        body: usize,
+        step: u64,
+        time: f64,
+        dt: f32,
+    },
 }
 
 /// What one step found.
@@ -211,9 +216,13 @@ impl World {
             w.inv_mass.push(1.0 / mass);
             w.inv_inertia.push(inertia.recip());
             w.radius.push(shape.shape.bounding_radius());
-            w.equivalent_radius.push((3.0 * shape.volume / (4.0 * std::f32::consts::PI)).cbrt());
+            w.equivalent_radius
+                .push((3.0 * shape.volume / (4.0 * std::f32::consts::PI)).cbrt());
         }
-        w.spheres_only = w.shape_of.iter().all(|&s| matches!(w.shapes[s as usize].shape, Shape::Sphere { .. }));
+        w.spheres_only = w
+            .shape_of
+            .iter()
+            .all(|&s| matches!(w.shapes[s as usize].shape, Shape::Sphere { .. }));
         let rmax = w.radius.iter().copied().fold(0.0, f32::max);
         w.skin = desc.skin.unwrap_or(0.2 * rmax);
         w.dt = desc.dt.unwrap_or_else(|| w.auto_dt());
@@ -244,27 +253,39 @@ impl World {
             return f64::INFINITY;
         }
         let m_min = self.mass.iter().copied().fold(f32::INFINITY, f32::min) as f64;
-        let r_min = self.equivalent_radius.iter().copied().fold(f32::INFINITY, f32::min) as f64;
-        let vmax = self.velocity.iter().map(|v| v.length()).fold(0.0, f32::max) as f64;
-        let (lo, hi) = self
-            .position
+        let r_min = self
+            .equivalent_radius
             .iter()
-            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
-                let h = p.dot(self.gravity.normalize_or_zero());
-                (lo.min(h), hi.max(h))
-            });
+            .copied()
+            .fold(f32::INFINITY, f32::min) as f64;
+        let vmax = self.velocity.iter().map(|v| v.length()).fold(0.0, f32::max) as f64;
+        let (lo, hi) =
+            self.position
+                .iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                    let h = p.dot(self.gravity.normalize_or_zero());
+                    (lo.min(h), hi.max(h))
+                });
         let height = ((hi - lo) as f64).max(0.0) + 2.0 * r_min;
-        let speed = vmax.max((2.0 * self.gravity.length() as f64 * height).sqrt()).max(0.1);
+        let speed = vmax
+            .max((2.0 * self.gravity.length() as f64 * height).sqrt())
+            .max(0.1);
         let mut used: Vec<u32> = self.material_of.clone();
         used.sort_unstable();
         used.dedup();
         let mut t = f64::INFINITY;
         for &a in &used {
             for &b in &used {
-                t = t.min(self.pair_params(a, b).contact_duration(m_min / 2.0, r_min / 2.0, speed));
+                t = t.min(
+                    self.pair_params(a, b)
+                        .contact_duration(m_min / 2.0, r_min / 2.0, speed),
+                );
             }
             for wall in &self.walls {
-                t = t.min(self.pair_params(a, wall.material).contact_duration(m_min, r_min, speed));
+                t = t.min(
+                    self.pair_params(a, wall.material)
+                        .contact_duration(m_min, r_min, speed),
+                );
             }
         }
         t
@@ -273,7 +294,11 @@ impl World {
     /// The automatic time step: 1/50 of [`World::shortest_contact_duration`].
     pub fn auto_dt(&self) -> f32 {
         let t = self.shortest_contact_duration();
-        if t.is_finite() { (t / 50.0) as f32 } else { 1e-4 }
+        if t.is_finite() {
+            (t / 50.0) as f32
+        } else {
+            1e-4
+        }
     }
 
     /// Orientation of body `i` in the frame its shape was authored in (what scene files and
@@ -356,8 +381,17 @@ impl World {
         let old = std::mem::take(&mut self.contacts);
         let np_old = old.pairs.len();
         let carry = |list: &[[u32; 2]], walls: bool, new: &[[u32; 2]]| {
-            let range = if walls { np_old..old.history.len() } else { 0..np_old.min(old.history.len()) };
-            carry_history(list, &old.history[range.clone()], &old.twist[range.start.min(old.twist.len())..range.end.min(old.twist.len())], new)
+            let range = if walls {
+                np_old..old.history.len()
+            } else {
+                0..np_old.min(old.history.len())
+            };
+            carry_history(
+                list,
+                &old.history[range.clone()],
+                &old.twist[range.start.min(old.twist.len())..range.end.min(old.twist.len())],
+                new,
+            )
         };
         let (mut history, mut twist) = carry(&old.pairs, false, &pairs);
         let (wall_history, wall_twist) = carry(&old.wall_pairs, true, &wall_pairs);
@@ -417,18 +451,32 @@ impl World {
     /// contacts (up to four points; `i == j` for a wall). See [`crate::forces`].
     #[inline]
     fn point_share(&self, i: usize, j: usize) -> f32 {
-        let sphere = |k: usize| matches!(self.shapes[self.shape_of[k] as usize].shape, Shape::Sphere { .. });
+        let sphere = |k: usize| {
+            matches!(
+                self.shapes[self.shape_of[k] as usize].shape,
+                Shape::Sphere { .. }
+            )
+        };
         if sphere(i) || sphere(j) { 1.0 } else { 0.25 }
     }
 
     #[inline]
     fn side(&self, i: usize) -> Side {
-        Side { position: self.position[i], velocity: self.velocity[i], omega: self.omega[i] }
+        Side {
+            position: self.position[i],
+            velocity: self.velocity[i],
+            omega: self.omega[i],
+        }
     }
 
     /// Stage 4 for one body pair: the contact manifold, if any.
     #[inline]
-    fn narrow_pair(&self, i: usize, j: usize, hint: &mut narrow::SatHint) -> Option<narrow::Manifold> {
+    fn narrow_pair(
+        &self,
+        i: usize,
+        j: usize,
+        hint: &mut narrow::SatHint,
+    ) -> Option<narrow::Manifold> {
         let si = &self.shapes[self.shape_of[i] as usize].shape;
         let sj = &self.shapes[self.shape_of[j] as usize].shape;
         match (si, sj) {
@@ -465,69 +513,69 @@ impl World {
                              touching: &mut bool,
                              hint: &mut narrow::SatHint,
                              twist: &mut f32| {
-                    let (i, j) = (i as usize, j as usize);
-                    if this.spheres_only {
-                        // Sphere-sphere without building a manifold (the common DEM case).
-                        let (xi, xj) = (this.position[i], this.position[j]);
-                        let (ri, rj) = (this.radius[i], this.radius[j]);
-                        let d = xj - xi;
-                        let dist2 = d.length_squared();
-                        if dist2 < (ri + rj) * (ri + rj) {
-                            let dist = dist2.sqrt();
-                            let n = if dist > 0.0 { d / dist } else { Vec3::Z };
-                            let depth = ri + rj - dist;
-                            let params = this.pair_params(this.material_of[i], this.material_of[j]);
-                            let (mi, mj) = (this.mass[i], this.mass[j]);
-                            *force = point_contact_force(
-                                params,
-                                mi * mj / (mi + mj),
-                                ri * rj / (ri + rj),
-                                1.0,
-                                n,
-                                xi + n * (ri - 0.5 * depth),
-                                depth,
-                                &this.side(i),
-                                &this.side(j),
-                                hist,
-                                dt,
-                            );
-                            *touching = true;
-                        } else if *touching {
+                let (i, j) = (i as usize, j as usize);
+                if this.spheres_only {
+                    // Sphere-sphere without building a manifold (the common DEM case).
+                    let (xi, xj) = (this.position[i], this.position[j]);
+                    let (ri, rj) = (this.radius[i], this.radius[j]);
+                    let d = xj - xi;
+                    let dist2 = d.length_squared();
+                    if dist2 < (ri + rj) * (ri + rj) {
+                        let dist = dist2.sqrt();
+                        let n = if dist > 0.0 { d / dist } else { Vec3::Z };
+                        let depth = ri + rj - dist;
+                        let params = this.pair_params(this.material_of[i], this.material_of[j]);
+                        let (mi, mj) = (this.mass[i], this.mass[j]);
+                        *force = point_contact_force(
+                            params,
+                            mi * mj / (mi + mj),
+                            ri * rj / (ri + rj),
+                            1.0,
+                            n,
+                            xi + n * (ri - 0.5 * depth),
+                            depth,
+                            &this.side(i),
+                            &this.side(j),
+                            hist,
+                            dt,
+                        );
+                        *touching = true;
+                    } else if *touching {
+                        *force = ContactForce::default();
+                        *hist = Vec3::ZERO;
+                        *touching = false;
+                    }
+                    return;
+                }
+                match this.narrow_pair(i, j, hint) {
+                    Some(m) => {
+                        let params = this.pair_params(this.material_of[i], this.material_of[j]);
+                        let (mi, mj) = (this.mass[i], this.mass[j]);
+                        let (ri, rj) = (this.equivalent_radius[i], this.equivalent_radius[j]);
+                        *force = contact_force(
+                            params,
+                            mi * mj / (mi + mj),
+                            ri * rj / (ri + rj),
+                            this.point_share(i, j),
+                            &m,
+                            &this.side(i),
+                            &this.side(j),
+                            hist,
+                            twist,
+                            dt,
+                        );
+                        *touching = true;
+                    }
+                    None => {
+                        // Released: zero spring and force (written only on the change).
+                        if *touching {
                             *force = ContactForce::default();
                             *hist = Vec3::ZERO;
+                            *twist = 0.0;
                             *touching = false;
                         }
-                        return;
                     }
-                    match this.narrow_pair(i, j, hint) {
-                        Some(m) => {
-                            let params = this.pair_params(this.material_of[i], this.material_of[j]);
-                            let (mi, mj) = (this.mass[i], this.mass[j]);
-                            let (ri, rj) = (this.equivalent_radius[i], this.equivalent_radius[j]);
-                            *force = contact_force(
-                                params,
-                                mi * mj / (mi + mj),
-                                ri * rj / (ri + rj),
-                                this.point_share(i, j),
-                                &m,
-                                &this.side(i),
-                                &this.side(j),
-                                hist,
-                                twist,
-                                dt,
-                            );
-                            *touching = true;
-                        }
-                        None => {
-                            // Released: zero spring and force (written only on the change).
-                            if *touching {
-                                *force = ContactForce::default();
-                                *hist = Vec3::ZERO;
-                                *twist = 0.0;
-                                *touching = false;
-                            }
-                        }
-                    }
+                }
             };
             contacts
                 .pairs
@@ -604,52 +652,67 @@ impl World {
                 let mut worst = 0.0f32;
                 for k in 0..xs.len() {
                     let i = chunk * CHUNK + k;
-                    let (x, v, q, l, w, residual) = (&mut xs[k], &mut vs[k], &mut qs[k], &mut ls[k], &mut ws[k], &mut rs[k]);
-                        // Forces of non-touching contacts are zero, so no branch is needed here.
-                        let mut f = Vec3::ZERO;
-                        let mut t = Vec3::ZERO;
-                        let forces = &contacts.forces;
-                        for c in &forces[contacts.a_start[i] as usize..contacts.a_start[i + 1] as usize] {
-                            f -= c.force_b;
-                            t += c.torque_a;
-                        }
-                        for &k in &contacts.b_adj[contacts.b_start[i] as usize..contacts.b_start[i + 1] as usize] {
-                            let c = &forces[k as usize];
-                            f += c.force_b;
-                            t += c.torque_b;
-                        }
-                        for c in &forces[contacts.w_start[i] as usize..contacts.w_start[i + 1] as usize] {
-                            f += c.force_b;
-                            t += c.torque_b;
-                        }
-                        *v += (f * inv_mass[i] + gravity) * dt;
-                        *x += *v * dt;
-                        *l += t * dt;
-                        let inv_inertia_i = inv_inertia[i];
-                        *w = if inv_inertia_i.x == inv_inertia_i.y && inv_inertia_i.y == inv_inertia_i.z {
-                            // Spheres, cubes, Platonic solids: isotropic inertia, no frame change needed.
-                            *l * inv_inertia_i.x
-                        } else {
-                            *q * ((q.conjugate() * *l) * inv_inertia_i)
-                        };
-                        // First-order quaternion update, renormalised: dq/dt = (w, 0) q / 2. The
-                        // rotation per DEM step is tiny, so this matches the exponential map to
-                        // O((|w| dt)^2) without the trigonometry.
-                        let h = 0.5 * dt;
-                        let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
-                        // Compensated (Kahan) sum: the part of dq lost to rounding is kept in
-                        // `residual` and added back next step.
-                        let y = dq - *residual;
-                        let q2 = *q + y;
-                        *residual = (q2 - *q) - y;
-                        // Renormalise only when |q| has drifted by more than a few ulps, with one
-                        // Newton step of 1/sqrt around 1: no square root or division.
-                        let n2 = q2.length_squared();
-                        *q = if (n2 - 1.0).abs() > 4.0 * f32::EPSILON { q2 * (1.5 - 0.5 * n2) } else { q2 };
-                        let d2 = (*x - rebuild_position[i]).length_squared();
-                        // NaN or infinity anywhere in the state shows up in d2 or in q.
-                        let d2 = if d2.is_finite() && q.w.is_finite() { d2 } else { f32::INFINITY };
-                        worst = if d2 > worst { d2 } else { worst };
+                    let (x, v, q, l, w, residual) = (
+                        &mut xs[k], &mut vs[k], &mut qs[k], &mut ls[k], &mut ws[k], &mut rs[k],
+                    );
+                    // Forces of non-touching contacts are zero, so no branch is needed here.
+                    let mut f = Vec3::ZERO;
+                    let mut t = Vec3::ZERO;
+                    let forces = &contacts.forces;
+                    for c in &forces[contacts.a_start[i] as usize..contacts.a_start[i + 1] as usize]
+                    {
+                        f -= c.force_b;
+                        t += c.torque_a;
+                    }
+                    for &k in &contacts.b_adj
+                        [contacts.b_start[i] as usize..contacts.b_start[i + 1] as usize]
+                    {
+                        let c = &forces[k as usize];
+                        f += c.force_b;
+                        t += c.torque_b;
+                    }
+                    for c in &forces[contacts.w_start[i] as usize..contacts.w_start[i + 1] as usize]
+                    {
+                        f += c.force_b;
+                        t += c.torque_b;
+                    }
+                    *v += (f * inv_mass[i] + gravity) * dt;
+                    *x += *v * dt;
+                    *l += t * dt;
+                    let inv_inertia_i = inv_inertia[i];
+                    *w = if inv_inertia_i.x == inv_inertia_i.y && inv_inertia_i.y == inv_inertia_i.z
+                    {
+                        // Spheres, cubes, Platonic solids: isotropic inertia, no frame change needed.
+                        *l * inv_inertia_i.x
+                    } else {
+                        *q * ((q.conjugate() * *l) * inv_inertia_i)
+                    };
+                    // First-order quaternion update, renormalised: dq/dt = (w, 0) q / 2. The
+                    // rotation per DEM step is tiny, so this matches the exponential map to
+                    // O((|w| dt)^2) without the trigonometry.
+                    let h = 0.5 * dt;
+                    let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * *q;
+                    // Compensated (Kahan) sum: the part of dq lost to rounding is kept in
+                    // `residual` and added back next step.
+                    let y = dq - *residual;
+                    let q2 = *q + y;
+                    *residual = (q2 - *q) - y;
+                    // Renormalise only when |q| has drifted by more than a few ulps, with one
+                    // Newton step of 1/sqrt around 1: no square root or division.
+                    let n2 = q2.length_squared();
+                    *q = if (n2 - 1.0).abs() > 4.0 * f32::EPSILON {
+                        q2 * (1.5 - 0.5 * n2)
+                    } else {
+                        q2
+                    };
+                    let d2 = (*x - rebuild_position[i]).length_squared();
+                    // NaN or infinity anywhere in the state shows up in d2 or in q.
+                    let d2 = if d2.is_finite() && q.w.is_finite() {
+                        d2
+                    } else {
+                        f32::INFINITY
+                    };
+                    worst = if d2 > worst { d2 } else { worst };
                 }
                 worst
             })
@@ -660,10 +723,17 @@ impl World {
             // Report the first body that went bad.
             let body = (0..self.len())
                 .find(|&i| {
-                    !(self.position[i].is_finite() && self.velocity[i].is_finite() && self.orientation[i].is_finite())
+                    !(self.position[i].is_finite()
+                        && self.velocity[i].is_finite()
+                        && self.orientation[i].is_finite())
                 })
                 .unwrap_or(0);
-            return Err(SimError::NonFinite { body, step: self.step_count, time: self.time, dt });
+            return Err(SimError::NonFinite {
+                body,
+                step: self.step_count,
+                time: self.time,
+                dt,
+            });
         }
         if worst > half_skin2 {
             self.needs_rebuild = true;
@@ -674,7 +744,12 @@ impl World {
 
 /// Tangential and twisting springs for `new` pairs: the old values where the pair persists,
 /// zero otherwise. Both pair lists are sorted.
-fn carry_history(old: &[[u32; 2]], old_hist: &[Vec3], old_twist: &[f32], new: &[[u32; 2]]) -> (Vec<Vec3>, Vec<f32>) {
+fn carry_history(
+    old: &[[u32; 2]],
+    old_hist: &[Vec3],
+    old_twist: &[f32],
+    new: &[[u32; 2]],
+) -> (Vec<Vec3>, Vec<f32>) {
     let mut hist = Vec::with_capacity(new.len());
     let mut twist = Vec::with_capacity(new.len());
     let mut k = 0;

@@ -1,9 +1,9 @@
 //! Checkpoints: a restart is bitwise exact (N steps, checkpoint, restore, M steps equals N + M
 //! steps, contact list and tangential springs included), and damaged files give clear errors.
 
-use clatter::checkpoint::{crc32, Checkpoint, CheckpointError};
-use clatter::scene::Scene;
 use clatter::World;
+use clatter::checkpoint::{Checkpoint, CheckpointError, crc32};
+use clatter::scene::Scene;
 
 /// Mixed shapes tumbling in a closed box: contacts form and break, the Verlet list is rebuilt
 /// many times, tangential springs carry history.
@@ -37,6 +37,13 @@ polyhedron = { kind = "tetrahedron", radius = 0.007 }
 name = "ball"
 sphere = { radius = 0.005 }
 
+# A cube spinning flat on the floor: a face contact with a twisting spring.
+[[body]]
+shape = "cube"
+material = "plastic"
+position = [0.03, 0.03, 0.00345]
+angular_velocity = [0.0, 0.0, 40.0]
+
 [[group]]
 shape = "cube"
 material = "plastic"
@@ -61,7 +68,9 @@ velocity = [0.1, 0.5, -0.6]
 "#;
 
 fn world() -> World {
-    Scene::parse(SCENE, "tumble.toml").expect("valid scene").world()
+    Scene::parse(SCENE, "tumble.toml")
+        .expect("valid scene")
+        .world()
 }
 
 fn steps(w: &mut World, n: u64) {
@@ -91,8 +100,15 @@ fn restart_is_bitwise_exact() {
     const TOTAL: u64 = 400;
     let mut straight = world();
     steps(&mut straight, TOTAL);
-    assert!(straight.rebuilds > 3, "the run should rebuild its pair list several times ({})", straight.rebuilds);
-    assert!(straight.contact_count() > 0, "the run should end with contacts");
+    assert!(
+        straight.rebuilds > 3,
+        "the run should rebuild its pair list several times ({})",
+        straight.rebuilds
+    );
+    assert!(
+        straight.contact_count() > 0,
+        "the run should end with contacts"
+    );
     // Split points: before the first step, right after it, mid-list, and late.
     for split in [0, 1, 57, 233, 399] {
         let mut first = world();
@@ -103,14 +119,31 @@ fn restart_is_bitwise_exact() {
         assert_eq!(ckpt.scene_source, "tumble.toml");
         let (_, mut resumed) = ckpt.world().expect("restore");
         // Restored state is the written state, byte for byte.
-        assert_eq!(bytes(&resumed), bytes(&first), "restored state differs at split {split}");
+        assert_eq!(
+            bytes(&resumed),
+            bytes(&first),
+            "restored state differs at split {split}"
+        );
         steps(&mut resumed, TOTAL - split);
         assert_eq!(resumed.step_count, TOTAL);
-        assert_eq!(resumed.time.to_bits(), straight.time.to_bits(), "time at split {split}");
-        assert_eq!(resumed.rebuilds, straight.rebuilds, "rebuilds at split {split}");
-        assert!(bits(&resumed) == bits(&straight), "body state differs after a restart at step {split}");
+        assert_eq!(
+            resumed.time.to_bits(),
+            straight.time.to_bits(),
+            "time at split {split}"
+        );
+        assert_eq!(
+            resumed.rebuilds, straight.rebuilds,
+            "rebuilds at split {split}"
+        );
+        assert!(
+            bits(&resumed) == bits(&straight),
+            "body state differs after a restart at step {split}"
+        );
         // Everything, contact list and springs included.
-        assert!(bytes(&resumed) == bytes(&straight), "checkpoint bytes differ after a restart at step {split}");
+        assert!(
+            bytes(&resumed) == bytes(&straight),
+            "checkpoint bytes differ after a restart at step {split}"
+        );
     }
 }
 
@@ -122,7 +155,10 @@ fn checkpoint_file_round_trip() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("state.ckpt");
     clatter::checkpoint::write_atomic(&path, &bytes(&w)).unwrap();
-    assert!(!dir.join("state.ckpt.tmp").exists(), "no temporary file left");
+    assert!(
+        !dir.join("state.ckpt.tmp").exists(),
+        "no temporary file left"
+    );
     let (_, back) = Checkpoint::load(&path).unwrap().world().unwrap();
     assert_eq!(bytes(&back), bytes(&w));
     let err = Checkpoint::load(&dir.join("missing.ckpt")).unwrap_err();
@@ -173,10 +209,26 @@ fn truncated_files_are_detected() {
     steps(&mut w, 20);
     let good = bytes(&w);
     let n = good.len();
-    let mut cuts: Vec<usize> = vec![0, 1, 7, 8, 11, 12, 23, 24, 27, 100, n / 2, n - 5, n - 4, n - 1];
+    let mut cuts: Vec<usize> = vec![
+        0,
+        1,
+        7,
+        8,
+        11,
+        12,
+        23,
+        24,
+        27,
+        100,
+        n / 2,
+        n - 5,
+        n - 4,
+        n - 1,
+    ];
     cuts.extend((0..n).step_by(97));
     for cut in cuts {
-        let err = Checkpoint::from_bytes(&good[..cut]).expect_err("a truncated file must be refused");
+        let err =
+            Checkpoint::from_bytes(&good[..cut]).expect_err("a truncated file must be refused");
         let msg = err.to_string();
         if cut == 0 {
             assert!(msg.contains("not a clatter checkpoint"), "cut {cut}: {msg}");
@@ -184,7 +236,10 @@ fn truncated_files_are_detected() {
             assert!(msg.contains("truncated checkpoint"), "cut {cut}: {msg}");
         }
         if cut >= 20 {
-            assert!(msg.contains(&format!("{cut} bytes, the header says {n}")), "cut {cut}: {msg}");
+            assert!(
+                msg.contains(&format!("{cut} bytes, the header says {n}")),
+                "cut {cut}: {msg}"
+            );
         }
     }
     let mut long = good.clone();
@@ -212,17 +267,35 @@ fn resealed_damage_is_a_clear_error() {
     // A different scene text: another body count.
     let other = SCENE.replace("count = 15, seed = 5", "count = 14, seed = 5");
     let b = w.checkpoint_bytes("tumble.toml", &other, b"");
-    let msg = Checkpoint::from_bytes(&b).unwrap().world().unwrap_err().to_string();
-    assert!(msg.contains("does not match its scene") && msg.contains("bodies"), "{msg}");
+    let msg = Checkpoint::from_bytes(&b)
+        .unwrap()
+        .world()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("does not match its scene") && msg.contains("bodies"),
+        "{msg}"
+    );
     // A scene that builds the same count with other sizes.
     let other = SCENE.replace("radius = 0.005", "radius = 0.0051");
     let b = w.checkpoint_bytes("tumble.toml", &other, b"");
-    let msg = Checkpoint::from_bytes(&b).unwrap().world().unwrap_err().to_string();
+    let msg = Checkpoint::from_bytes(&b)
+        .unwrap()
+        .world()
+        .unwrap_err()
+        .to_string();
     assert!(msg.contains("other masses or sizes"), "{msg}");
     // A scene that no longer parses.
     let b = w.checkpoint_bytes("tumble.toml", "[simulation\n", b"");
-    let msg = Checkpoint::from_bytes(&b).unwrap().world().unwrap_err().to_string();
-    assert!(msg.contains("scene is invalid") && msg.contains("tumble.toml"), "{msg}");
+    let msg = Checkpoint::from_bytes(&b)
+        .unwrap()
+        .world()
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("scene is invalid") && msg.contains("tumble.toml"),
+        "{msg}"
+    );
     // A NaN velocity, sealed with a valid checksum.
     let body_at = good.windows(4).position(|s| s == b"BODY").unwrap() + 4 + 8 + 8;
     let mut b = good.clone();

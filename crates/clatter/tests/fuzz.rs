@@ -8,15 +8,19 @@
 use std::sync::mpsc;
 use std::time::Duration;
 
-use clatter::checkpoint::crc32;
-use clatter::geom::{convex_hull, ShapeKind};
-use clatter::scene::Scene;
 use clatter::Checkpoint;
+use clatter::checkpoint::crc32;
+use clatter::geom::{ShapeKind, convex_hull};
+use clatter::scene::Scene;
 use glam::Vec3;
 use proptest::prelude::*;
 
 /// Runs `f` on its own thread and fails if it panics or takes longer than `secs`.
-fn bounded<T: Send + 'static>(secs: u64, what: String, f: impl FnOnce() -> T + Send + 'static) -> T {
+fn bounded<T: Send + 'static>(
+    secs: u64,
+    what: String,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> T {
     let (tx, rx) = mpsc::channel();
     let handle = std::thread::Builder::new()
         .stack_size(16 << 20)
@@ -35,7 +39,15 @@ fn bounded<T: Send + 'static>(secs: u64, what: String, f: impl FnOnce() -> T + S
 }
 
 fn cases(n: u32) -> ProptestConfig {
-    ProptestConfig { cases: std::env::var("PROPTEST_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(n), ..ProptestConfig::default() }
+    ProptestConfig {
+        cases: std::env::var("PROPTEST_CASES")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(n),
+        // Failures are reported with their minimal input; nothing is written next to the sources.
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -50,12 +62,79 @@ const SCENES: [&str; 4] = [
 
 /// Pieces of scene files: what a mutation inserts.
 const TOKENS: &[&str] = &[
-    "[simulation]", "[[material]]", "[[shape]]", "[[wall]]", "[container]", "[[body]]", "[[group]]", "=", "[", "]", "{", "}", ",",
-    "\"", "'", "\n", " ", "#", "nan", "inf", "-inf", "-", "1e308", "1e-308", "-1", "1", "2", "3", "true", "false", "name", "shape",
-    "material", "position", "velocity", "sphere", "box", "convex", "polyhedron", "kind", "radius", "points", "lattice", "random",
-    "count", "spacing", "min", "max", "seed", "dt", "steps", "duration", "skin", "gravity", "density", "stiffness", "model",
-    "\"hertz\"", "youngs_modulus", "poisson_ratio", "restitution", "friction", "normal", "point", "top", "orientation",
-    "[0.0, 0.0, 0.0]", "[1, 0, 0, 0]", "\"ball\"", "é", "\u{0}", "\\u0000", "\"\"\"",
+    "[simulation]",
+    "[[material]]",
+    "[[shape]]",
+    "[[wall]]",
+    "[container]",
+    "[[body]]",
+    "[[group]]",
+    "=",
+    "[",
+    "]",
+    "{",
+    "}",
+    ",",
+    "\"",
+    "'",
+    "\n",
+    " ",
+    "#",
+    "nan",
+    "inf",
+    "-inf",
+    "-",
+    "1e308",
+    "1e-308",
+    "-1",
+    "1",
+    "2",
+    "3",
+    "true",
+    "false",
+    "name",
+    "shape",
+    "material",
+    "position",
+    "velocity",
+    "sphere",
+    "box",
+    "convex",
+    "polyhedron",
+    "kind",
+    "radius",
+    "points",
+    "lattice",
+    "random",
+    "count",
+    "spacing",
+    "min",
+    "max",
+    "seed",
+    "dt",
+    "steps",
+    "duration",
+    "skin",
+    "gravity",
+    "density",
+    "stiffness",
+    "model",
+    "\"hertz\"",
+    "youngs_modulus",
+    "poisson_ratio",
+    "restitution",
+    "friction",
+    "normal",
+    "point",
+    "top",
+    "orientation",
+    "[0.0, 0.0, 0.0]",
+    "[1, 0, 0, 0]",
+    "\"ball\"",
+    "é",
+    "\u{0}",
+    "\\u0000",
+    "\"\"\"",
 ];
 
 #[derive(Debug, Clone)]
@@ -76,7 +155,11 @@ fn edit() -> impl Strategy<Value = Edit> {
         any::<usize>().prop_map(|line| Edit::DeleteLine { line }),
         (any::<usize>(), any::<usize>()).prop_map(|(a, b)| Edit::SwapLines { a, b }),
         // Printable ASCII but no digits: a digit could legitimately multiply a body count.
-        (any::<usize>(), (32u8..127).prop_filter("no digits", |b| !b.is_ascii_digit())).prop_map(|(at, byte)| Edit::Byte { at, byte }),
+        (
+            any::<usize>(),
+            (32u8..127).prop_filter("no digits", |b| !b.is_ascii_digit())
+        )
+            .prop_map(|(at, byte)| Edit::Byte { at, byte }),
     ]
 }
 
@@ -84,7 +167,8 @@ fn apply(text: &str, edits: &[Edit]) -> String {
     let mut bytes = text.as_bytes().to_vec();
     for e in edits {
         let n = bytes.len().max(1);
-        let lines = |b: &[u8]| -> Vec<Vec<u8>> { b.split(|&c| c == b'\n').map(<[u8]>::to_vec).collect() };
+        let lines =
+            |b: &[u8]| -> Vec<Vec<u8>> { b.split(|&c| c == b'\n').map(<[u8]>::to_vec).collect() };
         match *e {
             Edit::Delete { at, len } => {
                 let at = at % n;
@@ -127,7 +211,9 @@ fn apply(text: &str, edits: &[Edit]) -> String {
 fn parse_ok_or_clear_error(text: String) {
     let lines = text.lines().count().max(1);
     let shown: String = text.chars().take(400).collect();
-    let result = bounded(10, format!("scene {shown:?}"), move || Scene::parse(&text, "fuzz.toml").map(|s| s.desc.bodies.len()));
+    let result = bounded(10, format!("scene {shown:?}"), move || {
+        Scene::parse(&text, "fuzz.toml").map(|s| s.desc.bodies.len())
+    });
     match result {
         Ok(n) => assert!(n >= 1),
         Err(e) => {
@@ -135,14 +221,17 @@ fn parse_ok_or_clear_error(text: String) {
             assert!(msg.starts_with("fuzz.toml"), "{msg}");
             assert!(!e.message.is_empty(), "empty message");
             if let Some((line, col)) = e.line {
-                assert!(line >= 1 && line <= lines + 1 && col >= 1, "line {line}:{col} of {lines}: {msg}");
+                assert!(
+                    line >= 1 && line <= lines + 1 && col >= 1,
+                    "line {line}:{col} of {lines}: {msg}"
+                );
             }
         }
     }
 }
 
 proptest! {
-    #![proptest_config(cases(300))]
+    #![proptest_config(cases(1000))]
 
     #[test]
     fn scene_parser_on_arbitrary_text(text in any::<String>()) {
@@ -174,17 +263,27 @@ fn coordinate() -> impl Strategy<Value = f32> {
 }
 
 fn point_set() -> impl Strategy<Value = Vec<Vec3>> {
-    let base = proptest::collection::vec((coordinate(), coordinate(), coordinate()).prop_map(|(x, y, z)| Vec3::new(x, y, z)), 0..40);
+    let base = proptest::collection::vec(
+        (coordinate(), coordinate(), coordinate()).prop_map(|(x, y, z)| Vec3::new(x, y, z)),
+        0..40,
+    );
     (base, any::<u8>(), 0.0f32..1e-3, 1usize..4).prop_map(|(mut pts, mode, eps, copies)| {
         match mode % 5 {
             // Duplicates: every point several times.
-            0 => pts = pts.iter().flat_map(|p| std::iter::repeat_n(*p, copies)).collect(),
+            0 => {
+                pts = pts
+                    .iter()
+                    .flat_map(|p| std::iter::repeat_n(*p, copies))
+                    .collect()
+            }
             // Nearly coplanar: squash z.
             1 => pts.iter_mut().for_each(|p| p.z *= eps),
             // Tiny: scale everything down.
             2 => pts.iter_mut().for_each(|p| *p *= 1e-6),
             // Collinear-ish: all along one direction with noise.
-            3 => pts.iter_mut().for_each(|p| *p = Vec3::new(p.x, p.x + eps * p.y, p.x - eps * p.z)),
+            3 => pts
+                .iter_mut()
+                .for_each(|p| *p = Vec3::new(p.x, p.x + eps * p.y, p.x - eps * p.z)),
             _ => {}
         }
         pts
@@ -192,7 +291,7 @@ fn point_set() -> impl Strategy<Value = Vec<Vec3>> {
 }
 
 proptest! {
-    #![proptest_config(cases(400))]
+    #![proptest_config(cases(2000))]
 
     #[test]
     fn hull_builder_on_hostile_points(points in point_set()) {
@@ -281,13 +380,30 @@ fn good_checkpoint() -> &'static [u8] {
 
 #[derive(Debug, Clone)]
 enum ByteEdit {
-    Flip { at: usize, bit: u8 },
-    Set { at: usize, value: u8 },
-    Truncate { len: usize },
-    Insert { at: usize, bytes: Vec<u8> },
-    Delete { at: usize, len: usize },
+    Flip {
+        at: usize,
+        bit: u8,
+    },
+    Set {
+        at: usize,
+        value: u8,
+    },
+    Truncate {
+        len: usize,
+    },
+    Insert {
+        at: usize,
+        bytes: Vec<u8>,
+    },
+    Delete {
+        at: usize,
+        len: usize,
+    },
     /// A little-endian u64 written somewhere (lengths and counts are u64).
-    Word { at: usize, value: u64 },
+    Word {
+        at: usize,
+        value: u64,
+    },
 }
 
 fn byte_edit() -> impl Strategy<Value = ByteEdit> {
@@ -295,9 +411,23 @@ fn byte_edit() -> impl Strategy<Value = ByteEdit> {
         (any::<usize>(), 0u8..8).prop_map(|(at, bit)| ByteEdit::Flip { at, bit }),
         (any::<usize>(), any::<u8>()).prop_map(|(at, value)| ByteEdit::Set { at, value }),
         any::<usize>().prop_map(|len| ByteEdit::Truncate { len }),
-        (any::<usize>(), proptest::collection::vec(any::<u8>(), 1..16)).prop_map(|(at, bytes)| ByteEdit::Insert { at, bytes }),
+        (
+            any::<usize>(),
+            proptest::collection::vec(any::<u8>(), 1..16)
+        )
+            .prop_map(|(at, bytes)| ByteEdit::Insert { at, bytes }),
         (any::<usize>(), 1usize..64).prop_map(|(at, len)| ByteEdit::Delete { at, len }),
-        (any::<usize>(), prop_oneof![Just(0u64), Just(1), Just(u64::MAX), Just(1 << 40), any::<u64>(), 0u64..5000])
+        (
+            any::<usize>(),
+            prop_oneof![
+                Just(0u64),
+                Just(1),
+                Just(u64::MAX),
+                Just(1 << 40),
+                any::<u64>(),
+                0u64..5000
+            ]
+        )
             .prop_map(|(at, value)| ByteEdit::Word { at, value }),
     ]
 }
@@ -352,33 +482,37 @@ fn reseal(mut b: Vec<u8>) -> Vec<u8> {
 
 /// Reads `bytes`; if they parse and restore, steps the world a little. Must not panic or hang.
 fn read_and_run(bytes: Vec<u8>, what: &str) -> bool {
-    bounded(20, format!("{what} of {} bytes", bytes.len()), move || match Checkpoint::from_bytes(&bytes) {
-        Err(e) => {
-            assert!(!e.to_string().is_empty());
-            false
-        }
-        Ok(c) => {
-            if let Ok((_, mut w)) = c.world() {
-                for _ in 0..3 {
-                    if w.step().is_err() {
-                        break;
+    bounded(
+        20,
+        format!("{what} of {} bytes", bytes.len()),
+        move || match Checkpoint::from_bytes(&bytes) {
+            Err(e) => {
+                assert!(!e.to_string().is_empty());
+                false
+            }
+            Ok(c) => {
+                if let Ok((_, mut w)) = c.world() {
+                    for _ in 0..3 {
+                        if w.step().is_err() {
+                            break;
+                        }
                     }
                 }
+                true
             }
-            true
-        }
-    })
+        },
+    )
 }
 
 proptest! {
-    #![proptest_config(cases(300))]
+    #![proptest_config(cases(1000))]
 
     #[test]
     fn checkpoint_reader_on_arbitrary_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..600), magic in any::<bool>()) {
         let mut bytes = bytes;
         if magic {
             // Past the magic check, into the header logic.
-            let mut b = b"CLATCKPT\x01\0\0\0".to_vec();
+            let mut b = b"CLATCKPT\x02\0\0\0".to_vec();
             b.extend_from_slice(&bytes);
             bytes = b;
         }
@@ -401,7 +535,10 @@ proptest! {
 
 #[test]
 fn the_good_checkpoint_round_trips() {
-    assert!(read_and_run(good_checkpoint().to_vec(), "the good checkpoint"));
+    assert!(read_and_run(
+        good_checkpoint().to_vec(),
+        "the good checkpoint"
+    ));
 }
 
 /// Found by `hull_builder_on_hostile_points`: a slab 1 thick and 6e5 wide, about as thin as

@@ -105,7 +105,11 @@ fn assert_rests_on_face(w: &mut World, i: usize, inradius: f64, what: &str) {
     let face_vertices = p
         .faces
         .iter()
-        .max_by(|a, b| (w.orientation[i] * a.normal).dot(-Vec3::Z).total_cmp(&(w.orientation[i] * b.normal).dot(-Vec3::Z)))
+        .max_by(|a, b| {
+            (w.orientation[i] * a.normal)
+                .dot(-Vec3::Z)
+                .total_cmp(&(w.orientation[i] * b.normal).dot(-Vec3::Z))
+        })
         .map_or(4, |f| f.count.min(4));
     let k_face = K * face_vertices as f32 / 4.0;
     let overlap = (w.mass[i] * G / k_face) as f64;
