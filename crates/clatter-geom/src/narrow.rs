@@ -59,7 +59,7 @@ impl Manifold {
 
 /// Overlap of `a` at `pa` and `b` at `pb`; `None` when they do not overlap.
 pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
-    collide_with_hint(a, pa, b, pb, &mut NO_HINT.clone())
+    collide_with_hint(a, pa, b, pb, &mut NO_HINT.clone(), &mut 0.0)
 }
 
 /// A separating axis remembered between steps for one pair (temporal coherence): bodies move
@@ -74,13 +74,18 @@ const HINT_EDGE: u32 = 2 << 30;
 const HINT_KIND: u32 = 3 << 30;
 
 /// [`collide`] with a per-pair separating-axis `hint` that is read first and updated.
+///
+/// `separation` receives a lower bound of the distance when polyhedra are found apart (0 when
+/// unknown or touching); see [`polyhedron_polyhedron`].
 pub fn collide_with_hint(
     a: &Shape,
     pa: &Pose,
     b: &Shape,
     pb: &Pose,
     hint: &mut SatHint,
+    separation: &mut f32,
 ) -> Option<Manifold> {
+    *separation = 0.0;
     match (a, b) {
         (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
             sphere_sphere(pa.position, *ra, pb.position, *rb)
@@ -91,7 +96,9 @@ pub fn collide_with_hint(
         (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
             sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
         }
-        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => polyhedron_polyhedron(p, pa, q, pb, hint),
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
+            polyhedron_polyhedron(p, pa, q, pb, hint, separation)
+        }
     }
 }
 
@@ -396,16 +403,24 @@ impl SoaPoints {
 }
 
 /// Two convex polyhedra.
+///
+/// When the bodies are apart, `separation` receives a lower bound of their distance (the gap
+/// along the separating axis found, or between the bounding spheres), else 0: the simulator
+/// skips the pair until the bodies have moved that far.
 pub fn polyhedron_polyhedron(
     a: &ConvexPolyhedron,
     pa: &Pose,
     b: &ConvexPolyhedron,
     pb: &Pose,
     hint: &mut SatHint,
+    separation: &mut f32,
 ) -> Option<Manifold> {
+    *separation = 0.0;
     let d = pb.position - pa.position;
     let rs = a.radius + b.radius;
-    if d.length_squared() >= rs * rs {
+    let d2 = d.length_squared();
+    if d2 >= rs * rs {
+        *separation = d2.sqrt() - rs;
         return None;
     }
     // Everything in A's frame: B's rotation and offset relative to A.
@@ -419,45 +434,46 @@ pub fn polyhedron_polyhedron(
     if *hint != NO_HINT {
         let idx = (*hint & !HINT_KIND) as usize;
         let min_along = |p: &ConvexPolyhedron, dir: Vec3| {
-            p.vertices
-                .iter()
-                .map(|v| dir.dot(*v))
-                .fold(f32::INFINITY, f32::min)
+            let mut m = f32::INFINITY;
+            for v in &p.vertices {
+                let d = dir.dot(*v);
+                m = if d < m { d } else { m };
+            }
+            m
         };
-        let separated = match *hint & HINT_KIND {
-            HINT_FACE_A => {
-                idx < a.faces.len() && {
-                    let f = a.faces[idx];
-                    min_along(b, inv_rot * f.normal) + f.normal.dot(t) - f.offset > 0.0
-                }
+        // Signed gap along the remembered axis (a distance: the axis is a unit vector).
+        let gap = match *hint & HINT_KIND {
+            HINT_FACE_A if idx < a.faces.len() => {
+                let f = a.faces[idx];
+                min_along(b, inv_rot * f.normal) + f.normal.dot(t) - f.offset
             }
-            HINT_FACE_B => {
-                idx < b.faces.len() && {
-                    let f = b.faces[idx];
-                    let n = rot * f.normal;
-                    min_along(a, n) - n.dot(t) - f.offset > 0.0
-                }
+            HINT_FACE_B if idx < b.faces.len() => {
+                let f = b.faces[idx];
+                let n = rot * f.normal;
+                min_along(a, n) - n.dot(t) - f.offset
             }
-            _ => {
+            HINT_EDGE if (idx >> 15) < a.edges.len() && (idx & 0x7fff) < b.edges.len() => {
                 let (ea, eb) = (idx >> 15, idx & 0x7fff);
-                ea < a.edges.len() && eb < b.edges.len() && {
-                    let [a0, a1] = a.edges[ea];
-                    let [b0, b1] = b.edges[eb];
-                    let pa0 = a.vertices[a0 as usize];
-                    let db = rot * (b.vertices[b1 as usize] - b.vertices[b0 as usize]);
-                    let axis = (a.vertices[a1 as usize] - pa0).cross(db);
-                    let axis = if axis.dot(pa0) < 0.0 { -axis } else { axis };
-                    let lo_b = min_along(b, inv_rot * axis) + axis.dot(t);
-                    let hi_a = -min_along(a, -axis);
-                    axis.length_squared() > 0.0 && lo_b > hi_a
-                }
+                let [a0, a1] = a.edges[ea];
+                let [b0, b1] = b.edges[eb];
+                let pa0 = a.vertices[a0 as usize];
+                let db = rot * (b.vertices[b1 as usize] - b.vertices[b0 as usize]);
+                let axis = (a.vertices[a1 as usize] - pa0)
+                    .cross(db)
+                    .normalize_or_zero();
+                let axis = if axis.dot(pa0) < 0.0 { -axis } else { axis };
+                let lo_b = min_along(b, inv_rot * axis) + axis.dot(t);
+                let hi_a = -min_along(a, -axis);
+                if axis == Vec3::ZERO { 0.0 } else { lo_b - hi_a }
             }
+            _ => 0.0,
         };
-        if separated {
+        if gap > 0.0 {
+            *separation = gap;
             return None;
         }
     }
-    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint))
+    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint, separation))
 }
 
 /// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
@@ -465,7 +481,6 @@ pub fn polyhedron_polyhedron(
 struct Scratch {
     av: Vec<Vec3>,
     bv: Vec<Vec3>,
-    a_soa: SoaPoints,
     b_soa: SoaPoints,
     a_local: SoaPoints,
     tables: Vec<f32>,
@@ -496,11 +511,11 @@ fn sat_full(
     t: Vec3,
     sc: &mut Scratch,
     hint: &mut SatHint,
+    separation: &mut f32,
 ) -> Option<Manifold> {
     let Scratch {
         av,
         bv,
-        a_soa,
         b_soa,
         a_local,
         tables,
@@ -508,28 +523,31 @@ fn sat_full(
     } = sc;
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rot * v + t));
-    av.clear();
-    av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
-    let (av, bv): (&[Vec3], &[Vec3]) = (av, bv);
-    a_soa.fill(av);
+    let bv: &[Vec3] = bv;
     b_soa.fill(bv);
+    a_local.fill(&a.vertices);
     // Face axes of A.
     let mut best_a = (f32::NEG_INFINITY, 0usize);
     for f in 0..a.faces.len() {
         let s = face_separation(a, f, b_soa);
         if s > 0.0 {
             *hint = HINT_FACE_A | f as u32;
+            *separation = s;
             return None;
         }
         if s > best_a.0 {
             best_a = (s, f);
         }
     }
+    // Face axes of B, tested in A's frame: B's face plane `n.x = offset` becomes
+    // `(R n).x = offset + (R n).t`, and A's own vertices need no transform.
     let mut best_b = (f32::NEG_INFINITY, 0usize);
-    for f in 0..b.faces.len() {
-        let s = face_separation(b, f, a_soa);
+    for (f, face) in b.faces.iter().enumerate() {
+        let n = rot * face.normal;
+        let s = a_local.min_along(n) - (face.offset + n.dot(t));
         if s > 0.0 {
             *hint = HINT_FACE_B | f as u32;
+            *separation = s;
             return None;
         }
         if s > best_b.0 {
@@ -537,15 +555,14 @@ fn sat_full(
         }
     }
     let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
-    let cost_dirs = nda * ndb * (av.len() + bv.len());
+    let cost_dirs = nda * ndb * (a.vertices.len() + bv.len());
     let cost_tables = a.edges.len() * b.faces.len()
         + b.edges.len() * a.faces.len()
         + a.edges.len() * b.edges.len();
     let best_e = if cost_dirs <= 2 * cost_tables {
-        a_local.fill(&a.vertices);
-        edge_axes_by_direction(a, b, rot, a_local, b_soa, bv, hint)?
+        edge_axes_by_direction(a, b, rot, a_local, b_soa, bv, hint, separation)?
     } else {
-        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, hint)?
+        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, hint, separation)?
     };
     let scale = a.radius.max(b.radius);
     *hint = NO_HINT;
@@ -571,6 +588,8 @@ fn sat_full(
     // Face contact: prefer A's face unless B's is clearly better.
     if best_b.0 > best_a.0 + tol {
         // Reference face on B: work in B's frame with A as incident.
+        av.clear();
+        av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
         clip_faces(b, best_b.1, a, av, inv_rot, clip).map(|m| to_world(m, pb).flipped())
     } else {
         clip_faces(a, best_a.1, b, bv, rot, clip).map(|m| to_world(m, pa))
@@ -591,6 +610,7 @@ fn edge_axes_gauss_map(
     bv: &[Vec3],
     tables: &mut Vec<f32>,
     hint: &mut SatHint,
+    separation: &mut f32,
 ) -> Option<EdgeAxis> {
     // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
     // of edge `ea` of A and of edge `eb` of -B must cross). The four arc/normal products of
@@ -648,6 +668,7 @@ fn edge_axes_gauss_map(
                 if ea < 0x8000 && eb < 0x8000 {
                     *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
                 }
+                *separation = s;
                 return None;
             }
             if s > best_e.0 {
@@ -670,6 +691,7 @@ fn edge_axes_by_direction(
     b_soa: &SoaPoints,
     bv: &[Vec3],
     hint: &mut SatHint,
+    separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
@@ -703,6 +725,7 @@ fn edge_axes_by_direction(
                 if ea < 0x8000 && eb < 0x8000 {
                     *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
                 }
+                *separation = s;
                 return None;
             }
             if s > best.0 {

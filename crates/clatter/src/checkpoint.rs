@@ -2,13 +2,13 @@
 //! `2N` steps and a run of `N` steps, a restart from the checkpoint and `N` more steps end in
 //! bitwise identical states.
 //!
-//! # Format (version 2)
+//! # Format (version 3)
 //!
 //! All integers and floats little-endian; floats are stored as their bit patterns.
 //!
 //! ```text
 //! magic        8 bytes   "CLATCKPT"
-//! version      u32       2
+//! version      u32       3
 //! length       u64       the whole file, checksum included
 //! sections     u32       number of sections
 //! section*     tag [u8; 4], payload length u64, payload
@@ -25,7 +25,7 @@
 //!   compensated orientation update, angular momentum, angular velocity.
 //! - `RBLD`: the positions the Verlet list was built at (empty before the first step).
 //! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
-//!   last forces, touching flags and separating-axis hints. The derived gather ranges are rebuilt by
+//!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
 //! - `APP `: opaque bytes of the program that wrote the file (the CLI stores its run options).
@@ -50,7 +50,7 @@ use crate::world::World;
 /// The first eight bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"CLATCKPT";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 const HEADER_LEN: usize = 8 + 4 + 8 + 4;
 const TRAILER_LEN: usize = 4;
 /// Bodies further than this from the origin are refused (the broad phase needs finite extents).
@@ -130,6 +130,7 @@ struct State {
     forces: Vec<ContactForce>,
     touching: Vec<bool>,
     hints: Vec<u32>,
+    budget: Vec<f32>,
 }
 
 impl Checkpoint {
@@ -334,6 +335,7 @@ impl Checkpoint {
             w.contacts.forces.clone_from(&st.forces);
             w.contacts.touching.clone_from(&st.touching);
             w.contacts.hints.clone_from(&st.hints);
+            w.contacts.budget.clone_from(&st.budget);
         }
         w.position.clone_from(&st.position);
         w.velocity.clone_from(&st.velocity);
@@ -431,6 +433,9 @@ impl World {
             }
             for &h in &c.hints {
                 w.u32(h);
+            }
+            for &b in &c.budget {
+                w.f32(b);
             }
         });
         w.section(b"APP ", |w| w.buf.extend_from_slice(app));
@@ -562,6 +567,10 @@ fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErr
     r.need(np * 4)?;
     for _ in 0..np {
         st.hints.push(r.u32()?);
+    }
+    r.need(np * 4)?;
+    for _ in 0..np {
+        st.budget.push(r.f32()?);
     }
     r.finish()
 }

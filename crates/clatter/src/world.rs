@@ -88,6 +88,9 @@ pub(crate) struct ContactList {
     pub(crate) touching: Vec<bool>,
     /// Separating-axis hints of the body pairs (temporal coherence of the narrow phase).
     pub(crate) hints: Vec<narrow::SatHint>,
+    /// Per body pair: how far apart the pair was last found, less the most the two bodies
+    /// can have moved since (see [`World::motion_bound`]); the pair is skipped while positive.
+    pub(crate) budget: Vec<f32>,
     /// Body `i` is side a of body pairs `a_start[i]..a_start[i+1]` (pairs are sorted by `i`).
     a_start: Vec<u32>,
     /// Body `i` is side b of body pairs `b_adj[b_start[i]..b_start[i+1]]`.
@@ -425,6 +428,7 @@ impl World {
         let hints = vec![narrow::NO_HINT; pairs.len()];
         self.contacts = ContactList {
             hints,
+            budget: vec![0.0; pairs.len()],
             pairs,
             wall_pairs,
             history,
@@ -460,6 +464,17 @@ impl World {
         if sphere(i) || sphere(j) { 1.0 } else { 0.25 }
     }
 
+    /// An upper bound of how far any point of body `i` moved in the last step, from its
+    /// current velocities (semi-implicit Euler moves it with them): `(|v|_1 + |w|_1 r) dt`
+    /// (1-norms bound the 2-norms without a square root), plus margins for rounding (the
+    /// compensated orientation update can turn a body by about an ulp more per step).
+    #[inline]
+    fn motion_bound(&self, i: usize) -> f32 {
+        let (v, w) = (self.velocity[i].abs(), self.omega[i].abs());
+        ((v.x + v.y + v.z) + (w.x + w.y + w.z) * self.radius[i]) * self.dt * 1.000_001
+            + 1e-6 * self.radius[i]
+    }
+
     #[inline]
     fn side(&self, i: usize) -> Side {
         Side {
@@ -476,6 +491,7 @@ impl World {
         i: usize,
         j: usize,
         hint: &mut narrow::SatHint,
+        separation: &mut f32,
     ) -> Option<narrow::Manifold> {
         let si = &self.shapes[self.shape_of[i] as usize].shape;
         let sj = &self.shapes[self.shape_of[j] as usize].shape;
@@ -483,7 +499,7 @@ impl World {
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
                 narrow::sphere_sphere(self.position[i], *ri, self.position[j], *rj)
             }
-            _ => narrow::collide_with_hint(si, &self.pose(i), sj, &self.pose(j), hint),
+            _ => narrow::collide_with_hint(si, &self.pose(i), sj, &self.pose(j), hint, separation),
         }
     }
 
@@ -512,7 +528,8 @@ impl World {
                              force: &mut ContactForce,
                              touching: &mut bool,
                              hint: &mut narrow::SatHint,
-                             twist: &mut f32| {
+                             twist: &mut f32,
+                             budget: &mut f32| {
                 let (i, j) = (i as usize, j as usize);
                 if this.spheres_only {
                     // Sphere-sphere without building a manifold (the common DEM case).
@@ -547,7 +564,17 @@ impl World {
                     }
                     return;
                 }
-                match this.narrow_pair(i, j, hint) {
+                if *budget > 0.0 {
+                    // Apart by more than both bodies can have moved: skip the test.
+                    *budget -= this.motion_bound(i) + this.motion_bound(j);
+                    if *budget > 0.0 {
+                        return;
+                    }
+                }
+                let mut separation = 0.0;
+                let found = this.narrow_pair(i, j, hint, &mut separation);
+                *budget = separation;
+                match found {
                     Some(m) => {
                         let params = this.pair_params(this.material_of[i], this.material_of[j]);
                         let (mi, mj) = (this.mass[i], this.mass[j]);
@@ -585,8 +612,9 @@ impl World {
                 .zip(touch_pairs.par_iter_mut())
                 .zip(contacts.hints.par_iter_mut())
                 .zip(twist_pairs.par_iter_mut())
+                .zip(contacts.budget.par_iter_mut())
                 .with_min_len(CHUNK)
-                .for_each(|(((((p, h), f), t), hn), tw)| pair_task(p, h, f, t, hn, tw));
+                .for_each(|((((((p, h), f), t), hn), tw), b)| pair_task(p, h, f, t, hn, tw, b));
             contacts
                 .wall_pairs
                 .par_iter()
