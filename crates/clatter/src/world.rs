@@ -604,60 +604,75 @@ impl World {
                     }
                 }
             };
-            contacts
-                .pairs
-                .par_iter()
-                .zip(hist_pairs.par_iter_mut())
-                .zip(force_pairs.par_iter_mut())
-                .zip(touch_pairs.par_iter_mut())
-                .zip(contacts.hints.par_iter_mut())
-                .zip(twist_pairs.par_iter_mut())
-                .zip(contacts.budget.par_iter_mut())
-                .with_min_len(CHUNK)
-                .for_each(|((((((p, h), f), t), hn), tw), b)| pair_task(p, h, f, t, hn, tw, b));
-            contacts
-                .wall_pairs
-                .par_iter()
-                .zip(hist_walls.par_iter_mut())
-                .zip(force_walls.par_iter_mut())
-                .zip(touch_walls.par_iter_mut())
-                .zip(twist_walls.par_iter_mut())
-                .with_min_len(1024)
-                .for_each(|((((&[i, w], hist), force), touching), twist)| {
-                    let (i, w) = (i as usize, w as usize);
-                    let wall = &this.walls[w];
-                    let shape = &this.shapes[this.shape_of[i] as usize].shape;
-                    match narrow::collide_plane(&wall.plane, shape, &this.pose(i)) {
-                        Some(m) => {
-                            let params = this.pair_params(wall.material, this.material_of[i]);
-                            *force = contact_force(
-                                params,
-                                this.mass[i],
-                                this.equivalent_radius[i],
-                                this.point_share(i, i),
-                                &m,
-                                &Side::default(),
-                                &this.side(i),
-                                hist,
-                                twist,
-                                dt,
-                            );
-                            *touching = true;
-                        }
-                        None => {
-                            // Released: zero spring and force (written only on the change).
-                            if *touching {
-                                *force = ContactForce::default();
-                                *hist = Vec3::ZERO;
-                                *twist = 0.0;
-                                *touching = false;
+            // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
+            let (pair_touching, wall_touching) = rayon::join(
+                || {
+                    contacts
+                        .pairs
+                        .par_iter()
+                        .zip(hist_pairs.par_iter_mut())
+                        .zip(force_pairs.par_iter_mut())
+                        .zip(touch_pairs.par_iter_mut())
+                        .zip(contacts.hints.par_iter_mut())
+                        .zip(twist_pairs.par_iter_mut())
+                        .zip(contacts.budget.par_iter_mut())
+                        .with_min_len(CHUNK)
+                        .map(|((((((p, h), f), t), hn), tw), b)| {
+                            pair_task(p, h, f, t, hn, tw, b);
+                            *t as usize
+                        })
+                        .sum::<usize>()
+                },
+                || {
+                    contacts
+                        .wall_pairs
+                        .par_iter()
+                        .zip(hist_walls.par_iter_mut())
+                        .zip(force_walls.par_iter_mut())
+                        .zip(touch_walls.par_iter_mut())
+                        .zip(twist_walls.par_iter_mut())
+                        .with_min_len(CHUNK)
+                        .map(|((((&[i, w], hist), force), touching), twist)| {
+                            let (i, w) = (i as usize, w as usize);
+                            let wall = &this.walls[w];
+                            let shape = &this.shapes[this.shape_of[i] as usize].shape;
+                            match narrow::collide_plane(&wall.plane, shape, &this.pose(i)) {
+                                Some(m) => {
+                                    let params =
+                                        this.pair_params(wall.material, this.material_of[i]);
+                                    *force = contact_force(
+                                        params,
+                                        this.mass[i],
+                                        this.equivalent_radius[i],
+                                        this.point_share(i, i),
+                                        &m,
+                                        &Side::default(),
+                                        &this.side(i),
+                                        hist,
+                                        twist,
+                                        dt,
+                                    );
+                                    *touching = true;
+                                }
+                                None => {
+                                    // Released: zero spring and force (written only on the change).
+                                    if *touching {
+                                        *force = ContactForce::default();
+                                        *hist = Vec3::ZERO;
+                                        *twist = 0.0;
+                                        *touching = false;
+                                    }
+                                }
                             }
-                        }
-                    }
-                });
+                            *touching as usize
+                        })
+                        .sum::<usize>()
+                },
+            );
+            let touching_count = pair_touching + wall_touching;
             self.contacts = contacts;
+            stats.contacts = touching_count;
         }
-        stats.contacts = self.contact_count();
 
         // Stage 6, integrate: gather forces in a fixed order, semi-implicit Euler.
         let gravity = self.gravity;
