@@ -3,35 +3,16 @@
 //! the example scenes in `scenes/`.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use clatter::scene::Scene;
 
 const HEADER: &str = "id,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz";
 
-/// A fresh, empty directory for one test (removed again when the test passes).
+mod common;
+use common::{assert_ok, clatter};
+
 fn test_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("clatter-run-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create the test directory");
-    dir
-}
-
-fn clatter(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
-    for a in args {
-        cmd.arg(a);
-    }
-    cmd.output().expect("run clatter")
-}
-
-fn assert_ok(output: &Output, what: &str) {
-    assert!(
-        output.status.success(),
-        "{what} failed:\nstdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&output.stdout),
-        String::from_utf8_lossy(&output.stderr)
-    );
+    common::test_dir("run-cli", name)
 }
 
 /// Parses a CSV file into its header and rows of numbers.

@@ -15,40 +15,11 @@ use std::time::{Duration, Instant};
 
 use clatter::Checkpoint;
 
+mod common;
+use common::{assert_ok, clatter, names, text};
+
 fn test_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("clatter-vtk-ckpt-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("create the test directory");
-    dir
-}
-
-fn clatter(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
-    for a in args {
-        cmd.arg(a);
-    }
-    cmd.output().expect("run clatter")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "stdout:\n{}\nstderr:\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
-fn assert_ok(o: &Output, what: &str) {
-    assert!(o.status.success(), "{what} failed:\n{}", text(o));
-}
-
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("read {}: {e}", dir.display()))
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
+    common::test_dir("vtk-ckpt", name)
 }
 
 fn read(path: &Path) -> Vec<u8> {
