@@ -468,10 +468,8 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         ProgressBar::new(steps)
     };
     bar.set_style(
-        ProgressStyle::with_template(
-            "{bar:40.cyan/blue} {pos}/{len} steps {per_sec} eta {eta} {msg}",
-        )
-        .expect("valid template"),
+        ProgressStyle::with_template("{bar:30.cyan/blue} {pos}/{len} steps, {msg}, eta {eta}")
+            .expect("valid template"),
     );
     let started = Instant::now();
     let mut max_contacts = world.contact_count();
@@ -515,7 +513,8 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         }
         if k % 64 == 0 {
             bar.set_position(k);
-            bar.set_message(format!("{} contacts", stats.contacts));
+            let rate = bar.per_sec();
+            bar.set_message(format!("{rate:.0} steps/s, {} contacts", stats.contacts));
         }
     }
     bar.finish_and_clear();
