@@ -523,6 +523,43 @@ impl World {
             let (twist_pairs, twist_walls) = contacts.twist.split_at_mut(np);
             let (force_pairs, force_walls) = contacts.forces.split_at_mut(np);
             let (touch_pairs, touch_walls) = contacts.touching.split_at_mut(np);
+            // Sphere-sphere without building a manifold (the common DEM case), over fewer
+            // arrays: spheres need no hints, twisting springs or separation budgets.
+            let sphere_task = |&[i, j]: &[u32; 2],
+                               hist: &mut Vec3,
+                               force: &mut ContactForce,
+                               touching: &mut bool| {
+                let (i, j) = (i as usize, j as usize);
+                let (xi, xj) = (this.position[i], this.position[j]);
+                let (ri, rj) = (this.radius[i], this.radius[j]);
+                let d = xj - xi;
+                let dist2 = d.length_squared();
+                if dist2 < (ri + rj) * (ri + rj) {
+                    let dist = dist2.sqrt();
+                    let n = if dist > 0.0 { d / dist } else { Vec3::Z };
+                    let depth = ri + rj - dist;
+                    let params = this.pair_params(this.material_of[i], this.material_of[j]);
+                    let (mi, mj) = (this.mass[i], this.mass[j]);
+                    *force = point_contact_force(
+                        params,
+                        mi * mj / (mi + mj),
+                        ri * rj / (ri + rj),
+                        1.0,
+                        n,
+                        xi + n * (ri - 0.5 * depth),
+                        depth,
+                        &this.side(i),
+                        &this.side(j),
+                        hist,
+                        dt,
+                    );
+                    *touching = true;
+                } else if *touching {
+                    *force = ContactForce::default();
+                    *hist = Vec3::ZERO;
+                    *touching = false;
+                }
+            };
             let pair_task = |&[i, j]: &[u32; 2],
                              hist: &mut Vec3,
                              force: &mut ContactForce,
@@ -531,39 +568,6 @@ impl World {
                              twist: &mut f32,
                              budget: &mut f32| {
                 let (i, j) = (i as usize, j as usize);
-                if this.spheres_only {
-                    // Sphere-sphere without building a manifold (the common DEM case).
-                    let (xi, xj) = (this.position[i], this.position[j]);
-                    let (ri, rj) = (this.radius[i], this.radius[j]);
-                    let d = xj - xi;
-                    let dist2 = d.length_squared();
-                    if dist2 < (ri + rj) * (ri + rj) {
-                        let dist = dist2.sqrt();
-                        let n = if dist > 0.0 { d / dist } else { Vec3::Z };
-                        let depth = ri + rj - dist;
-                        let params = this.pair_params(this.material_of[i], this.material_of[j]);
-                        let (mi, mj) = (this.mass[i], this.mass[j]);
-                        *force = point_contact_force(
-                            params,
-                            mi * mj / (mi + mj),
-                            ri * rj / (ri + rj),
-                            1.0,
-                            n,
-                            xi + n * (ri - 0.5 * depth),
-                            depth,
-                            &this.side(i),
-                            &this.side(j),
-                            hist,
-                            dt,
-                        );
-                        *touching = true;
-                    } else if *touching {
-                        *force = ContactForce::default();
-                        *hist = Vec3::ZERO;
-                        *touching = false;
-                    }
-                    return;
-                }
                 if *budget > 0.0 {
                     // Apart by more than both bodies can have moved: skip the test.
                     *budget -= this.motion_bound(i) + this.motion_bound(j);
@@ -607,6 +611,20 @@ impl World {
             // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
             let (pair_touching, wall_touching) = rayon::join(
                 || {
+                    if this.spheres_only {
+                        return contacts
+                            .pairs
+                            .par_iter()
+                            .zip(hist_pairs.par_iter_mut())
+                            .zip(force_pairs.par_iter_mut())
+                            .zip(touch_pairs.par_iter_mut())
+                            .with_min_len(CHUNK)
+                            .map(|(((p, h), f), t)| {
+                                sphere_task(p, h, f, t);
+                                *t as usize
+                            })
+                            .sum::<usize>();
+                    }
                     contacts
                         .pairs
                         .par_iter()
