@@ -1,0 +1,192 @@
+//! The GPU device: adapter choice, limits, error capture.
+//!
+//! One [`GpuContext`] holds the `wgpu` device and queue that the simulation (and the
+//! renderer) share. It asks for the adapter's own limits, not wgpu's small defaults, so that
+//! large scenes fit, and it records validation errors and device loss so that a broken
+//! shader or a lost GPU is reported as an error instead of a hang or garbage.
+
+use std::sync::{Arc, Mutex};
+
+use thiserror::Error;
+
+/// Errors of the GPU backend.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum GpuError {
+    /// No adapter (GPU or software rasteriser) was found.
+    #[error(
+        "no GPU adapter found ({0}); install a Vulkan driver (e.g. `apt-get install mesa-vulkan-drivers libvulkan1` for the CPU rasteriser lavapipe), or set WGPU_BACKEND=gl to use OpenGL, or use --backend cpu"
+    )]
+    NoAdapter(String),
+    /// The adapter refused the device we asked for.
+    #[error("the GPU adapter '{adapter}' refused to create a device: {reason}")]
+    Device { adapter: String, reason: String },
+    /// The scene does not fit the adapter's limits.
+    #[error(
+        "the scene needs {need} but the GPU adapter '{adapter}' allows {limit} ({what}); {advice}"
+    )]
+    TooLarge {
+        adapter: String,
+        what: String,
+        need: String,
+        limit: String,
+        advice: String,
+    },
+    /// The scene uses something the GPU backend does not support.
+    #[error("the GPU backend cannot run this scene: {0}; use --backend cpu")]
+    Unsupported(String),
+    /// A validation or out-of-memory error, or device loss, reported by wgpu.
+    #[error("GPU error on '{adapter}': {message}")]
+    Runtime { adapter: String, message: String },
+}
+
+/// A device and queue with the adapter's description and an error sink.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    /// The limits the device was created with (the adapter's own).
+    pub limits: wgpu::Limits,
+    /// Whether timestamp queries are available (for `clatter bench`).
+    pub timestamps: bool,
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("adapter", &self.adapter_name())
+            .finish()
+    }
+}
+
+impl GpuContext {
+    /// Opens the best adapter wgpu finds (high performance first; `WGPU_BACKEND`,
+    /// `WGPU_ADAPTER_NAME` and `WGPU_POWER_PREF` select another) without any window system.
+    pub fn new() -> Result<GpuContext, GpuError> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<GpuContext, GpuError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(desc.backends);
+        let instance = wgpu::Instance::new(desc);
+        let power =
+            wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance);
+        let adapter = match wgpu::util::initialize_adapter_from_env(&instance, None).await {
+            Ok(a) => a,
+            Err(_) => instance
+                .request_adapter(&wgpu::RequestAdapterOptions {
+                    power_preference: power,
+                    force_fallback_adapter: false,
+                    compatible_surface: None,
+                    apply_limit_buckets: false,
+                })
+                .await
+                .map_err(|e| GpuError::NoAdapter(e.to_string()))?,
+        };
+        Self::from_adapter(adapter).await
+    }
+
+    /// Opens a device on `adapter` with its own limits.
+    pub async fn from_adapter(adapter: wgpu::Adapter) -> Result<GpuContext, GpuError> {
+        let adapter_info = adapter.get_info();
+        let limits = adapter.limits();
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut required_features = wgpu::Features::empty();
+        if timestamps {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("clatter"),
+                required_features,
+                required_limits: limits.clone(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|e| GpuError::Device {
+                adapter: adapter_info.name.clone(),
+                reason: e.to_string(),
+            })?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(e.to_string());
+            }
+        }));
+        let sink = errors.clone();
+        device.set_device_lost_callback(move |reason, message| {
+            if let Ok(mut v) = sink.lock() {
+                v.push(format!("device lost ({reason:?}): {message}"));
+            }
+        });
+        Ok(GpuContext {
+            device,
+            queue,
+            adapter_info,
+            limits,
+            timestamps,
+            errors,
+        })
+    }
+
+    /// The adapter's name and backend, e.g. `llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan)`.
+    pub fn adapter_name(&self) -> String {
+        format!(
+            "{} ({:?})",
+            self.adapter_info.name, self.adapter_info.backend
+        )
+    }
+
+    /// Whether the adapter is a CPU rasteriser (lavapipe, llvmpipe, WARP): correct but slow.
+    pub fn is_software(&self) -> bool {
+        self.adapter_info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// The first error wgpu reported since the last call (validation, out of memory, device
+    /// lost), as a [`GpuError::Runtime`].
+    pub fn take_error(&self) -> Result<(), GpuError> {
+        let mut v = self.errors.lock().map_err(|_| GpuError::Runtime {
+            adapter: self.adapter_name(),
+            message: "error sink poisoned".into(),
+        })?;
+        if v.is_empty() {
+            return Ok(());
+        }
+        let message = v.join("; ");
+        v.clear();
+        Err(GpuError::Runtime {
+            adapter: self.adapter_name(),
+            message,
+        })
+    }
+
+    /// Waits for all submitted work, then reports any error wgpu recorded.
+    pub fn wait(&self) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Runtime {
+                adapter: self.adapter_name(),
+                message: e.to_string(),
+            })?;
+        self.take_error()
+    }
+}
+
+/// For tests: the GPU context, or `None` with a loud message when no adapter exists. When the
+/// `CI` environment variable is set, a missing adapter is a failure, not a skip.
+pub fn test_context() -> Option<GpuContext> {
+    match GpuContext::new() {
+        Ok(c) => Some(c),
+        Err(e) => {
+            if std::env::var_os("CI").is_some() {
+                panic!("CI is set but no GPU adapter is available: {e}");
+            }
+            eprintln!(
+                "\n*** SKIPPED GPU TEST: {e} ***\n*** (set CI=1 to make this a failure) ***\n"
+            );
+            None
+        }
+    }
+}

@@ -1,0 +1,10 @@
+//! clatter's step pipeline on the GPU, in `wgpu` compute shaders.
+//!
+//! The stages carry the CPU pipeline's names (see `clatter::world`): **bin**, **sort**,
+//! **pairs**, **narrow**, **forces**, **integrate**; each is a WGSL file in `shaders/` beside
+//! the Rust module that dispatches it. Body state stays on the GPU between steps; the host
+//! reads it back only when output is due.
+
+pub mod context;
+
+pub use context::{GpuContext, GpuError, test_context};
