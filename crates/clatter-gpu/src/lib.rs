@@ -8,3 +8,6 @@
 pub mod context;
 
 pub use context::{GpuContext, GpuError, test_context};
+pub mod layout;
+
+pub use layout::BodyState;
