@@ -26,3 +26,96 @@ pub const BODY_STATE_SIZE: u64 = std::mem::size_of::<BodyState>() as u64;
 pub const BODY_POSITION_OFFSET: u64 = 0;
 /// Byte offset of `orientation` in [`BodyState`].
 pub const BODY_ORIENTATION_OFFSET: u64 = 32;
+
+/// Uniform parameters of the step (`Params` in `shaders/bindings.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct Params {
+    pub gravity: [f32; 4],
+    pub n: u32,
+    pub num_walls: u32,
+    pub num_materials: u32,
+    pub pair_capacity: u32,
+    pub dt: f32,
+    pub skin: f32,
+    pub half_skin2: f32,
+    pub min_cell: f32,
+    pub max_cells: u32,
+    pub num_args: u32,
+    /// 1 when every body is a sphere (the CPU's sphere fast path: effective radius from the
+    /// bounding radius).
+    pub spheres_only: u32,
+    pub _pad: u32,
+}
+
+/// Per-body constants (`BodyStatic` in `shaders/bindings.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct BodyStatic {
+    /// `1 / principal moments` in xyz, `1 / mass` in w.
+    pub inv_inertia: [f32; 4],
+    pub mass: f32,
+    pub radius: f32,
+    pub equivalent_radius: f32,
+    pub _pad: f32,
+    pub shape: u32,
+    pub material: u32,
+    pub is_sphere: u32,
+    pub isotropic: u32,
+}
+
+/// Combined contact parameters of a material pair (`PairParams` in `bindings.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPairParams {
+    pub hertz: u32,
+    pub stiffness: f32,
+    pub shear: f32,
+    pub damping_factor: f32,
+    pub friction: f32,
+    pub _pad: [f32; 3],
+}
+
+/// A wall plane and its material (`Wall` in `bindings.wgsl`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuWall {
+    pub plane: [f32; 4],
+    pub material: u32,
+    pub _pad: [u32; 3],
+}
+
+/// One contact's force (`ContactForce` in `bindings.wgsl`): force on b (w: total normal
+/// force) and the torques on both sides.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuContactForce {
+    pub force_b: [f32; 4],
+    pub torque_a: [f32; 4],
+    pub torque_b: [f32; 4],
+}
+
+/// Words of the status buffer (`ST_*` in `bindings.wgsl`).
+pub mod status {
+    pub const REBUILD: usize = 0;
+    pub const OVERFLOW: usize = 1;
+    pub const BAD_BODY: usize = 2;
+    pub const TOUCHING: usize = 3;
+    pub const PAIRS: usize = 4;
+    pub const STEPS: usize = 5;
+    pub const REBUILDING: usize = 6;
+    pub const REBUILDS: usize = 7;
+    pub const PAIRS_NEEDED: usize = 8;
+    /// Number of status words.
+    pub const LEN: usize = 16;
+}
+
+/// Indirect-dispatch slots (`ARG_*` in `bindings.wgsl`); scan levels follow.
+pub mod arg {
+    pub const BODIES_REBUILD: u32 = 0;
+    pub const CELLS_REBUILD: u32 = 1;
+    pub const PAIRS_NEW: u32 = 2;
+    pub const PAIRS: u32 = 3;
+    pub const COMMIT: u32 = 4;
+    pub const FIRST_SCAN: u32 = 5;
+}

@@ -9,5 +9,9 @@ pub mod context;
 
 pub use context::{GpuContext, GpuError, test_context};
 pub mod layout;
+pub mod shapes;
+pub mod world;
 
 pub use layout::BodyState;
+pub use shapes::GpuShapes;
+pub use world::{GpuWorld, StepReport};

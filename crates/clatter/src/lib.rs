@@ -18,4 +18,4 @@ pub use checkpoint::{Checkpoint, CheckpointError};
 pub use clatter_geom as geom;
 pub use health::{BlowUp, Health};
 pub use material::{ContactLaw, Material, PairParams};
-pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};
+pub use world::{BodyInit, ContactState, SimError, StepStats, Wall, World, WorldDesc};

@@ -71,6 +71,33 @@ pub struct StepStats {
     pub rebuilt: bool,
 }
 
+/// A world's contact list in a backend-neutral form (see [`World::contact_state`]): how the
+/// GPU backend takes over and hands back the contacts' springs, so runs can move between
+/// backends and checkpoints stay complete.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactState {
+    /// Positions at the last broad-phase rebuild (empty: no list, rebuild at the next step).
+    pub rebuild_position: Vec<Vec3>,
+    /// Candidate body pairs `(i, j)`, `i < j`, sorted.
+    pub pairs: Vec<[u32; 2]>,
+    /// Tangential spring per pair.
+    pub history: Vec<Vec3>,
+    /// Twisting spring per pair (rad).
+    pub twist: Vec<f32>,
+    /// Whether each pair touched in the last step.
+    pub touching: Vec<bool>,
+    /// The last step's force per pair.
+    pub forces: Vec<ContactForce>,
+    /// Tangential spring per body and wall (`body * walls + wall`).
+    pub wall_history: Vec<Vec3>,
+    /// Twisting spring per body and wall.
+    pub wall_twist: Vec<f32>,
+    /// Whether each body touched each wall in the last step.
+    pub wall_touching: Vec<bool>,
+    /// The last step's force per body and wall.
+    pub wall_forces: Vec<ContactForce>,
+}
+
 /// Per-pair contact state: the pair, its tangential spring, and what this step computed.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ContactList {
@@ -310,6 +337,17 @@ impl World {
         (self.orientation[i] * self.shapes[self.shape_of[i] as usize].frame.conjugate()).normalize()
     }
 
+    /// The rounding carried by body `i`'s compensated orientation update (part of the
+    /// state another backend must take over for identical continuation).
+    pub fn orientation_residual(&self, i: usize) -> Quat {
+        self.orientation_residual[i]
+    }
+
+    /// Sets body `i`'s orientation rounding residual (see [`World::orientation_residual`]).
+    pub fn set_orientation_residual(&mut self, i: usize, q: Quat) {
+        self.orientation_residual[i] = q;
+    }
+
     /// Total kinetic energy, translational plus rotational, J.
     pub fn kinetic_energy(&self) -> f64 {
         (0..self.len())
@@ -372,15 +410,7 @@ impl World {
         let rmax = self.radius.iter().copied().fold(0.0, f32::max);
         let grid = Grid::around(&self.position, 2.0 * rmax + self.skin);
         let pairs = broad::pairs(&grid, &self.position, &self.radius, self.skin);
-        let mut wall_pairs = Vec::new();
-        for i in 0..self.len() {
-            for (w, wall) in self.walls.iter().enumerate() {
-                let h = wall.plane.normal.dot(self.position[i]) - wall.plane.offset;
-                if h < self.radius[i] + self.skin {
-                    wall_pairs.push([i as u32, w as u32]);
-                }
-            }
-        }
+        let wall_pairs = self.wall_candidates(&self.position);
         let old = std::mem::take(&mut self.contacts);
         let np_old = old.pairs.len();
         let carry = |list: &[[u32; 2]], walls: bool, new: &[[u32; 2]]| {
@@ -400,6 +430,36 @@ impl World {
         let (wall_history, wall_twist) = carry(&old.wall_pairs, true, &wall_pairs);
         history.extend(wall_history);
         twist.extend(wall_twist);
+        self.install_contacts(pairs, wall_pairs, history, twist);
+        self.rebuild_position.clone_from(&self.position);
+        self.needs_rebuild = false;
+        self.rebuilds += 1;
+    }
+
+    /// Wall candidates of the broad phase: `(body, wall)` for bodies whose bounding sphere at
+    /// `positions` comes within the skin of a wall, sorted.
+    fn wall_candidates(&self, positions: &[Vec3]) -> Vec<[u32; 2]> {
+        let mut wall_pairs = Vec::new();
+        for (i, p) in positions.iter().enumerate() {
+            for (w, wall) in self.walls.iter().enumerate() {
+                let h = wall.plane.normal.dot(*p) - wall.plane.offset;
+                if h < self.radius[i] + self.skin {
+                    wall_pairs.push([i as u32, w as u32]);
+                }
+            }
+        }
+        wall_pairs
+    }
+
+    /// Installs a new contact list (springs given, forces zero, nothing touching) and the
+    /// per-body gather ranges over it.
+    fn install_contacts(
+        &mut self,
+        pairs: Vec<[u32; 2]>,
+        wall_pairs: Vec<[u32; 2]>,
+        history: Vec<Vec3>,
+        twist: Vec<f32>,
+    ) {
         // Gather ranges, in contact order (a fixed, thread-independent summation order).
         let n = self.len();
         let np = pairs.len();
@@ -440,9 +500,75 @@ impl World {
             b_adj,
             w_start,
         };
-        self.rebuild_position.clone_from(&self.position);
+    }
+
+    /// The contact list in a backend-neutral form: what another backend (the GPU) needs to
+    /// continue this world's contacts. Wall contacts are given per body and wall
+    /// (`body * walls.len() + wall`), zero where the body is no wall candidate.
+    pub fn contact_state(&self) -> ContactState {
+        let c = &self.contacts;
+        let np = c.pairs.len();
+        let nw = self.walls.len();
+        let mut s = ContactState {
+            rebuild_position: if self.needs_rebuild {
+                Vec::new()
+            } else {
+                self.rebuild_position.clone()
+            },
+            pairs: c.pairs.clone(),
+            history: c.history[..np].to_vec(),
+            twist: c.twist[..np].to_vec(),
+            touching: c.touching[..np].to_vec(),
+            forces: c.forces[..np].to_vec(),
+            wall_history: vec![Vec3::ZERO; self.len() * nw],
+            wall_twist: vec![0.0; self.len() * nw],
+            wall_touching: vec![false; self.len() * nw],
+            wall_forces: vec![ContactForce::default(); self.len() * nw],
+        };
+        for (k, &[i, w]) in c.wall_pairs.iter().enumerate() {
+            let slot = i as usize * nw + w as usize;
+            s.wall_history[slot] = c.history[np + k];
+            s.wall_twist[slot] = c.twist[np + k];
+            s.wall_touching[slot] = c.touching[np + k];
+            s.wall_forces[slot] = c.forces[np + k];
+        }
+        s
+    }
+
+    /// Replaces the contact list with `state` (from another backend): body pairs as given
+    /// (sorted by `(i, j)`), wall candidates recomputed from `state.rebuild_position` with
+    /// their springs taken from the per-(body, wall) slots. An empty `rebuild_position` means
+    /// "no list yet": the next step rebuilds.
+    pub fn set_contact_state(&mut self, state: ContactState) {
+        if state.rebuild_position.len() != self.len() {
+            self.contacts = ContactList::default();
+            self.needs_rebuild = true;
+            return;
+        }
+        let nw = self.walls.len();
+        let wall_pairs = self.wall_candidates(&state.rebuild_position);
+        let mut history = state.history;
+        let mut twist = state.twist;
+        for &[i, w] in &wall_pairs {
+            let slot = i as usize * nw + w as usize;
+            history.push(state.wall_history.get(slot).copied().unwrap_or(Vec3::ZERO));
+            twist.push(state.wall_twist.get(slot).copied().unwrap_or(0.0));
+        }
+        let np = state.pairs.len();
+        let mut touching = state.touching;
+        let mut forces = state.forces;
+        touching.resize(np, false);
+        forces.resize(np, ContactForce::default());
+        for &[i, w] in &wall_pairs {
+            let slot = i as usize * nw + w as usize;
+            touching.push(state.wall_touching.get(slot).copied().unwrap_or(false));
+            forces.push(state.wall_forces.get(slot).copied().unwrap_or_default());
+        }
+        self.install_contacts(state.pairs, wall_pairs, history, twist);
+        self.contacts.touching = touching;
+        self.contacts.forces = forces;
+        self.rebuild_position = state.rebuild_position;
         self.needs_rebuild = false;
-        self.rebuilds += 1;
     }
 
     #[inline]

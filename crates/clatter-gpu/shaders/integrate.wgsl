@@ -1,0 +1,78 @@
+// Stage 6, **integrate**: each body gathers its contact forces in a fixed order (pairs where
+// it is body a, pairs where it is body b, then walls: the CPU's order, no float atomics), then
+// semi-implicit Euler on momentum and position, angular momentum with the world-space inertia,
+// and the compensated first-order quaternion update of crates/clatter/src/world.rs. A body
+// that moved more than half the skin since the last rebuild flags a rebuild for the next
+// step; a non-finite state stops the pipeline (the host reports it).
+
+@compute @workgroup_size(256)
+fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+             @builtin(local_invocation_index) lid: u32) {
+    let i = thread_index(wid, nwg, lid);
+    if i >= params.n || halted() {
+        return;
+    }
+    var f = vec3<f32>(0.0);
+    var t = vec3<f32>(0.0);
+    for (var c = a_start[i]; c < a_start[i + 1u]; c++) {
+        f -= forces[c].force_b.xyz;
+        t += forces[c].torque_a.xyz;
+    }
+    for (var k = b_start[i]; k < b_start[i + 1u]; k++) {
+        let c = b_adj[k];
+        f += forces[c].force_b.xyz;
+        t += forces[c].torque_b.xyz;
+    }
+    for (var w = 0u; w < params.num_walls; w++) {
+        let s = i * params.num_walls + w;
+        f += wall_forces[s].force_b.xyz;
+        t += wall_forces[s].torque_b.xyz;
+    }
+    let st = statics[i];
+    var b = bodies[i];
+    let dt = params.dt;
+    let v = b.velocity.xyz + (f * st.inv_inertia.w + params.gravity.xyz) * dt;
+    let x = b.position.xyz + v * dt;
+    let l = b.angular_momentum.xyz + t * dt;
+    let q = b.orientation;
+    var w: vec3<f32>;
+    if st.isotropic != 0u {
+        w = l * st.inv_inertia.x;
+    } else {
+        w = quat_rotate(q, quat_rotate_inv(q, l) * st.inv_inertia.xyz);
+    }
+    let h = 0.5 * dt;
+    let dq = quat_mul(vec4<f32>(w * h, 0.0), q);
+    // Compensated (Kahan) sum: what rounding loses of dq is carried in `residual`.
+    let y = dq - b.residual;
+    let q2 = q + y;
+    let residual = (q2 - q) - y;
+    let n2 = dot(q2, q2);
+    var qn = q2;
+    if abs(n2 - 1.0) > 4.0 * 1.1920929e-7 {
+        qn = q2 * (1.5 - 0.5 * n2);
+    }
+    b.position = vec4<f32>(x, 0.0);
+    b.velocity = vec4<f32>(v, 0.0);
+    b.angular_momentum = vec4<f32>(l, 0.0);
+    b.omega = vec4<f32>(w, 0.0);
+    b.orientation = qn;
+    b.residual = residual;
+    bodies[i] = b;
+    let d = x - rebuild_pos[i].xyz;
+    let d2 = dot(d, d);
+    // NaN or infinity anywhere in the state shows up in d2 or in the quaternion.
+    let finite = d2 <= 3.0e38 && abs(qn.w) <= 3.0e38 && all(abs(v) <= vec3<f32>(3.0e38));
+    if !finite {
+        atomicMin(&status[ST_BAD_BODY], i);
+    } else if d2 > params.half_skin2 {
+        atomicStore(&status[ST_REBUILD], 1u);
+    }
+}
+
+@compute @workgroup_size(1)
+fn end_step() {
+    if !halted() {
+        atomicAdd(&status[ST_STEPS], 1u);
+    }
+}

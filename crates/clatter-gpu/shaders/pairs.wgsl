@@ -1,0 +1,214 @@
+// Stage 3, **pairs**: each body looks at the 27 cells around its own for bodies with a
+// larger index whose skin-grown bounding spheres overlap its own (the CPU's broad::pairs).
+// `count_pairs` counts them per body, the scan gives each body its offset, `pairs_total`
+// checks the capacity and sizes the pair dispatches, `fill_pairs` writes each body's pairs
+// sorted by partner, so the list is sorted by (i, j) like the CPU's. Then the contact history
+// is carried over from the old list (`carry`, a binary search in body i's old range), the new
+// list replaces the old (`commit`), and the b-side adjacency (for each body, the pairs where
+// it is the second body, in pair order) is built by counting, scanning and sorting
+// (`count_b`, `copy_b`, `fill_b`, `sort_b`): forces are then gathered per body in a fixed
+// order, without float atomics.
+
+fn count_candidates(i: u32) -> u32 {
+    let pi = bodies[i].position.xyz;
+    let ri = statics[i].radius;
+    let c = cell_of(pi);
+    let dims = grid.dims.xyz;
+    var count = 0u;
+    let lo = vec3<u32>(max(vec3<i32>(c) - vec3<i32>(1), vec3<i32>(0)));
+    let hi = min(c + vec3<u32>(1u), dims - vec3<u32>(1u));
+    for (var z = lo.z; z <= hi.z; z++) {
+        for (var y = lo.y; y <= hi.y; y++) {
+            let row = (z * dims.y + y) * dims.x;
+            let s = cell_start[row + lo.x];
+            let e = cell_start[row + hi.x + 1u];
+            for (var k = s; k < e; k++) {
+                let j = sorted[k];
+                if j > i {
+                    let reach = ri + statics[j].radius + params.skin;
+                    let d = bodies[j].position.xyz - pi;
+                    if dot(d, d) < reach * reach {
+                        count++;
+                    }
+                }
+            }
+        }
+    }
+    return count;
+}
+
+@compute @workgroup_size(256)
+fn count_pairs(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+               @builtin(local_invocation_index) lid: u32) {
+    let i = thread_index(wid, nwg, lid);
+    if i > params.n || halted() {
+        return;
+    }
+    if i == params.n {
+        new_a_start[i] = 0u;
+        return;
+    }
+    new_a_start[i] = count_candidates(i);
+}
+
+@compute @workgroup_size(1)
+fn pairs_total() {
+    if halted() || atomicLoad(&status[ST_REBUILDING]) == 0u {
+        return;
+    }
+    let total = new_a_start[params.n];
+    atomicStore(&status[ST_PAIRS_NEEDED], total);
+    if total > params.pair_capacity {
+        // Stop here: the host grows the buffers and runs this step again.
+        atomicStore(&status[ST_OVERFLOW], 1u);
+        write_args(ARG_PAIRS_NEW, 0u);
+        write_args(ARG_COMMIT, 0u);
+        return;
+    }
+    atomicStore(&status[ST_PAIRS], total);
+    write_args(ARG_PAIRS_NEW, (total + WG - 1u) / WG);
+    write_args(ARG_COMMIT, (max(total, params.n + 1u) + WG - 1u) / WG);
+    write_args(ARG_PAIRS, (total + WG - 1u) / WG);
+}
+
+@compute @workgroup_size(256)
+fn fill_pairs(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+              @builtin(local_invocation_index) lid: u32) {
+    let i = thread_index(wid, nwg, lid);
+    if i >= params.n || halted() {
+        return;
+    }
+    let pi = bodies[i].position.xyz;
+    let ri = statics[i].radius;
+    let c = cell_of(pi);
+    let dims = grid.dims.xyz;
+    let s0 = new_a_start[i];
+    var w = s0;
+    let lo = vec3<u32>(max(vec3<i32>(c) - vec3<i32>(1), vec3<i32>(0)));
+    let hi = min(c + vec3<u32>(1u), dims - vec3<u32>(1u));
+    for (var z = lo.z; z <= hi.z; z++) {
+        for (var y = lo.y; y <= hi.y; y++) {
+            let row = (z * dims.y + y) * dims.x;
+            let s = cell_start[row + lo.x];
+            let e = cell_start[row + hi.x + 1u];
+            for (var k = s; k < e; k++) {
+                let j = sorted[k];
+                if j > i {
+                    let reach = ri + statics[j].radius + params.skin;
+                    let d = bodies[j].position.xyz - pi;
+                    if dot(d, d) < reach * reach {
+                        // Insert in order of j.
+                        var b = w;
+                        while b > s0 && new_pairs[b - 1u].y > j {
+                            new_pairs[b] = new_pairs[b - 1u];
+                            b--;
+                        }
+                        new_pairs[b] = vec2<u32>(i, j);
+                        w++;
+                    }
+                }
+            }
+        }
+    }
+}
+
+// The tangential and twisting springs of pairs that persist (zero for new pairs).
+@compute @workgroup_size(256)
+fn carry(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+         @builtin(local_invocation_index) lid: u32) {
+    let c = thread_index(wid, nwg, lid);
+    if c >= new_a_start[params.n] || halted() {
+        return;
+    }
+    let p = new_pairs[c];
+    var lo = a_start[p.x];
+    var hi = a_start[p.x + 1u];
+    var h = vec4<f32>(0.0);
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        let j = pairs[mid].y;
+        if j == p.y {
+            h = hist[mid];
+            break;
+        }
+        if j < p.y {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    new_hist[c] = h;
+}
+
+@compute @workgroup_size(256)
+fn commit(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) lid: u32) {
+    let t = thread_index(wid, nwg, lid);
+    if halted() {
+        return;
+    }
+    if t < new_a_start[params.n] {
+        pairs[t] = new_pairs[t];
+        hist[t] = new_hist[t];
+        touching[t] = 0u;
+        forces[t] = ContactForce();
+    }
+    // carry has read the old ranges: replace them.
+    if t <= params.n {
+        a_start[t] = new_a_start[t];
+    }
+    if t < params.n {
+        rebuild_pos[t] = bodies[t].position;
+    }
+}
+
+@compute @workgroup_size(256)
+fn count_b(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+           @builtin(local_invocation_index) lid: u32) {
+    let c = thread_index(wid, nwg, lid);
+    if c >= a_start[params.n] || halted() {
+        return;
+    }
+    atomicAdd(&b_count[pairs[c].y], 1u);
+}
+
+@compute @workgroup_size(256)
+fn copy_b(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) lid: u32) {
+    let i = thread_index(wid, nwg, lid);
+    if i <= params.n && !halted() {
+        b_start[i] = atomicLoad(&b_count[i]);
+    }
+}
+
+@compute @workgroup_size(256)
+fn fill_b(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) lid: u32) {
+    let c = thread_index(wid, nwg, lid);
+    if c >= a_start[params.n] || halted() {
+        return;
+    }
+    let j = pairs[c].y;
+    let slot = b_start[j] + atomicSub(&b_count[j], 1u) - 1u;
+    b_adj[slot] = c;
+}
+
+@compute @workgroup_size(256)
+fn sort_b(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+          @builtin(local_invocation_index) lid: u32) {
+    let i = thread_index(wid, nwg, lid);
+    if i >= params.n || halted() {
+        return;
+    }
+    let s = b_start[i];
+    let e = b_start[i + 1u];
+    for (var a = s + 1u; a < e; a++) {
+        let v = b_adj[a];
+        var b = a;
+        while b > s && b_adj[b - 1u] > v {
+            b_adj[b] = b_adj[b - 1u];
+            b--;
+        }
+        b_adj[b] = v;
+    }
+}

@@ -1,0 +1,1188 @@
+//! The GPU world: a [`clatter::World`]'s state resident on the GPU and the step pipeline
+//! that advances it, stage by stage as on the CPU:
+//!
+//! 1. `prepare` (bin.wgsl): does this step rebuild the pair list? (a body moved more than
+//!    half the skin since the last rebuild; flagged on the GPU by the last integrate, so the
+//!    host never waits for it: every rebuild-only dispatch is indirect, sized zero otherwise)
+//! 2. **bin** (bin.wgsl): bounding box, grid, cell key per body, bodies per cell
+//! 3. **sort** (scan.wgsl, sort.wgsl): cell ranges by prefix sum, bodies dropped into cells,
+//!    each cell ordered by body index (the CPU's stable counting sort, exactly)
+//! 4. **pairs** (pairs.wgsl): the 27-cell search, pair offsets, sorted pair list, springs
+//!    carried over from the old list, the b-side adjacency for the gather
+//! 5. **narrow** + **forces** (narrow.wgsl, forces.wgsl): manifold and contact law per pair
+//!    and per body-wall slot
+//! 6. **integrate** (integrate.wgsl): gather in a fixed order, update, rebuild check
+//!
+//! The host records many steps into one submission and reads a few status words back after
+//! it; body state comes back only when output is due ([`GpuWorld::read_into`]). If the pair
+//! list outgrows its buffer, the GPU stops at the start of that step; the host grows the
+//! buffers and runs the step again, so the result does not depend on the initial capacity.
+
+use std::sync::Arc;
+
+use glam::{Quat, Vec3};
+use wgpu::util::DeviceExt;
+
+use crate::layout::{
+    BodyState, BodyStatic, GpuContactForce, GpuPairParams, GpuWall, Params, arg, status,
+};
+use crate::shapes::GpuShapes;
+use crate::{GpuContext, GpuError};
+use clatter::forces::ContactForce;
+use clatter::{ContactState, World};
+use clatter_geom::Shape;
+
+const WG: u32 = 256;
+/// Steps recorded into one submission between status reads.
+const BATCH: u64 = 64;
+/// Initial pair capacity per body (grown on demand).
+const PAIRS_PER_BODY: u64 = 8;
+
+const COMMON: &str = include_str!("../shaders/common.wgsl");
+const BINDINGS: &str = include_str!("../shaders/bindings.wgsl");
+const ARGS: &str = include_str!("../shaders/args.wgsl");
+const NARROW: &str = include_str!("../shaders/narrow.wgsl");
+const BIN: &str = include_str!("../shaders/bin.wgsl");
+const SCAN: &str = include_str!("../shaders/scan.wgsl");
+const SORT: &str = include_str!("../shaders/sort.wgsl");
+const PAIRS: &str = include_str!("../shaders/pairs.wgsl");
+const FORCES: &str = include_str!("../shaders/forces.wgsl");
+const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
+
+/// Which bind groups a kernel uses besides group 0 (simulation) and 1 (shapes).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Extra {
+    None,
+    /// Group 2 = indirect arguments (the kernels that size later dispatches).
+    Args,
+    /// Group 2 = a scan level (data, sums).
+    Scan,
+}
+
+/// How a kernel is dispatched.
+#[derive(Clone, Copy)]
+enum Size {
+    /// One workgroup of one thread.
+    Single,
+    /// Indirect from an argument slot.
+    Indirect(u32),
+    /// A fixed number of workgroups (split over y beyond 65535).
+    Direct(u32),
+}
+
+struct Op {
+    pipeline: usize,
+    size: Size,
+    /// Index into the scan bind groups (for `Extra::Scan` kernels).
+    scan: usize,
+}
+
+/// The pipelines by name.
+struct Kernels {
+    pipelines: Vec<wgpu::ComputePipeline>,
+    extra: Vec<Extra>,
+    names: Vec<&'static str>,
+}
+
+impl Kernels {
+    fn index(&self, name: &str) -> usize {
+        self.names
+            .iter()
+            .position(|n| *n == name)
+            .unwrap_or_else(|| panic!("kernel {name} is not built"))
+    }
+}
+
+/// One exclusive scan over a buffer of `len` u32: the level buffers and their bind groups.
+struct ScanPlan {
+    /// Groups per level (level 0 is the data itself).
+    groups: Vec<u32>,
+    /// Bind group per level: (level data, next level's sums).
+    bind_groups: Vec<wgpu::BindGroup>,
+    /// Argument slot per level.
+    slots: Vec<u32>,
+}
+
+/// A scene's state on the GPU and the compiled step pipeline. See the module docs.
+pub struct GpuWorld {
+    ctx: Arc<GpuContext>,
+    n: u32,
+    num_walls: u32,
+    params: Params,
+    shapes: GpuShapes,
+    kernels: Kernels,
+    layouts: [wgpu::BindGroupLayout; 3],
+    // Buffers (group 0 in binding order, see bindings.wgsl).
+    params_buf: wgpu::Buffer,
+    bodies: wgpu::Buffer,
+    statics: wgpu::Buffer,
+    pair_table: wgpu::Buffer,
+    walls: wgpu::Buffer,
+    status_buf: wgpu::Buffer,
+    grid: wgpu::Buffer,
+    keys: wgpu::Buffer,
+    sorted: wgpu::Buffer,
+    cell_count: wgpu::Buffer,
+    cell_start: wgpu::Buffer,
+    rebuild_pos: wgpu::Buffer,
+    new_a_start: wgpu::Buffer,
+    a_start: wgpu::Buffer,
+    new_pairs: wgpu::Buffer,
+    pairs: wgpu::Buffer,
+    new_hist: wgpu::Buffer,
+    hist: wgpu::Buffer,
+    touching: wgpu::Buffer,
+    forces: wgpu::Buffer,
+    b_count: wgpu::Buffer,
+    b_start: wgpu::Buffer,
+    b_adj: wgpu::Buffer,
+    wall_hist: wgpu::Buffer,
+    wall_forces: wgpu::Buffer,
+    wall_touching: wgpu::Buffer,
+    args: wgpu::Buffer,
+    arg_template: wgpu::Buffer,
+    // Scan scratch.
+    cell_scan_sums: Vec<wgpu::Buffer>,
+    body_scan_sums: Vec<wgpu::Buffer>,
+    scan_dummy: wgpu::Buffer,
+    // Bind groups and the recorded step.
+    group0: wgpu::BindGroup,
+    group1: wgpu::BindGroup,
+    args_group: wgpu::BindGroup,
+    scans: Vec<wgpu::BindGroup>,
+    ops: Vec<Op>,
+    /// Steps taken on the GPU since upload.
+    gpu_steps: u64,
+    /// The world's step count and time at upload.
+    base_step: u64,
+    base_time: f64,
+    dt: f32,
+    last_status: [u32; status::LEN],
+}
+
+fn storage(read_only: bool) -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Storage { read_only },
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    }
+}
+
+fn entry(binding: u32, ty: wgpu::BindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    }
+}
+
+fn split(groups: u32) -> (u32, u32) {
+    if groups == 0 {
+        (0, 0)
+    } else {
+        (groups.min(65535), groups.div_ceil(65535))
+    }
+}
+
+impl GpuWorld {
+    /// Uploads `world` (bodies, shapes, materials, walls and its contact springs) and builds
+    /// the pipeline. Fails with a clear error when the scene does not fit the adapter.
+    pub fn new(ctx: Arc<GpuContext>, world: &World) -> Result<GpuWorld, GpuError> {
+        let n = world.len() as u32;
+        let num_walls = world.walls.len() as u32;
+        let shapes = GpuShapes::upload(&ctx, &world.shapes)?;
+        let state = world.contact_state();
+        let capacity = (world.len() as u64 * PAIRS_PER_BODY)
+            .max(state.pairs.len() as u64 + world.len() as u64)
+            .max(1024);
+        Self::check_fits(&ctx, world.len() as u64, capacity, num_walls as u64)?;
+        let rmax = world.radius.iter().copied().fold(0.0, f32::max);
+        let params = Params {
+            gravity: [world.gravity.x, world.gravity.y, world.gravity.z, 0.0],
+            n,
+            num_walls,
+            num_materials: world.materials.len() as u32,
+            pair_capacity: capacity as u32,
+            dt: world.dt,
+            skin: world.skin,
+            half_skin2: 0.25 * world.skin * world.skin,
+            min_cell: 2.0 * rmax + world.skin,
+            max_cells: 8 * n + 64,
+            num_args: 0,
+            spheres_only: world
+                .shape_of
+                .iter()
+                .all(|&s| matches!(world.shapes[s as usize].shape, Shape::Sphere { .. }))
+                as u32,
+            _pad: 0,
+        };
+        let device = &ctx.device;
+        let layouts = Self::layouts(device);
+        let kernels = Self::build_kernels(&ctx, &layouts)?;
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let init = |label: &str, contents: &[u8]| {
+            let mut bytes = contents.to_vec();
+            if bytes.len() < 16 {
+                bytes.resize(16, 0);
+            }
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &bytes,
+                usage,
+            })
+        };
+        let zeroed = |label: &str, size: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        // Body state and constants.
+        let mut states = Vec::with_capacity(world.len());
+        let mut statics = Vec::with_capacity(world.len());
+        for i in 0..world.len() {
+            let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
+            let q4 = |q: Quat| [q.x, q.y, q.z, q.w];
+            states.push(BodyState {
+                position: v4(world.position[i]),
+                velocity: v4(world.velocity[i]),
+                orientation: q4(world.orientation[i]),
+                residual: q4(world.orientation_residual(i)),
+                angular_momentum: v4(world.angular_momentum[i]),
+                omega: v4(world.omega[i]),
+            });
+            let inv = world.inv_inertia[i];
+            let shape = world.shape_of[i];
+            statics.push(BodyStatic {
+                inv_inertia: [inv.x, inv.y, inv.z, world.inv_mass[i]],
+                mass: world.mass[i],
+                radius: world.radius[i],
+                equivalent_radius: world.equivalent_radius[i],
+                _pad: 0.0,
+                shape,
+                material: world.material_of[i],
+                is_sphere: matches!(world.shapes[shape as usize].shape, Shape::Sphere { .. })
+                    as u32,
+                isotropic: (inv.x == inv.y && inv.y == inv.z) as u32,
+            });
+        }
+        let nm = world.materials.len() as u32;
+        let mut table = Vec::new();
+        for a in 0..nm {
+            for b in 0..nm {
+                let p = world.pair_params(a, b);
+                table.push(GpuPairParams {
+                    hertz: p.hertz as u32,
+                    stiffness: p.stiffness,
+                    shear: p.shear,
+                    damping_factor: p.damping_factor,
+                    friction: p.friction,
+                    _pad: [0.0; 3],
+                });
+            }
+        }
+        let walls: Vec<GpuWall> = world
+            .walls
+            .iter()
+            .map(|w| GpuWall {
+                plane: [
+                    w.plane.normal.x,
+                    w.plane.normal.y,
+                    w.plane.normal.z,
+                    w.plane.offset,
+                ],
+                material: w.material,
+                _pad: [0; 3],
+            })
+            .collect();
+        // Contacts carried from the world (a resumed run): the old list that the first
+        // rebuild carries springs from.
+        let nb = world.len() as u64;
+        let np = state.pairs.len();
+        let mut a_start = vec![0u32; world.len() + 1];
+        for p in &state.pairs {
+            a_start[p[0] as usize + 1] += 1;
+        }
+        for i in 0..world.len() {
+            a_start[i + 1] += a_start[i];
+        }
+        let mut hist: Vec<[f32; 4]> = (0..np)
+            .map(|k| {
+                let h = state.history[k];
+                [h.x, h.y, h.z, state.twist[k]]
+            })
+            .collect();
+        let mut pairs: Vec<[u32; 2]> = state.pairs.clone();
+        hist.resize(capacity as usize, [0.0; 4]);
+        pairs.resize(capacity as usize, [0, 0]);
+        let nslots = (nb * num_walls as u64) as usize;
+        let wall_hist: Vec<[f32; 4]> = (0..nslots)
+            .map(|k| {
+                let h = state.wall_history[k];
+                [h.x, h.y, h.z, state.wall_twist[k]]
+            })
+            .collect();
+        let wall_touching: Vec<u32> = state.wall_touching.iter().map(|&t| t as u32).collect();
+        let wall_forces: Vec<GpuContactForce> =
+            state.wall_forces.iter().map(to_gpu_force).collect();
+        let mut st = [0u32; status::LEN];
+        st[status::REBUILD] = 1;
+        st[status::BAD_BODY] = u32::MAX;
+        let max_cells = params.max_cells as u64;
+        let mut w = GpuWorld {
+            params_buf: device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            }),
+            bodies: init("bodies", bytemuck::cast_slice(&states)),
+            statics: init("statics", bytemuck::cast_slice(&statics)),
+            pair_table: init("pair_table", bytemuck::cast_slice(&table)),
+            walls: init("walls", bytemuck::cast_slice(&walls)),
+            status_buf: init("status", bytemuck::cast_slice(&st)),
+            grid: zeroed("grid", 48),
+            keys: zeroed("keys", 4 * nb),
+            sorted: zeroed("sorted", 4 * nb),
+            cell_count: zeroed("cell_count", 4 * (max_cells + 1)),
+            cell_start: zeroed("cell_start", 4 * (max_cells + 1)),
+            rebuild_pos: zeroed("rebuild_pos", 16 * nb),
+            new_a_start: zeroed("new_a_start", 4 * (nb + 1)),
+            a_start: init("a_start", bytemuck::cast_slice(&a_start)),
+            new_pairs: zeroed("new_pairs", 8 * capacity),
+            pairs: init("pairs", bytemuck::cast_slice(&pairs)),
+            new_hist: zeroed("new_hist", 16 * capacity),
+            hist: init("hist", bytemuck::cast_slice(&hist)),
+            touching: zeroed("touching", 4 * capacity),
+            forces: zeroed("forces", 48 * capacity),
+            b_count: zeroed("b_count", 4 * (nb + 1)),
+            b_start: zeroed("b_start", 4 * (nb + 1)),
+            b_adj: zeroed("b_adj", 4 * capacity),
+            wall_hist: init("wall_hist", bytemuck::cast_slice(&wall_hist)),
+            wall_forces: init("wall_forces", bytemuck::cast_slice(&wall_forces)),
+            wall_touching: init("wall_touching", bytemuck::cast_slice(&wall_touching)),
+            args: zeroed("args", 4),
+            arg_template: zeroed("arg_template", 4),
+            cell_scan_sums: Vec::new(),
+            body_scan_sums: Vec::new(),
+            scan_dummy: zeroed("scan_dummy", 4),
+            group0: dummy_group(device, &layouts.2),
+            group1: dummy_group(device, &layouts.2),
+            args_group: dummy_group(device, &layouts.2),
+            scans: Vec::new(),
+            ops: Vec::new(),
+            ctx,
+            n,
+            num_walls,
+            params,
+            shapes,
+            kernels,
+            layouts: [layouts.0, layouts.1, layouts.2],
+            gpu_steps: 0,
+            base_step: world.step_count,
+            base_time: world.time,
+            dt: world.dt,
+            last_status: st,
+        };
+        w.record()?;
+        w.ctx.wait()?;
+        Ok(w)
+    }
+
+    /// Refuses scenes that do not fit the adapter, before allocating anything.
+    fn check_fits(ctx: &GpuContext, n: u64, capacity: u64, walls: u64) -> Result<(), GpuError> {
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        let biggest = [
+            ("body state", 96 * n),
+            ("cell counts", 4 * (8 * n + 65)),
+            ("contact forces", 48 * capacity),
+            ("wall contacts", 48 * n * walls),
+        ];
+        for (what, need) in biggest {
+            if need > limit {
+                return Err(GpuError::TooLarge {
+                    adapter: ctx.adapter_name(),
+                    what: format!("largest storage buffer, for the {what}"),
+                    need: format!("{need} bytes"),
+                    limit: format!("{limit} bytes"),
+                    advice: "use fewer bodies, or --backend cpu".into(),
+                });
+            }
+        }
+        if n >= u32::MAX as u64 / 16 {
+            return Err(GpuError::TooLarge {
+                adapter: ctx.adapter_name(),
+                what: "bodies addressable with 32-bit indices".into(),
+                need: format!("{n} bodies"),
+                limit: format!("{} bodies", u32::MAX / 16),
+                advice: "use fewer bodies".into(),
+            });
+        }
+        Ok(())
+    }
+
+    fn layouts(
+        device: &wgpu::Device,
+    ) -> (
+        wgpu::BindGroupLayout,
+        wgpu::BindGroupLayout,
+        wgpu::BindGroupLayout,
+    ) {
+        // Group 0, in bindings.wgsl order: params (uniform), bodies, statics (ro), pair_table
+        // (ro), walls (ro), then read-write buffers.
+        let mut e0 = vec![entry(
+            0,
+            wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+        )];
+        e0.push(entry(1, storage(false)));
+        e0.push(entry(2, storage(true)));
+        e0.push(entry(3, storage(true)));
+        e0.push(entry(4, storage(true)));
+        for b in 5..26 {
+            e0.push(entry(b, storage(false)));
+        }
+        let g0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("simulation"),
+            entries: &e0,
+        });
+        let g1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shapes"),
+            entries: &GpuShapes::layout_entries(),
+        });
+        // Group 2 of the scans: data, sums. The argument writers use the same shape (args
+        // read-write, template read-only would differ): both as read-write storage.
+        let g2 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("scan or args"),
+            entries: &[entry(0, storage(false)), entry(1, storage(false))],
+        });
+        (g0, g1, g2)
+    }
+
+    fn build_kernels(
+        ctx: &GpuContext,
+        layouts: &(
+            wgpu::BindGroupLayout,
+            wgpu::BindGroupLayout,
+            wgpu::BindGroupLayout,
+        ),
+    ) -> Result<Kernels, GpuError> {
+        let device = &ctx.device;
+        let base = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("base"),
+            bind_group_layouts: &[Some(&layouts.0), Some(&layouts.1)],
+            immediate_size: 0,
+        });
+        let with_g2 = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("with group 2"),
+            bind_group_layouts: &[Some(&layouts.0), Some(&layouts.1), Some(&layouts.2)],
+            immediate_size: 0,
+        });
+        let bin_src = [COMMON, BINDINGS, ARGS, BIN].concat();
+        let modules: Vec<(&str, String)> = vec![
+            ("bin", bin_src.clone()),
+            ("scan", [COMMON, BINDINGS, SCAN].concat()),
+            ("sort", [COMMON, BINDINGS, SORT].concat()),
+            ("pairs", [bin_src.as_str(), PAIRS].concat()),
+            ("forces", [COMMON, BINDINGS, NARROW, FORCES].concat()),
+            ("integrate", [COMMON, BINDINGS, INTEGRATE].concat()),
+        ];
+        let kernels: &[(&str, &str, Extra)] = &[
+            ("bin", "prepare", Extra::Args),
+            ("bin", "bbox", Extra::None),
+            ("bin", "grid_size", Extra::None),
+            ("bin", "bin", Extra::None),
+            ("bin", "copy_cells", Extra::None),
+            ("scan", "scan_block", Extra::Scan),
+            ("scan", "scan_add", Extra::Scan),
+            ("sort", "scatter", Extra::None),
+            ("sort", "sort_cells", Extra::None),
+            ("pairs", "count_pairs", Extra::None),
+            ("pairs", "pairs_total", Extra::Args),
+            ("pairs", "fill_pairs", Extra::None),
+            ("pairs", "carry", Extra::None),
+            ("pairs", "commit", Extra::None),
+            ("pairs", "count_b", Extra::None),
+            ("pairs", "copy_b", Extra::None),
+            ("pairs", "fill_b", Extra::None),
+            ("pairs", "sort_b", Extra::None),
+            ("forces", "contacts", Extra::None),
+            ("forces", "wall_contacts", Extra::None),
+            ("integrate", "integrate", Extra::None),
+            ("integrate", "end_step", Extra::None),
+        ];
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut compiled = Vec::new();
+        for (name, src) in &modules {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(src.as_str().into()),
+            });
+            compiled.push((*name, module));
+        }
+        let mut out = Kernels {
+            pipelines: Vec::new(),
+            extra: Vec::new(),
+            names: Vec::new(),
+        };
+        for &(module, entry_point, extra) in kernels {
+            let m = &compiled
+                .iter()
+                .find(|(n, _)| *n == module)
+                .expect("module listed")
+                .1;
+            let layout = if extra == Extra::None {
+                &base
+            } else {
+                &with_g2
+            };
+            out.pipelines.push(
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry_point),
+                    layout: Some(layout),
+                    module: m,
+                    entry_point: Some(entry_point),
+                    compilation_options: Default::default(),
+                    cache: None,
+                }),
+            );
+            out.extra.push(extra);
+            out.names.push(entry_point);
+        }
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(GpuError::Runtime {
+                adapter: ctx.adapter_name(),
+                message: format!("shader compilation failed: {e}"),
+            });
+        }
+        Ok(out)
+    }
+
+    /// Plans the scans, writes the argument template and the bind groups, and records the
+    /// list of dispatches of one step.
+    fn record(&mut self) -> Result<(), GpuError> {
+        let device = &self.ctx.device;
+        let n = self.n as u64;
+        let max_cells = self.params.max_cells as u64;
+        let mut template: Vec<[u32; 3]> = vec![[0; 3]; arg::FIRST_SCAN as usize];
+        let groups = |count: u64| count.div_ceil(WG as u64) as u32;
+        let set = |t: &mut Vec<[u32; 3]>, slot: u32, g: u32| {
+            let (x, y) = split(g);
+            t[slot as usize] = [x, y, 1];
+        };
+        set(&mut template, arg::BODIES_REBUILD, groups(n + 1));
+        set(&mut template, arg::CELLS_REBUILD, groups(max_cells + 1));
+        // Scan level buffers: sums of 256-blocks until one block remains.
+        let levels = |len: u64| {
+            let mut v = vec![len];
+            while *v.last().expect("non-empty") > WG as u64 {
+                let l = v.last().expect("non-empty").div_ceil(WG as u64);
+                v.push(l);
+            }
+            v
+        };
+        let cell_levels = levels(max_cells + 1);
+        let body_levels = levels(n + 1);
+        let usage = wgpu::BufferUsages::STORAGE;
+        let make_sums = |lv: &[u64], label: &str| -> Vec<wgpu::Buffer> {
+            lv[1..]
+                .iter()
+                .map(|&l| {
+                    device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some(label),
+                        size: 4 * l,
+                        usage,
+                        mapped_at_creation: false,
+                    })
+                })
+                .collect()
+        };
+        self.cell_scan_sums = make_sums(&cell_levels, "cell scan sums");
+        self.body_scan_sums = make_sums(&body_levels, "body scan sums");
+        self.scans.clear();
+        let plan = |data: &wgpu::Buffer,
+                    sums: &[wgpu::Buffer],
+                    lv: &[u64],
+                    template: &mut Vec<[u32; 3]>,
+                    scans: &mut Vec<wgpu::BindGroup>|
+         -> ScanPlan {
+            let mut p = ScanPlan {
+                groups: Vec::new(),
+                bind_groups: Vec::new(),
+                slots: Vec::new(),
+            };
+            for (l, &len) in lv.iter().enumerate() {
+                let d = if l == 0 { data } else { &sums[l - 1] };
+                let s = sums.get(l).unwrap_or(&self.scan_dummy);
+                let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("scan level"),
+                    layout: &self.layouts[2],
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: d.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: s.as_entire_binding(),
+                        },
+                    ],
+                });
+                let g = groups(len);
+                let slot = template.len() as u32;
+                template.push([0; 3]);
+                let (x, y) = split(g);
+                template[slot as usize] = [x, y, 1];
+                p.groups.push(g);
+                p.bind_groups.push(bg);
+                p.slots.push(slot);
+            }
+            // Bind groups are referenced by index into `scans`.
+            let base = scans.len();
+            scans.append(&mut p.bind_groups);
+            p.bind_groups = Vec::new();
+            p.groups.push(base as u32);
+            p
+        };
+        let mut scans = Vec::new();
+        let cell_plan = plan(
+            &self.cell_start,
+            &self.cell_scan_sums,
+            &cell_levels,
+            &mut template,
+            &mut scans,
+        );
+        let a_plan = plan(
+            &self.new_a_start,
+            &self.body_scan_sums,
+            &body_levels,
+            &mut template,
+            &mut scans,
+        );
+        let b_plan = plan(
+            &self.b_start,
+            &self.body_scan_sums,
+            &body_levels,
+            &mut template,
+            &mut scans,
+        );
+        self.scans = scans;
+        self.params.num_args = template.len() as u32;
+        let flat: Vec<u32> = template.iter().flatten().copied().collect();
+        let args_usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::INDIRECT
+            | wgpu::BufferUsages::COPY_DST;
+        self.args = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("args"),
+            contents: bytemuck::cast_slice(&vec![0u32; flat.len()]),
+            usage: args_usage,
+        });
+        self.arg_template = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("arg template"),
+            contents: bytemuck::cast_slice(&flat),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        self.ctx
+            .queue
+            .write_buffer(&self.params_buf, 0, bytemuck::bytes_of(&self.params));
+        let buffers = [
+            &self.params_buf,
+            &self.bodies,
+            &self.statics,
+            &self.pair_table,
+            &self.walls,
+            &self.status_buf,
+            &self.grid,
+            &self.keys,
+            &self.sorted,
+            &self.cell_count,
+            &self.cell_start,
+            &self.rebuild_pos,
+            &self.new_a_start,
+            &self.a_start,
+            &self.new_pairs,
+            &self.pairs,
+            &self.new_hist,
+            &self.hist,
+            &self.touching,
+            &self.forces,
+            &self.b_count,
+            &self.b_start,
+            &self.b_adj,
+            &self.wall_hist,
+            &self.wall_forces,
+            &self.wall_touching,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        self.group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("simulation"),
+            layout: &self.layouts[0],
+            entries: &entries,
+        });
+        self.group1 = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shapes"),
+            layout: &self.layouts[1],
+            entries: &self.shapes.bind_entries(),
+        });
+        self.args_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("args"),
+            layout: &self.layouts[2],
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.args.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.arg_template.as_entire_binding(),
+                },
+            ],
+        });
+        // The step, in order.
+        let k = |name: &str| self.kernels.index(name);
+        let mut ops = Vec::new();
+        let mut op = |name: &str, size: Size| {
+            ops.push(Op {
+                pipeline: k(name),
+                size,
+                scan: 0,
+            })
+        };
+        let bodies_rb = Size::Indirect(arg::BODIES_REBUILD);
+        let cells_rb = Size::Indirect(arg::CELLS_REBUILD);
+        op("prepare", Size::Single);
+        op("bbox", bodies_rb);
+        op("grid_size", Size::Single);
+        op("bin", bodies_rb);
+        op("copy_cells", cells_rb);
+        let scan_ops = |ops: &mut Vec<Op>, p: &ScanPlan| {
+            let base = *p.groups.last().expect("base index") as usize;
+            let nlev = p.slots.len();
+            for l in 0..nlev {
+                ops.push(Op {
+                    pipeline: k("scan_block"),
+                    size: Size::Indirect(p.slots[l]),
+                    scan: base + l,
+                });
+            }
+            for l in (0..nlev.saturating_sub(1)).rev() {
+                ops.push(Op {
+                    pipeline: k("scan_add"),
+                    size: Size::Indirect(p.slots[l]),
+                    scan: base + l,
+                });
+            }
+        };
+        scan_ops(&mut ops, &cell_plan);
+        let op = |ops: &mut Vec<Op>, name: &str, size: Size| {
+            ops.push(Op {
+                pipeline: k(name),
+                size,
+                scan: 0,
+            })
+        };
+        op(&mut ops, "scatter", bodies_rb);
+        op(&mut ops, "sort_cells", cells_rb);
+        op(&mut ops, "count_pairs", bodies_rb);
+        scan_ops(&mut ops, &a_plan);
+        op(&mut ops, "pairs_total", Size::Single);
+        op(&mut ops, "fill_pairs", bodies_rb);
+        op(&mut ops, "carry", Size::Indirect(arg::PAIRS_NEW));
+        op(&mut ops, "commit", Size::Indirect(arg::COMMIT));
+        op(&mut ops, "count_b", Size::Indirect(arg::PAIRS_NEW));
+        op(&mut ops, "copy_b", bodies_rb);
+        scan_ops(&mut ops, &b_plan);
+        op(&mut ops, "fill_b", Size::Indirect(arg::PAIRS_NEW));
+        op(&mut ops, "sort_b", bodies_rb);
+        op(&mut ops, "contacts", Size::Indirect(arg::PAIRS));
+        if self.num_walls > 0 {
+            op(
+                &mut ops,
+                "wall_contacts",
+                Size::Direct(groups(n * self.num_walls as u64)),
+            );
+        }
+        op(&mut ops, "integrate", Size::Direct(groups(n)));
+        op(&mut ops, "end_step", Size::Single);
+        self.ops = ops;
+        Ok(())
+    }
+
+    /// Records `steps` steps into `encoder`.
+    fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, steps: u64) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("steps"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.group0, &[]);
+        pass.set_bind_group(1, &self.group1, &[]);
+        for _ in 0..steps {
+            for op in &self.ops {
+                pass.set_pipeline(&self.kernels.pipelines[op.pipeline]);
+                match self.kernels.extra[op.pipeline] {
+                    Extra::None => {}
+                    Extra::Args => pass.set_bind_group(2, &self.args_group, &[]),
+                    Extra::Scan => pass.set_bind_group(2, &self.scans[op.scan], &[]),
+                }
+                match op.size {
+                    Size::Single => pass.dispatch_workgroups(1, 1, 1),
+                    Size::Indirect(slot) => {
+                        pass.dispatch_workgroups_indirect(&self.args, slot as u64 * 12)
+                    }
+                    Size::Direct(g) => {
+                        let (x, y) = split(g);
+                        if x > 0 {
+                            pass.dispatch_workgroups(x, y, 1);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Advances the simulation by `steps` steps on the GPU (no body state comes back).
+    /// Returns the number of contacts touching in the last step.
+    pub fn step(&mut self, steps: u64) -> Result<StepReport, GpuError> {
+        let target = self.gpu_steps + steps;
+        let mut guard = 0;
+        while self.gpu_steps < target {
+            let batch = (target - self.gpu_steps).min(BATCH);
+            let mut encoder =
+                self.ctx
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("step"),
+                    });
+            if self.n > 0 {
+                self.encode_steps(&mut encoder, batch);
+            }
+            self.ctx.queue.submit([encoder.finish()]);
+            let st = if self.n > 0 {
+                self.read_status()?
+            } else {
+                let mut s = self.last_status;
+                s[status::STEPS] = s[status::STEPS].wrapping_add(batch as u32);
+                s
+            };
+            let done = st[status::STEPS].wrapping_sub(self.last_status[status::STEPS]) as u64;
+            self.gpu_steps += done;
+            self.last_status = st;
+            if st[status::BAD_BODY] != u32::MAX {
+                return Ok(StepReport {
+                    bad_body: Some(st[status::BAD_BODY] as usize),
+                    touching: st[status::TOUCHING] as usize,
+                    steps_done: self.gpu_steps,
+                });
+            }
+            if st[status::OVERFLOW] != 0 {
+                self.grow(st[status::PAIRS_NEEDED] as u64)?;
+                guard += 1;
+                if guard > 8 {
+                    return Err(GpuError::Runtime {
+                        adapter: self.ctx.adapter_name(),
+                        message: "the pair list kept overflowing".into(),
+                    });
+                }
+            }
+        }
+        Ok(StepReport {
+            bad_body: None,
+            touching: self.last_status[status::TOUCHING] as usize,
+            steps_done: self.gpu_steps,
+        })
+    }
+
+    /// Grows the pair buffers to hold `needed` pairs (with room to spare), keeping the old
+    /// list and springs, and lets the stopped step run again.
+    fn grow(&mut self, needed: u64) -> Result<(), GpuError> {
+        let capacity = (needed + needed / 2).max(self.params.pair_capacity as u64 * 2);
+        Self::check_fits(&self.ctx, self.n as u64, capacity, self.num_walls as u64)?;
+        let device = &self.ctx.device;
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let make = |label: &str, size: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let pairs = make("pairs", 8 * capacity);
+        let hist = make("hist", 16 * capacity);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(&self.pairs, 0, &pairs, 0, self.pairs.size());
+        encoder.copy_buffer_to_buffer(&self.hist, 0, &hist, 0, self.hist.size());
+        self.pairs = pairs;
+        self.hist = hist;
+        self.new_pairs = make("new_pairs", 8 * capacity);
+        self.new_hist = make("new_hist", 16 * capacity);
+        self.touching = make("touching", 4 * capacity);
+        self.forces = make("forces", 48 * capacity);
+        self.b_adj = make("b_adj", 4 * capacity);
+        // Resume: clear the overflow, ask for the rebuild again.
+        let mut st = self.last_status;
+        st[status::OVERFLOW] = 0;
+        st[status::REBUILD] = 1;
+        self.ctx
+            .queue
+            .write_buffer(&self.status_buf, 0, bytemuck::cast_slice(&st));
+        self.ctx.queue.submit([encoder.finish()]);
+        self.params.pair_capacity = capacity as u32;
+        self.record()?;
+        self.last_status = st;
+        self.ctx.wait()
+    }
+
+    fn read_status(&self) -> Result<[u32; status::LEN], GpuError> {
+        let bytes = self.read_buffer(&self.status_buf, 0, 4 * status::LEN as u64)?;
+        let mut st = [0u32; status::LEN];
+        st.copy_from_slice(bytemuck::cast_slice(&bytes));
+        Ok(st)
+    }
+
+    /// Copies `size` bytes at `offset` of `buffer` back to the host (waits for the GPU).
+    pub fn read_buffer(
+        &self,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Result<Vec<u8>, GpuError> {
+        read_buffer(&self.ctx, buffer, offset, size)
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.n as usize
+    }
+
+    /// True when there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The device this world lives on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// The body state buffer (`BodyState` records in body order), e.g. for the renderer to
+    /// draw from without a round trip through the host.
+    pub fn body_buffer(&self) -> &wgpu::Buffer {
+        &self.bodies
+    }
+
+    /// Steps taken on the GPU since upload.
+    pub fn steps_taken(&self) -> u64 {
+        self.gpu_steps
+    }
+
+    /// Broad-phase rebuilds so far on the GPU.
+    pub fn rebuilds(&self) -> u64 {
+        self.last_status[status::REBUILDS] as u64
+    }
+
+    /// The body states.
+    pub fn read_states(&self) -> Result<Vec<BodyState>, GpuError> {
+        let bytes = self.read_buffer(&self.bodies, 0, 96 * self.n as u64)?;
+        Ok(bytemuck::cast_slice(&bytes).to_vec())
+    }
+
+    /// Copies the GPU state back into `world` (the world it was created from): body state,
+    /// step count, time, and the contact list with its springs and forces, so outputs,
+    /// health checks and checkpoints work on it as after CPU steps.
+    pub fn read_into(&self, world: &mut World) -> Result<(), GpuError> {
+        let states = self.read_states()?;
+        for (i, s) in states.iter().enumerate() {
+            let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+            let q = |a: [f32; 4]| Quat::from_xyzw(a[0], a[1], a[2], a[3]);
+            world.position[i] = v3(s.position);
+            world.velocity[i] = v3(s.velocity);
+            world.orientation[i] = q(s.orientation);
+            world.set_orientation_residual(i, q(s.residual));
+            world.angular_momentum[i] = v3(s.angular_momentum);
+            world.omega[i] = v3(s.omega);
+        }
+        world.step_count = self.base_step + self.gpu_steps;
+        // The same sum as the CPU's `time += dt` per step.
+        let mut t = self.base_time;
+        for _ in 0..self.gpu_steps {
+            t += self.dt as f64;
+        }
+        world.time = t;
+        world.set_contact_state(self.contact_state()?);
+        Ok(())
+    }
+
+    /// The contact list and springs (see [`ContactState`]).
+    pub fn contact_state(&self) -> Result<ContactState, GpuError> {
+        let n = self.n as usize;
+        let np = self.last_status[status::PAIRS] as usize;
+        let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        let pairs_bytes = self.read_buffer(&self.pairs, 0, 8 * np as u64)?;
+        let hist_bytes = self.read_buffer(&self.hist, 0, 16 * np as u64)?;
+        let touch_bytes = self.read_buffer(&self.touching, 0, 4 * np as u64)?;
+        let force_bytes = self.read_buffer(&self.forces, 0, 48 * np as u64)?;
+        let ns = n * self.num_walls as usize;
+        let wh = self.read_buffer(&self.wall_hist, 0, 16 * ns as u64)?;
+        let wt = self.read_buffer(&self.wall_touching, 0, 4 * ns as u64)?;
+        let wf = self.read_buffer(&self.wall_forces, 0, 48 * ns as u64)?;
+        let rb = self.read_buffer(&self.rebuild_pos, 0, 16 * n as u64)?;
+        let hist: &[[f32; 4]] = bytemuck::cast_slice(&hist_bytes);
+        let wall_hist: &[[f32; 4]] = bytemuck::cast_slice(&wh);
+        let forces: &[GpuContactForce] = bytemuck::cast_slice(&force_bytes);
+        let wall_forces: &[GpuContactForce] = bytemuck::cast_slice(&wf);
+        let rebuilt = self.last_status[status::REBUILDS] > 0;
+        Ok(ContactState {
+            rebuild_position: if rebuilt {
+                bytemuck::cast_slice::<u8, [f32; 4]>(&rb)
+                    .iter()
+                    .map(|&p| v3(p))
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            pairs: bytemuck::cast_slice(&pairs_bytes).to_vec(),
+            history: hist.iter().map(|&h| v3(h)).collect(),
+            twist: hist.iter().map(|h| h[3]).collect(),
+            touching: bytemuck::cast_slice::<u8, u32>(&touch_bytes)
+                .iter()
+                .map(|&t| t != 0)
+                .collect(),
+            forces: forces.iter().map(from_gpu_force).collect(),
+            wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
+            wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
+            wall_touching: bytemuck::cast_slice::<u8, u32>(&wt)
+                .iter()
+                .map(|&t| t != 0)
+                .collect(),
+            wall_forces: wall_forces.iter().map(from_gpu_force).collect(),
+        })
+    }
+
+    /// Reads a named stage buffer (for the stage-by-stage tests): `keys`, `sorted`,
+    /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`.
+    pub fn debug_buffer(&self, name: &str) -> Result<Vec<u8>, GpuError> {
+        let b = match name {
+            "keys" => &self.keys,
+            "sorted" => &self.sorted,
+            "cell_start" => &self.cell_start,
+            "a_start" => &self.a_start,
+            "pairs" => &self.pairs,
+            "b_start" => &self.b_start,
+            "b_adj" => &self.b_adj,
+            "forces" => &self.forces,
+            "wall_forces" => &self.wall_forces,
+            "grid" => &self.grid,
+            "status" => &self.status_buf,
+            _ => {
+                return Err(GpuError::Unsupported(format!(
+                    "no stage buffer named {name}"
+                )));
+            }
+        };
+        self.read_buffer(b, 0, b.size())
+    }
+}
+
+/// What [`GpuWorld::step`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepReport {
+    /// The first body whose state became non-finite (the GPU stopped at that step).
+    pub bad_body: Option<usize>,
+    /// Contacts touching in the last step.
+    pub touching: usize,
+    /// Steps taken on the GPU since upload.
+    pub steps_done: u64,
+}
+
+fn to_gpu_force(f: &ContactForce) -> GpuContactForce {
+    GpuContactForce {
+        force_b: [f.force_b.x, f.force_b.y, f.force_b.z, f.normal_force],
+        torque_a: [f.torque_a.x, f.torque_a.y, f.torque_a.z, 0.0],
+        torque_b: [f.torque_b.x, f.torque_b.y, f.torque_b.z, 0.0],
+    }
+}
+
+fn from_gpu_force(f: &GpuContactForce) -> ContactForce {
+    ContactForce {
+        force_b: Vec3::new(f.force_b[0], f.force_b[1], f.force_b[2]),
+        torque_a: Vec3::new(f.torque_a[0], f.torque_a[1], f.torque_a[2]),
+        torque_b: Vec3::new(f.torque_b[0], f.torque_b[1], f.torque_b[2]),
+        normal_force: f.force_b[3],
+    }
+}
+
+fn dummy_group(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+    let b = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("placeholder"),
+        size: 16,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("placeholder"),
+        layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: b.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: b.as_entire_binding(),
+            },
+        ],
+    })
+}
+
+/// Copies `size` bytes at `offset` of `buffer` (which needs `COPY_SRC`) back to the host.
+pub fn read_buffer(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    offset: u64,
+    size: u64,
+) -> Result<Vec<u8>, GpuError> {
+    if size == 0 {
+        return Ok(Vec::new());
+    }
+    let size4 = size.next_multiple_of(4);
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: size4,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size4);
+    ctx.queue.submit([encoder.finish()]);
+    let slice = staging.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |_| {});
+    ctx.wait()?;
+    let view = slice.get_mapped_range().map_err(|e| GpuError::Runtime {
+        adapter: ctx.adapter_name(),
+        message: format!("readback failed: {e}"),
+    })?;
+    let out = view[..size as usize].to_vec();
+    drop(view);
+    staging.unmap();
+    Ok(out)
+}

@@ -1,0 +1,266 @@
+//! The GPU pipeline against the CPU pipeline, stage by stage, on random scenes: identical cell
+//! keys, sorted order, cell ranges and pair lists (bitwise: these are integers), forces and
+//! torques within 1e-5 relative, and short trajectories within a tight tolerance.
+
+use std::sync::Arc;
+
+use clatter::broad::{self, Grid};
+use clatter::geom::narrow::Plane;
+use clatter::geom::{RegularKind, ShapeKind};
+use clatter::scene::random_rotation;
+use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
+use clatter_gpu::GpuWorld;
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn material(law: ContactLaw) -> Material {
+    Material {
+        name: "m".into(),
+        density: 2500.0,
+        law,
+        restitution: 0.4,
+        friction: 0.5,
+    }
+}
+
+/// A box of `n` random bodies (shapes chosen from `shapes`), overlapping a little, moving
+/// and spinning, with gravity and six walls.
+fn scene(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool) -> World {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let shapes: Vec<_> = shapes
+        .iter()
+        .map(|s| s.prepare().expect("valid shape"))
+        .collect();
+    let side = 0.01 * (n as f32).cbrt() * 2.2;
+    let bodies = (0..n)
+        .map(|_| {
+            let mut u = || rng.random_range(-1.0f32..1.0);
+            let position = Vec3::new(u(), u(), u()) * side * 0.45;
+            let velocity = Vec3::new(u(), u(), u()) * 0.5;
+            let angular_velocity = Vec3::new(u(), u(), u()) * 20.0;
+            BodyInit {
+                shape: rng.random_range(0..shapes.len()) as u32,
+                material: rng.random_range(0..2),
+                position,
+                orientation: random_rotation(&mut rng),
+                velocity,
+                angular_velocity,
+            }
+        })
+        .collect();
+    let law = |k: f32| {
+        if hertz {
+            ContactLaw::Hertz {
+                youngs_modulus: k,
+                poisson_ratio: 0.3,
+            }
+        } else {
+            ContactLaw::Linear { stiffness: k }
+        }
+    };
+    let (k1, k2) = if hertz { (5e7, 2e8) } else { (2e4, 5e4) };
+    let walls = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+        .iter()
+        .map(|&normal| Wall {
+            plane: Plane {
+                normal,
+                offset: -side * 0.5,
+            },
+            material: 1,
+        })
+        .collect();
+    World::new(WorldDesc {
+        shapes,
+        materials: vec![material(law(k1)), material(law(k2))],
+        walls,
+        bodies,
+        gravity: Vec3::new(0.0, 0.0, -9.81),
+        dt: None,
+        skin: None,
+    })
+}
+
+fn spheres() -> Vec<ShapeKind> {
+    [0.004, 0.005, 0.007]
+        .iter()
+        .map(|&radius| ShapeKind::Sphere { radius })
+        .collect()
+}
+
+fn u32s(b: &[u8]) -> Vec<u32> {
+    bytemuck::cast_slice(b).to_vec()
+}
+
+/// Stages 1-3 (bin, sort, pairs) and the b-side adjacency after the first step's rebuild.
+fn check_broad_phase(world: &World, gpu: &GpuWorld) {
+    let rmax = world.radius.iter().copied().fold(0.0, f32::max);
+    let grid = Grid::around(&world.position, 2.0 * rmax + world.skin);
+    let keys = broad::bin(&grid, &world.position);
+    let (sorted, start) = broad::sort(&keys, grid.cell_count());
+    let pairs = broad::pairs(&grid, &world.position, &world.radius, world.skin);
+    let n = world.len();
+    let gpu_keys = u32s(&gpu.debug_buffer("keys").unwrap());
+    assert_eq!(&gpu_keys[..n], &keys[..], "cell keys");
+    let gpu_sorted = u32s(&gpu.debug_buffer("sorted").unwrap());
+    assert_eq!(&gpu_sorted[..n], &sorted[..], "sorted order");
+    let gpu_start = u32s(&gpu.debug_buffer("cell_start").unwrap());
+    assert_eq!(&gpu_start[..start.len()], &start[..], "cell ranges");
+    let gpu_pairs: Vec<[u32; 2]> =
+        bytemuck::cast_slice(&gpu.debug_buffer("pairs").unwrap()).to_vec();
+    assert_eq!(&gpu_pairs[..pairs.len()], &pairs[..], "pair list");
+    assert_eq!(
+        pairs,
+        broad::pairs_brute_force(&world.position, &world.radius, world.skin),
+        "the CPU's pairs are all pairs"
+    );
+    // b-side adjacency: for each body, the pairs where it is second, in pair order.
+    let b_start = u32s(&gpu.debug_buffer("b_start").unwrap());
+    let b_adj = u32s(&gpu.debug_buffer("b_adj").unwrap());
+    for i in 0..n {
+        let expect: Vec<u32> = (0..pairs.len() as u32)
+            .filter(|&c| pairs[c as usize][1] == i as u32)
+            .collect();
+        let got = &b_adj[b_start[i] as usize..b_start[i + 1] as usize];
+        assert_eq!(got, &expect[..], "b-side pairs of body {i}");
+    }
+    eprintln!(
+        "broad phase: {n} bodies, {} cells, {} pairs identical",
+        grid.cell_count(),
+        pairs.len()
+    );
+}
+
+fn rel_close(a: Vec3, b: Vec3, scale: f32, tol: f32) -> bool {
+    (a - b).length() <= tol * scale.max(1e-30)
+}
+
+/// Stage 4-5: the first step's forces per contact, GPU against CPU.
+fn check_forces(cpu: &World, gpu_state: &clatter::ContactState) {
+    let c = cpu.contact_state();
+    assert_eq!(c.pairs, gpu_state.pairs, "pair lists");
+    let scale = c
+        .forces
+        .iter()
+        .chain(&c.wall_forces)
+        .map(|f| f.force_b.length())
+        .fold(0.0, f32::max);
+    let tscale = c
+        .forces
+        .iter()
+        .chain(&c.wall_forces)
+        .map(|f| f.torque_a.length().max(f.torque_b.length()))
+        .fold(0.0, f32::max);
+    assert!(scale > 0.0, "the scene has contacts");
+    let mut touching = 0;
+    for (k, (a, b)) in c.forces.iter().zip(&gpu_state.forces).enumerate() {
+        assert_eq!(c.touching[k], gpu_state.touching[k], "touching of pair {k}");
+        touching += c.touching[k] as usize;
+        assert!(
+            rel_close(a.force_b, b.force_b, scale, 1e-5),
+            "pair {k} {:?}: force {} vs {}",
+            c.pairs[k],
+            a.force_b,
+            b.force_b
+        );
+        assert!(
+            rel_close(a.torque_a, b.torque_a, tscale, 1e-5),
+            "pair {k} torque a {} vs {} (scale {tscale})",
+            a.torque_a,
+            b.torque_a
+        );
+        assert!(
+            rel_close(a.torque_b, b.torque_b, tscale, 1e-5),
+            "pair {k} torque b"
+        );
+    }
+    for (k, (a, b)) in c.wall_forces.iter().zip(&gpu_state.wall_forces).enumerate() {
+        assert_eq!(
+            c.wall_touching[k], gpu_state.wall_touching[k],
+            "wall slot {k}"
+        );
+        touching += c.wall_touching[k] as usize;
+        assert!(
+            rel_close(a.force_b, b.force_b, scale, 1e-5),
+            "wall slot {k} force"
+        );
+        assert!(
+            rel_close(a.torque_b, b.torque_b, tscale, 1e-5),
+            "wall slot {k} torque"
+        );
+    }
+    eprintln!("forces: {touching} touching contacts agree within 1e-5 of the largest");
+    assert!(
+        touching > 10,
+        "too few contacts to mean anything: {touching}"
+    );
+}
+
+fn compare_run(mut cpu: World, steps: u64, tol: f32) {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let ctx = Arc::new(ctx);
+    let initial = cpu.clone();
+    let mut gpu = GpuWorld::new(ctx, &cpu).expect("scene fits");
+    gpu.step(1).expect("one GPU step");
+    check_broad_phase(&initial, &gpu);
+    cpu.step().expect("one CPU step");
+    check_forces(&cpu, &gpu.contact_state().expect("readback"));
+    // A short trajectory.
+    let mut back = initial.clone();
+    for _ in 1..steps {
+        cpu.step().expect("CPU step");
+    }
+    gpu.step(steps - 1).expect("GPU steps");
+    gpu.read_into(&mut back).expect("readback");
+    assert_eq!(back.step_count, cpu.step_count);
+    assert_eq!(back.time, cpu.time);
+    let size = 2.0 * cpu.radius.iter().copied().fold(0.0, f32::max);
+    let mut worst = 0.0f32;
+    for i in 0..cpu.len() {
+        worst = worst.max((back.position[i] - cpu.position[i]).length());
+        let dq = (back.orientation[i].dot(cpu.orientation[i]).abs() - 1.0).abs();
+        assert!(dq < 1e-4, "body {i} orientation drifted: {dq}");
+    }
+    eprintln!(
+        "trajectory: {steps} steps, {} bodies, worst position difference {:.3e} m ({:.3e} of a body size), {} rebuilds GPU / {} CPU",
+        cpu.len(),
+        worst,
+        worst / size,
+        gpu.rebuilds(),
+        cpu.rebuilds
+    );
+    assert!(worst < tol * size, "trajectories diverged: {worst} m");
+    // Contacts agree at the end too.
+    assert_eq!(
+        back.touching_pairs(),
+        cpu.touching_pairs(),
+        "touching pairs"
+    );
+}
+
+#[test]
+fn spheres_linear_match_cpu_stage_by_stage() {
+    compare_run(scene(600, 1, spheres(), false), 300, 1e-3);
+}
+
+#[test]
+fn spheres_hertz_match_cpu_stage_by_stage() {
+    compare_run(scene(400, 2, spheres(), true), 200, 1e-3);
+}
+
+#[test]
+fn polyhedra_match_cpu_stage_by_stage() {
+    let mut shapes = spheres();
+    for kind in RegularKind::ALL {
+        shapes.push(ShapeKind::Regular {
+            kind,
+            radius: 0.006,
+        });
+    }
+    shapes.push(ShapeKind::Box {
+        half_extents: [0.006, 0.004, 0.003],
+    });
+    compare_run(scene(400, 3, shapes, false), 200, 1e-3);
+}
