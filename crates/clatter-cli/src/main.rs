@@ -1,5 +1,6 @@
 //! `clatter`: run DEM scenes, benchmark the step, answer collision queries.
 
+mod backend;
 mod bench;
 mod energy;
 mod output;
@@ -48,6 +49,10 @@ enum Command {
         /// Print nothing but errors.
         #[arg(long, short)]
         quiet: bool,
+        /// Which pipeline steps the world: gpu, cpu, or auto (the GPU when a hardware
+        /// adapter is found and the scene fits it, else the CPU, saying which and why).
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: backend::Backend,
     },
     /// Continue a run from a checkpoint (DIR/checkpoint.ckpt or DIR/last_good.ckpt) to the
     /// end of its run, with the output options it was started with unless given again.
@@ -65,6 +70,10 @@ enum Command {
         /// Print nothing but errors.
         #[arg(long, short)]
         quiet: bool,
+        /// Which pipeline steps the world: gpu, cpu, or auto (the GPU when a hardware
+        /// adapter is found and the scene fits it, else the CPU, saying which and why).
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: backend::Backend,
     },
     /// Time the step on a settled pile and print bodies vs steps/s.
     Bench {
@@ -119,9 +128,11 @@ fn main() -> ExitCode {
             threads,
             steps,
             quiet,
+            backend,
         } => init_threads(threads).and_then(|_| {
             run::run(run::RunArgs {
                 scene,
+                backend,
                 output,
                 steps,
                 quiet,
@@ -133,9 +144,11 @@ fn main() -> ExitCode {
             threads,
             steps,
             quiet,
+            backend,
         } => init_threads(threads).and_then(|_| {
             run::resume(run::ResumeArgs {
                 checkpoint,
+                backend,
                 output,
                 steps,
                 quiet,

@@ -14,6 +14,7 @@ use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use crate::backend::{Backend, Engine};
 use crate::energy::EnergySeries;
 use crate::output::{AtomicFile, STATE_HEADER, carry_rows, write_state_rows};
 use crate::vtk;
@@ -76,6 +77,7 @@ pub struct OutputArgs {
 /// Arguments of `clatter run`.
 pub struct RunArgs {
     pub scene: Option<PathBuf>,
+    pub backend: Backend,
     pub output: OutputArgs,
     pub steps: Option<u64>,
     pub quiet: bool,
@@ -84,6 +86,7 @@ pub struct RunArgs {
 /// Arguments of `clatter resume`.
 pub struct ResumeArgs {
     pub checkpoint: PathBuf,
+    pub backend: Backend,
     pub output: OutputArgs,
     pub steps: Option<u64>,
     pub quiet: bool,
@@ -131,6 +134,7 @@ struct Plan {
     health: Health,
     resumed: bool,
     quiet: bool,
+    backend: Backend,
 }
 
 impl Plan {
@@ -293,6 +297,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             health,
             resumed: false,
             quiet: args.quiet,
+            backend: args.backend,
             scene,
             scene_text: text,
         },
@@ -352,6 +357,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
             health,
             resumed: true,
             quiet: args.quiet,
+            backend: args.backend,
             scene_text: ckpt.scene_text.clone(),
             scene,
         },
@@ -394,6 +400,7 @@ impl Series {
 }
 
 fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
+    let mut engine = crate::backend::choose(plan.backend, &world, plan.quiet)?;
     let start = world.step_count;
     let steps = plan.end_step - start;
     if !plan.resumed {
@@ -473,19 +480,63 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     );
     let started = Instant::now();
     let mut max_contacts = world.contact_count();
-    for k in 0..steps {
-        let stats = match world.step() {
-            Ok(stats) => stats,
-            Err(e) => {
-                bar.finish_and_clear();
-                let b = plan.health.non_finite(&last_good, &e);
-                return Err(blown_up(&plan, b, &last_good, energy));
+    let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
+    let full_step =
+        |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;
+    // Whether step `s` (simulated time `t` after it) needs the state on the host.
+    let due = |s: u64, t: f64, next_checkpoint: Option<f64>| {
+        full_step(s)
+            || s.is_multiple_of(plan.check_every)
+            || (plan.out.is_some() && s.is_multiple_of(plan.energy_every))
+            || period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p))
+    };
+    let mut k = 0;
+    let mut last_bar = 0;
+    while k < steps {
+        let stats = match &mut engine {
+            Engine::Cpu => match world.step() {
+                Ok(stats) => {
+                    k += 1;
+                    stats
+                }
+                Err(e) => {
+                    bar.finish_and_clear();
+                    let b = plan.health.non_finite(&last_good, &e);
+                    return Err(blown_up(&plan, b, &last_good, energy));
+                }
+            },
+            Engine::Gpu(gpu) => {
+                // Run on the GPU up to the next step whose state is needed here.
+                let mut m = 1;
+                let mut t = world.time + world.dt as f64;
+                while k + m < steps && !due(world.step_count + m, t, next_checkpoint) {
+                    m += 1;
+                    t += world.dt as f64;
+                }
+                let report = gpu.step(m)?;
+                gpu.read_into(&mut world)?;
+                if let Some(body) = report.bad_body {
+                    bar.finish_and_clear();
+                    let e = clatter::SimError::NonFinite {
+                        body,
+                        step: world.step_count + 1,
+                        time: world.time + world.dt as f64,
+                        dt: world.dt,
+                    };
+                    let b = plan.health.non_finite(&last_good, &e);
+                    return Err(blown_up(&plan, b, &last_good, energy));
+                }
+                k += m;
+                clatter::StepStats {
+                    contacts: report.touching,
+                    rebuilt: false,
+                }
             }
         };
         max_contacts = max_contacts.max(stats.contacts);
         let s = world.step_count;
-        let output_step = plan.output_every.is_some_and(|n| s.is_multiple_of(n));
-        let full = s.is_multiple_of(FULL_CHECK_EVERY) || output_step || s == plan.end_step;
+        let output_step = output_step(s);
+        let full = full_step(s);
         if full || s.is_multiple_of(plan.check_every) {
             if let Err(b) = plan.health.check(&world, full) {
                 bar.finish_and_clear();
@@ -511,7 +562,8 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
                 *next = ((world.time + half_dt) / t).floor() + 1.0;
             }
         }
-        if k % 64 == 0 {
+        if k - last_bar >= 64 || matches!(engine, Engine::Gpu(_)) {
+            last_bar = k;
             bar.set_position(k);
             let rate = bar.per_sec();
             bar.set_message(format!("{rate:.0} steps/s, {} contacts", stats.contacts));
@@ -526,6 +578,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         println!("simulated time   {:.6} s", world.time);
         println!("steps            {steps}");
         println!("wall time        {elapsed:.3} s");
+        println!("backend          {}", engine.name());
         println!("steps/s          {steps_per_s:.1}");
         println!("body-steps/s     {:.3e}", steps_per_s * world.len() as f64);
         println!("contacts         {contacts} (max {max_contacts})");
@@ -567,6 +620,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         "wall_time_s": elapsed,
         "steps_per_s": steps_per_s,
         "threads": rayon::current_num_threads(),
+        "backend": engine.name(),
         "contacts": contacts,
         "max_contacts": max_contacts,
         "kinetic_energy": ke,

@@ -955,7 +955,7 @@ impl GpuWorld {
     fn read_status(&self) -> Result<[u32; status::LEN], GpuError> {
         let bytes = self.read_buffer(&self.status_buf, 0, 4 * status::LEN as u64)?;
         let mut st = [0u32; status::LEN];
-        st.copy_from_slice(bytemuck::cast_slice(&bytes));
+        st.copy_from_slice(&bytemuck::pod_collect_to_vec::<u8, u32>(&bytes));
         Ok(st)
     }
 
@@ -1003,7 +1003,7 @@ impl GpuWorld {
     /// The body states.
     pub fn read_states(&self) -> Result<Vec<BodyState>, GpuError> {
         let bytes = self.read_buffer(&self.bodies, 0, 96 * self.n as u64)?;
-        Ok(bytemuck::cast_slice(&bytes).to_vec())
+        Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 
     /// Copies the GPU state back into `world` (the world it was created from): body state,
@@ -1046,31 +1046,31 @@ impl GpuWorld {
         let wt = self.read_buffer(&self.wall_touching, 0, 4 * ns as u64)?;
         let wf = self.read_buffer(&self.wall_forces, 0, 48 * ns as u64)?;
         let rb = self.read_buffer(&self.rebuild_pos, 0, 16 * n as u64)?;
-        let hist: &[[f32; 4]] = bytemuck::cast_slice(&hist_bytes);
-        let wall_hist: &[[f32; 4]] = bytemuck::cast_slice(&wh);
-        let forces: &[GpuContactForce] = bytemuck::cast_slice(&force_bytes);
-        let wall_forces: &[GpuContactForce] = bytemuck::cast_slice(&wf);
+        let hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&hist_bytes);
+        let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
+        let forces: Vec<GpuContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
+        let wall_forces: Vec<GpuContactForce> = bytemuck::pod_collect_to_vec(&wf);
         let rebuilt = self.last_status[status::REBUILDS] > 0;
         Ok(ContactState {
             rebuild_position: if rebuilt {
-                bytemuck::cast_slice::<u8, [f32; 4]>(&rb)
+                bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&rb)
                     .iter()
                     .map(|&p| v3(p))
                     .collect()
             } else {
                 Vec::new()
             },
-            pairs: bytemuck::cast_slice(&pairs_bytes).to_vec(),
+            pairs: bytemuck::pod_collect_to_vec(&pairs_bytes),
             history: hist.iter().map(|&h| v3(h)).collect(),
             twist: hist.iter().map(|h| h[3]).collect(),
-            touching: bytemuck::cast_slice::<u8, u32>(&touch_bytes)
+            touching: bytemuck::pod_collect_to_vec::<u8, u32>(&touch_bytes)
                 .iter()
                 .map(|&t| t != 0)
                 .collect(),
             forces: forces.iter().map(from_gpu_force).collect(),
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
-            wall_touching: bytemuck::cast_slice::<u8, u32>(&wt)
+            wall_touching: bytemuck::pod_collect_to_vec::<u8, u32>(&wt)
                 .iter()
                 .map(|&t| t != 0)
                 .collect(),

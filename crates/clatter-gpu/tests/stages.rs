@@ -89,7 +89,7 @@ fn spheres() -> Vec<ShapeKind> {
 }
 
 fn u32s(b: &[u8]) -> Vec<u32> {
-    bytemuck::cast_slice(b).to_vec()
+    bytemuck::pod_collect_to_vec(b)
 }
 
 /// Stages 1-3 (bin, sort, pairs) and the b-side adjacency after the first step's rebuild.
@@ -107,7 +107,7 @@ fn check_broad_phase(world: &World, gpu: &GpuWorld) {
     let gpu_start = u32s(&gpu.debug_buffer("cell_start").unwrap());
     assert_eq!(&gpu_start[..start.len()], &start[..], "cell ranges");
     let gpu_pairs: Vec<[u32; 2]> =
-        bytemuck::cast_slice(&gpu.debug_buffer("pairs").unwrap()).to_vec();
+        bytemuck::pod_collect_to_vec(&gpu.debug_buffer("pairs").unwrap());
     assert_eq!(&gpu_pairs[..pairs.len()], &pairs[..], "pair list");
     assert_eq!(
         pairs,
