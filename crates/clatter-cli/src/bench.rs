@@ -10,6 +10,7 @@ use clatter::World;
 use clatter::pile::{PileParams, PileShape, pile};
 
 use crate::BenchShape;
+use crate::backend::{Backend, Engine};
 
 /// Arguments of `clatter bench`.
 pub struct BenchArgs {
@@ -19,6 +20,7 @@ pub struct BenchArgs {
     pub settle: u64,
     pub json: bool,
     pub emit_lammps: Option<PathBuf>,
+    pub backend: Backend,
 }
 
 /// One row of the table.
@@ -34,6 +36,7 @@ struct Row {
     threads: usize,
     dt: f32,
     rebuilds: u64,
+    backend: String,
 }
 
 /// Runs the benchmark for every body count.
@@ -61,29 +64,67 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             args.steps
         );
         println!(
-            "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}",
+            "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}  backend",
             "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step", "rebuilds"
         );
     }
     let mut rows = Vec::new();
     for &n in &args.bodies {
         let mut world = World::new(pile(shape, n, &params));
-        for _ in 0..args.settle {
-            world.step().context("the pile blew up while settling")?;
-        }
-        if let Some(dir) = &args.emit_lammps {
-            write_lammps(dir, &world, &params, args.steps)?;
-        }
-        let mut contacts = 0usize;
-        let rebuilds_before = world.rebuilds;
-        let start = Instant::now();
-        for _ in 0..args.steps {
-            contacts += world
-                .step()
-                .context("the pile blew up while timing")?
-                .contacts;
-        }
-        let secs = start.elapsed().as_secs_f64();
+        let engine = crate::backend::choose(args.backend, &world, args.json || !rows.is_empty())?;
+        let (secs, contacts, rebuilds, backend) = match engine {
+            Engine::Cpu => {
+                for _ in 0..args.settle {
+                    world.step().context("the pile blew up while settling")?;
+                }
+                if let Some(dir) = &args.emit_lammps {
+                    write_lammps(dir, &world, &params, args.steps)?;
+                }
+                let mut contacts = 0usize;
+                let rebuilds_before = world.rebuilds;
+                let start = Instant::now();
+                for _ in 0..args.steps {
+                    contacts += world
+                        .step()
+                        .context("the pile blew up while timing")?
+                        .contacts;
+                }
+                let secs = start.elapsed().as_secs_f64();
+                let contacts = contacts as f64 / args.steps as f64;
+                (
+                    secs,
+                    contacts,
+                    world.rebuilds - rebuilds_before,
+                    "cpu".to_string(),
+                )
+            }
+            Engine::Gpu(mut gpu) => {
+                // Settling is the warm-up: pipelines compiled, buffers resident.
+                let r = gpu.step(args.settle)?;
+                if r.bad_body.is_some() {
+                    anyhow::bail!("the pile blew up while settling on the GPU");
+                }
+                if let Some(dir) = &args.emit_lammps {
+                    gpu.read_into(&mut world)?;
+                    write_lammps(dir, &world, &params, args.steps)?;
+                }
+                let rebuilds_before = gpu.rebuilds();
+                // Wall clock around work that ends with a synchronising read.
+                let start = Instant::now();
+                let r = gpu.step(args.steps)?;
+                let secs = start.elapsed().as_secs_f64();
+                if r.bad_body.is_some() {
+                    anyhow::bail!("the pile blew up while timing on the GPU");
+                }
+                let name = format!("gpu ({})", gpu.context().adapter_name());
+                (
+                    secs,
+                    r.touching as f64,
+                    gpu.rebuilds() - rebuilds_before,
+                    name,
+                )
+            }
+        };
         let sps = args.steps as f64 / secs;
         let row = Row {
             shape: name,
@@ -91,21 +132,23 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             steps: args.steps,
             steps_per_s: sps,
             body_steps_per_s: sps * n as f64,
-            contacts_per_body: 2.0 * contacts as f64 / (args.steps as f64 * n as f64),
+            contacts_per_body: 2.0 * contacts / n as f64,
             ms_per_step: 1e3 * secs / args.steps as f64,
             threads: rayon::current_num_threads(),
             dt: world.dt,
-            rebuilds: world.rebuilds - rebuilds_before,
+            rebuilds,
+            backend,
         };
         if !args.json {
             println!(
-                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}",
+                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}  {}",
                 row.bodies,
                 row.steps_per_s,
                 row.body_steps_per_s,
                 row.contacts_per_body,
                 row.ms_per_step,
-                row.rebuilds
+                row.rebuilds,
+                row.backend
             );
         }
         rows.push(row);

@@ -99,6 +99,11 @@ enum Command {
         /// (for scripts/bench-lammps.sh); only with --shape sphere and one body count.
         #[arg(long, value_name = "DIR")]
         emit_lammps: Option<PathBuf>,
+        /// Which pipeline to time: gpu, cpu, or auto (see `clatter run --help`). GPU times
+        /// are wall clock around work that ends with a synchronising read, after the settle
+        /// steps as warm-up.
+        #[arg(long, value_enum, default_value = "cpu")]
+        backend: backend::Backend,
     },
     /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
     Query {
@@ -162,6 +167,7 @@ fn main() -> ExitCode {
             json,
             threads,
             emit_lammps,
+            backend,
         } => init_threads(threads).and_then(|_| {
             bench::bench(bench::BenchArgs {
                 shape,
@@ -170,6 +176,7 @@ fn main() -> ExitCode {
                 settle,
                 json,
                 emit_lammps,
+                backend,
             })
         }),
         Command::Query { input } => query::run(&input),
