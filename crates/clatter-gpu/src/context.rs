@@ -49,6 +49,9 @@ pub struct GpuContext {
     /// Whether timestamp queries are available (for `clatter bench`).
     pub timestamps: bool,
     errors: Arc<Mutex<Vec<String>>>,
+    /// The simulation's compiled pipelines, built once per device (shader compilation is
+    /// slow on software adapters).
+    pub(crate) pipelines: Mutex<Option<Arc<dyn std::any::Any + Send + Sync>>>,
 }
 
 impl std::fmt::Debug for GpuContext {
@@ -128,6 +131,7 @@ impl GpuContext {
             limits,
             timestamps,
             errors,
+            pipelines: Mutex::new(None),
         })
     }
 

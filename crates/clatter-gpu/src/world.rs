@@ -93,6 +93,12 @@ impl Kernels {
     }
 }
 
+/// The bind group layouts and pipelines, shared by every world on a device.
+struct Compiled {
+    layouts: [wgpu::BindGroupLayout; 3],
+    kernels: Kernels,
+}
+
 /// One exclusive scan over a buffer of `len` u32: the level buffers and their bind groups.
 struct ScanPlan {
     /// Groups per level (level 0 is the data itself).
@@ -110,8 +116,7 @@ pub struct GpuWorld {
     num_walls: u32,
     params: Params,
     shapes: GpuShapes,
-    kernels: Kernels,
-    layouts: [wgpu::BindGroupLayout; 3],
+    compiled: Arc<Compiled>,
     // Buffers (group 0 in binding order, see bindings.wgsl).
     params_buf: wgpu::Buffer,
     bodies: wgpu::Buffer,
@@ -218,15 +223,16 @@ impl GpuWorld {
             _pad: 0,
         };
         let device = &ctx.device;
-        let layouts = Self::layouts(device);
-        let kernels = Self::build_kernels(&ctx, &layouts)?;
+        let compiled = Self::compiled(&ctx)?;
+        let layouts = &compiled.layouts;
         let usage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST;
         let init = |label: &str, contents: &[u8]| {
             let mut bytes = contents.to_vec();
-            if bytes.len() < 16 {
-                bytes.resize(16, 0);
+            // Room for at least one element of any binding's struct, even when empty.
+            if bytes.len() < 64 {
+                bytes.resize(64, 0);
             }
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -237,7 +243,7 @@ impl GpuWorld {
         let zeroed = |label: &str, size: u64| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
-                size: size.max(16),
+                size: size.max(64),
                 usage,
                 mapped_at_creation: false,
             })
@@ -370,9 +376,9 @@ impl GpuWorld {
             cell_scan_sums: Vec::new(),
             body_scan_sums: Vec::new(),
             scan_dummy: zeroed("scan_dummy", 4),
-            group0: dummy_group(device, &layouts.2),
-            group1: dummy_group(device, &layouts.2),
-            args_group: dummy_group(device, &layouts.2),
+            group0: dummy_group(device, &layouts[2]),
+            group1: dummy_group(device, &layouts[2]),
+            args_group: dummy_group(device, &layouts[2]),
             scans: Vec::new(),
             ops: Vec::new(),
             ctx,
@@ -380,8 +386,7 @@ impl GpuWorld {
             num_walls,
             params,
             shapes,
-            kernels,
-            layouts: [layouts.0, layouts.1, layouts.2],
+            compiled: compiled.clone(),
             gpu_steps: 0,
             base_step: world.step_count,
             base_time: world.time,
@@ -391,6 +396,25 @@ impl GpuWorld {
         w.record()?;
         w.ctx.wait()?;
         Ok(w)
+    }
+
+    /// The device's compiled pipelines, built on first use.
+    fn compiled(ctx: &GpuContext) -> Result<Arc<Compiled>, GpuError> {
+        let mut slot = ctx.pipelines.lock().map_err(|_| GpuError::Runtime {
+            adapter: ctx.adapter_name(),
+            message: "pipeline cache poisoned".into(),
+        })?;
+        if let Some(c) = slot.as_ref().and_then(|a| a.clone().downcast::<Compiled>().ok()) {
+            return Ok(c);
+        }
+        let layouts = Self::layouts(&ctx.device);
+        let kernels = Self::build_kernels(ctx, &layouts)?;
+        let c = Arc::new(Compiled {
+            layouts: [layouts.0, layouts.1, layouts.2],
+            kernels,
+        });
+        *slot = Some(c.clone());
+        Ok(c)
     }
 
     /// Refuses scenes that do not fit the adapter, before allocating anything.
@@ -626,7 +650,7 @@ impl GpuWorld {
                 let s = sums.get(l).unwrap_or(&self.scan_dummy);
                 let bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("scan level"),
-                    layout: &self.layouts[2],
+                    layout: &self.compiled.layouts[2],
                     entries: &[
                         wgpu::BindGroupEntry {
                             binding: 0,
@@ -733,17 +757,17 @@ impl GpuWorld {
             .collect();
         self.group0 = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("simulation"),
-            layout: &self.layouts[0],
+            layout: &self.compiled.layouts[0],
             entries: &entries,
         });
         self.group1 = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shapes"),
-            layout: &self.layouts[1],
+            layout: &self.compiled.layouts[1],
             entries: &self.shapes.bind_entries(),
         });
         self.args_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("args"),
-            layout: &self.layouts[2],
+            layout: &self.compiled.layouts[2],
             entries: &[
                 wgpu::BindGroupEntry {
                     binding: 0,
@@ -756,7 +780,7 @@ impl GpuWorld {
             ],
         });
         // The step, in order.
-        let k = |name: &str| self.kernels.index(name);
+        let k = |name: &str| self.compiled.kernels.index(name);
         let mut ops = Vec::new();
         let mut op = |name: &str, size: Size| {
             ops.push(Op {
@@ -835,8 +859,8 @@ impl GpuWorld {
         pass.set_bind_group(1, &self.group1, &[]);
         for _ in 0..steps {
             for op in &self.ops {
-                pass.set_pipeline(&self.kernels.pipelines[op.pipeline]);
-                match self.kernels.extra[op.pipeline] {
+                pass.set_pipeline(&self.compiled.kernels.pipelines[op.pipeline]);
+                match self.compiled.kernels.extra[op.pipeline] {
                     Extra::None => {}
                     Extra::Args => pass.set_bind_group(2, &self.args_group, &[]),
                     Extra::Scan => pass.set_bind_group(2, &self.scans[op.scan], &[]),
@@ -1037,15 +1061,25 @@ impl GpuWorld {
         let n = self.n as usize;
         let np = self.last_status[status::PAIRS] as usize;
         let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-        let pairs_bytes = self.read_buffer(&self.pairs, 0, 8 * np as u64)?;
-        let hist_bytes = self.read_buffer(&self.hist, 0, 16 * np as u64)?;
-        let touch_bytes = self.read_buffer(&self.touching, 0, 4 * np as u64)?;
-        let force_bytes = self.read_buffer(&self.forces, 0, 48 * np as u64)?;
-        let ns = n * self.num_walls as usize;
-        let wh = self.read_buffer(&self.wall_hist, 0, 16 * ns as u64)?;
-        let wt = self.read_buffer(&self.wall_touching, 0, 4 * ns as u64)?;
-        let wf = self.read_buffer(&self.wall_forces, 0, 48 * ns as u64)?;
-        let rb = self.read_buffer(&self.rebuild_pos, 0, 16 * n as u64)?;
+        let ns = (n * self.num_walls as usize) as u64;
+        let (np, n) = (np as u64, n as u64);
+        let mut parts = read_buffers(
+            &self.ctx,
+            &[
+                (&self.pairs, 0, 8 * np),
+                (&self.hist, 0, 16 * np),
+                (&self.touching, 0, 4 * np),
+                (&self.forces, 0, 48 * np),
+                (&self.wall_hist, 0, 16 * ns),
+                (&self.wall_touching, 0, 4 * ns),
+                (&self.wall_forces, 0, 48 * ns),
+                (&self.rebuild_pos, 0, 16 * n),
+            ],
+        )?
+        .into_iter();
+        let mut next = || parts.next().unwrap_or_default();
+        let (pairs_bytes, hist_bytes, touch_bytes, force_bytes) = (next(), next(), next(), next());
+        let (wh, wt, wf, rb) = (next(), next(), next(), next());
         let hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&hist_bytes);
         let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
         let forces: Vec<GpuContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
@@ -1161,18 +1195,36 @@ pub fn read_buffer(
     offset: u64,
     size: u64,
 ) -> Result<Vec<u8>, GpuError> {
-    if size == 0 {
-        return Ok(Vec::new());
+    Ok(read_buffers(ctx, &[(buffer, offset, size)])?.remove(0))
+}
+
+/// Copies several buffer ranges `(buffer, offset, size)` back to the host in one transfer
+/// (one staging buffer, one wait).
+pub fn read_buffers(
+    ctx: &GpuContext,
+    ranges: &[(&wgpu::Buffer, u64, u64)],
+) -> Result<Vec<Vec<u8>>, GpuError> {
+    let mut at = Vec::with_capacity(ranges.len());
+    let mut total = 0u64;
+    for &(_, _, size) in ranges {
+        at.push(total);
+        total += size.next_multiple_of(4);
     }
-    let size4 = size.next_multiple_of(4);
+    if total == 0 {
+        return Ok(ranges.iter().map(|_| Vec::new()).collect());
+    }
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
-        size: size4,
+        size: total,
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size4);
+    for (&(buffer, offset, size), &dst) in ranges.iter().zip(&at) {
+        if size > 0 {
+            encoder.copy_buffer_to_buffer(buffer, offset, &staging, dst, size.next_multiple_of(4));
+        }
+    }
     ctx.queue.submit([encoder.finish()]);
     let slice = staging.slice(..);
     slice.map_async(wgpu::MapMode::Read, |_| {});
@@ -1181,7 +1233,11 @@ pub fn read_buffer(
         adapter: ctx.adapter_name(),
         message: format!("readback failed: {e}"),
     })?;
-    let out = view[..size as usize].to_vec();
+    let out = ranges
+        .iter()
+        .zip(&at)
+        .map(|(&(_, _, size), &dst)| view[dst as usize..(dst + size) as usize].to_vec())
+        .collect();
     drop(view);
     staging.unmap();
     Ok(out)

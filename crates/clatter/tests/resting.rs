@@ -2,6 +2,9 @@
 //! the static overlap `m g / k` of the linear spring), with a face normal pointing straight
 //! down, with no velocity left, and they stay put. A stack of cubes stays stacked.
 
+#[path = "common/step.rs"]
+mod step_backend;
+use step_backend::step;
 use clatter::geom::narrow::Plane;
 use clatter::geom::{PreparedShape, RegularKind, Shape, ShapeKind};
 use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
@@ -53,7 +56,7 @@ fn world(shape: PreparedShape, bodies: Vec<BodyInit>) -> World {
 fn run_for(w: &mut World, seconds: f64) {
     let steps = (seconds / w.dt as f64).ceil() as u64;
     for _ in 0..steps {
-        w.step().unwrap();
+        step(w).unwrap();
     }
 }
 
@@ -234,7 +237,7 @@ fn cube_on_edge_rests_with_precise_orientation_update() {
     let steps = (2.5 / w.dt as f64) as usize;
     let mut x_mid = Vec3::ZERO;
     for s in 0..steps {
-        w.step().unwrap();
+        step(&mut w).unwrap();
         q64 =
             (glam::DQuat::from_scaled_axis(w.omega[0].as_dvec3() * w.dt as f64) * q64).normalize();
         w.orientation[0] = q64.as_quat();

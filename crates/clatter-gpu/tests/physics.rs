@@ -1,0 +1,85 @@
+//! The foundation's physics tests (restitution and contact duration, sliding into rolling,
+//! resting polyhedra) on the GPU backend: the very same test files as the CPU's, included
+//! here with the `gpu-step` feature on, so their `step` runs one GPU step and reads the state
+//! back (see crates/clatter/tests/common/step.rs).
+
+mod gpu_step {
+    use std::cell::RefCell;
+    use std::sync::Arc;
+
+    use clatter::{SimError, StepStats, World};
+    use clatter_gpu::{GpuContext, GpuWorld};
+
+    /// The GPU copy of the world being stepped, and the host state it last handed back (to
+    /// notice a test changing the world between steps, which means uploading it again).
+    struct Cached {
+        gpu: GpuWorld,
+        seen: (Vec<glam::Vec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64),
+    }
+
+    thread_local! {
+        static CTX: RefCell<Option<Arc<GpuContext>>> = const { RefCell::new(None) };
+        static WORLD: RefCell<Option<Cached>> = const { RefCell::new(None) };
+    }
+
+    fn snapshot(w: &World) -> (Vec<glam::Vec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64) {
+        (
+            w.position.clone(),
+            w.velocity.clone(),
+            w.orientation.clone(),
+            w.step_count,
+        )
+    }
+
+    /// One step of `w` on the GPU. Without an adapter: a loud skip (the CPU steps instead),
+    /// or a failure when `CI` is set.
+    pub fn step(w: &mut World) -> Result<StepStats, SimError> {
+        let ctx = CTX.with_borrow_mut(|c| {
+            if c.is_none() {
+                *c = clatter_gpu::test_context().map(Arc::new);
+            }
+            c.clone()
+        });
+        let Some(ctx) = ctx else {
+            return w.step();
+        };
+        WORLD.with_borrow_mut(|cache| {
+            let fresh = match cache {
+                Some(c) => c.seen != snapshot(w),
+                None => true,
+            };
+            if fresh {
+                let gpu = GpuWorld::new(ctx, w).expect("scene fits the GPU");
+                *cache = Some(Cached {
+                    gpu,
+                    seen: snapshot(w),
+                });
+            }
+            let c = cache.as_mut().expect("just set");
+            let report = c.gpu.step(1).expect("GPU step");
+            c.gpu.read_into(w).expect("GPU readback");
+            c.seen = snapshot(w);
+            if let Some(body) = report.bad_body {
+                return Err(SimError::NonFinite {
+                    body,
+                    step: w.step_count + 1,
+                    time: w.time,
+                    dt: w.dt,
+                });
+            }
+            Ok(StepStats {
+                contacts: report.touching,
+                rebuilt: false,
+            })
+        })
+    }
+}
+
+#[path = "../../clatter/tests/restitution.rs"]
+mod restitution;
+
+#[path = "../../clatter/tests/rolling.rs"]
+mod rolling;
+
+#[path = "../../clatter/tests/resting.rs"]
+mod resting;
