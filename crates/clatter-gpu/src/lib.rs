@@ -11,3 +11,10 @@ pub use context::{GpuContext, GpuError, test_context};
 pub mod layout;
 
 pub use layout::BodyState;
+pub mod narrow;
+pub mod shapes;
+
+pub use narrow::{
+    GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,
+};
+pub use shapes::GpuShapes;
