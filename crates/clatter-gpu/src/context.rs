@@ -178,11 +178,15 @@ impl GpuContext {
     }
 }
 
-/// For tests: the GPU context, or `None` with a loud message when no adapter exists. When the
-/// `CI` environment variable is set, a missing adapter is a failure, not a skip.
-pub fn test_context() -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(c) => Some(c),
+/// For tests: the GPU context, shared by all tests of a test binary (pipelines are compiled
+/// once per device, which matters on software adapters), or `None` with a loud message when
+/// no adapter exists. When the `CI` environment variable is set, a missing adapter is a
+/// failure, not a skip.
+pub fn test_context() -> Option<Arc<GpuContext>> {
+    static SHARED: std::sync::OnceLock<Result<Arc<GpuContext>, GpuError>> =
+        std::sync::OnceLock::new();
+    match SHARED.get_or_init(|| GpuContext::new().map(Arc::new)) {
+        Ok(c) => Some(c.clone()),
         Err(e) => {
             if std::env::var_os("CI").is_some() {
                 panic!("CI is set but no GPU adapter is available: {e}");

@@ -6,12 +6,15 @@
 //! reads it back only when output is due.
 
 pub mod context;
-
-pub use context::{GpuContext, GpuError, test_context};
 pub mod layout;
+pub mod narrow;
 pub mod shapes;
 pub mod world;
 
+pub use context::{GpuContext, GpuError, test_context};
 pub use layout::BodyState;
+pub use narrow::{
+    GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,
+};
 pub use shapes::GpuShapes;
 pub use world::{GpuWorld, StepReport};

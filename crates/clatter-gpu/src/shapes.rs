@@ -1,56 +1,266 @@
-//! PLACEHOLDER: shape data on the GPU (spheres only) until the polyhedron narrow phase lands.
+//! Shape data on the GPU for the narrow phase (`shaders/narrow.wgsl`).
+//!
+//! Every [`PreparedShape`] of a scene is packed into two read-only storage buffers that the
+//! WGSL narrow phase reads (bind group 1):
+//!
+//! - binding 0, `shape_f: array<vec4<f32>>`: per polyhedron its vertices (`xyz`), then its
+//!   faces (outward normal `xyz`, plane offset `w`), then its edge arcs (`xyz`, the Gauss-map
+//!   arc planes), then its unique edge directions (`xyz`);
+//! - binding 1, `shape_u: array<u32>`: first a [`SHAPE_HEADER_WORDS`]-word header per shape
+//!   (kind, bounding radius, counts, offsets into both buffers), then per polyhedron the face
+//!   loops (`first`, `count` per face, absolute indices into `shape_u`), the concatenated
+//!   face vertex loops, the edges (`v0, v1, f0, f1` per edge) and each edge's direction index.
+//!
+//! Two buffers rather than one per table keep the kernels that call `collide` within the
+//! default limit of 8 storage buffers per stage, next to the simulation's own buffers.
 
-use wgpu::util::DeviceExt;
-
-use crate::{GpuContext, GpuError};
 use clatter_geom::{PreparedShape, Shape};
 
-/// Shape data on the GPU, bound as group 1.
+use crate::{GpuContext, GpuError};
+
+/// Most vertices of one polyhedron. The plane test gathers the vertices below the wall into
+/// a private array of [`MAX_CLIP_POINTS`] entries before reducing them to four, so a shape
+/// may not have more vertices than that array holds.
+pub const MAX_SHAPE_VERTICES: usize = 128;
+/// Most vertices in one face loop (a face of a hull of 64 points has at most 63 or 64).
+/// The clipped incident face has at most `incident + reference` loop vertices, which must fit
+/// [`MAX_CLIP_POINTS`].
+pub const MAX_FACE_VERTICES: usize = 64;
+/// Capacity of each half of the private clipping array in `narrow.wgsl` (`NRW_MAX_CLIP`).
+pub const MAX_CLIP_POINTS: usize = 2 * MAX_FACE_VERTICES;
+/// Words of the per-shape header at the start of `shape_u`.
+pub const SHAPE_HEADER_WORDS: usize = 12;
+
+/// Header `kind` of a sphere.
+const KIND_SPHERE: u32 = 0;
+/// Header `kind` of a convex polyhedron.
+const KIND_POLYHEDRON: u32 = 1;
+
+/// The shapes of a scene on the GPU (bind group 1 of every kernel that calls the WGSL
+/// `collide` / `collide_plane`).
 pub struct GpuShapes {
-    info: wgpu::Buffer,
+    /// `shape_f`: vertices, faces, edge arcs, edge directions (binding 0).
+    pub floats: wgpu::Buffer,
+    /// `shape_u`: headers, face loops, edges, edge directions' indices (binding 1).
+    pub words: wgpu::Buffer,
+    /// Number of shapes uploaded; valid shape indices are `0..count`.
+    pub count: usize,
+}
+
+/// The packed contents of the two buffers, built on the host.
+struct Packed {
+    floats: Vec<[f32; 4]>,
+    words: Vec<u32>,
+}
+
+fn pack(shapes: &[PreparedShape]) -> Result<Packed, GpuError> {
+    let n = shapes.len();
+    let mut floats: Vec<[f32; 4]> = Vec::new();
+    let mut words: Vec<u32> = vec![0; n * SHAPE_HEADER_WORDS];
+    for (i, prepared) in shapes.iter().enumerate() {
+        let h = i * SHAPE_HEADER_WORDS;
+        match &prepared.shape {
+            Shape::Sphere { radius } => {
+                words[h] = KIND_SPHERE;
+                words[h + 1] = radius.to_bits();
+            }
+            Shape::Polyhedron(p) => {
+                if p.vertices.len() > MAX_SHAPE_VERTICES {
+                    return Err(GpuError::Unsupported(format!(
+                        "shape {i} has {} vertices, more than the GPU narrow phase's limit of {MAX_SHAPE_VERTICES} (MAX_SHAPE_VERTICES)",
+                        p.vertices.len()
+                    )));
+                }
+                let longest = p.faces.iter().map(|f| f.count as usize).max().unwrap_or(0);
+                if longest > MAX_FACE_VERTICES {
+                    return Err(GpuError::Unsupported(format!(
+                        "shape {i} has a face with {longest} vertices, more than the GPU narrow phase's limit of {MAX_FACE_VERTICES} (MAX_FACE_VERTICES)"
+                    )));
+                }
+                let to_u32 = |v: usize, what: &str| {
+                    u32::try_from(v).map_err(|_| {
+                        GpuError::Unsupported(format!("shape data too large ({what} = {v})"))
+                    })
+                };
+                words[h] = KIND_POLYHEDRON;
+                words[h + 1] = p.radius.to_bits();
+                words[h + 2] = p.vertices.len() as u32;
+                words[h + 3] = p.faces.len() as u32;
+                words[h + 4] = p.edges.len() as u32;
+                words[h + 5] = p.edge_dirs.len() as u32;
+                words[h + 6] = to_u32(floats.len(), "float offset")?;
+                floats.extend(p.vertices.iter().map(|v| [v.x, v.y, v.z, 0.0]));
+                floats.extend(
+                    p.faces
+                        .iter()
+                        .map(|f| [f.normal.x, f.normal.y, f.normal.z, f.offset]),
+                );
+                floats.extend(p.edge_arcs.iter().map(|v| [v.x, v.y, v.z, 0.0]));
+                floats.extend(p.edge_dirs.iter().map(|v| [v.x, v.y, v.z, 0.0]));
+                // Face loops: (first, count) per face, `first` absolute in `shape_u`.
+                let fc = words.len();
+                let lb = fc + 2 * p.faces.len();
+                words[h + 7] = to_u32(fc, "word offset")?;
+                for f in &p.faces {
+                    words.push(to_u32(lb + f.first as usize, "word offset")?);
+                    words.push(f.count);
+                }
+                words.extend_from_slice(&p.face_vertices);
+                words[h + 8] = to_u32(words.len(), "word offset")?;
+                for (e, f) in p.edges.iter().zip(&p.edge_faces) {
+                    words.extend_from_slice(&[e[0], e[1], f[0], f[1]]);
+                }
+                words[h + 9] = to_u32(words.len(), "word offset")?;
+                words.extend_from_slice(&p.edge_dir_of);
+            }
+        }
+    }
+    // Zero-sized bindings are invalid: keep at least one element in each buffer.
+    if floats.is_empty() {
+        floats.push([0.0; 4]);
+    }
+    if words.is_empty() {
+        words.push(0);
+    }
+    Ok(Packed { floats, words })
 }
 
 impl GpuShapes {
-    /// Uploads `shapes`.
+    /// Packs `shapes` (indexed as the bodies' shape indices) and uploads them.
+    ///
+    /// Fails with [`GpuError::Unsupported`] naming the shape and the limit when a polyhedron
+    /// has more than [`MAX_SHAPE_VERTICES`] vertices or a face with more than
+    /// [`MAX_FACE_VERTICES`] vertices (the WGSL uses fixed-size private arrays), and with
+    /// [`GpuError::TooLarge`] when a buffer exceeds the adapter's limits.
     pub fn upload(ctx: &GpuContext, shapes: &[PreparedShape]) -> Result<GpuShapes, GpuError> {
-        let mut data = Vec::new();
-        for (k, s) in shapes.iter().enumerate() {
-            match &s.shape {
-                Shape::Sphere { radius } => data.push([*radius, 1.0, 0.0, 0.0]),
-                Shape::Polyhedron(_) => {
-                    return Err(GpuError::Unsupported(format!("shape {k} is a polyhedron")));
-                }
+        use wgpu::util::DeviceExt;
+        let packed = pack(shapes)?;
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        for (what, bytes) in [
+            ("shape float data", packed.floats.len() as u64 * 16),
+            ("shape index data", packed.words.len() as u64 * 4),
+        ] {
+            if bytes > limit {
+                return Err(GpuError::TooLarge {
+                    adapter: ctx.adapter_name(),
+                    what: what.into(),
+                    need: format!("{bytes} bytes"),
+                    limit: format!("{limit} bytes"),
+                    advice: "use fewer or simpler shapes".into(),
+                });
             }
         }
-        let info = ctx
+        let floats = ctx
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("shape_info"),
-                contents: bytemuck::cast_slice(&data),
+                label: Some("shape_f"),
+                contents: bytemuck::cast_slice(&packed.floats),
                 usage: wgpu::BufferUsages::STORAGE,
             });
-        Ok(GpuShapes { info })
+        let words = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("shape_u"),
+                contents: bytemuck::cast_slice(&packed.words),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+        ctx.take_error()?;
+        Ok(GpuShapes {
+            floats,
+            words,
+            count: shapes.len(),
+        })
     }
 
-    /// Layout entries of group 1.
-    pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-        vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }]
+    /// The layout entries of bind group 1 (bindings 0 and 1, read-only storage), visible to
+    /// `visibility` (normally [`wgpu::ShaderStages::COMPUTE`]).
+    pub fn layout_entries(visibility: wgpu::ShaderStages) -> Vec<wgpu::BindGroupLayoutEntry> {
+        (0..2)
+            .map(|binding| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Storage { read_only: true },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect()
     }
 
-    /// Bind group entries of group 1.
+    /// A bind group layout of [`GpuShapes::layout_entries`] for compute shaders.
+    pub fn create_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
+        ctx.device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("clatter shapes (group 1)"),
+                entries: &Self::layout_entries(wgpu::ShaderStages::COMPUTE),
+            })
+    }
+
+    /// The entries of bind group 1 matching [`GpuShapes::layout_entries`].
     pub fn bind_entries(&self) -> Vec<wgpu::BindGroupEntry<'_>> {
-        vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: self.info.as_entire_binding(),
-        }]
+        vec![
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: self.floats.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: self.words.as_entire_binding(),
+            },
+        ]
+    }
+
+    /// A bind group for `layout` (made from [`GpuShapes::layout_entries`]).
+    pub fn bind_group(&self, ctx: &GpuContext, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("clatter shapes (group 1)"),
+            layout,
+            entries: &self.bind_entries(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clatter_geom::{RegularKind, ShapeKind};
+
+    #[test]
+    fn header_offsets_point_at_the_tables() {
+        let cube = ShapeKind::Regular {
+            kind: RegularKind::Cube,
+            radius: 1.0,
+        }
+        .prepare()
+        .unwrap();
+        let sphere = ShapeKind::Sphere { radius: 0.5 }.prepare().unwrap();
+        let packed = pack(&[sphere, cube.clone()]).unwrap();
+        let h = SHAPE_HEADER_WORDS;
+        assert_eq!(packed.words[0], KIND_SPHERE);
+        assert_eq!(f32::from_bits(packed.words[1]), 0.5);
+        assert_eq!(packed.words[h], KIND_POLYHEDRON);
+        let Shape::Polyhedron(p) = &cube.shape else {
+            unreachable!()
+        };
+        assert_eq!(packed.words[h + 2] as usize, p.vertices.len());
+        assert_eq!(packed.words[h + 3] as usize, p.faces.len());
+        let fc = packed.words[h + 7] as usize;
+        // The second face's loop is found through its absolute `first`.
+        let first = packed.words[fc + 2] as usize;
+        let count = packed.words[fc + 3] as usize;
+        assert_eq!(&packed.words[first..first + count], p.face_loop(1));
+        let eb = packed.words[h + 8] as usize;
+        assert_eq!(packed.words[eb + 4], p.edges[1][0]);
+        assert_eq!(packed.words[eb + 6], p.edge_faces[1][0]);
+        let db = packed.words[h + 9] as usize;
+        assert_eq!(packed.words[db + 5], p.edge_dir_of[5]);
+        let vb = packed.words[h + 6] as usize;
+        let nv = p.vertices.len();
+        assert_eq!(packed.floats[vb + nv + 2][3], p.faces[2].offset);
     }
 }

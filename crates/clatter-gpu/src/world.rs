@@ -42,12 +42,38 @@ const COMMON: &str = include_str!("../shaders/common.wgsl");
 const BINDINGS: &str = include_str!("../shaders/bindings.wgsl");
 const ARGS: &str = include_str!("../shaders/args.wgsl");
 const NARROW: &str = include_str!("../shaders/narrow.wgsl");
+const NARROW_SPHERES: &str = include_str!("../shaders/narrow_spheres.wgsl");
 const BIN: &str = include_str!("../shaders/bin.wgsl");
 const SCAN: &str = include_str!("../shaders/scan.wgsl");
 const SORT: &str = include_str!("../shaders/sort.wgsl");
 const PAIRS: &str = include_str!("../shaders/pairs.wgsl");
 const FORCES: &str = include_str!("../shaders/forces.wgsl");
 const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
+
+/// The kernels every world uses (the contact kernels come in two variants, see
+/// `GpuWorld::contact_kernels`).
+const BASE_KERNELS: &[(&str, &str, Extra)] = &[
+    ("bin", "prepare", Extra::Args),
+    ("bin", "bbox", Extra::None),
+    ("bin", "grid_size", Extra::None),
+    ("bin", "bin", Extra::None),
+    ("bin", "copy_cells", Extra::None),
+    ("scan", "scan_block", Extra::Scan),
+    ("scan", "scan_add", Extra::Scan),
+    ("sort", "scatter", Extra::None),
+    ("sort", "sort_cells", Extra::None),
+    ("pairs", "count_pairs", Extra::None),
+    ("pairs", "pairs_total", Extra::Args),
+    ("pairs", "fill_pairs", Extra::None),
+    ("pairs", "carry", Extra::None),
+    ("pairs", "commit", Extra::None),
+    ("pairs", "count_b", Extra::None),
+    ("pairs", "copy_b", Extra::None),
+    ("pairs", "fill_b", Extra::None),
+    ("pairs", "sort_b", Extra::None),
+    ("integrate", "integrate", Extra::None),
+    ("integrate", "end_step", Extra::None),
+];
 
 /// Which bind groups a kernel uses besides group 0 (simulation) and 1 (shapes).
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -71,6 +97,8 @@ enum Size {
 }
 
 struct Op {
+    /// Whether the pipeline is one of the contact kernels (else a base kernel).
+    contact: bool,
     pipeline: usize,
     size: Size,
     /// Index into the scan bind groups (for `Extra::Scan` kernels).
@@ -97,6 +125,10 @@ impl Kernels {
 struct Compiled {
     layouts: [wgpu::BindGroupLayout; 3],
     kernels: Kernels,
+    /// `contacts` and `wall_contacts` for sphere-only scenes, and for any scene (with the
+    /// polyhedron narrow phase), each compiled on first use.
+    spheres: std::sync::OnceLock<Result<Kernels, GpuError>>,
+    general: std::sync::OnceLock<Result<Kernels, GpuError>>,
 }
 
 /// One exclusive scan over a buffer of `len` u32: the level buffers and their bind groups.
@@ -404,7 +436,10 @@ impl GpuWorld {
             adapter: ctx.adapter_name(),
             message: "pipeline cache poisoned".into(),
         })?;
-        if let Some(c) = slot.as_ref().and_then(|a| a.clone().downcast::<Compiled>().ok()) {
+        if let Some(c) = slot
+            .as_ref()
+            .and_then(|a| a.clone().downcast::<Compiled>().ok())
+        {
             return Ok(c);
         }
         let layouts = Self::layouts(&ctx.device);
@@ -412,9 +447,24 @@ impl GpuWorld {
         let c = Arc::new(Compiled {
             layouts: [layouts.0, layouts.1, layouts.2],
             kernels,
+            spheres: std::sync::OnceLock::new(),
+            general: std::sync::OnceLock::new(),
         });
         *slot = Some(c.clone());
         Ok(c)
+    }
+
+    /// The contact kernels this world needs, compiled on first use per device: sphere-only
+    /// scenes skip the (large) polyhedron narrow phase.
+    fn contact_kernels_ready(&self) -> Result<&Kernels, GpuError> {
+        let (cell, narrow) = if self.params.spheres_only != 0 {
+            (&self.compiled.spheres, NARROW_SPHERES)
+        } else {
+            (&self.compiled.general, NARROW)
+        };
+        cell.get_or_init(|| Self::contact_kernels(&self.ctx, &self.compiled.layouts, narrow))
+            .as_ref()
+            .map_err(|e| e.clone())
     }
 
     /// Refuses scenes that do not fit the adapter, before allocating anything.
@@ -482,7 +532,7 @@ impl GpuWorld {
         });
         let g1 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shapes"),
-            entries: &GpuShapes::layout_entries(),
+            entries: &GpuShapes::layout_entries(wgpu::ShaderStages::COMPUTE),
         });
         // Group 2 of the scans: data, sums. The argument writers use the same shape (args
         // read-write, template read-only would differ): both as read-write storage.
@@ -501,53 +551,60 @@ impl GpuWorld {
             wgpu::BindGroupLayout,
         ),
     ) -> Result<Kernels, GpuError> {
-        let device = &ctx.device;
-        let base = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("base"),
-            bind_group_layouts: &[Some(&layouts.0), Some(&layouts.1)],
-            immediate_size: 0,
-        });
-        let with_g2 = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("with group 2"),
-            bind_group_layouts: &[Some(&layouts.0), Some(&layouts.1), Some(&layouts.2)],
-            immediate_size: 0,
-        });
         let bin_src = [COMMON, BINDINGS, ARGS, BIN].concat();
-        let modules: Vec<(&str, String)> = vec![
+        let modules = vec![
             ("bin", bin_src.clone()),
             ("scan", [COMMON, BINDINGS, SCAN].concat()),
             ("sort", [COMMON, BINDINGS, SORT].concat()),
             ("pairs", [bin_src.as_str(), PAIRS].concat()),
-            ("forces", [COMMON, BINDINGS, NARROW, FORCES].concat()),
             ("integrate", [COMMON, BINDINGS, INTEGRATE].concat()),
         ];
-        let kernels: &[(&str, &str, Extra)] = &[
-            ("bin", "prepare", Extra::Args),
-            ("bin", "bbox", Extra::None),
-            ("bin", "grid_size", Extra::None),
-            ("bin", "bin", Extra::None),
-            ("bin", "copy_cells", Extra::None),
-            ("scan", "scan_block", Extra::Scan),
-            ("scan", "scan_add", Extra::Scan),
-            ("sort", "scatter", Extra::None),
-            ("sort", "sort_cells", Extra::None),
-            ("pairs", "count_pairs", Extra::None),
-            ("pairs", "pairs_total", Extra::Args),
-            ("pairs", "fill_pairs", Extra::None),
-            ("pairs", "carry", Extra::None),
-            ("pairs", "commit", Extra::None),
-            ("pairs", "count_b", Extra::None),
-            ("pairs", "copy_b", Extra::None),
-            ("pairs", "fill_b", Extra::None),
-            ("pairs", "sort_b", Extra::None),
-            ("forces", "contacts", Extra::None),
-            ("forces", "wall_contacts", Extra::None),
-            ("integrate", "integrate", Extra::None),
-            ("integrate", "end_step", Extra::None),
-        ];
+        Self::compile(
+            ctx,
+            [&layouts.0, &layouts.1, &layouts.2],
+            &modules,
+            BASE_KERNELS,
+        )
+    }
+
+    /// The contact kernels with the narrow phase `narrow` (sphere-only or general).
+    fn contact_kernels(
+        ctx: &GpuContext,
+        layouts: &[wgpu::BindGroupLayout; 3],
+        narrow: &str,
+    ) -> Result<Kernels, GpuError> {
+        let modules = vec![("forces", [COMMON, BINDINGS, narrow, FORCES].concat())];
+        Self::compile(
+            ctx,
+            [&layouts[0], &layouts[1], &layouts[2]],
+            &modules,
+            &[
+                ("forces", "contacts", Extra::None),
+                ("forces", "wall_contacts", Extra::None),
+            ],
+        )
+    }
+
+    fn compile(
+        ctx: &GpuContext,
+        layouts: [&wgpu::BindGroupLayout; 3],
+        modules: &[(&str, String)],
+        kernels: &[(&str, &'static str, Extra)],
+    ) -> Result<Kernels, GpuError> {
+        let device = &ctx.device;
+        let base = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("base"),
+            bind_group_layouts: &[Some(layouts[0]), Some(layouts[1])],
+            immediate_size: 0,
+        });
+        let with_g2 = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("with group 2"),
+            bind_group_layouts: &[Some(layouts[0]), Some(layouts[1]), Some(layouts[2])],
+            immediate_size: 0,
+        });
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut compiled = Vec::new();
-        for (name, src) in &modules {
+        for (name, src) in modules.iter() {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(name),
                 source: wgpu::ShaderSource::Wgsl(src.as_str().into()),
@@ -784,6 +841,7 @@ impl GpuWorld {
         let mut ops = Vec::new();
         let mut op = |name: &str, size: Size| {
             ops.push(Op {
+                contact: false,
                 pipeline: k(name),
                 size,
                 scan: 0,
@@ -801,6 +859,7 @@ impl GpuWorld {
             let nlev = p.slots.len();
             for l in 0..nlev {
                 ops.push(Op {
+                    contact: false,
                     pipeline: k("scan_block"),
                     size: Size::Indirect(p.slots[l]),
                     scan: base + l,
@@ -808,6 +867,7 @@ impl GpuWorld {
             }
             for l in (0..nlev.saturating_sub(1)).rev() {
                 ops.push(Op {
+                    contact: false,
                     pipeline: k("scan_add"),
                     size: Size::Indirect(p.slots[l]),
                     scan: base + l,
@@ -817,6 +877,7 @@ impl GpuWorld {
         scan_ops(&mut ops, &cell_plan);
         let op = |ops: &mut Vec<Op>, name: &str, size: Size| {
             ops.push(Op {
+                contact: false,
                 pipeline: k(name),
                 size,
                 scan: 0,
@@ -835,13 +896,20 @@ impl GpuWorld {
         scan_ops(&mut ops, &b_plan);
         op(&mut ops, "fill_b", Size::Indirect(arg::PAIRS_NEW));
         op(&mut ops, "sort_b", bodies_rb);
-        op(&mut ops, "contacts", Size::Indirect(arg::PAIRS));
+        let contact_kernels = self.contact_kernels_ready()?;
+        ops.push(Op {
+            contact: true,
+            pipeline: contact_kernels.index("contacts"),
+            size: Size::Indirect(arg::PAIRS),
+            scan: 0,
+        });
         if self.num_walls > 0 {
-            op(
-                &mut ops,
-                "wall_contacts",
-                Size::Direct(groups(n * self.num_walls as u64)),
-            );
+            ops.push(Op {
+                contact: true,
+                pipeline: contact_kernels.index("wall_contacts"),
+                size: Size::Direct(groups(n * self.num_walls as u64)),
+                scan: 0,
+            });
         }
         op(&mut ops, "integrate", Size::Direct(groups(n)));
         op(&mut ops, "end_step", Size::Single);
@@ -851,6 +919,9 @@ impl GpuWorld {
 
     /// Records `steps` steps into `encoder`.
     fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, steps: u64) {
+        let Ok(contacts) = self.contact_kernels_ready() else {
+            return;
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("steps"),
             timestamp_writes: None,
@@ -859,8 +930,13 @@ impl GpuWorld {
         pass.set_bind_group(1, &self.group1, &[]);
         for _ in 0..steps {
             for op in &self.ops {
-                pass.set_pipeline(&self.compiled.kernels.pipelines[op.pipeline]);
-                match self.compiled.kernels.extra[op.pipeline] {
+                let set = if op.contact {
+                    contacts
+                } else {
+                    &self.compiled.kernels
+                };
+                pass.set_pipeline(&set.pipelines[op.pipeline]);
+                match set.extra[op.pipeline] {
                     Extra::None => {}
                     Extra::Args => pass.set_bind_group(2, &self.args_group, &[]),
                     Extra::Scan => pass.set_bind_group(2, &self.scans[op.scan], &[]),

@@ -36,7 +36,7 @@ mod gpu_step {
     pub fn step(w: &mut World) -> Result<StepStats, SimError> {
         let ctx = CTX.with_borrow_mut(|c| {
             if c.is_none() {
-                *c = clatter_gpu::test_context().map(Arc::new);
+                *c = clatter_gpu::test_context();
             }
             c.clone()
         });

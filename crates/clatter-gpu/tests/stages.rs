@@ -2,8 +2,6 @@
 //! keys, sorted order, cell ranges and pair lists (bitwise: these are integers), forces and
 //! torques within 1e-5 relative, and short trajectories within a tight tolerance.
 
-use std::sync::Arc;
-
 use clatter::broad::{self, Grid};
 use clatter::geom::narrow::Plane;
 use clatter::geom::{RegularKind, ShapeKind};
@@ -200,7 +198,6 @@ fn compare_run(mut cpu: World, steps: u64, tol: f32) {
     let Some(ctx) = clatter_gpu::test_context() else {
         return;
     };
-    let ctx = Arc::new(ctx);
     let initial = cpu.clone();
     let mut gpu = GpuWorld::new(ctx, &cpu).expect("scene fits");
     gpu.step(1).expect("one GPU step");

@@ -4,11 +4,11 @@
 
 #[path = "common/step.rs"]
 mod step_backend;
-use step_backend::step;
 use clatter::geom::narrow::Plane;
 use clatter::geom::{PreparedShape, RegularKind, Shape, ShapeKind};
 use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
+use step_backend::step;
 
 const K: f32 = 2.0e4;
 const G: f32 = 9.81;

@@ -5,11 +5,11 @@
 
 #[path = "common/step.rs"]
 mod step_backend;
-use step_backend::step;
 use clatter::geom::ShapeKind;
 use clatter::geom::narrow::Plane;
 use clatter::{BodyInit, ContactLaw, Material, PairParams, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
+use step_backend::step;
 
 const R: f64 = 0.01;
 const DENSITY: f32 = 2500.0;
