@@ -469,10 +469,22 @@ impl GpuWorld {
 
     /// Refuses scenes that do not fit the adapter, before allocating anything.
     fn check_fits(ctx: &GpuContext, n: u64, capacity: u64, walls: u64) -> Result<(), GpuError> {
-        let limit = ctx
-            .limits
-            .max_storage_buffer_binding_size
-            .min(ctx.limits.max_buffer_size);
+        check_fits(&ctx.limits, &ctx.adapter_name(), n, capacity, walls)
+    }
+}
+
+/// Whether a scene of `n` bodies, `walls` walls and a pair list of `capacity` fits an adapter
+/// with `limits`; else a [`GpuError::TooLarge`] naming the limit, the need and what to do.
+/// Checked before anything is allocated.
+pub fn check_fits(
+    limits: &wgpu::Limits,
+    adapter: &str,
+    n: u64,
+    capacity: u64,
+    walls: u64,
+) -> Result<(), GpuError> {
+    {
+        let limit = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
         let biggest = [
             ("body state", 96 * n),
             ("cell counts", 4 * (8 * n + 65)),
@@ -482,7 +494,7 @@ impl GpuWorld {
         for (what, need) in biggest {
             if need > limit {
                 return Err(GpuError::TooLarge {
-                    adapter: ctx.adapter_name(),
+                    adapter: adapter.to_string(),
                     what: format!("largest storage buffer, for the {what}"),
                     need: format!("{need} bytes"),
                     limit: format!("{limit} bytes"),
@@ -492,16 +504,18 @@ impl GpuWorld {
         }
         if n >= u32::MAX as u64 / 16 {
             return Err(GpuError::TooLarge {
-                adapter: ctx.adapter_name(),
+                adapter: adapter.to_string(),
                 what: "bodies addressable with 32-bit indices".into(),
                 need: format!("{n} bodies"),
                 limit: format!("{} bodies", u32::MAX / 16),
                 advice: "use fewer bodies".into(),
             });
         }
-        Ok(())
     }
+    Ok(())
+}
 
+impl GpuWorld {
     fn layouts(
         device: &wgpu::Device,
     ) -> (
