@@ -974,9 +974,29 @@ impl GpuWorld {
     /// Advances the simulation by `steps` steps on the GPU (no body state comes back).
     /// Returns the number of contacts touching in the last step.
     pub fn step(&mut self, steps: u64) -> Result<StepReport, GpuError> {
+        self.advance(steps, None)
+    }
+
+    /// [`GpuWorld::step`], then the body state (not the contacts) into `world`, read in the
+    /// same transfer as the step's status: the cheapest way to follow a simulation step by
+    /// step (the viewer, tests). [`GpuWorld::read_into`] also brings the contacts.
+    pub fn step_into(&mut self, steps: u64, world: &mut World) -> Result<StepReport, GpuError> {
+        let mut states = Vec::new();
+        let r = self.advance(steps, Some(&mut states))?;
+        self.apply_states(&states, world);
+        Ok(r)
+    }
+
+    fn advance(
+        &mut self,
+        steps: u64,
+        mut states: Option<&mut Vec<BodyState>>,
+    ) -> Result<StepReport, GpuError> {
         let target = self.gpu_steps + steps;
         let mut guard = 0;
-        while self.gpu_steps < target {
+        let mut first = true;
+        while self.gpu_steps < target || first {
+            first = false;
             let batch = (target - self.gpu_steps).min(BATCH);
             let mut encoder =
                 self.ctx
@@ -987,14 +1007,32 @@ impl GpuWorld {
             if self.n > 0 {
                 self.encode_steps(&mut encoder, batch);
             }
-            self.ctx.queue.submit([encoder.finish()]);
-            let st = if self.n > 0 {
-                self.read_status()?
+            // The status (and, with the last batch, the bodies) come back in one transfer.
+            let last = self.gpu_steps + batch >= target;
+            let body_bytes = if last && states.is_some() {
+                96 * self.n as u64
             } else {
-                let mut s = self.last_status;
-                s[status::STEPS] = s[status::STEPS].wrapping_add(batch as u32);
-                s
+                0
             };
+            let parts = read_buffers_after(
+                &self.ctx,
+                encoder,
+                &[
+                    (&self.status_buf, 0, 4 * status::LEN as u64),
+                    (&self.bodies, 0, body_bytes),
+                ],
+            )?;
+            let mut st = [0u32; status::LEN];
+            st.copy_from_slice(&bytemuck::pod_collect_to_vec::<u8, u32>(&parts[0]));
+            if self.n == 0 {
+                st = self.last_status;
+                st[status::STEPS] = st[status::STEPS].wrapping_add(batch as u32);
+            }
+            if let Some(out) = states.as_deref_mut()
+                && body_bytes > 0
+            {
+                *out = bytemuck::pod_collect_to_vec(&parts[1]);
+            }
             let done = st[status::STEPS].wrapping_sub(self.last_status[status::STEPS]) as u64;
             self.gpu_steps += done;
             self.last_status = st;
@@ -1007,6 +1045,7 @@ impl GpuWorld {
             }
             if st[status::OVERFLOW] != 0 {
                 self.grow(st[status::PAIRS_NEEDED] as u64)?;
+                first = true;
                 guard += 1;
                 if guard > 8 {
                     return Err(GpuError::Runtime {
@@ -1066,13 +1105,6 @@ impl GpuWorld {
         self.ctx.wait()
     }
 
-    fn read_status(&self) -> Result<[u32; status::LEN], GpuError> {
-        let bytes = self.read_buffer(&self.status_buf, 0, 4 * status::LEN as u64)?;
-        let mut st = [0u32; status::LEN];
-        st.copy_from_slice(&bytemuck::pod_collect_to_vec::<u8, u32>(&bytes));
-        Ok(st)
-    }
-
     /// Copies `size` bytes at `offset` of `buffer` back to the host (waits for the GPU).
     pub fn read_buffer(
         &self,
@@ -1125,6 +1157,13 @@ impl GpuWorld {
     /// health checks and checkpoints work on it as after CPU steps.
     pub fn read_into(&self, world: &mut World) -> Result<(), GpuError> {
         let states = self.read_states()?;
+        self.apply_states(&states, world);
+        world.set_contact_state(self.contact_state()?);
+        Ok(())
+    }
+
+    /// Body state, step count and time into `world`.
+    fn apply_states(&self, states: &[BodyState], world: &mut World) {
         for (i, s) in states.iter().enumerate() {
             let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
             let q = |a: [f32; 4]| Quat::from_xyzw(a[0], a[1], a[2], a[3]);
@@ -1142,8 +1181,6 @@ impl GpuWorld {
             t += self.dt as f64;
         }
         world.time = t;
-        world.set_contact_state(self.contact_state()?);
-        Ok(())
     }
 
     /// The contact list and springs (see [`ContactState`]).
@@ -1294,6 +1331,16 @@ pub fn read_buffers(
     ctx: &GpuContext,
     ranges: &[(&wgpu::Buffer, u64, u64)],
 ) -> Result<Vec<Vec<u8>>, GpuError> {
+    let encoder = ctx.device.create_command_encoder(&Default::default());
+    read_buffers_after(ctx, encoder, ranges)
+}
+
+/// [`read_buffers`] after the work already recorded in `encoder` (one submission).
+pub fn read_buffers_after(
+    ctx: &GpuContext,
+    mut encoder: wgpu::CommandEncoder,
+    ranges: &[(&wgpu::Buffer, u64, u64)],
+) -> Result<Vec<Vec<u8>>, GpuError> {
     let mut at = Vec::with_capacity(ranges.len());
     let mut total = 0u64;
     for &(_, _, size) in ranges {
@@ -1301,6 +1348,7 @@ pub fn read_buffers(
         total += size.next_multiple_of(4);
     }
     if total == 0 {
+        ctx.queue.submit([encoder.finish()]);
         return Ok(ranges.iter().map(|_| Vec::new()).collect());
     }
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -1309,7 +1357,6 @@ pub fn read_buffers(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
     for (&(buffer, offset, size), &dst) in ranges.iter().zip(&at) {
         if size > 0 {
             encoder.copy_buffer_to_buffer(buffer, offset, &staging, dst, size.next_multiple_of(4));

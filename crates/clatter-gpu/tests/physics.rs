@@ -31,6 +31,17 @@ mod gpu_step {
         )
     }
 
+    /// Reads the contact list of the world being stepped back into `w`.
+    pub fn sync(w: &mut World) {
+        WORLD.with_borrow_mut(|cache| {
+            if let Some(c) = cache.as_mut()
+                && c.seen == snapshot(w)
+            {
+                c.gpu.read_into(w).expect("GPU readback");
+            }
+        })
+    }
+
     /// One step of `w` on the GPU. Without an adapter: a loud skip (the CPU steps instead),
     /// or a failure when `CI` is set.
     pub fn step(w: &mut World) -> Result<StepStats, SimError> {
@@ -56,8 +67,7 @@ mod gpu_step {
                 });
             }
             let c = cache.as_mut().expect("just set");
-            let report = c.gpu.step(1).expect("GPU step");
-            c.gpu.read_into(w).expect("GPU readback");
+            let report = c.gpu.step_into(1, w).expect("GPU step");
             c.seen = snapshot(w);
             if let Some(body) = report.bad_body {
                 return Err(SimError::NonFinite {

@@ -333,6 +333,7 @@ fn three_cubes_stay_stacked() {
             "cube {i} still moving"
         );
     }
+    step_backend::sync(&mut w);
     assert_eq!(w.touching_pairs(), vec![[0, 1], [1, 2]]);
     run_for(&mut w, 1.0);
     for (i, &(x0, q0)) in snapshot.iter().enumerate() {

@@ -8,5 +8,12 @@ pub fn step(w: &mut clatter::World) -> Result<clatter::StepStats, clatter::SimEr
     w.step()
 }
 
+/// Brings the contact list up to date before a test looks at it (the GPU stepper reads only
+/// body state after each step).
+#[cfg(not(feature = "gpu-step"))]
+#[allow(dead_code)] // not every test file looks at contacts
+pub fn sync(_w: &mut clatter::World) {}
+
 #[cfg(feature = "gpu-step")]
-pub use crate::gpu_step::step;
+#[allow(unused_imports)] // not every test file looks at contacts
+pub use crate::gpu_step::{step, sync};

@@ -1,0 +1,127 @@
+//! `--backend gpu|cpu|auto` on `clatter run` and `clatter bench`: the GPU gives the CPU's
+//! answers through the same outputs, auto says what it chose and why, bad values are refused.
+
+mod common;
+
+use common::{assert_ok, clatter, test_dir, text};
+
+/// Rows of final.csv as numbers.
+fn final_rows(dir: &std::path::Path) -> Vec<Vec<f64>> {
+    let s = std::fs::read_to_string(dir.join("final.csv")).expect("final.csv written");
+    s.lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|x| x.parse().expect("a number")).collect())
+        .collect()
+}
+
+fn gpu_available() -> bool {
+    clatter_gpu::test_context().is_some()
+}
+
+#[test]
+fn gpu_run_matches_cpu_run_through_the_same_outputs() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = test_dir("backend", "dice");
+    let (cpu, gpu) = (dir.join("cpu"), dir.join("gpu"));
+    for (backend, out) in [("cpu", &cpu), ("gpu", &gpu)] {
+        let o = clatter(&[
+            &"run",
+            &"../../scenes/dice-box.toml",
+            &"--steps",
+            &"600",
+            &"--backend",
+            &backend,
+            &"--out",
+            out,
+            &"--format",
+            &"csv,vtk",
+            &"--output-every",
+            &"200",
+        ]);
+        assert_ok(&o, backend);
+    }
+    let (a, b) = (final_rows(&cpu), final_rows(&gpu));
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() > 1, "the scene has bodies");
+    for (ra, rb) in a.iter().zip(&b) {
+        assert_eq!(ra[0], rb[0], "same body ids");
+        for k in 1..4 {
+            assert!(
+                (ra[k] - rb[k]).abs() < 1e-5,
+                "body {}: position {:?} vs {:?}",
+                ra[0],
+                &ra[1..4],
+                &rb[1..4]
+            );
+        }
+    }
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(gpu.join("summary.json")).expect("summary.json"),
+    )
+    .expect("valid JSON");
+    assert!(
+        summary["backend"].as_str().unwrap_or("").starts_with("gpu"),
+        "{summary}"
+    );
+    for f in ["trace.csv", "bodies.pvd", "bodies_000600.vtu", "energy.csv"] {
+        assert!(gpu.join(f).exists(), "{f} written by the GPU run");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn auto_says_which_backend_and_why() {
+    let o = clatter(&[
+        &"run",
+        &"../../scenes/bouncing-ball.toml",
+        &"--steps",
+        &"50",
+        &"--backend",
+        &"auto",
+    ]);
+    assert_ok(&o, "auto run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("backend: "))
+        .unwrap_or_else(|| panic!("no backend line:\n{}", text(&o)));
+    assert!(
+        line.starts_with("backend: gpu (auto: found") || line.starts_with("backend: cpu (auto: "),
+        "{line}"
+    );
+}
+
+#[test]
+fn unknown_backend_is_refused() {
+    let o = clatter(&[&"run", &"--backend", &"quantum"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("quantum") && err.contains("gpu"), "{err}");
+}
+
+#[test]
+fn gpu_bench_prints_the_same_table() {
+    if !gpu_available() {
+        return;
+    }
+    let o = clatter(&[
+        &"bench",
+        &"--backend",
+        &"gpu",
+        &"--bodies",
+        &"300",
+        &"--steps",
+        &"20",
+        &"--settle",
+        &"20",
+        &"--json",
+    ]);
+    assert_ok(&o, "gpu bench");
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON rows");
+    let row = &rows[0];
+    assert_eq!(row["bodies"], 300);
+    assert!(row["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0, "{row}");
+    assert!(row["backend"].as_str().unwrap_or("").starts_with("gpu"), "{row}");
+}
