@@ -134,7 +134,13 @@ struct Errors {
     depth: f32,
 }
 
-fn agree(cpu: Option<&Manifold>, gpu: &Manifold, size: f32, tol: f32, err: &mut Errors) -> Agreement {
+fn agree(
+    cpu: Option<&Manifold>,
+    gpu: &Manifold,
+    size: f32,
+    tol: f32,
+    err: &mut Errors,
+) -> Agreement {
     let Some(cpu) = cpu else {
         return if gpu.count == 0 {
             Agreement::Same
@@ -180,7 +186,11 @@ fn agree(cpu: Option<&Manifold>, gpu: &Manifold, size: f32, tol: f32, err: &mut 
         if all {
             Agreement::Order
         } else {
-            return Agreement::Differ(format!("points CPU {:?} GPU {:?}", cpu.points(), gpu.points()));
+            return Agreement::Differ(format!(
+                "points CPU {:?} GPU {:?}",
+                cpu.points(),
+                gpu.points()
+            ));
         }
     };
     err.normal = err.normal.max(e.normal);
@@ -229,8 +239,19 @@ fn is_near_tie(
     false
 }
 
+/// Shapes with symmetries (boxes, Platonic solids, the prism and pyramid): their contacts
+/// often have exactly equal candidates in exact arithmetic (mirror-symmetric vertices for
+/// the reduction's third and fourth points, equal face separations), which rounding
+/// decides, so near-ties are common there.
+fn is_symmetric(shapes: &[PreparedShape], s: usize) -> bool {
+    matches!(shapes[s].shape, Shape::Polyhedron(_)) && !(11..=15).contains(&s)
+}
+
 #[derive(Default, Debug)]
 struct Stats {
+    /// Queries that involve only generic shapes (spheres, random hulls), and their near-ties.
+    generic: usize,
+    generic_ties: usize,
     tested: usize,
     contacts: usize,
     max_points: usize,
@@ -244,6 +265,7 @@ impl Stats {
     #[allow(clippy::too_many_arguments)]
     fn check(
         &mut self,
+        generic: bool,
         label: &str,
         cpu: Option<Manifold>,
         gpu: &Manifold,
@@ -254,6 +276,7 @@ impl Stats {
         rng: &mut ChaCha8Rng,
     ) {
         self.tested += 1;
+        self.generic += generic as usize;
         if let Some(m) = &cpu {
             self.contacts += 1;
             self.max_points = self.max_points.max(m.count);
@@ -264,13 +287,18 @@ impl Stats {
                 if is_near_tie(cpu.as_ref(), gpu, size, eval, pa, pb, rng) =>
             {
                 if self.near_ties < 5 {
-                    eprintln!("  near-tie {label}: {:?}", agree(cpu.as_ref(), gpu, size, 1.0, &mut Errors::default()));
+                    eprintln!(
+                        "  near-tie {label}: {:?}",
+                        agree(cpu.as_ref(), gpu, size, 1.0, &mut Errors::default())
+                    );
                 }
-                self.near_ties += 1
+                self.near_ties += 1;
+                self.generic_ties += generic as usize;
             }
             Agreement::Order => {
                 self.order_ties += 1;
-                self.hard.push(format!("{label}: point order differs and is not ambiguous"));
+                self.hard
+                    .push(format!("{label}: point order differs and is not ambiguous"));
             }
             Agreement::Differ(why) => self.hard.push(format!("{label}: {why}")),
         }
@@ -278,12 +306,15 @@ impl Stats {
 
     fn report(&self, what: &str) {
         eprintln!(
-            "{what}: {} tested, {} contacts (up to {} points), {} near-tie mismatches ({:.3}%), {} hard mismatches; max |normal error| {:.2e}, max point error {:.2e} x size, max depth error {:.2e} x size",
+            "{what}: {} tested, {} contacts (up to {} points), {} near-tie mismatches ({:.3}%; {} of {} generic-shape queries = {:.3}%), {} hard mismatches; max |normal error| {:.2e}, max point error {:.2e} x size, max depth error {:.2e} x size",
             self.tested,
             self.contacts,
             self.max_points,
             self.near_ties,
             100.0 * self.near_ties as f64 / self.tested.max(1) as f64,
+            self.generic_ties,
+            self.generic,
+            100.0 * self.generic_ties as f64 / self.generic.max(1) as f64,
             self.hard.len(),
             self.err.normal,
             self.err.point,
@@ -292,9 +323,21 @@ impl Stats {
         for h in self.hard.iter().take(20) {
             eprintln!("  {h}");
         }
-        assert!(self.hard.is_empty(), "{what}: {} hard mismatches", self.hard.len());
         assert!(
-            self.near_ties * 200 <= self.tested,
+            self.hard.is_empty(),
+            "{what}: {} hard mismatches",
+            self.hard.len()
+        );
+        assert!(self.generic >= 500, "{what}: too few generic-shape queries");
+        assert!(
+            self.generic_ties * 200 <= self.generic,
+            "{what}: too many near-tie mismatches on generic shapes ({} of {})",
+            self.generic_ties,
+            self.generic
+        );
+        // Symmetric shapes tie exactly far more often (see is_symmetric); still bounded.
+        assert!(
+            self.near_ties * 25 <= self.tested,
             "{what}: too many near-tie mismatches ({} of {})",
             self.near_ties,
             self.tested
@@ -378,7 +421,9 @@ fn gpu_collide_matches_cpu_on_random_pairs() {
     let batch = NarrowBatch::new(&ctx).expect("compile the narrow phase");
     let queries = random_pairs(&shapes, 15_000, &mut rng);
     let t = std::time::Instant::now();
-    let gpu = batch.collide(&ctx, &gpu_shapes, &queries).expect("GPU batch");
+    let gpu = batch
+        .collide(&ctx, &gpu_shapes, &queries)
+        .expect("GPU batch");
     eprintln!(
         "{} pair queries on {} in {:.2} s",
         queries.len(),
@@ -387,16 +432,29 @@ fn gpu_collide_matches_cpu_on_random_pairs() {
     );
     let mut stats = Stats::default();
     for (i, (q, g)) in queries.iter().zip(&gpu).enumerate() {
-        let (a, b) = (&shapes[q.shape_a as usize].shape, &shapes[q.shape_b as usize].shape);
+        let (a, b) = (
+            &shapes[q.shape_a as usize].shape,
+            &shapes[q.shape_b as usize].shape,
+        );
         let eval = |pa: &Pose, pb: &Pose| narrow::collide(a, pa, b, pb);
         let cpu = eval(&q.pose_a, &q.pose_b);
         let size = a.bounding_radius().max(b.bounding_radius());
         let label = format!("pair {i} (shapes {} and {})", q.shape_a, q.shape_b);
-        stats.check(&label, cpu, g, size, &eval, &q.pose_a, &q.pose_b, &mut rng);
+        let generic = !is_symmetric(&shapes, q.shape_a as usize)
+            && !is_symmetric(&shapes, q.shape_b as usize);
+        stats.check(
+            generic, &label, cpu, g, size, &eval, &q.pose_a, &q.pose_b, &mut rng,
+        );
     }
     stats.report("pairs");
-    assert!(stats.contacts * 4 > stats.tested, "too few contacts to be a test");
-    assert!(stats.contacts * 4 < 3 * stats.tested, "too few separated pairs");
+    assert!(
+        stats.contacts * 4 > stats.tested,
+        "too few contacts to be a test"
+    );
+    assert!(
+        stats.contacts * 4 < 3 * stats.tested,
+        "too few separated pairs"
+    );
     assert_eq!(stats.max_points, 4, "no four-point manifold was tested");
 }
 
@@ -424,7 +482,8 @@ fn gpu_collide_plane_matches_cpu() {
             match &shapes[s].shape {
                 Shape::Polyhedron(p) => {
                     let f = p.faces[rng.random_range(0..p.faces.len())];
-                    let tilt = Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(0.0..0.01));
+                    let tilt =
+                        Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(0.0..0.01));
                     (tilt * Quat::from_rotation_arc(f.normal, -normal)).normalize()
                 }
                 Shape::Sphere { .. } => random_quat(&mut rng),
@@ -458,7 +517,18 @@ fn gpu_collide_plane_matches_cpu() {
         let eval = |_: &Pose, pb: &Pose| narrow::collide_plane(&plane, shape, pb);
         let cpu = eval(&q.pose, &q.pose);
         let size = shape.bounding_radius();
-        stats.check(&format!("plane {i} (shape {})", q.shape), cpu, g, size, &eval, &q.pose, &q.pose, &mut rng);
+        let generic = !is_symmetric(&shapes, q.shape as usize);
+        stats.check(
+            generic,
+            &format!("plane {i} (shape {})", q.shape),
+            cpu,
+            g,
+            size,
+            &eval,
+            &q.pose,
+            &q.pose,
+            &mut rng,
+        );
     }
     stats.report("planes");
     assert_eq!(stats.max_points, 4, "no four-point manifold was tested");
@@ -492,7 +562,11 @@ fn shape_queries_and_big_faces_are_supported() {
         clatter_gpu::collide_batch(&ctx, &gpu_shapes, &[bad]),
         Err(GpuError::Unsupported(_))
     ));
-    assert!(clatter_gpu::collide_batch(&ctx, &gpu_shapes, &[]).unwrap().is_empty());
+    assert!(
+        clatter_gpu::collide_batch(&ctx, &gpu_shapes, &[])
+            .unwrap()
+            .is_empty()
+    );
 }
 
 #[test]
