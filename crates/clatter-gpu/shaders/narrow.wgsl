@@ -13,7 +13,7 @@
 @group(1) @binding(1) var<storage, read> shape_u: array<u32>;
 
 // Capacity of each half of the clipping array (MAX_CLIP_POINTS in src/shapes.rs).
-const NRW_MAX_CLIP: u32 = 128u;
+const NRW_MAX_CLIP: u32 = 64u;
 // Words per shape header in shape_u (SHAPE_HEADER_WORDS).
 const NRW_HDR: u32 = 12u;
 
@@ -43,8 +43,9 @@ struct NrwShape {
     dob: u32, // shape_u: direction index per edge
 }
 
-// Scratch for clipping and reduction: two halves of NRW_MAX_CLIP points (xyz, depth in w).
-alias NrwBuf = array<vec4<f32>, 256>;
+// Scratch for clipping and reduction: NRW_MAX_CLIP points (xyz, depth in w). Two separate
+// arrays (polygon and output) compile much faster on llvmpipe than one twice as long.
+alias NrwBuf = array<vec4<f32>, 64>;
 
 fn nrw_shape(s: u32) -> NrwShape {
     let h = s * NRW_HDR;
@@ -288,50 +289,50 @@ fn nrw_area(p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, normal: vec3<f32>) -> f32 
     return dot(cross(q - p, r - p), normal);
 }
 
-// Keeps at most four of the `count` points at buf[base..]: the deepest, the one furthest from
+// Keeps at most four of the `count` points in buf: the deepest, the one furthest from
 // it, the one making the largest triangle, then the one adding the most area (CPU `reduce`).
-fn nrw_reduce(buf: ptr<function, NrwBuf>, base: u32, count: u32, normal: vec3<f32>) -> Manifold {
+fn nrw_reduce(buf: ptr<function, NrwBuf>, count: u32, normal: vec3<f32>) -> Manifold {
     var m = nrw_none();
     m.normal = normal;
     if count <= 4u {
         for (var i = 0u; i < count; i += 1u) {
-            m.points[i] = (*buf)[base + i];
+            m.points[i] = (*buf)[i];
         }
         m.count = count;
         return m;
     }
     // max_by(total_cmp) keeps the last of equal maxima: `>=` on the keys.
     var a = 0u;
-    var ka = nrw_key((*buf)[base].w);
+    var ka = nrw_key((*buf)[0].w);
     for (var i = 1u; i < count; i += 1u) {
-        let k = nrw_key((*buf)[base + i].w);
+        let k = nrw_key((*buf)[i].w);
         if k >= ka {
             ka = k;
             a = i;
         }
     }
-    let pa = (*buf)[base + a].xyz;
+    let pa = (*buf)[a].xyz;
     var b = 0u;
     var kb = 0;
     for (var i = 0u; i < count; i += 1u) {
-        let d = (*buf)[base + i].xyz - pa;
+        let d = (*buf)[i].xyz - pa;
         let k = nrw_key(dot(d, d));
         if i == 0u || k >= kb {
             kb = k;
             b = i;
         }
     }
-    let pb = (*buf)[base + b].xyz;
+    let pb = (*buf)[b].xyz;
     var c = 0u;
     var kc = 0;
     for (var i = 0u; i < count; i += 1u) {
-        let k = nrw_key(abs(nrw_area(pa, pb, (*buf)[base + i].xyz, normal)));
+        let k = nrw_key(abs(nrw_area(pa, pb, (*buf)[i].xyz, normal)));
         if i == 0u || k >= kc {
             kc = k;
             c = i;
         }
     }
-    let pc = (*buf)[base + c].xyz;
+    let pc = (*buf)[c].xyz;
     let sign = nrw_signum(nrw_area(pa, pb, pc, normal));
     var d = 0u;
     var kd = 0;
@@ -340,7 +341,7 @@ fn nrw_reduce(buf: ptr<function, NrwBuf>, base: u32, count: u32, normal: vec3<f3
         if i == a || i == b || i == c {
             continue;
         }
-        let p = (*buf)[base + i].xyz;
+        let p = (*buf)[i].xyz;
         let g = max(max(-sign * nrw_area(pa, pb, p, normal), -sign * nrw_area(pb, pc, p, normal)), -sign * nrw_area(pc, pa, p, normal));
         let k = nrw_key(g);
         if !found || k >= kd {
@@ -350,21 +351,21 @@ fn nrw_reduce(buf: ptr<function, NrwBuf>, base: u32, count: u32, normal: vec3<f3
         }
     }
     // idx = [a, b, c, d?] with consecutive duplicates removed (Vec::dedup).
-    m.points[0] = (*buf)[base + a];
+    m.points[0] = (*buf)[a];
     var n = 1u;
     var last = a;
     if b != last {
-        m.points[n] = (*buf)[base + b];
+        m.points[n] = (*buf)[b];
         n += 1u;
         last = b;
     }
     if c != last {
-        m.points[n] = (*buf)[base + c];
+        m.points[n] = (*buf)[c];
         n += 1u;
         last = c;
     }
     if found && d != last {
-        m.points[n] = (*buf)[base + d];
+        m.points[n] = (*buf)[d];
         n += 1u;
     }
     m.count = n;
@@ -389,21 +390,127 @@ fn collide_plane(n: vec3<f32>, offset: f32, s: u32, x: vec3<f32>, q: vec4<f32>) 
         return nrw_none();
     }
     let n_local = quat_rotate_inv(q, n);
-    var buf: NrwBuf;
+    return nrw_reduce_plane(p, n_local, centre_height, n, x, q);
+}
+
+// Vertex i of p against the wall: world point moved halfway through the overlap in xyz,
+// depth in w (w <= 0: the vertex is not below the wall).
+fn nrw_plane_pt(p: NrwShape, i: u32, n_local: vec3<f32>, ch: f32, n: vec3<f32>, x: vec3<f32>, q: vec4<f32>) -> vec4<f32> {
+    let v = nrw_vert(p, i);
+    let h = dot(n_local, v) + ch;
+    if !(h < 0.0) {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(quat_rotate(q, v) + x - n * (0.5 * h), -h);
+}
+
+// nrw_reduce over the vertices below the wall, recomputed on each pass instead of gathered
+// into an array (a large private array costs minutes of shader compilation on llvmpipe).
+// Vertex indices stand for the CPU's point indices: both follow the vertex order.
+fn nrw_reduce_plane(p: NrwShape, n_local: vec3<f32>, ch: f32, normal: vec3<f32>, x: vec3<f32>, q: vec4<f32>) -> Manifold {
+    var m = nrw_none();
+    m.normal = normal;
     var count = 0u;
     for (var i = 0u; i < p.nv; i += 1u) {
-        let v = nrw_vert(p, i);
-        let h = dot(n_local, v) + centre_height;
-        if h < 0.0 && count < 2u * NRW_MAX_CLIP {
-            let world = quat_rotate(q, v) + x - n * (0.5 * h);
-            buf[count] = vec4<f32>(world, -h);
+        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
+        if pt.w > 0.0 {
+            if count < 4u {
+                m.points[count] = pt;
+            }
             count += 1u;
         }
     }
-    if count == 0u {
-        return nrw_none();
+    if count <= 4u {
+        m.count = count;
+        return m;
     }
-    return nrw_reduce(&buf, 0u, count, n);
+    var a = 0u;
+    var ka = 0;
+    var first = true;
+    for (var i = 0u; i < p.nv; i += 1u) {
+        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
+        if pt.w > 0.0 {
+            let k = nrw_key(pt.w);
+            if first || k >= ka {
+                first = false;
+                ka = k;
+                a = i;
+            }
+        }
+    }
+    let pa4 = nrw_plane_pt(p, a, n_local, ch, normal, x, q);
+    let pa = pa4.xyz;
+    var b = 0u;
+    var kb = 0;
+    first = true;
+    for (var i = 0u; i < p.nv; i += 1u) {
+        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
+        if pt.w > 0.0 {
+            let d = pt.xyz - pa;
+            let k = nrw_key(dot(d, d));
+            if first || k >= kb {
+                first = false;
+                kb = k;
+                b = i;
+            }
+        }
+    }
+    let pb4 = nrw_plane_pt(p, b, n_local, ch, normal, x, q);
+    let pb = pb4.xyz;
+    var c = 0u;
+    var kc = 0;
+    first = true;
+    for (var i = 0u; i < p.nv; i += 1u) {
+        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
+        if pt.w > 0.0 {
+            let k = nrw_key(abs(nrw_area(pa, pb, pt.xyz, normal)));
+            if first || k >= kc {
+                first = false;
+                kc = k;
+                c = i;
+            }
+        }
+    }
+    let pc4 = nrw_plane_pt(p, c, n_local, ch, normal, x, q);
+    let pc = pc4.xyz;
+    let sign = nrw_signum(nrw_area(pa, pb, pc, normal));
+    var d = 0u;
+    var kd = 0;
+    var found = false;
+    for (var i = 0u; i < p.nv; i += 1u) {
+        if i == a || i == b || i == c {
+            continue;
+        }
+        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
+        if pt.w > 0.0 {
+            let g = max(max(-sign * nrw_area(pa, pb, pt.xyz, normal), -sign * nrw_area(pb, pc, pt.xyz, normal)), -sign * nrw_area(pc, pa, pt.xyz, normal));
+            let k = nrw_key(g);
+            if !found || k >= kd {
+                found = true;
+                kd = k;
+                d = i;
+            }
+        }
+    }
+    m.points[0] = pa4;
+    var k = 1u;
+    var last = a;
+    if b != last {
+        m.points[k] = pb4;
+        k += 1u;
+        last = b;
+    }
+    if c != last {
+        m.points[k] = pc4;
+        k += 1u;
+        last = c;
+    }
+    if found && d != last {
+        m.points[k] = nrw_plane_pt(p, d, n_local, ch, normal, x, q);
+        k += 1u;
+    }
+    m.count = k;
+    return m;
 }
 
 // ---------------------------------------------------------------- polyhedra
@@ -666,12 +773,12 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
             inc_face = f;
         }
     }
-    var buf: NrwBuf;
-    var cur = 0u;
+    var poly: NrwBuf;
+    var tmp: NrwBuf;
     var len = nrw_loop_len(inc, inc_face);
     let ifirst = nrw_loop_first(inc, inc_face);
     for (var i = 0u; i < len; i += 1u) {
-        buf[i] = vec4<f32>(nrw_inc_vert(inc, shape_u[ifirst + i], inc_m, inc_t, inc_is_a), 0.0);
+        poly[i] = vec4<f32>(nrw_inc_vert(inc, shape_u[ifirst + i], inc_m, inc_t, inc_is_a), 0.0);
     }
     let rfirst = nrw_loop_first(refp, rf);
     let rlen = nrw_loop_len(refp, rf);
@@ -680,36 +787,36 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
         let v1 = nrw_vert(refp, shape_u[rfirst + (k + 1u) % rlen]);
         let side = cross(v1 - v0, n); // outward for a CCW loop
         let off = dot(side, v0);
-        let out = NRW_MAX_CLIP - cur;
         var olen = 0u;
         for (var i = 0u; i < len; i += 1u) {
-            let p = buf[cur + i].xyz;
-            let q = buf[cur + (i + 1u) % len].xyz;
+            let p = poly[i].xyz;
+            let q = poly[(i + 1u) % len].xyz;
             let dp = dot(side, p) - off;
             let dq = dot(side, q) - off;
             if dp <= 0.0 && olen < NRW_MAX_CLIP {
-                buf[out + olen] = vec4<f32>(p, 0.0);
+                tmp[olen] = vec4<f32>(p, 0.0);
                 olen += 1u;
             }
             if ((dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0)) && olen < NRW_MAX_CLIP {
-                buf[out + olen] = vec4<f32>(p + (q - p) * (dp / (dp - dq)), 0.0);
+                tmp[olen] = vec4<f32>(p + (q - p) * (dp / (dp - dq)), 0.0);
                 olen += 1u;
             }
         }
-        cur = out;
+        for (var i = 0u; i < olen; i += 1u) {
+            poly[i] = tmp[i];
+        }
         len = olen;
         if len == 0u {
             break;
         }
     }
-    // Points below the reference face, moved halfway through the overlap, into the other half.
-    let pts = NRW_MAX_CLIP - cur;
+    // Points below the reference face, moved halfway through the overlap, into tmp.
     var count = 0u;
     for (var i = 0u; i < len; i += 1u) {
-        let p = buf[cur + i].xyz;
+        let p = poly[i].xyz;
         let depth = rface.w - dot(n, p);
         if depth > 0.0 {
-            buf[pts + count] = vec4<f32>(p + n * (0.5 * depth), depth);
+            tmp[count] = vec4<f32>(p + n * (0.5 * depth), depth);
             count += 1u;
         }
     }
@@ -732,7 +839,7 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
         }
         return nrw_single(n, deepest + n * (0.5 * depth), depth);
     }
-    return nrw_reduce(&buf, pts, count, n);
+    return nrw_reduce(&tmp, count, n);
 }
 
 // Two convex polyhedra: the full separating-axis test (CPU `polyhedron_polyhedron` without a
@@ -799,22 +906,33 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
         let mid = 0.5 * (cl[0] + cl[1]);
         return nrw_single(quat_rotate(qa, e.axis), quat_rotate(qa, mid) + xa, -e.s);
     }
-    // Face contact: prefer A's face unless B's is clearly better.
-    if best_b > best_a + tol {
+    // Face contact: prefer A's face unless B's is clearly better. One call site for the
+    // clipping (each inlined copy of its private array costs compile time).
+    let b_ref = best_b > best_a + tol;
+    var refp = a;
+    var inc = b;
+    var rf = best_af;
+    var inc_m = rot;
+    var xr = xa;
+    var qr = qa;
+    if b_ref {
         // Reference face on B: B's frame, A incident with vertices inv_rot * (v - t).
-        var m = nrw_clip_faces(b, best_bf, a, inv_rot, t, true, inv_rot);
-        if m.count == 0u {
-            return m;
-        }
-        m = nrw_to_world(m, xb, qb);
-        m.normal = -m.normal;
-        return m;
+        refp = b;
+        inc = a;
+        rf = best_bf;
+        inc_m = inv_rot;
+        xr = xb;
+        qr = qb;
     }
-    let m = nrw_clip_faces(a, best_af, b, rot, t, false, rot);
+    var m = nrw_clip_faces(refp, rf, inc, inc_m, t, b_ref, inc_m);
     if m.count == 0u {
         return m;
     }
-    return nrw_to_world(m, xa, qa);
+    m = nrw_to_world(m, xr, qr);
+    if b_ref {
+        m.normal = -m.normal;
+    }
+    return m;
 }
 
 // ---------------------------------------------------------------- entry

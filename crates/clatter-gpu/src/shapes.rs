@@ -18,15 +18,18 @@ use clatter_geom::{PreparedShape, Shape};
 
 use crate::{GpuContext, GpuError};
 
-/// Most vertices of one polyhedron. The plane test gathers the vertices below the wall into
-/// a private array of [`MAX_CLIP_POINTS`] entries before reducing them to four, so a shape
-/// may not have more vertices than that array holds.
-pub const MAX_SHAPE_VERTICES: usize = 128;
-/// Most vertices in one face loop (a face of a hull of 64 points has at most 63 or 64).
-/// The clipped incident face has at most `incident + reference` loop vertices, which must fit
-/// [`MAX_CLIP_POINTS`].
-pub const MAX_FACE_VERTICES: usize = 64;
-/// Capacity of each half of the private clipping array in `narrow.wgsl` (`NRW_MAX_CLIP`).
+/// Most vertices of one polyhedron. No private array depends on it (the wall test reduces
+/// the vertices below the wall on the fly); it bounds the work of one GPU thread, whose
+/// separating-axis loops are O(edges_a x edges_b) with up to 3V - 6 edges per shape.
+pub const MAX_SHAPE_VERTICES: usize = 256;
+/// Most vertices in one face loop. Clipping the incident face against the reference face
+/// gives at most `incident + reference` loop vertices, held in private arrays of
+/// [`MAX_CLIP_POINTS`]. Kept small on purpose: llvmpipe's shader compile time grows steeply
+/// with private array size (measured for the batch kernel with Mesa's cache off: ~15 s of
+/// CPU at 32, ~35 s at 64 with one combined array, ~7 min with three 256-entry copies).
+/// A 32-gon prism (64 vertices) fits; a pyramid on a 40-gon does not.
+pub const MAX_FACE_VERTICES: usize = 32;
+/// Capacity of each private clipping array in `narrow.wgsl` (`NRW_MAX_CLIP`).
 pub const MAX_CLIP_POINTS: usize = 2 * MAX_FACE_VERTICES;
 /// Words of the per-shape header at the start of `shape_u`.
 pub const SHAPE_HEADER_WORDS: usize = 12;
@@ -229,6 +232,14 @@ impl GpuShapes {
 mod tests {
     use super::*;
     use clatter_geom::{RegularKind, ShapeKind};
+
+    #[test]
+    fn wgsl_constants_match() {
+        let wgsl = include_str!("../shaders/narrow.wgsl");
+        assert!(wgsl.contains(&format!("const NRW_MAX_CLIP: u32 = {MAX_CLIP_POINTS}u;")));
+        assert!(wgsl.contains(&format!("array<vec4<f32>, {MAX_CLIP_POINTS}>")));
+        assert!(wgsl.contains(&format!("const NRW_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
+    }
 
     #[test]
     fn header_offsets_point_at_the_tables() {

@@ -1,0 +1,612 @@
+//! The WGSL narrow phase against the CPU's `narrow::collide` / `collide_plane` on thousands of
+//! random pairs and walls (spheres, boxes, the Platonic solids, random hulls, hulls with
+//! 32-gon faces).
+//!
+//! Results must agree to rounding. A mismatch is excused only as a near-tie: when the CPU's
+//! own answer changes under a pose perturbation of 1e-5 x size (or the perturbed CPU gives
+//! the GPU's answer), i.e. when competing candidates (axes, faces, clip points, reduction
+//! picks) are within ~1e-5 x size of each other. Near-ties are counted and bounded.
+
+use clatter_geom::narrow::{self, Manifold, Plane};
+use clatter_geom::{Pose, PreparedShape, RegularKind, Shape, ShapeKind};
+use clatter_gpu::{GpuError, GpuShapes, NarrowBatch, NarrowQuery, PlaneQuery};
+use glam::{Quat, Vec3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn prep(kind: ShapeKind) -> PreparedShape {
+    kind.prepare().expect("valid shape")
+}
+
+fn random_unit(rng: &mut ChaCha8Rng) -> Vec3 {
+    loop {
+        let v = Vec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let l = v.length_squared();
+        if l > 1e-4 && l <= 1.0 {
+            return v / l.sqrt();
+        }
+    }
+}
+
+fn random_quat(rng: &mut ChaCha8Rng) -> Quat {
+    loop {
+        let q = Quat::from_xyzw(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let l = q.length_squared();
+        if l > 1e-4 && l <= 1.0 {
+            return q.normalize();
+        }
+    }
+}
+
+/// Points around a circle of `n` at height `z` (for prisms and pyramids with big faces).
+fn ring(n: usize, r: f64, z: f64) -> Vec<[f64; 3]> {
+    (0..n)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / n as f64;
+            [r * a.cos(), r * a.sin(), z]
+        })
+        .collect()
+}
+
+/// The test's shape set.
+fn shape_set(rng: &mut ChaCha8Rng) -> Vec<PreparedShape> {
+    let mut s = vec![
+        prep(ShapeKind::Sphere { radius: 0.3 }),
+        prep(ShapeKind::Sphere { radius: 0.5 }),
+        prep(ShapeKind::Sphere { radius: 1.0 }),
+        prep(ShapeKind::Box {
+            half_extents: [0.5, 0.5, 0.5],
+        }),
+        prep(ShapeKind::Box {
+            half_extents: [1.0, 0.3, 0.6],
+        }),
+        prep(ShapeKind::Box {
+            half_extents: [0.2, 0.8, 0.4],
+        }),
+    ];
+    for (i, kind) in RegularKind::ALL.into_iter().enumerate() {
+        s.push(prep(ShapeKind::Regular {
+            kind,
+            radius: 0.6 + 0.1 * i as f64,
+        }));
+    }
+    for n in [8, 12, 20, 28, 40] {
+        let scale = [
+            rng.random_range(0.4..1.0),
+            rng.random_range(0.4..1.0),
+            rng.random_range(0.4..1.0),
+        ];
+        let points = (0..n)
+            .map(|_| {
+                let v = random_unit(rng) * rng.random_range(0.5f32..1.0);
+                [
+                    v.x as f64 * scale[0],
+                    v.y as f64 * scale[1],
+                    v.z as f64 * scale[2],
+                ]
+            })
+            .collect();
+        s.push(prep(ShapeKind::Convex { points }));
+    }
+    // A prism with 32-gon caps (64 vertices) and a pyramid on a 32-gon.
+    let mut prism = ring(32, 0.7, -0.3);
+    prism.extend(ring(32, 0.7, 0.3));
+    s.push(prep(ShapeKind::Convex { points: prism }));
+    let mut pyramid = ring(32, 0.8, -0.2);
+    pyramid.push([0.0, 0.0, 0.6]);
+    s.push(prep(ShapeKind::Convex { points: pyramid }));
+    s
+}
+
+fn size_of(s: &PreparedShape) -> f32 {
+    s.shape.bounding_radius()
+}
+
+/// Tolerances, relative to the pair's size for lengths.
+const NORMAL_TOL: f32 = 1e-4;
+const POINT_TOL: f32 = 1e-4;
+
+/// How a GPU manifold compares to the CPU's.
+#[derive(Debug, PartialEq)]
+enum Agreement {
+    /// Same contact, count, normal, points in order.
+    Same,
+    /// Same points, in another order.
+    Order,
+    /// Anything else.
+    Differ(String),
+}
+
+/// Largest errors over agreeing manifolds (lengths relative to the size).
+#[derive(Default, Debug)]
+struct Errors {
+    normal: f32,
+    point: f32,
+    depth: f32,
+}
+
+fn agree(
+    cpu: Option<&Manifold>,
+    gpu: &Manifold,
+    size: f32,
+    tol: f32,
+    err: &mut Errors,
+) -> Agreement {
+    let Some(cpu) = cpu else {
+        return if gpu.count == 0 {
+            Agreement::Same
+        } else {
+            Agreement::Differ(format!("CPU: no contact, GPU: {} points", gpu.count))
+        };
+    };
+    if gpu.count == 0 {
+        return Agreement::Differ(format!("CPU: {} points, GPU: no contact", cpu.count));
+    }
+    if cpu.count != gpu.count {
+        return Agreement::Differ(format!("count CPU {} GPU {}", cpu.count, gpu.count));
+    }
+    let dn = (cpu.normal - gpu.normal).length();
+    if dn > NORMAL_TOL * tol {
+        return Agreement::Differ(format!("normal CPU {} GPU {}", cpu.normal, gpu.normal));
+    }
+    let close = |a: &narrow::ContactPoint, b: &narrow::ContactPoint| {
+        (a.point - b.point).length() <= POINT_TOL * tol * size
+            && (a.depth - b.depth).abs() <= POINT_TOL * tol * size
+    };
+    let mut e = Errors {
+        normal: dn,
+        ..Default::default()
+    };
+    let in_order = cpu.points().iter().zip(gpu.points()).all(|(a, b)| {
+        e.point = e.point.max((a.point - b.point).length() / size);
+        e.depth = e.depth.max((a.depth - b.depth).abs() / size);
+        close(a, b)
+    });
+    let result = if in_order {
+        Agreement::Same
+    } else {
+        // The same points in another order?
+        let mut used = [false; 4];
+        let all = cpu.points().iter().all(|a| {
+            let hit = (0..gpu.count).find(|&j| !used[j] && close(a, &gpu.points[j]));
+            if let Some(j) = hit {
+                used[j] = true;
+            }
+            hit.is_some()
+        });
+        if all {
+            Agreement::Order
+        } else {
+            return Agreement::Differ(format!(
+                "points CPU {:?} GPU {:?}",
+                cpu.points(),
+                gpu.points()
+            ));
+        }
+    };
+    err.normal = err.normal.max(e.normal);
+    if result == Agreement::Same {
+        err.point = err.point.max(e.point);
+        err.depth = err.depth.max(e.depth);
+    }
+    result
+}
+
+/// A pose moved by `eps` (a length) and turned by `eps / size` radians at random.
+fn perturb(p: &Pose, eps: f32, size: f32, rng: &mut ChaCha8Rng) -> Pose {
+    let turn = Quat::from_axis_angle(random_unit(rng), eps / size);
+    Pose::new(
+        p.position + random_unit(rng) * eps,
+        (turn * p.rotation).normalize(),
+    )
+}
+
+/// Whether a mismatch is a near-tie of the CPU: under small perturbations of the poses the
+/// CPU's own answer changes, or becomes the GPU's answer.
+fn is_near_tie(
+    cpu: Option<&Manifold>,
+    gpu: &Manifold,
+    size: f32,
+    eval: &dyn Fn(&Pose, &Pose) -> Option<Manifold>,
+    pa: &Pose,
+    pb: &Pose,
+    rng: &mut ChaCha8Rng,
+) -> bool {
+    let eps = 1e-5 * size;
+    let mut scratch = Errors::default();
+    for _ in 0..32 {
+        let qa = perturb(pa, eps, size, rng);
+        let qb = perturb(pb, eps, size, rng);
+        let c = eval(&qa, &qb);
+        // Perturbed CPU answers move by ~eps: compare with a 20x looser tolerance.
+        let c_as_gpu = c.unwrap_or_default();
+        if agree(cpu, &c_as_gpu, size, 20.0, &mut scratch) != Agreement::Same {
+            return true;
+        }
+        if agree(c.as_ref(), gpu, size, 20.0, &mut scratch) == Agreement::Same {
+            return true;
+        }
+    }
+    false
+}
+
+/// Shapes with symmetries (boxes, Platonic solids, the prism and pyramid): their contacts
+/// often have exactly equal candidates in exact arithmetic (mirror-symmetric vertices for
+/// the reduction's third and fourth points, equal face separations), which rounding
+/// decides, so near-ties are common there.
+fn is_symmetric(shapes: &[PreparedShape], s: usize) -> bool {
+    matches!(shapes[s].shape, Shape::Polyhedron(_)) && !(11..=15).contains(&s)
+}
+
+#[derive(Default, Debug)]
+struct Stats {
+    /// Queries that involve only generic shapes (spheres, random hulls), and their near-ties.
+    generic: usize,
+    generic_ties: usize,
+    tested: usize,
+    contacts: usize,
+    max_points: usize,
+    near_ties: usize,
+    order_ties: usize,
+    hard: Vec<String>,
+    err: Errors,
+}
+
+impl Stats {
+    #[allow(clippy::too_many_arguments)]
+    fn check(
+        &mut self,
+        generic: bool,
+        label: &str,
+        cpu: Option<Manifold>,
+        gpu: &Manifold,
+        size: f32,
+        eval: &dyn Fn(&Pose, &Pose) -> Option<Manifold>,
+        pa: &Pose,
+        pb: &Pose,
+        rng: &mut ChaCha8Rng,
+    ) {
+        self.tested += 1;
+        self.generic += generic as usize;
+        if let Some(m) = &cpu {
+            self.contacts += 1;
+            self.max_points = self.max_points.max(m.count);
+        }
+        match agree(cpu.as_ref(), gpu, size, 1.0, &mut self.err) {
+            Agreement::Same => {}
+            Agreement::Order | Agreement::Differ(_)
+                if is_near_tie(cpu.as_ref(), gpu, size, eval, pa, pb, rng) =>
+            {
+                if self.near_ties < 5 {
+                    eprintln!(
+                        "  near-tie {label}: {:?}",
+                        agree(cpu.as_ref(), gpu, size, 1.0, &mut Errors::default())
+                    );
+                }
+                self.near_ties += 1;
+                self.generic_ties += generic as usize;
+            }
+            Agreement::Order => {
+                self.order_ties += 1;
+                self.hard
+                    .push(format!("{label}: point order differs and is not ambiguous"));
+            }
+            Agreement::Differ(why) => self.hard.push(format!("{label}: {why}")),
+        }
+    }
+
+    fn report(&self, what: &str) {
+        eprintln!(
+            "{what}: {} tested, {} contacts (up to {} points), {} near-tie mismatches ({:.3}%; {} of {} generic-shape queries = {:.3}%), {} hard mismatches; max |normal error| {:.2e}, max point error {:.2e} x size, max depth error {:.2e} x size",
+            self.tested,
+            self.contacts,
+            self.max_points,
+            self.near_ties,
+            100.0 * self.near_ties as f64 / self.tested.max(1) as f64,
+            self.generic_ties,
+            self.generic,
+            100.0 * self.generic_ties as f64 / self.generic.max(1) as f64,
+            self.hard.len(),
+            self.err.normal,
+            self.err.point,
+            self.err.depth
+        );
+        for h in self.hard.iter().take(20) {
+            eprintln!("  {h}");
+        }
+        assert!(
+            self.hard.is_empty(),
+            "{what}: {} hard mismatches",
+            self.hard.len()
+        );
+        assert!(self.generic >= 500, "{what}: too few generic-shape queries");
+        assert!(
+            self.generic_ties * 200 <= self.generic,
+            "{what}: too many near-tie mismatches on generic shapes ({} of {})",
+            self.generic_ties,
+            self.generic
+        );
+        // Symmetric shapes tie exactly far more often (see is_symmetric); still bounded.
+        assert!(
+            self.near_ties * 25 <= self.tested,
+            "{what}: too many near-tie mismatches ({} of {})",
+            self.near_ties,
+            self.tested
+        );
+    }
+}
+
+/// Random pairs: half with random poses around the contact distance, half "stacked" (B on
+/// top of A along A's z, twisted about z, slightly tilted or not) for face-face manifolds.
+fn random_pairs(shapes: &[PreparedShape], n: usize, rng: &mut ChaCha8Rng) -> Vec<NarrowQuery> {
+    let mut out = Vec::with_capacity(2 * n);
+    for k in 0..n {
+        let sa = rng.random_range(0..shapes.len());
+        let sb = rng.random_range(0..shapes.len());
+        let (ra, rb) = (size_of(&shapes[sa]), size_of(&shapes[sb]));
+        let xa = Vec3::new(
+            rng.random_range(-10.0..10.0),
+            rng.random_range(-10.0..10.0),
+            rng.random_range(-10.0..10.0),
+        );
+        let qa = random_quat(rng);
+        let (xb, qb) = if k % 2 == 0 {
+            let dist = rng.random_range(0.0..0.95f32) * (ra + rb);
+            (xa + random_unit(rng) * dist, random_quat(rng))
+        } else {
+            let twist = if rng.random_bool(0.2) {
+                0.0
+            } else {
+                rng.random_range(0.0..std::f32::consts::TAU)
+            };
+            let tilt = if rng.random_bool(0.5) {
+                Quat::IDENTITY
+            } else {
+                Quat::from_axis_angle(random_unit(rng), rng.random_range(0.0..0.05))
+            };
+            let qb = (qa * tilt * Quat::from_rotation_z(twist)).normalize();
+            let up = qa * Vec3::Z;
+            let top_a = support_height(&shapes[sa].shape, qa, up);
+            let bottom_b = support_height(&shapes[sb].shape, qb, -up);
+            let overlap = rng.random_range(-0.02..0.1f32) * ra.min(rb);
+            let side = (qa * Vec3::X) * rng.random_range(-0.3..0.3f32) * ra;
+            (xa + up * (top_a + bottom_b - overlap) + side, qb)
+        };
+        let (pa, pb) = (Pose::new(xa, qa), Pose::new(xb, qb));
+        out.push(NarrowQuery {
+            shape_a: sa as u32,
+            pose_a: pa,
+            shape_b: sb as u32,
+            pose_b: pb,
+        });
+        out.push(NarrowQuery {
+            shape_a: sb as u32,
+            pose_a: pb,
+            shape_b: sa as u32,
+            pose_b: pa,
+        });
+    }
+    out
+}
+
+/// Largest extent of `shape` at rotation `q` along the world direction `dir`.
+fn support_height(shape: &Shape, q: Quat, dir: Vec3) -> f32 {
+    match shape {
+        Shape::Sphere { radius } => *radius,
+        Shape::Polyhedron(p) => p
+            .vertices
+            .iter()
+            .map(|v| (q * *v).dot(dir))
+            .fold(f32::MIN, f32::max),
+    }
+}
+
+#[test]
+fn gpu_collide_matches_cpu_on_random_pairs() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6e61_7272);
+    let shapes = shape_set(&mut rng);
+    let gpu_shapes = GpuShapes::upload(&ctx, &shapes).expect("upload");
+    let batch = NarrowBatch::new(&ctx).expect("compile the narrow phase");
+    let queries = random_pairs(&shapes, 15_000, &mut rng);
+    let t = std::time::Instant::now();
+    let gpu = batch
+        .collide(&ctx, &gpu_shapes, &queries)
+        .expect("GPU batch");
+    eprintln!(
+        "{} pair queries on {} in {:.2} s",
+        queries.len(),
+        ctx.adapter_name(),
+        t.elapsed().as_secs_f64()
+    );
+    let mut stats = Stats::default();
+    for (i, (q, g)) in queries.iter().zip(&gpu).enumerate() {
+        let (a, b) = (
+            &shapes[q.shape_a as usize].shape,
+            &shapes[q.shape_b as usize].shape,
+        );
+        let eval = |pa: &Pose, pb: &Pose| narrow::collide(a, pa, b, pb);
+        let cpu = eval(&q.pose_a, &q.pose_b);
+        let size = a.bounding_radius().max(b.bounding_radius());
+        let label = format!("pair {i} (shapes {} and {})", q.shape_a, q.shape_b);
+        let generic = !is_symmetric(&shapes, q.shape_a as usize)
+            && !is_symmetric(&shapes, q.shape_b as usize);
+        stats.check(
+            generic, &label, cpu, g, size, &eval, &q.pose_a, &q.pose_b, &mut rng,
+        );
+    }
+    stats.report("pairs");
+    assert!(
+        stats.contacts * 4 > stats.tested,
+        "too few contacts to be a test"
+    );
+    assert!(
+        stats.contacts * 4 < 3 * stats.tested,
+        "too few separated pairs"
+    );
+    assert_eq!(stats.max_points, 4, "no four-point manifold was tested");
+}
+
+#[test]
+fn gpu_collide_plane_matches_cpu() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(0x706c_616e);
+    let shapes = shape_set(&mut rng);
+    let gpu_shapes = GpuShapes::upload(&ctx, &shapes).expect("upload");
+    let batch = NarrowBatch::new(&ctx).expect("compile the narrow phase");
+    let mut queries = Vec::new();
+    for k in 0..6000 {
+        let s = rng.random_range(0..shapes.len());
+        let r = size_of(&shapes[s]);
+        let normal = if k % 3 == 0 {
+            [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::Z][rng.random_range(0..4)]
+        } else {
+            random_unit(&mut rng)
+        };
+        let offset = rng.random_range(-5.0..5.0f32);
+        // Every third body rests on a face (rotation from a face normal to -normal).
+        let rotation = if k % 3 == 1 {
+            match &shapes[s].shape {
+                Shape::Polyhedron(p) => {
+                    let f = p.faces[rng.random_range(0..p.faces.len())];
+                    let tilt =
+                        Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(0.0..0.01));
+                    (tilt * Quat::from_rotation_arc(f.normal, -normal)).normalize()
+                }
+                Shape::Sphere { .. } => random_quat(&mut rng),
+            }
+        } else {
+            random_quat(&mut rng)
+        };
+        let height = rng.random_range(-0.3..1.1f32) * r;
+        let tangent = random_unit(&mut rng).cross(normal) * 3.0;
+        let position = normal * (offset + height) + tangent;
+        queries.push(PlaneQuery {
+            plane: Plane { normal, offset },
+            shape: s as u32,
+            pose: Pose::new(position, rotation),
+        });
+    }
+    let t = std::time::Instant::now();
+    let gpu = batch
+        .collide_plane(&ctx, &gpu_shapes, &queries)
+        .expect("GPU batch");
+    eprintln!(
+        "{} plane queries in {:.2} s",
+        queries.len(),
+        t.elapsed().as_secs_f64()
+    );
+    let mut stats = Stats::default();
+    for (i, (q, g)) in queries.iter().zip(&gpu).enumerate() {
+        let shape = &shapes[q.shape as usize].shape;
+        let plane = q.plane;
+        // Perturb the body only (the wall's pose argument is ignored).
+        let eval = |_: &Pose, pb: &Pose| narrow::collide_plane(&plane, shape, pb);
+        let cpu = eval(&q.pose, &q.pose);
+        let size = shape.bounding_radius();
+        let generic = !is_symmetric(&shapes, q.shape as usize);
+        stats.check(
+            generic,
+            &format!("plane {i} (shape {})", q.shape),
+            cpu,
+            g,
+            size,
+            &eval,
+            &q.pose,
+            &q.pose,
+            &mut rng,
+        );
+    }
+    stats.report("planes");
+    assert_eq!(stats.max_points, 4, "no four-point manifold was tested");
+}
+
+#[test]
+fn shape_queries_and_big_faces_are_supported() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let shapes = shape_set(&mut rng);
+    // The prism (64 vertices) and the pyramid have faces of the largest supported size.
+    for s in &shapes[shapes.len() - 2..] {
+        let Shape::Polyhedron(p) = &s.shape else {
+            panic!("polyhedron")
+        };
+        let longest = p.faces.iter().map(|f| f.count).max().unwrap();
+        assert_eq!(longest as usize, clatter_gpu::shapes::MAX_FACE_VERTICES);
+    }
+    let gpu_shapes = GpuShapes::upload(&ctx, &shapes).expect("upload");
+    assert_eq!(gpu_shapes.count, shapes.len());
+    // Out-of-range shape indices are refused.
+    let bad = NarrowQuery {
+        shape_a: shapes.len() as u32,
+        pose_a: Pose::new(Vec3::ZERO, Quat::IDENTITY),
+        shape_b: 0,
+        pose_b: Pose::new(Vec3::ZERO, Quat::IDENTITY),
+    };
+    assert!(matches!(
+        clatter_gpu::collide_batch(&ctx, &gpu_shapes, &[bad]),
+        Err(GpuError::Unsupported(_))
+    ));
+    assert!(
+        clatter_gpu::collide_batch(&ctx, &gpu_shapes, &[])
+            .unwrap()
+            .is_empty()
+    );
+}
+
+#[test]
+fn shapes_over_the_limits_are_unsupported() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(2);
+    let sphere = prep(ShapeKind::Sphere { radius: 1.0 });
+    // 400 points on a sphere: a hull with more than MAX_SHAPE_VERTICES vertices.
+    let many = prep(ShapeKind::Convex {
+        points: (0..400)
+            .map(|_| {
+                let v = random_unit(&mut rng);
+                [v.x as f64, v.y as f64, v.z as f64]
+            })
+            .collect(),
+    });
+    let Shape::Polyhedron(p) = &many.shape else {
+        panic!()
+    };
+    assert!(p.vertices.len() > clatter_gpu::shapes::MAX_SHAPE_VERTICES);
+    let err = GpuShapes::upload(&ctx, &[sphere.clone(), many])
+        .err()
+        .expect("too many vertices");
+    let GpuError::Unsupported(msg) = &err else {
+        panic!("wrong error {err}")
+    };
+    assert!(msg.contains("shape 1") && msg.contains("256"), "{msg}");
+    eprintln!("{err}");
+    // A pyramid on a 40-gon: 41 vertices, but a face longer than MAX_FACE_VERTICES.
+    let mut pts = ring(40, 1.0, 0.0);
+    pts.push([0.0, 0.0, 1.0]);
+    let pyramid = prep(ShapeKind::Convex { points: pts });
+    let err = GpuShapes::upload(&ctx, &[pyramid, sphere])
+        .err()
+        .expect("face too long");
+    let GpuError::Unsupported(msg) = &err else {
+        panic!("wrong error {err}")
+    };
+    assert!(msg.contains("shape 0") && msg.contains("32"), "{msg}");
+    eprintln!("{err}");
+}
