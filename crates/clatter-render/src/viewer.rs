@@ -102,6 +102,8 @@ struct App {
     mouse: Mouse,
     rates: Rates,
     frames_shown: u64,
+    /// Width of the control panel, points: the scene is drawn to its right.
+    panel_width: f32,
     egui: egui::Context,
     result: Result<(), ViewerError>,
 }
@@ -136,6 +138,7 @@ pub fn run(options: ViewerOptions) -> Result<(), ViewerError> {
             steps_per_s: 0.0,
         },
         frames_shown: 0,
+        panel_width: 0.0,
         egui: egui::Context::default(),
         result: Ok(()),
         options,
@@ -223,7 +226,9 @@ impl App {
             self.options.camera,
             &renderer.bounds(),
             renderer.up(),
-            targets.aspect(),
+            // The panel (about 230 points wide) takes the left of the window.
+            (config.width as f32 - 230.0 * window.scale_factor() as f32).max(1.0)
+                / config.height as f32,
         );
         let egui_state = egui_winit::State::new(
             self.egui.clone(),
@@ -286,7 +291,7 @@ impl App {
 
     /// The egui panel.
     fn panel(&mut self, ui: &mut egui::Ui, bodies: usize, adapter: &str) {
-        egui::Panel::left("controls")
+        let shown = egui::Panel::left("controls")
             .resizable(false)
             .default_size(220.0)
             .show(ui, |ui| {
@@ -331,6 +336,13 @@ impl App {
                 ui.small(adapter);
                 ui.small("left drag: orbit, right drag: pan, wheel: zoom");
             });
+        self.panel_width = shown.response.rect.width();
+    }
+
+    /// The part of the window right of the panel, pixels: `(x, width)`.
+    fn scene_area(&self, width: u32, pixels_per_point: f32) -> (u32, u32) {
+        let x = ((self.panel_width * pixels_per_point).round() as u32).min(width.saturating_sub(1));
+        (x, width - x)
     }
 
     fn redraw(&mut self, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
@@ -364,8 +376,9 @@ impl App {
             }
         }
         self.camera.fit_clip(&g.renderer.bounds());
-        g.renderer
-            .prepare(&self.camera, g.targets.aspect(), &self.style);
+        let (x0, scene_w) = self.scene_area(g.config.width, ppp);
+        let aspect = scene_w as f32 / g.config.height as f32;
+        g.renderer.prepare(&self.camera, aspect, &self.style);
         let screen = egui_wgpu::ScreenDescriptor {
             size_in_pixels: [g.config.width, g.config.height],
             pixels_per_point: ppp,
@@ -401,7 +414,10 @@ impl App {
                 .targets
                 .begin_pass(&mut encoder, view.as_ref())
                 .forget_lifetime();
+            let (w, h) = (g.config.width as f32, g.config.height as f32);
+            pass.set_viewport(x0 as f32, 0.0, scene_w as f32, h, 0.0, 1.0);
             g.renderer.paint(&mut pass, Poses::Uploaded)?;
+            pass.set_viewport(0.0, 0.0, w, h, 0.0, 1.0);
             g.egui_renderer.render(&mut pass, &jobs, &screen);
         }
         g.ctx
