@@ -12,20 +12,26 @@ use glam::{Mat4, Vec3, Vec4};
 /// A perspective camera looking from `eye` at `target`, `up` being up on the screen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
+    /// Where the camera stands, m.
     pub eye: Vec3,
+    /// The point at the centre of the picture, m; orbiting turns about it.
     pub target: Vec3,
+    /// The direction that is up on the screen (need not be perpendicular to the view).
     pub up: Vec3,
     /// Vertical field of view, radians.
     pub fov_y: f32,
-    /// Near and far clip distances, m.
+    /// Near clip distance, m.
     pub near: f32,
+    /// Far clip distance, m.
     pub far: f32,
 }
 
 /// An axis-aligned box, m.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Bounds {
+    /// The lowest corner.
     pub min: Vec3,
+    /// The highest corner.
     pub max: Vec3,
 }
 
@@ -89,7 +95,12 @@ pub enum CameraSpec {
     /// Horizontally, from the right-hand side.
     Side,
     /// From `eye` towards `target` (the scene's centre when `None`).
-    At { eye: Vec3, target: Option<Vec3> },
+    At {
+        /// The eye point, m.
+        eye: Vec3,
+        /// The target point, m.
+        target: Option<Vec3>,
+    },
 }
 
 /// The `--camera` syntax, for help texts and errors.

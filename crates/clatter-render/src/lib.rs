@@ -1,3 +1,4 @@
+#![warn(missing_docs)]
 //! Pictures of clatter simulations: a wgpu renderer for offscreen frames (PNG, video frames)
 //! and the interactive viewer.
 //!

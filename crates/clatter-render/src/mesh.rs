@@ -12,14 +12,18 @@ use crate::camera::Bounds;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct Vertex {
+    /// Position in the shape's principal frame, m.
     pub position: [f32; 3],
+    /// Unit shading normal in the same frame.
     pub normal: [f32; 3],
 }
 
 /// A triangle mesh: vertices and counter-clockwise (seen from outside) triangles.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {
+    /// The vertices.
     pub vertices: Vec<Vertex>,
+    /// Three vertex indices per triangle.
     pub indices: Vec<u32>,
 }
 
@@ -135,12 +139,15 @@ impl Mesh {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct WallVertex {
+    /// World position, m.
     pub position: [f32; 3],
+    /// Coordinates along the wall's two in-plane axes, m.
     pub plane_uv: [f32; 2],
     /// Opacity of the wall's fill; its grid lines are drawn more opaque.
     pub alpha: f32,
     /// Grid spacing, m.
     pub spacing: f32,
+    /// Padding to 32 bytes.
     pub _pad: f32,
 }
 

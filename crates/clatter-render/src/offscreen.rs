@@ -19,7 +19,9 @@ pub const OFFSCREEN_SAMPLES: u32 = 4;
 /// Colour (multisampled and resolved) and depth targets of one size, plus the read-back
 /// buffer. Used by [`Offscreen`] and by the viewer's window.
 pub struct Targets {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
     msaa: Option<wgpu::TextureView>,
     resolved: wgpu::Texture,
@@ -215,7 +217,9 @@ pub fn read_texture(
 
 /// Renders frames of a world into images of one size, sharing the simulation's device.
 pub struct Offscreen {
+    /// The renderer, drawing into `targets`.
     pub renderer: Renderer,
+    /// The colour and depth textures of the frame size.
     pub targets: Targets,
     device: wgpu::Device,
     queue: wgpu::Queue,

@@ -38,12 +38,22 @@ pub enum RenderError {
     Gpu(#[from] clatter_gpu::GpuError),
     /// The requested image size is zero or beyond the adapter's texture limit.
     #[error("image size {width}x{height} is not possible: each side must be 1..={max} pixels")]
-    BadSize { width: u32, height: u32, max: u32 },
+    BadSize {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// The adapter's largest texture side.
+        max: u32,
+    },
     /// The body buffer given to [`Poses::Gpu`] is too small for the world's bodies.
     #[error("the body buffer holds {bytes} bytes but {bodies} bodies need {need}")]
     BufferTooSmall {
+        /// The buffer's size, bytes.
         bytes: u64,
+        /// The world's bodies.
         bodies: usize,
+        /// Bytes the bodies need.
         need: u64,
     },
     /// Reading the image back failed.
@@ -51,7 +61,12 @@ pub enum RenderError {
     Readback(String),
     /// Writing the PNG failed.
     #[error("cannot write {path}: {message}")]
-    Write { path: String, message: String },
+    Write {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
 }
 
 /// How bodies are coloured.
@@ -102,6 +117,7 @@ impl FromStr for ColorMode {
 /// What to show and how.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Style {
+    /// How bodies are coloured.
     pub color: ColorMode,
     /// Draw only the bodies that touch something now (the seed's figure 6).
     pub only_contacts: bool,
