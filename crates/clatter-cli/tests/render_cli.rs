@@ -216,3 +216,67 @@ fn view_saves_a_screenshot_under_xvfb() {
     check_png(&shot, 320, 200);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bench_render_adds_frames_per_second() {
+    if clatter_gpu::test_context().is_none() {
+        return;
+    }
+    let args: &[&dyn AsRef<std::ffi::OsStr>] = &[
+        &"bench",
+        &"--render",
+        &"--render-frames",
+        &"2",
+        &"--bodies",
+        &"27,64",
+        &"--steps",
+        &"5",
+        &"--settle",
+        &"5",
+    ];
+    let o = clatter(args);
+    assert_ok(&o, "clatter bench --render");
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("frames/s"), "{table}");
+    let rows: Vec<&str> = table.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(rows.len(), 3, "{table}");
+    for row in &rows[1..] {
+        let cols: Vec<&str> = row.split_whitespace().collect();
+        assert_eq!(cols.len(), 7, "{row}");
+        let fps: f64 = cols[6].parse().expect("frames/s is a number");
+        assert!(fps > 0.0 && fps.is_finite(), "{row}");
+    }
+    let mut json_args = args.to_vec();
+    json_args.push(&"--json");
+    let o = clatter(&json_args);
+    assert_ok(&o, "clatter bench --render --json");
+    let v: Vec<serde_json::Value> = serde_json::from_slice(&o.stdout).expect("JSON");
+    assert_eq!(v.len(), 2);
+    for r in &v {
+        let fps = r["frames_per_s"].as_f64().expect("frames_per_s");
+        assert!(fps > 0.0, "{r}");
+    }
+    // Without --render there is no such column.
+    let o = clatter(&[
+        &"bench",
+        &"--bodies",
+        &"27",
+        &"--steps",
+        &"2",
+        &"--settle",
+        &"0",
+        &"--json",
+    ]);
+    assert_ok(&o, "clatter bench --json");
+    let v: Vec<serde_json::Value> = serde_json::from_slice(&o.stdout).expect("JSON");
+    assert!(v[0].get("frames_per_s").is_none());
+    let o = clatter(&[
+        &"bench",
+        &"--render",
+        &"--render-frames",
+        &"0",
+        &"--bodies",
+        &"27",
+    ]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--render-frames"));
+}
