@@ -1,5 +1,6 @@
-//! `clatter bench`: the seed's table (bodies vs steps/s) on a settled pile, and the LAMMPS
-//! input for the same sphere pile (`scripts/bench-lammps.sh` runs both and prints the ratio).
+//! `clatter bench`: the seed's table (bodies vs steps/s) on a settled pile, with `--render` the
+//! frames/s of a step plus an offscreen 1280x720 frame, and the LAMMPS input for the same
+//! sphere pile (`scripts/bench-lammps.sh` runs both and prints the ratio).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -21,7 +22,12 @@ pub struct BenchArgs {
     pub json: bool,
     pub emit_lammps: Option<PathBuf>,
     pub backend: Backend,
+    /// With `Some(frames)`: also time that many frames of one step plus an offscreen render.
+    pub render: Option<u64>,
 }
+
+/// Size of the frames timed by `--render`.
+pub const RENDER_SIZE: (u32, u32) = (1280, 720);
 
 /// One row of the table.
 #[derive(serde::Serialize)]
@@ -37,6 +43,10 @@ struct Row {
     dt: f32,
     rebuilds: u64,
     backend: String,
+    /// With `--render`: frames per second of one step plus an offscreen 1280x720 frame
+    /// (upload, draw, wait for the GPU; no read-back).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    frames_per_s: Option<f64>,
 }
 
 /// Runs the benchmark for every body count.
@@ -55,18 +65,37 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     if args.emit_lammps.is_some() && (shape != PileShape::Sphere || args.bodies.len() != 1) {
         anyhow::bail!("--emit-lammps needs --shape sphere and exactly one --bodies count");
     }
+    if args.render == Some(0) {
+        anyhow::bail!("--render-frames must be at least 1");
+    }
+    let gpu = match args.render {
+        Some(_) => Some(clatter_gpu::GpuContext::new().context("bench --render")?),
+        None => None,
+    };
     let params = PileParams::default();
     if !args.json {
+        if let Some(ctx) = &gpu {
+            println!(
+                "# rendering: {}x{} offscreen on {}",
+                RENDER_SIZE.0,
+                RENDER_SIZE.1,
+                ctx.adapter_name()
+            );
+        }
         println!(
             "# clatter bench: {name} pile, {} threads, {} settle + {} timed steps",
             rayon::current_num_threads(),
             args.settle,
             args.steps
         );
-        println!(
-            "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}  backend",
+        print!(
+            "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}",
             "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step", "rebuilds"
         );
+        if gpu.is_some() {
+            print!(" {:>10}", "frames/s");
+        }
+        println!("  backend");
     }
     let mut rows = Vec::new();
     for &n in &args.bodies {
@@ -126,6 +155,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             }
         };
         let sps = args.steps as f64 / secs;
+        let frames_per_s = match (&gpu, args.render) {
+            (Some(ctx), Some(frames)) => Some(time_frames(ctx, &mut world, frames)?),
+            _ => None,
+        };
         let row = Row {
             shape: name,
             bodies: n,
@@ -138,18 +171,22 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             dt: world.dt,
             rebuilds,
             backend,
+            frames_per_s,
         };
         if !args.json {
-            println!(
-                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}  {}",
+            print!(
+                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}",
                 row.bodies,
                 row.steps_per_s,
                 row.body_steps_per_s,
                 row.contacts_per_body,
                 row.ms_per_step,
                 row.rebuilds,
-                row.backend
             );
+            if let Some(f) = row.frames_per_s {
+                print!(" {f:>10.2}");
+            }
+            println!("  {}", row.backend);
         }
         rows.push(row);
     }
@@ -157,6 +194,32 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
+}
+
+/// Frames per second of one step, the upload of the state and an offscreen frame (waiting
+/// for the GPU to finish each), over `frames` frames after one untimed warm-up frame.
+fn time_frames(
+    ctx: &clatter_gpu::GpuContext,
+    world: &mut World,
+    frames: u64,
+) -> anyhow::Result<f64> {
+    use clatter_render::{CameraSpec, Offscreen, Poses, Style};
+    let mut off = Offscreen::new(ctx, world, RENDER_SIZE.0, RENDER_SIZE.1)?;
+    let camera = off.camera(CameraSpec::Iso);
+    let style = Style::default();
+    let mut frame = |world: &mut World| -> anyhow::Result<()> {
+        world.step().context("the pile blew up while rendering")?;
+        off.update(world);
+        off.draw(&camera, &style, Poses::Uploaded)?;
+        ctx.wait()?;
+        Ok(())
+    };
+    frame(world)?;
+    let start = Instant::now();
+    for _ in 0..frames {
+        frame(world)?;
+    }
+    Ok(frames as f64 / start.elapsed().as_secs_f64())
 }
 
 /// Writes `pile.data` and `in.pile` for LAMMPS (`pair_style gran/hooke/history`) with the same

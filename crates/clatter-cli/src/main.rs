@@ -1,10 +1,12 @@
-//! `clatter`: run DEM scenes, benchmark the step, answer collision queries.
+//! `clatter`: run DEM scenes, render and view them, benchmark the step, answer collision
+//! queries.
 
 mod backend;
 mod bench;
 mod energy;
 mod output;
 mod query;
+mod render;
 mod run;
 mod vtk;
 
@@ -75,6 +77,60 @@ enum Command {
         #[arg(long, value_enum, default_value = "auto")]
         backend: backend::Backend,
     },
+    /// Run a scene and write a PNG frame every N steps (offscreen, no window needed), then
+    /// DIR/frames.mp4 if ffmpeg is on the PATH.
+    Render {
+        /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
+        scene: Option<PathBuf>,
+        /// Directory for frame_000000.png, frame_000001.png, ... and frames.mp4 (created if
+        /// needed).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        /// Write a frame every N steps (and at the first and last step).
+        #[arg(long, value_name = "N", default_value_t = 100)]
+        every: u64,
+        /// Image size in pixels.
+        #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = render::parse_size)]
+        size: (u32, u32),
+        /// Override the scene's run length with a number of steps.
+        #[arg(long, value_name = "N")]
+        steps: Option<u64>,
+        /// Frames per second of frames.mp4.
+        #[arg(long, value_name = "FPS", default_value_t = 30)]
+        fps: u32,
+        #[command(flatten)]
+        picture: render::PictureArgs,
+        /// Worker threads of the simulation (default: all cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+        /// Print nothing but errors (and whether the MP4 was skipped).
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Open a window with the scene running live: orbit (left drag), pan (right or middle
+    /// drag), zoom (wheel); pause, step, reset, speed, colour modes.
+    View {
+        /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
+        scene: Option<PathBuf>,
+        /// Window size in pixels.
+        #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = render::parse_size)]
+        size: (u32, u32),
+        /// Simulation steps per displayed frame (the speed slider's start value).
+        #[arg(long, value_name = "N", default_value_t = 10)]
+        steps_per_frame: u32,
+        #[command(flatten)]
+        picture: render::PictureArgs,
+        /// Save the window (scene and controls) to PATH as a PNG after --frames frames, and
+        /// exit.
+        #[arg(long, value_name = "PATH")]
+        screenshot: Option<PathBuf>,
+        /// Frames to show before the screenshot (with --screenshot).
+        #[arg(long, value_name = "N", default_value_t = 30)]
+        frames: u64,
+        /// Worker threads of the simulation (default: all cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+    },
     /// Time the step on a settled pile and print bodies vs steps/s.
     Bench {
         /// Shape of the bodies.
@@ -104,6 +160,13 @@ enum Command {
         /// steps as warm-up.
         #[arg(long, value_enum, default_value = "cpu")]
         backend: backend::Backend,
+        /// Also time steps with an offscreen 1280x720 render after each (the "fps with
+        /// rendering" column; needs a GPU adapter, lavapipe/llvmpipe will do).
+        #[arg(long)]
+        render: bool,
+        /// Frames timed per body count with --render.
+        #[arg(long, value_name = "N", default_value_t = 20)]
+        render_frames: u64,
     },
     /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
     Query {
@@ -168,6 +231,8 @@ fn main() -> ExitCode {
             threads,
             emit_lammps,
             backend,
+            render,
+            render_frames,
         } => init_threads(threads).and_then(|_| {
             bench::bench(bench::BenchArgs {
                 shape,
@@ -177,6 +242,47 @@ fn main() -> ExitCode {
                 json,
                 emit_lammps,
                 backend,
+                render: render.then_some(render_frames),
+            })
+        }),
+        Command::Render {
+            scene,
+            out,
+            every,
+            size,
+            steps,
+            fps,
+            picture,
+            threads,
+            quiet,
+        } => init_threads(threads).and_then(|_| {
+            render::render(render::RenderArgs {
+                scene,
+                out,
+                every,
+                size,
+                steps,
+                fps,
+                picture,
+                quiet,
+            })
+        }),
+        Command::View {
+            scene,
+            size,
+            steps_per_frame,
+            picture,
+            screenshot,
+            frames,
+            threads,
+        } => init_threads(threads).and_then(|_| {
+            render::view(render::ViewArgs {
+                scene,
+                size,
+                steps_per_frame,
+                picture,
+                screenshot,
+                frames,
             })
         }),
         Command::Query { input } => query::run(&input),

@@ -255,9 +255,10 @@ fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved
     })
 }
 
-/// `clatter run`: a scene from the start.
-pub fn run(args: RunArgs) -> anyhow::Result<()> {
-    let (text, name) = match &args.scene {
+/// Reads and validates the scene at `path`, or the embedded default scene; returns the text
+/// with the scene.
+pub fn load_scene(path: Option<&Path>) -> anyhow::Result<(String, Scene)> {
+    let (text, name) = match path {
         Some(path) => {
             let name = path.display().to_string();
             let text = std::fs::read_to_string(path).map_err(|e| SceneError {
@@ -271,6 +272,12 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
         None => (DEFAULT_SCENE.to_string(), "<default scene>".to_string()),
     };
     let scene = Scene::parse(&text, &name)?;
+    Ok((text, scene))
+}
+
+/// `clatter run`: a scene from the start.
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    let (text, scene) = load_scene(args.scene.as_deref())?;
     let Resolved {
         csv,
         vtk,

@@ -123,5 +123,8 @@ fn gpu_bench_prints_the_same_table() {
     let row = &rows[0];
     assert_eq!(row["bodies"], 300);
     assert!(row["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0, "{row}");
-    assert!(row["backend"].as_str().unwrap_or("").starts_with("gpu"), "{row}");
+    assert!(
+        row["backend"].as_str().unwrap_or("").starts_with("gpu"),
+        "{row}"
+    );
 }

@@ -484,7 +484,7 @@ pub fn check_fits(
     walls: u64,
 ) -> Result<(), GpuError> {
     {
-        let limit = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         let biggest = [
             ("body state", 96 * n),
             ("cell counts", 4 * (8 * n + 65)),

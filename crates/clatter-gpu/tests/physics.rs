@@ -3,6 +3,10 @@
 //! here with the `gpu-step` feature on, so their `step` runs one GPU step and reads the state
 //! back (see crates/clatter/tests/common/step.rs).
 
+// Each included test file carries its own `#[path] mod` of the shared step helper, as it
+// must when built on its own as a CPU test.
+#![allow(clippy::duplicate_mod)]
+
 mod gpu_step {
     use std::cell::RefCell;
     use std::sync::Arc;

@@ -1,0 +1,266 @@
+//! `clatter render`: run a scene on the CPU and write a PNG frame every N steps (offscreen,
+//! no window), then encode them into an MP4 when ffmpeg is on the PATH. `clatter view`: the
+//! interactive window. Both take the same picture options ([`PictureArgs`]).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::Context;
+use clap::ValueEnum;
+use clatter_gpu::GpuContext;
+use clatter_render::{CAMERA_SYNTAX, CameraSpec, ColorMode, Offscreen, Poses, Style, save_png};
+
+use crate::run::load_scene;
+
+/// Colour mode of bodies.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ColorArg {
+    /// One colour per material.
+    Material,
+    /// Blue (at rest) to red (the fastest body).
+    Speed,
+    /// Orange if touching something now, grey if not.
+    Contact,
+}
+
+impl From<ColorArg> for ColorMode {
+    fn from(c: ColorArg) -> ColorMode {
+        match c {
+            ColorArg::Material => ColorMode::Material,
+            ColorArg::Speed => ColorMode::Speed,
+            ColorArg::Contact => ColorMode::Contact,
+        }
+    }
+}
+
+/// The largest image side `--size` accepts, pixels.
+pub const MAX_SIDE: u32 = 8192;
+
+/// Parses `WxH` (e.g. `1280x720`).
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not a size: expected WIDTHxHEIGHT, e.g. 1280x720");
+    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
+    let w: u32 = w.trim().parse().map_err(|_| bad())?;
+    let h: u32 = h.trim().parse().map_err(|_| bad())?;
+    // 8192 keeps a 4x multisampled frame with its depth buffer within about 2 GiB.
+    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
+        return Err(format!(
+            "size {w}x{h}: each side must be 1 to {MAX_SIDE} pixels"
+        ));
+    }
+    Ok((w, h))
+}
+
+/// Parses `--camera` (see [`CAMERA_SYNTAX`]).
+pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
+    s.parse::<CameraSpec>()
+        .map_err(|e| format!("{e}; expected {CAMERA_SYNTAX}"))
+}
+
+/// Picture options shared by `render` and `view`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct PictureArgs {
+    /// Camera: iso (default; from the front, above and to the right), top, front, side, or
+    /// an eye point EX,EY,EZ with an optional target :TX,TY,TZ (m; default target: the
+    /// scene's centre), e.g. --camera 0.8,-0.6,0.5:0.15,0.15,0.05. Presets frame the bodies
+    /// and the walls next to them.
+    #[arg(long, value_name = "CAMERA", default_value = "iso", value_parser = parse_camera, allow_hyphen_values = true)]
+    pub camera: CameraSpec,
+    /// Colour bodies by material, speed, or contact (touching something now).
+    #[arg(long, value_enum, default_value = "material")]
+    pub color: ColorArg,
+    /// Show only the bodies that touch something now (another body or a wall).
+    #[arg(long)]
+    pub only_contacts: bool,
+}
+
+impl PictureArgs {
+    /// The renderer's style.
+    pub fn style(&self) -> Style {
+        Style {
+            color: self.color.into(),
+            only_contacts: self.only_contacts,
+            speed_max: None,
+        }
+    }
+}
+
+/// Arguments of `clatter render`.
+pub struct RenderArgs {
+    pub scene: Option<PathBuf>,
+    pub out: PathBuf,
+    pub every: u64,
+    pub size: (u32, u32),
+    pub steps: Option<u64>,
+    pub fps: u32,
+    pub picture: PictureArgs,
+    pub quiet: bool,
+}
+
+/// Runs `clatter render`.
+pub fn render(args: RenderArgs) -> anyhow::Result<()> {
+    if args.every == 0 {
+        anyhow::bail!("--every must be at least 1");
+    }
+    if args.fps == 0 {
+        anyhow::bail!("--fps must be at least 1");
+    }
+    let (_, scene) = load_scene(args.scene.as_deref())?;
+    let mut world = scene.world();
+    let end = args.steps.unwrap_or_else(|| scene.steps(world.dt));
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create the output directory {}", args.out.display()))?;
+    let ctx = GpuContext::new()?;
+    let (w, h) = args.size;
+    let mut off = Offscreen::new(&ctx, &world, w, h)?;
+    let camera = off.camera(args.picture.camera);
+    let style = args.picture.style();
+    if !args.quiet {
+        eprintln!(
+            "rendering {} ({} bodies, {end} steps) every {} steps at {w}x{h} on {}",
+            scene.source,
+            world.len(),
+            args.every,
+            ctx.adapter_name()
+        );
+    }
+    let mut frames = 0u64;
+    let mut shoot = |world: &clatter::World, off: &mut Offscreen| -> anyhow::Result<()> {
+        off.update(world);
+        let img = off.render(&camera, &style, Poses::Uploaded)?;
+        let path = args.out.join(format!("frame_{frames:06}.png"));
+        save_png(&img, &path)?;
+        frames += 1;
+        Ok(())
+    };
+    shoot(&world, &mut off)?;
+    for k in 1..=end {
+        world
+            .step()
+            .with_context(|| format!("the simulation failed at step {k}"))?;
+        if k % args.every == 0 || k == end {
+            shoot(&world, &mut off)?;
+        }
+    }
+    ctx.take_error()?;
+    if !args.quiet {
+        println!(
+            "wrote {frames} frames to {}/frame_NNNNNN.png",
+            args.out.display()
+        );
+    }
+    encode_mp4(&args.out, args.fps, args.quiet)
+}
+
+/// Arguments of `clatter view`.
+pub struct ViewArgs {
+    pub scene: Option<PathBuf>,
+    pub size: (u32, u32),
+    pub steps_per_frame: u32,
+    pub picture: PictureArgs,
+    pub screenshot: Option<PathBuf>,
+    pub frames: u64,
+}
+
+/// Runs `clatter view`.
+pub fn view(args: ViewArgs) -> anyhow::Result<()> {
+    if args.frames == 0 {
+        anyhow::bail!("--frames must be at least 1");
+    }
+    if args.steps_per_frame == 0 {
+        anyhow::bail!("--steps-per-frame must be at least 1");
+    }
+    if let Some(dir) = args.screenshot.as_ref().and_then(|p| p.parent())
+        && !dir.as_os_str().is_empty()
+        && !dir.is_dir()
+    {
+        anyhow::bail!(
+            "--screenshot: the directory {} does not exist",
+            dir.display()
+        );
+    }
+    let (_, scene) = load_scene(args.scene.as_deref())?;
+    clatter_render::viewer::run(clatter_render::ViewerOptions {
+        world: scene.world(),
+        title: format!("clatter: {}", scene.source),
+        size: args.size,
+        steps_per_frame: args.steps_per_frame,
+        camera: args.picture.camera,
+        style: args.picture.style(),
+        screenshot: args.screenshot,
+        frames: args.frames,
+    })?;
+    Ok(())
+}
+
+/// Encodes `DIR/frame_%06d.png` into `DIR/frames.mp4` with ffmpeg, or says why not.
+fn encode_mp4(dir: &Path, fps: u32, quiet: bool) -> anyhow::Result<()> {
+    let mp4 = dir.join("frames.mp4");
+    let out = Command::new("ffmpeg")
+        .args([
+            "-y",
+            "-loglevel",
+            "error",
+            "-framerate",
+            &fps.to_string(),
+            "-i",
+        ])
+        .arg(dir.join("frame_%06d.png"))
+        // Even sizes and yuv420p: what H.264 players expect.
+        .args([
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "-pix_fmt",
+            "yuv420p",
+        ])
+        .arg(&mp4)
+        .output();
+    match out {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            println!(
+                "ffmpeg was not found on the PATH: skipped {}",
+                mp4.display()
+            );
+            Ok(())
+        }
+        Err(e) => {
+            println!("could not run ffmpeg ({e}): skipped {}", mp4.display());
+            Ok(())
+        }
+        Ok(o) if o.status.success() => {
+            if !quiet {
+                println!("wrote {}", mp4.display());
+            }
+            Ok(())
+        }
+        Ok(o) => anyhow::bail!(
+            "ffmpeg failed to encode {} ({}): {}",
+            mp4.display(),
+            o.status,
+            String::from_utf8_lossy(&o.stderr).trim()
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("1280x720"), Ok((1280, 720)));
+        assert_eq!(parse_size(" 64X48 "), Ok((64, 48)));
+        for bad in [
+            "",
+            "1280",
+            "0x10",
+            "10x0",
+            "axb",
+            "-1x5",
+            "100000x10",
+            "12x12x12",
+        ] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
+}

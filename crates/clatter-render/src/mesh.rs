@@ -1,0 +1,245 @@
+//! Triangle meshes of the shapes (in their principal frame, as the simulation stores them)
+//! and quads for the walls.
+
+use bytemuck::{Pod, Zeroable};
+use clatter::geom::shape::Shape;
+use clatter::world::Wall;
+use glam::Vec3;
+
+use crate::camera::Bounds;
+
+/// One mesh vertex: position in the shape's principal frame and the shading normal.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct Vertex {
+    /// Position in the shape's principal frame, m.
+    pub position: [f32; 3],
+    /// Unit shading normal in the same frame.
+    pub normal: [f32; 3],
+}
+
+/// A triangle mesh: vertices and counter-clockwise (seen from outside) triangles.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    /// The vertices.
+    pub vertices: Vec<Vertex>,
+    /// Three vertex indices per triangle.
+    pub indices: Vec<u32>,
+}
+
+/// Subdivisions of the sphere's icosahedron: 2 gives 320 triangles, round enough at the
+/// sizes bodies have on screen.
+pub const SPHERE_SUBDIVISIONS: u32 = 2;
+
+impl Mesh {
+    /// The mesh of a shape: a polyhedron with one flat normal per face (faceted look), a
+    /// sphere as an icosphere with smooth normals.
+    pub fn of_shape(shape: &Shape) -> Mesh {
+        match shape {
+            Shape::Sphere { radius } => Mesh::icosphere(*radius, SPHERE_SUBDIVISIONS),
+            Shape::Polyhedron(p) => {
+                let mut m = Mesh::default();
+                for f in 0..p.faces.len() {
+                    let face = &p.faces[f];
+                    let ring = p.face_loop(f);
+                    if ring.len() < 3 {
+                        continue;
+                    }
+                    let base = m.vertices.len() as u32;
+                    for &v in ring {
+                        m.vertices.push(Vertex {
+                            position: p.vertices[v as usize].to_array(),
+                            normal: face.normal.to_array(),
+                        });
+                    }
+                    // A convex polygon: a fan from its first vertex.
+                    for k in 1..ring.len() as u32 - 1 {
+                        m.indices.extend_from_slice(&[base, base + k, base + k + 1]);
+                    }
+                }
+                m
+            }
+        }
+    }
+
+    /// A sphere of `radius` made by subdividing an icosahedron `levels` times.
+    pub fn icosphere(radius: f32, levels: u32) -> Mesh {
+        let t = (1.0 + 5f32.sqrt()) / 2.0;
+        let mut pts: Vec<Vec3> = [
+            [-1.0, t, 0.0],
+            [1.0, t, 0.0],
+            [-1.0, -t, 0.0],
+            [1.0, -t, 0.0],
+            [0.0, -1.0, t],
+            [0.0, 1.0, t],
+            [0.0, -1.0, -t],
+            [0.0, 1.0, -t],
+            [t, 0.0, -1.0],
+            [t, 0.0, 1.0],
+            [-t, 0.0, -1.0],
+            [-t, 0.0, 1.0],
+        ]
+        .iter()
+        .map(|p| Vec3::from_array(*p).normalize())
+        .collect();
+        let mut tris: Vec<[u32; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        for _ in 0..levels {
+            let mut mid = std::collections::HashMap::new();
+            let mut midpoint = |a: u32, b: u32, pts: &mut Vec<Vec3>| -> u32 {
+                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    pts.push((pts[a as usize] + pts[b as usize]).normalize());
+                    pts.len() as u32 - 1
+                })
+            };
+            let mut next = Vec::with_capacity(tris.len() * 4);
+            for [a, b, c] in tris {
+                let ab = midpoint(a, b, &mut pts);
+                let bc = midpoint(b, c, &mut pts);
+                let ca = midpoint(c, a, &mut pts);
+                next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+            }
+            tris = next;
+        }
+        Mesh {
+            vertices: pts
+                .iter()
+                .map(|p| Vertex {
+                    position: (*p * radius).to_array(),
+                    normal: p.to_array(),
+                })
+                .collect(),
+            indices: tris.into_iter().flatten().collect(),
+        }
+    }
+}
+
+/// One wall vertex: world position, coordinates in the wall's plane (m, for the grid lines)
+/// and opacity.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
+pub struct WallVertex {
+    /// World position, m.
+    pub position: [f32; 3],
+    /// Coordinates along the wall's two in-plane axes, m.
+    pub plane_uv: [f32; 2],
+    /// Opacity of the wall's fill; its grid lines are drawn more opaque.
+    pub alpha: f32,
+    /// Grid spacing, m.
+    pub spacing: f32,
+    /// Padding to 32 bytes.
+    pub _pad: f32,
+}
+
+/// A round grid spacing (1, 2 or 5 times a power of ten) of about `size / 12`.
+pub fn grid_spacing(size: f32) -> f32 {
+    let raw = (size / 12.0).max(1e-6);
+    let p = 10f32.powf(raw.log10().floor());
+    let m = raw / p;
+    p * if m < 1.5 {
+        1.0
+    } else if m < 3.5 {
+        2.0
+    } else if m < 7.5 {
+        5.0
+    } else {
+        10.0
+    }
+}
+
+/// Two triangles per wall: the part of each wall plane that faces `bounds` (the box's
+/// outline projected onto the plane, plus a margin), with a grid. The wall that is most
+/// nearly the floor (normal along `up`) is drawn more opaque than the others.
+pub fn wall_quads(walls: &[Wall], bounds: &Bounds, up: Vec3) -> (Vec<WallVertex>, Vec<u32>) {
+    let mut vertices = Vec::new();
+    let mut indices = Vec::new();
+    let c = bounds.centre();
+    let half = 0.5 * (bounds.max - bounds.min) + Vec3::splat(0.04 * bounds.radius());
+    let spacing = grid_spacing(2.0 * bounds.radius());
+    let floor = walls
+        .iter()
+        .enumerate()
+        .max_by(|a, b| {
+            a.1.plane
+                .normal
+                .dot(up)
+                .total_cmp(&b.1.plane.normal.dot(up))
+        })
+        .filter(|(_, w)| w.plane.normal.dot(up) > 0.7)
+        .map(|(i, _)| i);
+    for (k, w) in walls.iter().enumerate() {
+        let n = w.plane.normal;
+        if !n.is_finite() || n.length_squared() < 0.5 || !w.plane.offset.is_finite() {
+            continue;
+        }
+        let dist = n.dot(c) - w.plane.offset;
+        // The wall's own in-plane axes, chosen from the world axis least along its normal.
+        let a = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+        let t1 = (a - n * n.dot(a)).normalize();
+        let t2 = n.cross(t1);
+        let extent = |t: Vec3| t.x.abs() * half.x + t.y.abs() * half.y + t.z.abs() * half.z;
+        let (e1, e2) = (extent(t1), extent(t2));
+        let foot = c - dist * n;
+        let alpha = if Some(k) == floor { 0.55 } else { 0.12 };
+        let base = vertices.len() as u32;
+        for (s1, s2) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+            let p = foot + t1 * (s1 * e1) + t2 * (s2 * e2);
+            vertices.push(WallVertex {
+                position: p.to_array(),
+                plane_uv: [p.dot(t1), p.dot(t2)],
+                alpha,
+                spacing,
+                _pad: 0.0,
+            });
+        }
+        indices.extend_from_slice(&[base, base + 1, base + 2, base, base + 2, base + 3]);
+    }
+    (vertices, indices)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn icosphere_is_closed_and_outward() {
+        let m = Mesh::icosphere(2.0, 2);
+        assert_eq!(m.indices.len() / 3, 320);
+        for t in m.indices.chunks(3) {
+            let p: Vec<Vec3> = t
+                .iter()
+                .map(|&i| Vec3::from_array(m.vertices[i as usize].position))
+                .collect();
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            assert!(n.dot(p[0]) > 0.0, "inward triangle");
+            assert!((p[0].length() - 2.0).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn grid_spacing_is_round() {
+        assert_eq!(grid_spacing(12.0), 1.0);
+        assert!((grid_spacing(0.36) - 0.02).abs() < 1e-7);
+        assert!((grid_spacing(0.6) - 0.05).abs() < 1e-7);
+    }
+}
