@@ -36,55 +36,71 @@ impl Engine {
     }
 }
 
-/// Opens the GPU and uploads `world`.
-pub fn open_gpu(world: &World) -> anyhow::Result<Box<GpuWorld>> {
-    let ctx = Arc::new(GpuContext::new()?);
-    Ok(Box::new(
-        GpuWorld::new(ctx, world).context("cannot run this scene on the GPU")?,
-    ))
-}
-
 /// Chooses the engine for `world`; with `auto`, prints the choice and the reason unless
 /// `quiet`.
 pub fn choose(backend: Backend, world: &World, quiet: bool) -> anyhow::Result<Engine> {
-    let say = |msg: String| {
-        if !quiet {
-            eprintln!("backend: {msg}");
-        }
-    };
     match backend {
         Backend::Cpu => Ok(Engine::Cpu),
         Backend::Gpu => {
-            let g = open_gpu(world).context("--backend gpu")?;
-            say(format!("gpu ({})", g.context().adapter_name()));
-            Ok(Engine::Gpu(g))
+            let ctx = GpuContext::new().context("--backend gpu")?;
+            choose_on(Arc::new(ctx), backend, world, quiet)
+        }
+        Backend::Auto => match GpuContext::new() {
+            Ok(ctx) => choose_on(Arc::new(ctx), backend, world, quiet),
+            Err(e) => {
+                say(quiet, format!("cpu (auto: {e})"));
+                Ok(Engine::Cpu)
+            }
+        },
+    }
+}
+
+/// [`choose`] with the GPU context already open (the renderer's, so that it can draw from
+/// the simulation's buffers).
+pub fn choose_on(
+    ctx: Arc<GpuContext>,
+    backend: Backend,
+    world: &World,
+    quiet: bool,
+) -> anyhow::Result<Engine> {
+    match backend {
+        Backend::Cpu => Ok(Engine::Cpu),
+        Backend::Gpu => {
+            let g = GpuWorld::new(ctx, world)
+                .context("cannot run this scene on the GPU")
+                .context("--backend gpu")?;
+            say(quiet, format!("gpu ({})", g.context().adapter_name()));
+            Ok(Engine::Gpu(Box::new(g)))
         }
         Backend::Auto => {
-            let ctx = match GpuContext::new() {
-                Ok(c) => c,
-                Err(e) => {
-                    say(format!("cpu (auto: {e})"));
-                    return Ok(Engine::Cpu);
-                }
-            };
             if ctx.is_software() {
-                say(format!(
-                    "cpu (auto: the only GPU adapter, {}, is a software rasteriser, slower than the CPU pipeline; --backend gpu uses it anyway)",
-                    ctx.adapter_name()
-                ));
+                say(
+                    quiet,
+                    format!(
+                        "cpu (auto: the only GPU adapter, {}, is a software rasteriser, slower than the CPU pipeline; --backend gpu uses it anyway)",
+                        ctx.adapter_name()
+                    ),
+                );
                 return Ok(Engine::Cpu);
             }
             let name = ctx.adapter_name();
-            match GpuWorld::new(Arc::new(ctx), world) {
+            match GpuWorld::new(ctx, world) {
                 Ok(g) => {
-                    say(format!("gpu (auto: found {name})"));
+                    say(quiet, format!("gpu (auto: found {name})"));
                     Ok(Engine::Gpu(Box::new(g)))
                 }
                 Err(e) => {
-                    say(format!("cpu (auto: found {name}, but {e})"));
+                    say(quiet, format!("cpu (auto: found {name}, but {e})"));
                     Ok(Engine::Cpu)
                 }
             }
         }
+    }
+}
+
+/// Prints the backend choice on stderr unless `quiet`.
+fn say(quiet: bool, msg: String) {
+    if !quiet {
+        eprintln!("backend: {msg}");
     }
 }

@@ -103,6 +103,11 @@ enum Command {
         /// Worker threads of the simulation (default: all cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Which pipeline steps the world: gpu (frames drawn straight from its buffers), cpu,
+        /// or auto (the GPU when a hardware adapter is found and the scene fits it, else the
+        /// CPU, saying which and why).
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: backend::Backend,
         /// Print nothing but errors (and whether the MP4 was skipped).
         #[arg(long, short)]
         quiet: bool,
@@ -254,6 +259,7 @@ fn main() -> ExitCode {
             fps,
             picture,
             threads,
+            backend,
             quiet,
         } => init_threads(threads).and_then(|_| {
             render::render(render::RenderArgs {
@@ -264,6 +270,7 @@ fn main() -> ExitCode {
                 steps,
                 fps,
                 picture,
+                backend,
                 quiet,
             })
         }),

@@ -1,15 +1,18 @@
-//! `clatter render`: run a scene on the CPU and write a PNG frame every N steps (offscreen,
-//! no window), then encode them into an MP4 when ffmpeg is on the PATH. `clatter view`: the
+//! `clatter render`: run a scene (on the CPU or the GPU) and write a PNG frame every N steps
+//! (offscreen, no window), then encode them into an MP4 when ffmpeg is on the PATH. With the
+//! GPU backend the frames are drawn straight from the simulation's body buffer. `clatter view`: the
 //! interactive window. Both take the same picture options ([`PictureArgs`]).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
 
 use anyhow::Context;
 use clap::ValueEnum;
 use clatter_gpu::GpuContext;
 use clatter_render::{CAMERA_SYNTAX, CameraSpec, ColorMode, Offscreen, Poses, Style, save_png};
 
+use crate::backend::{Backend, Engine, choose_on};
 use crate::run::load_scene;
 
 /// Colour mode of bodies.
@@ -94,6 +97,7 @@ pub struct RenderArgs {
     pub steps: Option<u64>,
     pub fps: u32,
     pub picture: PictureArgs,
+    pub backend: Backend,
     pub quiet: bool,
 }
 
@@ -110,11 +114,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let end = args.steps.unwrap_or_else(|| scene.steps(world.dt));
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create the output directory {}", args.out.display()))?;
-    let ctx = GpuContext::new()?;
+    let ctx = Arc::new(GpuContext::new()?);
     let (w, h) = args.size;
     let mut off = Offscreen::new(&ctx, &world, w, h)?;
     let camera = off.camera(args.picture.camera);
     let style = args.picture.style();
+    let mut engine = choose_on(ctx.clone(), args.backend, &world, args.quiet)?;
     if !args.quiet {
         eprintln!(
             "rendering {} ({} bodies, {end} steps) every {} steps at {w}x{h} on {}",
@@ -124,23 +129,64 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
             ctx.adapter_name()
         );
     }
+    // The colour modes that need per-body data the GPU does not keep in the body buffer
+    // (contact flags; the largest speed, for the colour scale) read the state back per frame.
+    let needs_host =
+        args.picture.only_contacts || !matches!(args.picture.color, ColorArg::Material);
     let mut frames = 0u64;
-    let mut shoot = |world: &clatter::World, off: &mut Offscreen| -> anyhow::Result<()> {
-        off.update(world);
-        let img = off.render(&camera, &style, Poses::Uploaded)?;
-        let path = args.out.join(format!("frame_{frames:06}.png"));
-        save_png(&img, &path)?;
-        frames += 1;
-        Ok(())
-    };
-    shoot(&world, &mut off)?;
-    for k in 1..=end {
-        world
-            .step()
-            .with_context(|| format!("the simulation failed at step {k}"))?;
-        if k % args.every == 0 || k == end {
-            shoot(&world, &mut off)?;
+    let mut shoot =
+        |world: &mut clatter::World, engine: &Engine, off: &mut Offscreen| -> anyhow::Result<()> {
+            let img = match engine {
+                Engine::Cpu => {
+                    off.update(world);
+                    off.render(&camera, &style, Poses::Uploaded)?
+                }
+                Engine::Gpu(g) => {
+                    let mut style = style;
+                    if needs_host {
+                        g.read_into(world)?;
+                        off.renderer.update_styles(world, None);
+                        let vmax = world
+                            .velocity
+                            .iter()
+                            .map(|v| v.length())
+                            .filter(|s| s.is_finite())
+                            .fold(0.0f32, f32::max);
+                        style.speed_max = Some(if vmax > 0.0 { vmax } else { 1.0 });
+                    }
+                    off.render(&camera, &style, Poses::Gpu(g.body_buffer()))?
+                }
+            };
+            let path = args.out.join(format!("frame_{frames:06}.png"));
+            save_png(&img, &path)?;
+            frames += 1;
+            Ok(())
+        };
+    shoot(&mut world, &engine, &mut off)?;
+    let mut k = 0u64;
+    while k < end {
+        // Up to the next frame (a multiple of --every, or the last step).
+        let next = ((k / args.every + 1) * args.every).min(end);
+        match &mut engine {
+            Engine::Cpu => {
+                for s in k + 1..=next {
+                    world
+                        .step()
+                        .with_context(|| format!("the simulation failed at step {s}"))?;
+                }
+            }
+            Engine::Gpu(g) => {
+                let report = g.step(next - k)?;
+                if let Some(body) = report.bad_body {
+                    anyhow::bail!(
+                        "the simulation failed between steps {} and {next}: body {body} is no longer finite (NaN or infinity); try a smaller dt",
+                        k + 1
+                    );
+                }
+            }
         }
+        k = next;
+        shoot(&mut world, &engine, &mut off)?;
     }
     ctx.take_error()?;
     if !args.quiet {

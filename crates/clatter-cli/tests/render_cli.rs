@@ -139,6 +139,55 @@ fn render_writes_frames_of_the_asked_size() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--backend gpu` steps the scene on the GPU and draws from its body buffer: its frames
+/// show what the CPU run's frames show (the same poses, to within float differences).
+#[test]
+fn render_on_the_gpu_backend_matches_the_cpu_frames() {
+    if clatter_gpu::test_context().is_none() {
+        return;
+    }
+    let dir = test_dir("render", "backends");
+    let scene = write_scene(&dir);
+    let mut frames = Vec::new();
+    for backend in ["cpu", "gpu"] {
+        let out = dir.join(backend);
+        let o = clatter(&[
+            &"render",
+            &scene,
+            &"--out",
+            &out,
+            &"--every",
+            &"10",
+            &"--size",
+            &"120x80",
+            &"--camera",
+            &"front",
+            &"--color",
+            &"speed",
+            &"--backend",
+            &backend,
+        ]);
+        assert_ok(&o, &format!("clatter render --backend {backend}"));
+        if backend == "gpu" {
+            assert!(text(&o).contains("backend: gpu"), "{}", text(&o));
+        }
+        let last = out.join("frame_000002.png");
+        check_png(&last, 120, 80);
+        frames.push(image::open(&last).expect("decodes").to_rgba8());
+    }
+    let differing = frames[0]
+        .pixels()
+        .zip(frames[1].pixels())
+        .filter(|(a, b)| (0..3).any(|c| (a.0[c] as i32 - b.0[c] as i32).abs() > 8))
+        .count();
+    assert!(
+        differing <= 120 * 80 / 200,
+        "{differing} of {} pixels differ between the CPU and GPU frames",
+        120 * 80
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn render_rejects_bad_arguments() {
     let dir = test_dir("render", "bad");

@@ -39,7 +39,8 @@ struct Params {
     // 1 when every body is a sphere: the CPU then takes its sphere fast path, whose
     // effective radius is the bounding radius (else the volume-equivalent radius).
     spheres_only: u32,
-    _pad1: u32,
+    // Always 1.0, unknown to the compiler: see `integrate.wgsl`.
+    one: f32,
 }
 
 struct BodyStatic {

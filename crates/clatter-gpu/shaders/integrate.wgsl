@@ -44,8 +44,11 @@ fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg
     let h = 0.5 * dt;
     let dq = quat_mul(vec4<f32>(w * h, 0.0), q);
     // Compensated (Kahan) sum: what rounding loses of dq is carried in `residual`.
+    // `params.one` is 1.0, but only at run time: without it the compiler may simplify
+    // `((q + y) - q) - y` to zero (reassociation is allowed in shaders) and the
+    // compensation is lost; then increments below half an ulp of q never turn the body.
     let y = dq - b.residual;
-    let q2 = q + y;
+    let q2 = (q + y) * params.one;
     let residual = (q2 - q) - y;
     let n2 = dot(q2, q2);
     var qn = q2;

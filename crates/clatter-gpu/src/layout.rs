@@ -45,7 +45,11 @@ pub struct Params {
     /// 1 when every body is a sphere (the CPU's sphere fast path: effective radius from the
     /// bounding radius).
     pub spheres_only: u32,
-    pub _pad: u32,
+    /// Always 1.0. The shader multiplies by it where floating-point algebra must not be
+    /// simplified: shader compilers may reassociate, and would fold the compensated
+    /// (Kahan) orientation sum `(q + y) - q - y` to zero; they cannot fold through a value
+    /// they only learn at run time.
+    pub one: f32,
 }
 
 /// Per-body constants (`BodyStatic` in `shaders/bindings.wgsl`).

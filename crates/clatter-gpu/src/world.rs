@@ -252,7 +252,7 @@ impl GpuWorld {
                 .iter()
                 .all(|&s| matches!(world.shapes[s as usize].shape, Shape::Sphere { .. }))
                 as u32,
-            _pad: 0,
+            one: 1.0,
         };
         let device = &ctx.device;
         let compiled = Self::compiled(&ctx)?;
@@ -484,7 +484,9 @@ pub fn check_fits(
     walls: u64,
 ) -> Result<(), GpuError> {
     {
-        let limit = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let limit = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
         let biggest = [
             ("body state", 96 * n),
             ("cell counts", 4 * (8 * n + 65)),

@@ -1,7 +1,8 @@
 //! The foundation's physics tests (restitution and contact duration, sliding into rolling,
-//! resting polyhedra) on the GPU backend: the very same test files as the CPU's, included
-//! here with the `gpu-step` feature on, so their `step` runs one GPU step and reads the state
-//! back (see crates/clatter/tests/common/step.rs).
+//! resting polyhedra, momentum and angular momentum of a colliding cloud) on the GPU backend:
+//! the very same test files as the CPU's, included here with the `gpu-step` feature on, so
+//! their `step` runs GPU steps and reads the state back (see
+//! crates/clatter/tests/common/step.rs).
 
 // Each included test file carries its own `#[path] mod` of the shared step helper, as it
 // must when built on its own as a CPU test.
@@ -46,9 +47,9 @@ mod gpu_step {
         })
     }
 
-    /// One step of `w` on the GPU. Without an adapter: a loud skip (the CPU steps instead),
-    /// or a failure when `CI` is set.
-    pub fn step(w: &mut World) -> Result<StepStats, SimError> {
+    /// `n` steps of `w` on the GPU in one batch, the bodies read back at the end. Without an
+    /// adapter: a loud skip (the CPU steps instead), or a failure when `CI` is set.
+    pub fn step_n(w: &mut World, n: u64) -> Result<StepStats, SimError> {
         let ctx = CTX.with_borrow_mut(|c| {
             if c.is_none() {
                 *c = clatter_gpu::test_context();
@@ -56,7 +57,11 @@ mod gpu_step {
             c.clone()
         });
         let Some(ctx) = ctx else {
-            return w.step();
+            let mut stats = StepStats::default();
+            for _ in 0..n {
+                stats = w.step()?;
+            }
+            return Ok(stats);
         };
         WORLD.with_borrow_mut(|cache| {
             let fresh = match cache {
@@ -71,7 +76,7 @@ mod gpu_step {
                 });
             }
             let c = cache.as_mut().expect("just set");
-            let report = c.gpu.step_into(1, w).expect("GPU step");
+            let report = c.gpu.step_into(n, w).expect("GPU step");
             c.seen = snapshot(w);
             if let Some(body) = report.bad_body {
                 return Err(SimError::NonFinite {
@@ -87,6 +92,11 @@ mod gpu_step {
             })
         })
     }
+
+    /// One step of `w` on the GPU (see [`step_n`]).
+    pub fn step(w: &mut World) -> Result<StepStats, SimError> {
+        step_n(w, 1)
+    }
 }
 
 #[path = "../../clatter/tests/restitution.rs"]
@@ -97,3 +107,6 @@ mod rolling;
 
 #[path = "../../clatter/tests/resting.rs"]
 mod resting;
+
+#[path = "../../clatter/tests/conservation.rs"]
+mod conservation;

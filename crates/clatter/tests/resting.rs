@@ -8,7 +8,7 @@ use clatter::geom::narrow::Plane;
 use clatter::geom::{PreparedShape, RegularKind, Shape, ShapeKind};
 use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
-use step_backend::step;
+use step_backend::{step, step_n};
 
 const K: f32 = 2.0e4;
 const G: f32 = 9.81;
@@ -55,9 +55,7 @@ fn world(shape: PreparedShape, bodies: Vec<BodyInit>) -> World {
 
 fn run_for(w: &mut World, seconds: f64) {
     let steps = (seconds / w.dt as f64).ceil() as u64;
-    for _ in 0..steps {
-        step(w).unwrap();
-    }
+    step_n(w, steps).unwrap();
 }
 
 /// Angle (degrees) between -z and the world normal of body `i`'s face closest to pointing down,

@@ -13,7 +13,7 @@ use clatter::geom::ShapeKind;
 use clatter::geom::narrow::Plane;
 use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
-use step_backend::step;
+use step_backend::{step, step_n};
 
 const R: f32 = 0.01;
 const DENSITY: f32 = 2500.0;
@@ -58,9 +58,7 @@ fn world(velocity: Vec3, omega: Vec3) -> World {
 
 fn run_for(w: &mut World, seconds: f64) {
     let steps = (seconds / w.dt as f64).ceil() as u64;
-    for _ in 0..steps {
-        step(w).unwrap();
-    }
+    step_n(w, steps).unwrap();
 }
 
 /// Slip velocity of the contact point (bottom of the sphere).
