@@ -291,8 +291,10 @@ fn bench_render_adds_frames_per_second() {
     assert_eq!(rows.len(), 3, "{table}");
     for row in &rows[1..] {
         let cols: Vec<&str> = row.split_whitespace().collect();
-        assert_eq!(cols.len(), 7, "{row}");
+        // bodies, steps/s, body-steps/s, contacts/body, ms/step, rebuilds, frames/s, backend
+        assert_eq!(cols.len(), 8, "{row}");
         let fps: f64 = cols[6].parse().expect("frames/s is a number");
+        assert_eq!(cols[7], "cpu", "{row}");
         assert!(fps > 0.0 && fps.is_finite(), "{row}");
     }
     let mut json_args = args.to_vec();
