@@ -135,6 +135,11 @@ enum Command {
         /// Worker threads of the simulation (default: all cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Which pipeline steps the world: gpu (on the window's device, drawn straight from
+        /// its buffers), cpu, or auto (the GPU when the window's adapter is hardware and the
+        /// scene fits it, else the CPU).
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: backend::Backend,
     },
     /// Time the step on a settled pile and print bodies vs steps/s.
     Bench {
@@ -282,6 +287,7 @@ fn main() -> ExitCode {
             screenshot,
             frames,
             threads,
+            backend,
         } => init_threads(threads).and_then(|_| {
             render::view(render::ViewArgs {
                 scene,
@@ -290,6 +296,7 @@ fn main() -> ExitCode {
                 picture,
                 screenshot,
                 frames,
+                backend,
             })
         }),
         Command::Query { input } => query::run(&input),

@@ -206,6 +206,7 @@ pub struct ViewArgs {
     pub picture: PictureArgs,
     pub screenshot: Option<PathBuf>,
     pub frames: u64,
+    pub backend: Backend,
 }
 
 /// Runs `clatter view`.
@@ -235,6 +236,11 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         style: args.picture.style(),
         screenshot: args.screenshot,
         frames: args.frames,
+        backend: match args.backend {
+            Backend::Cpu => clatter_render::SimBackend::Cpu,
+            Backend::Gpu => clatter_render::SimBackend::Gpu,
+            Backend::Auto => clatter_render::SimBackend::Auto,
+        },
     })?;
     Ok(())
 }

@@ -251,18 +251,29 @@ fn view_saves_a_screenshot_under_xvfb() {
     }
     let dir = test_dir("render", "view");
     let scene = write_scene(&dir);
-    let shot = dir.join("shot.png");
-    let o = Command::new("xvfb-run")
-        .args(["-a", "-s", "-screen 0 640x480x24"])
-        .arg(env!("CARGO_BIN_EXE_clatter"))
-        .arg("view")
-        .arg(&scene)
-        .args(["--frames", "4", "--size", "320x200", "--screenshot"])
-        .arg(&shot)
-        .output()
-        .expect("run xvfb-run");
-    assert_ok(&o, "clatter view --screenshot under xvfb-run");
-    check_png(&shot, 320, 200);
+    // The CPU simulation uploaded per frame, and the GPU simulation on the window's device
+    // drawn from its own buffer.
+    for backend in ["cpu", "gpu"] {
+        let shot = dir.join(format!("shot-{backend}.png"));
+        let o = Command::new("xvfb-run")
+            .args(["-a", "-s", "-screen 0 640x480x24"])
+            .arg(env!("CARGO_BIN_EXE_clatter"))
+            .arg("view")
+            .arg(&scene)
+            .args(["--frames", "4", "--size", "320x200", "--backend", backend])
+            .arg("--screenshot")
+            .arg(&shot)
+            .output()
+            .expect("run xvfb-run");
+        assert_ok(
+            &o,
+            &format!("clatter view --backend {backend} --screenshot under xvfb-run"),
+        );
+        if backend == "gpu" {
+            assert!(text(&o).contains("backend: gpu"), "{}", text(&o));
+        }
+        check_png(&shot, 320, 200);
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

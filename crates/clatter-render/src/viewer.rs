@@ -1,5 +1,6 @@
-//! The interactive viewer: a winit window, the simulation stepping live on the CPU, the
-//! scene drawn by [`Renderer`] and an egui side panel with the controls and counters.
+//! The interactive viewer: a winit window, the simulation stepping live (on the CPU, or on
+//! the GPU with the frames drawn straight from its body buffer), the scene drawn by
+//! [`Renderer`] and an egui side panel with the controls and counters.
 //!
 //! Mouse: left drag orbits about the target, right or middle drag pans, the wheel zooms.
 //! With [`ViewerOptions::screenshot`], the viewer shows a number of frames, saves the last
@@ -10,7 +11,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use clatter::World;
-use clatter_gpu::GpuContext;
+use clatter_gpu::{GpuContext, GpuWorld};
 use glam::{Quat, Vec3};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
@@ -40,6 +41,19 @@ pub struct ViewerOptions {
     pub screenshot: Option<PathBuf>,
     /// Frames shown before the screenshot.
     pub frames: u64,
+    /// Which pipeline steps the world.
+    pub backend: SimBackend,
+}
+
+/// Which pipeline steps the viewer's world.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SimBackend {
+    /// The CPU pipeline; its state is uploaded once per frame.
+    Cpu,
+    /// The GPU pipeline on the window's device; frames are drawn from its body buffer.
+    Gpu,
+    /// The GPU when the window's adapter is hardware and the scene fits it, else the CPU.
+    Auto,
 }
 
 /// Errors of the viewer.
@@ -53,6 +67,9 @@ pub enum ViewerError {
     /// No adapter can draw into the window.
     #[error("no GPU adapter can draw into the window: {0}")]
     Adapter(String),
+    /// `--backend gpu` and the scene cannot run on the window's adapter.
+    #[error("--backend gpu: cannot run this scene on the GPU: {0}")]
+    Gpu(#[from] clatter_gpu::GpuError),
     /// Rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
@@ -71,7 +88,9 @@ struct Gfx {
     window: Arc<Window>,
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
-    ctx: GpuContext,
+    ctx: Arc<GpuContext>,
+    /// The GPU simulation, when it steps the world.
+    sim: Option<GpuWorld>,
     renderer: Renderer,
     targets: Targets,
     egui_state: egui_winit::State,
@@ -183,8 +202,31 @@ impl App {
                 }),
             )
             .map_err(|e| ViewerError::Adapter(e.to_string()))?;
-        let ctx = pollster::block_on(GpuContext::from_adapter(adapter.clone()))
-            .map_err(|e| ViewerError::Adapter(e.to_string()))?;
+        let ctx = Arc::new(
+            pollster::block_on(GpuContext::from_adapter(adapter.clone()))
+                .map_err(|e| ViewerError::Adapter(e.to_string()))?,
+        );
+        let name = ctx.adapter_name();
+        let sim = match self.options.backend {
+            SimBackend::Cpu => None,
+            SimBackend::Gpu => Some(GpuWorld::new(ctx.clone(), &self.world)?),
+            SimBackend::Auto if ctx.is_software() => {
+                eprintln!(
+                    "backend: cpu (auto: the window's adapter, {name}, is a software rasteriser, slower than the CPU pipeline; --backend gpu uses it anyway)"
+                );
+                None
+            }
+            SimBackend::Auto => match GpuWorld::new(ctx.clone(), &self.world) {
+                Ok(g) => Some(g),
+                Err(e) => {
+                    eprintln!("backend: cpu (auto: found {name}, but {e})");
+                    None
+                }
+            },
+        };
+        if sim.is_some() {
+            eprintln!("backend: gpu ({name})");
+        }
         let caps = surface.get_capabilities(&adapter);
         let format = caps
             .formats
@@ -252,6 +294,7 @@ impl App {
             surface,
             config,
             ctx,
+            sim,
             renderer,
             targets,
             egui_state,
@@ -267,6 +310,12 @@ impl App {
             self.sim_error = None;
             if let Some(g) = &mut self.gfx {
                 g.renderer.set_world(&self.world);
+                if g.sim.is_some() {
+                    match GpuWorld::new(g.ctx.clone(), &self.world) {
+                        Ok(sim) => g.sim = Some(sim),
+                        Err(e) => self.sim_error = Some(format!("reset failed: {e}")),
+                    }
+                }
             }
         }
         let n = if self.sim_error.is_some() {
@@ -279,6 +328,30 @@ impl App {
             self.steps_per_frame
         };
         self.step_once = false;
+        if let Some(sim) = self.gfx.as_mut().and_then(|g| g.sim.as_mut()) {
+            if n > 0 {
+                match sim.step(n as u64) {
+                    Ok(r) => {
+                        self.contacts_now = r.touching;
+                        self.rates.steps += n as u64;
+                        if let Some(b) = r.bad_body {
+                            self.sim_error =
+                                Some(format!("stopped: body {b} is no longer finite (NaN)"));
+                            self.paused = true;
+                        }
+                    }
+                    Err(e) => {
+                        self.sim_error = Some(format!("GPU step failed: {e}"));
+                        self.paused = true;
+                    }
+                }
+            }
+            // The panel's clock (the body state itself stays on the GPU).
+            self.world.step_count = self.options.world.step_count + sim.steps_taken();
+            self.world.time =
+                self.options.world.time + sim.steps_taken() as f64 * self.world.dt as f64;
+            return;
+        }
         for _ in 0..n {
             if let Err(e) = self.world.step() {
                 self.sim_error = Some(format!("stopped at step {}: {e}", self.world.step_count));
@@ -356,13 +429,35 @@ impl App {
     }
 
     fn draw(&mut self, g: &mut Gfx, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
-        let counts = self.world.contact_counts();
-        self.contacts_now = self.world.contact_count();
-        g.renderer.update(&self.world, Some(&counts));
+        let mut style = self.style;
+        if let Some(sim) = &g.sim {
+            // Drawn from the GPU's buffer; only the contact flags and the speed scale need
+            // the host's copy, so only those modes read the state back.
+            if style.only_contacts || style.color != ColorMode::Material {
+                sim.read_into(&mut self.world).map_err(RenderError::from)?;
+                g.renderer.update_styles(&self.world, None);
+                let vmax = self
+                    .world
+                    .velocity
+                    .iter()
+                    .map(|v| v.length())
+                    .filter(|v| v.is_finite())
+                    .fold(0.0f32, f32::max);
+                style.speed_max = Some(if vmax > 0.0 { vmax } else { 1.0 });
+            }
+        } else {
+            let counts = self.world.contact_counts();
+            self.contacts_now = self.world.contact_count();
+            g.renderer.update(&self.world, Some(&counts));
+        }
         // The panel first: it may change the style or ask for a reset.
         let input = g.egui_state.take_egui_input(&g.window);
         let bodies = self.world.len();
-        let adapter = g.ctx.adapter_name();
+        let adapter = format!(
+            "{} steps, drawn on {}",
+            if g.sim.is_some() { "GPU" } else { "CPU" },
+            g.ctx.adapter_name()
+        );
         let egui_ctx = self.egui.clone();
         let full = egui_ctx.run_ui(input, |ui| self.panel(ui, bodies, &adapter));
         g.egui_state
@@ -378,7 +473,7 @@ impl App {
         self.camera.fit_clip(&g.renderer.bounds());
         let (x0, scene_w) = self.scene_area(g.config.width, ppp);
         let aspect = scene_w as f32 / g.config.height as f32;
-        g.renderer.prepare(&self.camera, aspect, &self.style);
+        g.renderer.prepare(&self.camera, aspect, &style);
         let screen = egui_wgpu::ScreenDescriptor {
             size_in_pixels: [g.config.width, g.config.height],
             pixels_per_point: ppp,
@@ -416,7 +511,11 @@ impl App {
                 .forget_lifetime();
             let (w, h) = (g.config.width as f32, g.config.height as f32);
             pass.set_viewport(x0 as f32, 0.0, scene_w as f32, h, 0.0, 1.0);
-            g.renderer.paint(&mut pass, Poses::Uploaded)?;
+            let poses = match &g.sim {
+                Some(sim) => Poses::Gpu(sim.body_buffer()),
+                None => Poses::Uploaded,
+            };
+            g.renderer.paint(&mut pass, poses)?;
             pass.set_viewport(0.0, 0.0, w, h, 0.0, 1.0);
             g.egui_renderer.render(&mut pass, &jobs, &screen);
         }
