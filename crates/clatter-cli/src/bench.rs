@@ -24,6 +24,9 @@ pub struct BenchArgs {
     pub backend: Backend,
     /// With `Some(frames)`: also time that many frames of one step plus an offscreen render.
     pub render: Option<u64>,
+    /// With the GPU backend: also time each kernel with timestamp queries over this many
+    /// steps and print milliseconds per step per kernel.
+    pub profile: Option<u64>,
 }
 
 /// Size of the frames timed by `--render`.
@@ -47,6 +50,9 @@ struct Row {
     /// (upload, draw, wait for the GPU; no read-back).
     #[serde(skip_serializing_if = "Option::is_none")]
     frames_per_s: Option<f64>,
+    /// With `--profile` (GPU): milliseconds per step of each kernel, timed alone.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    kernels: Vec<(String, f64)>,
 }
 
 /// Runs the benchmark for every body count.
@@ -68,8 +74,18 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     if args.render == Some(0) {
         anyhow::bail!("--render-frames must be at least 1");
     }
+    if args.profile == Some(0) {
+        anyhow::bail!("--profile-steps must be at least 1");
+    }
+    if args.profile.is_some() && args.backend == Backend::Cpu {
+        anyhow::bail!("--profile times GPU kernels: use it with --backend gpu");
+    }
+    // One device for the simulation and the renderer, so that with the GPU backend the frames
+    // are drawn straight from the simulation's body buffer.
     let gpu = match args.render {
-        Some(_) => Some(clatter_gpu::GpuContext::new().context("bench --render")?),
+        Some(_) => Some(std::sync::Arc::new(
+            clatter_gpu::GpuContext::new().context("bench --render")?,
+        )),
         None => None,
     };
     let params = PileParams::default();
@@ -98,10 +114,16 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         println!("  backend");
     }
     let mut rows = Vec::new();
+    let mut bandwidth_said = false;
     for &n in &args.bodies {
         let mut world = World::new(pile(shape, n, &params));
-        let engine = crate::backend::choose(args.backend, &world, args.json || !rows.is_empty())?;
-        let (secs, contacts, rebuilds, backend) = match engine {
+        let quiet = args.json || !rows.is_empty();
+        let mut engine = match &gpu {
+            Some(ctx) => crate::backend::choose_on(ctx.clone(), args.backend, &world, quiet)?,
+            None => crate::backend::choose(args.backend, &world, quiet)?,
+        };
+        let mut kernels = Vec::new();
+        let (secs, contacts, rebuilds, backend) = match &mut engine {
             Engine::Cpu => {
                 for _ in 0..args.settle {
                     world.step().context("the pile blew up while settling")?;
@@ -127,7 +149,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                     "cpu".to_string(),
                 )
             }
-            Engine::Gpu(mut gpu) => {
+            Engine::Gpu(gpu) => {
                 // Settling is the warm-up: pipelines compiled, buffers resident.
                 let r = gpu.step(args.settle)?;
                 if r.bad_body.is_some() {
@@ -146,6 +168,24 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                     anyhow::bail!("the pile blew up while timing on the GPU");
                 }
                 let name = format!("gpu ({})", gpu.context().adapter_name());
+                if let Some(steps) = args.profile {
+                    kernels = gpu.profile(steps)?;
+                    if !args.json {
+                        if !bandwidth_said {
+                            bandwidth_said = true;
+                            let bw = clatter_gpu::bandwidth::copy_bandwidth(gpu.context(), 9)?;
+                            println!(
+                                "# memory bandwidth (copy kernel, read + write): {:.0} GB/s",
+                                bw * 1e-9
+                            );
+                        }
+                        println!(
+                            "#   {} candidate pairs ({:.2} per body)",
+                            gpu.pairs(),
+                            gpu.pairs() as f64 / n as f64
+                        );
+                    }
+                }
                 (
                     secs,
                     r.touching as f64,
@@ -156,7 +196,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         };
         let sps = args.steps as f64 / secs;
         let frames_per_s = match (&gpu, args.render) {
-            (Some(ctx), Some(frames)) => Some(time_frames(ctx, &mut world, frames)?),
+            (Some(ctx), Some(frames)) => Some(time_frames(ctx, &mut world, &mut engine, frames)?),
             _ => None,
         };
         let row = Row {
@@ -172,6 +212,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             rebuilds,
             backend,
             frames_per_s,
+            kernels,
         };
         if !args.json {
             print!(
@@ -187,6 +228,18 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 print!(" {f:>10.2}");
             }
             println!("  {}", row.backend);
+            if !row.kernels.is_empty() {
+                let total: f64 = row.kernels.iter().map(|(_, ms)| ms).sum();
+                let list: Vec<String> = row
+                    .kernels
+                    .iter()
+                    .map(|(k, ms)| format!("{k} {ms:.4}"))
+                    .collect();
+                println!(
+                    "#   kernels (ms/step, each timed alone; sum {total:.4}): {}",
+                    list.join(", ")
+                );
+            }
         }
         rows.push(row);
     }
@@ -196,21 +249,37 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Frames per second of one step, the upload of the state and an offscreen frame (waiting
-/// for the GPU to finish each), over `frames` frames after one untimed warm-up frame.
+/// Frames per second of one step and an offscreen frame (waiting for the GPU to finish
+/// each), over `frames` frames after one untimed warm-up frame. With the CPU engine the state
+/// is uploaded each frame; with the GPU engine the frame is drawn straight from the
+/// simulation's body buffer (no round trip through the host).
 fn time_frames(
     ctx: &clatter_gpu::GpuContext,
     world: &mut World,
+    engine: &mut Engine,
     frames: u64,
 ) -> anyhow::Result<f64> {
     use clatter_render::{CameraSpec, Offscreen, Poses, Style};
+    if let Engine::Gpu(gpu) = engine {
+        gpu.read_into(world)?;
+    }
     let mut off = Offscreen::new(ctx, world, RENDER_SIZE.0, RENDER_SIZE.1)?;
     let camera = off.camera(CameraSpec::Iso);
     let style = Style::default();
     let mut frame = |world: &mut World| -> anyhow::Result<()> {
-        world.step().context("the pile blew up while rendering")?;
-        off.update(world);
-        off.draw(&camera, &style, Poses::Uploaded)?;
+        match engine {
+            Engine::Cpu => {
+                world.step().context("the pile blew up while rendering")?;
+                off.update(world);
+                off.draw(&camera, &style, Poses::Uploaded)?;
+            }
+            Engine::Gpu(gpu) => {
+                if gpu.step(1)?.bad_body.is_some() {
+                    anyhow::bail!("the pile blew up while rendering on the GPU");
+                }
+                off.draw(&camera, &style, Poses::Gpu(gpu.body_buffer()))?;
+            }
+        }
         ctx.wait()?;
         Ok(())
     };

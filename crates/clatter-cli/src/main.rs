@@ -177,6 +177,13 @@ enum Command {
         /// Frames timed per body count with --render.
         #[arg(long, value_name = "N", default_value_t = 20)]
         render_frames: u64,
+        /// With --backend gpu: also time every kernel alone with timestamp queries and print
+        /// milliseconds per step per kernel (the steps/s column is measured before, without).
+        #[arg(long)]
+        profile: bool,
+        /// Steps timed per body count with --profile.
+        #[arg(long, value_name = "N", default_value_t = 100)]
+        profile_steps: u64,
     },
     /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
     Query {
@@ -243,6 +250,8 @@ fn main() -> ExitCode {
             backend,
             render,
             render_frames,
+            profile,
+            profile_steps,
         } => init_threads(threads).and_then(|_| {
             bench::bench(bench::BenchArgs {
                 shape,
@@ -253,6 +262,7 @@ fn main() -> ExitCode {
                 emit_lammps,
                 backend,
                 render: render.then_some(render_frames),
+                profile: profile.then_some(profile_steps),
             })
         }),
         Command::Render {

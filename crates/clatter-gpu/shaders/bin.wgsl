@@ -40,17 +40,30 @@ fn prepare() {
     }
 }
 
+var<workgroup> wg_box: array<atomic<u32>, 6>;
+
+// The bounding box of the centres: reduced per workgroup in workgroup memory, then six
+// global atomics per workgroup (not per body: they would all hit the same six words).
 @compute @workgroup_size(256)
 fn bbox(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
         @builtin(local_invocation_index) lid: u32) {
-    let i = thread_index(wid, nwg, lid);
-    if i >= params.n {
-        return;
+    if lid < 3u {
+        atomicStore(&wg_box[lid], 0xffffffffu);
+        atomicStore(&wg_box[lid + 3u], 0u);
     }
-    let p = bodies[i].position;
-    for (var k = 0u; k < 3u; k++) {
-        atomicMin(&status[ST_BBOX + k], ordered(p[k]));
-        atomicMax(&status[ST_BBOX + 3u + k], ordered(p[k]));
+    workgroupBarrier();
+    let i = thread_index(wid, nwg, lid);
+    if i < params.n {
+        let p = bodies[i].position;
+        for (var k = 0u; k < 3u; k++) {
+            atomicMin(&wg_box[k], ordered(p[k]));
+            atomicMax(&wg_box[3u + k], ordered(p[k]));
+        }
+    }
+    workgroupBarrier();
+    if lid < 3u {
+        atomicMin(&status[ST_BBOX + lid], atomicLoad(&wg_box[lid]));
+        atomicMax(&status[ST_BBOX + 3u + lid], atomicLoad(&wg_box[lid + 3u]));
     }
 }
 

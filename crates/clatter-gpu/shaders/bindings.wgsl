@@ -127,3 +127,34 @@ fn thread_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
 fn halted() -> bool {
     return atomicLoad(&status[ST_OVERFLOW]) != 0u || atomicLoad(&status[ST_BAD_BODY]) != NONE;
 }
+
+var<workgroup> wg_flag: u32;
+var<workgroup> wg_sum: atomic<u32>;
+
+// `halted()` read once per workgroup (one global atomic load instead of one per thread) and
+// handed to every thread as a uniform value, so a whole workgroup returns together and the
+// barriers after it stay in uniform control flow. Also clears the workgroup's sum for
+// `add_status_wg`. Call first thing, from every thread.
+fn halted_wg(lid: u32) -> bool {
+    if lid == 0u {
+        wg_flag = select(0u, 1u, halted());
+        atomicStore(&wg_sum, 0u);
+    }
+    return workgroupUniformLoad(&wg_flag) != 0u;
+}
+
+// Adds each thread's `k` to status word `word` with one global atomic per workgroup (not
+// one per thread: millions of threads on one address serialise). Every thread of the
+// workgroup must call it, after `halted_wg`.
+fn add_status_wg(lid: u32, word: u32, k: u32) {
+    if k != 0u {
+        atomicAdd(&wg_sum, k);
+    }
+    workgroupBarrier();
+    if lid == 0u {
+        let total = atomicLoad(&wg_sum);
+        if total != 0u {
+            atomicAdd(&status[word], total);
+        }
+    }
+}

@@ -165,10 +165,19 @@ fn side_of(i: u32) -> Side {
 @compute @workgroup_size(256)
 fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
             @builtin(local_invocation_index) lid: u32) {
-    let c = thread_index(wid, nwg, lid);
-    if c >= a_start[params.n] || halted() {
+    if halted_wg(lid) {
         return;
     }
+    let c = thread_index(wid, nwg, lid);
+    var touched = 0u;
+    if c < a_start[params.n] && pair_contact(c) {
+        touched = 1u;
+    }
+    add_status_wg(lid, ST_TOUCHING, touched);
+}
+
+// Candidate pair c: manifold, contact law, spring; whether the pair touches.
+fn pair_contact(c: u32) -> bool {
     let p = pairs[c];
     let i = p.x;
     let j = p.y;
@@ -176,6 +185,9 @@ fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg:
     let sj = statics[j];
     let bi = bodies[i];
     let bj = bodies[j];
+    // touching[c]: 1 = touching, 0 = not, 1 + hint = not, separated by the hinted axis.
+    let was = touching[c];
+    nrw_hint_in = select(0u, was - 1u, was >= 2u);
     let m = collide(si.shape, bi.position.xyz, bi.orientation, sj.shape, bj.position.xyz,
                     bj.orientation);
     if m.count > 0u {
@@ -190,23 +202,38 @@ fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg:
         forces[c] = r.force;
         hist[c] = r.hist;
         touching[c] = 1u;
-        atomicAdd(&status[ST_TOUCHING], 1u);
-    } else if touching[c] != 0u {
-        // Released: zero spring and force (written only on the change).
-        forces[c] = ContactForce();
-        hist[c] = vec4<f32>(0.0);
-        touching[c] = 0u;
+        return true;
+    } else {
+        if was == 1u {
+            // Released: zero spring and force (written only on the change).
+            forces[c] = ContactForce();
+            hist[c] = vec4<f32>(0.0);
+        }
+        let now = select(0u, nrw_hint_out + 1u, nrw_hint_out != 0u);
+        if now != was {
+            touching[c] = now;
+        }
     }
+    return false;
 }
 
 // One thread per (body, wall): slot = body * num_walls + wall.
 @compute @workgroup_size(256)
 fn wall_contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                  @builtin(local_invocation_index) lid: u32) {
-    let t = thread_index(wid, nwg, lid);
-    if t >= params.n * params.num_walls || halted() {
+    if halted_wg(lid) {
         return;
     }
+    let t = thread_index(wid, nwg, lid);
+    var touched = 0u;
+    if t < params.n * params.num_walls && wall_contact(t) {
+        touched = 1u;
+    }
+    add_status_wg(lid, ST_TOUCHING, touched);
+}
+
+// Body-wall slot t: manifold, contact law, spring; whether the body touches the wall.
+fn wall_contact(t: u32) -> bool {
     let i = t / params.num_walls;
     let wall = walls[t % params.num_walls];
     let si = statics[i];
@@ -221,10 +248,11 @@ fn wall_contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         wall_forces[t] = r.force;
         wall_hist[t] = r.hist;
         wall_touching[t] = 1u;
-        atomicAdd(&status[ST_TOUCHING], 1u);
+        return true;
     } else if wall_touching[t] != 0u {
         wall_forces[t] = ContactForce();
         wall_hist[t] = vec4<f32>(0.0);
         wall_touching[t] = 0u;
     }
+    return false;
 }

@@ -8,25 +8,36 @@
 @compute @workgroup_size(256)
 fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
              @builtin(local_invocation_index) lid: u32) {
+    if halted_wg(lid) {
+        return;
+    }
     let i = thread_index(wid, nwg, lid);
-    if i >= params.n || halted() {
+    if i >= params.n {
         return;
     }
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
+    // Contacts that do not touch carry a zero force: only touching ones are read (1 in
+    // `touching`; other values are separating-axis hints, see forces.wgsl).
     for (var c = a_start[i]; c < a_start[i + 1u]; c++) {
-        f -= forces[c].force_b.xyz;
-        t += forces[c].torque_a.xyz;
+        if touching[c] == 1u {
+            f -= forces[c].force_b.xyz;
+            t += forces[c].torque_a.xyz;
+        }
     }
     for (var k = b_start[i]; k < b_start[i + 1u]; k++) {
         let c = b_adj[k];
-        f += forces[c].force_b.xyz;
-        t += forces[c].torque_b.xyz;
+        if touching[c] == 1u {
+            f += forces[c].force_b.xyz;
+            t += forces[c].torque_b.xyz;
+        }
     }
     for (var w = 0u; w < params.num_walls; w++) {
         let s = i * params.num_walls + w;
-        f += wall_forces[s].force_b.xyz;
-        t += wall_forces[s].torque_b.xyz;
+        if wall_touching[s] != 0u {
+            f += wall_forces[s].force_b.xyz;
+            t += wall_forces[s].torque_b.xyz;
+        }
     }
     let st = statics[i];
     var b = bodies[i];

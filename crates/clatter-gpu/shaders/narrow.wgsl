@@ -43,6 +43,60 @@ struct NrwShape {
     dob: u32, // shape_u: direction index per edge
 }
 
+// Separating-axis hint (GPU only; the CPU keeps its own per-pair hints): the caller sets
+// `nrw_hint_in` to the axis that separated the pair last step (0 = none) before `collide`,
+// which tests that axis first and leaves in `nrw_hint_out` the axis that separated the pair
+// this step (0 when they touch or no axis was needed). Only speed depends on it: a pair the
+// hint separates is separated, and any other pair goes through the full test. Encoding:
+// 1 + (index << 2 | kind), kind 0 = face of A, 1 = face of B, 2 = edge directions
+// (index ia * nd_b + ib), 3 = edges (index ea * ne_b + eb).
+var<private> nrw_hint_in: u32 = 0u;
+var<private> nrw_hint_out: u32 = 0u;
+
+fn nrw_hint(kind: u32, index: u32) -> u32 {
+    return 1u + ((index << 2u) | kind);
+}
+
+// Whether the hinted axis separates A and B (B in A's frame by rot, t): both bodies
+// projected on it, a gap between the intervals.
+fn nrw_hint_separates(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>, hint: u32) -> bool {
+    let code = hint - 1u;
+    let kind = code & 3u;
+    let index = code >> 2u;
+    var axis = vec3<f32>(0.0);
+    if kind == 0u {
+        if index >= a.nf {
+            return false;
+        }
+        axis = nrw_face(a, index).xyz;
+    } else if kind == 1u {
+        if index >= b.nf {
+            return false;
+        }
+        axis = rot * nrw_face(b, index).xyz;
+    } else if kind == 2u {
+        if b.nd == 0u || index >= a.nd * b.nd {
+            return false;
+        }
+        axis = cross(shape_f[a.db + index / b.nd].xyz, rot * shape_f[b.db + index % b.nd].xyz);
+    } else {
+        if b.ne == 0u || index >= a.ne * b.ne {
+            return false;
+        }
+        let e_a = nrw_edge(a, index / b.ne);
+        let e_b = nrw_edge(b, index % b.ne);
+        axis = cross(nrw_vert(a, e_a.y) - nrw_vert(a, e_a.x), rot * (nrw_vert(b, e_b.y) - nrw_vert(b, e_b.x)));
+    }
+    if dot(axis, axis) == 0.0 {
+        return false;
+    }
+    let min_a = nrw_min_a(a, axis);
+    let max_a = nrw_max_a(a, axis);
+    let min_b = nrw_min_b(b, axis, rot, t);
+    let max_b = nrw_max_b(b, axis, rot, t);
+    return min_b > max_a || min_a > max_b;
+}
+
 // Scratch for clipping and reduction: NRW_MAX_CLIP points (xyz, depth in w). Two separate
 // arrays (polygon and output) compile much faster on llvmpipe than one twice as long.
 alias NrwBuf = array<vec4<f32>, 64>;
@@ -620,6 +674,8 @@ struct NrwEdgeAxis {
     axis: vec3<f32>,
     found: bool,
     separated: bool,
+    // When separated: the separating axis as a hint (see nrw_hint_in).
+    hint: u32,
 }
 
 // Edge axes over edge pairs whose Gauss-map arcs cross (CPU `edge_axes_gauss_map`; the
@@ -632,6 +688,7 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
     r.axis = vec3<f32>(0.0);
     r.found = false;
     r.separated = false;
+    r.hint = 0u;
     for (var ea = 0u; ea < a.ne; ea += 1u) {
         let e_a = nrw_edge(a, ea);
         let arc_a = inv_rot * shape_f[a.ab + ea].xyz;
@@ -666,6 +723,7 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
             let s = dot(axis, pb0 - pa0);
             if s > 0.0 {
                 r.separated = true;
+                r.hint = nrw_hint(3u, ea * b.ne + eb);
                 return r;
             }
             if !r.found || s > r.s {
@@ -690,6 +748,7 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
     r.axis = vec3<f32>(0.0);
     r.found = false;
     r.separated = false;
+    r.hint = 0u;
     var ia_best = 0u;
     var ib_best = 0u;
     for (var ia = 0u; ia < a.nd; ia += 1u) {
@@ -713,6 +772,7 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
             }
             if s > 0.0 {
                 r.separated = true;
+                r.hint = nrw_hint(2u, ia * b.nd + ib);
                 return r;
             }
             if !r.found || s > r.s {
@@ -855,6 +915,10 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
     let inv_rot = transpose(rot);
     let t = quat_rotate(inv_a, d);
+    if nrw_hint_in != 0u && nrw_hint_separates(a, b, rot, t, nrw_hint_in) {
+        nrw_hint_out = nrw_hint_in;
+        return nrw_none();
+    }
     // Face axes of A.
     var best_a = 0.0;
     var best_af = 0u;
@@ -862,6 +926,7 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
         let fc = nrw_face(a, f);
         let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
         if s > 0.0 {
+            nrw_hint_out = nrw_hint(0u, f);
             return nrw_none();
         }
         if f == 0u || s > best_a {
@@ -877,6 +942,7 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
         let n = rot * fc.xyz;
         let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
         if s > 0.0 {
+            nrw_hint_out = nrw_hint(1u, f);
             return nrw_none();
         }
         if f == 0u || s > best_b {
@@ -894,6 +960,7 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
         e = nrw_edge_axes_gauss_map(a, b, rot, inv_rot, t);
     }
     if e.separated {
+        nrw_hint_out = e.hint;
         return nrw_none();
     }
     let scale = max(a.radius, b.radius);
@@ -941,6 +1008,7 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
 // rotations of the principal frames, quaternions x, y, z, w): the CPU's narrow::collide.
 // Normal from a to b; count 0 when they do not overlap.
 fn collide(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
+    nrw_hint_out = 0u;
     let a = nrw_shape(sa);
     let b = nrw_shape(sb);
     if a.kind == 0u {

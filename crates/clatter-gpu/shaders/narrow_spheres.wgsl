@@ -7,6 +7,10 @@
 
 const NRW_HDR: u32 = 12u;
 
+// The separating-axis hint of narrow.wgsl: spheres need none, always 0.
+var<private> nrw_hint_in: u32 = 0u;
+var<private> nrw_hint_out: u32 = 0u;
+
 struct Manifold {
     normal: vec3<f32>,
     count: u32,

@@ -72,6 +72,7 @@ impl GpuContext {
     async fn new_async() -> Result<GpuContext, GpuError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::from_env().unwrap_or(desc.backends);
+        desc.flags = instance_flags(desc.flags);
         let instance = wgpu::Instance::new(desc);
         let power =
             wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance);
@@ -176,6 +177,25 @@ impl GpuContext {
             })?;
         self.take_error()
     }
+}
+
+/// The instance flags clatter runs with: `base` without wgpu's validation of indirect
+/// dispatch arguments where that is safe, then the `WGPU_*` environment overrides.
+///
+/// wgpu checks every indirect dispatch's arguments on the GPU by default (an extra dispatch
+/// and barriers each time); the step records about 30 indirect dispatches, most of them
+/// sized zero, and on an H100 that check cost about 12 us a dispatch, more than the step's
+/// work for scenes under 100,000 bodies. clatter's kernels write every argument through
+/// `write_args` (`shaders/args.wgsl`), which keeps each dimension within 65,535, the limit
+/// the check enforces, so the check can go. On DX12 it also supplies `num_workgroups`, which
+/// the kernels use, so it stays on for Windows. `WGPU_VALIDATION_INDIRECT_CALL=1` turns it
+/// back on anywhere.
+pub fn instance_flags(base: wgpu::InstanceFlags) -> wgpu::InstanceFlags {
+    let mut flags = base;
+    if !cfg!(windows) {
+        flags.remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+    }
+    flags.with_env()
 }
 
 /// For tests: the GPU context, shared by all tests of a test binary (pipelines are compiled

@@ -5,13 +5,14 @@
 //! the Rust module that dispatches it. Body state stays on the GPU between steps; the host
 //! reads it back only when output is due.
 
+pub mod bandwidth;
 pub mod context;
 pub mod layout;
 pub mod narrow;
 pub mod shapes;
 pub mod world;
 
-pub use context::{GpuContext, GpuError, test_context};
+pub use context::{GpuContext, GpuError, instance_flags, test_context};
 pub use layout::BodyState;
 pub use narrow::{
     GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,

@@ -946,31 +946,146 @@ impl GpuWorld {
         pass.set_bind_group(1, &self.group1, &[]);
         for _ in 0..steps {
             for op in &self.ops {
-                let set = if op.contact {
-                    contacts
-                } else {
-                    &self.compiled.kernels
-                };
-                pass.set_pipeline(&set.pipelines[op.pipeline]);
-                match set.extra[op.pipeline] {
-                    Extra::None => {}
-                    Extra::Args => pass.set_bind_group(2, &self.args_group, &[]),
-                    Extra::Scan => pass.set_bind_group(2, &self.scans[op.scan], &[]),
-                }
-                match op.size {
-                    Size::Single => pass.dispatch_workgroups(1, 1, 1),
-                    Size::Indirect(slot) => {
-                        pass.dispatch_workgroups_indirect(&self.args, slot as u64 * 12)
-                    }
-                    Size::Direct(g) => {
-                        let (x, y) = split(g);
-                        if x > 0 {
-                            pass.dispatch_workgroups(x, y, 1);
-                        }
-                    }
+                self.encode_op(&mut pass, op, contacts);
+            }
+        }
+    }
+
+    /// Records one kernel of the step into `pass` (groups 0 and 1 already bound).
+    fn encode_op(&self, pass: &mut wgpu::ComputePass<'_>, op: &Op, contacts: &Kernels) {
+        let set = if op.contact {
+            contacts
+        } else {
+            &self.compiled.kernels
+        };
+        pass.set_pipeline(&set.pipelines[op.pipeline]);
+        match set.extra[op.pipeline] {
+            Extra::None => {}
+            Extra::Args => pass.set_bind_group(2, &self.args_group, &[]),
+            Extra::Scan => pass.set_bind_group(2, &self.scans[op.scan], &[]),
+        }
+        match op.size {
+            Size::Single => pass.dispatch_workgroups(1, 1, 1),
+            Size::Indirect(slot) => pass.dispatch_workgroups_indirect(&self.args, slot as u64 * 12),
+            Size::Direct(g) => {
+                let (x, y) = split(g);
+                if x > 0 {
+                    pass.dispatch_workgroups(x, y, 1);
                 }
             }
         }
+    }
+
+    /// Times every kernel of the step with timestamp queries over `steps` steps (which are
+    /// taken: the simulation advances): each dispatch in its own compute pass, so the
+    /// numbers include no overlap between kernels. Returns `(kernel, milliseconds per step)`
+    /// in pipeline order, the scan levels of the three prefix sums merged under `scan`.
+    /// Needs the adapter's timestamp queries ([`GpuContext::timestamps`]); `clatter bench
+    /// --profile` prints it.
+    pub fn profile(&mut self, steps: u64) -> Result<Vec<(String, f64)>, GpuError> {
+        if !self.ctx.timestamps {
+            return Err(GpuError::Runtime {
+                adapter: self.ctx.adapter_name(),
+                message: "the adapter has no timestamp queries, needed to time kernels".into(),
+            });
+        }
+        let contacts = self.contact_kernels_ready()?;
+        let name_of = |op: &Op| -> &'static str {
+            let set = if op.contact {
+                contacts
+            } else {
+                &self.compiled.kernels
+            };
+            match set.names[op.pipeline] {
+                "scan_block" | "scan_add" => "scan",
+                other => other,
+            }
+        };
+        let mut names: Vec<&'static str> = Vec::new();
+        for op in &self.ops {
+            let name = name_of(op);
+            if !names.contains(&name) {
+                names.push(name);
+            }
+        }
+        let mut totals = vec![0u64; names.len()];
+        let per_step = 2 * self.ops.len() as u32;
+        let chunk = (wgpu::QUERY_SET_MAX_QUERIES / per_step).max(1) as u64;
+        let query_set = self.ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("profile"),
+            ty: wgpu::QueryType::Timestamp,
+            count: per_step * chunk as u32,
+        });
+        let resolve = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("profile resolve"),
+            size: 8 * (per_step as u64 * chunk),
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut done = 0;
+        let mut last_status = self.last_status;
+        let mut taken = 0;
+        let mut stopped = false;
+        while done < steps && self.n > 0 && !stopped {
+            let batch = (steps - done).min(chunk);
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            let mut q = 0u32;
+            for _ in 0..batch {
+                for op in &self.ops {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(name_of(op)),
+                        timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                            query_set: &query_set,
+                            beginning_of_pass_write_index: Some(q),
+                            end_of_pass_write_index: Some(q + 1),
+                        }),
+                    });
+                    q += 2;
+                    pass.set_bind_group(0, &self.group0, &[]);
+                    pass.set_bind_group(1, &self.group1, &[]);
+                    self.encode_op(&mut pass, op, contacts);
+                }
+            }
+            encoder.resolve_query_set(&query_set, 0..q, &resolve, 0);
+            let parts = read_buffers_after(
+                &self.ctx,
+                encoder,
+                &[
+                    (&resolve, 0, 8 * q as u64),
+                    (&self.status_buf, 0, 4 * status::LEN as u64),
+                ],
+            )?;
+            let stamps: Vec<u64> = bytemuck::pod_collect_to_vec(&parts[0]);
+            for (k, op) in self.ops.iter().cycle().take((q / 2) as usize).enumerate() {
+                let at = names
+                    .iter()
+                    .position(|n| *n == name_of(op))
+                    .unwrap_or_default();
+                totals[at] += stamps[2 * k + 1].saturating_sub(stamps[2 * k]);
+            }
+            let mut st = [0u32; status::LEN];
+            st.copy_from_slice(&bytemuck::pod_collect_to_vec::<u8, u32>(&parts[1]));
+            taken += st[status::STEPS].wrapping_sub(last_status[status::STEPS]) as u64;
+            last_status = st;
+            stopped = st[status::OVERFLOW] != 0 || st[status::BAD_BODY] != u32::MAX;
+            done += batch;
+        }
+        self.gpu_steps += taken;
+        self.last_status = last_status;
+        if stopped {
+            return Err(GpuError::Runtime {
+                adapter: self.ctx.adapter_name(),
+                message: "the pipeline stopped while profiling (pair overflow or a non-finite \
+                          body): run a few steps first"
+                    .into(),
+            });
+        }
+        let ns = self.ctx.queue.get_timestamp_period() as f64;
+        Ok(names
+            .iter()
+            .zip(totals)
+            .map(|(n, t)| (n.to_string(), t as f64 * ns * 1e-6 / steps.max(1) as f64))
+            .collect())
     }
 
     /// Advances the simulation by `steps` steps on the GPU (no body state comes back).
@@ -996,48 +1111,65 @@ impl GpuWorld {
     ) -> Result<StepReport, GpuError> {
         let target = self.gpu_steps + steps;
         let mut guard = 0;
+        // Batches in flight: while the GPU runs one, the host records the next, so recording
+        // (a few microseconds per dispatch in wgpu) overlaps the GPU's work. A batch that
+        // finds the pipeline stopped (overflow, bad body) does nothing on the GPU, so the
+        // batches behind it are harmless; they are drained before the host acts.
+        let mut in_flight: std::collections::VecDeque<(Pending, bool, u64)> = Default::default();
+        // Steps submitted so far (as if none stopped).
+        let mut submitted = self.gpu_steps;
         let mut first = true;
-        while self.gpu_steps < target || first {
-            first = false;
-            let batch = (target - self.gpu_steps).min(BATCH);
-            let mut encoder =
-                self.ctx
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("step"),
-                    });
-            if self.n > 0 {
-                self.encode_steps(&mut encoder, batch);
+        loop {
+            while in_flight.len() < 2 && (submitted < target || first) {
+                first = false;
+                let batch = (target - submitted).min(BATCH);
+                let mut encoder =
+                    self.ctx
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                            label: Some("step"),
+                        });
+                if self.n > 0 {
+                    self.encode_steps(&mut encoder, batch);
+                }
+                submitted += batch;
+                // The status (and, with the last batch, the bodies) come back in one transfer.
+                let last = submitted >= target;
+                let body_bytes = if last && states.is_some() {
+                    96 * self.n as u64
+                } else {
+                    0
+                };
+                let pending = submit_read(
+                    &self.ctx,
+                    encoder,
+                    &[
+                        (&self.status_buf, 0, 4 * status::LEN as u64),
+                        (&self.bodies, 0, body_bytes),
+                    ],
+                )?;
+                in_flight.push_back((pending, body_bytes > 0, batch));
             }
-            // The status (and, with the last batch, the bodies) come back in one transfer.
-            let last = self.gpu_steps + batch >= target;
-            let body_bytes = if last && states.is_some() {
-                96 * self.n as u64
-            } else {
-                0
+            let Some((pending, with_bodies, batch)) = in_flight.pop_front() else {
+                break;
             };
-            let parts = read_buffers_after(
-                &self.ctx,
-                encoder,
-                &[
-                    (&self.status_buf, 0, 4 * status::LEN as u64),
-                    (&self.bodies, 0, body_bytes),
-                ],
-            )?;
+            let parts = pending.wait(&self.ctx)?;
             let mut st = [0u32; status::LEN];
             st.copy_from_slice(&bytemuck::pod_collect_to_vec::<u8, u32>(&parts[0]));
             if self.n == 0 {
                 st = self.last_status;
                 st[status::STEPS] = st[status::STEPS].wrapping_add(batch as u32);
             }
-            if let Some(out) = states.as_deref_mut()
-                && body_bytes > 0
-            {
-                *out = bytemuck::pod_collect_to_vec(&parts[1]);
-            }
             let done = st[status::STEPS].wrapping_sub(self.last_status[status::STEPS]) as u64;
-            self.gpu_steps += done;
+            self.gpu_steps = (self.gpu_steps + done).min(target);
             self.last_status = st;
+            let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0;
+            if stopped {
+                // Drain: the batches behind did nothing (the pipeline is stopped).
+                for (p, _, _) in in_flight.drain(..) {
+                    p.wait(&self.ctx)?;
+                }
+            }
             if st[status::BAD_BODY] != u32::MAX {
                 return Ok(StepReport {
                     bad_body: Some(st[status::BAD_BODY] as usize),
@@ -1047,7 +1179,6 @@ impl GpuWorld {
             }
             if st[status::OVERFLOW] != 0 {
                 self.grow(st[status::PAIRS_NEEDED] as u64)?;
-                first = true;
                 guard += 1;
                 if guard > 8 {
                     return Err(GpuError::Runtime {
@@ -1055,6 +1186,12 @@ impl GpuWorld {
                         message: "the pair list kept overflowing".into(),
                     });
                 }
+                submitted = self.gpu_steps;
+                first = true;
+                continue;
+            }
+            if with_bodies && let Some(out) = states.as_deref_mut() {
+                *out = bytemuck::pod_collect_to_vec(&parts[1]);
             }
         }
         Ok(StepReport {
@@ -1136,6 +1273,11 @@ impl GpuWorld {
     /// draw from without a round trip through the host.
     pub fn body_buffer(&self) -> &wgpu::Buffer {
         &self.bodies
+    }
+
+    /// Candidate pairs in the current pair list (as of the last status read).
+    pub fn pairs(&self) -> usize {
+        self.last_status[status::PAIRS] as usize
     }
 
     /// Steps taken on the GPU since upload.
@@ -1226,9 +1368,10 @@ impl GpuWorld {
             pairs: bytemuck::pod_collect_to_vec(&pairs_bytes),
             history: hist.iter().map(|&h| v3(h)).collect(),
             twist: hist.iter().map(|h| h[3]).collect(),
+            // 1 = touching; 0 and larger values (separating-axis hints) = not.
             touching: bytemuck::pod_collect_to_vec::<u8, u32>(&touch_bytes)
                 .iter()
-                .map(|&t| t != 0)
+                .map(|&t| t == 1)
                 .collect(),
             forces: forces.iter().map(from_gpu_force).collect(),
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
@@ -1337,21 +1480,65 @@ pub fn read_buffers(
     read_buffers_after(ctx, encoder, ranges)
 }
 
-/// [`read_buffers`] after the work already recorded in `encoder` (one submission).
-pub fn read_buffers_after(
+/// A submitted read-back: the staging buffer being filled and where each range lands.
+struct Pending {
+    staging: Option<wgpu::Buffer>,
+    at: Vec<(u64, u64)>,
+    index: wgpu::SubmissionIndex,
+}
+
+impl Pending {
+    /// Waits for the submission and copies the ranges out.
+    fn wait(self, ctx: &GpuContext) -> Result<Vec<Vec<u8>>, GpuError> {
+        let Some(staging) = self.staging else {
+            return Ok(self.at.iter().map(|_| Vec::new()).collect());
+        };
+        ctx.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(self.index),
+                timeout: None,
+            })
+            .map_err(|e| GpuError::Runtime {
+                adapter: ctx.adapter_name(),
+                message: e.to_string(),
+            })?;
+        ctx.take_error()?;
+        let slice = staging.slice(..);
+        let view = slice.get_mapped_range().map_err(|e| GpuError::Runtime {
+            adapter: ctx.adapter_name(),
+            message: format!("readback failed: {e}"),
+        })?;
+        let out = self
+            .at
+            .iter()
+            .map(|&(dst, size)| view[dst as usize..(dst + size) as usize].to_vec())
+            .collect();
+        drop(view);
+        staging.unmap();
+        Ok(out)
+    }
+}
+
+/// Submits `encoder` with copies of `ranges` into a staging buffer appended, and asks for
+/// the buffer to be mapped; [`Pending::wait`] collects the bytes.
+fn submit_read(
     ctx: &GpuContext,
     mut encoder: wgpu::CommandEncoder,
     ranges: &[(&wgpu::Buffer, u64, u64)],
-) -> Result<Vec<Vec<u8>>, GpuError> {
+) -> Result<Pending, GpuError> {
     let mut at = Vec::with_capacity(ranges.len());
     let mut total = 0u64;
     for &(_, _, size) in ranges {
-        at.push(total);
+        at.push((total, size));
         total += size.next_multiple_of(4);
     }
     if total == 0 {
-        ctx.queue.submit([encoder.finish()]);
-        return Ok(ranges.iter().map(|_| Vec::new()).collect());
+        let index = ctx.queue.submit([encoder.finish()]);
+        return Ok(Pending {
+            staging: None,
+            at,
+            index,
+        });
     }
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
@@ -1359,25 +1546,25 @@ pub fn read_buffers_after(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    for (&(buffer, offset, size), &dst) in ranges.iter().zip(&at) {
+    for (&(buffer, offset, size), &(dst, _)) in ranges.iter().zip(&at) {
         if size > 0 {
             encoder.copy_buffer_to_buffer(buffer, offset, &staging, dst, size.next_multiple_of(4));
         }
     }
-    ctx.queue.submit([encoder.finish()]);
-    let slice = staging.slice(..);
-    slice.map_async(wgpu::MapMode::Read, |_| {});
-    ctx.wait()?;
-    let view = slice.get_mapped_range().map_err(|e| GpuError::Runtime {
-        adapter: ctx.adapter_name(),
-        message: format!("readback failed: {e}"),
-    })?;
-    let out = ranges
-        .iter()
-        .zip(&at)
-        .map(|(&(_, _, size), &dst)| view[dst as usize..(dst + size) as usize].to_vec())
-        .collect();
-    drop(view);
-    staging.unmap();
-    Ok(out)
+    let index = ctx.queue.submit([encoder.finish()]);
+    staging.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+    Ok(Pending {
+        staging: Some(staging),
+        at,
+        index,
+    })
+}
+
+/// [`read_buffers`] after the work already recorded in `encoder` (one submission).
+pub fn read_buffers_after(
+    ctx: &GpuContext,
+    encoder: wgpu::CommandEncoder,
+    ranges: &[(&wgpu::Buffer, u64, u64)],
+) -> Result<Vec<Vec<u8>>, GpuError> {
+    submit_read(ctx, encoder, ranges)?.wait(ctx)
 }

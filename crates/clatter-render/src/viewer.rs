@@ -184,9 +184,10 @@ impl App {
                 .create_window(attrs)
                 .map_err(|e| ViewerError::Window(e.to_string()))?,
         );
-        let desc = wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
+        let mut desc = wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
             event_loop.owned_display_handle(),
         ));
+        desc.flags = clatter_gpu::instance_flags(desc.flags);
         let instance = wgpu::Instance::new(desc);
         let surface = instance
             .create_surface(window.clone())
