@@ -53,6 +53,13 @@ struct Row {
     /// With `--profile` (GPU): milliseconds per step of each kernel, timed alone.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     kernels: Vec<(String, f64)>,
+    /// With `--profile`: candidate pairs in the list after the timed steps.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pairs: Option<usize>,
+    /// With `--profile`: the device's copy-kernel bandwidth (read + write), GB/s, for the
+    /// bandwidth floor of the step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    copy_bandwidth_gb_s: Option<f64>,
 }
 
 /// Runs the benchmark for every body count.
@@ -114,7 +121,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         println!("  backend");
     }
     let mut rows = Vec::new();
-    let mut bandwidth_said = false;
+    let mut bandwidth: Option<f64> = None;
     for &n in &args.bodies {
         let mut world = World::new(pile(shape, n, &params));
         let quiet = args.json || !rows.is_empty();
@@ -123,6 +130,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             None => crate::backend::choose(args.backend, &world, quiet)?,
         };
         let mut kernels = Vec::new();
+        let mut pairs = None;
         let (secs, contacts, rebuilds, backend) = match &mut engine {
             Engine::Cpu => {
                 for _ in 0..args.settle {
@@ -170,20 +178,16 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 let name = format!("gpu ({})", gpu.context().adapter_name());
                 if let Some(steps) = args.profile {
                     kernels = gpu.profile(steps)?;
-                    if !args.json {
-                        if !bandwidth_said {
-                            bandwidth_said = true;
-                            let bw = clatter_gpu::bandwidth::copy_bandwidth(gpu.context(), 9)?;
+                    pairs = Some(gpu.pairs());
+                    if bandwidth.is_none() {
+                        let bw = clatter_gpu::bandwidth::copy_bandwidth(gpu.context(), 9)?;
+                        bandwidth = Some(bw * 1e-9);
+                        if !args.json {
                             println!(
                                 "# memory bandwidth (copy kernel, read + write): {:.0} GB/s",
                                 bw * 1e-9
                             );
                         }
-                        println!(
-                            "#   {} candidate pairs ({:.2} per body)",
-                            gpu.pairs(),
-                            gpu.pairs() as f64 / n as f64
-                        );
                     }
                 }
                 (
@@ -213,6 +217,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             backend,
             frames_per_s,
             kernels,
+            pairs,
+            copy_bandwidth_gb_s: args.profile.and(bandwidth),
         };
         if !args.json {
             print!(
@@ -228,6 +234,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 print!(" {f:>10.2}");
             }
             println!("  {}", row.backend);
+            if let Some(p) = row.pairs {
+                println!(
+                    "#   {p} candidate pairs ({:.2} per body)",
+                    p as f64 / row.bodies as f64
+                );
+            }
             if !row.kernels.is_empty() {
                 let total: f64 = row.kernels.iter().map(|(_, ms)| ms).sum();
                 let list: Vec<String> = row

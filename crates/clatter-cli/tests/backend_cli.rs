@@ -128,3 +128,71 @@ fn gpu_bench_prints_the_same_table() {
         "{row}"
     );
 }
+
+#[test]
+fn gpu_bench_profile_times_every_kernel() {
+    if !gpu_available() {
+        return;
+    }
+    // Cubes: the two-pass contact stage of polyhedron scenes.
+    let o = clatter(&[
+        &"bench",
+        &"--backend",
+        &"gpu",
+        &"--shape",
+        &"cube",
+        &"--bodies",
+        &"200",
+        &"--steps",
+        &"5",
+        &"--settle",
+        &"5",
+        &"--profile",
+        &"--profile-steps",
+        &"4",
+        &"--json",
+    ]);
+    assert_ok(&o, "gpu bench --profile");
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON rows");
+    let row = &rows[0];
+    let kernels = row["kernels"].as_array().expect("kernel times");
+    let names: Vec<&str> = kernels.iter().filter_map(|k| k[0].as_str()).collect();
+    for stage in [
+        "prepare",
+        "bin",
+        "scan",
+        "count_pairs",
+        "contacts_sat",
+        "contacts_full",
+        "wall_contacts",
+        "integrate",
+    ] {
+        assert!(names.contains(&stage), "{stage} not timed: {names:?}");
+    }
+    let times: Vec<f64> = kernels.iter().filter_map(|k| k[1].as_f64()).collect();
+    assert_eq!(times.len(), names.len());
+    assert!(times.iter().all(|&t| t >= 0.0), "{times:?}");
+    assert!(times.iter().sum::<f64>() > 0.0, "{times:?}");
+    // 200 cubes on a lattice: each has its upper and side neighbours as candidates.
+    let pairs = row["pairs"].as_u64().expect("pair count");
+    assert!((200..=200 * 13).contains(&pairs), "{pairs} pairs");
+    assert!(
+        row["copy_bandwidth_gb_s"].as_f64().unwrap_or(0.0) > 0.0,
+        "{row}"
+    );
+}
+
+#[test]
+fn profile_needs_the_gpu_backend() {
+    let o = clatter(&[
+        &"bench",
+        &"--backend",
+        &"cpu",
+        &"--profile",
+        &"--bodies",
+        &"64",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--backend gpu"), "{err}");
+}

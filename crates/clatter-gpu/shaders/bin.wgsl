@@ -22,6 +22,7 @@ fn prepare() {
         atomicStore(&status[ST_TOUCHING], 0u);
     }
     atomicStore(&status[ST_REBUILDING], rebuild);
+    atomicStore(&status[ST_WORK], 0u);
     // Rebuild-only dispatches: the template's size when rebuilding, else nothing. ARG_PAIRS
     // (the current pair list) is left as the last rebuild wrote it.
     for (var s = 0u; s < params.num_args; s++) {

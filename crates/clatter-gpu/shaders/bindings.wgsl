@@ -14,6 +14,7 @@ const ST_STEPS: u32 = 5u;        // steps taken on the GPU (low 32 bits)
 const ST_REBUILDING: u32 = 6u;   // this step rebuilds
 const ST_REBUILDS: u32 = 7u;     // rebuilds so far
 const ST_PAIRS_NEEDED: u32 = 8u; // pairs the last rebuild found (may exceed capacity)
+const ST_WORK: u32 = 9u;         // pairs contacts_sat left for contacts_full this step
 const ST_BBOX: u32 = 10u;        // 6 words: min xyz, max xyz as order-preserving u32
 
 // Indirect dispatch slots (3 words each, src/layout.rs ARG_*).
@@ -22,7 +23,8 @@ const ARG_CELLS_REBUILD: u32 = 1u;
 const ARG_PAIRS_NEW: u32 = 2u;   // new pair list, during a rebuild
 const ARG_PAIRS: u32 = 3u;       // current pair list, every step
 const ARG_COMMIT: u32 = 4u;      // max(new pairs, n + 1), during a rebuild
-const ARG_SCAN0: u32 = 5u;       // first scan-level slot; the host's template fills the rest
+const ARG_WORK: u32 = 5u;        // contacts_full: the pairs contacts_sat could not separate
+const ARG_SCAN0: u32 = 6u;       // first scan-level slot; the host's template fills the rest
 
 struct Params {
     gravity: vec4<f32>,

@@ -170,14 +170,16 @@ fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg:
     }
     let c = thread_index(wid, nwg, lid);
     var touched = 0u;
-    if c < a_start[params.n] && pair_contact(c) {
+    if c < a_start[params.n] && pair_contact(c, true) {
         touched = 1u;
     }
     add_status_wg(lid, ST_TOUCHING, touched);
 }
 
-// Candidate pair c: manifold, contact law, spring; whether the pair touches.
-fn pair_contact(c: u32) -> bool {
+// Candidate pair c: manifold, contact law, spring; whether the pair touches. With `use_hint`
+// the pair's separating-axis hint is tried first (contacts_full skips it: contacts_sat has
+// just tried it).
+fn pair_contact(c: u32, use_hint: bool) -> bool {
     let p = pairs[c];
     let i = p.x;
     let j = p.y;
@@ -187,7 +189,7 @@ fn pair_contact(c: u32) -> bool {
     let bj = bodies[j];
     // touching[c]: 1 = touching, 0 = not, 1 + hint = not, separated by the hinted axis.
     let was = touching[c];
-    nrw_hint_in = select(0u, was - 1u, was >= 2u);
+    nrw_hint_in = select(0u, was - 1u, was >= 2u && use_hint);
     let m = collide(si.shape, bi.position.xyz, bi.orientation, sj.shape, bj.position.xyz,
                     bj.orientation);
     if m.count > 0u {

@@ -902,6 +902,68 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
     return nrw_reduce(&tmp, count, n);
 }
 
+// The separating-axis test of two polyhedra (B in A's frame by rot, inv_rot, t): the hinted
+// axis, A's face axes, B's face axes, then the edge axes; stops at the first axis that
+// separates them (and leaves it in nrw_hint_out).
+struct NrwSat {
+    separated: bool,
+    best_a: f32,
+    best_af: u32,
+    best_b: f32,
+    best_bf: u32,
+    e: NrwEdgeAxis,
+}
+
+fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwSat {
+    var r: NrwSat;
+    r.separated = true;
+    if nrw_hint_in != 0u && nrw_hint_separates(a, b, rot, t, nrw_hint_in) {
+        nrw_hint_out = nrw_hint_in;
+        return r;
+    }
+    // Face axes of A.
+    for (var f = 0u; f < a.nf; f += 1u) {
+        let fc = nrw_face(a, f);
+        let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
+        if s > 0.0 {
+            nrw_hint_out = nrw_hint(0u, f);
+            return r;
+        }
+        if f == 0u || s > r.best_a {
+            r.best_a = s;
+            r.best_af = f;
+        }
+    }
+    // Face axes of B, in A's frame.
+    for (var f = 0u; f < b.nf; f += 1u) {
+        let fc = nrw_face(b, f);
+        let n = rot * fc.xyz;
+        let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
+        if s > 0.0 {
+            nrw_hint_out = nrw_hint(1u, f);
+            return r;
+        }
+        if f == 0u || s > r.best_b {
+            r.best_b = s;
+            r.best_bf = f;
+        }
+    }
+    // Edge axes: the cheaper enumeration, by the CPU's cost rule.
+    let cost_dirs = a.nd * b.nd * (a.nv + b.nv);
+    let cost_tables = a.ne * b.nf + b.ne * a.nf + a.ne * b.ne;
+    if cost_dirs <= 2u * cost_tables {
+        r.e = nrw_edge_axes_by_direction(a, b, rot, t);
+    } else {
+        r.e = nrw_edge_axes_gauss_map(a, b, rot, inv_rot, t);
+    }
+    if r.e.separated {
+        nrw_hint_out = r.e.hint;
+        return r;
+    }
+    r.separated = false;
+    return r;
+}
+
 // Two convex polyhedra: the full separating-axis test (CPU `polyhedron_polyhedron` without a
 // hint, i.e. `sat_full`).
 fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
@@ -915,54 +977,15 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
     let inv_rot = transpose(rot);
     let t = quat_rotate(inv_a, d);
-    if nrw_hint_in != 0u && nrw_hint_separates(a, b, rot, t, nrw_hint_in) {
-        nrw_hint_out = nrw_hint_in;
+    let sat = nrw_sat(a, b, rot, inv_rot, t);
+    if sat.separated {
         return nrw_none();
     }
-    // Face axes of A.
-    var best_a = 0.0;
-    var best_af = 0u;
-    for (var f = 0u; f < a.nf; f += 1u) {
-        let fc = nrw_face(a, f);
-        let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
-        if s > 0.0 {
-            nrw_hint_out = nrw_hint(0u, f);
-            return nrw_none();
-        }
-        if f == 0u || s > best_a {
-            best_a = s;
-            best_af = f;
-        }
-    }
-    // Face axes of B, in A's frame.
-    var best_b = 0.0;
-    var best_bf = 0u;
-    for (var f = 0u; f < b.nf; f += 1u) {
-        let fc = nrw_face(b, f);
-        let n = rot * fc.xyz;
-        let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
-        if s > 0.0 {
-            nrw_hint_out = nrw_hint(1u, f);
-            return nrw_none();
-        }
-        if f == 0u || s > best_b {
-            best_b = s;
-            best_bf = f;
-        }
-    }
-    // Edge axes: the cheaper enumeration, by the CPU's cost rule.
-    let cost_dirs = a.nd * b.nd * (a.nv + b.nv);
-    let cost_tables = a.ne * b.nf + b.ne * a.nf + a.ne * b.ne;
-    var e: NrwEdgeAxis;
-    if cost_dirs <= 2u * cost_tables {
-        e = nrw_edge_axes_by_direction(a, b, rot, t);
-    } else {
-        e = nrw_edge_axes_gauss_map(a, b, rot, inv_rot, t);
-    }
-    if e.separated {
-        nrw_hint_out = e.hint;
-        return nrw_none();
-    }
+    let best_a = sat.best_a;
+    let best_af = sat.best_af;
+    let best_b = sat.best_b;
+    let best_bf = sat.best_bf;
+    let e = sat.e;
     let scale = max(a.radius, b.radius);
     let face_best = max(best_a, best_b);
     let tol = 1e-3 * scale;
@@ -1023,4 +1046,25 @@ fn collide(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: ve
         return m;
     }
     return nrw_poly_poly(a, xa, qa, b, xb, qb);
+}
+
+// Whether shapes sa and sb are certainly apart: their bounding spheres are, or, for two
+// polyhedra, an axis of the separating-axis test separates them (the hinted one first; the
+// separating axis is left in nrw_hint_out). False means "maybe touching": `collide` decides.
+// Lets the contact stage find the few pairs that need a manifold with a light kernel.
+fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> bool {
+    nrw_hint_out = 0u;
+    let a = nrw_shape(sa);
+    let b = nrw_shape(sb);
+    let d = xb - xa;
+    let rs = a.radius + b.radius;
+    if dot(d, d) >= rs * rs {
+        return true;
+    }
+    if a.kind == 0u || b.kind == 0u {
+        return false;
+    }
+    let inv_a = quat_conj(qa);
+    let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
+    return nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d)).separated;
 }

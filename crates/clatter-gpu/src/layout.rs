@@ -110,6 +110,8 @@ pub mod status {
     pub const REBUILDING: usize = 6;
     pub const REBUILDS: usize = 7;
     pub const PAIRS_NEEDED: usize = 8;
+    /// Pairs `contacts_sat` left for `contacts_full` in the last step (polyhedron scenes).
+    pub const WORK: usize = 9;
     /// Number of status words.
     pub const LEN: usize = 16;
 }
@@ -121,5 +123,7 @@ pub mod arg {
     pub const PAIRS_NEW: u32 = 2;
     pub const PAIRS: u32 = 3;
     pub const COMMIT: u32 = 4;
-    pub const FIRST_SCAN: u32 = 5;
+    /// `contacts_full`: the pairs `contacts_sat` could not separate.
+    pub const WORK: u32 = 5;
+    pub const FIRST_SCAN: u32 = 6;
 }

@@ -48,6 +48,7 @@ const SCAN: &str = include_str!("../shaders/scan.wgsl");
 const SORT: &str = include_str!("../shaders/sort.wgsl");
 const PAIRS: &str = include_str!("../shaders/pairs.wgsl");
 const FORCES: &str = include_str!("../shaders/forces.wgsl");
+const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts_split.wgsl");
 const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
 
 /// The kernels every world uses (the contact kernels come in two variants, see
@@ -589,15 +590,34 @@ impl GpuWorld {
         layouts: &[wgpu::BindGroupLayout; 3],
         narrow: &str,
     ) -> Result<Kernels, GpuError> {
-        let modules = vec![("forces", [COMMON, BINDINGS, narrow, FORCES].concat())];
+        // Sphere-only scenes: one pass over the pairs. Others: the two passes of
+        // contacts_split.wgsl (prove pairs apart, then the full narrow phase on the rest).
+        let split = narrow != NARROW_SPHERES;
+        let (source, kernels): (String, &[(&str, &str, Extra)]) = if split {
+            (
+                [COMMON, BINDINGS, ARGS, narrow, FORCES, CONTACTS_SPLIT].concat(),
+                &[
+                    ("forces", "contacts_sat", Extra::None),
+                    ("forces", "contacts_size", Extra::Args),
+                    ("forces", "contacts_full", Extra::None),
+                    ("forces", "wall_contacts", Extra::None),
+                ],
+            )
+        } else {
+            (
+                [COMMON, BINDINGS, narrow, FORCES].concat(),
+                &[
+                    ("forces", "contacts", Extra::None),
+                    ("forces", "wall_contacts", Extra::None),
+                ],
+            )
+        };
+        let modules = vec![("forces", source)];
         Self::compile(
             ctx,
             [&layouts[0], &layouts[1], &layouts[2]],
             &modules,
-            &[
-                ("forces", "contacts", Extra::None),
-                ("forces", "wall_contacts", Extra::None),
-            ],
+            kernels,
         )
     }
 
@@ -913,12 +933,19 @@ impl GpuWorld {
         op(&mut ops, "fill_b", Size::Indirect(arg::PAIRS_NEW));
         op(&mut ops, "sort_b", bodies_rb);
         let contact_kernels = self.contact_kernels_ready()?;
-        ops.push(Op {
+        let contact_op = |name: &str, size: Size| Op {
             contact: true,
-            pipeline: contact_kernels.index("contacts"),
-            size: Size::Indirect(arg::PAIRS),
+            pipeline: contact_kernels.index(name),
+            size,
             scan: 0,
-        });
+        };
+        if self.params.spheres_only != 0 {
+            ops.push(contact_op("contacts", Size::Indirect(arg::PAIRS)));
+        } else {
+            ops.push(contact_op("contacts_sat", Size::Indirect(arg::PAIRS)));
+            ops.push(contact_op("contacts_size", Size::Single));
+            ops.push(contact_op("contacts_full", Size::Indirect(arg::WORK)));
+        }
         if self.num_walls > 0 {
             ops.push(Op {
                 contact: true,
