@@ -41,6 +41,24 @@ fn prepare() {
     }
 }
 
+// The first kernel of a lean step (recorded without the rebuild's dispatches, see
+// GpuWorld::encode_steps): if the last step flagged a rebuild, stop the pipeline (ST_STALL)
+// so that the host runs this step again with the rebuild; otherwise what `prepare` does on
+// a step that does not rebuild.
+@compute @workgroup_size(1)
+fn prepare_lean() {
+    if halted() {
+        return;
+    }
+    if atomicLoad(&status[ST_REBUILD]) != 0u {
+        atomicStore(&status[ST_STALL], 1u);
+        return;
+    }
+    atomicStore(&status[ST_TOUCHING], 0u);
+    atomicStore(&status[ST_REBUILDING], 0u);
+    atomicStore(&status[ST_WORK], 0u);
+}
+
 var<workgroup> wg_box: array<atomic<u32>, 6>;
 
 // The bounding box of the centres: reduced per workgroup in workgroup memory, then six

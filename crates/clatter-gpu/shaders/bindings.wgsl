@@ -16,6 +16,7 @@ const ST_REBUILDS: u32 = 7u;     // rebuilds so far
 const ST_PAIRS_NEEDED: u32 = 8u; // pairs the last rebuild found (may exceed capacity)
 const ST_WORK: u32 = 9u;         // pairs contacts_sat left for contacts_full this step
 const ST_BBOX: u32 = 10u;        // 6 words: min xyz, max xyz as order-preserving u32
+const ST_STALL: u32 = 16u;       // a lean step found a rebuild due: the host runs it again in full
 
 // Indirect dispatch slots (3 words each, src/layout.rs ARG_*).
 const ARG_BODIES_REBUILD: u32 = 0u;
@@ -124,10 +125,12 @@ fn thread_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
     return (wid.y * nwg.x + wid.x) * WG + lid;
 }
 
-// Whether the pipeline is stopped (pair overflow or a non-finite body): nothing runs until
-// the host acts, so the state stays at the start of the step that could not be done.
+// Whether the pipeline is stopped (pair overflow, a non-finite body, or a rebuild due in a
+// lean step): nothing runs until the host acts, so the state stays at the start of the step
+// that could not be done.
 fn halted() -> bool {
-    return atomicLoad(&status[ST_OVERFLOW]) != 0u || atomicLoad(&status[ST_BAD_BODY]) != NONE;
+    return atomicLoad(&status[ST_OVERFLOW]) != 0u || atomicLoad(&status[ST_BAD_BODY]) != NONE
+        || atomicLoad(&status[ST_STALL]) != 0u;
 }
 
 var<workgroup> wg_flag: u32;

@@ -112,8 +112,11 @@ pub mod status {
     pub const PAIRS_NEEDED: usize = 8;
     /// Pairs `contacts_sat` left for `contacts_full` in the last step (polyhedron scenes).
     pub const WORK: usize = 9;
+    /// Set by a lean step that found a rebuild due (see `GpuWorld::encode_steps`): the
+    /// pipeline stops until the host runs that step again with the rebuild.
+    pub const STALL: usize = 16;
     /// Number of status words.
-    pub const LEN: usize = 16;
+    pub const LEN: usize = 17;
 }
 
 /// Indirect-dispatch slots (`ARG_*` in `bindings.wgsl`); scan levels follow.

@@ -20,6 +20,8 @@
 
 use std::sync::Arc;
 
+use rayon::prelude::*;
+
 use glam::{Quat, Vec3};
 use wgpu::util::DeviceExt;
 
@@ -35,6 +37,11 @@ use clatter_geom::Shape;
 const WG: u32 = 256;
 /// Steps recorded into one submission between status reads.
 const BATCH: u64 = 64;
+/// Batches recorded side by side on the CPU. wgpu spends a few microseconds of CPU time on
+/// each dispatch (state tracking and barriers for the 26 buffers every kernel binds), about
+/// as long as the GPU needs for a step of 65,536 spheres, so one recording thread would
+/// hold the GPU back; up to `2 * ENCODERS` batches are in flight.
+const ENCODERS: usize = 4;
 /// Initial pair capacity per body (grown on demand).
 const PAIRS_PER_BODY: u64 = 8;
 
@@ -55,6 +62,7 @@ const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
 /// `GpuWorld::contact_kernels`).
 const BASE_KERNELS: &[(&str, &str, Extra)] = &[
     ("bin", "prepare", Extra::Args),
+    ("bin", "prepare_lean", Extra::None),
     ("bin", "bbox", Extra::None),
     ("bin", "grid_size", Extra::None),
     ("bin", "bin", Extra::None),
@@ -189,6 +197,16 @@ pub struct GpuWorld {
     args_group: wgpu::BindGroup,
     scans: Vec<wgpu::BindGroup>,
     ops: Vec<Op>,
+    /// The step without the rebuild's dispatches (see `encode_steps`).
+    lean_ops: Vec<Op>,
+    /// Batches still to be recorded with the full step throughout, after a stall.
+    full_batches: u32,
+    /// Whether batches use lean steps at all (see [`GpuWorld::set_lean_steps`]).
+    lean_enabled: bool,
+    /// Lean steps that found a rebuild due and were run again in full.
+    stalls: u64,
+    /// The GPU step count at the last stall.
+    last_stall: u64,
     /// Steps taken on the GPU since upload.
     gpu_steps: u64,
     /// The world's step count and time at upload.
@@ -414,6 +432,11 @@ impl GpuWorld {
             args_group: dummy_group(device, &layouts[2]),
             scans: Vec::new(),
             ops: Vec::new(),
+            lean_ops: Vec::new(),
+            full_batches: 0,
+            lean_enabled: true,
+            stalls: 0,
+            last_stall: 0,
             ctx,
             n,
             num_walls,
@@ -956,12 +979,24 @@ impl GpuWorld {
         }
         op(&mut ops, "integrate", Size::Direct(groups(n)));
         op(&mut ops, "end_step", Size::Single);
+        // The lean step: prepare_lean, then the contact stage onwards.
+        let first_contact = ops.iter().position(|o| o.contact).unwrap_or(ops.len());
+        let mut lean = Vec::new();
+        op(&mut lean, "prepare_lean", Size::Single);
+        lean.extend(ops[first_contact..].iter().map(|o| Op { ..*o }));
+        self.lean_ops = lean;
         self.ops = ops;
         Ok(())
     }
 
-    /// Records `steps` steps into `encoder`.
-    fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, steps: u64) {
+    /// Records `steps` steps into `encoder`. The first step is the full step; with `lean`,
+    /// the others leave out the rebuild's dispatches (about 30, most of them sized zero on
+    /// the GPU, but each costing the GPU and wgpu a few microseconds: more than the whole
+    /// step of a 65,536-sphere pile). A lean step whose predecessor flagged a rebuild stops
+    /// the pipeline (`prepare_lean`, status word STALL) and is run again by the host in a
+    /// batch that starts with a full step, so the rebuilds happen at the same steps, and
+    /// the results are the same, as if every step were full.
+    fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, steps: u64, lean: bool) {
         let Ok(contacts) = self.contact_kernels_ready() else {
             return;
         };
@@ -971,8 +1006,13 @@ impl GpuWorld {
         });
         pass.set_bind_group(0, &self.group0, &[]);
         pass.set_bind_group(1, &self.group1, &[]);
-        for _ in 0..steps {
-            for op in &self.ops {
+        for k in 0..steps {
+            let ops = if lean && k > 0 {
+                &self.lean_ops
+            } else {
+                &self.ops
+            };
+            for op in ops {
                 self.encode_op(&mut pass, op, contacts);
             }
         }
@@ -1138,8 +1178,8 @@ impl GpuWorld {
     ) -> Result<StepReport, GpuError> {
         let target = self.gpu_steps + steps;
         let mut guard = 0;
-        // Batches in flight: while the GPU runs one, the host records the next, so recording
-        // (a few microseconds per dispatch in wgpu) overlaps the GPU's work. A batch that
+        // Batches in flight: while the GPU runs some, the host records the next ones, so
+        // recording (a few microseconds per dispatch in wgpu) overlaps the GPU's work. A batch that
         // finds the pipeline stopped (overflow, bad body) does nothing on the GPU, so the
         // batches behind it are harmless; they are drained before the host acts.
         let mut in_flight: std::collections::VecDeque<(Pending, bool, u64)> = Default::default();
@@ -1147,35 +1187,56 @@ impl GpuWorld {
         let mut submitted = self.gpu_steps;
         let mut first = true;
         loop {
-            while in_flight.len() < 2 && (submitted < target || first) {
-                first = false;
-                let batch = (target - submitted).min(BATCH);
-                let mut encoder =
-                    self.ctx
-                        .device
-                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                            label: Some("step"),
-                        });
-                if self.n > 0 {
-                    self.encode_steps(&mut encoder, batch);
+            if in_flight.len() <= ENCODERS && (submitted < target || first) {
+                // Record up to ENCODERS batches side by side on the CPU's threads, then
+                // submit them in order.
+                let mut sizes = Vec::new();
+                let mut at = submitted;
+                while in_flight.len() + sizes.len() < 2 * ENCODERS && (at < target || first) {
+                    first = false;
+                    let batch = (target - at).min(BATCH);
+                    let lean = self.lean_enabled && self.full_batches == 0;
+                    self.full_batches = self.full_batches.saturating_sub(1);
+                    sizes.push((batch, lean));
+                    at += batch;
                 }
-                submitted += batch;
-                // The status (and, with the last batch, the bodies) come back in one transfer.
-                let last = submitted >= target;
-                let body_bytes = if last && states.is_some() {
-                    96 * self.n as u64
-                } else {
-                    0
+                let record = |&(batch, lean): &(u64, bool)| {
+                    let mut encoder =
+                        self.ctx
+                            .device
+                            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                                label: Some("step"),
+                            });
+                    if self.n > 0 {
+                        self.encode_steps(&mut encoder, batch, lean);
+                    }
+                    encoder
                 };
-                let pending = submit_read(
-                    &self.ctx,
-                    encoder,
-                    &[
-                        (&self.status_buf, 0, 4 * status::LEN as u64),
-                        (&self.bodies, 0, body_bytes),
-                    ],
-                )?;
-                in_flight.push_back((pending, body_bytes > 0, batch));
+                let encoders: Vec<wgpu::CommandEncoder> = if sizes.len() > 1 {
+                    sizes.par_iter().map(record).collect()
+                } else {
+                    sizes.iter().map(record).collect()
+                };
+                for (encoder, (batch, _)) in encoders.into_iter().zip(sizes) {
+                    submitted += batch;
+                    // The status (and, with the last batch, the bodies) come back in one
+                    // transfer.
+                    let last = submitted >= target;
+                    let body_bytes = if last && states.is_some() {
+                        96 * self.n as u64
+                    } else {
+                        0
+                    };
+                    let pending = submit_read(
+                        &self.ctx,
+                        encoder,
+                        &[
+                            (&self.status_buf, 0, 4 * status::LEN as u64),
+                            (&self.bodies, 0, body_bytes),
+                        ],
+                    )?;
+                    in_flight.push_back((pending, body_bytes > 0, batch));
+                }
             }
             let Some((pending, with_bodies, batch)) = in_flight.pop_front() else {
                 break;
@@ -1190,7 +1251,9 @@ impl GpuWorld {
             let done = st[status::STEPS].wrapping_sub(self.last_status[status::STEPS]) as u64;
             self.gpu_steps = (self.gpu_steps + done).min(target);
             self.last_status = st;
-            let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0;
+            let stopped = st[status::BAD_BODY] != u32::MAX
+                || st[status::OVERFLOW] != 0
+                || st[status::STALL] != 0;
             if stopped {
                 // Drain: the batches behind did nothing (the pipeline is stopped).
                 for (p, _, _) in in_flight.drain(..) {
@@ -1203,6 +1266,25 @@ impl GpuWorld {
                     touching: st[status::TOUCHING] as usize,
                     steps_done: self.gpu_steps,
                 });
+            }
+            if st[status::STALL] != 0 {
+                // A lean step found a rebuild due: run it again, in full. A scene that
+                // rebuilds every few steps (fast bodies) would stall every batch, so after
+                // two stalls close together the next batches are recorded in full.
+                if self.stalls > 0 && self.gpu_steps < self.last_stall + 4 * BATCH {
+                    self.full_batches = 2;
+                }
+                self.stalls += 1;
+                self.last_stall = self.gpu_steps;
+                self.last_status[status::STALL] = 0;
+                self.ctx.queue.write_buffer(
+                    &self.status_buf,
+                    4 * status::STALL as u64,
+                    bytemuck::bytes_of(&0u32),
+                );
+                submitted = self.gpu_steps;
+                first = true;
+                continue;
             }
             if st[status::OVERFLOW] != 0 {
                 self.grow(st[status::PAIRS_NEEDED] as u64)?;
@@ -1260,6 +1342,7 @@ impl GpuWorld {
         // Resume: clear the overflow, ask for the rebuild again.
         let mut st = self.last_status;
         st[status::OVERFLOW] = 0;
+        st[status::STALL] = 0;
         st[status::REBUILD] = 1;
         self.ctx
             .queue
@@ -1300,6 +1383,18 @@ impl GpuWorld {
     /// draw from without a round trip through the host.
     pub fn body_buffer(&self) -> &wgpu::Buffer {
         &self.bodies
+    }
+
+    /// Whether to record steps without the rebuild's dispatches after the first step of each
+    /// batch (on by default; see `encode_steps`). Results do not depend on it, only speed:
+    /// the tests turn it off to check that.
+    pub fn set_lean_steps(&mut self, on: bool) {
+        self.lean_enabled = on;
+    }
+
+    /// How many times a lean step found a rebuild due and was run again in full.
+    pub fn stalls(&self) -> u64 {
+        self.stalls
     }
 
     /// Candidate pairs in the current pair list (as of the last status read).
