@@ -128,5 +128,9 @@ pub mod arg {
     pub const COMMIT: u32 = 4;
     /// `contacts_full`: the pairs `contacts_sat` could not separate.
     pub const WORK: u32 = 5;
-    pub const FIRST_SCAN: u32 = 6;
+    /// `integrate`, every step (zero while the pipeline is stopped).
+    pub const STEP_BODIES: u32 = 6;
+    /// `wall_contacts`, every step (zero while the pipeline is stopped).
+    pub const STEP_WALLS: u32 = 7;
+    pub const FIRST_SCAN: u32 = 8;
 }

@@ -62,7 +62,7 @@ const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
 /// `GpuWorld::contact_kernels`).
 const BASE_KERNELS: &[(&str, &str, Extra)] = &[
     ("bin", "prepare", Extra::Args),
-    ("bin", "prepare_lean", Extra::None),
+    ("bin", "prepare_lean", Extra::Args),
     ("bin", "bbox", Extra::None),
     ("bin", "grid_size", Extra::None),
     ("bin", "bin", Extra::None),
@@ -101,8 +101,6 @@ enum Size {
     Single,
     /// Indirect from an argument slot.
     Indirect(u32),
-    /// A fixed number of workgroups (split over y beyond 65535).
-    Direct(u32),
 }
 
 struct Op {
@@ -973,11 +971,11 @@ impl GpuWorld {
             ops.push(Op {
                 contact: true,
                 pipeline: contact_kernels.index("wall_contacts"),
-                size: Size::Direct(groups(n * self.num_walls as u64)),
+                size: Size::Indirect(arg::STEP_WALLS),
                 scan: 0,
             });
         }
-        op(&mut ops, "integrate", Size::Direct(groups(n)));
+        op(&mut ops, "integrate", Size::Indirect(arg::STEP_BODIES));
         op(&mut ops, "end_step", Size::Single);
         // The lean step: prepare_lean, then the contact stage onwards.
         let first_contact = ops.iter().position(|o| o.contact).unwrap_or(ops.len());
@@ -1034,12 +1032,6 @@ impl GpuWorld {
         match op.size {
             Size::Single => pass.dispatch_workgroups(1, 1, 1),
             Size::Indirect(slot) => pass.dispatch_workgroups_indirect(&self.args, slot as u64 * 12),
-            Size::Direct(g) => {
-                let (x, y) = split(g);
-                if x > 0 {
-                    pass.dispatch_workgroups(x, y, 1);
-                }
-            }
         }
     }
 
