@@ -29,6 +29,8 @@ fn write_step_args(stopped: bool) {
 
 @compute @workgroup_size(1)
 fn prepare() {
+    // A full step runs the step a lean one stalled on (see prepare_lean).
+    atomicStore(&status[ST_STALL], 0u);
     var rebuild = 0u;
     let stopped = halted();
     if !stopped {
@@ -57,8 +59,8 @@ fn prepare() {
 
 // The first kernel of a lean step (recorded without the rebuild's dispatches, see
 // GpuWorld::encode_steps): if the last step flagged a rebuild, stop the pipeline (ST_STALL)
-// so that the host runs this step again with the rebuild; otherwise what `prepare` does on
-// a step that does not rebuild.
+// until the next full step (the first of the next batch), which clears the stall and runs
+// this step with the rebuild; otherwise what `prepare` does on a step that does not rebuild.
 @compute @workgroup_size(1)
 fn prepare_lean() {
     var stopped = halted();

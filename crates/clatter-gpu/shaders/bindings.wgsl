@@ -16,7 +16,7 @@ const ST_REBUILDS: u32 = 7u;     // rebuilds so far
 const ST_PAIRS_NEEDED: u32 = 8u; // pairs the last rebuild found (may exceed capacity)
 const ST_WORK: u32 = 9u;         // pairs contacts_sat left for contacts_full this step
 const ST_BBOX: u32 = 10u;        // 6 words: min xyz, max xyz as order-preserving u32
-const ST_STALL: u32 = 16u;       // a lean step found a rebuild due: the host runs it again in full
+const ST_STALL: u32 = 16u;       // a lean step found a rebuild due: stopped until the next full step
 
 // Indirect dispatch slots (3 words each, src/layout.rs ARG_*).
 const ARG_BODIES_REBUILD: u32 = 0u;

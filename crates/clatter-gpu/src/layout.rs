@@ -113,7 +113,7 @@ pub mod status {
     /// Pairs `contacts_sat` left for `contacts_full` in the last step (polyhedron scenes).
     pub const WORK: usize = 9;
     /// Set by a lean step that found a rebuild due (see `GpuWorld::encode_steps`): the
-    /// pipeline stops until the host runs that step again with the rebuild.
+    /// pipeline stops until the next full step, which clears it and runs that step again.
     pub const STALL: usize = 16;
     /// Number of status words.
     pub const LEN: usize = 17;

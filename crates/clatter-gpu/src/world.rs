@@ -991,9 +991,9 @@ impl GpuWorld {
     /// the others leave out the rebuild's dispatches (about 30, most of them sized zero on
     /// the GPU, but each costing the GPU and wgpu a few microseconds: more than the whole
     /// step of a 65,536-sphere pile). A lean step whose predecessor flagged a rebuild stops
-    /// the pipeline (`prepare_lean`, status word STALL) and is run again by the host in a
-    /// batch that starts with a full step, so the rebuilds happen at the same steps, and
-    /// the results are the same, as if every step were full.
+    /// the pipeline (`prepare_lean`, status word STALL) until the first step of the next
+    /// batch, a full one, which runs that step with the rebuild: the rebuilds happen at the
+    /// same steps, and the results are the same, as if every step were full.
     fn encode_steps(&self, encoder: &mut wgpu::CommandEncoder, steps: u64, lean: bool) {
         let Ok(contacts) = self.contact_kernels_ready() else {
             return;
@@ -1171,14 +1171,21 @@ impl GpuWorld {
         let target = self.gpu_steps + steps;
         let mut guard = 0;
         // Batches in flight: while the GPU runs some, the host records the next ones, so
-        // recording (a few microseconds per dispatch in wgpu) overlaps the GPU's work. A batch that
-        // finds the pipeline stopped (overflow, bad body) does nothing on the GPU, so the
-        // batches behind it are harmless; they are drained before the host acts.
+        // recording (a few microseconds per dispatch in wgpu) overlaps the GPU's work. A
+        // batch may do fewer steps than it holds: after a lean step stalls (a rebuild due,
+        // see `encode_steps`) the rest of its batch does nothing and the next batch, whose
+        // first step is full, runs that step again. So batches are sized for the steps
+        // still to do, and the host tops up until the GPU's step count reaches the target.
+        // A stopped pipeline (overflow, bad body) stops every batch behind it: those are
+        // drained before the host acts.
         let mut in_flight: std::collections::VecDeque<(Pending, bool, u64)> = Default::default();
-        // Steps submitted so far (as if none stopped).
+        // Steps in the batches submitted so far, as if none stalled.
         let mut submitted = self.gpu_steps;
         let mut first = true;
         loop {
+            if in_flight.is_empty() {
+                submitted = self.gpu_steps;
+            }
             if in_flight.len() <= ENCODERS && (submitted < target || first) {
                 // Record up to ENCODERS batches side by side on the CPU's threads, then
                 // submit them in order.
@@ -1243,9 +1250,7 @@ impl GpuWorld {
             let done = st[status::STEPS].wrapping_sub(self.last_status[status::STEPS]) as u64;
             self.gpu_steps = (self.gpu_steps + done).min(target);
             self.last_status = st;
-            let stopped = st[status::BAD_BODY] != u32::MAX
-                || st[status::OVERFLOW] != 0
-                || st[status::STALL] != 0;
+            let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0;
             if stopped {
                 // Drain: the batches behind did nothing (the pipeline is stopped).
                 for (p, _, _) in in_flight.drain(..) {
@@ -1259,25 +1264,6 @@ impl GpuWorld {
                     steps_done: self.gpu_steps,
                 });
             }
-            if st[status::STALL] != 0 {
-                // A lean step found a rebuild due: run it again, in full. A scene that
-                // rebuilds every few steps (fast bodies) would stall every batch, so after
-                // two stalls close together the next batches are recorded in full.
-                if self.stalls > 0 && self.gpu_steps < self.last_stall + 4 * BATCH {
-                    self.full_batches = 2;
-                }
-                self.stalls += 1;
-                self.last_stall = self.gpu_steps;
-                self.last_status[status::STALL] = 0;
-                self.ctx.queue.write_buffer(
-                    &self.status_buf,
-                    4 * status::STALL as u64,
-                    bytemuck::bytes_of(&0u32),
-                );
-                submitted = self.gpu_steps;
-                first = true;
-                continue;
-            }
             if st[status::OVERFLOW] != 0 {
                 self.grow(st[status::PAIRS_NEEDED] as u64)?;
                 guard += 1;
@@ -1287,11 +1273,23 @@ impl GpuWorld {
                         message: "the pair list kept overflowing".into(),
                     });
                 }
-                submitted = self.gpu_steps;
                 first = true;
                 continue;
             }
-            if with_bodies && let Some(out) = states.as_deref_mut() {
+            if done < batch {
+                // A lean step stalled; the next batch ran it again. A scene that rebuilds
+                // every few steps (fast bodies) would stall every batch, so after two
+                // stalls close together the next batches are recorded in full.
+                if self.stalls > 0 && self.gpu_steps < self.last_stall + 4 * BATCH {
+                    self.full_batches = 2;
+                }
+                self.stalls += 1;
+                self.last_stall = self.gpu_steps;
+            }
+            if with_bodies
+                && self.gpu_steps == target
+                && let Some(out) = states.as_deref_mut()
+            {
                 *out = bytemuck::pod_collect_to_vec(&parts[1]);
             }
         }
