@@ -520,8 +520,9 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
                     m += 1;
                     t += world.dt as f64;
                 }
-                let report = gpu.step(m)?;
-                gpu.read_into(&mut world)?;
+                // The bodies come back with the last batch's status, then the contacts.
+                let report = gpu.step_into(m, &mut world)?;
+                world.set_contact_state(gpu.contact_state()?);
                 if let Some(body) = report.bad_body {
                     bar.finish_and_clear();
                     let e = clatter::SimError::NonFinite {

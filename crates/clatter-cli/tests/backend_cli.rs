@@ -164,7 +164,6 @@ fn gpu_bench_profile_times_every_kernel() {
         "count_pairs",
         "contacts_sat",
         "contacts_full",
-        "wall_contacts",
         "integrate",
     ] {
         assert!(names.contains(&stage), "{stage} not timed: {names:?}");

@@ -14,8 +14,8 @@ fn unordered(u: u32) -> f32 {
     return bitcast<f32>(select(~u, u & 0x7fffffffu, (u & 0x80000000u) != 0u));
 }
 
-// The sizes of the dispatches every step makes: the current pair list, the bodies, the
-// body-wall slots; all zero while the pipeline is stopped, so that batches recorded behind a
+// The sizes of the dispatches every step makes: the current pair list and the bodies; zero
+// while the pipeline is stopped, so that batches recorded behind a
 // stopped step launch nothing (a 4-million-body step launches some 150,000 workgroups, which
 // would otherwise each start only to find the pipeline stopped). A rebuild resizes the pair
 // dispatch later in its step (pairs_total).
@@ -23,8 +23,6 @@ fn write_step_args(stopped: bool) {
     let pairs = atomicLoad(&status[ST_PAIRS]);
     write_args(ARG_PAIRS, select((pairs + WG - 1u) / WG, 0u, stopped));
     write_args(ARG_STEP_BODIES, select((params.n + WG - 1u) / WG, 0u, stopped));
-    let slots = params.n * params.num_walls;
-    write_args(ARG_STEP_WALLS, select((slots + WG - 1u) / WG, 0u, stopped));
 }
 
 @compute @workgroup_size(1)
@@ -42,7 +40,7 @@ fn prepare() {
     write_step_args(stopped);
     // Rebuild-only dispatches: the template's size when rebuilding, else nothing.
     for (var s = 0u; s < params.num_args; s++) {
-        if s != ARG_PAIRS && s != ARG_STEP_BODIES && s != ARG_STEP_WALLS {
+        if s != ARG_PAIRS && s != ARG_STEP_BODIES {
             for (var k = 0u; k < 3u; k++) {
                 args[s * 3u + k] = select(0u, arg_template[s * 3u + k], rebuild != 0u);
             }
@@ -75,6 +73,14 @@ fn prepare_lean() {
     atomicStore(&status[ST_TOUCHING], 0u);
     atomicStore(&status[ST_REBUILDING], 0u);
     atomicStore(&status[ST_WORK], 0u);
+}
+
+// The last kernel of every step: counts it, unless the pipeline stopped during it.
+@compute @workgroup_size(1)
+fn end_step() {
+    if !halted() {
+        atomicAdd(&status[ST_STEPS], 1u);
+    }
 }
 
 var<workgroup> wg_box: array<atomic<u32>, 6>;

@@ -26,8 +26,7 @@ const ARG_PAIRS: u32 = 3u;       // current pair list, every step
 const ARG_COMMIT: u32 = 4u;      // max(new pairs, n + 1), during a rebuild
 const ARG_WORK: u32 = 5u;        // contacts_full: the pairs contacts_sat could not separate
 const ARG_STEP_BODIES: u32 = 6u; // integrate, every step (zero while halted)
-const ARG_STEP_WALLS: u32 = 7u;  // wall_contacts, every step (zero while halted)
-const ARG_SCAN0: u32 = 8u;       // first scan-level slot; the host's template fills the rest
+const ARG_SCAN0: u32 = 7u;       // first scan-level slot; the host's template fills the rest
 
 struct Params {
     gravity: vec4<f32>,

@@ -219,23 +219,15 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     return false;
 }
 
-// One thread per (body, wall): slot = body * num_walls + wall.
-@compute @workgroup_size(256)
-fn wall_contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                 @builtin(local_invocation_index) lid: u32) {
-    if halted_wg(lid) {
-        return;
-    }
-    let t = thread_index(wid, nwg, lid);
-    var touched = 0u;
-    if t < params.n * params.num_walls && wall_contact(t) {
-        touched = 1u;
-    }
-    add_status_wg(lid, ST_TOUCHING, touched);
+struct WallResult {
+    touching: bool,
+    force: ContactForce,
 }
 
-// Body-wall slot t: manifold, contact law, spring; whether the body touches the wall.
-fn wall_contact(t: u32) -> bool {
+// Body-wall slot t = body * num_walls + wall: manifold, contact law, spring (stored with
+// the force for the host's read-back); the force when the body touches the wall. Called by
+// integrate (integrate.wgsl).
+fn wall_contact(t: u32) -> WallResult {
     let i = t / params.num_walls;
     let wall = walls[t % params.num_walls];
     let si = statics[i];
@@ -250,11 +242,11 @@ fn wall_contact(t: u32) -> bool {
         wall_forces[t] = r.force;
         wall_hist[t] = r.hist;
         wall_touching[t] = 1u;
-        return true;
+        return WallResult(true, r.force);
     } else if wall_touching[t] != 0u {
         wall_forces[t] = ContactForce();
         wall_hist[t] = vec4<f32>(0.0);
         wall_touching[t] = 0u;
     }
-    return false;
+    return WallResult(false, ContactForce());
 }

@@ -4,6 +4,11 @@
 // and the compensated first-order quaternion update of crates/clatter/src/world.rs. A body
 // that moved more than half the skin since the last rebuild flags a rebuild for the next
 // step; a non-finite state stops the pipeline (the host reports it).
+//
+// The body-wall contacts (narrow phase and law, forces.wgsl's `wall_contact`) are computed
+// here, where the walls' forces are summed, rather than in a kernel of their own: that would
+// read every body's state and constants a second time (144 of the step's ~780 bytes per
+// body) and write forces only to read them back. Compiled after narrow.wgsl and forces.wgsl.
 
 @compute @workgroup_size(256)
 fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
@@ -12,9 +17,16 @@ fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg
         return;
     }
     let i = thread_index(wid, nwg, lid);
-    if i >= params.n {
-        return;
+    var touched = 0u;
+    if i < params.n {
+        touched = integrate_body(i);
     }
+    add_status_wg(lid, ST_TOUCHING, touched);
+}
+
+// Body i: wall contacts, gather, update. Returns the number of walls it touches.
+fn integrate_body(i: u32) -> u32 {
+    var touched = 0u;
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
     // Contacts that do not touch carry a zero force: only touching ones are read (1 in
@@ -33,10 +45,11 @@ fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg
         }
     }
     for (var w = 0u; w < params.num_walls; w++) {
-        let s = i * params.num_walls + w;
-        if wall_touching[s] != 0u {
-            f += wall_forces[s].force_b.xyz;
-            t += wall_forces[s].torque_b.xyz;
+        let r = wall_contact(i * params.num_walls + w);
+        if r.touching {
+            f += r.force.force_b.xyz;
+            t += r.force.torque_b.xyz;
+            touched += 1u;
         }
     }
     let st = statics[i];
@@ -82,11 +95,5 @@ fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg
     } else if d2 > params.half_skin2 {
         atomicStore(&status[ST_REBUILD], 1u);
     }
-}
-
-@compute @workgroup_size(1)
-fn end_step() {
-    if !halted() {
-        atomicAdd(&status[ST_STEPS], 1u);
-    }
+    return touched;
 }

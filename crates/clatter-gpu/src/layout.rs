@@ -130,7 +130,5 @@ pub mod arg {
     pub const WORK: u32 = 5;
     /// `integrate`, every step (zero while the pipeline is stopped).
     pub const STEP_BODIES: u32 = 6;
-    /// `wall_contacts`, every step (zero while the pipeline is stopped).
-    pub const STEP_WALLS: u32 = 7;
-    pub const FIRST_SCAN: u32 = 8;
+    pub const FIRST_SCAN: u32 = 7;
 }

@@ -80,8 +80,7 @@ const BASE_KERNELS: &[(&str, &str, Extra)] = &[
     ("pairs", "copy_b", Extra::None),
     ("pairs", "fill_b", Extra::None),
     ("pairs", "sort_b", Extra::None),
-    ("integrate", "integrate", Extra::None),
-    ("integrate", "end_step", Extra::None),
+    ("bin", "end_step", Extra::None),
 ];
 
 /// Which bind groups a kernel uses besides group 0 (simulation) and 1 (shapes).
@@ -132,7 +131,8 @@ impl Kernels {
 struct Compiled {
     layouts: [wgpu::BindGroupLayout; 3],
     kernels: Kernels,
-    /// `contacts` and `wall_contacts` for sphere-only scenes, and for any scene (with the
+    /// `contacts` and `integrate` (which computes the wall contacts) for sphere-only
+    /// scenes, and for any scene (with the
     /// polyhedron narrow phase), each compiled on first use.
     spheres: std::sync::OnceLock<Result<Kernels, GpuError>>,
     general: std::sync::OnceLock<Result<Kernels, GpuError>>,
@@ -205,6 +205,9 @@ pub struct GpuWorld {
     stalls: u64,
     /// The GPU step count at the last stall.
     last_stall: u64,
+    /// `(steps, time)`: the simulated time after that many GPU steps, summed step by step
+    /// as the CPU does (kept so that each read-back continues the sum).
+    time_sum: std::sync::Mutex<(u64, f64)>,
     /// Steps taken on the GPU since upload.
     gpu_steps: u64,
     /// The world's step count and time at upload.
@@ -435,6 +438,7 @@ impl GpuWorld {
             lean_enabled: true,
             stalls: 0,
             last_stall: 0,
+            time_sum: std::sync::Mutex::new((0, world.time)),
             ctx,
             n,
             num_walls,
@@ -595,7 +599,6 @@ impl GpuWorld {
             ("scan", [COMMON, BINDINGS, SCAN].concat()),
             ("sort", [COMMON, BINDINGS, SORT].concat()),
             ("pairs", [bin_src.as_str(), PAIRS].concat()),
-            ("integrate", [COMMON, BINDINGS, INTEGRATE].concat()),
         ];
         Self::compile(
             ctx,
@@ -616,20 +619,29 @@ impl GpuWorld {
         let split = narrow != NARROW_SPHERES;
         let (source, kernels): (String, &[(&str, &str, Extra)]) = if split {
             (
-                [COMMON, BINDINGS, ARGS, narrow, FORCES, CONTACTS_SPLIT].concat(),
+                [
+                    COMMON,
+                    BINDINGS,
+                    ARGS,
+                    narrow,
+                    FORCES,
+                    CONTACTS_SPLIT,
+                    INTEGRATE,
+                ]
+                .concat(),
                 &[
                     ("forces", "contacts_sat", Extra::None),
                     ("forces", "contacts_size", Extra::Args),
                     ("forces", "contacts_full", Extra::None),
-                    ("forces", "wall_contacts", Extra::None),
+                    ("forces", "integrate", Extra::None),
                 ],
             )
         } else {
             (
-                [COMMON, BINDINGS, narrow, FORCES].concat(),
+                [COMMON, BINDINGS, narrow, FORCES, INTEGRATE].concat(),
                 &[
                     ("forces", "contacts", Extra::None),
-                    ("forces", "wall_contacts", Extra::None),
+                    ("forces", "integrate", Extra::None),
                 ],
             )
         };
@@ -967,15 +979,7 @@ impl GpuWorld {
             ops.push(contact_op("contacts_size", Size::Single));
             ops.push(contact_op("contacts_full", Size::Indirect(arg::WORK)));
         }
-        if self.num_walls > 0 {
-            ops.push(Op {
-                contact: true,
-                pipeline: contact_kernels.index("wall_contacts"),
-                size: Size::Indirect(arg::STEP_WALLS),
-                scan: 0,
-            });
-        }
-        op(&mut ops, "integrate", Size::Indirect(arg::STEP_BODIES));
+        ops.push(contact_op("integrate", Size::Indirect(arg::STEP_BODIES)));
         op(&mut ops, "end_step", Size::Single);
         // The lean step: prepare_lean, then the contact stage onwards.
         let first_contact = ops.iter().position(|o| o.contact).unwrap_or(ops.len());
@@ -1159,6 +1163,10 @@ impl GpuWorld {
     pub fn step_into(&mut self, steps: u64, world: &mut World) -> Result<StepReport, GpuError> {
         let mut states = Vec::new();
         let r = self.advance(steps, Some(&mut states))?;
+        if states.len() != self.n as usize {
+            // The pipeline stopped early (a non-finite body): the state it stopped at.
+            states = self.read_states()?;
+        }
         self.apply_states(&states, world);
         Ok(r)
     }
@@ -1431,11 +1439,20 @@ impl GpuWorld {
             world.omega[i] = v3(s.omega);
         }
         world.step_count = self.base_step + self.gpu_steps;
-        // The same sum as the CPU's `time += dt` per step.
-        let mut t = self.base_time;
-        for _ in 0..self.gpu_steps {
-            t += self.dt as f64;
+        // The same sum as the CPU's `time += dt` per step, continued from the last call's.
+        let mut cache = self
+            .time_sum
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (mut k, mut t) = *cache;
+        if k > self.gpu_steps {
+            (k, t) = (0, self.base_time);
         }
+        while k < self.gpu_steps {
+            t += self.dt as f64;
+            k += 1;
+        }
+        *cache = (k, t);
         world.time = t;
     }
 
