@@ -1,5 +1,6 @@
-// Stages 4 and 5, **narrow** and **forces**: for each candidate pair (`contacts`) and each
-// body-wall slot (`wall_contacts`), the contact manifold (narrow.wgsl) and the DEM contact
+// Stages 4 and 5, **narrow** and **forces**: for each candidate pair (`contacts`, or the
+// two passes of contacts_split.wgsl) and each body-wall slot (`wall_contact`, called by
+// integrate.wgsl), the contact manifold (narrow.wgsl) and the DEM contact
 // law of crates/clatter/src/forces.rs, line for line: a spring-dashpot per manifold point
 // (share 1 for contacts with a sphere, 1/4 for polyhedron contacts), one Cundall-Strack
 // tangential spring per pair at the manifold's centroid, capped by Coulomb, and a twisting

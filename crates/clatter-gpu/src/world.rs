@@ -9,9 +9,10 @@
 //!    each cell ordered by body index (the CPU's stable counting sort, exactly)
 //! 4. **pairs** (pairs.wgsl): the 27-cell search, pair offsets, sorted pair list, springs
 //!    carried over from the old list, the b-side adjacency for the gather
-//! 5. **narrow** + **forces** (narrow.wgsl, forces.wgsl): manifold and contact law per pair
-//!    and per body-wall slot
-//! 6. **integrate** (integrate.wgsl): gather in a fixed order, update, rebuild check
+//! 5. **narrow** + **forces** (narrow.wgsl, forces.wgsl; contacts_split.wgsl for scenes with
+//!    polyhedra): manifold and contact law per pair
+//! 6. **integrate** (integrate.wgsl): the body-wall contacts, gather in a fixed order,
+//!    update, rebuild check
 //!
 //! The host records many steps into one submission and reads a few status words back after
 //! it; body state comes back only when output is due ([`GpuWorld::read_into`]). If the pair
