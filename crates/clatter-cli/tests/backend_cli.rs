@@ -101,26 +101,23 @@ fn unknown_backend_is_refused() {
     assert!(err.contains("quantum") && err.contains("gpu"), "{err}");
 }
 
+/// `clatter bench --backend gpu --json` with `extra` arguments: the first row.
+fn gpu_bench_row(extra: &[&str]) -> serde_json::Value {
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"bench", &"--backend", &"gpu"];
+    args.extend(extra.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
+    args.push(&"--json");
+    let o = clatter(&args);
+    assert_ok(&o, "gpu bench");
+    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON rows");
+    rows[0].clone()
+}
+
 #[test]
 fn gpu_bench_prints_the_same_table() {
     if !gpu_available() {
         return;
     }
-    let o = clatter(&[
-        &"bench",
-        &"--backend",
-        &"gpu",
-        &"--bodies",
-        &"300",
-        &"--steps",
-        &"20",
-        &"--settle",
-        &"20",
-        &"--json",
-    ]);
-    assert_ok(&o, "gpu bench");
-    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON rows");
-    let row = &rows[0];
+    let row = gpu_bench_row(&["--bodies", "300", "--steps", "20", "--settle", "20"]);
     assert_eq!(row["bodies"], 300);
     assert!(row["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0, "{row}");
     assert!(
@@ -135,26 +132,19 @@ fn gpu_bench_profile_times_every_kernel() {
         return;
     }
     // Cubes: the two-pass contact stage of polyhedron scenes.
-    let o = clatter(&[
-        &"bench",
-        &"--backend",
-        &"gpu",
-        &"--shape",
-        &"cube",
-        &"--bodies",
-        &"200",
-        &"--steps",
-        &"5",
-        &"--settle",
-        &"5",
-        &"--profile",
-        &"--profile-steps",
-        &"4",
-        &"--json",
+    let row = gpu_bench_row(&[
+        "--shape",
+        "cube",
+        "--bodies",
+        "200",
+        "--steps",
+        "5",
+        "--settle",
+        "5",
+        "--profile",
+        "--profile-steps",
+        "4",
     ]);
-    assert_ok(&o, "gpu bench --profile");
-    let rows: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON rows");
-    let row = &rows[0];
     let kernels = row["kernels"].as_array().expect("kernel times");
     let names: Vec<&str> = kernels.iter().filter_map(|k| k[0].as_str()).collect();
     for stage in [

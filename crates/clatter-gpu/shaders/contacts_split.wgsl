@@ -52,14 +52,7 @@ fn pair_apart(c: u32) -> bool {
                   statics[p.y].shape, bodies[p.y].position.xyz, bodies[p.y].orientation) {
         return false;
     }
-    if was == 1u {
-        forces[c] = ContactForce();
-        hist[c] = vec4<f32>(0.0);
-    }
-    let now = select(0u, nrw_hint_out + 1u, nrw_hint_out != 0u);
-    if now != was {
-        touching[c] = now;
-    }
+    release_pair(c, was);
     return true;
 }
 

@@ -206,18 +206,23 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
         hist[c] = r.hist;
         touching[c] = 1u;
         return true;
-    } else {
-        if was == 1u {
-            // Released: zero spring and force (written only on the change).
-            forces[c] = ContactForce();
-            hist[c] = vec4<f32>(0.0);
-        }
-        let now = select(0u, nrw_hint_out + 1u, nrw_hint_out != 0u);
-        if now != was {
-            touching[c] = now;
-        }
     }
+    release_pair(c, was);
     return false;
+}
+
+// Candidate pair c does not touch this step (`was`: its touching word before): zero spring
+// and force if it touched (written only on the change), and keep the axis that separated
+// it, if any (`nrw_hint_out`), as next step's hint.
+fn release_pair(c: u32, was: u32) {
+    if was == 1u {
+        forces[c] = ContactForce();
+        hist[c] = vec4<f32>(0.0);
+    }
+    let now = select(0u, nrw_hint_out + 1u, nrw_hint_out != 0u);
+    if now != was {
+        touching[c] = now;
+    }
 }
 
 struct WallResult {
