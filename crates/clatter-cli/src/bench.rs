@@ -133,6 +133,11 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         let mut pairs = None;
         let (secs, contacts, rebuilds, backend) = match &mut engine {
             Engine::Cpu => {
+                if args.profile.is_some() {
+                    anyhow::bail!(
+                        "--profile times GPU kernels, but the CPU pipeline was chosen: use --backend gpu"
+                    );
+                }
                 for _ in 0..args.settle {
                     world.step().context("the pile blew up while settling")?;
                 }
