@@ -27,6 +27,8 @@ pub struct BenchArgs {
     /// With the GPU backend: also time each kernel with timestamp queries over this many
     /// steps and print milliseconds per step per kernel.
     pub profile: Option<u64>,
+    /// Time this scene file (`default`: the embedded default scene) instead of the piles.
+    pub scene: Option<PathBuf>,
 }
 
 /// Size of the frames timed by `--render`.
@@ -78,6 +80,21 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     if args.emit_lammps.is_some() && (shape != PileShape::Sphere || args.bodies.len() != 1) {
         anyhow::bail!("--emit-lammps needs --shape sphere and exactly one --bodies count");
     }
+    // A scene instead of the piles: one row, the scene's bodies.
+    let scene_world = match &args.scene {
+        Some(path) => {
+            if args.emit_lammps.is_some() {
+                anyhow::bail!("--emit-lammps writes the sphere pile: it does not go with --scene");
+            }
+            let path = (path.as_os_str() != "default").then_some(path.as_path());
+            Some(crate::run::load_scene(path)?.1.world())
+        }
+        None => None,
+    };
+    let (name, counts) = match &scene_world {
+        Some(w) => ("scene", vec![w.len()]),
+        None => (name, args.bodies.clone()),
+    };
     if args.render == Some(0) {
         anyhow::bail!("--render-frames must be at least 1");
     }
@@ -105,8 +122,13 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 ctx.adapter_name()
             );
         }
+        let what = match &args.scene {
+            Some(p) if p.as_os_str() != "default" => format!("scene {}", p.display()),
+            Some(_) => "the default scene".to_string(),
+            None => format!("{name} pile"),
+        };
         println!(
-            "# clatter bench: {name} pile, {} threads, {} settle + {} timed steps",
+            "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
             rayon::current_num_threads(),
             args.settle,
             args.steps
@@ -122,8 +144,11 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     }
     let mut rows = Vec::new();
     let mut bandwidth: Option<f64> = None;
-    for &n in &args.bodies {
-        let mut world = World::new(pile(shape, n, &params));
+    for &n in &counts {
+        let mut world = match &scene_world {
+            Some(w) => w.clone(),
+            None => World::new(pile(shape, n, &params)),
+        };
         let quiet = args.json || !rows.is_empty();
         let mut engine = match &gpu {
             Some(ctx) => crate::backend::choose_on(ctx.clone(), args.backend, &world, quiet)?,

@@ -184,6 +184,11 @@ enum Command {
         /// Steps timed per body count with --profile.
         #[arg(long, value_name = "N", default_value_t = 100)]
         profile_steps: u64,
+        /// Time a scene file instead of the piles (`default`: the embedded default scene);
+        /// one row, the scene's bodies, after --settle steps. --shape and --bodies are
+        /// ignored.
+        #[arg(long, value_name = "FILE|default")]
+        scene: Option<PathBuf>,
     },
     /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
     Query {
@@ -252,6 +257,7 @@ fn main() -> ExitCode {
             render_frames,
             profile,
             profile_steps,
+            scene,
         } => init_threads(threads).and_then(|_| {
             bench::bench(bench::BenchArgs {
                 shape,
@@ -263,6 +269,7 @@ fn main() -> ExitCode {
                 backend,
                 render: render.then_some(render_frames),
                 profile: profile.then_some(profile_steps),
+                scene,
             })
         }),
         Command::Render {

@@ -185,3 +185,42 @@ fn profile_needs_the_gpu_backend() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--backend gpu"), "{err}");
 }
+
+#[test]
+fn bench_times_a_scene_file_or_the_default_scene() {
+    // The dice box: as many bodies as `clatter run` writes rows for.
+    let dir = test_dir("backend", "bench-scene");
+    let o = clatter(&[
+        &"run",
+        &"../../scenes/dice-box.toml",
+        &"--steps",
+        &"1",
+        &"--quiet",
+        &"--out",
+        &dir,
+    ]);
+    assert_ok(&o, "run dice-box");
+    let bodies = final_rows(&dir).len();
+    for (scene, expect) in [("../../scenes/dice-box.toml", bodies), ("default", 2500)] {
+        let o = clatter(&[
+            &"bench",
+            &"--scene",
+            &scene,
+            &"--steps",
+            &"2",
+            &"--settle",
+            &"1",
+            &"--json",
+        ]);
+        assert_ok(&o, "bench --scene");
+        let rows: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON rows");
+        assert_eq!(rows.as_array().map(|r| r.len()), Some(1), "{rows}");
+        assert_eq!(rows[0]["bodies"], expect, "{scene}");
+        assert_eq!(rows[0]["shape"], "scene");
+        assert!(rows[0]["steps_per_s"].as_f64().unwrap_or(0.0) > 0.0);
+    }
+    let o = clatter(&[&"bench", &"--scene", &"no/such/scene.toml"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no/such/scene.toml"), "{err}");
+}
