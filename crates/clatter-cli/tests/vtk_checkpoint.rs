@@ -628,6 +628,18 @@ fn blow_up(
     needles: &[&str],
     last_good_step: Option<u64>,
 ) -> String {
+    blow_up_on("auto", name, simulation, bodies, needles, last_good_step)
+}
+
+/// [`blow_up`] with `--backend backend`.
+fn blow_up_on(
+    backend: &str,
+    name: &str,
+    simulation: &str,
+    bodies: &str,
+    needles: &[&str],
+    last_good_step: Option<u64>,
+) -> String {
     let dir = test_dir(&format!("blowup-{name}"));
     let scene = dir.join(format!("{name}.toml"));
     std::fs::write(
@@ -646,6 +658,8 @@ fn blow_up(
         &"csv,vtk",
         &"--output-every",
         &"1000",
+        &"--backend",
+        &backend,
     ]);
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert_eq!(
@@ -738,6 +752,35 @@ fn blow_up_non_finite() {
         ours.first()
             .is_some_and(|l| l.starts_with("warning: dt = 1.000e30 s is above the stability bound")),
         "{err}"
+    );
+}
+
+/// The GPU pipeline stops at the step a body goes non-finite and reports it like the CPU:
+/// exit 3, the body and the step, the last good state.
+#[test]
+fn blow_up_non_finite_on_the_gpu() {
+    if clatter_gpu::test_context().is_none() {
+        return;
+    }
+    blow_up_on(
+        "gpu",
+        "nan-gpu",
+        "steps = 50\ndt = 1.0e30",
+        "[[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.1, 0.1, 0.1]\n",
+        &["step 1 ", "body 0 has a non-finite position or velocity"],
+        Some(0),
+    );
+    // Past the first step of a batch (lean steps, see clatter-gpu's world.rs): a ball
+    // resting on the floor with a time step ten times the stability bound. The GPU's state
+    // comes back for the checks every 10 steps, and at step 10 the energy has grown without
+    // bound, as the CPU pipeline reports it (`blow_up_energy_growth`).
+    blow_up_on(
+        "gpu",
+        "energy-gpu",
+        "steps = 2000\ndt = 1.0e-2",
+        "[[body]]\nshape = \"cube\"\nmaterial = \"m\"\nposition = [0.1, 0.1, 0.1]\n\n[[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.05, 0.05, 0.0099]\n",
+        &["step 10 ", "the kinetic energy grows without bound"],
+        Some(0),
     );
 }
 
