@@ -103,6 +103,7 @@ enum Size {
     Indirect(u32),
 }
 
+#[derive(Clone, Copy)]
 struct Op {
     /// Whether the pipeline is one of the contact kernels (else a base kernel).
     contact: bool,
@@ -986,7 +987,7 @@ impl GpuWorld {
         let first_contact = ops.iter().position(|o| o.contact).unwrap_or(ops.len());
         let mut lean = Vec::new();
         op(&mut lean, "prepare_lean", Size::Single);
-        lean.extend(ops[first_contact..].iter().map(|o| Op { ..*o }));
+        lean.extend_from_slice(&ops[first_contact..]);
         self.lean_ops = lean;
         self.ops = ops;
         Ok(())
@@ -1021,13 +1022,18 @@ impl GpuWorld {
         }
     }
 
-    /// Records one kernel of the step into `pass` (groups 0 and 1 already bound).
-    fn encode_op(&self, pass: &mut wgpu::ComputePass<'_>, op: &Op, contacts: &Kernels) {
-        let set = if op.contact {
+    /// The kernels `op` indexes: the contact kernels of this world or the base kernels.
+    fn kernel_set<'a>(&'a self, op: &Op, contacts: &'a Kernels) -> &'a Kernels {
+        if op.contact {
             contacts
         } else {
             &self.compiled.kernels
-        };
+        }
+    }
+
+    /// Records one kernel of the step into `pass` (groups 0 and 1 already bound).
+    fn encode_op(&self, pass: &mut wgpu::ComputePass<'_>, op: &Op, contacts: &Kernels) {
+        let set = self.kernel_set(op, contacts);
         pass.set_pipeline(&set.pipelines[op.pipeline]);
         match set.extra[op.pipeline] {
             Extra::None => {}
@@ -1055,12 +1061,7 @@ impl GpuWorld {
         }
         let contacts = self.contact_kernels_ready()?;
         let name_of = |op: &Op| -> &'static str {
-            let set = if op.contact {
-                contacts
-            } else {
-                &self.compiled.kernels
-            };
-            match set.names[op.pipeline] {
+            match self.kernel_set(op, contacts).names[op.pipeline] {
                 "scan_block" | "scan_add" => "scan",
                 other => other,
             }
