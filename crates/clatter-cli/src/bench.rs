@@ -339,7 +339,7 @@ fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut lo = glam::Vec3::splat(f32::INFINITY);
     let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
-    for x in &world.position {
+    for x in &world.state.position {
         lo = lo.min(*x);
         hi = hi.max(*x);
     }
@@ -372,7 +372,7 @@ fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow
         hi.z + 4.0 * r
     )?;
     writeln!(data, "Atoms # sphere\n")?;
-    for (i, x) in world.position.iter().enumerate() {
+    for (i, x) in world.state.position.iter().enumerate() {
         writeln!(
             data,
             "{} 1 {} {} {} {} {}",
@@ -386,7 +386,7 @@ fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow
     }
     writeln!(data, "\nVelocities\n")?;
     for i in 0..world.len() {
-        let (v, w) = (world.velocity[i], world.omega[i]);
+        let (v, w) = (world.state.velocity[i], world.state.omega[i]);
         writeln!(
             data,
             "{} {} {} {} {} {} {}",
@@ -402,14 +402,14 @@ fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow
     std::fs::write(dir.join("pile.data"), data)?;
 
     let params = world.pair_params(0, 0);
-    let m = world.mass[0] as f64;
+    let m = world.consts.mass[0] as f64;
     let k = params.stiffness as f64;
     // LAMMPS's Hookean damping is m_eff * gamma_n * v_n; ours is eta * v_n with
     // eta = factor * sqrt(m_eff k), so gamma_n = factor * sqrt(k / m_eff).
     let gn_pair = params.damping_factor as f64 * (k / (m / 2.0)).sqrt();
     let gn_wall = params.damping_factor as f64 * (k / m).sqrt();
-    let kt = k * clatter::material::LINEAR_TANGENTIAL_RATIO as f64;
-    let gt = clatter::material::TANGENTIAL_DAMPING_RATIO as f64;
+    let kt = k * clatter::contract::LINEAR_TANGENTIAL_RATIO as f64;
+    let gt = clatter::contract::TANGENTIAL_DAMPING_RATIO as f64;
     let mu = params.friction;
     let mut input = std::fs::File::create(dir.join("in.pile"))?;
     writeln!(

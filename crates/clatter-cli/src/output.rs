@@ -78,10 +78,10 @@ pub fn write_state_rows(w: &mut impl Write, world: &World, prefix: &str) -> std:
     for i in 0..world.len() {
         use std::fmt::Write as _;
         line.clear();
-        let x = world.position[i];
+        let x = world.state.position[i];
         let q = world.user_orientation(i);
-        let v = world.velocity[i];
-        let o = world.omega[i];
+        let v = world.state.velocity[i];
+        let o = world.state.omega[i];
         let _ = write!(
             line,
             "{prefix}{i},{},{},{},{},{},{},{},{},{},{},{},{},{}",

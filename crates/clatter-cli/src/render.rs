@@ -147,6 +147,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
                         g.read_into(world)?;
                         off.renderer.update_styles(world, None);
                         let vmax = world
+                            .state
                             .velocity
                             .iter()
                             .map(|v| v.length())

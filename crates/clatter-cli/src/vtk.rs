@@ -23,8 +23,9 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use clatter::Partner;
 use clatter::World;
-use clatter::health::{ContactReport, Other};
+use clatter::health::{ContactReport, touching_contacts};
 
 use crate::output::AtomicFile;
 
@@ -169,12 +170,12 @@ pub fn base64(bytes: &[u8]) -> String {
 /// Writes the bodies of `world` at its current step.
 pub fn write_bodies(path: &Path, world: &World) -> anyhow::Result<()> {
     let n = world.len();
-    let counts = world.contact_counts();
+    let counts = world.contacts.counts(world.len());
     let mut points = Vec::with_capacity(3 * n);
     let mut quats = Vec::with_capacity(4 * n);
     let mut rotations = Vec::with_capacity(9 * n);
     for i in 0..n {
-        points.extend(world.position[i].to_array());
+        points.extend(world.state.position[i].to_array());
         let q = world.user_orientation(i);
         quats.extend([q.w, q.x, q.y, q.z]);
         let m = glam::Mat3::from_quat(q);
@@ -184,19 +185,19 @@ pub fn write_bodies(path: &Path, world: &World) -> anyhow::Result<()> {
     }
     let arrays = [
         Array::i32("id", 0..n as i32),
-        Array::i32("shape", world.shape_of.iter().map(|&s| s as i32)),
-        Array::i32("material", world.material_of.iter().map(|&m| m as i32)),
+        Array::i32("shape", world.consts.shape.iter().map(|&s| s as i32)),
+        Array::i32("material", world.consts.material.iter().map(|&m| m as i32)),
         Array::i32("contacts", counts.iter().map(|&c| c as i32)),
-        Array::f32("radius", 1, world.radius.iter().copied()),
+        Array::f32("radius", 1, world.consts.radius.iter().copied()),
         Array::f32(
             "velocity",
             3,
-            world.velocity.iter().flat_map(|v| v.to_array()),
+            world.state.velocity.iter().flat_map(|v| v.to_array()),
         ),
         Array::f32(
             "angular_velocity",
             3,
-            world.omega.iter().flat_map(|v| v.to_array()),
+            world.state.omega.iter().flat_map(|v| v.to_array()),
         ),
         Array::f32("orientation", 4, quats),
         Array::f32("rotation", 9, rotations),
@@ -213,7 +214,7 @@ pub fn write_bodies(path: &Path, world: &World) -> anyhow::Result<()> {
 
 /// Writes the touching contacts of `world` at its current step.
 pub fn write_contacts(path: &Path, world: &World) -> anyhow::Result<()> {
-    let contacts: Vec<ContactReport> = world.touching_contacts();
+    let contacts: Vec<ContactReport> = touching_contacts(world);
     let mut points = Vec::with_capacity(3 * contacts.len());
     for c in &contacts {
         let pts = c.manifold.points();
@@ -224,15 +225,15 @@ pub fn write_contacts(path: &Path, world: &World) -> anyhow::Result<()> {
         Array::i32(
             "body_a",
             contacts.iter().map(|c| match c.other {
-                Other::Body(_) => c.body as i32,
-                Other::Wall(w) => -1 - w as i32,
+                Partner::Body(_) => c.body as i32,
+                Partner::Wall(w) => -1 - w as i32,
             }),
         ),
         Array::i32(
             "body_b",
             contacts.iter().map(|c| match c.other {
-                Other::Body(j) => j as i32,
-                Other::Wall(_) => c.body as i32,
+                Partner::Body(j) => j as i32,
+                Partner::Wall(_) => c.body as i32,
             }),
         ),
         Array::f32(

@@ -689,9 +689,10 @@ fn blow_up_on(
     let (_, world) = ckpt.world().expect("the last good state restores");
     assert!(
         world
+            .state
             .position
             .iter()
-            .chain(&world.velocity)
+            .chain(&world.state.velocity)
             .all(|v| v.is_finite())
     );
     if let Some(s) = last_good_step {

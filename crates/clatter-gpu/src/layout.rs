@@ -3,29 +3,10 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// One body's dynamic state as the GPU stores it (`BodyState` in `shaders/common.wgsl`):
-/// 96 bytes, six `vec4<f32>`; the `w` of the vector fields is unused. The renderer reads
-/// `position` (byte 0) and `orientation` (byte 32, quaternion `x, y, z, w`) straight from the
-/// simulation's buffer.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct BodyState {
-    pub position: [f32; 4],
-    pub velocity: [f32; 4],
-    /// Orientation of the body's principal frame, quaternion `x, y, z, w`.
-    pub orientation: [f32; 4],
-    /// Rounding carried by the compensated orientation update.
-    pub residual: [f32; 4],
-    pub angular_momentum: [f32; 4],
-    pub omega: [f32; 4],
-}
-
-/// Byte size of [`BodyState`].
-pub const BODY_STATE_SIZE: u64 = std::mem::size_of::<BodyState>() as u64;
-/// Byte offset of `position` in [`BodyState`].
-pub const BODY_POSITION_OFFSET: u64 = 0;
-/// Byte offset of `orientation` in [`BodyState`].
-pub const BODY_ORIENTATION_OFFSET: u64 = 32;
+pub use clatter::contract::{
+    BODY_ORIENTATION_OFFSET, BODY_POSITION_OFFSET, BODY_STATE_SIZE, BodyConsts, BodyState,
+    ContactForce, PairParams, WallRecord,
+};
 
 /// Uniform parameters of the step (`Params` in `shaders/bindings.wgsl`).
 #[repr(C)]
@@ -50,53 +31,6 @@ pub struct Params {
     /// (Kahan) orientation sum `(q + y) - q - y` to zero; they cannot fold through a value
     /// they only learn at run time.
     pub one: f32,
-}
-
-/// Per-body constants (`BodyStatic` in `shaders/bindings.wgsl`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct BodyStatic {
-    /// `1 / principal moments` in xyz, `1 / mass` in w.
-    pub inv_inertia: [f32; 4],
-    pub mass: f32,
-    pub radius: f32,
-    pub equivalent_radius: f32,
-    pub _pad: f32,
-    pub shape: u32,
-    pub material: u32,
-    pub is_sphere: u32,
-    pub isotropic: u32,
-}
-
-/// Combined contact parameters of a material pair (`PairParams` in `bindings.wgsl`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuPairParams {
-    pub hertz: u32,
-    pub stiffness: f32,
-    pub shear: f32,
-    pub damping_factor: f32,
-    pub friction: f32,
-    pub _pad: [f32; 3],
-}
-
-/// A wall plane and its material (`Wall` in `bindings.wgsl`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuWall {
-    pub plane: [f32; 4],
-    pub material: u32,
-    pub _pad: [u32; 3],
-}
-
-/// One contact's force (`ContactForce` in `bindings.wgsl`): force on b (w: total normal
-/// force) and the torques on both sides.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuContactForce {
-    pub force_b: [f32; 4],
-    pub torque_a: [f32; 4],
-    pub torque_b: [f32; 4],
 }
 
 /// Words of the status buffer (`ST_*` in `bindings.wgsl`).

@@ -23,17 +23,15 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use wgpu::util::DeviceExt;
 
-use crate::layout::{
-    BodyState, BodyStatic, GpuContactForce, GpuPairParams, GpuWall, Params, arg, status,
-};
+use crate::layout::{Params, arg, status};
 use crate::shapes::GpuShapes;
 use crate::{GpuContext, GpuError};
-use clatter::forces::ContactForce;
+use clatter::ContactForce;
+use clatter::contract::{BodyConsts, BodyState, WallRecord};
 use clatter::{ContactState, World};
-use clatter_geom::Shape;
 
 const WG: u32 = 256;
 /// Steps recorded into one submission between status reads.
@@ -256,7 +254,7 @@ impl GpuWorld {
             .max(state.pairs.len() as u64 + world.len() as u64)
             .max(1024);
         Self::check_fits(&ctx, world.len() as u64, capacity, num_walls as u64)?;
-        let rmax = world.radius.iter().copied().fold(0.0, f32::max);
+        let rmax = world.consts.max_radius();
         let params = Params {
             gravity: [world.gravity.x, world.gravity.y, world.gravity.z, 0.0],
             n,
@@ -269,11 +267,7 @@ impl GpuWorld {
             min_cell: 2.0 * rmax + world.skin,
             max_cells: 8 * n + 64,
             num_args: 0,
-            spheres_only: world
-                .shape_of
-                .iter()
-                .all(|&s| matches!(world.shapes[s as usize].shape, Shape::Sphere { .. }))
-                as u32,
+            spheres_only: world.spheres_only() as u32,
             one: 1.0,
         };
         let device = &ctx.device;
@@ -303,63 +297,10 @@ impl GpuWorld {
             })
         };
         // Body state and constants.
-        let mut states = Vec::with_capacity(world.len());
-        let mut statics = Vec::with_capacity(world.len());
-        for i in 0..world.len() {
-            let v4 = |v: Vec3| [v.x, v.y, v.z, 0.0];
-            let q4 = |q: Quat| [q.x, q.y, q.z, q.w];
-            states.push(BodyState {
-                position: v4(world.position[i]),
-                velocity: v4(world.velocity[i]),
-                orientation: q4(world.orientation[i]),
-                residual: q4(world.orientation_residual(i)),
-                angular_momentum: v4(world.angular_momentum[i]),
-                omega: v4(world.omega[i]),
-            });
-            let inv = world.inv_inertia[i];
-            let shape = world.shape_of[i];
-            statics.push(BodyStatic {
-                inv_inertia: [inv.x, inv.y, inv.z, world.inv_mass[i]],
-                mass: world.mass[i],
-                radius: world.radius[i],
-                equivalent_radius: world.equivalent_radius[i],
-                _pad: 0.0,
-                shape,
-                material: world.material_of[i],
-                is_sphere: matches!(world.shapes[shape as usize].shape, Shape::Sphere { .. })
-                    as u32,
-                isotropic: (inv.x == inv.y && inv.y == inv.z) as u32,
-            });
-        }
-        let nm = world.materials.len() as u32;
-        let mut table = Vec::new();
-        for a in 0..nm {
-            for b in 0..nm {
-                let p = world.pair_params(a, b);
-                table.push(GpuPairParams {
-                    hertz: p.hertz as u32,
-                    stiffness: p.stiffness,
-                    shear: p.shear,
-                    damping_factor: p.damping_factor,
-                    friction: p.friction,
-                    _pad: [0.0; 3],
-                });
-            }
-        }
-        let walls: Vec<GpuWall> = world
-            .walls
-            .iter()
-            .map(|w| GpuWall {
-                plane: [
-                    w.plane.normal.x,
-                    w.plane.normal.y,
-                    w.plane.normal.z,
-                    w.plane.offset,
-                ],
-                material: w.material,
-                _pad: [0; 3],
-            })
-            .collect();
+        let states: Vec<BodyState> = (0..world.len()).map(|i| world.state.record(i)).collect();
+        let statics: Vec<BodyConsts> = (0..world.len()).map(|i| world.consts.record(i)).collect();
+        let table = world.materials.table();
+        let walls: Vec<WallRecord> = world.walls.iter().map(WallRecord::from).collect();
         // Contacts carried from the world (a resumed run): the old list that the first
         // rebuild carries springs from.
         let nb = world.len() as u64;
@@ -388,8 +329,7 @@ impl GpuWorld {
             })
             .collect();
         let wall_touching: Vec<u32> = state.wall_touching.iter().map(|&t| t as u32).collect();
-        let wall_forces: Vec<GpuContactForce> =
-            state.wall_forces.iter().map(to_gpu_force).collect();
+        let wall_forces = &state.wall_forces;
         let mut st = [0u32; status::LEN];
         st[status::REBUILD] = 1;
         st[status::BAD_BODY] = u32::MAX;
@@ -402,7 +342,7 @@ impl GpuWorld {
             }),
             bodies: init("bodies", bytemuck::cast_slice(&states)),
             statics: init("statics", bytemuck::cast_slice(&statics)),
-            pair_table: init("pair_table", bytemuck::cast_slice(&table)),
+            pair_table: init("pair_table", bytemuck::cast_slice(table)),
             walls: init("walls", bytemuck::cast_slice(&walls)),
             status_buf: init("status", bytemuck::cast_slice(&st)),
             grid: zeroed("grid", 48),
@@ -423,7 +363,7 @@ impl GpuWorld {
             b_start: zeroed("b_start", 4 * (nb + 1)),
             b_adj: zeroed("b_adj", 4 * capacity),
             wall_hist: init("wall_hist", bytemuck::cast_slice(&wall_hist)),
-            wall_forces: init("wall_forces", bytemuck::cast_slice(&wall_forces)),
+            wall_forces: init("wall_forces", bytemuck::cast_slice(wall_forces)),
             wall_touching: init("wall_touching", bytemuck::cast_slice(&wall_touching)),
             args: zeroed("args", 4),
             arg_template: zeroed("arg_template", 4),
@@ -1431,14 +1371,7 @@ impl GpuWorld {
     /// Body state, step count and time into `world`.
     fn apply_states(&self, states: &[BodyState], world: &mut World) {
         for (i, s) in states.iter().enumerate() {
-            let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-            let q = |a: [f32; 4]| Quat::from_xyzw(a[0], a[1], a[2], a[3]);
-            world.position[i] = v3(s.position);
-            world.velocity[i] = v3(s.velocity);
-            world.orientation[i] = q(s.orientation);
-            world.set_orientation_residual(i, q(s.residual));
-            world.angular_momentum[i] = v3(s.angular_momentum);
-            world.omega[i] = v3(s.omega);
+            world.state.set_record(i, s);
         }
         world.step_count = self.base_step + self.gpu_steps;
         // The same sum as the CPU's `time += dt` per step, continued from the last call's.
@@ -1484,8 +1417,8 @@ impl GpuWorld {
         let (wh, wt, wf, rb) = (next(), next(), next(), next());
         let hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&hist_bytes);
         let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
-        let forces: Vec<GpuContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
-        let wall_forces: Vec<GpuContactForce> = bytemuck::pod_collect_to_vec(&wf);
+        let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
+        let wall_forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&wf);
         let rebuilt = self.last_status[status::REBUILDS] > 0;
         Ok(ContactState {
             rebuild_position: if rebuilt {
@@ -1504,14 +1437,14 @@ impl GpuWorld {
                 .iter()
                 .map(|&t| t == 1)
                 .collect(),
-            forces: forces.iter().map(from_gpu_force).collect(),
+            forces,
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
             wall_touching: bytemuck::pod_collect_to_vec::<u8, u32>(&wt)
                 .iter()
                 .map(|&t| t != 0)
                 .collect(),
-            wall_forces: wall_forces.iter().map(from_gpu_force).collect(),
+            wall_forces,
         })
     }
 
@@ -1549,23 +1482,6 @@ pub struct StepReport {
     pub touching: usize,
     /// Steps taken on the GPU since upload.
     pub steps_done: u64,
-}
-
-fn to_gpu_force(f: &ContactForce) -> GpuContactForce {
-    GpuContactForce {
-        force_b: [f.force_b.x, f.force_b.y, f.force_b.z, f.normal_force],
-        torque_a: [f.torque_a.x, f.torque_a.y, f.torque_a.z, 0.0],
-        torque_b: [f.torque_b.x, f.torque_b.y, f.torque_b.z, 0.0],
-    }
-}
-
-fn from_gpu_force(f: &GpuContactForce) -> ContactForce {
-    ContactForce {
-        force_b: Vec3::new(f.force_b[0], f.force_b[1], f.force_b[2]),
-        torque_a: Vec3::new(f.torque_a[0], f.torque_a[1], f.torque_a[2]),
-        torque_b: Vec3::new(f.torque_b[0], f.torque_b[1], f.torque_b[2]),
-        normal_force: f.force_b[3],
-    }
 }
 
 fn dummy_group(device: &wgpu::Device, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {

@@ -29,9 +29,9 @@ mod gpu_step {
 
     fn snapshot(w: &World) -> (Vec<glam::Vec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64) {
         (
-            w.position.clone(),
-            w.velocity.clone(),
-            w.orientation.clone(),
+            w.state.position.clone(),
+            w.state.velocity.clone(),
+            w.state.orientation.clone(),
             w.step_count,
         )
     }

@@ -92,11 +92,16 @@ fn u32s(b: &[u8]) -> Vec<u32> {
 
 /// Stages 1-3 (bin, sort, pairs) and the b-side adjacency after the first step's rebuild.
 fn check_broad_phase(world: &World, gpu: &GpuWorld) {
-    let rmax = world.radius.iter().copied().fold(0.0, f32::max);
-    let grid = Grid::around(&world.position, 2.0 * rmax + world.skin);
-    let keys = broad::bin(&grid, &world.position);
+    let rmax = world.consts.radius.iter().copied().fold(0.0, f32::max);
+    let grid = Grid::around(&world.state.position, 2.0 * rmax + world.skin);
+    let keys = broad::bin(&grid, &world.state.position);
     let (sorted, start) = broad::sort(&keys, grid.cell_count());
-    let pairs = broad::pairs(&grid, &world.position, &world.radius, world.skin);
+    let pairs = broad::pairs(
+        &grid,
+        &world.state.position,
+        &world.consts.radius,
+        world.skin,
+    );
     let n = world.len();
     let gpu_keys = u32s(&gpu.debug_buffer("keys").unwrap());
     assert_eq!(&gpu_keys[..n], &keys[..], "cell keys");
@@ -109,7 +114,7 @@ fn check_broad_phase(world: &World, gpu: &GpuWorld) {
     assert_eq!(&gpu_pairs[..pairs.len()], &pairs[..], "pair list");
     assert_eq!(
         pairs,
-        broad::pairs_brute_force(&world.position, &world.radius, world.skin),
+        broad::pairs_brute_force(&world.state.position, &world.consts.radius, world.skin),
         "the CPU's pairs are all pairs"
     );
     // b-side adjacency: for each body, the pairs where it is second, in pair order.
@@ -150,7 +155,7 @@ fn check_forces(cpu: &World, gpu_state: &clatter::ContactState) {
     // by the largest torque alone, that noise failed on an H100 (its fused multiply-adds
     // round differently from the CPU's) at 2e-5 for a contact whose normal force was large
     // and whose torque came from a small tangential force.
-    let lever = 2.0 * cpu.radius.iter().copied().fold(0.0, f32::max);
+    let lever = 2.0 * cpu.consts.radius.iter().copied().fold(0.0, f32::max);
     let tscale = c
         .forces
         .iter()
@@ -214,7 +219,7 @@ fn compare_run(mut cpu: World, steps: u64, tol: f32) {
     check_forces(&cpu, &gpu.contact_state().expect("readback"));
     // A short trajectory, compared every `steps / 4` steps.
     let mut back = initial.clone();
-    let size = 2.0 * cpu.radius.iter().copied().fold(0.0, f32::max);
+    let size = 2.0 * cpu.consts.radius.iter().copied().fold(0.0, f32::max);
     let mut done = 1;
     let mut worst = 0.0f32;
     for q in 1..=4 {
@@ -230,8 +235,14 @@ fn compare_run(mut cpu: World, steps: u64, tol: f32) {
         worst = 0.0;
         let mut worst_q = 0.0f32;
         for i in 0..cpu.len() {
-            worst = worst.max((back.position[i] - cpu.position[i]).length());
-            worst_q = worst_q.max((back.orientation[i].dot(cpu.orientation[i]).abs() - 1.0).abs());
+            worst = worst.max((back.state.position[i] - cpu.state.position[i]).length());
+            worst_q = worst_q.max(
+                (back.state.orientation[i]
+                    .dot(cpu.state.orientation[i])
+                    .abs()
+                    - 1.0)
+                    .abs(),
+            );
         }
         eprintln!(
             "trajectory: step {upto}: worst position difference {:.3e} of a body size, orientation {worst_q:.1e}",

@@ -405,7 +405,7 @@ impl Renderer {
         let mut draws = Vec::new();
         for (s, shape) in world.shapes.iter().enumerate() {
             let first = order.len() as u32;
-            order.extend((0..n as u32).filter(|&i| world.shape_of[i as usize] == s as u32));
+            order.extend((0..n as u32).filter(|&i| world.consts.shape[i as usize] == s as u32));
             if order.len() as u32 == first {
                 continue;
             }
@@ -507,7 +507,11 @@ impl Renderer {
         let mut records = Vec::with_capacity(n);
         let mut vmax = 0.0f32;
         for i in 0..n {
-            let (x, v, q) = (world.position[i], world.velocity[i], world.orientation[i]);
+            let (x, v, q) = (
+                world.state.position[i],
+                world.state.velocity[i],
+                world.state.orientation[i],
+            );
             let speed = v.length();
             if speed.is_finite() {
                 vmax = vmax.max(speed);
@@ -537,13 +541,13 @@ impl Renderer {
         let counts = match contacts {
             Some(c) => c,
             None => {
-                owned = world.contact_counts();
+                owned = world.contacts.counts(world.len());
                 &owned
             }
         };
         let styles: Vec<[f32; 4]> = (0..n)
             .map(|i| {
-                let c = PALETTE[world.material_of[i] as usize % PALETTE.len()];
+                let c = PALETTE[world.consts.material[i] as usize % PALETTE.len()];
                 let j = jitter(i);
                 let touching = counts.get(i).is_some_and(|&k| k > 0);
                 [

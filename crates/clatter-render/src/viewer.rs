@@ -439,6 +439,7 @@ impl App {
                 g.renderer.update_styles(&self.world, None);
                 let vmax = self
                     .world
+                    .state
                     .velocity
                     .iter()
                     .map(|v| v.length())
@@ -447,7 +448,7 @@ impl App {
                 style.speed_max = Some(if vmax > 0.0 { vmax } else { 1.0 });
             }
         } else {
-            let counts = self.world.contact_counts();
+            let counts = self.world.contacts.counts(self.world.len());
             self.contacts_now = self.world.contact_count();
             g.renderer.update(&self.world, Some(&counts));
         }

@@ -43,7 +43,9 @@ use std::path::Path;
 use glam::{Quat, Vec3};
 use thiserror::Error;
 
-use crate::forces::ContactForce;
+use crate::bodies::BodyStates;
+use crate::contacts::ContactSprings;
+use crate::law::ContactForce;
 use crate::scene::{Scene, SceneError};
 use crate::world::World;
 
@@ -116,21 +118,11 @@ struct State {
     skin: f32,
     gravity: Vec3,
     needs_rebuild: bool,
-    position: Vec<Vec3>,
-    velocity: Vec<Vec3>,
-    orientation: Vec<Quat>,
-    orientation_residual: Vec<Quat>,
-    angular_momentum: Vec<Vec3>,
-    omega: Vec<Vec3>,
+    body: BodyStates,
     rebuild_position: Vec<Vec3>,
     pairs: Vec<[u32; 2]>,
     wall_pairs: Vec<[u32; 2]>,
-    history: Vec<Vec3>,
-    twist: Vec<f32>,
-    forces: Vec<ContactForce>,
-    touching: Vec<bool>,
-    hints: Vec<u32>,
-    budget: Vec<f32>,
+    springs: ContactSprings,
 }
 
 impl Checkpoint {
@@ -319,32 +311,25 @@ impl Checkpoint {
             }
         } else {
             // Rebuild the derived gather ranges exactly as the run did, from the same positions.
-            w.position.clone_from(&st.rebuild_position);
-            w.rebuild();
-            if w.contacts.pairs != st.pairs || w.contacts.wall_pairs != st.wall_pairs {
+            w.state.position.clone_from(&st.rebuild_position);
+            w.rebuild_contacts();
+            let c = &w.contacts;
+            if c.pairs() != st.pairs.as_slice() || c.wall_pairs() != st.wall_pairs.as_slice() {
                 return Err(CheckpointError::Mismatch(format!(
                     "the broad phase finds {} body pairs and {} wall pairs at the stored positions, the checkpoint lists {} and {}",
-                    w.contacts.pairs.len(),
-                    w.contacts.wall_pairs.len(),
+                    c.pairs().len(),
+                    c.wall_pairs().len(),
                     st.pairs.len(),
                     st.wall_pairs.len()
                 )));
             }
-            w.contacts.history.clone_from(&st.history);
-            w.contacts.twist.clone_from(&st.twist);
-            w.contacts.forces.clone_from(&st.forces);
-            w.contacts.touching.clone_from(&st.touching);
-            w.contacts.hints.clone_from(&st.hints);
-            w.contacts.budget.clone_from(&st.budget);
+            w.contacts
+                .set_springs(st.springs.clone())
+                .map_err(CheckpointError::Malformed)?;
         }
-        w.position.clone_from(&st.position);
-        w.velocity.clone_from(&st.velocity);
-        w.orientation.clone_from(&st.orientation);
-        w.orientation_residual.clone_from(&st.orientation_residual);
-        w.angular_momentum.clone_from(&st.angular_momentum);
-        w.omega.clone_from(&st.omega);
+        w.state.clone_from(&st.body);
         w.rebuilds = st.rebuilds;
-        w.needs_rebuild = st.needs_rebuild;
+        w.set_needs_rebuild(st.needs_rebuild);
         w.time = st.time;
         w.step_count = st.step_count;
         Ok(w)
@@ -365,7 +350,9 @@ impl World {
     pub fn checkpoint_bytes(&self, scene_source: &str, scene_text: &str, app: &[u8]) -> Vec<u8> {
         let n = self.len();
         let c = &self.contacts;
-        let nc = c.history.len();
+        let sp = c.springs();
+        let nc = sp.history.len();
+        let st = &self.state;
         let mut w = Writer::with_capacity(
             HEADER_LEN + 80 * n + 84 * nc + scene_text.len() + app.len() + 256,
         );
@@ -388,53 +375,53 @@ impl World {
             w.u64(self.rebuilds);
             w.f32(self.skin);
             w.vec3(self.gravity);
-            w.buf.push(self.needs_rebuild as u8);
+            w.buf.push(self.needs_rebuild() as u8);
         });
         w.section(b"BODY", |w| {
             w.u64(n as u64);
             for i in 0..n {
-                w.vec3(self.position[i]);
-                w.vec3(self.velocity[i]);
-                for q in [self.orientation[i], self.orientation_residual[i]] {
+                w.vec3(st.position[i]);
+                w.vec3(st.velocity[i]);
+                for q in [st.orientation[i], st.orientation_residual[i]] {
                     for v in [q.x, q.y, q.z, q.w] {
                         w.f32(v);
                     }
                 }
-                w.vec3(self.angular_momentum[i]);
-                w.vec3(self.omega[i]);
+                w.vec3(st.angular_momentum[i]);
+                w.vec3(st.omega[i]);
             }
         });
         w.section(b"RBLD", |w| {
-            w.u64(self.rebuild_position.len() as u64);
-            for &p in &self.rebuild_position {
+            w.u64(self.rebuild_position().len() as u64);
+            for &p in self.rebuild_position() {
                 w.vec3(p);
             }
         });
         w.section(b"CONT", |w| {
-            w.u64(c.pairs.len() as u64);
-            for p in &c.pairs {
+            w.u64(c.pairs().len() as u64);
+            for p in c.pairs() {
                 w.u32(p[0]);
                 w.u32(p[1]);
             }
-            w.u64(c.wall_pairs.len() as u64);
-            for p in &c.wall_pairs {
+            w.u64(c.wall_pairs().len() as u64);
+            for p in c.wall_pairs() {
                 w.u32(p[0]);
                 w.u32(p[1]);
             }
             for k in 0..nc {
-                w.vec3(c.history[k]);
-                w.f32(c.twist[k]);
-                let f = &c.forces[k];
+                w.vec3(sp.history[k]);
+                w.f32(sp.twist[k]);
+                let f = &sp.forces[k];
                 w.vec3(f.force_b);
                 w.vec3(f.torque_a);
                 w.vec3(f.torque_b);
                 w.f32(f.normal_force);
-                w.buf.push(c.touching[k] as u8);
+                w.buf.push(sp.touching[k] as u8);
             }
-            for &h in &c.hints {
+            for &h in &sp.hints {
                 w.u32(h);
             }
-            for &b in &c.budget {
+            for &b in &sp.separation_bound {
                 w.f32(b);
             }
         });
@@ -512,12 +499,12 @@ fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError
                 "body {i} is at {x}, too far from the origin"
             )));
         }
-        st.position.push(x);
-        st.velocity.push(v);
-        st.orientation.push(q);
-        st.orientation_residual.push(residual);
-        st.angular_momentum.push(l);
-        st.omega.push(w);
+        st.body.position.push(x);
+        st.body.velocity.push(v);
+        st.body.orientation.push(q);
+        st.body.orientation_residual.push(residual);
+        st.body.angular_momentum.push(l);
+        st.body.omega.push(w);
     }
     r.finish()
 }
@@ -546,15 +533,13 @@ fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErr
             .ok_or_else(|| CheckpointError::Malformed("contact count overflows".into()))?,
     )?;
     for _ in 0..nc {
-        st.history.push(r.vec3()?);
-        st.twist.push(r.f32()?);
-        st.forces.push(ContactForce {
-            force_b: r.vec3()?,
-            torque_a: r.vec3()?,
-            torque_b: r.vec3()?,
-            normal_force: r.f32()?,
-        });
-        st.touching.push(match r.bytes(1)?[0] {
+        st.springs.history.push(r.vec3()?);
+        st.springs.twist.push(r.f32()?);
+        let (force_b, torque_a, torque_b) = (r.vec3()?, r.vec3()?, r.vec3()?);
+        st.springs
+            .forces
+            .push(ContactForce::new(force_b, torque_a, torque_b, r.f32()?));
+        st.springs.touching.push(match r.bytes(1)?[0] {
             0 => false,
             1 => true,
             b => {
@@ -566,11 +551,11 @@ fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErr
     }
     r.need(np * 4)?;
     for _ in 0..np {
-        st.hints.push(r.u32()?);
+        st.springs.hints.push(r.u32()?);
     }
     r.need(np * 4)?;
     for _ in 0..np {
-        st.budget.push(r.f32()?);
+        st.springs.separation_bound.push(r.f32()?);
     }
     r.finish()
 }
@@ -580,13 +565,14 @@ fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErr
 fn fingerprint(w: &World) -> u32 {
     let mut bytes = Vec::with_capacity(w.len() * 28);
     for i in 0..w.len() {
-        bytes.extend_from_slice(&w.shape_of[i].to_le_bytes());
-        bytes.extend_from_slice(&w.material_of[i].to_le_bytes());
-        bytes.extend_from_slice(&w.mass[i].to_le_bytes());
-        for c in w.inertia[i].to_array() {
-            bytes.extend_from_slice(&c.to_le_bytes());
+        let c = &w.consts;
+        bytes.extend_from_slice(&c.shape[i].to_le_bytes());
+        bytes.extend_from_slice(&c.material[i].to_le_bytes());
+        bytes.extend_from_slice(&c.mass[i].to_le_bytes());
+        for x in c.inertia[i].to_array() {
+            bytes.extend_from_slice(&x.to_le_bytes());
         }
-        bytes.extend_from_slice(&w.radius[i].to_le_bytes());
+        bytes.extend_from_slice(&c.radius[i].to_le_bytes());
     }
     crc32(&bytes)
 }

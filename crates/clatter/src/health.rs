@@ -29,13 +29,12 @@
 
 use std::fmt;
 
-use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::broad::{self, Grid};
-use crate::forces::ContactForce;
+use crate::contacts::Partner;
+use crate::law::{self, ContactForce};
 use crate::world::{SimError, World};
-use clatter_geom::Pose;
 use clatter_geom::narrow::{self, Manifold};
 
 /// A contact deeper than this fraction of the smaller body's size stops the run.
@@ -45,24 +44,6 @@ pub const INITIAL_OVERLAP_LIMIT: f32 = 0.25;
 /// Kinetic energy above this multiple of the energy available to the run stops it.
 pub const ENERGY_FACTOR: f64 = 10.0;
 
-/// The other side of a contact.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Other {
-    /// A body, by id.
-    Body(u32),
-    /// A wall, by index (scene `[[wall]]`s first, then the container's faces).
-    Wall(u32),
-}
-
-impl fmt::Display for Other {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Other::Body(j) => write!(f, "body {j}"),
-            Other::Wall(w) => write!(f, "wall {w}"),
-        }
-    }
-}
-
 /// One contact at the current positions: who touches whom, the manifold (normal from `other`
 /// towards `body` for walls, from `body` towards `other` for body pairs, as
 /// [`narrow::collide`] returns it), and the force of the last step.
@@ -71,7 +52,7 @@ pub struct ContactReport {
     /// The body (for a body pair, the lower id).
     pub body: u32,
     /// The other side.
-    pub other: Other,
+    pub other: Partner,
     /// The contact manifold recomputed at the current positions.
     pub manifold: Manifold,
     /// The force of the last step; for a body pair `force_b` acts on `other` and
@@ -79,158 +60,110 @@ pub struct ContactReport {
     pub force: ContactForce,
 }
 
-impl World {
-    /// Contacts that touched in the last step, with their manifolds recomputed at the current
-    /// positions (those that no longer overlap are left out) and the last step's forces. In
-    /// contact-list order: body pairs sorted by id, then wall contacts.
-    pub fn touching_contacts(&self) -> Vec<ContactReport> {
-        (0..self.contacts.touching.len())
-            .into_par_iter()
-            .with_min_len(256)
-            .filter_map(|k| self.contact_report(k))
-            .collect()
-    }
+/// Contacts that touched in the last step, with their manifolds recomputed at the current
+/// positions (those that no longer overlap are left out) and the last step's forces, in
+/// contact-list order.
+pub fn touching_contacts(world: &World) -> Vec<ContactReport> {
+    (0..world.contacts.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .filter_map(|k| contact_report(world, k))
+        .collect()
+}
 
-    /// Contact `k` of the contact list (body pairs, then wall pairs) if it touched in the last
-    /// step and still overlaps now.
-    fn contact_report(&self, k: usize) -> Option<ContactReport> {
-        let c = &self.contacts;
-        if !c.touching[k] {
-            return None;
-        }
-        let np = c.pairs.len();
-        if k < np {
-            let [i, j] = c.pairs[k];
-            let m = self.collide_bodies(i as usize, j as usize)?;
-            Some(ContactReport {
-                body: i,
-                other: Other::Body(j),
-                manifold: m,
-                force: c.forces[k],
-            })
-        } else {
-            let [i, w] = c.wall_pairs[k - np];
-            let m = self.collide_wall(i as usize, w as usize)?;
-            Some(ContactReport {
-                body: i,
-                other: Other::Wall(w),
-                manifold: m,
-                force: c.forces[k],
-            })
-        }
+/// Contact `k` of the contact list if it touched in the last step and still overlaps now.
+fn contact_report(world: &World, k: usize) -> Option<ContactReport> {
+    let springs = world.contacts.springs();
+    if !springs.touching[k] {
+        return None;
     }
+    let (body, other) = world.contacts.partners(k);
+    Some(ContactReport {
+        body,
+        other,
+        manifold: collide(world, body, other)?,
+        force: springs.forces[k],
+    })
+}
 
-    /// Overlap depth implied by the last step's normal force of contact `k` (damping ignored),
-    /// or 0 for a contact that did not touch: a cheap estimate that picks which contacts get
-    /// the exact test.
-    fn estimated_depth(&self, k: usize) -> f32 {
-        let c = &self.contacts;
-        if !c.touching[k] {
-            return 0.0;
-        }
-        let np = c.pairs.len();
-        let (params, r_eff) = if k < np {
-            let [i, j] = c.pairs[k];
-            let (ri, rj) = (
-                self.equivalent_radius[i as usize],
-                self.equivalent_radius[j as usize],
-            );
+/// The contact law's parameters, effective radius and point share of a contact.
+fn law_of(world: &World, body: u32, other: Partner) -> (crate::PairParams, f32, f32) {
+    let i = body as usize;
+    let (ri, ci) = (world.consts.equivalent_radius[i], world.consts.material[i]);
+    let si = world.consts.is_sphere[i];
+    match other {
+        Partner::Body(j) => {
+            let j = j as usize;
+            let rj = world.consts.equivalent_radius[j];
             (
-                self.pair_params(self.material_of[i as usize], self.material_of[j as usize]),
+                *world.pair_params(ci, world.consts.material[j]),
                 ri * rj / (ri + rj),
+                law::point_share(si, world.consts.is_sphere[j]),
             )
-        } else {
-            let [i, w] = c.wall_pairs[k - np];
-            (
-                self.pair_params(
-                    self.walls[w as usize].material,
-                    self.material_of[i as usize],
-                ),
-                self.equivalent_radius[i as usize],
-            )
-        };
-        let f = c.forces[k].normal_force.abs();
-        if params.hertz {
-            (f / (4.0 / 3.0 * params.stiffness * r_eff.sqrt())).powf(2.0 / 3.0)
-        } else {
-            f / params.stiffness
         }
+        Partner::Wall(w) => (
+            *world.pair_params(world.walls[w as usize].material, ci),
+            ri,
+            law::point_share(si, si),
+        ),
     }
+}
 
-    /// Per body, the number of contacts (body and wall) that touched in the last step.
-    pub fn contact_counts(&self) -> Vec<u32> {
-        let c = &self.contacts;
-        let mut counts = vec![0u32; self.len()];
-        for (k, p) in c.pairs.iter().enumerate() {
-            if c.touching[k] {
-                counts[p[0] as usize] += 1;
-                counts[p[1] as usize] += 1;
-            }
-        }
-        let np = c.pairs.len();
-        for (k, p) in c.wall_pairs.iter().enumerate() {
-            if c.touching[np + k] {
-                counts[p[0] as usize] += 1;
-            }
-        }
-        counts
+/// The deepest overlap contact `k`'s last normal force allows (all of it on one point), or 0
+/// for a contact that did not touch: picks which contacts get the exact test.
+fn estimated_depth(world: &World, k: usize) -> f32 {
+    let springs = world.contacts.springs();
+    if !springs.touching[k] {
+        return 0.0;
     }
+    let (body, other) = world.contacts.partners(k);
+    let (params, r_eff, share) = law_of(world, body, other);
+    law::depth_at_force(&params, r_eff, springs.forces[k].normal_force, share)
+}
 
-    /// Every overlap at the current positions, found from scratch (a broad phase without skin
-    /// and the narrow phase); forces are zero. Does not touch the contact list.
-    pub fn find_contacts(&self) -> Vec<ContactReport> {
-        if self.is_empty() {
-            return Vec::new();
-        }
-        let rmax = self.radius.iter().copied().fold(0.0, f32::max);
-        let grid = Grid::around(&self.position, 2.0 * rmax);
-        let pairs = broad::pairs(&grid, &self.position, &self.radius, 0.0);
-        let mut out: Vec<ContactReport> = pairs
-            .par_iter()
-            .with_min_len(256)
-            .filter_map(|&[i, j]| {
-                let m = self.collide_bodies(i as usize, j as usize)?;
-                Some(ContactReport {
-                    body: i,
-                    other: Other::Body(j),
-                    manifold: m,
-                    force: ContactForce::default(),
-                })
-            })
-            .collect();
-        for i in 0..self.len() {
-            for w in 0..self.walls.len() {
-                if let Some(m) = self.collide_wall(i, w) {
-                    out.push(ContactReport {
-                        body: i as u32,
-                        other: Other::Wall(w as u32),
-                        manifold: m,
-                        force: ContactForce::default(),
-                    });
-                }
-            }
-        }
-        out
+/// Every overlap at the current positions, found from scratch (a broad phase without skin
+/// and the narrow phase); forces are zero. Does not touch the contact list.
+pub fn find_contacts(world: &World) -> Vec<ContactReport> {
+    if world.is_empty() {
+        return Vec::new();
     }
-
-    fn collide_bodies(&self, i: usize, j: usize) -> Option<Manifold> {
-        let si = &self.shapes[self.shape_of[i] as usize].shape;
-        let sj = &self.shapes[self.shape_of[j] as usize].shape;
-        narrow::collide(
-            si,
-            &Pose::new(self.position[i], self.orientation[i]),
-            sj,
-            &Pose::new(self.position[j], self.orientation[j]),
-        )
+    let positions = &world.state.position;
+    let grid = Grid::around(positions, 2.0 * world.consts.max_radius());
+    let pairs = broad::pairs(&grid, positions, &world.consts.radius, 0.0);
+    let report = |body: u32, other: Partner| {
+        Some(ContactReport {
+            body,
+            other,
+            manifold: collide(world, body, other)?,
+            force: ContactForce::default(),
+        })
+    };
+    let mut out: Vec<ContactReport> = pairs
+        .par_iter()
+        .with_min_len(256)
+        .filter_map(|&[i, j]| report(i, Partner::Body(j)))
+        .collect();
+    for i in 0..world.len() as u32 {
+        out.extend((0..world.walls.len() as u32).filter_map(|w| report(i, Partner::Wall(w))));
     }
+    out
+}
 
-    fn collide_wall(&self, i: usize, w: usize) -> Option<Manifold> {
-        let s = &self.shapes[self.shape_of[i] as usize].shape;
-        narrow::collide_plane(
-            &self.walls[w].plane,
-            s,
-            &Pose::new(self.position[i], self.orientation[i]),
-        )
+/// The manifold of `body` and `other` at the current positions.
+fn collide(world: &World, body: u32, other: Partner) -> Option<Manifold> {
+    let i = body as usize;
+    match other {
+        Partner::Body(j) => narrow::collide(
+            world.shape(i),
+            &world.pose(i),
+            world.shape(j as usize),
+            &world.pose(j as usize),
+        ),
+        Partner::Wall(w) => narrow::collide_plane(
+            &world.walls[w as usize].plane,
+            world.shape(i),
+            &world.pose(i),
+        ),
     }
 }
 
@@ -258,7 +191,7 @@ pub enum BlowUpKind {
     /// A contact deeper than the limit.
     DeepOverlap {
         /// The other side.
-        other: Other,
+        other: Partner,
         /// Overlap depth, m.
         depth: f32,
         /// The size (volume-equivalent radius) it is compared with, m.
@@ -344,7 +277,7 @@ pub struct Health {
     /// Largest stable time step of the stiffest contact, s.
     stable_dt: f64,
     /// Deepest initial overlap: body, other side, depth over size.
-    initial_overlap: Option<(u32, Other, f32)>,
+    initial_overlap: Option<(u32, Partner, f32)>,
     /// Fastest body at the start relative to its size: body, speed, size moved per step.
     initial_travel: Option<(usize, f32, f32)>,
     /// The smallest normal force any contact can have at an overlap of [`OVERLAP_LIMIT`]:
@@ -357,7 +290,7 @@ impl Health {
     /// measured now; overlaps are found from scratch).
     pub fn new(world: &World) -> Health {
         let mut h = Health::bare(world);
-        let contacts = world.find_contacts();
+        let contacts = find_contacts(world);
         let mut elastic = 0.0f64;
         for c in &contacts {
             elastic += h.elastic_energy(world, c);
@@ -398,30 +331,27 @@ impl Health {
             initial_travel: None,
             force_floor: 0.0,
         };
-        // Lower bounds of stiffness, size and radius over everything present.
+        // The weakest spring over everything present: the softest pair, the smallest size
+        // and radius, the smallest point share.
         let min_size = h.size.iter().copied().fold(f32::INFINITY, f32::min);
         let min_r = world
+            .consts
             .equivalent_radius
             .iter()
             .copied()
             .fold(f32::INFINITY, f32::min);
-        let nm = world.materials.len() as u32;
-        let (min_k, hertz) = (0..nm)
-            .flat_map(|a| (0..nm).map(move |b| (a, b)))
-            .map(|(a, b)| world.pair_params(a, b))
-            .fold((f32::INFINITY, false), |(k, h), p| {
-                (k.min(p.stiffness), h || p.hertz)
-            });
+        let share = law::point_share(world.spheres_only(), world.spheres_only());
         let d = OVERLAP_LIMIT * min_size;
-        let floor = if hertz {
-            4.0 / 3.0 * min_k * (0.5 * min_r).sqrt() * d.powf(1.5)
-        } else {
-            min_k * d
-        };
+        let floor = world
+            .materials
+            .table()
+            .iter()
+            .map(|p| law::spring(p, 0.5 * min_r, d, share).0)
+            .fold(f32::INFINITY, f32::min);
         h.force_floor = if floor.is_finite() { 0.5 * floor } else { 0.0 };
         let dt = world.dt;
         for i in 0..world.len() {
-            let speed = world.velocity[i].length();
+            let speed = world.state.velocity[i].length();
             let travel = speed * dt / h.body_size(world, i);
             if travel > 0.0 && h.initial_travel.is_none_or(|(_, _, t)| travel > t) {
                 h.initial_travel = Some((i, speed, travel));
@@ -464,12 +394,12 @@ impl Health {
             && ratio > INITIAL_OVERLAP_LIMIT
         {
             let size = self.body_size(world, body as usize).min(match other {
-                Other::Body(j) => self.body_size(world, j as usize),
-                Other::Wall(_) => f32::INFINITY,
+                Partner::Body(j) => self.body_size(world, j as usize),
+                Partner::Wall(_) => f32::INFINITY,
             });
             let cause = match other {
-                Other::Body(_) => "overlapping initial placement: place the bodies apart (a lattice's spacing at least the bodies' bounding diameter, random groups clear of `[[body]]` entries)".to_string(),
-                Other::Wall(_) => "initial placement across a wall: a body starts (partly) on the solid side of a wall or outside the container; move it inside".to_string(),
+                Partner::Body(_) => "overlapping initial placement: place the bodies apart (a lattice's spacing at least the bodies' bounding diameter, random groups clear of `[[body]]` entries)".to_string(),
+                Partner::Wall(_) => "initial placement across a wall: a body starts (partly) on the solid side of a wall or outside the container; move it inside".to_string(),
             };
             return Err(BlowUp {
                 kind: BlowUpKind::DeepOverlap {
@@ -503,12 +433,7 @@ impl Health {
         let kinetic = world.kinetic_energy();
         let potential = world.potential_energy();
         if !(kinetic.is_finite() && potential.is_finite()) {
-            let bad = (0..world.len()).find(|&i| {
-                !(world.position[i].is_finite()
-                    && world.velocity[i].is_finite()
-                    && world.omega[i].is_finite()
-                    && world.angular_momentum[i].is_finite())
-            });
+            let bad = (0..world.len()).find(|&i| !world.state.is_finite(i));
             if let Some(i) = bad {
                 return fail(BlowUpKind::NonFinite, i);
             }
@@ -516,7 +441,7 @@ impl Health {
         let available = self.budget - potential;
         if !kinetic.is_finite() || kinetic > ENERGY_FACTOR * available.max(0.0) {
             let (body, body_kinetic) = (0..world.len())
-                .map(|i| (i, body_kinetic(world, i)))
+                .map(|i| (i, world.body_kinetic_energy(i)))
                 .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
             return fail(
                 BlowUpKind::EnergyGrowth {
@@ -529,7 +454,7 @@ impl Health {
         }
         // Escape: per wall, how many bodies are entirely behind it (a count has no loop-carried
         // float dependency, unlike a running minimum); only when some are, which body.
-        let (x, r) = (&world.position, &world.radius);
+        let (x, r) = (&world.state.position, &world.consts.radius);
         let escaped = world.walls.iter().any(|w| {
             let (n, o) = (w.plane.normal, w.plane.offset);
             x.iter()
@@ -556,7 +481,7 @@ impl Health {
                 .map(|(k, w)| {
                     (
                         k as u32,
-                        w.plane.normal.dot(world.position[i]) - w.plane.offset,
+                        w.plane.normal.dot(world.state.position[i]) - w.plane.offset,
                     )
                 })
                 .fold((0, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
@@ -565,16 +490,16 @@ impl Health {
         // Deep overlaps: every touching contact in a full check, otherwise those whose last
         // force implies a deep overlap.
         let contacts = if full {
-            world.touching_contacts()
+            touching_contacts(world)
         } else {
-            let c = &world.contacts;
+            let c = world.contacts.springs();
             (0..c.touching.len())
                 .filter(|&k| {
                     c.touching[k]
                         && c.forces[k].normal_force.abs() > self.force_floor
-                        && world.estimated_depth(k) > OVERLAP_LIMIT * self.smallest_size(world, k)
+                        && estimated_depth(world, k) > OVERLAP_LIMIT * self.smallest_size(world, k)
                 })
-                .filter_map(|k| world.contact_report(k))
+                .filter_map(|k| contact_report(world, k))
                 .collect()
         };
         {
@@ -657,7 +582,8 @@ impl Health {
         if causes.is_empty() && overlap {
             let m = world
                 .materials
-                .get(world.material_of.get(body).copied().unwrap_or(0) as usize);
+                .list()
+                .get(world.consts.material.get(body).copied().unwrap_or(0) as usize);
             causes.push(format!(
                 "the contacts are too soft for the load (weight, pressure or impact speed) on body {body}{}: raise the stiffness (youngs_modulus for Hertz), or lower the speeds",
                 m.map_or(String::new(), |m| format!(" (material `{}`)", m.name))
@@ -673,60 +599,34 @@ impl Health {
     }
 
     fn body_size(&self, world: &World, i: usize) -> f32 {
-        self.size[world.shape_of[i] as usize]
+        self.size[world.consts.shape[i] as usize]
     }
 
     /// The size the overlap of contact `k` of the contact list is compared with.
     fn smallest_size(&self, world: &World, k: usize) -> f32 {
-        let c = &world.contacts;
-        let np = c.pairs.len();
-        if k < np {
-            let [i, j] = c.pairs[k];
-            self.body_size(world, i as usize)
-                .min(self.body_size(world, j as usize))
-        } else {
-            self.body_size(world, c.wall_pairs[k - np][0] as usize)
+        let (i, other) = world.contacts.partners(k);
+        let a = self.body_size(world, i as usize);
+        match other {
+            Partner::Body(j) => a.min(self.body_size(world, j as usize)),
+            Partner::Wall(_) => a,
         }
     }
 
     fn contact_size(&self, world: &World, c: &ContactReport) -> f32 {
         let a = self.body_size(world, c.body as usize);
         match c.other {
-            Other::Body(j) => a.min(self.body_size(world, j as usize)),
-            Other::Wall(_) => a,
+            Partner::Body(j) => a.min(self.body_size(world, j as usize)),
+            Partner::Wall(_) => a,
         }
     }
 
-    /// Elastic energy stored in an (initial) overlap, J.
+    /// Elastic energy stored in an (initial) overlap, J: the law's spring energy per point.
     fn elastic_energy(&self, world: &World, c: &ContactReport) -> f64 {
-        let i = c.body as usize;
-        let (params, r_eff) = match c.other {
-            Other::Body(j) => {
-                let j = j as usize;
-                let (ri, rj) = (world.equivalent_radius[i], world.equivalent_radius[j]);
-                (
-                    world.pair_params(world.material_of[i], world.material_of[j]),
-                    ri * rj / (ri + rj),
-                )
-            }
-            Other::Wall(w) => (
-                world.pair_params(world.walls[w as usize].material, world.material_of[i]),
-                world.equivalent_radius[i],
-            ),
-        };
-        let inv = 1.0 / c.manifold.count.max(1) as f64;
+        let (params, r_eff, share) = law_of(world, c.body, c.other);
         c.manifold
             .points()
             .iter()
-            .map(|p| {
-                let d = p.depth.max(0.0) as f64;
-                let k = params.stiffness as f64;
-                if params.hertz {
-                    8.0 / 15.0 * k * (r_eff as f64).sqrt() * d.powf(2.5) * inv
-                } else {
-                    0.5 * k * d * d * inv
-                }
-            })
+            .map(|p| law::elastic_energy(&params, r_eff, p.depth, share))
             .sum()
     }
 
@@ -735,15 +635,9 @@ impl Health {
         let g = world.gravity.length() as f64;
         (0..world.len())
             .map(|i| {
-                let (m, s) = (world.mass[i] as f64, self.body_size(world, i) as f64);
+                let (m, s) = (world.consts.mass[i] as f64, self.body_size(world, i) as f64);
                 m * g * s + 0.5 * m * s * s
             })
             .sum()
     }
-}
-
-fn body_kinetic(world: &World, i: usize) -> f64 {
-    let v: Vec3 = world.velocity[i];
-    0.5 * world.mass[i] as f64 * v.length_squared() as f64
-        + 0.5 * world.omega[i].dot(world.angular_momentum[i]) as f64
 }

@@ -1,21 +1,33 @@
 //! clatter: Discrete Element Method simulation of rigid convex polyhedra and spheres.
 //!
-//! The step is a fixed pipeline of stages named the same on every backend:
-//! **bin**, **sort**, **pairs** ([`broad`]), **narrow** ([`clatter_geom::narrow`]),
-//! **forces** ([`forces`]) and **integrate** ([`world::World::step`]).
+//! - [`World`] holds the bodies ([`bodies`]: state and constants), the materials
+//!   ([`material`]), the walls and the contact list ([`contacts`]).
+//! - [`World::step`] runs the stages of [`step`]: **broad**, **contacts** (narrow phase and
+//!   the contact [`law`]), **integrate**; the GPU backend (`clatter-gpu`) runs the same
+//!   stages under the same names.
+//! - [`contract`] defines the records and constants both backends share.
+//! - [`scene`] reads scene files, [`checkpoint`] saves and restores runs, [`health`] finds
+//!   runs that blow up.
 
-pub mod broad;
+pub mod bodies;
 pub mod checkpoint;
-pub mod forces;
+pub mod contacts;
+pub mod contract;
 pub mod health;
+pub mod law;
 pub mod material;
 pub mod pile;
 pub mod scene;
 pub mod shape_spec;
+pub mod step;
 pub mod world;
+
+pub use step::broad;
 
 pub use checkpoint::{Checkpoint, CheckpointError};
 pub use clatter_geom as geom;
+pub use contacts::{ContactSprings, ContactState, Contacts, Partner};
+pub use contract::{BodyConsts, BodyState, ContactForce, PairParams};
 pub use health::{BlowUp, Health};
-pub use material::{ContactLaw, Material, PairParams};
-pub use world::{BodyInit, ContactState, SimError, StepStats, Wall, World, WorldDesc};
+pub use material::{ContactLaw, Material, Materials};
+pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};

@@ -41,31 +41,15 @@ pub struct Material {
     pub friction: f32,
 }
 
-/// The combined parameters of a contact between two materials (or a material and a wall).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PairParams {
-    /// Hertz when true, linear otherwise.
-    pub hertz: bool,
-    /// Linear: normal stiffness k (N/m). Hertz: effective modulus E* (Pa).
-    pub stiffness: f32,
-    /// Hertz only: effective shear modulus G* (Pa).
-    pub shear: f32,
-    /// Combined restitution.
-    pub restitution: f32,
-    /// Linear: `2 (-ln e) / sqrt(pi^2 + ln^2 e)`, so that `eta = factor * sqrt(m_eff k)`.
-    /// Hertz: `2 sqrt(5/6) (-ln e) / sqrt(pi^2 + ln^2 e)` (Tsuji's damping).
-    pub damping_factor: f32,
-    /// Combined friction coefficient.
-    pub friction: f32,
-}
-
-/// Tangential stiffness over normal stiffness in the linear model (2/7, which makes the
-/// tangential and normal oscillations of a sphere contact equally fast).
-pub const LINEAR_TANGENTIAL_RATIO: f32 = 2.0 / 7.0;
-/// Tangential damping over normal damping (LAMMPS's default `gammat = gamman / 2`).
-pub const TANGENTIAL_DAMPING_RATIO: f32 = 0.5;
+pub use crate::contract::PairParams;
+use crate::contract::{MODEL_HERTZ, MODEL_LINEAR};
 
 impl PairParams {
+    /// Whether the normal law is Hertz (else linear).
+    pub fn is_hertz(&self) -> bool {
+        self.model == MODEL_HERTZ
+    }
+
     /// Combines two materials with the rules in this module's documentation.
     pub fn combine(a: &Material, b: &Material) -> PairParams {
         let e = (a.restitution * b.restitution).sqrt();
@@ -88,12 +72,13 @@ impl PairParams {
                 let g_star =
                     1.0 / (2.0 * (2.0 - v1) * (1.0 + v1) / e1 + 2.0 * (2.0 - v2) * (1.0 + v2) / e2);
                 PairParams {
-                    hertz: true,
+                    model: MODEL_HERTZ,
                     stiffness: e_star as f32,
                     shear: g_star as f32,
                     restitution: e,
                     damping_factor: (base * (5.0f64 / 6.0).sqrt()) as f32,
                     friction,
+                    ..Default::default()
                 }
             }
             _ => {
@@ -103,12 +88,13 @@ impl PairParams {
                 };
                 let (k1, k2) = (k(a), k(b));
                 PairParams {
-                    hertz: false,
+                    model: MODEL_LINEAR,
                     stiffness: (2.0 * k1 * k2 / (k1 + k2)) as f32,
                     shear: 0.0,
                     restitution: e,
                     damping_factor: base as f32,
                     friction,
+                    ..Default::default()
                 }
             }
         }
@@ -118,7 +104,7 @@ impl PairParams {
     /// `t_c = pi / sqrt(k/m - (eta/2m)^2)`. For Hertz, the duration of a head-on impact at
     /// `speed` with effective radius `r_eff` (undamped estimate `2.87 (m^2/(R E*^2 v))^(1/5)`).
     pub fn contact_duration(&self, m_eff: f64, r_eff: f64, speed: f64) -> f64 {
-        if self.hertz {
+        if self.is_hertz() {
             let e = self.stiffness as f64;
             2.87 * (m_eff * m_eff / (r_eff * e * e * speed.max(1e-3))).powf(0.2)
         } else {
@@ -127,5 +113,50 @@ impl PairParams {
             let w2 = k / m_eff - (eta / (2.0 * m_eff)).powi(2);
             std::f64::consts::PI / w2.max(1e-30).sqrt()
         }
+    }
+}
+
+/// The materials of a world and the combined parameters of every pair of them
+/// ([`PairParams::combine`]), the table both backends index by `a * len + b`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Materials {
+    list: Vec<Material>,
+    table: Vec<PairParams>,
+}
+
+impl Materials {
+    /// The materials and their pair table.
+    pub fn new(list: Vec<Material>) -> Materials {
+        let table = list
+            .iter()
+            .flat_map(|a| list.iter().map(move |b| PairParams::combine(a, b)))
+            .collect();
+        Materials { list, table }
+    }
+
+    /// The materials, by index.
+    pub fn list(&self) -> &[Material] {
+        &self.list
+    }
+
+    /// Number of materials.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// True when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// Combined parameters of materials `a` and `b`.
+    #[inline]
+    pub fn pair(&self, a: u32, b: u32) -> &PairParams {
+        &self.table[a as usize * self.list.len() + b as usize]
+    }
+
+    /// Every pair's parameters, row `a`, column `b` (as the GPU stores them).
+    pub fn table(&self) -> &[PairParams] {
+        &self.table
     }
 }

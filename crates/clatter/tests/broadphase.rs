@@ -215,7 +215,7 @@ fn compare_with_all_pairs(w: &mut World, steps: usize, every: usize) -> (usize, 
         let check = s % every == every - 1;
         let poses: Vec<Pose> = if check {
             (0..w.len())
-                .map(|i| Pose::new(w.position[i], w.orientation[i]))
+                .map(|i| Pose::new(w.state.position[i], w.state.orientation[i]))
                 .collect()
         } else {
             Vec::new()
@@ -224,7 +224,7 @@ fn compare_with_all_pairs(w: &mut World, steps: usize, every: usize) -> (usize, 
         if !check {
             continue;
         }
-        let shape = |i: usize| &w.shapes[w.shape_of[i] as usize].shape;
+        let shape = |i: usize| &w.shapes[w.consts.shape[i] as usize].shape;
         let mut brute = Vec::new();
         for i in 0..w.len() {
             for j in i + 1..w.len() {

@@ -82,11 +82,11 @@ fn steps(w: &mut World, n: u64) {
 fn bits(w: &World) -> Vec<u32> {
     let mut out = Vec::new();
     for i in 0..w.len() {
-        out.extend(w.position[i].to_array().map(f32::to_bits));
-        out.extend(w.velocity[i].to_array().map(f32::to_bits));
-        out.extend(w.orientation[i].to_array().map(f32::to_bits));
-        out.extend(w.angular_momentum[i].to_array().map(f32::to_bits));
-        out.extend(w.omega[i].to_array().map(f32::to_bits));
+        out.extend(w.state.position[i].to_array().map(f32::to_bits));
+        out.extend(w.state.velocity[i].to_array().map(f32::to_bits));
+        out.extend(w.state.orientation[i].to_array().map(f32::to_bits));
+        out.extend(w.state.angular_momentum[i].to_array().map(f32::to_bits));
+        out.extend(w.state.omega[i].to_array().map(f32::to_bits));
     }
     out
 }

@@ -95,9 +95,9 @@ fn momentum(w: &World) -> (DVec3, f64) {
     let mut p = DVec3::ZERO;
     let mut s = 0.0;
     for i in 0..w.len() {
-        let m = w.mass[i] as f64;
-        p += dvec(w.velocity[i]) * m;
-        s += m * w.velocity[i].length() as f64;
+        let m = w.consts.mass[i] as f64;
+        p += dvec(w.state.velocity[i]) * m;
+        s += m * w.state.velocity[i].length() as f64;
     }
     (p, s)
 }
@@ -107,9 +107,9 @@ fn angular_momentum(w: &World) -> (DVec3, f64) {
     let mut l = DVec3::ZERO;
     let mut s = 0.0;
     for i in 0..w.len() {
-        let m = w.mass[i] as f64;
-        let orbital = dvec(w.position[i]).cross(dvec(w.velocity[i]) * m);
-        let spin = dvec(w.angular_momentum[i]);
+        let m = w.consts.mass[i] as f64;
+        let orbital = dvec(w.state.position[i]).cross(dvec(w.state.velocity[i]) * m);
+        let spin = dvec(w.state.angular_momentum[i]);
         l += orbital + spin;
         s += orbital.length() + spin.length();
     }
@@ -150,14 +150,14 @@ fn momentum_and_angular_momentum_of_colliding_polyhedra() {
     let steps = 6000;
     let mut rounding = DVec3::ZERO;
     for s in 0..steps {
-        let x_prev = w.position.clone();
+        let x_prev = w.state.position.clone();
         step_backend::step(&mut w).unwrap();
         step_backend::sync(&mut w);
         counter.update(&w);
         for (i, &x0) in x_prev.iter().enumerate() {
-            let v = dvec(w.velocity[i]);
+            let v = dvec(w.state.velocity[i]);
             let ideal = dvec(x0) + v * w.dt as f64;
-            rounding += (dvec(w.position[i]) - ideal).cross(v * w.mass[i] as f64);
+            rounding += (dvec(w.state.position[i]) - ideal).cross(v * w.consts.mass[i] as f64);
         }
         if s % 100 == 99 {
             let (p, _) = momentum(&w);
@@ -196,14 +196,16 @@ fn spring_energy(w: &World, radius: &[f32]) -> f64 {
     for i in 0..w.len() {
         for j in i + 1..w.len() {
             let d = (radius[i] + radius[j]) as f64
-                - (w.position[j] - w.position[i]).as_dvec3().length();
+                - (w.state.position[j] - w.state.position[i])
+                    .as_dvec3()
+                    .length();
             if d > 0.0 {
                 e += 0.5 * K as f64 * d * d;
             }
         }
         for wall in &w.walls {
             let d = radius[i] as f64
-                - (wall.plane.normal.dot(w.position[i]) - wall.plane.offset) as f64;
+                - (wall.plane.normal.dot(w.state.position[i]) - wall.plane.offset) as f64;
             if d > 0.0 {
                 e += 0.5 * K as f64 * d * d;
             }
@@ -274,7 +276,7 @@ fn energy_of_elastic_spheres_in_a_box() {
         counter.update(&w);
         for i in 0..w.len() {
             for (k, wall) in w.walls.iter().enumerate() {
-                let t = wall.plane.normal.dot(w.position[i]) - wall.plane.offset < radius[i];
+                let t = wall.plane.normal.dot(w.state.position[i]) - wall.plane.offset < radius[i];
                 if t && !wall_touching[i * 6 + k] {
                     wall_hits += 1;
                 }
@@ -299,7 +301,12 @@ fn energy_of_elastic_spheres_in_a_box() {
     // Frictionless spheres do not spin up: the normal force points through the centres, so
     // the torque `(p - x) x f` is zero but for the f32 rounding of `p - x` (measured:
     // |omega| R about 2e-5 m/s after 25 000 collisions, against speeds of 0.3 m/s).
-    let max_spin = w.omega.iter().map(|o| o.length()).fold(0.0f32, f32::max);
+    let max_spin = w
+        .state
+        .omega
+        .iter()
+        .map(|o| o.length())
+        .fold(0.0f32, f32::max);
     eprintln!("max spin {max_spin} rad/s");
     assert!(
         max_spin * 0.012 < 1e-4,
@@ -307,7 +314,8 @@ fn energy_of_elastic_spheres_in_a_box() {
     );
     // Nobody escaped the box.
     assert!(
-        w.position
+        w.state
+            .position
             .iter()
             .all(|p| p.cmpge(Vec3::ZERO).all() && p.cmple(Vec3::splat(side)).all())
     );
@@ -361,12 +369,12 @@ fn elastic_frictionless_polyhedron_wall_bounce_keeps_its_energy() {
             let lowest = p
                 .vertices
                 .iter()
-                .map(|&v| (w.orientation[0] * v).z)
+                .map(|&v| (w.state.orientation[0] * v).z)
                 .fold(f32::INFINITY, f32::min);
-            w.position[0].z = 3e-4 - lowest;
+            w.state.position[0].z = 3e-4 - lowest;
             let e0 = w.kinetic_energy();
             // Until it is out of reach of the wall and moving away (possibly after several hits).
-            while !(w.position[0].z > 0.011 && w.velocity[0].z > 0.0) {
+            while !(w.state.position[0].z > 0.011 && w.state.velocity[0].z > 0.0) {
                 w.step().unwrap();
             }
             let ratio = w.kinetic_energy() / e0;

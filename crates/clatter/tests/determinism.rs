@@ -10,11 +10,11 @@ use glam::Vec3;
 fn snapshot(w: &World) -> Vec<u32> {
     let mut out = Vec::with_capacity(w.len() * 16);
     for i in 0..w.len() {
-        out.extend(w.position[i].to_array().map(f32::to_bits));
-        out.extend(w.velocity[i].to_array().map(f32::to_bits));
-        out.extend(w.orientation[i].to_array().map(f32::to_bits));
-        out.extend(w.angular_momentum[i].to_array().map(f32::to_bits));
-        out.extend(w.omega[i].to_array().map(f32::to_bits));
+        out.extend(w.state.position[i].to_array().map(f32::to_bits));
+        out.extend(w.state.velocity[i].to_array().map(f32::to_bits));
+        out.extend(w.state.orientation[i].to_array().map(f32::to_bits));
+        out.extend(w.state.angular_momentum[i].to_array().map(f32::to_bits));
+        out.extend(w.state.omega[i].to_array().map(f32::to_bits));
     }
     out
 }

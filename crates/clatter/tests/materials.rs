@@ -48,7 +48,7 @@ fn identical_materials_keep_their_own_values() {
             for mu in [0.0f32, 0.3, 1.2] {
                 let m = linear(k, e, mu);
                 let p = PairParams::combine(&m, &m);
-                assert!(!p.hertz);
+                assert!(!p.is_hertz());
                 assert!(
                     close(p.stiffness as f64, k as f64, 1e-6),
                     "k {k}: {}",
@@ -85,7 +85,7 @@ fn identical_materials_keep_their_own_values() {
             let m = hertz(youngs, poisson, e, 0.4);
             let p = PairParams::combine(&m, &m);
             let (y, v) = (youngs as f64, poisson as f64);
-            assert!(p.hertz);
+            assert!(p.is_hertz());
             assert!(
                 close(p.stiffness as f64, y / (2.0 * (1.0 - v * v)), 1e-6),
                 "E* {}",
@@ -207,7 +207,7 @@ fn linear_contact_duration_uses_the_effective_mass() {
         });
         let p0 = w.momentum()[0];
         let measured = run_impact(&mut w);
-        let e_meas = -(w.velocity[1].x - w.velocity[0].x) as f64 / -0.6;
+        let e_meas = -(w.state.velocity[1].x - w.state.velocity[0].x) as f64 / -0.6;
         let t_a = p.contact_duration(ma, 0.0, 0.0);
         eprintln!(
             "m_b/m_a = {:.2}, e = {e}: t_c(m_eff) = {t_c:.4e}, measured {measured:.4e} (t_c(m_a) = {t_a:.4e}); e measured {e_meas:.5}",
@@ -273,13 +273,13 @@ velocity = [0.0, 0.0, -1.0]
 "#;
     let scene = Scene::parse(text, "two-materials.toml").unwrap();
     let mut w = scene.world();
-    let m = w.mass[0] as f64;
+    let m = w.consts.mass[0] as f64;
     let (k, e) = (3.0e4f64, 0.6f64);
     let eta = beta(e) * (m * k).sqrt();
     let t_c = std::f64::consts::PI / (k / m - (eta / (2.0 * m)).powi(2)).sqrt();
     // dt = 1e-6 s is about t_c / 14000.
     let measured = run_impact(&mut w);
-    let e_meas = w.velocity[0].z as f64;
+    let e_meas = w.state.velocity[0].z as f64;
     eprintln!(
         "scene: e measured {e_meas:.5} (expected {e}), t_c measured {measured:.5e} (expected {t_c:.5e})"
     );
@@ -332,11 +332,11 @@ fn hertz_static_overlap_under_load() {
             for _ in 0..steps {
                 w.step().unwrap();
             }
-            let overlap = r - w.position[0].z as f64;
+            let overlap = r - w.state.position[0].z as f64;
             eprintln!(
                 "wall E {wall_e:e}, g {g}: overlap {overlap:.5e}, Hertz {d:.5e} (rel {:.2e}); |v| {:.2e}",
                 overlap / d - 1.0,
-                w.velocity[0].length()
+                w.state.velocity[0].length()
             );
             // f32 positions near 0.01 m resolve 1e-9 m: 1e-4 of these overlaps.
             assert!(

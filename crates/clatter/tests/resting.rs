@@ -61,13 +61,13 @@ fn run_for(w: &mut World, seconds: f64) {
 /// Angle (degrees) between -z and the world normal of body `i`'s face closest to pointing down,
 /// and that face's plane offset (its distance from the centre of mass).
 fn down_face(w: &World, i: usize) -> (f32, f32) {
-    let Shape::Polyhedron(p) = &w.shapes[w.shape_of[i] as usize].shape else {
+    let Shape::Polyhedron(p) = &w.shapes[w.consts.shape[i] as usize].shape else {
         panic!("not a polyhedron")
     };
     p.faces
         .iter()
         .map(|f| {
-            let n = w.orientation[i] * f.normal;
+            let n = w.state.orientation[i] * f.normal;
             (
                 n.dot(-Vec3::Z).clamp(-1.0, 1.0).acos().to_degrees(),
                 f.offset,
@@ -79,12 +79,12 @@ fn down_face(w: &World, i: usize) -> (f32, f32) {
 
 /// Height of the lowest vertex of body `i` above the floor.
 fn lowest_vertex(w: &World, i: usize) -> f32 {
-    let Shape::Polyhedron(p) = &w.shapes[w.shape_of[i] as usize].shape else {
+    let Shape::Polyhedron(p) = &w.shapes[w.consts.shape[i] as usize].shape else {
         panic!("not a polyhedron")
     };
     p.vertices
         .iter()
-        .map(|&v| (w.orientation[i] * v + w.position[i]).z)
+        .map(|&v| (w.state.orientation[i] * v + w.state.position[i]).z)
         .fold(f32::INFINITY, f32::min)
 }
 
@@ -100,23 +100,23 @@ fn angle_between(a: Quat, b: Quat) -> f32 {
 /// `clatter::forces`), so a face with `n` vertices rests on `min(n, 4) k / 4`.
 fn assert_rests_on_face(w: &mut World, i: usize, inradius: f64, what: &str) {
     let (angle, offset) = down_face(w, i);
-    let Shape::Polyhedron(p) = &w.shapes[w.shape_of[i] as usize].shape else {
+    let Shape::Polyhedron(p) = &w.shapes[w.consts.shape[i] as usize].shape else {
         panic!("not a polyhedron")
     };
     let face_vertices = p
         .faces
         .iter()
         .max_by(|a, b| {
-            (w.orientation[i] * a.normal)
+            (w.state.orientation[i] * a.normal)
                 .dot(-Vec3::Z)
-                .total_cmp(&(w.orientation[i] * b.normal).dot(-Vec3::Z))
+                .total_cmp(&(w.state.orientation[i] * b.normal).dot(-Vec3::Z))
         })
         .map_or(4, |f| f.count.min(4));
     let k_face = K * face_vertices as f32 / 4.0;
-    let overlap = (w.mass[i] * G / k_face) as f64;
-    let z = w.position[i].z as f64;
-    let v = w.velocity[i].length();
-    let omega = w.omega[i].length();
+    let overlap = (w.consts.mass[i] * G / k_face) as f64;
+    let z = w.state.position[i].z as f64;
+    let v = w.state.velocity[i].length();
+    let omega = w.state.omega[i].length();
     eprintln!(
         "{what}: down face {angle:.4} deg from -z, z = {z:.7} (inradius {inradius:.7} - mg/k {overlap:.3e} = {:.7}), |v| = {v:.2e}, |omega| = {omega:.2e}",
         inradius - overlap
@@ -139,18 +139,18 @@ fn assert_rests_on_face(w: &mut World, i: usize, inradius: f64, what: &str) {
     assert!(
         omega < 1e-2,
         "{what}: still turning at {omega} rad/s (omega = {:?})",
-        w.omega[i]
+        w.state.omega[i]
     );
-    let (x0, q0) = (w.position[i], w.orientation[i]);
+    let (x0, q0) = (w.state.position[i], w.state.orientation[i]);
     run_for(w, 1.0);
-    let drift = (w.position[i] - x0).length();
-    let turn = angle_between(q0, w.orientation[i]);
+    let drift = (w.state.position[i] - x0).length();
+    let turn = angle_between(q0, w.state.orientation[i]);
     eprintln!("{what}: after 1 s more: moved {drift:.2e} m, turned {turn:.2e} deg");
     assert!(
         drift < 1e-6,
         "{what}: crept {drift} m in 1 s (v = {:?}, omega = {:?})",
-        w.velocity[i],
-        w.omega[i]
+        w.state.velocity[i],
+        w.state.omega[i]
     );
     assert!(turn < 1e-3, "{what}: turned {turn} deg");
 }
@@ -173,9 +173,9 @@ fn cube_dropped_flat_rests_on_its_face() {
     assert_rests_on_face(&mut w, 0, H, "flat cube");
     // Dropped straight: nothing sideways, no turn.
     assert!(
-        w.position[0].truncate().length() < 1e-6,
+        w.state.position[0].truncate().length() < 1e-6,
         "moved sideways to {}",
-        w.position[0]
+        w.state.position[0]
     );
     assert!(angle_between(Quat::IDENTITY, w.user_orientation(0)) < 0.01);
 }
@@ -195,7 +195,7 @@ fn cube_on_edge(deg: f32) -> World {
     let q = Quat::from_rotation_x(deg.to_radians());
     let mut w = world(cube(), vec![body(Vec3::ZERO, q)]);
     let lift = 0.002 - lowest_vertex(&w, 0);
-    w.position[0].z += lift;
+    w.state.position[0].z += lift;
     w
 }
 
@@ -231,22 +231,22 @@ fn cube_dropped_on_an_edge_at_44_deg_tips_onto_a_face() {
 #[test]
 fn cube_on_edge_rests_with_precise_orientation_update() {
     let mut w = cube_on_edge(46.0);
-    let mut q64 = w.orientation[0].as_dquat();
+    let mut q64 = w.state.orientation[0].as_dquat();
     let steps = (2.5 / w.dt as f64) as usize;
     let mut x_mid = Vec3::ZERO;
     for s in 0..steps {
         step(&mut w).unwrap();
-        q64 =
-            (glam::DQuat::from_scaled_axis(w.omega[0].as_dvec3() * w.dt as f64) * q64).normalize();
-        w.orientation[0] = q64.as_quat();
+        q64 = (glam::DQuat::from_scaled_axis(w.state.omega[0].as_dvec3() * w.dt as f64) * q64)
+            .normalize();
+        w.state.orientation[0] = q64.as_quat();
         if s == (1.5 / w.dt as f64) as usize {
-            x_mid = w.position[0];
+            x_mid = w.state.position[0];
         }
     }
-    let drift = (w.position[0] - x_mid).length();
+    let drift = (w.state.position[0] - x_mid).length();
     eprintln!(
         "precise orientation: moved {drift:.2e} m in the last second, v {:?}, omega {:?}",
-        w.velocity[0], w.omega[0]
+        w.state.velocity[0], w.state.omega[0]
     );
     assert!(drift < 1e-6, "crept {drift} m");
     assert!(down_face(&w, 0).0 < 2.0);
@@ -262,7 +262,7 @@ fn regular_rests_on_a_face(kind: RegularKind, inradius_over_circumradius: f64) {
         let shape = ShapeKind::Regular { kind, radius: r }.prepare().unwrap();
         let mut w = world(shape, vec![body(Vec3::ZERO, q)]);
         let lift = 0.004 - lowest_vertex(&w, 0);
-        w.position[0].z += lift;
+        w.state.position[0].z += lift;
         run_for(&mut w, 2.0);
         assert_rests_on_face(
             &mut w,
@@ -300,34 +300,36 @@ fn three_cubes_stay_stacked() {
         .collect();
     let mut w = world(cube(), bodies);
     run_for(&mut w, 1.0);
-    let mg_k = w.mass[0] * G / K;
+    let mg_k = w.consts.mass[0] * G / K;
     // Static overlaps: the floor carries 3 weights, the lower interface 2, the upper 1.
     let expected = [h - 3.0 * mg_k, 3.0 * h - 5.0 * mg_k, 5.0 * h - 6.0 * mg_k];
-    let snapshot: Vec<(Vec3, Quat)> = (0..3).map(|i| (w.position[i], w.orientation[i])).collect();
+    let snapshot: Vec<(Vec3, Quat)> = (0..3)
+        .map(|i| (w.state.position[i], w.state.orientation[i]))
+        .collect();
     for (i, &expected) in expected.iter().enumerate() {
         eprintln!(
             "cube {i}: z = {:.7}, expected {:.7}, v {:.2e}",
-            w.position[i].z,
+            w.state.position[i].z,
             expected,
-            w.velocity[i].length()
+            w.state.velocity[i].length()
         );
         assert!(
-            (w.position[i].z - expected).abs() < 0.05 * mg_k,
+            (w.state.position[i].z - expected).abs() < 0.05 * mg_k,
             "cube {i} at {}, expected {}",
-            w.position[i].z,
+            w.state.position[i].z,
             expected
         );
         assert!(
-            w.position[i].truncate().length() < 1e-6,
+            w.state.position[i].truncate().length() < 1e-6,
             "cube {i} moved sideways to {}",
-            w.position[i]
+            w.state.position[i]
         );
         assert!(
             angle_between(Quat::IDENTITY, w.user_orientation(i)) < 0.01,
             "cube {i} turned"
         );
         assert!(
-            w.velocity[i].length() < 1e-4 && w.omega[i].length() < 1e-2,
+            w.state.velocity[i].length() < 1e-4 && w.state.omega[i].length() < 1e-2,
             "cube {i} still moving"
         );
     }
@@ -335,9 +337,9 @@ fn three_cubes_stay_stacked() {
     assert_eq!(w.touching_pairs(), vec![[0, 1], [1, 2]]);
     run_for(&mut w, 1.0);
     for (i, &(x0, q0)) in snapshot.iter().enumerate() {
-        assert!((w.position[i] - x0).length() < 1e-6, "cube {i} crept");
+        assert!((w.state.position[i] - x0).length() < 1e-6, "cube {i} crept");
         assert!(
-            angle_between(q0, w.orientation[i]) < 1e-3,
+            angle_between(q0, w.state.orientation[i]) < 1e-3,
             "cube {i} turned"
         );
     }
@@ -362,12 +364,12 @@ fn spinning_cube_on_its_face_stops() {
     run_for(&mut w, 20.0 * t_stop);
     eprintln!(
         "spinning cube after {:.3} s (t_stop {t_stop:.4} s): omega {:?}",
-        w.time, w.omega[0]
+        w.time, w.state.omega[0]
     );
     assert!(
-        w.omega[0].z.abs() < 0.01 * w0,
+        w.state.omega[0].z.abs() < 0.01 * w0,
         "still spinning at {} rad/s after {} s",
-        w.omega[0].z,
+        w.state.omega[0].z,
         w.time
     );
 }

@@ -140,9 +140,9 @@ const RESTITUTIONS: [f32; 6] = [0.1, 0.3, 0.5, 0.7, 0.9, 1.0];
 fn linear_sphere_wall_restitution_and_duration() {
     for &e in &RESTITUTIONS {
         let (mut w, t_c) = wall_world(ContactLaw::Linear { stiffness: K }, e, FINE);
-        let v_in = w.velocity[0].z as f64;
+        let v_in = w.state.velocity[0].z as f64;
         let measured_tc = run_impact(&mut w);
-        let v_out = w.velocity[0].z as f64;
+        let v_out = w.state.velocity[0].z as f64;
         let e_meas = -v_out / v_in;
         eprintln!(
             "wall e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
@@ -158,9 +158,9 @@ fn linear_sphere_wall_restitution_and_duration() {
             "e = {e}: t_c {t_c} measured {measured_tc}"
         );
         // Head-on and frictionless: nothing sideways, no spin.
-        assert_eq!(w.velocity[0].x, 0.0);
-        assert_eq!(w.velocity[0].y, 0.0);
-        assert_eq!(w.omega[0], Vec3::ZERO);
+        assert_eq!(w.state.velocity[0].x, 0.0);
+        assert_eq!(w.state.velocity[0].y, 0.0);
+        assert_eq!(w.state.omega[0], Vec3::ZERO);
     }
 }
 
@@ -168,10 +168,10 @@ fn linear_sphere_wall_restitution_and_duration() {
 fn linear_sphere_sphere_restitution_and_duration() {
     for &e in &RESTITUTIONS {
         let (mut w, t_c) = pair_world(ContactLaw::Linear { stiffness: K }, e, R, R, FINE);
-        let v_in = (w.velocity[1].x - w.velocity[0].x) as f64;
+        let v_in = (w.state.velocity[1].x - w.state.velocity[0].x) as f64;
         let p0 = w.momentum();
         let measured_tc = run_impact(&mut w);
-        let v_out = (w.velocity[1].x - w.velocity[0].x) as f64;
+        let v_out = (w.state.velocity[1].x - w.state.velocity[0].x) as f64;
         let e_meas = -v_out / v_in;
         eprintln!(
             "pair e={e}: measured e={e_meas:.5} (rel err {:.2e}), t_c={t_c:.4e} measured {measured_tc:.4e} (rel err {:.2e})",
@@ -188,13 +188,13 @@ fn linear_sphere_sphere_restitution_and_duration() {
         );
         // Equal masses: symmetric outcome, momentum (zero) kept.
         let p1 = w.momentum();
-        let scale = w.mass[0] as f64 * V0 as f64;
+        let scale = w.consts.mass[0] as f64 * V0 as f64;
         assert!(
             (p1[0] - p0[0]).abs() < 1e-6 * scale,
             "momentum {p0:?} -> {p1:?}"
         );
-        assert_eq!(w.velocity[0].y, 0.0);
-        assert_eq!(w.velocity[0].z, 0.0);
+        assert_eq!(w.state.velocity[0].y, 0.0);
+        assert_eq!(w.state.velocity[0].z, 0.0);
     }
 }
 
@@ -242,7 +242,7 @@ fn hertz_sphere_wall_restitution() {
         let m = material(law, e);
         let params = PairParams::combine(&m, &m);
         let (mut w, t_c) = wall_world(law, e, FINE);
-        let mass = w.mass[0] as f64;
+        let mass = w.consts.mass[0] as f64;
         let (e_ref, tc_ref) = hertz_reference(
             params.stiffness as f64,
             params.damping_factor as f64,
@@ -250,9 +250,9 @@ fn hertz_sphere_wall_restitution() {
             R,
             V0 as f64,
         );
-        let v_in = w.velocity[0].z as f64;
+        let v_in = w.state.velocity[0].z as f64;
         let measured_tc = run_impact(&mut w);
-        let e_meas = -w.velocity[0].z as f64 / v_in;
+        let e_meas = -w.state.velocity[0].z as f64 / v_in;
         eprintln!(
             "hertz e={e}: measured e={e_meas:.5} reference ODE e={e_ref:.5} (requested rel err {:.2e}, vs ODE {:.2e}); t_c est {t_c:.4e} ODE {tc_ref:.4e} measured {measured_tc:.4e}",
             e_meas / e as f64 - 1.0,
@@ -301,9 +301,9 @@ fn worst_wall_restitution_error(e: f32, dt_fraction: f64) -> f64 {
                 dt_fraction,
                 k as f64 / 7.0,
             );
-            let v_in = w.velocity[0].z as f64;
+            let v_in = w.state.velocity[0].z as f64;
             run_impact(&mut w);
-            (-w.velocity[0].z as f64 / v_in / e as f64 - 1.0).abs()
+            (-w.state.velocity[0].z as f64 / v_in / e as f64 - 1.0).abs()
         })
         .fold(0.0, f64::max)
 }

@@ -63,7 +63,7 @@ fn run_for(w: &mut World, seconds: f64) {
 
 /// Slip velocity of the contact point (bottom of the sphere).
 fn slip(w: &World) -> Vec3 {
-    w.velocity[0] + w.omega[0].cross(Vec3::new(0.0, 0.0, -R))
+    w.state.velocity[0] + w.state.omega[0].cross(Vec3::new(0.0, 0.0, -R))
 }
 
 #[test]
@@ -79,8 +79,8 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         let t = w.time;
         let v_expected = v0 as f64 - (MU * G) as f64 * t;
         let w_expected = 2.5 * (MU * G) as f64 * t / R as f64;
-        let v = w.velocity[0].dot(u) as f64;
-        let spin = w.omega[0].dot(Vec3::Z.cross(u)) as f64;
+        let v = w.state.velocity[0].dot(u) as f64;
+        let spin = w.state.omega[0].dot(Vec3::Z.cross(u)) as f64;
         eprintln!(
             "angle {angle}: at t={t:.4}: v={v:.5} (expected {v_expected:.5}), omega={spin:.3} (expected {w_expected:.3})"
         );
@@ -109,11 +109,11 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         );
 
         run_for(&mut w, 0.3);
-        let v = w.velocity[0];
-        let vr = (w.omega[0].cross(Vec3::Z) * R).dot(u);
+        let v = w.state.velocity[0];
+        let vr = (w.state.omega[0].cross(Vec3::Z) * R).dot(u);
         eprintln!(
             "angle {angle}: final v={v:?}, omega={:?}, v.u={}, omega R={vr}",
-            w.omega[0],
+            w.state.omega[0],
             v.dot(u)
         );
         assert!(
@@ -127,19 +127,22 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
         );
         // Straight on: nothing across the launch direction, no spin about z or u.
         assert!(v.dot(Vec3::Z.cross(u)).abs() < 1e-4 * v0);
-        assert!(w.omega[0].dot(u).abs() * R < 1e-4 * v0 && w.omega[0].z.abs() * R < 1e-4 * v0);
+        assert!(
+            w.state.omega[0].dot(u).abs() * R < 1e-4 * v0
+                && w.state.omega[0].z.abs() * R < 1e-4 * v0
+        );
 
         // Rolling goes on without losing speed (the model has no rolling resistance).
         let before = v.dot(u);
         run_for(&mut w, 0.3);
-        let after = w.velocity[0].dot(u);
+        let after = w.state.velocity[0].dot(u);
         assert!(
             (after / before - 1.0).abs() < 0.005,
             "rolling speed {before} -> {after}"
         );
         // Still on the floor at its static overlap.
-        let sink = (R - w.position[0].z) as f64;
-        let static_overlap = (w.mass[0] * G / K) as f64;
+        let sink = (R - w.state.position[0].z) as f64;
+        let static_overlap = (w.consts.mass[0] * G / K) as f64;
         assert!(
             (sink - static_overlap).abs() < 0.05 * static_overlap,
             "overlap {sink} vs {static_overlap}"
@@ -160,8 +163,8 @@ fn spinning_sphere_final_velocity() {
         let slip0 = (v0 + r_w0).abs();
         let t_roll = 2.0 * slip0 as f64 / (7.0 * (MU * G) as f64);
         run_for(&mut w, t_roll + 0.2);
-        let v = w.velocity[0].dot(u);
-        let vr = w.omega[0].dot(Vec3::Z.cross(u)) * R;
+        let v = w.state.velocity[0].dot(u);
+        let vr = w.state.omega[0].dot(Vec3::Z.cross(u)) * R;
         eprintln!("R w0 = {r_w0}: v = {v:.5}, omega R = {vr:.5}, expected {expected:.5}");
         assert!(
             (v - expected).abs() < 0.01 * expected.abs(),
@@ -172,7 +175,7 @@ fn spinning_sphere_final_velocity() {
             "R w0 = {r_w0}: v = {v}, omega R = {vr}: not rolling"
         );
         // Angular momentum about the contact point is conserved.
-        let m = w.mass[0];
+        let m = w.consts.mass[0];
         let l0 = m * v0 * R + 0.4 * m * R * R * (-w0);
         let l1 = m * v * R + 0.4 * m * R * R * (vr / R);
         assert!(

@@ -1,4 +1,4 @@
-//! Stages 1-3, **bin**, **sort** and **pairs**: the uniform grid broad phase.
+//! Stage 1 of the step, the **broad** phase: **bin**, **sort** and **pairs** on a uniform grid.
 //!
 //! Cells are at least as large as the largest bounding-sphere diameter plus the Verlet skin,
 //! so every body whose (skin-inflated) bounding sphere can touch another lies in one of the 27
@@ -8,6 +8,9 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+
+use crate::contacts::{Contacts, carry_springs};
+use crate::world::World;
 
 /// The grid a rebuild used: its origin, cell size and cell counts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -155,4 +158,48 @@ pub fn pairs_brute_force(positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[u
         }
     }
     out
+}
+
+/// The broad phase of a step: pairs and wall candidates at the current positions, springs
+/// carried over from the old list where a pair persists.
+pub(crate) fn rebuild(world: &mut World) {
+    let positions = &world.state.position;
+    let radii = &world.consts.radius;
+    let grid = Grid::around(positions, 2.0 * world.consts.max_radius() + world.skin);
+    let pairs = pairs(&grid, positions, radii, world.skin);
+    let wall_pairs = wall_candidates(world, positions);
+    let old = &world.contacts;
+    let np_old = old.pairs.len();
+    let springs = &old.springs;
+    let (mut history, mut twist) = carry_springs(
+        &old.pairs,
+        &springs.history[..np_old.min(springs.history.len())],
+        &springs.twist[..np_old.min(springs.twist.len())],
+        &pairs,
+    );
+    let (wall_history, wall_twist) = carry_springs(
+        &old.wall_pairs,
+        &springs.history[np_old.min(springs.history.len())..],
+        &springs.twist[np_old.min(springs.twist.len())..],
+        &wall_pairs,
+    );
+    history.extend(wall_history);
+    twist.extend(wall_twist);
+    let contacts = Contacts::new(world.len(), pairs, wall_pairs, history, twist);
+    world.install_contacts(contacts);
+}
+
+/// Wall candidates: `(body, wall)` for the bodies whose bounding sphere at `positions` comes
+/// within the skin of a wall, sorted.
+pub(crate) fn wall_candidates(world: &World, positions: &[Vec3]) -> Vec<[u32; 2]> {
+    let mut wall_pairs = Vec::new();
+    for (i, p) in positions.iter().enumerate() {
+        for (w, wall) in world.walls.iter().enumerate() {
+            let h = wall.plane.normal.dot(*p) - wall.plane.offset;
+            if h < world.consts.radius[i] + world.skin {
+                wall_pairs.push([i as u32, w as u32]);
+            }
+        }
+    }
+    wall_pairs
 }

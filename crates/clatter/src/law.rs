@@ -1,30 +1,31 @@
-//! Stage 5, **forces**: the DEM contact law applied to one contact manifold.
+//! The DEM contact law, applied to one contact manifold. Its GPU twin is
+//! `clatter-gpu/shaders/law.wgsl`: the same functions under the same names, checked against
+//! each other on random contacts by `clatter-gpu/tests/law.rs`. Its parameters are one
+//! [`PairParams`] row per material pair (`contract.rs`).
 //!
-//! Normal: a spring per manifold point. Contacts that always have one point (anything with a
-//! sphere) use the material's law as it is; polyhedron-polyhedron and polyhedron-wall
-//! contacts give each of their up to four points a fixed quarter of it, so a full face
-//! contact has the material's stiffness, an edge half and a vertex a quarter (contact
-//! stiffness grows with contact area, as in real solids). The share per point never depends
-//! on how many points there are right now, so the normal force derives from a potential and
-//! an elastic (e = 1, no friction) polyhedron keeps its energy. Damping is spread over the
-//! points in proportion to their stiffness, with the total set from the restitution for the
-//! contact's current total stiffness. The force is not clamped at zero: that is the linear
-//! spring-dashpot whose restitution and duration have the closed forms used for the damping
-//! (a clamp would change both).
-//! Tangential: one Cundall-Strack spring per pair, at the centroid of the manifold, carried
-//! across steps, rotated into the current tangent plane, capped by Coulomb (`mu * Fn`).
-//! Twisting: for patches of two or more points, a torsional spring-dashpot about the normal
-//! (stiffness and damping of the tangential law times the patch radius squared), capped at
-//! `mu * Fn * r_patch`, so a body spinning on a face comes to rest.
+//! - **Normal**: a spring-dashpot per manifold point. Contacts with a sphere (one point) use
+//!   the material's law as is; polyhedron contacts give each of up to four points a fixed
+//!   quarter ([`POLYHEDRON_POINT_SHARE`]), so stiffness grows with contact area and, the
+//!   share never depending on the current point count, the spring has a potential
+//!   ([`elastic_energy`]). Damping is shared in proportion to stiffness, its total set by
+//!   the restitution. The force is not clamped at zero (the closed forms of restitution and
+//!   duration assume the unclamped law).
+//! - **Tangential**: one Cundall-Strack spring per pair at the manifold's centroid, carried
+//!   across steps, rotated into the current tangent plane, capped by Coulomb (`mu Fn`).
+//! - **Twisting**: patches of two or more points resist spin about the normal with the
+//!   tangential law times the patch radius squared, capped at `mu Fn r_patch`.
 
 use glam::Vec3;
 
-use crate::material::{LINEAR_TANGENTIAL_RATIO, PairParams, TANGENTIAL_DAMPING_RATIO};
+pub use crate::contract::{ContactForce, PairParams};
+use crate::contract::{
+    LINEAR_TANGENTIAL_RATIO, MODEL_HERTZ, POLYHEDRON_POINT_SHARE, TANGENTIAL_DAMPING_RATIO,
+};
 use clatter_geom::narrow::Manifold;
 
 /// Rigid motion of one side of a contact (a wall has zero velocities).
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Side {
+pub struct BodyMotion {
     /// Centre of mass.
     pub position: Vec3,
     /// Linear velocity.
@@ -33,31 +34,18 @@ pub struct Side {
     pub omega: Vec3,
 }
 
-impl Side {
+impl BodyMotion {
     #[inline]
     fn point_velocity(&self, p: Vec3) -> Vec3 {
         self.velocity + self.omega.cross(p - self.position)
     }
 }
 
-/// What one contact does: the force on `b` (the force on `a` is exactly its negative) and the
-/// torques on both sides about their centres of mass.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct ContactForce {
-    /// Force on side b (N); side a gets `-force_b`.
-    pub force_b: Vec3,
-    /// Torque on side a (N m).
-    pub torque_a: Vec3,
-    /// Torque on side b (N m).
-    pub torque_b: Vec3,
-    /// Total normal force (N, positive when pushing apart).
-    pub normal_force: f32,
-}
-
-/// Spring force and stiffness of one point at overlap `depth` carrying `share` of the law.
+/// Spring force and stiffness of one point at overlap `depth` carrying `share` of the law
+/// (linear: `share k d`; Hertz: `share 4/3 E* sqrt(r_eff d) d`).
 #[inline(always)]
-fn spring(p: &PairParams, r_eff: f32, depth: f32, share: f32) -> (f32, f32) {
-    if p.hertz {
+pub fn spring(p: &PairParams, r_eff: f32, depth: f32, share: f32) -> (f32, f32) {
+    if p.model == MODEL_HERTZ {
         let contact = (r_eff * depth.max(0.0)).sqrt();
         (
             share * 4.0 / 3.0 * p.stiffness * contact * depth,
@@ -78,7 +66,7 @@ fn damping(p: &PairParams, m_eff: f32, k: f32) -> f32 {
 /// Tangential stiffness of the pair's spring.
 #[inline(always)]
 fn tangential_stiffness(p: &PairParams, r_eff: f32, depth: f32, share_total: f32) -> f32 {
-    if p.hertz {
+    if p.model == MODEL_HERTZ {
         share_total * 8.0 * p.shear * (r_eff * depth.max(0.0)).sqrt()
     } else {
         LINEAR_TANGENTIAL_RATIO * p.stiffness
@@ -137,8 +125,8 @@ pub fn point_contact_force(
     n: Vec3,
     point: Vec3,
     depth: f32,
-    a: &Side,
-    b: &Side,
+    a: &BodyMotion,
+    b: &BodyMotion,
     history: &mut Vec3,
     dt: f32,
 ) -> ContactForce {
@@ -149,12 +137,12 @@ pub fn point_contact_force(
     let kt = tangential_stiffness(p, r_eff, depth, share);
     let ft = tangential_law(p, kt, n, vrel, fn_, eta, history, dt);
     let f = n * fn_ + ft;
-    ContactForce {
-        force_b: f,
-        torque_a: f.cross(point - a.position),
-        torque_b: (point - b.position).cross(f),
-        normal_force: fn_,
-    }
+    ContactForce::new(
+        f,
+        f.cross(point - a.position),
+        (point - b.position).cross(f),
+        fn_,
+    )
 }
 
 /// Computes the contact force of `manifold` between `a` and `b` and updates the tangential
@@ -169,8 +157,8 @@ pub fn contact_force(
     r_eff: f32,
     share: f32,
     manifold: &Manifold,
-    a: &Side,
-    b: &Side,
+    a: &BodyMotion,
+    b: &BodyMotion,
     history: &mut Vec3,
     twist: &mut f32,
     dt: f32,
@@ -246,4 +234,83 @@ pub fn contact_force(
         *twist = 0.0;
     }
     out
+}
+
+/// The overlap at which one point carrying `share` of the law has spring force `force`:
+/// the inverse of [`spring`] (the largest overlap a contact with that total normal force can
+/// have, when all of it sits on one point).
+pub fn depth_at_force(p: &PairParams, r_eff: f32, force: f32, share: f32) -> f32 {
+    let (f1, _) = spring(p, r_eff, 1.0, share);
+    if p.model == MODEL_HERTZ {
+        // spring(d) = spring(1) d^1.5 (r_eff d)^0.5 / r_eff^0.5 = f1 d^1.5.
+        (force.abs() / f1).powf(2.0 / 3.0)
+    } else {
+        force.abs() / f1
+    }
+}
+
+/// The elastic energy of one point carrying `share` of the law at overlap `depth`: the
+/// integral of [`spring`] from 0 to `depth` (linear: `f d / 2`; Hertz: `2/5 f d`), J.
+pub fn elastic_energy(p: &PairParams, r_eff: f32, depth: f32, share: f32) -> f64 {
+    let d = depth.max(0.0);
+    let (f, _) = spring(p, r_eff, d, share);
+    let exponent = if p.model == MODEL_HERTZ { 2.5 } else { 2.0 };
+    f as f64 * d as f64 / exponent
+}
+
+/// The share of the law each manifold point carries: 1 in contacts with a sphere (always one
+/// point), [`POLYHEDRON_POINT_SHARE`] between polyhedra and walls.
+#[inline]
+pub fn point_share(a_is_sphere: bool, b_is_sphere: bool) -> f32 {
+    if a_is_sphere || b_is_sphere {
+        crate::contract::SPHERE_POINT_SHARE
+    } else {
+        POLYHEDRON_POINT_SHARE
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::material::{ContactLaw, Material};
+
+    fn params(law: ContactLaw) -> PairParams {
+        let m = Material {
+            name: "m".into(),
+            density: 1000.0,
+            law,
+            restitution: 0.5,
+            friction: 0.3,
+        };
+        PairParams::combine(&m, &m)
+    }
+
+    #[test]
+    fn energy_and_depth_follow_the_spring() {
+        for law in [
+            ContactLaw::Linear { stiffness: 2.0e4 },
+            ContactLaw::Hertz {
+                youngs_modulus: 1.0e7,
+                poisson_ratio: 0.3,
+            },
+        ] {
+            let p = params(law);
+            let (r, share, depth) = (0.01f32, POLYHEDRON_POINT_SHARE, 1.0e-4f32);
+            // The energy is the integral of the force (midpoint rule, 10,000 slices).
+            let slices = 10_000;
+            let h = depth as f64 / slices as f64;
+            let integral: f64 = (0..slices)
+                .map(|k| spring(&p, r, ((k as f64 + 0.5) * h) as f32, share).0 as f64 * h)
+                .sum();
+            let e = elastic_energy(&p, r, depth, share);
+            assert!(
+                (e - integral).abs() < 1e-5 * integral,
+                "{law:?}: {e} vs {integral}"
+            );
+            // The depth at the spring's force is the depth.
+            let (f, _) = spring(&p, r, depth, share);
+            let d = depth_at_force(&p, r, f, share);
+            assert!((d - depth).abs() < 1e-5 * depth, "{law:?}: {d} vs {depth}");
+        }
+    }
 }

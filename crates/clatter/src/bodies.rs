@@ -1,0 +1,126 @@
+//! Bodies, structure of arrays, split as the GPU splits them: the state the step integrates
+//! ([`BodyStates`], the GPU's [`BodyState`] records) and the constants it reads
+//! ([`BodyConstants`], the GPU's [`BodyConsts`]). A body is an index into every array.
+//! The conversions to and from the records live here, once.
+
+use glam::{Quat, Vec3};
+
+use crate::contract::{BodyConsts, BodyState, quat_of, vec3_of};
+
+/// The integrated state of every body.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BodyStates {
+    /// Centre of mass, m.
+    pub position: Vec<Vec3>,
+    /// Linear velocity, m/s.
+    pub velocity: Vec<Vec3>,
+    /// Orientation of the principal frame (see [`crate::World::user_orientation`]).
+    pub orientation: Vec<Quat>,
+    /// Rounding carried over from the orientation updates (compensated summation), so that
+    /// rotations whose per-step increment is below the precision of `orientation` still
+    /// turn the body.
+    pub orientation_residual: Vec<Quat>,
+    /// Angular momentum about the centre of mass (world frame): the integrated quantity.
+    pub angular_momentum: Vec<Vec3>,
+    /// Angular velocity (world frame), derived from the angular momentum.
+    pub omega: Vec<Vec3>,
+}
+
+impl BodyStates {
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.position.len()
+    }
+
+    /// True when there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.position.is_empty()
+    }
+
+    /// Body `i`'s state as a record.
+    pub fn record(&self, i: usize) -> BodyState {
+        BodyState::new(
+            self.position[i],
+            self.velocity[i],
+            self.orientation[i],
+            self.orientation_residual[i],
+            self.angular_momentum[i],
+            self.omega[i],
+        )
+    }
+
+    /// Sets body `i`'s state from a record.
+    pub fn set_record(&mut self, i: usize, s: &BodyState) {
+        self.position[i] = vec3_of(s.position);
+        self.velocity[i] = vec3_of(s.velocity);
+        self.orientation[i] = quat_of(s.orientation);
+        self.orientation_residual[i] = quat_of(s.residual);
+        self.angular_momentum[i] = vec3_of(s.angular_momentum);
+        self.omega[i] = vec3_of(s.omega);
+    }
+
+    /// Whether every field of body `i` is finite.
+    pub fn is_finite(&self, i: usize) -> bool {
+        self.position[i].is_finite()
+            && self.velocity[i].is_finite()
+            && self.orientation[i].is_finite()
+            && self.angular_momentum[i].is_finite()
+            && self.omega[i].is_finite()
+    }
+}
+
+/// The constants of every body.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BodyConstants {
+    /// Shape index.
+    pub shape: Vec<u32>,
+    /// Material index.
+    pub material: Vec<u32>,
+    /// Whether the shape is a sphere.
+    pub is_sphere: Vec<bool>,
+    /// Mass, kg.
+    pub mass: Vec<f32>,
+    /// Principal moments of inertia, kg m^2.
+    pub inertia: Vec<Vec3>,
+    /// `1 / mass`.
+    pub inv_mass: Vec<f32>,
+    /// `1 / inertia`, per principal axis.
+    pub inv_inertia: Vec<Vec3>,
+    /// Bounding radius, m.
+    pub radius: Vec<f32>,
+    /// Volume-equivalent sphere radius (the Hertz law's radius), m.
+    pub equivalent_radius: Vec<f32>,
+}
+
+impl BodyConstants {
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.mass.len()
+    }
+
+    /// True when there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.mass.is_empty()
+    }
+
+    /// Body `i`'s constants as a record.
+    pub fn record(&self, i: usize) -> BodyConsts {
+        let inv = self.inv_inertia[i];
+        BodyConsts {
+            inv_inertia: [inv.x, inv.y, inv.z, self.inv_mass[i]],
+            mass: self.mass[i],
+            radius: self.radius[i],
+            equivalent_radius: self.equivalent_radius[i],
+            pad0: 0.0,
+            shape: self.shape[i],
+            material: self.material[i],
+            is_sphere: self.is_sphere[i] as u32,
+            isotropic: (inv.x == inv.y && inv.y == inv.z) as u32,
+        }
+    }
+
+    /// The largest bounding radius (0 without bodies).
+    pub fn max_radius(&self) -> f32 {
+        self.radius.iter().copied().fold(0.0, f32::max)
+    }
+}

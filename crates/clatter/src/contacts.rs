@@ -1,0 +1,267 @@
+//! The contact list: candidate body pairs and body-wall pairs from the broad phase, with
+//! what each carries across steps (tangential and twisting springs, separating-axis hints,
+//! separation bounds) and what the last step computed (touching, force). Contact `k` is a
+//! body pair for `k < pairs().len()`, else wall pair `k - pairs().len()`.
+
+use std::fmt;
+
+use glam::Vec3;
+
+use crate::contract::ContactForce;
+use clatter_geom::narrow::{NO_HINT, SatHint};
+
+/// The other side of a contact.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Partner {
+    /// A body, by id.
+    Body(u32),
+    /// A wall, by index (scene `[[wall]]`s first, then the container's faces).
+    Wall(u32),
+}
+
+impl fmt::Display for Partner {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Partner::Body(j) => write!(f, "body {j}"),
+            Partner::Wall(w) => write!(f, "wall {w}"),
+        }
+    }
+}
+
+/// Per-contact state, in contact order (body pairs, then wall pairs).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactSprings {
+    /// Tangential spring.
+    pub history: Vec<Vec3>,
+    /// Twisting spring (rad).
+    pub twist: Vec<f32>,
+    /// The last step's force.
+    pub forces: Vec<ContactForce>,
+    /// Whether the contact touched in the last step.
+    pub touching: Vec<bool>,
+    /// Separating-axis hint per body pair (narrow-phase coherence).
+    pub hints: Vec<SatHint>,
+    /// Per body pair: how far apart the pair was last found, less the most both bodies can
+    /// have moved since; the narrow phase skips the pair while it is positive.
+    pub separation_bound: Vec<f32>,
+}
+
+/// The contact list and its per-body gather ranges. See the module docs.
+#[derive(Debug, Clone, Default)]
+pub struct Contacts {
+    /// Body pairs `(i, j)`, `i < j`, sorted.
+    pub(crate) pairs: Vec<[u32; 2]>,
+    /// Body-wall pairs `(body, wall)`, sorted.
+    pub(crate) wall_pairs: Vec<[u32; 2]>,
+    pub(crate) springs: ContactSprings,
+    /// Body `i` is side a of body pairs `pairs_as_a[i]..pairs_as_a[i+1]` (pairs sort by `i`).
+    pub(crate) pairs_as_a: Vec<u32>,
+    /// Body `i` is side b of the body pairs `b_pairs[b_pair_start[i]..b_pair_start[i+1]]`.
+    pub(crate) b_pair_start: Vec<u32>,
+    pub(crate) b_pairs: Vec<u32>,
+    /// Body `i`'s wall contacts are `wall_contacts_of[i]..wall_contacts_of[i+1]`.
+    pub(crate) wall_contacts_of: Vec<u32>,
+}
+
+impl Contacts {
+    /// A list of `pairs` and `wall_pairs` (both sorted) over `bodies` bodies, with the given
+    /// springs, no force and nothing touching.
+    pub fn new(
+        bodies: usize,
+        pairs: Vec<[u32; 2]>,
+        wall_pairs: Vec<[u32; 2]>,
+        history: Vec<Vec3>,
+        twist: Vec<f32>,
+    ) -> Contacts {
+        // Gather ranges, in contact order (a fixed, thread-independent summation order).
+        let np = pairs.len();
+        let mut pairs_as_a = vec![0u32; bodies + 1];
+        let mut b_pair_start = vec![0u32; bodies + 1];
+        let mut wall_contacts_of = vec![np as u32; bodies + 1];
+        for p in &pairs {
+            pairs_as_a[p[0] as usize + 1] += 1;
+            b_pair_start[p[1] as usize + 1] += 1;
+        }
+        for p in &wall_pairs {
+            wall_contacts_of[p[0] as usize + 1] += 1;
+        }
+        for i in 0..bodies {
+            pairs_as_a[i + 1] += pairs_as_a[i];
+            b_pair_start[i + 1] += b_pair_start[i];
+            wall_contacts_of[i + 1] += wall_contacts_of[i] - np as u32;
+        }
+        let mut fill = b_pair_start.clone();
+        let mut b_pairs = vec![0u32; np];
+        for (c, p) in pairs.iter().enumerate() {
+            b_pairs[fill[p[1] as usize] as usize] = c as u32;
+            fill[p[1] as usize] += 1;
+        }
+        let total = pairs.len() + wall_pairs.len();
+        Contacts {
+            springs: ContactSprings {
+                history,
+                twist,
+                forces: vec![ContactForce::default(); total],
+                touching: vec![false; total],
+                hints: vec![NO_HINT; np],
+                separation_bound: vec![0.0; np],
+            },
+            pairs,
+            wall_pairs,
+            pairs_as_a,
+            b_pair_start,
+            b_pairs,
+            wall_contacts_of,
+        }
+    }
+
+    /// Candidate body pairs `(i, j)`, `i < j`, sorted.
+    pub fn pairs(&self) -> &[[u32; 2]] {
+        &self.pairs
+    }
+
+    /// Candidate body-wall pairs `(body, wall)`, sorted.
+    pub fn wall_pairs(&self) -> &[[u32; 2]] {
+        &self.wall_pairs
+    }
+
+    /// Number of contacts (body pairs and wall pairs).
+    pub fn len(&self) -> usize {
+        self.pairs.len() + self.wall_pairs.len()
+    }
+
+    /// True when there are no candidate contacts.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Contact `k`: the body (the lower id of a pair) and the other side.
+    pub fn partners(&self, k: usize) -> (u32, Partner) {
+        let np = self.pairs.len();
+        if k < np {
+            let [i, j] = self.pairs[k];
+            (i, Partner::Body(j))
+        } else {
+            let [i, w] = self.wall_pairs[k - np];
+            (i, Partner::Wall(w))
+        }
+    }
+
+    /// The springs, forces and flags of every contact.
+    pub fn springs(&self) -> &ContactSprings {
+        &self.springs
+    }
+
+    /// Replaces the per-contact state (a checkpoint's); fails when a length does not match
+    /// the list.
+    pub fn set_springs(&mut self, springs: ContactSprings) -> Result<(), String> {
+        let (n, np) = (self.len(), self.pairs.len());
+        let lens = [
+            ("tangential springs", springs.history.len(), n),
+            ("twisting springs", springs.twist.len(), n),
+            ("forces", springs.forces.len(), n),
+            ("touching flags", springs.touching.len(), n),
+            ("separating-axis hints", springs.hints.len(), np),
+            ("separation bounds", springs.separation_bound.len(), np),
+        ];
+        for (what, got, want) in lens {
+            if got != want {
+                return Err(format!("{got} {what} for a list of {want}"));
+            }
+        }
+        self.springs = springs;
+        Ok(())
+    }
+
+    /// Per body, the number of contacts (body and wall) that touched in the last step.
+    pub fn counts(&self, bodies: usize) -> Vec<u32> {
+        let mut counts = vec![0u32; bodies];
+        for k in 0..self.len() {
+            if self.springs.touching[k] {
+                let (i, other) = self.partners(k);
+                counts[i as usize] += 1;
+                if let Partner::Body(j) = other {
+                    counts[j as usize] += 1;
+                }
+            }
+        }
+        counts
+    }
+
+    /// The force and torque on body `i` from every contact of the last step, summed in
+    /// contact order (the same order whatever the thread count).
+    #[inline]
+    pub fn gather(&self, i: usize) -> (Vec3, Vec3) {
+        // Forces of non-touching contacts are zero, so no branch is needed.
+        let forces = &self.springs.forces;
+        let mut f = Vec3::ZERO;
+        let mut t = Vec3::ZERO;
+        for c in &forces[self.pairs_as_a[i] as usize..self.pairs_as_a[i + 1] as usize] {
+            f -= c.force_b;
+            t += c.torque_a;
+        }
+        for &k in &self.b_pairs[self.b_pair_start[i] as usize..self.b_pair_start[i + 1] as usize] {
+            let c = &forces[k as usize];
+            f += c.force_b;
+            t += c.torque_b;
+        }
+        for c in &forces[self.wall_contacts_of[i] as usize..self.wall_contacts_of[i + 1] as usize] {
+            f += c.force_b;
+            t += c.torque_b;
+        }
+        (f, t)
+    }
+}
+
+/// A world's contact list in a backend-neutral form (see [`crate::World::contact_state`]):
+/// how the GPU backend takes over and hands back the contacts' springs, so runs can move
+/// between backends and checkpoints stay complete.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactState {
+    /// Positions at the last broad-phase rebuild (empty: no list, rebuild at the next step).
+    pub rebuild_position: Vec<Vec3>,
+    /// Candidate body pairs `(i, j)`, `i < j`, sorted.
+    pub pairs: Vec<[u32; 2]>,
+    /// Tangential spring per pair.
+    pub history: Vec<Vec3>,
+    /// Twisting spring per pair (rad).
+    pub twist: Vec<f32>,
+    /// Whether each pair touched in the last step.
+    pub touching: Vec<bool>,
+    /// The last step's force per pair.
+    pub forces: Vec<ContactForce>,
+    /// Tangential spring per body and wall (`body * walls + wall`).
+    pub wall_history: Vec<Vec3>,
+    /// Twisting spring per body and wall.
+    pub wall_twist: Vec<f32>,
+    /// Whether each body touched each wall in the last step.
+    pub wall_touching: Vec<bool>,
+    /// The last step's force per body and wall.
+    pub wall_forces: Vec<ContactForce>,
+}
+
+/// Tangential and twisting springs for `new` pairs: the old values where the pair persists,
+/// zero otherwise. Both pair lists are sorted.
+pub(crate) fn carry_springs(
+    old: &[[u32; 2]],
+    old_hist: &[Vec3],
+    old_twist: &[f32],
+    new: &[[u32; 2]],
+) -> (Vec<Vec3>, Vec<f32>) {
+    let mut hist = Vec::with_capacity(new.len());
+    let mut twist = Vec::with_capacity(new.len());
+    let mut k = 0;
+    for p in new {
+        while k < old.len() && old[k] < *p {
+            k += 1;
+        }
+        if k < old.len() && old[k] == *p {
+            hist.push(old_hist.get(k).copied().unwrap_or(Vec3::ZERO));
+            twist.push(old_twist.get(k).copied().unwrap_or(0.0));
+        } else {
+            hist.push(Vec3::ZERO);
+            twist.push(0.0);
+        }
+    }
+    (hist, twist)
+}

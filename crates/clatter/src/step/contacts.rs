@@ -1,0 +1,237 @@
+//! Stage 2 of the step, **contacts**: the narrow phase and the contact law for every
+//! candidate body pair and body-wall pair, in parallel. Each contact writes only its own
+//! slot (force, springs, touching flag), so the result does not depend on the thread count.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::CHUNK;
+use crate::contacts::ContactSprings;
+use crate::law::{self, BodyMotion, ContactForce};
+use crate::world::World;
+use clatter_geom::Shape;
+use clatter_geom::narrow::{self, Manifold, SatHint};
+
+/// Runs the stage; returns the number of contacts that touch.
+pub(crate) fn run(world: &mut World) -> usize {
+    let mut springs = std::mem::take(&mut world.contacts.springs);
+    let w = &*world;
+    let np = w.contacts.pairs.len();
+    let ContactSprings {
+        history,
+        twist,
+        forces,
+        touching,
+        hints,
+        separation_bound,
+    } = &mut springs;
+    let (hist_pairs, hist_walls) = history.split_at_mut(np);
+    let (twist_pairs, twist_walls) = twist.split_at_mut(np);
+    let (force_pairs, force_walls) = forces.split_at_mut(np);
+    let (touch_pairs, touch_walls) = touching.split_at_mut(np);
+    // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
+    let (pairs_touching, walls_touching) = rayon::join(
+        || {
+            let pairs = w.contacts.pairs.par_iter();
+            let common = pairs
+                .zip(hist_pairs.par_iter_mut())
+                .zip(force_pairs.par_iter_mut())
+                .zip(touch_pairs.par_iter_mut());
+            if w.spheres_only() {
+                return common
+                    .with_min_len(CHUNK)
+                    .map(|(((p, h), f), t)| sphere_pair(w, *p, h, f, t) as usize)
+                    .sum::<usize>();
+            }
+            common
+                .zip(hints.par_iter_mut())
+                .zip(twist_pairs.par_iter_mut())
+                .zip(separation_bound.par_iter_mut())
+                .with_min_len(CHUNK)
+                .map(|((((((p, h), f), t), hn), tw), b)| {
+                    body_pair(w, *p, h, f, t, hn, tw, b) as usize
+                })
+                .sum::<usize>()
+        },
+        || {
+            w.contacts
+                .wall_pairs
+                .par_iter()
+                .zip(hist_walls.par_iter_mut())
+                .zip(force_walls.par_iter_mut())
+                .zip(touch_walls.par_iter_mut())
+                .zip(twist_walls.par_iter_mut())
+                .with_min_len(CHUNK)
+                .map(|((((p, h), f), t), tw)| wall_pair(w, *p, h, f, t, tw) as usize)
+                .sum::<usize>()
+        },
+    );
+    world.contacts.springs = springs;
+    pairs_touching + walls_touching
+}
+
+/// Two spheres (the common DEM case), without building a manifold.
+#[inline]
+fn sphere_pair(
+    w: &World,
+    [i, j]: [u32; 2],
+    hist: &mut Vec3,
+    force: &mut ContactForce,
+    touching: &mut bool,
+) -> bool {
+    let (i, j) = (i as usize, j as usize);
+    let (xi, xj) = (w.state.position[i], w.state.position[j]);
+    let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
+    let d = xj - xi;
+    let dist2 = d.length_squared();
+    if dist2 < (ri + rj) * (ri + rj) {
+        let dist = dist2.sqrt();
+        let n = if dist > 0.0 { d / dist } else { Vec3::Z };
+        let depth = ri + rj - dist;
+        let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
+        let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
+        *force = law::point_contact_force(
+            params,
+            mi * mj / (mi + mj),
+            ri * rj / (ri + rj),
+            1.0,
+            n,
+            xi + n * (ri - 0.5 * depth),
+            depth,
+            &w.motion(i),
+            &w.motion(j),
+            hist,
+            w.dt,
+        );
+        *touching = true;
+    } else if *touching {
+        release(force, hist, None, touching);
+    }
+    *touching
+}
+
+/// Two bodies of any shapes: the separation bound first, then the narrow phase and the law.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn body_pair(
+    w: &World,
+    [i, j]: [u32; 2],
+    hist: &mut Vec3,
+    force: &mut ContactForce,
+    touching: &mut bool,
+    hint: &mut SatHint,
+    twist: &mut f32,
+    bound: &mut f32,
+) -> bool {
+    let (i, j) = (i as usize, j as usize);
+    if *bound > 0.0 {
+        // Apart by more than both bodies can have moved: skip the test.
+        *bound -= motion_bound(w, i) + motion_bound(w, j);
+        if *bound > 0.0 {
+            return *touching;
+        }
+    }
+    let mut separation = 0.0;
+    let found = narrow_pair(w, i, j, hint, &mut separation);
+    *bound = separation;
+    match found {
+        Some(m) => {
+            let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
+            let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
+            let (ri, rj) = (w.consts.equivalent_radius[i], w.consts.equivalent_radius[j]);
+            *force = law::contact_force(
+                params,
+                mi * mj / (mi + mj),
+                ri * rj / (ri + rj),
+                law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[j]),
+                &m,
+                &w.motion(i),
+                &w.motion(j),
+                hist,
+                twist,
+                w.dt,
+            );
+            *touching = true;
+        }
+        None if *touching => release(force, hist, Some(twist), touching),
+        None => {}
+    }
+    *touching
+}
+
+/// A body against a wall (the wall is side a, at rest).
+#[inline]
+fn wall_pair(
+    w: &World,
+    [i, wall]: [u32; 2],
+    hist: &mut Vec3,
+    force: &mut ContactForce,
+    touching: &mut bool,
+    twist: &mut f32,
+) -> bool {
+    let (i, wall) = (i as usize, &w.walls[wall as usize]);
+    match narrow::collide_plane(&wall.plane, w.shape(i), &w.pose(i)) {
+        Some(m) => {
+            let params = w.pair_params(wall.material, w.consts.material[i]);
+            *force = law::contact_force(
+                params,
+                w.consts.mass[i],
+                w.consts.equivalent_radius[i],
+                law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[i]),
+                &m,
+                &BodyMotion::default(),
+                &w.motion(i),
+                hist,
+                twist,
+                w.dt,
+            );
+            *touching = true;
+        }
+        None if *touching => release(force, hist, Some(twist), touching),
+        None => {}
+    }
+    *touching
+}
+
+/// A contact that stopped touching: zero force and springs (written only on the change).
+#[inline]
+fn release(
+    force: &mut ContactForce,
+    hist: &mut Vec3,
+    twist: Option<&mut f32>,
+    touching: &mut bool,
+) {
+    *force = ContactForce::default();
+    *hist = Vec3::ZERO;
+    if let Some(t) = twist {
+        *t = 0.0;
+    }
+    *touching = false;
+}
+
+/// The narrow phase for one body pair: the contact manifold, if any.
+#[inline]
+fn narrow_pair(
+    w: &World,
+    i: usize,
+    j: usize,
+    hint: &mut SatHint,
+    separation: &mut f32,
+) -> Option<Manifold> {
+    match (w.shape(i), w.shape(j)) {
+        (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
+            narrow::sphere_sphere(w.state.position[i], *ri, w.state.position[j], *rj)
+        }
+        (si, sj) => narrow::collide_with_hint(si, &w.pose(i), sj, &w.pose(j), hint, separation),
+    }
+}
+
+/// An upper bound of how far any point of body `i` moved in the last step, from its
+/// current velocities: `(|v|_1 + |w|_1 r) dt` (1-norms bound 2-norms without a square
+/// root), plus margins for rounding.
+#[inline]
+fn motion_bound(w: &World, i: usize) -> f32 {
+    let (v, om) = (w.state.velocity[i].abs(), w.state.omega[i].abs());
+    let r = w.consts.radius[i];
+    ((v.x + v.y + v.z) + (om.x + om.y + om.z) * r) * w.dt * 1.000_001 + 1e-6 * r
+}

@@ -1,0 +1,60 @@
+//! One step of the simulation on the CPU: a fixed list of stages, each in its own module and
+//! named as on the GPU (`clatter-gpu/src/stages/`):
+//!
+//! 1. [`broad`]: **bin**, **sort**, **pairs** (only when a body has moved half the Verlet
+//!    skin since the last rebuild), carrying the springs of pairs that persist;
+//! 2. [`contacts`]: **narrow** phase and contact **law** per candidate pair and wall pair;
+//! 3. [`integrate`]: forces gathered per body in a fixed order, semi-implicit Euler.
+//!
+//! Every stage is parallel (rayon) and sums in an order that does not depend on the thread
+//! count, so results are bitwise the same for any number of threads.
+
+pub mod broad;
+pub mod contacts;
+pub mod integrate;
+
+use crate::world::{SimError, StepStats, World};
+
+/// Items per parallel task in the per-contact and per-body stages.
+pub(crate) const CHUNK: usize = 1024;
+
+impl World {
+    /// Advances the simulation by one time step.
+    pub fn step(&mut self) -> Result<StepStats, SimError> {
+        let rebuilt = self.needs_rebuild();
+        if rebuilt {
+            broad::rebuild(self);
+        }
+        let contacts = contacts::run(self);
+        let moved = integrate::run(self);
+        self.step_count += 1;
+        self.time += self.dt as f64;
+        match moved {
+            integrate::Moved::NonFinite => Err(self.non_finite_error()),
+            integrate::Moved::Farthest(d2) => {
+                if d2 > 0.25 * self.skin * self.skin {
+                    self.set_needs_rebuild(true);
+                }
+                Ok(StepStats { contacts, rebuilt })
+            }
+        }
+    }
+
+    /// The error for a step that left a body with a non-finite state: the first such body.
+    fn non_finite_error(&self) -> SimError {
+        let body = (0..self.len())
+            .find(|&i| {
+                let s = &self.state;
+                !(s.position[i].is_finite()
+                    && s.velocity[i].is_finite()
+                    && s.orientation[i].is_finite())
+            })
+            .unwrap_or(0);
+        SimError::NonFinite {
+            body,
+            step: self.step_count,
+            time: self.time,
+            dt: self.dt,
+        }
+    }
+}
