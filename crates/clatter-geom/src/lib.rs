@@ -11,6 +11,7 @@ pub mod mass;
 pub mod narrow;
 pub mod polyhedron;
 pub mod query;
+mod reduce;
 pub mod shape;
 
 pub use hull::convex_hull;

@@ -285,63 +285,20 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
     }
 }
 
-/// Keeps at most four points of a contact patch: the deepest, the one furthest from it, then
-/// those that enlarge the covered area most (so the patch's support polygon is preserved).
+/// Keeps at most four points of a contact patch (see [`crate::reduce::reduce`]).
 fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
+    let (idx, count) = crate::reduce::reduce(pts, normal);
     let mut m = Manifold {
         normal,
+        count,
         ..Default::default()
     };
-    if pts.len() <= 4 {
-        for (i, &(p, d)) in pts.iter().enumerate() {
-            m.points[i] = ContactPoint { point: p, depth: d };
-        }
-        m.count = pts.len();
-        return m;
-    }
-    let a = (0..pts.len())
-        .max_by(|&i, &j| pts[i].1.total_cmp(&pts[j].1))
-        .unwrap_or(0);
-    let pa = pts[a].0;
-    let b = (0..pts.len())
-        .max_by(|&i, &j| {
-            (pts[i].0 - pa)
-                .length_squared()
-                .total_cmp(&(pts[j].0 - pa).length_squared())
-        })
-        .unwrap_or(0);
-    let pb = pts[b].0;
-    let area = |p: Vec3, q: Vec3, r: Vec3| (q - p).cross(r - p).dot(normal);
-    let c = (0..pts.len())
-        .max_by(|&i, &j| {
-            area(pa, pb, pts[i].0)
-                .abs()
-                .total_cmp(&area(pa, pb, pts[j].0).abs())
-        })
-        .unwrap_or(0);
-    let pc = pts[c].0;
-    // The fourth point: the one furthest outside the triangle, i.e. adding the most area.
-    let sign = area(pa, pb, pc).signum();
-    let gain = |p: Vec3| {
-        (-sign * area(pa, pb, p))
-            .max(-sign * area(pb, pc, p))
-            .max(-sign * area(pc, pa, p))
-    };
-    let d = (0..pts.len())
-        .filter(|&i| i != a && i != b && i != c)
-        .max_by(|&i, &j| gain(pts[i].0).total_cmp(&gain(pts[j].0)));
-    let mut idx = vec![a, b, c];
-    if let Some(d) = d {
-        idx.push(d);
-    }
-    idx.dedup();
-    for (k, &i) in idx.iter().enumerate() {
+    for (k, &i) in idx[..count].iter().enumerate() {
         m.points[k] = ContactPoint {
             point: pts[i].0,
             depth: pts[i].1,
         };
     }
-    m.count = idx.len();
     m
 }
 

@@ -1,13 +1,8 @@
-// The narrow phase (port of clatter-geom's narrow.rs, `collide` without a hint, and
-// `collide_plane`): exact overlap of two shapes, or of a shape and a wall plane, as a manifold
-// of up to four points. Concatenated after common.wgsl and before a kernel file; declares
-// bind group 1 (the shapes, src/shapes.rs) and no entry point. Private names start with nrw_.
-//
-// Same algorithm, branch order, tolerances and tie-breaking as the CPU:
-// - "first strictly better" loops (`s > best`) keep the first of equal candidates;
-// - Rust's `max_by(total_cmp)` keeps the LAST of equal maxima and `min_by` the FIRST minimum:
-//   nrw_key() maps f32 to an i32 ordered like total_cmp;
-// - -inf initial values are replaced by "take the first candidate" flags (no inf literals).
+// The narrow phase, a port of clatter-geom's narrow.rs (`collide`, `collide_plane`): the overlap
+// of two shapes, or of a shape and a wall, as a manifold of up to four points. Included after
+// common.wgsl; declares bind group 1 (src/shapes.rs), no entry point; private names start nrw_.
+// Ties break as on the CPU: `s > best` keeps the first of equals; on nrw_key() (f32 in
+// total_cmp order) `>=` keeps the last maximum (max_by) and `<` the first minimum (min_by).
 
 @group(1) @binding(0) var<storage, read> shape_f: array<vec4<f32>>;
 @group(1) @binding(1) var<storage, read> shape_u: array<u32>;
@@ -26,30 +21,27 @@ struct Manifold {
     points: array<vec4<f32>, 4>,
 }
 
-// One shape's header, with the table bases resolved.
+// One shape's header: its counts and where its tables start in shape_f / shape_u.
 struct NrwShape {
     kind: u32,
     radius: f32,
-    nv: u32,
-    nf: u32,
-    ne: u32,
-    nd: u32,
-    vb: u32, // shape_f: vertices
-    fb: u32, // shape_f: faces (normal, offset)
-    ab: u32, // shape_f: edge arcs
-    db: u32, // shape_f: edge directions
-    fcb: u32, // shape_u: (first, count) per face
-    eb: u32, // shape_u: (v0, v1, f0, f1) per edge
-    dob: u32, // shape_u: direction index per edge
+    num_vertices: u32,
+    num_faces: u32,
+    num_edges: u32,
+    num_dirs: u32, // unique edge directions
+    vertex_base: u32, // shape_f: vertices
+    face_base: u32, // shape_f: faces (normal, offset)
+    arc_base: u32, // shape_f: edge arcs
+    dir_base: u32, // shape_f: unique edge directions
+    face_loop_base: u32, // shape_u: (first, count) of each face's vertex loop
+    edge_base: u32, // shape_u: (v0, v1, f0, f1) per edge
+    edge_dir_base: u32, // shape_u: direction index per edge
 }
 
-// Separating-axis hint (GPU only; the CPU keeps its own per-pair hints): the caller sets
-// `nrw_hint_in` to the axis that separated the pair last step (0 = none) before `collide`,
-// which tests that axis first and leaves in `nrw_hint_out` the axis that separated the pair
-// this step (0 when they touch or no axis was needed). Only speed depends on it: a pair the
-// hint separates is separated, and any other pair goes through the full test. Encoding:
-// 1 + (index << 2 | kind), kind 0 = face of A, 1 = face of B, 2 = edge directions
-// (index ia * nd_b + ib), 3 = edges (index ea * ne_b + eb).
+// Separating-axis hint (GPU only): `collide` and `separated` test the axis in nrw_hint_in
+// (0 = none) first and leave the separating axis found, if any, in nrw_hint_out. Only speed
+// depends on it. Encoding: 1 + (index << 2 | kind), kind 0 = face of A, 1 = face of B,
+// 2 = edge directions (index ia * b.num_dirs + ib), 3 = edges (index ea * b.num_edges + eb).
 var<private> nrw_hint_in: u32 = 0u;
 var<private> nrw_hint_out: u32 = 0u;
 
@@ -65,26 +57,26 @@ fn nrw_hint_separates(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>, 
     let index = code >> 2u;
     var axis = vec3<f32>(0.0);
     if kind == 0u {
-        if index >= a.nf {
+        if index >= a.num_faces {
             return false;
         }
         axis = nrw_face(a, index).xyz;
     } else if kind == 1u {
-        if index >= b.nf {
+        if index >= b.num_faces {
             return false;
         }
         axis = rot * nrw_face(b, index).xyz;
     } else if kind == 2u {
-        if b.nd == 0u || index >= a.nd * b.nd {
+        if b.num_dirs == 0u || index >= a.num_dirs * b.num_dirs {
             return false;
         }
-        axis = cross(shape_f[a.db + index / b.nd].xyz, rot * shape_f[b.db + index % b.nd].xyz);
+        axis = cross(shape_f[a.dir_base + index / b.num_dirs].xyz, rot * shape_f[b.dir_base + index % b.num_dirs].xyz);
     } else {
-        if b.ne == 0u || index >= a.ne * b.ne {
+        if b.num_edges == 0u || index >= a.num_edges * b.num_edges {
             return false;
         }
-        let e_a = nrw_edge(a, index / b.ne);
-        let e_b = nrw_edge(b, index % b.ne);
+        let e_a = nrw_edge(a, index / b.num_edges);
+        let e_b = nrw_edge(b, index % b.num_edges);
         axis = cross(nrw_vert(a, e_a.y) - nrw_vert(a, e_a.x), rot * (nrw_vert(b, e_b.y) - nrw_vert(b, e_b.x)));
     }
     if dot(axis, axis) == 0.0 {
@@ -106,17 +98,17 @@ fn nrw_shape(s: u32) -> NrwShape {
     var r: NrwShape;
     r.kind = shape_u[h];
     r.radius = bitcast<f32>(shape_u[h + 1u]);
-    r.nv = shape_u[h + 2u];
-    r.nf = shape_u[h + 3u];
-    r.ne = shape_u[h + 4u];
-    r.nd = shape_u[h + 5u];
-    r.vb = shape_u[h + 6u];
-    r.fb = r.vb + r.nv;
-    r.ab = r.fb + r.nf;
-    r.db = r.ab + r.ne;
-    r.fcb = shape_u[h + 7u];
-    r.eb = shape_u[h + 8u];
-    r.dob = shape_u[h + 9u];
+    r.num_vertices = shape_u[h + 2u];
+    r.num_faces = shape_u[h + 3u];
+    r.num_edges = shape_u[h + 4u];
+    r.num_dirs = shape_u[h + 5u];
+    r.vertex_base = shape_u[h + 6u];
+    r.face_base = r.vertex_base + r.num_vertices;
+    r.arc_base = r.face_base + r.num_faces;
+    r.dir_base = r.arc_base + r.num_edges;
+    r.face_loop_base = shape_u[h + 7u];
+    r.edge_base = shape_u[h + 8u];
+    r.edge_dir_base = shape_u[h + 9u];
     return r;
 }
 
@@ -131,25 +123,25 @@ fn shape_radius(s: u32) -> f32 {
 }
 
 fn nrw_vert(p: NrwShape, i: u32) -> vec3<f32> {
-    return shape_f[p.vb + i].xyz;
+    return shape_f[p.vertex_base + i].xyz;
 }
 
 // Face f: outward normal in xyz, plane offset in w.
 fn nrw_face(p: NrwShape, f: u32) -> vec4<f32> {
-    return shape_f[p.fb + f];
+    return shape_f[p.face_base + f];
 }
 
 fn nrw_loop_first(p: NrwShape, f: u32) -> u32 {
-    return shape_u[p.fcb + 2u * f];
+    return shape_u[p.face_loop_base + 2u * f];
 }
 
 fn nrw_loop_len(p: NrwShape, f: u32) -> u32 {
-    return shape_u[p.fcb + 2u * f + 1u];
+    return shape_u[p.face_loop_base + 2u * f + 1u];
 }
 
 // Edge e: vertices (x, y) and adjacent faces (z, w).
 fn nrw_edge(p: NrwShape, e: u32) -> vec4<u32> {
-    let b = p.eb + 4u * e;
+    let b = p.edge_base + 4u * e;
     return vec4<u32>(shape_u[b], shape_u[b + 1u], shape_u[b + 2u], shape_u[b + 3u]);
 }
 
@@ -281,7 +273,7 @@ fn nrw_sphere_poly(centre: vec3<f32>, radius: f32, p: NrwShape, x: vec3<f32>, q:
     }
     var best_face = 0u;
     var best_sep = 0.0;
-    for (var f = 0u; f < p.nf; f += 1u) {
+    for (var f = 0u; f < p.num_faces; f += 1u) {
         let fc = nrw_face(p, f);
         let s = dot(fc.xyz, c) - fc.w;
         if f == 0u || s > best_sep {
@@ -305,7 +297,7 @@ fn nrw_sphere_poly(centre: vec3<f32>, radius: f32, p: NrwShape, x: vec3<f32>, q:
         var qq = c;
         var best_d2 = 0.0;
         var found = false;
-        for (var f = 0u; f < p.nf; f += 1u) {
+        for (var f = 0u; f < p.num_faces; f += 1u) {
             let fc = nrw_face(p, f);
             if dot(fc.xyz, c) - fc.w > 0.0 {
                 let cand = nrw_closest_on_face(p, f, c);
@@ -343,83 +335,131 @@ fn nrw_area(p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, normal: vec3<f32>) -> f32 
     return dot(cross(q - p, r - p), normal);
 }
 
-// Keeps at most four of the `count` points in buf: the deepest, the one furthest from
-// it, the one making the largest triangle, then the one adding the most area (CPU `reduce`).
-fn nrw_reduce(buf: ptr<function, NrwBuf>, count: u32, normal: vec3<f32>) -> Manifold {
+// Where nrw_reduce finds its candidate points: `count` clipped points in a buffer, or the
+// `count` vertices of polyhedron p tested against a wall (nrw_plane_pt), recomputed on each
+// pass rather than gathered (a private array costs much shader compile time on llvmpipe).
+struct NrwPatch {
+    on_wall: bool,
+    count: u32,
+    p: NrwShape,
+    n_local: vec3<f32>,
+    centre_height: f32,
+    x: vec3<f32>,
+    q: vec4<f32>,
+}
+
+// Candidate i of the patch: point in xyz, depth in w (w <= 0: not a candidate).
+fn nrw_patch_pt(src: NrwPatch, buf: ptr<function, NrwBuf>, i: u32, normal: vec3<f32>) -> vec4<f32> {
+    if src.on_wall {
+        return nrw_plane_pt(src.p, i, src.n_local, src.centre_height, normal, src.x, src.q);
+    }
+    return (*buf)[i];
+}
+
+// Keeps at most four of the patch's points: the deepest, the one furthest from it, the one
+// making the largest triangle, then the one adding the most area (CPU `reduce`). Candidate
+// indices follow the CPU's point order, and `>=` on nrw_key keeps the last of equal maxima.
+fn nrw_reduce(src: NrwPatch, buf: ptr<function, NrwBuf>, normal: vec3<f32>) -> Manifold {
     var m = nrw_none();
     m.normal = normal;
-    if count <= 4u {
-        for (var i = 0u; i < count; i += 1u) {
-            m.points[i] = (*buf)[i];
+    var count = 0u;
+    for (var i = 0u; i < src.count; i += 1u) {
+        let pt = nrw_patch_pt(src, buf, i, normal);
+        if pt.w > 0.0 {
+            if count < 4u {
+                m.points[count] = pt;
+            }
+            count += 1u;
         }
+    }
+    if count <= 4u {
         m.count = count;
         return m;
     }
-    // max_by(total_cmp) keeps the last of equal maxima: `>=` on the keys.
     var a = 0u;
-    var ka = nrw_key((*buf)[0].w);
-    for (var i = 1u; i < count; i += 1u) {
-        let k = nrw_key((*buf)[i].w);
-        if k >= ka {
-            ka = k;
-            a = i;
+    var ka = 0;
+    var first = true;
+    for (var i = 0u; i < src.count; i += 1u) {
+        let pt = nrw_patch_pt(src, buf, i, normal);
+        if pt.w > 0.0 {
+            let k = nrw_key(pt.w);
+            if first || k >= ka {
+                first = false;
+                ka = k;
+                a = i;
+            }
         }
     }
-    let pa = (*buf)[a].xyz;
+    let pa4 = nrw_patch_pt(src, buf, a, normal);
+    let pa = pa4.xyz;
     var b = 0u;
     var kb = 0;
-    for (var i = 0u; i < count; i += 1u) {
-        let d = (*buf)[i].xyz - pa;
-        let k = nrw_key(dot(d, d));
-        if i == 0u || k >= kb {
-            kb = k;
-            b = i;
+    first = true;
+    for (var i = 0u; i < src.count; i += 1u) {
+        let pt = nrw_patch_pt(src, buf, i, normal);
+        if pt.w > 0.0 {
+            let d = pt.xyz - pa;
+            let k = nrw_key(dot(d, d));
+            if first || k >= kb {
+                first = false;
+                kb = k;
+                b = i;
+            }
         }
     }
-    let pb = (*buf)[b].xyz;
+    let pb4 = nrw_patch_pt(src, buf, b, normal);
+    let pb = pb4.xyz;
     var c = 0u;
     var kc = 0;
-    for (var i = 0u; i < count; i += 1u) {
-        let k = nrw_key(abs(nrw_area(pa, pb, (*buf)[i].xyz, normal)));
-        if i == 0u || k >= kc {
-            kc = k;
-            c = i;
+    first = true;
+    for (var i = 0u; i < src.count; i += 1u) {
+        let pt = nrw_patch_pt(src, buf, i, normal);
+        if pt.w > 0.0 {
+            let k = nrw_key(abs(nrw_area(pa, pb, pt.xyz, normal)));
+            if first || k >= kc {
+                first = false;
+                kc = k;
+                c = i;
+            }
         }
     }
-    let pc = (*buf)[c].xyz;
+    let pc4 = nrw_patch_pt(src, buf, c, normal);
+    let pc = pc4.xyz;
     let sign = nrw_signum(nrw_area(pa, pb, pc, normal));
     var d = 0u;
     var kd = 0;
     var found = false;
-    for (var i = 0u; i < count; i += 1u) {
+    for (var i = 0u; i < src.count; i += 1u) {
         if i == a || i == b || i == c {
             continue;
         }
-        let p = (*buf)[i].xyz;
-        let g = max(max(-sign * nrw_area(pa, pb, p, normal), -sign * nrw_area(pb, pc, p, normal)), -sign * nrw_area(pc, pa, p, normal));
-        let k = nrw_key(g);
-        if !found || k >= kd {
-            found = true;
-            kd = k;
-            d = i;
+        let pt = nrw_patch_pt(src, buf, i, normal);
+        if pt.w > 0.0 {
+            let g = max(max(-sign * nrw_area(pa, pb, pt.xyz, normal), -sign * nrw_area(pb, pc, pt.xyz, normal)), -sign * nrw_area(pc, pa, pt.xyz, normal));
+            let k = nrw_key(g);
+            if !found || k >= kd {
+                found = true;
+                kd = k;
+                d = i;
+            }
         }
     }
     // idx = [a, b, c, d?] with consecutive duplicates removed (Vec::dedup).
-    m.points[0] = (*buf)[a];
+    m.points[0] = pa4;
     var n = 1u;
     var last = a;
     if b != last {
-        m.points[n] = (*buf)[b];
+        m.points[n] = pb4;
         n += 1u;
         last = b;
     }
     if c != last {
-        m.points[n] = (*buf)[c];
+        m.points[n] = pc4;
         n += 1u;
         last = c;
     }
     if found && d != last {
-        m.points[n] = (*buf)[d];
+        m.points[n] = nrw_patch_pt(src, buf, d, normal);
         n += 1u;
     }
     m.count = n;
@@ -443,128 +483,21 @@ fn collide_plane(n: vec3<f32>, offset: f32, s: u32, x: vec3<f32>, q: vec4<f32>) 
     if centre_height >= p.radius {
         return nrw_none();
     }
-    let n_local = quat_rotate_inv(q, n);
-    return nrw_reduce_plane(p, n_local, centre_height, n, x, q);
+    // The vertices below the wall; nrw_reduce reads no buffer for them.
+    let src = NrwPatch(true, p.num_vertices, p, quat_rotate_inv(q, n), centre_height, x, q);
+    var unused: NrwBuf;
+    return nrw_reduce(src, &unused, n);
 }
 
 // Vertex i of p against the wall: world point moved halfway through the overlap in xyz,
 // depth in w (w <= 0: the vertex is not below the wall).
-fn nrw_plane_pt(p: NrwShape, i: u32, n_local: vec3<f32>, ch: f32, n: vec3<f32>, x: vec3<f32>, q: vec4<f32>) -> vec4<f32> {
+fn nrw_plane_pt(p: NrwShape, i: u32, n_local: vec3<f32>, centre_height: f32, n: vec3<f32>, x: vec3<f32>, q: vec4<f32>) -> vec4<f32> {
     let v = nrw_vert(p, i);
-    let h = dot(n_local, v) + ch;
+    let h = dot(n_local, v) + centre_height;
     if !(h < 0.0) {
         return vec4<f32>(0.0);
     }
     return vec4<f32>(quat_rotate(q, v) + x - n * (0.5 * h), -h);
-}
-
-// nrw_reduce over the vertices below the wall, recomputed on each pass instead of gathered
-// into an array (a large private array costs minutes of shader compilation on llvmpipe).
-// Vertex indices stand for the CPU's point indices: both follow the vertex order.
-fn nrw_reduce_plane(p: NrwShape, n_local: vec3<f32>, ch: f32, normal: vec3<f32>, x: vec3<f32>, q: vec4<f32>) -> Manifold {
-    var m = nrw_none();
-    m.normal = normal;
-    var count = 0u;
-    for (var i = 0u; i < p.nv; i += 1u) {
-        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
-        if pt.w > 0.0 {
-            if count < 4u {
-                m.points[count] = pt;
-            }
-            count += 1u;
-        }
-    }
-    if count <= 4u {
-        m.count = count;
-        return m;
-    }
-    var a = 0u;
-    var ka = 0;
-    var first = true;
-    for (var i = 0u; i < p.nv; i += 1u) {
-        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
-        if pt.w > 0.0 {
-            let k = nrw_key(pt.w);
-            if first || k >= ka {
-                first = false;
-                ka = k;
-                a = i;
-            }
-        }
-    }
-    let pa4 = nrw_plane_pt(p, a, n_local, ch, normal, x, q);
-    let pa = pa4.xyz;
-    var b = 0u;
-    var kb = 0;
-    first = true;
-    for (var i = 0u; i < p.nv; i += 1u) {
-        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
-        if pt.w > 0.0 {
-            let d = pt.xyz - pa;
-            let k = nrw_key(dot(d, d));
-            if first || k >= kb {
-                first = false;
-                kb = k;
-                b = i;
-            }
-        }
-    }
-    let pb4 = nrw_plane_pt(p, b, n_local, ch, normal, x, q);
-    let pb = pb4.xyz;
-    var c = 0u;
-    var kc = 0;
-    first = true;
-    for (var i = 0u; i < p.nv; i += 1u) {
-        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
-        if pt.w > 0.0 {
-            let k = nrw_key(abs(nrw_area(pa, pb, pt.xyz, normal)));
-            if first || k >= kc {
-                first = false;
-                kc = k;
-                c = i;
-            }
-        }
-    }
-    let pc4 = nrw_plane_pt(p, c, n_local, ch, normal, x, q);
-    let pc = pc4.xyz;
-    let sign = nrw_signum(nrw_area(pa, pb, pc, normal));
-    var d = 0u;
-    var kd = 0;
-    var found = false;
-    for (var i = 0u; i < p.nv; i += 1u) {
-        if i == a || i == b || i == c {
-            continue;
-        }
-        let pt = nrw_plane_pt(p, i, n_local, ch, normal, x, q);
-        if pt.w > 0.0 {
-            let g = max(max(-sign * nrw_area(pa, pb, pt.xyz, normal), -sign * nrw_area(pb, pc, pt.xyz, normal)), -sign * nrw_area(pc, pa, pt.xyz, normal));
-            let k = nrw_key(g);
-            if !found || k >= kd {
-                found = true;
-                kd = k;
-                d = i;
-            }
-        }
-    }
-    m.points[0] = pa4;
-    var k = 1u;
-    var last = a;
-    if b != last {
-        m.points[k] = pb4;
-        k += 1u;
-        last = b;
-    }
-    if c != last {
-        m.points[k] = pc4;
-        k += 1u;
-        last = c;
-    }
-    if found && d != last {
-        m.points[k] = nrw_plane_pt(p, d, n_local, ch, normal, x, q);
-        k += 1u;
-    }
-    m.count = k;
-    return m;
 }
 
 // ---------------------------------------------------------------- polyhedra
@@ -622,7 +555,7 @@ fn nrw_inc_vert(p: NrwShape, i: u32, rot: mat3x3<f32>, t: vec3<f32>, inc_is_a: b
 // Smallest projection of A's own vertices on n.
 fn nrw_min_a(a: NrwShape, n: vec3<f32>) -> f32 {
     var m = dot(n, nrw_vert(a, 0u));
-    for (var i = 1u; i < a.nv; i += 1u) {
+    for (var i = 1u; i < a.num_vertices; i += 1u) {
         let d = dot(n, nrw_vert(a, i));
         if d < m {
             m = d;
@@ -633,7 +566,7 @@ fn nrw_min_a(a: NrwShape, n: vec3<f32>) -> f32 {
 
 fn nrw_max_a(a: NrwShape, n: vec3<f32>) -> f32 {
     var m = dot(n, nrw_vert(a, 0u));
-    for (var i = 1u; i < a.nv; i += 1u) {
+    for (var i = 1u; i < a.num_vertices; i += 1u) {
         let d = dot(n, nrw_vert(a, i));
         if d > m {
             m = d;
@@ -645,7 +578,7 @@ fn nrw_max_a(a: NrwShape, n: vec3<f32>) -> f32 {
 // Smallest projection of B's vertices (in A's frame) on n.
 fn nrw_min_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>) -> f32 {
     var m = dot(n, nrw_bv(b, 0u, rot, t));
-    for (var i = 1u; i < b.nv; i += 1u) {
+    for (var i = 1u; i < b.num_vertices; i += 1u) {
         let d = dot(n, nrw_bv(b, i, rot, t));
         if d < m {
             m = d;
@@ -656,7 +589,7 @@ fn nrw_min_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>) -> f32 {
 
 fn nrw_max_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>) -> f32 {
     var m = dot(n, nrw_bv(b, 0u, rot, t));
-    for (var i = 1u; i < b.nv; i += 1u) {
+    for (var i = 1u; i < b.num_vertices; i += 1u) {
         let d = dot(n, nrw_bv(b, i, rot, t));
         if d > m {
             m = d;
@@ -689,21 +622,21 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
     r.found = false;
     r.separated = false;
     r.hint = 0u;
-    for (var ea = 0u; ea < a.ne; ea += 1u) {
+    for (var ea = 0u; ea < a.num_edges; ea += 1u) {
         let e_a = nrw_edge(a, ea);
-        let arc_a = inv_rot * shape_f[a.ab + ea].xyz;
+        let arc_a = inv_rot * shape_f[a.arc_base + ea].xyz;
         let pa0 = nrw_vert(a, e_a.x);
         let da = nrw_vert(a, e_a.y) - pa0;
         let na0 = nrw_face(a, e_a.z).xyz;
         let na1 = nrw_face(a, e_a.w).xyz;
-        for (var eb = 0u; eb < b.ne; eb += 1u) {
+        for (var eb = 0u; eb < b.num_edges; eb += 1u) {
             let e_b = nrw_edge(b, eb);
             let cba = -dot(nrw_face(b, e_b.z).xyz, arc_a);
             let dba = -dot(nrw_face(b, e_b.w).xyz, arc_a);
             if cba * dba >= 0.0 {
                 continue;
             }
-            let arc_b = rot * shape_f[b.ab + eb].xyz;
+            let arc_b = rot * shape_f[b.arc_base + eb].xyz;
             let adc = dot(na0, arc_b);
             let bdc = dot(na1, arc_b);
             if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
@@ -723,7 +656,7 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
             let s = dot(axis, pb0 - pa0);
             if s > 0.0 {
                 r.separated = true;
-                r.hint = nrw_hint(3u, ea * b.ne + eb);
+                r.hint = nrw_hint(3u, ea * b.num_edges + eb);
                 return r;
             }
             if !r.found || s > r.s {
@@ -751,10 +684,10 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
     r.hint = 0u;
     var ia_best = 0u;
     var ib_best = 0u;
-    for (var ia = 0u; ia < a.nd; ia += 1u) {
-        let ua = shape_f[a.db + ia].xyz;
-        for (var ib = 0u; ib < b.nd; ib += 1u) {
-            let ax = cross(ua, rot * shape_f[b.db + ib].xyz);
+    for (var ia = 0u; ia < a.num_dirs; ia += 1u) {
+        let ua = shape_f[a.dir_base + ia].xyz;
+        for (var ib = 0u; ib < b.num_dirs; ib += 1u) {
+            let ax = cross(ua, rot * shape_f[b.dir_base + ib].xyz);
             let len2 = dot(ax, ax);
             if len2 < 1e-10 {
                 continue;
@@ -772,7 +705,7 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
             }
             if s > 0.0 {
                 r.separated = true;
-                r.hint = nrw_hint(2u, ia * b.nd + ib);
+                r.hint = nrw_hint(2u, ia * b.num_dirs + ib);
                 return r;
             }
             if !r.found || s > r.s {
@@ -789,8 +722,8 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
     }
     var ha = 0.0;
     var fa = false;
-    for (var e = 0u; e < a.ne; e += 1u) {
-        if shape_u[a.dob + e] == ia_best {
+    for (var e = 0u; e < a.num_edges; e += 1u) {
+        if shape_u[a.edge_dir_base + e] == ia_best {
             let ev = nrw_edge(a, e);
             let h = dot(r.axis, nrw_vert(a, ev.x) + nrw_vert(a, ev.y));
             if !fa || h > ha {
@@ -802,8 +735,8 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
     }
     var hb = 0.0;
     var fb = false;
-    for (var e = 0u; e < b.ne; e += 1u) {
-        if shape_u[b.dob + e] == ib_best {
+    for (var e = 0u; e < b.num_edges; e += 1u) {
+        if shape_u[b.edge_dir_base + e] == ib_best {
             let ev = nrw_edge(b, e);
             let h = dot(r.axis, nrw_bv(b, ev.x, rot, t) + nrw_bv(b, ev.y, rot, t));
             if !fb || h < hb {
@@ -826,7 +759,7 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
     let n_inc = transpose(inc_rot) * n;
     var inc_face = 0u;
     var best = 0.0;
-    for (var f = 0u; f < inc.nf; f += 1u) {
+    for (var f = 0u; f < inc.num_faces; f += 1u) {
         let d = dot(nrw_face(inc, f).xyz, n_inc);
         if f == 0u || d < best {
             best = d;
@@ -885,7 +818,7 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
         // with the incident body's deepest vertex (min_by(total_cmp): the first minimum).
         var deepest = nrw_inc_vert(inc, 0u, inc_m, inc_t, inc_is_a);
         var kd = nrw_key(dot(n, deepest));
-        for (var i = 1u; i < inc.nv; i += 1u) {
+        for (var i = 1u; i < inc.num_vertices; i += 1u) {
             let v = nrw_inc_vert(inc, i, inc_m, inc_t, inc_is_a);
             let k = nrw_key(dot(n, v));
             if k < kd {
@@ -899,7 +832,8 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
         }
         return nrw_single(n, deepest + n * (0.5 * depth), depth);
     }
-    return nrw_reduce(&tmp, count, n);
+    let src = NrwPatch(false, count, refp, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec4<f32>(0.0));
+    return nrw_reduce(src, &tmp, n);
 }
 
 // The separating-axis test of two polyhedra (B in A's frame by rot, inv_rot, t): the hinted
@@ -922,7 +856,7 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
         return r;
     }
     // Face axes of A.
-    for (var f = 0u; f < a.nf; f += 1u) {
+    for (var f = 0u; f < a.num_faces; f += 1u) {
         let fc = nrw_face(a, f);
         let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
         if s > 0.0 {
@@ -935,7 +869,7 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
         }
     }
     // Face axes of B, in A's frame.
-    for (var f = 0u; f < b.nf; f += 1u) {
+    for (var f = 0u; f < b.num_faces; f += 1u) {
         let fc = nrw_face(b, f);
         let n = rot * fc.xyz;
         let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
@@ -949,8 +883,8 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
         }
     }
     // Edge axes: the cheaper enumeration, by the CPU's cost rule.
-    let cost_dirs = a.nd * b.nd * (a.nv + b.nv);
-    let cost_tables = a.ne * b.nf + b.ne * a.nf + a.ne * b.ne;
+    let cost_dirs = a.num_dirs * b.num_dirs * (a.num_vertices + b.num_vertices);
+    let cost_tables = a.num_edges * b.num_faces + b.num_edges * a.num_faces + a.num_edges * b.num_edges;
     if cost_dirs <= 2u * cost_tables {
         r.e = nrw_edge_axes_by_direction(a, b, rot, t);
     } else {

@@ -1,19 +1,20 @@
-// Stage 3, **pairs**: each body looks at the 27 cells around its own for bodies with a
-// larger index whose skin-grown bounding spheres overlap its own (the CPU's broad::pairs).
-// `count_pairs` counts them per body, the scan gives each body its offset, `pairs_total`
-// checks the capacity and sizes the pair dispatches, `fill_pairs` writes each body's pairs
-// sorted by partner, so the list is sorted by (i, j) like the CPU's. Then the contact history
-// is carried over from the old list (`carry`, a binary search in body i's old range), the new
-// list replaces the old (`commit`), and the b-side adjacency (for each body, the pairs where
-// it is the second body, in pair order) is built by counting, scanning and sorting
-// (`count_b`, `copy_b`, `fill_b`, `sort_b`): forces are then gathered per body in a fixed
-// order, without float atomics.
+// Stage 3, **pairs** (the CPU's broad::pairs): each body finds the bodies with a larger index
+// in the 27 cells around its own whose skin-grown bounding spheres overlap its own, counted
+// (`count_pairs`), scanned into offsets, then written sorted by (i, j) (`fill_pairs`).
+// `carry` keeps the springs of persisting pairs, `commit` swaps in the new list, and
+// `count_b` .. `sort_b` build each body's b-side pair list so forces gather in a fixed order.
 
-fn count_candidates(i: u32) -> u32 {
+// Body i's partners j > i in the 27 cells around it, in cell order; counts them, and with
+// `write` also inserts each pair, sorted by j, into new_pairs from new_a_start[i] on.
+fn scan_candidates(i: u32, write: bool) -> u32 {
     let pi = bodies[i].position.xyz;
     let ri = statics[i].radius;
     let c = cell_of(pi);
     let dims = grid.dims.xyz;
+    var s0 = 0u;
+    if write {
+        s0 = new_a_start[i];
+    }
     var count = 0u;
     let lo = vec3<u32>(max(vec3<i32>(c) - vec3<i32>(1), vec3<i32>(0)));
     let hi = min(c + vec3<u32>(1u), dims - vec3<u32>(1u));
@@ -28,6 +29,14 @@ fn count_candidates(i: u32) -> u32 {
                     let reach = ri + statics[j].radius + params.skin;
                     let d = bodies[j].position.xyz - pi;
                     if dot(d, d) < reach * reach {
+                        if write {
+                            var b = s0 + count;
+                            while b > s0 && new_pairs[b - 1u].y > j {
+                                new_pairs[b] = new_pairs[b - 1u];
+                                b--;
+                            }
+                            new_pairs[b] = vec2<u32>(i, j);
+                        }
                         count++;
                     }
                 }
@@ -48,7 +57,7 @@ fn count_pairs(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) n
         new_a_start[i] = 0u;
         return;
     }
-    new_a_start[i] = count_candidates(i);
+    new_a_start[i] = scan_candidates(i, false);
 }
 
 @compute @workgroup_size(1)
@@ -78,38 +87,7 @@ fn fill_pairs(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nw
     if i >= params.n || halted() {
         return;
     }
-    let pi = bodies[i].position.xyz;
-    let ri = statics[i].radius;
-    let c = cell_of(pi);
-    let dims = grid.dims.xyz;
-    let s0 = new_a_start[i];
-    var w = s0;
-    let lo = vec3<u32>(max(vec3<i32>(c) - vec3<i32>(1), vec3<i32>(0)));
-    let hi = min(c + vec3<u32>(1u), dims - vec3<u32>(1u));
-    for (var z = lo.z; z <= hi.z; z++) {
-        for (var y = lo.y; y <= hi.y; y++) {
-            let row = (z * dims.y + y) * dims.x;
-            let s = cell_start[row + lo.x];
-            let e = cell_start[row + hi.x + 1u];
-            for (var k = s; k < e; k++) {
-                let j = sorted[k];
-                if j > i {
-                    let reach = ri + statics[j].radius + params.skin;
-                    let d = bodies[j].position.xyz - pi;
-                    if dot(d, d) < reach * reach {
-                        // Insert in order of j.
-                        var b = w;
-                        while b > s0 && new_pairs[b - 1u].y > j {
-                            new_pairs[b] = new_pairs[b - 1u];
-                            b--;
-                        }
-                        new_pairs[b] = vec2<u32>(i, j);
-                        w++;
-                    }
-                }
-            }
-        }
-    }
+    scan_candidates(i, true);
 }
 
 // The tangential and twisting springs of pairs that persist (zero for new pairs).

@@ -1,13 +1,10 @@
 //! Contact manifolds of two polyhedra from a known normal: reference/incident face clipping.
 //!
-//! The reference face is the face (of either shape) whose outward normal is best aligned with
-//! the contact normal; the incident face is the face of the other shape most anti-parallel to
-//! it. The incident polygon is clipped by the side planes of the reference face
-//! (Sutherland-Hodgman); clipped points that are not separated from the reference plane by more
-//! than the current gap (plus a small slack) are kept, moved half-way to the reference plane,
-//! and reduced to at most [`MAX_MANIFOLD_POINTS`] (deepest point, then the points spanning the
-//! largest area). When neither shape has a face within about 2.6 degrees of the normal
-//! (edge-edge, vertex-edge contacts) the manifold is the single mid-point of the two witnesses.
+//! The reference face is the face (of either shape) best aligned with the contact normal, the
+//! incident face the other shape's most anti-parallel one. The incident polygon is clipped by
+//! the reference face's side planes; points within the current gap of the reference plane are
+//! moved half-way to it and reduced to four (the narrow phase's reduction). Without a face
+//! within about 2.6 degrees of the normal, the manifold is the mid-point of the witnesses.
 
 use glam::DVec3;
 
@@ -134,12 +131,13 @@ pub(crate) fn clip(
     let size = (a.radius + b.radius) as f64;
     let limit = sep.max(0.0) + 1e-5 * size;
     let origin = r[0];
+    // (point, depth) pairs for the shared reduction, depth = -separation.
     let mut kept: Vec<(DVec3, f64)> = Vec::with_capacity(inc.len());
     let mut deepest = (f64::INFINITY, DVec3::ZERO);
     for &p in &inc {
         let s = (p - origin).dot(rn);
         if s <= limit {
-            kept.push((p - rn * (0.5 * s), s));
+            kept.push((p - rn * (0.5 * s), -s));
             if s < deepest.0 {
                 deepest = (s, p);
             }
@@ -148,63 +146,17 @@ pub(crate) fn clip(
     if kept.is_empty() {
         return Points::single((pa + pb) * 0.5);
     }
-    let mut out = reduce(&kept, rn);
+    let (idx, count) = crate::reduce::reduce(&kept, rn);
+    let mut out = Points::default();
+    for (k, &i) in idx[..count].iter().enumerate() {
+        out.p[k] = kept[i].0;
+    }
+    out.n = count;
     let (s, p) = deepest;
     let on_ref = p - rn * s;
     let (wa, wb) = if ref_is_a { (on_ref, p) } else { (p, on_ref) };
     if ((wb - wa).dot(n) - sep).abs() <= 1e-6 * size {
         out.witness = Some((wa, wb));
     }
-    out
-}
-
-/// At most four points: the deepest, the farthest from it, then the two adding most area.
-fn reduce(kept: &[(DVec3, f64)], n: DVec3) -> Points {
-    let mut out = Points::default();
-    if kept.len() <= MAX_MANIFOLD_POINTS {
-        for (i, (p, _)) in kept.iter().enumerate() {
-            out.p[i] = *p;
-        }
-        out.n = kept.len();
-        return out;
-    }
-    let i0 = (0..kept.len())
-        .min_by(|&i, &j| kept[i].1.total_cmp(&kept[j].1))
-        .unwrap_or(0);
-    let p0 = kept[i0].0;
-    let i1 = (0..kept.len())
-        .max_by(|&i, &j| {
-            (kept[i].0 - p0)
-                .length_squared()
-                .total_cmp(&(kept[j].0 - p0).length_squared())
-        })
-        .unwrap_or(0);
-    let p1 = kept[i1].0;
-    let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).dot(n);
-    let i2 = (0..kept.len())
-        .max_by(|&i, &j| {
-            area(p0, p1, kept[i].0)
-                .abs()
-                .total_cmp(&area(p0, p1, kept[j].0).abs())
-        })
-        .unwrap_or(0);
-    let mut p2 = kept[i2].0;
-    let (q0, mut q1) = (p0, p1);
-    if area(q0, q1, p2) < 0.0 {
-        std::mem::swap(&mut q1, &mut p2);
-    }
-    // Triangle q0 q1 p2 is now counter-clockwise about n; the fourth point is the one
-    // furthest outside one of its edges.
-    let tri = [q0, q1, p2];
-    let out_of = |p: DVec3| {
-        (0..3)
-            .map(|e| -area(tri[e], tri[(e + 1) % 3], p))
-            .fold(0.0, f64::max)
-    };
-    let i3 = (0..kept.len())
-        .max_by(|&i, &j| out_of(kept[i].0).total_cmp(&out_of(kept[j].0)))
-        .unwrap_or(0);
-    out.p = [q0, q1, p2, kept[i3].0];
-    out.n = if out_of(kept[i3].0) > 0.0 { 4 } else { 3 };
     out
 }
