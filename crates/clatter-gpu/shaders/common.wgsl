@@ -1,4 +1,4 @@
-// Shared by every clatter shader: quaternion math and the body state layout.
+// Shared by every clatter shader: quaternion math.
 // Quaternions are vec4(x, y, z, w), as glam's Quat.
 
 // Product a * b (apply b, then a).
@@ -25,17 +25,4 @@ fn quat_rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
 // Rotates v by the inverse of the unit quaternion q.
 fn quat_rotate_inv(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
     return quat_rotate(quat_conj(q), v);
-}
-
-// One body's dynamic state, 96 bytes (BodyState in src/layout.rs):
-// position (xyz, centre of mass), velocity, orientation of the principal frame (quaternion),
-// the orientation's compensated-summation residual, angular momentum (world frame), angular
-// velocity (world frame). The w of the vec3 fields is unused.
-struct BodyState {
-    position: vec4<f32>,
-    velocity: vec4<f32>,
-    orientation: vec4<f32>,
-    residual: vec4<f32>,
-    angular_momentum: vec4<f32>,
-    omega: vec4<f32>,
 }

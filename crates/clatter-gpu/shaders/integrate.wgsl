@@ -1,14 +1,9 @@
-// Stage 6, **integrate**: each body gathers its contact forces in a fixed order (pairs where
-// it is body a, pairs where it is body b, then walls: the CPU's order, no float atomics), then
-// semi-implicit Euler on momentum and position, angular momentum with the world-space inertia,
-// and the compensated first-order quaternion update of crates/clatter/src/world.rs. A body
-// that moved more than half the skin since the last rebuild flags a rebuild for the next
-// step; a non-finite state stops the pipeline (the host reports it).
-//
-// The body-wall contacts (narrow phase and law, forces.wgsl's `wall_contact`) are computed
-// here, where the walls' forces are summed, rather than in a kernel of their own: that would
-// read every body's state and constants a second time (144 of the step's ~780 bytes per
-// body) and write forces only to read them back. Compiled after narrow.wgsl and forces.wgsl.
+// Stage **integrate** (src/stages/integrate.rs), twin of crates/clatter/src/step/integrate.rs:
+// each body gathers its contact forces in the CPU's fixed order (pairs as body a, as body b,
+// then walls; no float atomics), then semi-implicit Euler and the compensated quaternion
+// update. Wall contacts (contacts.wgsl `wall_contact`) are computed here, where they are
+// summed, saving a second read of every body. Flags a rebuild once a body has moved half the
+// skin; a non-finite state stops the pipeline.
 
 @compute @workgroup_size(256)
 fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
@@ -33,22 +28,22 @@ fn integrate_body(i: u32) -> u32 {
     // `touching`; other values are separating-axis hints, see forces.wgsl).
     for (var c = a_start[i]; c < a_start[i + 1u]; c++) {
         if touching[c] == 1u {
-            f -= forces[c].force_b.xyz;
-            t += forces[c].torque_a.xyz;
+            f -= forces[c].force_b;
+            t += forces[c].torque_a;
         }
     }
     for (var k = b_start[i]; k < b_start[i + 1u]; k++) {
         let c = b_adj[k];
         if touching[c] == 1u {
-            f += forces[c].force_b.xyz;
-            t += forces[c].torque_b.xyz;
+            f += forces[c].force_b;
+            t += forces[c].torque_b;
         }
     }
     for (var w = 0u; w < params.num_walls; w++) {
         let r = wall_contact(i * params.num_walls + w);
         if r.touching {
-            f += r.force.force_b.xyz;
-            t += r.force.torque_b.xyz;
+            f += r.force.force_b;
+            t += r.force.torque_b;
             touched += 1u;
         }
     }

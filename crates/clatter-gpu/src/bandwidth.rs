@@ -113,7 +113,7 @@ pub fn copy_bandwidth(ctx: &GpuContext, reps: u32) -> Result<f64, GpuError> {
     }
     encoder.resolve_query_set(&queries, 0..count, &resolve, 0);
     let stamps =
-        crate::world::read_buffers_after(ctx, encoder, &[(&resolve, 0, 8 * count as u64)])?;
+        crate::readback::read_buffers_after(ctx, encoder, &[(&resolve, 0, 8 * count as u64)])?;
     let stamps: Vec<u64> = bytemuck::pod_collect_to_vec(&stamps[0]);
     let period = ctx.queue.get_timestamp_period() as f64;
     // Skip the warm-up copy.

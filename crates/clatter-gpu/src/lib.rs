@@ -6,10 +6,14 @@
 //! reads it back only when output is due.
 
 pub mod bandwidth;
+pub mod buffers;
 pub mod context;
 pub mod layout;
 pub mod narrow;
+pub(crate) mod pipeline;
+pub mod readback;
 pub mod shapes;
+pub mod stages;
 pub mod world;
 
 pub use context::{GpuContext, GpuError, instance_flags, test_context};
@@ -17,5 +21,6 @@ pub use layout::BodyState;
 pub use narrow::{
     GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,
 };
+pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;
 pub use world::{GpuWorld, StepReport};

@@ -20,12 +20,16 @@ use crate::mesh::{Mesh, Vertex, WallVertex, wall_quads};
 /// The background (linear RGB): a dark slate blue.
 pub const BACKGROUND: [f64; 3] = [0.012, 0.016, 0.026];
 
-/// The shader: clatter-gpu's shared definitions (`BodyState`, `quat_rotate`), then ours.
-const SHADER: &str = concat!(
-    include_str!("../../clatter-gpu/shaders/common.wgsl"),
-    "\n",
-    include_str!("../shaders/scene.wgsl")
-);
+/// The shader: the simulation's `BodyState` record and quaternion helpers, then ours.
+fn shader() -> String {
+    use clatter::contract::GpuRecord;
+    [
+        BodyState::wgsl().as_str(),
+        include_str!("../../clatter-gpu/shaders/common.wgsl"),
+        include_str!("../shaders/scene.wgsl"),
+    ]
+    .join("\n")
+}
 
 /// Depth buffer format.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -226,7 +230,7 @@ impl Renderer {
     ) -> Renderer {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("clatter-render scene"),
-            source: wgpu::ShaderSource::Wgsl(SHADER.into()),
+            source: wgpu::ShaderSource::Wgsl(shader().into()),
         });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("clatter-render bodies"),

@@ -1,0 +1,104 @@
+// Stage **contacts** (src/stages/contacts.rs): for each candidate pair (`contacts`, or the
+// two passes of contacts_split.wgsl) and each body-wall slot (`wall_contact`, called by
+// integrate.wgsl), the manifold (narrow.wgsl) and the contact law (law.wgsl). Springs
+// persist per pair in `hist` (xyz tangential, w twist).
+
+fn motion_of(i: u32) -> BodyMotion {
+    let b = bodies[i];
+    return BodyMotion(b.position.xyz, b.velocity.xyz, b.omega.xyz);
+}
+
+@compute @workgroup_size(256)
+fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+            @builtin(local_invocation_index) lid: u32) {
+    if halted_wg(lid) {
+        return;
+    }
+    let c = thread_index(wid, nwg, lid);
+    var touched = 0u;
+    if c < a_start[params.n] && pair_contact(c, true) {
+        touched = 1u;
+    }
+    add_status_wg(lid, ST_TOUCHING, touched);
+}
+
+// Candidate pair c: manifold, contact law, spring; whether the pair touches. With `use_hint`
+// the pair's separating-axis hint is tried first (contacts_full skips it: contacts_sat has
+// just tried it).
+fn pair_contact(c: u32, use_hint: bool) -> bool {
+    let p = pairs[c];
+    let i = p.x;
+    let j = p.y;
+    let si = statics[i];
+    let sj = statics[j];
+    let bi = bodies[i];
+    let bj = bodies[j];
+    // touching[c]: 1 = touching, 0 = not, 1 + hint = not, separated by the hinted axis.
+    let was = touching[c];
+    nrw_hint_in = select(0u, was - 1u, was >= 2u && use_hint);
+    let m = collide(si.shape, bi.position.xyz, bi.orientation, sj.shape, bj.position.xyz,
+                    bj.orientation);
+    if m.count > 0u {
+        let params_ij = pair_table[si.material * params.num_materials + sj.material];
+        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE,
+                           si.is_sphere != 0u || sj.is_sphere != 0u);
+        let only = params.spheres_only != 0u;
+        let ri = select(si.equivalent_radius, si.radius, only);
+        let rj = select(sj.equivalent_radius, sj.radius, only);
+        let r_eff = ri * rj / (ri + rj);
+        let r = contact_force(params_ij, si.mass * sj.mass / (si.mass + sj.mass), r_eff, share, m,
+                            motion_of(i), motion_of(j), hist[c], params.dt);
+        forces[c] = r.force;
+        hist[c] = r.hist;
+        touching[c] = 1u;
+        return true;
+    }
+    release_pair(c, was);
+    return false;
+}
+
+// Candidate pair c does not touch this step (`was`: its touching word before): zero spring
+// and force if it touched (written only on the change), and keep the axis that separated
+// it, if any (`nrw_hint_out`), as next step's hint.
+fn release_pair(c: u32, was: u32) {
+    if was == 1u {
+        forces[c] = ContactForce();
+        hist[c] = vec4<f32>(0.0);
+    }
+    let now = select(0u, nrw_hint_out + 1u, nrw_hint_out != 0u);
+    if now != was {
+        touching[c] = now;
+    }
+}
+
+struct WallResult {
+    touching: bool,
+    force: ContactForce,
+}
+
+// Body-wall slot t = body * num_walls + wall: manifold, contact law, spring (stored with
+// the force for the host's read-back); the force when the body touches the wall. Called by
+// integrate (integrate.wgsl).
+fn wall_contact(t: u32) -> WallResult {
+    let i = t / params.num_walls;
+    let wall = walls[t % params.num_walls];
+    let si = statics[i];
+    let bi = bodies[i];
+    let m = collide_plane(wall.plane.xyz, wall.plane.w, si.shape, bi.position.xyz, bi.orientation);
+    if m.count > 0u {
+        let params_w = pair_table[wall.material * params.num_materials + si.material];
+        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, si.is_sphere != 0u);
+        let fixed = BodyMotion(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        let r = contact_force(params_w, si.mass, si.equivalent_radius, share, m, fixed, motion_of(i),
+                            wall_hist[t], params.dt);
+        wall_forces[t] = r.force;
+        wall_hist[t] = r.hist;
+        wall_touching[t] = 1u;
+        return WallResult(true, r.force);
+    } else if wall_touching[t] != 0u {
+        wall_forces[t] = ContactForce();
+        wall_hist[t] = vec4<f32>(0.0);
+        wall_touching[t] = 0u;
+    }
+    return WallResult(false, ContactForce());
+}

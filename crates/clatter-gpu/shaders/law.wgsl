@@ -1,0 +1,165 @@
+// The DEM contact law on the GPU: the twin of crates/clatter/src/law.rs, function for
+// function under the same names (tests/law.rs runs both on random contacts). Parameters come
+// from the `PairParams` table and the constants of clatter::contract (generated prelude).
+
+struct BodyMotion {
+    position: vec3<f32>,
+    velocity: vec3<f32>,
+    omega: vec3<f32>,
+}
+
+fn point_velocity(s: BodyMotion, p: vec3<f32>) -> vec3<f32> {
+    return s.velocity + cross(s.omega, p - s.position);
+}
+
+// Spring force (x) and stiffness (y) of one point at overlap `depth` carrying `share`.
+fn spring(p: PairParams, r_eff: f32, depth: f32, share: f32) -> vec2<f32> {
+    if p.model == MODEL_HERTZ {
+        let contact = sqrt(r_eff * max(depth, 0.0));
+        return vec2<f32>(share * 4.0 / 3.0 * p.stiffness * contact * depth,
+                         share * 2.0 * p.stiffness * contact);
+    }
+    return vec2<f32>(share * p.stiffness * depth, share * p.stiffness);
+}
+
+fn damping(p: PairParams, m_eff: f32, k: f32) -> f32 {
+    return p.damping_factor * sqrt(m_eff * max(k, 0.0));
+}
+
+fn tangential_stiffness(p: PairParams, r_eff: f32, depth: f32, share_total: f32) -> f32 {
+    if p.model == MODEL_HERTZ {
+        return share_total * 8.0 * p.shear * sqrt(r_eff * max(depth, 0.0));
+    }
+    return LINEAR_TANGENTIAL_RATIO * p.stiffness;
+}
+
+struct Tangential {
+    force: vec3<f32>,
+    spring: vec3<f32>,
+}
+
+fn tangential_law(p: PairParams, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_force: f32,
+                  eta_n: f32, history: vec3<f32>, dt: f32) -> Tangential {
+    let vt = vrel - n * dot(vrel, n);
+    var xi = history;
+    let along = dot(xi, n);
+    if along != 0.0 {
+        let old_len2 = dot(xi, xi);
+        xi -= n * along;
+        let new_len2 = dot(xi, xi);
+        if new_len2 > 0.0 {
+            xi *= sqrt(old_len2 / new_len2);
+        }
+    }
+    xi += vt * dt;
+    var ft = -kt * xi - (TANGENTIAL_DAMPING_RATIO * eta_n) * vt;
+    let cap = p.friction * max(normal_force, 0.0);
+    let ft_len2 = dot(ft, ft);
+    if ft_len2 > cap * cap {
+        ft *= cap / sqrt(ft_len2);
+        xi = select(vec3<f32>(0.0), -ft / kt, kt > 0.0);
+    }
+    return Tangential(ft, xi);
+}
+
+struct LawResult {
+    force: ContactForce,
+    hist: vec4<f32>,
+}
+
+// One point: normal and tangential forces at `point`, overlap `depth` along the unit
+// normal `n` (from a to b). Twin of `point_contact_force` in law.rs.
+fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec3<f32>,
+                       point: vec3<f32>, depth: f32, a: BodyMotion, b: BodyMotion,
+                       history: vec3<f32>, dt: f32) -> LawResult {
+    let vrel = point_velocity(b, point) - point_velocity(a, point);
+    let sk = spring(p, r_eff, depth, share);
+    let eta = damping(p, m_eff, sk.y);
+    let fn_ = sk.x - eta * dot(vrel, n);
+    let kt = tangential_stiffness(p, r_eff, depth, share);
+    let t = tangential_law(p, kt, n, vrel, fn_, eta, history, dt);
+    let f = n * fn_ + t.force;
+    var out = ContactForce();
+    out.force_b = f;
+    out.normal_force = fn_;
+    out.torque_a = cross(f, point - a.position);
+    out.torque_b = cross(point - b.position, f);
+    return LawResult(out, vec4<f32>(t.spring, 0.0));
+}
+
+// A whole manifold; springs in `hist_in` (xyz tangential, w twist). Twin of
+// `contact_force` in law.rs.
+fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold, a: BodyMotion,
+                 b: BodyMotion, hist_in: vec4<f32>, dt: f32) -> LawResult {
+    let n = m.normal;
+    if m.count == 1u {
+        return point_contact_force(p, m_eff, r_eff, share, n, m.points[0].xyz, m.points[0].w, a,
+                                   b, hist_in.xyz, dt);
+    }
+    let count = m.count;
+    let inv_count = 1.0 / f32(count);
+    var springs: array<vec2<f32>, 4>;
+    var k_total = 0.0;
+    var centroid = vec3<f32>(0.0);
+    var mean_depth = 0.0;
+    for (var k = 0u; k < count; k++) {
+        springs[k] = spring(p, r_eff, m.points[k].w, share);
+        k_total += springs[k].y;
+        centroid += m.points[k].xyz;
+        mean_depth += m.points[k].w;
+    }
+    centroid *= inv_count;
+    mean_depth *= inv_count;
+    let eta_total = damping(p, m_eff, k_total);
+    var force_b = vec3<f32>(0.0);
+    var torque_a = vec3<f32>(0.0);
+    var torque_b = vec3<f32>(0.0);
+    var normal_force = 0.0;
+    for (var k = 0u; k < count; k++) {
+        let cp = m.points[k].xyz;
+        let vrel = point_velocity(b, cp) - point_velocity(a, cp);
+        let eta = select(0.0, eta_total * springs[k].y / k_total, k_total > 0.0);
+        let fn_i = springs[k].x - eta * dot(vrel, n);
+        let f = n * fn_i;
+        force_b += f;
+        torque_b += cross(cp - b.position, f);
+        torque_a += cross(f, cp - a.position);
+        normal_force += fn_i;
+    }
+    let share_total = share * f32(count);
+    let kt = tangential_stiffness(p, r_eff, mean_depth, share_total);
+    let vrel = point_velocity(b, centroid) - point_velocity(a, centroid);
+    let t = tangential_law(p, kt, n, vrel, normal_force, eta_total, hist_in.xyz, dt);
+    force_b += t.force;
+    torque_b += cross(centroid - b.position, t.force);
+    torque_a += cross(t.force, centroid - a.position);
+    var r_patch = 0.0;
+    for (var k = 0u; k < count; k++) {
+        let d = m.points[k].xyz - centroid;
+        r_patch += length(d - n * dot(d, n));
+    }
+    r_patch *= inv_count;
+    var twist = 0.0;
+    if r_patch > 0.0 {
+        let w_n = dot(b.omega - a.omega, n);
+        let r2 = r_patch * r_patch;
+        let k_tw = kt * r2;
+        let eta_tw = TANGENTIAL_DAMPING_RATIO * eta_total * r2;
+        twist = hist_in.w + w_n * dt;
+        var tau = -k_tw * twist - eta_tw * w_n;
+        let cap = p.friction * max(normal_force, 0.0) * r_patch;
+        if abs(tau) > cap {
+            tau = select(-cap, cap, tau >= 0.0);
+            twist = select(0.0, -tau / k_tw, k_tw > 0.0);
+        }
+        torque_b += n * tau;
+        torque_a -= n * tau;
+    }
+    var out = ContactForce();
+    out.force_b = force_b;
+    out.normal_force = normal_force;
+    out.torque_a = torque_a;
+    out.torque_b = torque_b;
+    return LawResult(out, vec4<f32>(t.spring, twist));
+}
+

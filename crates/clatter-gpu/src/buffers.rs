@@ -1,0 +1,351 @@
+//! The simulation's GPU buffers, listed once in [`BUFFERS`]: the bind group layout, the bind
+//! group, the WGSL `@binding` lines ([`wgsl_bindings`]), the allocation sizes and what
+//! [`Buffers::grow`] reallocates all come from this one table. Binding `k` of group 0 is
+//! `BUFFERS[k]`, and [`Buf`] names it.
+
+use std::ops::Index;
+
+use wgpu::util::DeviceExt;
+
+/// How shaders access a buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Access {
+    /// `var<uniform>`.
+    Uniform,
+    /// `var<storage, read>`.
+    Read,
+    /// `var<storage, read_write>`.
+    ReadWrite,
+}
+
+/// What a buffer's length is counted in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Count {
+    /// One element.
+    One,
+    /// Status words.
+    StatusWords,
+    /// Bodies.
+    Bodies,
+    /// Bodies plus one (prefix sums).
+    BodiesPlusOne,
+    /// Grid cells plus one.
+    CellsPlusOne,
+    /// Pair-list capacity (grown on overflow).
+    Pairs,
+    /// Materials squared.
+    MaterialPairs,
+    /// Walls.
+    Walls,
+    /// Bodies times walls.
+    WallSlots,
+}
+
+/// One group-0 binding.
+#[derive(Debug, Clone, Copy)]
+pub struct Binding {
+    /// The WGSL variable.
+    pub name: &'static str,
+    /// How shaders use it.
+    pub access: Access,
+    /// The WGSL type of the variable.
+    pub wgsl: &'static str,
+    /// Bytes per element.
+    pub element: u64,
+    /// Number of elements.
+    pub count: Count,
+    /// Whether [`Buffers::grow`] copies the old contents into the larger buffer.
+    pub keep_on_grow: bool,
+}
+
+/// The sizes buffer lengths are counted in.
+#[derive(Debug, Clone, Copy)]
+pub struct Dims {
+    /// Bodies.
+    pub bodies: u64,
+    /// Grid cells at most.
+    pub cells: u64,
+    /// Pair-list capacity.
+    pub pairs: u64,
+    /// Materials.
+    pub materials: u64,
+    /// Walls.
+    pub walls: u64,
+}
+
+impl Binding {
+    /// Bytes the buffer needs for `d` (at least 64: room for one element of any struct).
+    pub fn size(&self, d: &Dims) -> u64 {
+        let n = match self.count {
+            Count::One => 1,
+            Count::StatusWords => crate::layout::status::LEN as u64,
+            Count::Bodies => d.bodies,
+            Count::BodiesPlusOne => d.bodies + 1,
+            Count::CellsPlusOne => d.cells + 1,
+            Count::Pairs => d.pairs,
+            Count::MaterialPairs => d.materials * d.materials,
+            Count::Walls => d.walls,
+            Count::WallSlots => d.bodies * d.walls,
+        };
+        (n * self.element).max(64)
+    }
+}
+
+macro_rules! buffers {
+    ($($(#[$doc:meta])* $var:ident = $name:literal, $access:ident, $wgsl:literal, $elem:expr, $count:ident $(, $keep:ident)?;)*) => {
+        /// A group-0 buffer, by binding index.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Buf {
+            $($(#[$doc])* $var,)*
+        }
+
+        /// Every [`Buf`], in binding order.
+        const ALL: &[Buf] = &[$(Buf::$var,)*];
+
+        /// Every group-0 buffer, in binding order.
+        pub const BUFFERS: &[Binding] = &[$(
+            Binding {
+                name: $name,
+                access: Access::$access,
+                wgsl: $wgsl,
+                element: $elem as u64,
+                count: Count::$count,
+                keep_on_grow: buffers!(@keep $($keep)?),
+            },
+        )*];
+    };
+    (@keep keep) => { true };
+    (@keep) => { false };
+}
+
+use clatter::contract::{BodyConsts, BodyState, ContactForce, PairParams, WallRecord};
+use std::mem::size_of;
+
+buffers! {
+    /// The step's uniform parameters.
+    Params = "params", Uniform, "Params", size_of::<crate::layout::Params>(), One;
+    /// Body state records.
+    Bodies = "bodies", ReadWrite, "array<BodyState>", size_of::<BodyState>(), Bodies;
+    /// Body constant records.
+    Statics = "statics", Read, "array<BodyConsts>", size_of::<BodyConsts>(), Bodies;
+    /// The contact law's parameters per material pair.
+    PairTable = "pair_table", Read, "array<PairParams>", size_of::<PairParams>(), MaterialPairs;
+    /// Wall planes.
+    Walls = "walls", Read, "array<WallRecord>", size_of::<WallRecord>(), Walls;
+    /// Status words (`layout::status`).
+    Status = "status", ReadWrite, "array<atomic<u32>>", 4, StatusWords;
+    /// The grid of the last rebuild.
+    Grid = "grid", ReadWrite, "Grid", size_of::<crate::layout::Grid>(), One;
+    /// Cell key per body.
+    Keys = "keys", ReadWrite, "array<u32>", 4, Bodies;
+    /// Bodies in cell order.
+    Sorted = "sorted", ReadWrite, "array<u32>", 4, Bodies;
+    /// Bodies per cell.
+    CellCount = "cell_count", ReadWrite, "array<atomic<u32>>", 4, CellsPlusOne;
+    /// First body of each cell in `sorted`.
+    CellStart = "cell_start", ReadWrite, "array<u32>", 4, CellsPlusOne;
+    /// Positions at the last rebuild.
+    RebuildPos = "rebuild_pos", ReadWrite, "array<vec4<f32>>", 16, Bodies;
+    /// The new pair list's per-body offsets (during a rebuild).
+    NewAStart = "new_a_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
+    /// Body `i` is side a of pairs `a_start[i]..a_start[i + 1]`.
+    AStart = "a_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
+    /// The new pair list (during a rebuild).
+    NewPairs = "new_pairs", ReadWrite, "array<vec2<u32>>", 8, Pairs;
+    /// Candidate pairs `(i, j)`, `i < j`, sorted.
+    Pairs = "pairs", ReadWrite, "array<vec2<u32>>", 8, Pairs, keep;
+    /// The new list's springs (during a rebuild).
+    NewHist = "new_hist", ReadWrite, "array<vec4<f32>>", 16, Pairs;
+    /// Springs per pair: xyz tangential, w twist.
+    Hist = "hist", ReadWrite, "array<vec4<f32>>", 16, Pairs, keep;
+    /// Per pair: 1 touching, 0 not, 2 + axis: apart along that separating axis.
+    Touching = "touching", ReadWrite, "array<u32>", 4, Pairs;
+    /// The last step's force per pair.
+    Forces = "forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), Pairs;
+    /// Pairs per body as side b.
+    BCount = "b_count", ReadWrite, "array<atomic<u32>>", 4, BodiesPlusOne;
+    /// Body `i` is side b of pairs `b_adj[b_start[i]..b_start[i + 1]]`.
+    BStart = "b_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
+    /// Pair indices by side-b body.
+    BAdj = "b_adj", ReadWrite, "array<u32>", 4, Pairs;
+    /// Springs per body and wall (`body * walls + wall`).
+    WallHist = "wall_hist", ReadWrite, "array<vec4<f32>>", 16, WallSlots;
+    /// The last step's force per body and wall.
+    WallForces = "wall_forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), WallSlots;
+    /// Whether each body touched each wall in the last step.
+    WallTouching = "wall_touching", ReadWrite, "array<u32>", 4, WallSlots;
+}
+
+/// The `@binding` declarations of group 0.
+pub fn wgsl_bindings() -> String {
+    BUFFERS
+        .iter()
+        .enumerate()
+        .map(|(k, b)| {
+            let var = match b.access {
+                Access::Uniform => "var<uniform>",
+                Access::Read => "var<storage, read>",
+                Access::ReadWrite => "var<storage, read_write>",
+            };
+            format!("@group(0) @binding({k}) {var} {}: {};\n", b.name, b.wgsl)
+        })
+        .collect()
+}
+
+/// The bind group layout entries of group 0.
+pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    BUFFERS
+        .iter()
+        .enumerate()
+        .map(|(k, b)| wgpu::BindGroupLayoutEntry {
+            binding: k as u32,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: match b.access {
+                    Access::Uniform => wgpu::BufferBindingType::Uniform,
+                    Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
+                    Access::ReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+                },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        })
+        .collect()
+}
+
+/// The group-0 buffers of one world.
+pub struct Buffers {
+    list: Vec<wgpu::Buffer>,
+}
+
+impl Index<Buf> for Buffers {
+    type Output = wgpu::Buffer;
+    fn index(&self, b: Buf) -> &wgpu::Buffer {
+        &self.list[b as usize]
+    }
+}
+
+fn usage(b: &Binding) -> wgpu::BufferUsages {
+    match b.access {
+        Access::Uniform => wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        _ => {
+            wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST
+        }
+    }
+}
+
+impl Buffers {
+    /// Allocates every buffer for `dims`; `init(buf)` gives a buffer's initial bytes (zeroed
+    /// where it returns `None`; padded to the table's size).
+    pub fn new(
+        device: &wgpu::Device,
+        dims: &Dims,
+        mut init: impl FnMut(Buf) -> Option<Vec<u8>>,
+    ) -> Buffers {
+        let list = BUFFERS
+            .iter()
+            .enumerate()
+            .map(|(k, b)| {
+                let size = b.size(dims);
+                match init(buf_at(k)) {
+                    Some(mut bytes) => {
+                        if (bytes.len() as u64) < size {
+                            bytes.resize(size as usize, 0);
+                        }
+                        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some(b.name),
+                            contents: &bytes,
+                            usage: usage(b),
+                        })
+                    }
+                    None => device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some(b.name),
+                        size,
+                        usage: usage(b),
+                        mapped_at_creation: false,
+                    }),
+                }
+            })
+            .collect();
+        Buffers { list }
+    }
+
+    /// Reallocates the pair-sized buffers for `dims` (a larger pair capacity), copying the
+    /// contents of those marked `keep_on_grow` in `encoder`.
+    pub fn grow(&mut self, device: &wgpu::Device, dims: &Dims, encoder: &mut wgpu::CommandEncoder) {
+        for (k, b) in BUFFERS.iter().enumerate() {
+            if b.count != Count::Pairs {
+                continue;
+            }
+            let new = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(b.name),
+                size: b.size(dims),
+                usage: usage(b),
+                mapped_at_creation: false,
+            });
+            if b.keep_on_grow {
+                let old = &self.list[k];
+                encoder.copy_buffer_to_buffer(old, 0, &new, 0, old.size());
+            }
+            self.list[k] = new;
+        }
+    }
+
+    /// The group-0 bind group over every buffer.
+    pub fn bind_group(
+        &self,
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+    ) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = self
+            .list
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("simulation"),
+            layout,
+            entries: &entries,
+        })
+    }
+
+    /// A buffer by its WGSL name (for tests and debugging).
+    pub fn by_name(&self, name: &str) -> Option<&wgpu::Buffer> {
+        BUFFERS
+            .iter()
+            .position(|b| b.name == name)
+            .map(|k| &self.list[k])
+    }
+}
+
+/// The [`Buf`] of binding `k`.
+fn buf_at(k: usize) -> Buf {
+    ALL[k]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_table_and_the_names_agree() {
+        assert_eq!(ALL.len(), BUFFERS.len());
+        for (k, b) in ALL.iter().enumerate() {
+            assert_eq!(*b as usize, k);
+        }
+        let wgsl = wgsl_bindings();
+        assert!(
+            wgsl.contains(
+                "@group(0) @binding(15) var<storage, read_write> pairs: array<vec2<u32>>;"
+            )
+        );
+        assert!(wgsl.contains("@group(0) @binding(0) var<uniform> params: Params;"));
+    }
+}

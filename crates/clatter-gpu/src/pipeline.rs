@@ -1,0 +1,251 @@
+//! Compiled kernels and the dispatch list of a step. The stages (`crate::stages`) say which
+//! kernels run in which order as a list of [`Dispatch`]es; this module compiles the kernels
+//! once per device and records a list into a compute pass.
+
+use crate::layout::wgsl_prelude;
+use crate::shapes::GpuShapes;
+use crate::{GpuContext, GpuError};
+
+pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
+pub(crate) const STATUS: &str = include_str!("../shaders/status.wgsl");
+pub(crate) const ARGS: &str = include_str!("../shaders/args.wgsl");
+pub(crate) const NARROW: &str = include_str!("../shaders/narrow.wgsl");
+pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/narrow_spheres.wgsl");
+pub(crate) const BIN: &str = include_str!("../shaders/bin.wgsl");
+pub(crate) const SCAN: &str = include_str!("../shaders/scan.wgsl");
+pub(crate) const SORT: &str = include_str!("../shaders/sort.wgsl");
+pub(crate) const PAIRS: &str = include_str!("../shaders/pairs.wgsl");
+pub(crate) const LAW: &str = include_str!("../shaders/law.wgsl");
+pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts.wgsl");
+pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts_split.wgsl");
+pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
+
+/// Every simulation shader file, for the test that no file retypes a generated declaration.
+#[cfg(test)]
+pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
+    ("common.wgsl", COMMON),
+    ("status.wgsl", STATUS),
+    ("args.wgsl", ARGS),
+    ("narrow.wgsl", NARROW),
+    ("narrow_spheres.wgsl", NARROW_SPHERES),
+    ("bin.wgsl", BIN),
+    ("scan.wgsl", SCAN),
+    ("sort.wgsl", SORT),
+    ("pairs.wgsl", PAIRS),
+    ("law.wgsl", LAW),
+    ("contacts.wgsl", CONTACTS),
+    ("contacts_split.wgsl", CONTACTS_SPLIT),
+    ("integrate.wgsl", INTEGRATE),
+];
+
+/// A kernel's source: the generated prelude, the shared helpers, then `parts`.
+pub(crate) fn source(parts: &[&str]) -> String {
+    let mut s = wgsl_prelude();
+    s.push_str(COMMON);
+    s.push_str(STATUS);
+    for p in parts {
+        s.push_str(p);
+    }
+    s
+}
+
+/// The bind group a kernel uses besides group 0 (simulation) and 1 (shapes).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Group2 {
+    None,
+    /// The indirect arguments (kernels that size later dispatches).
+    Args,
+    /// A scan level (data, sums).
+    Scan,
+}
+
+/// How a kernel is dispatched.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Size {
+    /// One workgroup of one thread.
+    Single,
+    /// Indirect, from an argument slot.
+    Indirect(u32),
+}
+
+/// Which compiled set a kernel is in.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum KernelSet {
+    /// The kernels every world uses (broad phase, bookkeeping).
+    Base,
+    /// This world's contact and integrate kernels (sphere-only or general).
+    Contacts,
+}
+
+/// One dispatch of a step.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Dispatch {
+    pub set: KernelSet,
+    /// Index of the pipeline in its set.
+    pub pipeline: usize,
+    pub size: Size,
+    /// The scan level's bind group (index into the world's scan groups), for `Group2::Scan`.
+    pub scan_level: usize,
+}
+
+/// A kernel to compile: module name, entry point, its group 2.
+pub(crate) type KernelSpec = (&'static str, &'static str, Group2);
+
+/// Compiled pipelines, by entry-point name.
+pub(crate) struct Kernels {
+    pub pipelines: Vec<wgpu::ComputePipeline>,
+    pub group2: Vec<Group2>,
+    pub names: Vec<&'static str>,
+}
+
+impl Kernels {
+    pub fn index(&self, name: &str) -> usize {
+        self.names
+            .iter()
+            .position(|n| *n == name)
+            .unwrap_or_else(|| panic!("kernel {name} is not built"))
+    }
+}
+
+/// The layouts and the base kernels, shared by every world on a device; the contact kernels
+/// are compiled on first use (sphere-only scenes skip the large polyhedron narrow phase).
+pub(crate) struct Compiled {
+    pub layouts: [wgpu::BindGroupLayout; 3],
+    pub base: Kernels,
+    pub spheres: std::sync::OnceLock<Result<Kernels, GpuError>>,
+    pub general: std::sync::OnceLock<Result<Kernels, GpuError>>,
+}
+
+impl Compiled {
+    /// The device's compiled pipelines, built on first use.
+    pub fn get(ctx: &GpuContext) -> Result<std::sync::Arc<Compiled>, GpuError> {
+        let mut slot = ctx.pipelines.lock().map_err(|_| GpuError::Runtime {
+            adapter: ctx.adapter_name(),
+            message: "pipeline cache poisoned".into(),
+        })?;
+        if let Some(c) = slot
+            .as_ref()
+            .and_then(|a| a.clone().downcast::<Compiled>().ok())
+        {
+            return Ok(c);
+        }
+        let device = &ctx.device;
+        let storage = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: false },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layouts = [
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("simulation"),
+                entries: &crate::buffers::layout_entries(),
+            }),
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("shapes"),
+                entries: &GpuShapes::layout_entries(wgpu::ShaderStages::COMPUTE),
+            }),
+            // Group 2 of the scans (data, sums) and of the argument writers (args, template).
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("scan or args"),
+                entries: &[storage(0), storage(1)],
+            }),
+        ];
+        let (modules, kernels) = crate::stages::base_kernels();
+        let base = compile(ctx, &layouts, &modules, &kernels)?;
+        let c = std::sync::Arc::new(Compiled {
+            layouts,
+            base,
+            spheres: std::sync::OnceLock::new(),
+            general: std::sync::OnceLock::new(),
+        });
+        *slot = Some(c.clone());
+        Ok(c)
+    }
+
+    /// The contact kernels for sphere-only scenes or for any scene, compiled on first use.
+    pub fn contacts(&self, ctx: &GpuContext, spheres_only: bool) -> Result<&Kernels, GpuError> {
+        let cell = if spheres_only {
+            &self.spheres
+        } else {
+            &self.general
+        };
+        cell.get_or_init(|| {
+            let (modules, kernels) = crate::stages::contact_kernels(spheres_only);
+            compile(ctx, &self.layouts, &modules, &kernels)
+        })
+        .as_ref()
+        .map_err(|e| e.clone())
+    }
+}
+
+/// Compiles `kernels` from `modules` (name, source).
+pub(crate) fn compile(
+    ctx: &GpuContext,
+    layouts: &[wgpu::BindGroupLayout; 3],
+    modules: &[(&str, String)],
+    kernels: &[KernelSpec],
+) -> Result<Kernels, GpuError> {
+    let device = &ctx.device;
+    let base = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("base"),
+        bind_group_layouts: &[Some(&layouts[0]), Some(&layouts[1])],
+        immediate_size: 0,
+    });
+    let with_g2 = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("with group 2"),
+        bind_group_layouts: &[Some(&layouts[0]), Some(&layouts[1]), Some(&layouts[2])],
+        immediate_size: 0,
+    });
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let compiled: Vec<(&str, wgpu::ShaderModule)> = modules
+        .iter()
+        .map(|(name, src)| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(name),
+                source: wgpu::ShaderSource::Wgsl(src.as_str().into()),
+            });
+            (*name, module)
+        })
+        .collect();
+    let mut out = Kernels {
+        pipelines: Vec::new(),
+        group2: Vec::new(),
+        names: Vec::new(),
+    };
+    for &(module, entry_point, group2) in kernels {
+        let m = &compiled
+            .iter()
+            .find(|(n, _)| *n == module)
+            .expect("module listed")
+            .1;
+        let layout = if group2 == Group2::None {
+            &base
+        } else {
+            &with_g2
+        };
+        out.pipelines.push(
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry_point),
+                layout: Some(layout),
+                module: m,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            }),
+        );
+        out.group2.push(group2);
+        out.names.push(entry_point);
+    }
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Runtime {
+            adapter: ctx.adapter_name(),
+            message: format!("shader compilation failed: {e}"),
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,40 @@
+//! Stage 2, **contacts**: narrow phase and contact law per candidate pair. Sphere-only scenes
+//! run one pass (`contacts`); scenes with polyhedra run two (contacts_split.wgsl):
+//! `contacts_sat` proves most pairs apart cheaply and lists the rest, `contacts_full` runs the
+//! full narrow phase and the law on that list only.
+
+use super::Recorder;
+use crate::layout::arg;
+use crate::pipeline::{self, Group2, KernelSpec, Size};
+
+/// The contact kernels' source (with integrate.wgsl, which computes the wall contacts) and
+/// entry points.
+pub(crate) fn kernels(spheres_only: bool) -> (String, Vec<KernelSpec>) {
+    use pipeline::{ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES};
+    if spheres_only {
+        (
+            pipeline::source(&[NARROW_SPHERES, LAW, CONTACTS, INTEGRATE]),
+            vec![("contacts", "contacts", Group2::None)],
+        )
+    } else {
+        (
+            pipeline::source(&[ARGS, NARROW, LAW, CONTACTS, CONTACTS_SPLIT, INTEGRATE]),
+            vec![
+                ("contacts", "contacts_sat", Group2::None),
+                ("contacts", "contacts_size", Group2::Args),
+                ("contacts", "contacts_full", Group2::None),
+            ],
+        )
+    }
+}
+
+/// Records the stage.
+pub(crate) fn record(r: &mut Recorder<'_>, spheres_only: bool) {
+    if spheres_only {
+        r.contact("contacts", Size::Indirect(arg::PAIRS));
+    } else {
+        r.contact("contacts_sat", Size::Indirect(arg::PAIRS));
+        r.contact("contacts_size", Size::Single);
+        r.contact("contacts_full", Size::Indirect(arg::WORK));
+    }
+}
