@@ -8,6 +8,7 @@
 pub mod bandwidth;
 pub mod buffers;
 pub mod context;
+pub mod law;
 pub mod layout;
 pub mod narrow;
 pub(crate) mod pipeline;

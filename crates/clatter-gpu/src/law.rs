@@ -1,0 +1,214 @@
+//! The contact law on the GPU (`shaders/law.wgsl`) applied to a batch of contact states, so
+//! that tests can hold it against its twin, `clatter::law`, on thousands of random contacts.
+
+use clatter::contract::{ContactForce, PairParams};
+use clatter::law::BodyMotion;
+use clatter_geom::narrow::Manifold;
+use glam::Vec3;
+use wgpu::util::DeviceExt;
+
+use crate::{GpuContext, GpuError};
+
+clatter::gpu_record! {
+    /// One contact state (`LawQuery` in law_batch.wgsl).
+    pub struct LawQueryRecord {
+        pub params_model: u32,
+        pub params_stiffness: f32,
+        pub params_shear: f32,
+        pub params_damping_factor: f32,
+        pub params_friction: f32,
+        pub params_restitution: f32,
+        pub params_pad0: f32,
+        pub params_pad1: f32,
+        pub normal: Vec3,
+        pub count: u32,
+        pub p0: [f32; 4],
+        pub p1: [f32; 4],
+        pub p2: [f32; 4],
+        pub p3: [f32; 4],
+        pub a_position: [f32; 4],
+        pub a_velocity: [f32; 4],
+        pub a_omega: [f32; 4],
+        pub b_position: [f32; 4],
+        pub b_velocity: [f32; 4],
+        pub b_omega: [f32; 4],
+        pub hist: [f32; 4],
+        pub m_eff: f32,
+        pub r_eff: f32,
+        pub share: f32,
+        pub dt: f32,
+    }
+}
+
+clatter::gpu_record! {
+    /// The law's answer (`LawAnswer` in law_batch.wgsl): force and the new springs.
+    pub struct LawAnswerRecord {
+        pub force_b: Vec3,
+        pub normal_force: f32,
+        pub torque_a: Vec3,
+        pub pad0: f32,
+        pub torque_b: Vec3,
+        pub pad1: f32,
+        pub hist: [f32; 4],
+    }
+}
+
+/// One contact state: the arguments of `clatter::law::contact_force`.
+#[derive(Debug, Clone, Copy)]
+pub struct LawQuery {
+    pub params: PairParams,
+    pub m_eff: f32,
+    pub r_eff: f32,
+    pub share: f32,
+    pub manifold: Manifold,
+    pub a: BodyMotion,
+    pub b: BodyMotion,
+    /// Tangential spring.
+    pub history: Vec3,
+    /// Twisting spring.
+    pub twist: f32,
+    pub dt: f32,
+}
+
+fn v4(v: Vec3) -> [f32; 4] {
+    [v.x, v.y, v.z, 0.0]
+}
+
+impl LawQuery {
+    fn record(&self) -> LawQueryRecord {
+        let p = &self.params;
+        let m = &self.manifold;
+        let pt = |k: usize| {
+            let c = m.points[k];
+            [c.point.x, c.point.y, c.point.z, c.depth]
+        };
+        LawQueryRecord {
+            params_model: p.model,
+            params_stiffness: p.stiffness,
+            params_shear: p.shear,
+            params_damping_factor: p.damping_factor,
+            params_friction: p.friction,
+            params_restitution: p.restitution,
+            params_pad0: 0.0,
+            params_pad1: 0.0,
+            normal: m.normal,
+            count: m.count as u32,
+            p0: pt(0),
+            p1: pt(1),
+            p2: pt(2),
+            p3: pt(3),
+            a_position: v4(self.a.position),
+            a_velocity: v4(self.a.velocity),
+            a_omega: v4(self.a.omega),
+            b_position: v4(self.b.position),
+            b_velocity: v4(self.b.velocity),
+            b_omega: v4(self.b.omega),
+            hist: [self.history.x, self.history.y, self.history.z, self.twist],
+            m_eff: self.m_eff,
+            r_eff: self.r_eff,
+            share: self.share,
+            dt: self.dt,
+        }
+    }
+}
+
+/// Runs `shaders/law.wgsl`'s `contact_force` on every query: the force, and the new
+/// tangential spring (xyz) and twist (w).
+pub fn law_batch(
+    ctx: &GpuContext,
+    queries: &[LawQuery],
+) -> Result<Vec<(ContactForce, [f32; 4])>, GpuError> {
+    if queries.is_empty() {
+        return Ok(Vec::new());
+    }
+    let source = [
+        clatter::contract::wgsl_records(),
+        // The manifold as narrow.wgsl declares it (no shape bindings needed here).
+        "struct Manifold { normal: vec3<f32>, count: u32, points: array<vec4<f32>, 4> }\n".into(),
+        include_str!("../shaders/common.wgsl").into(),
+        include_str!("../shaders/law.wgsl").into(),
+        include_str!("../shaders/law_batch.wgsl").into(),
+    ]
+    .join("\n");
+    let device = &ctx.device;
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("law batch"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("law_batch"),
+        layout: None,
+        module: &module,
+        entry_point: Some("law_batch"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let records: Vec<LawQueryRecord> = queries.iter().map(LawQuery::record).collect();
+    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("law queries"),
+        contents: bytemuck::cast_slice(&records),
+        usage: wgpu::BufferUsages::STORAGE,
+    });
+    let out_size = (queries.len() * std::mem::size_of::<LawAnswerRecord>()) as u64;
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("law answers"),
+        size: out_size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("law batch"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: input.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: output.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((queries.len() as u32).div_ceil(64), 1, 1);
+    }
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(GpuError::Runtime {
+            adapter: ctx.adapter_name(),
+            message: format!("law batch: {e}"),
+        });
+    }
+    let bytes = crate::readback::read_buffers_after(ctx, encoder, &[(&output, 0, out_size)])?;
+    let answers: Vec<LawAnswerRecord> = bytemuck::pod_collect_to_vec(&bytes[0]);
+    Ok(answers
+        .iter()
+        .map(|a| {
+            (
+                ContactForce::new(a.force_b, a.torque_a, a.torque_b, a.normal_force),
+                a.hist,
+            )
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_have_the_wgsl_layout() {
+        use clatter::contract::layout_mismatch;
+        assert_eq!(layout_mismatch::<LawQueryRecord>(), None);
+        assert_eq!(layout_mismatch::<LawAnswerRecord>(), None);
+        assert_eq!(
+            std::mem::size_of::<LawQueryRecord>(),
+            std::mem::size_of::<PairParams>() + 16 + 4 * 16 + 7 * 16 + 16
+        );
+    }
+}
