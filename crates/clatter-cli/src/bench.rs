@@ -1,4 +1,4 @@
-//! `clatter bench`: the seed's table (bodies vs steps/s) on a settled pile, with `--render` the
+//! `clatter bench`: steps/s against the number of bodies on a settled pile, with `--render` the
 //! frames/s of a step plus an offscreen 1280x720 frame, and the LAMMPS input for the same
 //! sphere pile (`scripts/bench-lammps.sh` runs both and prints the ratio).
 

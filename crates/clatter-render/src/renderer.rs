@@ -123,7 +123,7 @@ impl FromStr for ColorMode {
 pub struct Style {
     /// How bodies are coloured.
     pub color: ColorMode,
-    /// Draw only the bodies that touch something now (the seed's figure 6).
+    /// Draw only the bodies that touch something now (the force network of a pile).
     pub only_contacts: bool,
     /// The speed at the red end of the speed ramp, m/s; `None`: the fastest body's speed at
     /// the last [`Renderer::update`] (1 m/s on the GPU path without an update).

@@ -12,7 +12,7 @@
 /// The normal contact law of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ContactLaw {
-    /// Linear spring-dashpot: normal force `k * overlap` plus damping (the seed's model).
+    /// Linear spring-dashpot: normal force `k * overlap` plus damping.
     Linear {
         /// Normal stiffness, N/m.
         stiffness: f32,

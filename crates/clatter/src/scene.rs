@@ -84,7 +84,7 @@ impl Scene {
 
     /// Parses and validates scene text; `file` names it in errors.
     pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
-        let cx = Cx { file, text };
+        let cx = SourceFile { file, text };
         let raw: RawScene = toml::from_str(text).map_err(|e| SceneError {
             file: file.to_string(),
             line: e.span().map(|s| cx.line_col(s.start)),
@@ -119,12 +119,13 @@ impl Scene {
     }
 }
 
-struct Cx<'a> {
+/// The scene file being read: its name and text, for error locations.
+struct SourceFile<'a> {
     file: &'a str,
     text: &'a str,
 }
 
-impl Cx<'_> {
+impl SourceFile<'_> {
     fn line_col(&self, offset: usize) -> (usize, usize) {
         let before = &self.text[..offset.min(self.text.len())];
         let line = before.matches('\n').count() + 1;
@@ -364,7 +365,7 @@ struct RawRandom {
 /// Most bodies a scene may create (keeps a typo from allocating the machine away).
 pub const MAX_BODIES: usize = 50_000_000;
 
-fn build(cx: &Cx, raw: RawScene) -> Result<Scene, SceneError> {
+fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     let mut warnings = Vec::new();
     // [simulation]
     let (length, dt, gravity, skin) = match &raw.simulation {
