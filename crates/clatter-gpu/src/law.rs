@@ -12,14 +12,7 @@ use crate::{GpuContext, GpuError};
 clatter::gpu_record! {
     /// One contact state (`LawQuery` in law_batch.wgsl).
     pub struct LawQueryRecord {
-        pub params_model: u32,
-        pub params_stiffness: f32,
-        pub params_shear: f32,
-        pub params_damping_factor: f32,
-        pub params_friction: f32,
-        pub params_restitution: f32,
-        pub params_pad0: f32,
-        pub params_pad1: f32,
+        pub params: PairParams,
         pub normal: Vec3,
         pub count: u32,
         pub p0: [f32; 4],
@@ -76,21 +69,13 @@ fn v4(v: Vec3) -> [f32; 4] {
 
 impl LawQuery {
     fn record(&self) -> LawQueryRecord {
-        let p = &self.params;
         let m = &self.manifold;
         let pt = |k: usize| {
             let c = m.points[k];
             [c.point.x, c.point.y, c.point.z, c.depth]
         };
         LawQueryRecord {
-            params_model: p.model,
-            params_stiffness: p.stiffness,
-            params_shear: p.shear,
-            params_damping_factor: p.damping_factor,
-            params_friction: p.friction,
-            params_restitution: p.restitution,
-            params_pad0: 0.0,
-            params_pad1: 0.0,
+            params: self.params,
             normal: m.normal,
             count: m.count as u32,
             p0: pt(0),

@@ -301,6 +301,12 @@ gpu_record! {
     }
 }
 
+impl WgslType for PairParams {
+    const WGSL: &'static str = "PairParams";
+    const ALIGN: usize = 4;
+    const SIZE: usize = std::mem::size_of::<PairParams>();
+}
+
 gpu_record! {
     /// What one contact does, 48 bytes: the force on side b (side a gets exactly its
     /// negative), the total normal force, and the torques on both sides about their centres
