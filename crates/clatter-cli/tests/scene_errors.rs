@@ -347,6 +347,49 @@ fn negative_friction() {
 }
 
 #[test]
+fn negative_rolling_friction() {
+    let text = edit("friction = 0.3", "friction = 0.3\nrolling_friction = -0.1");
+    check(
+        "neg-rolling-friction",
+        &text,
+        "rolling_friction",
+        &["material[0].rolling_friction", ">= 0"],
+    );
+}
+
+#[test]
+fn unknown_cohesion_model() {
+    let text = edit(
+        "friction = 0.3",
+        "friction = 0.3\ncohesion = { model = \"jkr\", surface_energy = 0.1 }",
+    );
+    check(
+        "cohesion-model",
+        &text,
+        "cohesion",
+        &[
+            "material[0].cohesion.model",
+            "unknown cohesion model `jkr`",
+            "dmt",
+        ],
+    );
+}
+
+#[test]
+fn missing_surface_energy() {
+    let text = edit(
+        "friction = 0.3",
+        "friction = 0.3\ncohesion = { model = \"dmt\" }",
+    );
+    check(
+        "cohesion-energy",
+        &text,
+        "cohesion",
+        &["material[0].cohesion.surface_energy", "missing"],
+    );
+}
+
+#[test]
 fn nan_position() {
     let text = edit("position = [0.0, 0.0, 0.1]", "position = [0.0, nan, 0.1]");
     check(

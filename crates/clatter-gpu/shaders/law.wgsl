@@ -84,7 +84,49 @@ fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec
     out.normal_force = fn_;
     out.torque_a = cross(f, point - a.position);
     out.torque_b = cross(point - b.position, f);
+    adhesion_and_rolling(p, m_eff, r_eff, n, point, a, b, fn_, dt, &out);
     return LawResult(out, vec4<f32>(t.spring, 0.0));
+}
+
+// The adhesive pull of a touching pair (DMT: 2 pi gamma R*), 0 without cohesion.
+fn adhesion(p: PairParams, r_eff: f32) -> f32 {
+    if p.cohesion_model == COHESION_DMT {
+        return 2.0 * 3.14159274101257324 * p.surface_energy * r_eff;
+    }
+    return 0.0;
+}
+
+// Rolling resistance, the torque on side b (law.rs `rolling_torque`).
+fn rolling_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyMotion,
+                  b: BodyMotion, normal_force: f32, dt: f32) -> vec3<f32> {
+    let w = b.omega - a.omega;
+    let w_roll = w - n * dot(w, n);
+    let limit = p.rolling_friction * r_eff * max(normal_force, 0.0);
+    let speed = length(w_roll);
+    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+    if limit > 0.0 && speed > 0.0 {
+        return -w_roll * (limit / max(speed, step_change));
+    }
+    return vec3<f32>(0.0);
+}
+
+// Adds adhesion (at `at`, along the normal) and rolling resistance to a contact's force.
+fn adhesion_and_rolling(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, at: vec3<f32>,
+                        a: BodyMotion, b: BodyMotion, normal_force: f32, dt: f32,
+                        out: ptr<function, ContactForce>) {
+    if p.cohesion_model != COHESION_NONE {
+        let pull = adhesion(p, r_eff);
+        let f = n * -pull;
+        (*out).force_b += f;
+        (*out).normal_force -= pull;
+        (*out).torque_b += cross(at - b.position, f);
+        (*out).torque_a += cross(f, at - a.position);
+    }
+    if p.rolling_friction > 0.0 {
+        let tau = rolling_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        (*out).torque_b += tau;
+        (*out).torque_a -= tau;
+    }
 }
 
 // A whole manifold; springs in `hist_in` (xyz tangential, w twist). Twin of
@@ -160,6 +202,7 @@ fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold,
     out.normal_force = normal_force;
     out.torque_a = torque_a;
     out.torque_b = torque_b;
+    adhesion_and_rolling(p, m_eff, r_eff, n, centroid, a, b, normal_force, dt, &out);
     return LawResult(out, vec4<f32>(t.spring, twist));
 }
 

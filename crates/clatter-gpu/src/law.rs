@@ -195,5 +195,10 @@ mod tests {
             std::mem::size_of::<LawQueryRecord>(),
             std::mem::size_of::<PairParams>() + 16 + 4 * 16 + 7 * 16 + 16
         );
+        assert_eq!(
+            std::mem::size_of::<PairParams>() % 16,
+            0,
+            "PairParams embeds at any 16-byte offset"
+        );
     }
 }

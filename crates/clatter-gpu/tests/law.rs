@@ -1,13 +1,14 @@
 //! The WGSL contact law (`shaders/law.wgsl`) against its Rust twin (`clatter::law`) on
 //! thousands of random contact states: linear and Hertz, one to four points, sphere and
-//! polyhedron shares, springs inside and beyond the Coulomb cap, spinning patches.
+//! polyhedron shares, springs inside and beyond the Coulomb cap, spinning patches, rolling
+//! friction and adhesion.
 //! Forces, torques and the new springs must agree to rounding (the GPU may fuse
 //! multiply-adds, and damping may nearly cancel a spring): within 1e-4 of the contact's
 //! force and torque scales.
 
 use clatter::PairParams;
 use clatter::law::{self, BodyMotion};
-use clatter::material::{ContactLaw, Material};
+use clatter::material::{Cohesion, ContactLaw, Material};
 use clatter_geom::narrow::{ContactPoint, Manifold};
 use clatter_gpu::law::{LawQuery, law_batch};
 use glam::Vec3;
@@ -50,6 +51,14 @@ fn params(rng: &mut ChaCha8Rng) -> PairParams {
         },
         restitution: rng.random_range(0.05..1.0),
         friction: rng.random_range(0.0..1.0),
+        rolling_friction: if rng.random_bool(0.5) {
+            rng.random_range(0.0..0.5)
+        } else {
+            0.0
+        },
+        cohesion: rng.random_bool(0.5).then(|| Cohesion::Dmt {
+            surface_energy: 10f32.powf(rng.random_range(-3.0..1.0)),
+        }),
     };
     let a = material(rng);
     let mut b = material(rng);
@@ -116,7 +125,7 @@ fn wgsl_law_matches_the_rust_law() {
     let queries: Vec<LawQuery> = (0..20_000).map(|_| query(&mut rng)).collect();
     let gpu = law_batch(&ctx, &queries).expect("law batch runs");
     assert_eq!(gpu.len(), queries.len());
-    let (mut capped, mut patches, mut worst) = (0, 0, 0.0f32);
+    let (mut capped, mut patches, mut rolling_or_sticky, mut worst) = (0, 0, 0, 0.0f32);
     for (k, (q, (g, g_hist))) in queries.iter().zip(&gpu).enumerate() {
         let (mut hist, mut twist) = (q.history, q.twist);
         let c = law::contact_force(
@@ -145,9 +154,20 @@ fn wgsl_law_matches_the_rust_law() {
             .force_b
             .length()
             .max(c.normal_force.abs())
-            .max(springs)
+            .max(springs + law::adhesion(&q.params, q.r_eff))
             .max(1e-30);
-        let t_scale = f_scale * lever + c.torque_a.length() + c.torque_b.length();
+        let rolling = law::rolling_torque(
+            &q.params,
+            q.m_eff,
+            q.r_eff,
+            q.manifold.normal,
+            &q.a,
+            &q.b,
+            f_scale,
+            q.dt,
+        );
+        let t_scale =
+            f_scale * lever + c.torque_a.length() + c.torque_b.length() + rolling.length();
         let h_scale = hist.length().max(q.history.length()).max(1e-30);
         let errs = [
             (g.force_b - c.force_b).length() / f_scale,
@@ -170,13 +190,16 @@ fn wgsl_law_matches_the_rust_law() {
         if q.manifold.count > 1 {
             patches += 1;
         }
+        if q.params.rolling_friction > 0.0 || q.params.cohesion_model != 0 {
+            rolling_or_sticky += 1;
+        }
     }
     eprintln!(
-        "law twins: {} contacts, {patches} patches, {capped} at the Coulomb cap, worst relative difference {worst:.2e}",
+        "law twins: {} contacts, {patches} patches, {capped} at the Coulomb cap, {rolling_or_sticky} with rolling friction or adhesion, worst relative difference {worst:.2e}",
         queries.len()
     );
     assert!(
-        patches > 10_000 && capped > 1_000,
+        patches > 10_000 && capped > 1_000 && rolling_or_sticky > 5_000,
         "the random states cover the law's branches"
     );
 }

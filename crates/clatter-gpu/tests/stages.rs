@@ -19,6 +19,8 @@ fn material(law: ContactLaw) -> Material {
         law,
         restitution: 0.4,
         friction: 0.5,
+        rolling_friction: 0.0,
+        cohesion: None,
     }
 }
 

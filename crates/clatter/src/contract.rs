@@ -176,6 +176,12 @@ pub const MODEL_LINEAR: u32 = 0;
 /// [`PairParams::model`]: Hertz normal law with Mindlin-type tangential stiffness.
 pub const MODEL_HERTZ: u32 = 1;
 
+/// [`PairParams::cohesion_model`]: no cohesion.
+pub const COHESION_NONE: u32 = 0;
+/// [`PairParams::cohesion_model`]: DMT adhesion, a constant pull `2 pi gamma R*` while the
+/// bodies overlap.
+pub const COHESION_DMT: u32 = 1;
+
 /// The contact law's constants as both backends see them.
 pub const LAW_CONSTANTS: &[Constant] = &[
     Constant::F32("LINEAR_TANGENTIAL_RATIO", LINEAR_TANGENTIAL_RATIO),
@@ -184,6 +190,8 @@ pub const LAW_CONSTANTS: &[Constant] = &[
     Constant::F32("POLYHEDRON_POINT_SHARE", POLYHEDRON_POINT_SHARE),
     Constant::U32("MODEL_LINEAR", MODEL_LINEAR),
     Constant::U32("MODEL_HERTZ", MODEL_HERTZ),
+    Constant::U32("COHESION_NONE", COHESION_NONE),
+    Constant::U32("COHESION_DMT", COHESION_DMT),
 ];
 
 // ---------------------------------------------------------------------------------------
@@ -294,10 +302,19 @@ gpu_record! {
         pub friction: f32,
         /// Combined restitution (the damping is derived from it).
         pub restitution: f32,
-        /// Unused.
+        /// Combined rolling friction coefficient `mu_r` (dimensionless): the constant
+        /// directional torque `mu_r R* Fn` against relative rolling (0: none).
+        pub rolling_friction: f32,
+        /// [`COHESION_NONE`] or [`COHESION_DMT`].
+        pub cohesion_model: u32,
+        /// Combined surface energy (work of adhesion) `gamma`, J/m^2 (DMT).
+        pub surface_energy: f32,
+        /// Unused (16-byte multiple).
         pub pad0: f32,
         /// Unused.
         pub pad1: f32,
+        /// Unused.
+        pub pad2: f32,
     }
 }
 

@@ -14,13 +14,18 @@
 //!   across steps, rotated into the current tangent plane, capped by Coulomb (`mu Fn`).
 //! - **Twisting**: patches of two or more points resist spin about the normal with the
 //!   tangential law times the patch radius squared, capped at `mu Fn r_patch`.
+//! - **Rolling resistance** ([`rolling_torque`]): a constant directional torque
+//!   `mu_r R* Fn` against the relative rolling velocity.
+//! - **Cohesion** ([`adhesion`]): DMT, a constant pull `2 pi gamma R*` while touching.
+//!   Friction and rolling resistance are capped by the spring-dashpot force alone.
 
 use glam::Vec3;
 
-pub use crate::contract::{ContactForce, PairParams};
 use crate::contract::{
-    LINEAR_TANGENTIAL_RATIO, MODEL_HERTZ, POLYHEDRON_POINT_SHARE, TANGENTIAL_DAMPING_RATIO,
+    COHESION_DMT, COHESION_NONE, LINEAR_TANGENTIAL_RATIO, MODEL_HERTZ, POLYHEDRON_POINT_SHARE,
+    TANGENTIAL_DAMPING_RATIO,
 };
+pub use crate::contract::{ContactForce, PairParams};
 use clatter_geom::narrow::Manifold;
 
 /// Rigid motion of one side of a contact (a wall has zero velocities).
@@ -137,12 +142,85 @@ pub fn point_contact_force(
     let kt = tangential_stiffness(p, r_eff, depth, share);
     let ft = tangential_law(p, kt, n, vrel, fn_, eta, history, dt);
     let f = n * fn_ + ft;
-    ContactForce::new(
+    let mut out = ContactForce::new(
         f,
         f.cross(point - a.position),
         (point - b.position).cross(f),
         fn_,
-    )
+    );
+    adhesion_and_rolling(p, m_eff, r_eff, n, point, a, b, fn_, dt, &mut out);
+    out
+}
+
+/// The adhesive pull of a touching pair (DMT: `2 pi gamma R*`, N), 0 without cohesion.
+#[inline(always)]
+pub fn adhesion(p: &PairParams, r_eff: f32) -> f32 {
+    if p.cohesion_model == COHESION_DMT {
+        2.0 * std::f32::consts::PI * p.surface_energy * r_eff
+    } else {
+        0.0
+    }
+}
+
+/// Rolling resistance, the torque on side b (side a gets its negative): the constant
+/// directional torque `-mu_r R* Fn w_r / |w_r|` against the relative rolling velocity `w_r`
+/// (the relative angular velocity less its part about the normal). Below the angular speed
+/// one step of the full torque would take away from a body of inertia `2/5 m* R*^2`, the
+/// torque shrinks in proportion, so a rolling body comes to rest instead of rocking.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn rolling_torque(
+    p: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    n: Vec3,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    normal_force: f32,
+    dt: f32,
+) -> Vec3 {
+    let w = b.omega - a.omega;
+    let w_roll = w - n * w.dot(n);
+    let limit = p.rolling_friction * r_eff * normal_force.max(0.0);
+    let speed = w_roll.length();
+    // One step of the full torque changes the rolling speed by this much.
+    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+    if limit > 0.0 && speed > 0.0 {
+        -w_roll * (limit / speed.max(step_change))
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// Adds adhesion (acting at `at`, along the normal) and rolling resistance to a contact's
+/// force; `normal_force` is the contact's spring-dashpot normal force (without adhesion).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn adhesion_and_rolling(
+    p: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    n: Vec3,
+    at: Vec3,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    normal_force: f32,
+    dt: f32,
+    out: &mut ContactForce,
+) {
+    if p.cohesion_model != COHESION_NONE {
+        let pull = adhesion(p, r_eff);
+        let f = n * -pull;
+        out.force_b += f;
+        out.normal_force -= pull;
+        out.torque_b += (at - b.position).cross(f);
+        out.torque_a += f.cross(at - a.position);
+    }
+    if p.rolling_friction > 0.0 {
+        let tau = rolling_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        out.torque_b += tau;
+        out.torque_a -= tau;
+    }
 }
 
 /// Computes the contact force of `manifold` between `a` and `b` and updates the tangential
@@ -233,6 +311,19 @@ pub fn contact_force(
     } else {
         *twist = 0.0;
     }
+    let normal_force = out.normal_force;
+    adhesion_and_rolling(
+        p,
+        m_eff,
+        r_eff,
+        n,
+        centroid,
+        a,
+        b,
+        normal_force,
+        dt,
+        &mut out,
+    );
     out
 }
 
@@ -281,6 +372,8 @@ mod tests {
             law,
             restitution: 0.5,
             friction: 0.3,
+            rolling_friction: 0.0,
+            cohesion: None,
         };
         PairParams::combine(&m, &m)
     }

@@ -29,5 +29,5 @@ pub use clatter_geom as geom;
 pub use contacts::{ContactSprings, ContactState, Contacts, Partner};
 pub use contract::{BodyConsts, BodyState, ContactForce, PairParams};
 pub use health::{BlowUp, Health};
-pub use material::{ContactLaw, Material, Materials};
+pub use material::{Cohesion, ContactLaw, Material, Materials};
 pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};

@@ -5,7 +5,8 @@
 //! - Hertz: the physical effective moduli `1/E* = (1-v1^2)/E1 + (1-v2^2)/E2` and
 //!   `1/G* = 2(2-v1)(1+v1)/E1 + 2(2-v2)(1+v2)/E2` (for one material these are what the
 //!   Hertz-Mindlin law uses for that material);
-//! - restitution and friction: geometric means `sqrt(e1 e2)`, `sqrt(mu1 mu2)`.
+//! - restitution, friction and rolling friction: geometric means (`sqrt(e1 e2)`, ...);
+//! - cohesion (DMT surface energy): geometric mean, none if either material has none.
 //!
 //! Linear and Hertz materials cannot be mixed in one scene (a scene error says so).
 
@@ -26,7 +27,19 @@ pub enum ContactLaw {
     },
 }
 
-/// A material: density, contact law, restitution and friction.
+/// Adhesion between touching bodies.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Cohesion {
+    /// Derjaguin-Muller-Toporov: a constant attractive normal force `2 pi gamma R*` while
+    /// the bodies overlap (`R*` the effective radius), so the force needed to pull a contact
+    /// apart is `2 pi gamma R*`.
+    Dmt {
+        /// Surface energy (work of adhesion) `gamma`, J/m^2.
+        surface_energy: f32,
+    },
+}
+
+/// A material: density, contact law, restitution, friction, rolling friction, cohesion.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Material {
     /// Name used by scene files.
@@ -39,10 +52,36 @@ pub struct Material {
     pub restitution: f32,
     /// Coulomb friction coefficient (>= 0) capping the tangential spring force.
     pub friction: f32,
+    /// Rolling friction coefficient `mu_r` (>= 0, dimensionless; 0: none).
+    pub rolling_friction: f32,
+    /// Adhesion, if any.
+    pub cohesion: Option<Cohesion>,
+}
+
+impl Material {
+    /// A material with the given law, restitution and friction, without rolling friction or
+    /// cohesion.
+    pub fn new(
+        name: impl Into<String>,
+        density: f32,
+        law: ContactLaw,
+        restitution: f32,
+        friction: f32,
+    ) -> Material {
+        Material {
+            name: name.into(),
+            density,
+            law,
+            restitution,
+            friction,
+            rolling_friction: 0.0,
+            cohesion: None,
+        }
+    }
 }
 
 pub use crate::contract::PairParams;
-use crate::contract::{MODEL_HERTZ, MODEL_LINEAR};
+use crate::contract::{COHESION_DMT, COHESION_NONE, MODEL_HERTZ, MODEL_LINEAR};
 
 impl PairParams {
     /// Whether the normal law is Hertz (else linear).
@@ -56,6 +95,16 @@ impl PairParams {
         let ln_e = (e as f64).ln();
         let base = 2.0 * (-ln_e) / (std::f64::consts::PI.powi(2) + ln_e * ln_e).sqrt();
         let friction = (a.friction * b.friction).sqrt();
+        let rolling_friction = (a.rolling_friction * b.rolling_friction).sqrt();
+        // Adhesion between two materials: the geometric mean of the surface energies (the
+        // Berthelot rule), none when either has none.
+        let (cohesion_model, surface_energy) = match (a.cohesion, b.cohesion) {
+            (
+                Some(Cohesion::Dmt { surface_energy: g1 }),
+                Some(Cohesion::Dmt { surface_energy: g2 }),
+            ) => (COHESION_DMT, (g1 * g2).sqrt()),
+            _ => (COHESION_NONE, 0.0),
+        };
         match (a.law, b.law) {
             (
                 ContactLaw::Hertz {
@@ -78,6 +127,9 @@ impl PairParams {
                     restitution: e,
                     damping_factor: (base * (5.0f64 / 6.0).sqrt()) as f32,
                     friction,
+                    rolling_friction,
+                    cohesion_model,
+                    surface_energy,
                     ..Default::default()
                 }
             }
@@ -94,6 +146,9 @@ impl PairParams {
                     restitution: e,
                     damping_factor: base as f32,
                     friction,
+                    rolling_friction,
+                    cohesion_model,
+                    surface_energy,
                     ..Default::default()
                 }
             }

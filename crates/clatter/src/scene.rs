@@ -12,7 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::material::{ContactLaw, Material};
+use crate::material::{Cohesion, ContactLaw, Material};
 use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
 use crate::world::{BodyInit, Wall, World, WorldDesc};
 use clatter_geom::narrow::Plane;
@@ -285,6 +285,15 @@ struct RawMaterial {
     poisson_ratio: Option<Spanned<f64>>,
     restitution: Option<Spanned<f64>>,
     friction: Option<Spanned<f64>>,
+    rolling_friction: Option<Spanned<f64>>,
+    cohesion: Option<Spanned<RawCohesion>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCohesion {
+    model: Spanned<String>,
+    surface_energy: Option<Spanned<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -519,12 +528,45 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             Some(mu) => cx.non_negative(mu, &f("friction"))? as f32,
             None => 0.3,
         };
+        let rolling_friction = match &r.rolling_friction {
+            Some(mu) => cx.non_negative(mu, &f("rolling_friction"))? as f32,
+            None => 0.0,
+        };
+        let cohesion = match &r.cohesion {
+            None => None,
+            Some(c) => {
+                let c = c.get_ref();
+                match c.model.get_ref().as_str() {
+                    "dmt" => {
+                        let Some(g) = &c.surface_energy else {
+                            return cx.err(
+                                c.model.span(),
+                                f("cohesion.surface_energy"),
+                                "missing field `surface_energy` (J/m^2) for model = \"dmt\"",
+                            );
+                        };
+                        Some(Cohesion::Dmt {
+                            surface_energy: cx.positive(g, &f("cohesion.surface_energy"))? as f32,
+                        })
+                    }
+                    other => {
+                        return cx.err(
+                            c.model.span(),
+                            f("cohesion.model"),
+                            format!("unknown cohesion model `{other}` (expected \"dmt\")"),
+                        );
+                    }
+                }
+            }
+        };
         materials.push(Material {
             name: r.name.get_ref().clone(),
             density,
             law,
             restitution,
             friction,
+            rolling_friction,
+            cohesion,
         });
     }
     if let (Some(a), Some(b)) = (

@@ -196,6 +196,8 @@ fn mixed_cloud(n: usize, seed: u64) -> WorldDesc {
             law: ContactLaw::Linear { stiffness: 2.0e4 },
             restitution: 0.3,
             friction: 0.5,
+            rolling_friction: 0.0,
+            cohesion: None,
         }],
         walls: vec![],
         bodies,

@@ -33,6 +33,8 @@ fn material(e: f32, mu: f32) -> Material {
         law: ContactLaw::Linear { stiffness: K },
         restitution: e,
         friction: mu,
+        rolling_friction: 0.0,
+        cohesion: None,
     }
 }
 

@@ -15,6 +15,8 @@ fn linear(k: f32, e: f32, mu: f32) -> Material {
         law: ContactLaw::Linear { stiffness: k },
         restitution: e,
         friction: mu,
+        rolling_friction: 0.0,
+        cohesion: None,
     }
 }
 
@@ -28,6 +30,8 @@ fn hertz(youngs: f32, poisson: f32, e: f32, mu: f32) -> Material {
         },
         restitution: e,
         friction: mu,
+        rolling_friction: 0.0,
+        cohesion: None,
     }
 }
 

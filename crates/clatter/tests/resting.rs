@@ -21,6 +21,8 @@ fn material() -> Material {
         law: ContactLaw::Linear { stiffness: K },
         restitution: 0.5,
         friction: 0.5,
+        rolling_friction: 0.0,
+        cohesion: None,
     }
 }
 

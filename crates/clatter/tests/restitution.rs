@@ -23,6 +23,8 @@ fn material(law: ContactLaw, e: f32) -> Material {
         law,
         restitution: e,
         friction: 0.0,
+        rolling_friction: 0.0,
+        cohesion: None,
     }
 }
 

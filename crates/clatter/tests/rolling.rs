@@ -31,6 +31,8 @@ fn world(velocity: Vec3, omega: Vec3) -> World {
         law: ContactLaw::Linear { stiffness: K },
         restitution: 0.5,
         friction: MU,
+        rolling_friction: 0.0,
+        cohesion: None,
     };
     World::new(WorldDesc {
         shapes: vec![shape],

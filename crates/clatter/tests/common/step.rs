@@ -4,6 +4,7 @@
 //! hold for both backends.
 
 #[cfg(not(feature = "gpu-step"))]
+#[allow(dead_code)] // not every test file takes single steps
 pub fn step(w: &mut clatter::World) -> Result<clatter::StepStats, clatter::SimError> {
     w.step()
 }
