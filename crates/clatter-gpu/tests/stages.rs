@@ -78,6 +78,7 @@ fn scene(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool) -> World {
         gravity: Vec3::new(0.0, 0.0, -9.81),
         dt: None,
         skin: None,
+        periodic: None,
     })
 }
 
@@ -354,6 +355,7 @@ fn lattice(n: usize, seed: u64, shapes: Vec<ShapeKind>) -> World {
         gravity: Vec3::new(0.0, 0.0, -9.81),
         dt: None,
         skin: None,
+        periodic: None,
     })
 }
 

@@ -129,7 +129,8 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
     }
     let positions = &world.state.position;
     let grid = Grid::around(positions, 2.0 * world.consts.max_radius());
-    let pairs = broad::pairs(&grid, positions, &world.consts.radius, 0.0);
+    let radii = &world.consts.radius;
+    let pairs = broad::pairs_periodic(&grid, positions, radii, 0.0, world.periodic.as_ref());
     let report = |body: u32, other: Partner| {
         Some(ContactReport {
             body,
@@ -157,7 +158,7 @@ fn collide(world: &World, body: u32, other: Partner) -> Option<Manifold> {
             world.shape(i),
             &world.pose(i),
             world.shape(j as usize),
-            &world.pose(j as usize),
+            &world.pose_from(i, j as usize),
         ),
         Partner::Wall(w) => narrow::collide_plane(
             &world.walls[w as usize].plane,

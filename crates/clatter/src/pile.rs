@@ -145,5 +145,6 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         gravity: Vec3::new(0.0, 0.0, -9.81),
         dt: None,
         skin: None,
+        periodic: None,
     }
 }

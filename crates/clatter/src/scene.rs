@@ -13,6 +13,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::material::{Cohesion, ContactLaw, Material};
+use crate::periodic::Periodic;
 use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
 use crate::world::{BodyInit, Wall, World, WorldDesc};
 use clatter_geom::narrow::Plane;
@@ -272,6 +273,15 @@ struct RawSimulation {
     dt: Option<Spanned<f64>>,
     gravity: Option<Spanned<[f64; 3]>>,
     skin: Option<Spanned<f64>>,
+    periodic: Option<Spanned<RawPeriodic>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPeriodic {
+    min: Spanned<[f64; 3]>,
+    max: Spanned<[f64; 3]>,
+    axes: Spanned<String>,
 }
 
 #[derive(Deserialize)]
@@ -377,7 +387,7 @@ pub const MAX_BODIES: usize = 50_000_000;
 fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     let mut warnings = Vec::new();
     // [simulation]
-    let (length, dt, gravity, skin) = match &raw.simulation {
+    let (length, dt, gravity, skin, periodic) = match &raw.simulation {
         None => {
             return cx.err(
                 0..0,
@@ -427,7 +437,11 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                 .as_ref()
                 .map(|d| cx.non_negative(d, "simulation.skin").map(|x| x as f32))
                 .transpose()?;
-            (length, dt, gravity, skin)
+            let periodic = match &s.periodic {
+                None => None,
+                Some(p) => Some((periodic_box(cx, p.get_ref())?, p.span())),
+            };
+            (length, dt, gravity, skin, periodic)
         }
     };
 
@@ -689,6 +703,10 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             "material",
         )?;
         for axis in 0..3 {
+            // A periodic axis has no container faces: the box repeats instead.
+            if periodic.as_ref().is_some_and(|(p, _)| p.axes[axis]) {
+                continue;
+            }
             let mut n = Vec3::ZERO;
             n[axis] = 1.0;
             walls.push(Wall {
@@ -869,6 +887,9 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             format!("the scene has {} bodies (limit {MAX_BODIES})", bodies.len()),
         );
     }
+    if let Some((p, span)) = &periodic {
+        check_periodic(cx, p, span.clone(), &walls, &bodies, &shapes, skin)?;
+    }
     if let Some((lo, hi)) = container_bounds {
         let outside = bodies
             .iter()
@@ -888,10 +909,109 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             gravity,
             dt,
             skin,
+            periodic: periodic.map(|(p, _)| p),
         },
         length,
         warnings,
     })
+}
+
+/// `[simulation] periodic = { min, max, axes }`.
+fn periodic_box(cx: &SourceFile, r: &RawPeriodic) -> Result<Periodic, SceneError> {
+    let min = cx.vec3(&r.min, "simulation.periodic.min")?;
+    let max = cx.vec3(&r.max, "simulation.periodic.max")?;
+    let mut axes = [false; 3];
+    let text = r.axes.get_ref();
+    for ch in text.chars() {
+        let k = match ch {
+            'x' => 0,
+            'y' => 1,
+            'z' => 2,
+            _ => {
+                return cx.err(
+                    r.axes.span(),
+                    "simulation.periodic.axes",
+                    format!("`{text}`: axes are letters from \"xyz\", e.g. \"xy\""),
+                );
+            }
+        };
+        if axes[k] {
+            return cx.err(
+                r.axes.span(),
+                "simulation.periodic.axes",
+                format!("`{text}` names axis {ch} twice"),
+            );
+        }
+        axes[k] = true;
+    }
+    if text.is_empty() {
+        return cx.err(
+            r.axes.span(),
+            "simulation.periodic.axes",
+            "names no axis (use e.g. \"x\", \"xy\" or \"xyz\")",
+        );
+    }
+    for k in 0..3 {
+        if axes[k] && max[k] <= min[k] {
+            return cx.err(
+                r.max.span(),
+                "simulation.periodic.max",
+                format!(
+                    "must be greater than periodic.min along periodic axis {} ({} vs {})",
+                    ["x", "y", "z"][k],
+                    max[k],
+                    min[k]
+                ),
+            );
+        }
+    }
+    Ok(Periodic { min, max, axes })
+}
+
+/// The periodic box against the rest of the scene: long enough for the broad phase (three
+/// times the largest bounding diameter plus the skin along each periodic axis), and no wall
+/// facing along a periodic axis.
+fn check_periodic(
+    cx: &SourceFile,
+    p: &Periodic,
+    span: std::ops::Range<usize>,
+    walls: &[Wall],
+    bodies: &[BodyInit],
+    shapes: &[PreparedShape],
+    skin: Option<f32>,
+) -> Result<(), SceneError> {
+    let rmax = bodies
+        .iter()
+        .map(|b| shapes[b.shape as usize].shape.bounding_radius())
+        .fold(0.0f32, f32::max);
+    let reach = 2.0 * rmax + skin.unwrap_or(0.2 * rmax);
+    for k in 0..3 {
+        let len = p.max[k] - p.min[k];
+        if p.axes[k] && len < 3.0 * reach {
+            return cx.err(
+                span,
+                "simulation.periodic",
+                format!(
+                    "the periodic box is {len} m long along {}, less than 3 x (largest bounding diameter + skin) = {} m: make it longer",
+                    ["x", "y", "z"][k],
+                    3.0 * reach
+                ),
+            );
+        }
+    }
+    for (k, w) in walls.iter().enumerate() {
+        let n = w.plane.normal;
+        if (0..3).any(|a| p.axes[a] && n[a].abs() > 1e-6) {
+            return cx.err(
+                span.clone(),
+                "simulation.periodic",
+                format!(
+                    "wall {k} (normal {n}) faces along a periodic axis: walls must be parallel to the periodic axes"
+                ),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Uniform random unit quaternion (Shoemake).

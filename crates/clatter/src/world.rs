@@ -8,6 +8,7 @@ use crate::bodies::{BodyConstants, BodyStates};
 use crate::contacts::{ContactState, Contacts};
 use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
+use crate::periodic::Periodic;
 use crate::step;
 use clatter_geom::narrow::Plane;
 use clatter_geom::{Pose, PreparedShape, Shape};
@@ -44,6 +45,8 @@ pub struct WorldDesc {
     pub dt: Option<f32>,
     /// Verlet skin (m); `None` uses 10% of the largest bounding diameter.
     pub skin: Option<f32>,
+    /// Periodic boundaries, if any.
+    pub periodic: Option<Periodic>,
 }
 
 /// Why a step could not go on.
@@ -79,6 +82,8 @@ pub struct World {
     pub materials: Materials,
     /// Wall planes.
     pub walls: Vec<Wall>,
+    /// Periodic boundaries, if any (positions are kept wrapped into its box).
+    pub periodic: Option<Periodic>,
     /// Gravity, m/s^2.
     pub gravity: Vec3,
     /// Time step, s.
@@ -118,7 +123,9 @@ impl World {
             let mass = density * shape.volume;
             let inertia = shape.unit_inertia * density;
             let q = (b.orientation * shape.frame).normalize();
-            state.position.push(b.position);
+            state
+                .position
+                .push(desc.periodic.map_or(b.position, |p| p.wrap(b.position)));
             state.velocity.push(b.velocity);
             state.orientation.push(q);
             let body_w = q.conjugate() * b.angular_velocity;
@@ -145,6 +152,7 @@ impl World {
             shapes: desc.shapes,
             materials,
             walls: desc.walls,
+            periodic: desc.periodic,
             gravity: desc.gravity,
             dt: 0.0,
             skin,
@@ -262,6 +270,32 @@ impl World {
     #[inline]
     pub fn pose(&self, i: usize) -> Pose {
         Pose::new(self.state.position[i], self.state.orientation[i])
+    }
+
+    /// Where body `j` is seen from body `i`: its position, or its nearest periodic image.
+    #[inline]
+    pub fn image_of(&self, i: usize, j: usize) -> Vec3 {
+        let (xi, xj) = (self.state.position[i], self.state.position[j]);
+        match &self.periodic {
+            Some(p) => xi + p.nearest(xj - xi),
+            None => xj,
+        }
+    }
+
+    /// Body `j`'s pose as seen from body `i` (see [`World::image_of`]).
+    #[inline]
+    pub fn pose_from(&self, i: usize, j: usize) -> Pose {
+        Pose::new(self.image_of(i, j), self.state.orientation[j])
+    }
+
+    /// Body `j`'s rigid motion as seen from body `i` (at its nearest image).
+    #[inline]
+    pub fn motion_from(&self, i: usize, j: usize) -> BodyMotion {
+        BodyMotion {
+            position: self.image_of(i, j),
+            velocity: self.state.velocity[j],
+            omega: self.state.omega[j],
+        }
     }
 
     /// Body `i`'s shape.

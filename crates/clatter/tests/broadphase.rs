@@ -204,6 +204,7 @@ fn mixed_cloud(n: usize, seed: u64) -> WorldDesc {
         gravity: Vec3::ZERO,
         dt: None,
         skin: None,
+        periodic: None,
     }
 }
 

@@ -85,6 +85,7 @@ fn cloud(n: usize, seed: u64) -> WorldDesc {
         gravity: Vec3::ZERO,
         dt: None,
         skin: None,
+        periodic: None,
     }
 }
 
@@ -266,6 +267,7 @@ fn energy_of_elastic_spheres_in_a_box() {
         gravity: Vec3::ZERO,
         dt: None,
         skin: None,
+        periodic: None,
     });
     let e0 = w.kinetic_energy() + spring_energy(&w, &radius);
     let mut counter = CollisionCounter::new();
@@ -363,6 +365,7 @@ fn elastic_frictionless_polyhedron_wall_bounce_keeps_its_energy() {
                 gravity: Vec3::ZERO,
                 dt: None,
                 skin: None,
+                periodic: None,
             });
             w.dt /= 4.0;
             let clatter::geom::Shape::Polyhedron(p) = &w.shapes[0].shape else {

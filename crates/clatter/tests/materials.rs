@@ -208,6 +208,7 @@ fn linear_contact_duration_uses_the_effective_mass() {
             gravity: Vec3::ZERO,
             dt: Some((t_c / 1000.0) as f32),
             skin: None,
+            periodic: None,
         });
         let p0 = w.momentum()[0];
         let measured = run_impact(&mut w);
@@ -330,6 +331,7 @@ fn hertz_static_overlap_under_load() {
                 gravity: Vec3::new(0.0, 0.0, -g),
                 dt: None,
                 skin: None,
+                periodic: None,
             });
             assert!(close(w.pair_params(1, 0).stiffness as f64, e_star, 1e-6));
             let steps = (1.0 / w.dt as f64) as usize;

@@ -52,6 +52,7 @@ fn world(shape: PreparedShape, bodies: Vec<BodyInit>) -> World {
         gravity: Vec3::new(0.0, 0.0, -G),
         dt: None,
         skin: None,
+        periodic: None,
     })
 }
 

@@ -70,6 +70,7 @@ fn wall_world_phase(law: ContactLaw, e: f32, dt_fraction: f64, phase: f64) -> (W
         gravity: Vec3::ZERO,
         dt: Some((t_c / dt_fraction) as f32),
         skin: None,
+        periodic: None,
     };
     (World::new(desc), t_c)
 }
@@ -106,6 +107,7 @@ fn pair_world(law: ContactLaw, e: f32, ra: f64, rb: f64, dt_fraction: f64) -> (W
         gravity: Vec3::ZERO,
         dt: Some((t_c / dt_fraction) as f32),
         skin: None,
+        periodic: None,
     };
     (World::new(desc), t_c)
 }

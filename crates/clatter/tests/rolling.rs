@@ -55,6 +55,7 @@ fn world(velocity: Vec3, omega: Vec3) -> World {
         gravity: Vec3::new(0.0, 0.0, -G),
         dt: None,
         skin: None,
+        periodic: None,
     })
 }
 

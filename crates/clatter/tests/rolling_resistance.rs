@@ -49,6 +49,7 @@ fn sphere_world(
         gravity: Vec3::new(0.0, 0.0, -G),
         dt: None,
         skin: None,
+        periodic: None,
     })
 }
 

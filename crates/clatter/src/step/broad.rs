@@ -10,6 +10,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::contacts::{Contacts, carry_springs};
+use crate::periodic::Periodic;
 use crate::world::World;
 
 /// The grid a rebuild used: its origin, cell size and cell counts.
@@ -105,6 +106,19 @@ pub fn sort(keys: &[u32], cells: usize) -> (Vec<u32>, Vec<u32>) {
 /// **pairs**: all `(i, j)` with `i < j` whose bounding spheres, each grown by `skin / 2`,
 /// overlap. Sorted by `(i, j)`.
 pub fn pairs(grid: &Grid, positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[u32; 2]> {
+    pairs_periodic(grid, positions, radii, skin, None)
+}
+
+/// [`pairs`] in a periodic box: bodies near a periodic face also look for partners around
+/// their images across it (only one image of a pair can be within reach: the box is at least
+/// three cells long). `positions` are wrapped into the box.
+pub fn pairs_periodic(
+    grid: &Grid,
+    positions: &[Vec3],
+    radii: &[f32],
+    skin: f32,
+    periodic: Option<&Periodic>,
+) -> Vec<[u32; 2]> {
     let keys = bin(grid, positions);
     let (sorted, start) = sort(&keys, grid.cell_count());
     let dims = grid.dims;
@@ -112,23 +126,28 @@ pub fn pairs(grid: &Grid, positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[
         .into_par_iter()
         .with_min_len(256)
         .map(|i| {
-            let pi = positions[i];
             let ri = radii[i];
-            let c = grid.cell_of(pi);
+            let (images, count) = match periodic {
+                Some(p) => p.images_near(positions[i], grid.cell_size),
+                None => ([positions[i]; 8], 1),
+            };
             let mut out = Vec::new();
-            for z in c[2].saturating_sub(1)..=(c[2] + 1).min(dims[2] - 1) {
-                for y in c[1].saturating_sub(1)..=(c[1] + 1).min(dims[1] - 1) {
-                    let row = grid.key([0, y, z]);
-                    let x0 = c[0].saturating_sub(1);
-                    let x1 = (c[0] + 1).min(dims[0] - 1);
-                    // Cells x0..=x1 of this row are contiguous in key order.
-                    let s = start[(row + x0) as usize] as usize;
-                    let e = start[(row + x1 + 1) as usize] as usize;
-                    for &j in &sorted[s..e] {
-                        if j as usize > i {
-                            let reach = ri + radii[j as usize] + skin;
-                            if (positions[j as usize] - pi).length_squared() < reach * reach {
-                                out.push(j);
+            for &pi in &images[..count] {
+                let c = grid.cell_of(pi);
+                for z in c[2].saturating_sub(1)..=(c[2] + 1).min(dims[2] - 1) {
+                    for y in c[1].saturating_sub(1)..=(c[1] + 1).min(dims[1] - 1) {
+                        let row = grid.key([0, y, z]);
+                        let x0 = c[0].saturating_sub(1);
+                        let x1 = (c[0] + 1).min(dims[0] - 1);
+                        // Cells x0..=x1 of this row are contiguous in key order.
+                        let s = start[(row + x0) as usize] as usize;
+                        let e = start[(row + x1 + 1) as usize] as usize;
+                        for &j in &sorted[s..e] {
+                            if j as usize > i {
+                                let reach = ri + radii[j as usize] + skin;
+                                if (positions[j as usize] - pi).length_squared() < reach * reach {
+                                    out.push(j);
+                                }
                             }
                         }
                     }
@@ -148,11 +167,23 @@ pub fn pairs(grid: &Grid, positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[
 
 /// The same pairs by checking all `n (n-1) / 2` of them: the reference for tests.
 pub fn pairs_brute_force(positions: &[Vec3], radii: &[f32], skin: f32) -> Vec<[u32; 2]> {
+    pairs_brute_force_periodic(positions, radii, skin, None)
+}
+
+/// [`pairs_brute_force`] with nearest-image distances in a periodic box.
+pub fn pairs_brute_force_periodic(
+    positions: &[Vec3],
+    radii: &[f32],
+    skin: f32,
+    periodic: Option<&Periodic>,
+) -> Vec<[u32; 2]> {
     let mut out = Vec::new();
     for i in 0..positions.len() {
         for j in i + 1..positions.len() {
             let reach = radii[i] + radii[j] + skin;
-            if (positions[j] - positions[i]).length_squared() < reach * reach {
+            let d = positions[j] - positions[i];
+            let d = periodic.map_or(d, |p| p.nearest(d));
+            if d.length_squared() < reach * reach {
                 out.push([i as u32, j as u32]);
             }
         }
@@ -166,7 +197,7 @@ pub(crate) fn rebuild(world: &mut World) {
     let positions = &world.state.position;
     let radii = &world.consts.radius;
     let grid = Grid::around(positions, 2.0 * world.consts.max_radius() + world.skin);
-    let pairs = pairs(&grid, positions, radii, world.skin);
+    let pairs = pairs_periodic(&grid, positions, radii, world.skin, world.periodic.as_ref());
     let wall_pairs = wall_candidates(world, positions);
     let old = &world.contacts;
     let np_old = old.pairs.len();

@@ -80,7 +80,7 @@ fn sphere_pair(
     touching: &mut bool,
 ) -> bool {
     let (i, j) = (i as usize, j as usize);
-    let (xi, xj) = (w.state.position[i], w.state.position[j]);
+    let (xi, xj) = (w.state.position[i], w.image_of(i, j));
     let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
     let d = xj - xi;
     let dist2 = d.length_squared();
@@ -99,7 +99,7 @@ fn sphere_pair(
             xi + n * (ri - 0.5 * depth),
             depth,
             &w.motion(i),
-            &w.motion(j),
+            &w.motion_from(i, j),
             hist,
             w.dt,
         );
@@ -146,7 +146,7 @@ fn body_pair(
                 law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[j]),
                 &m,
                 &w.motion(i),
-                &w.motion(j),
+                &w.motion_from(i, j),
                 hist,
                 twist,
                 w.dt,
@@ -220,9 +220,11 @@ fn narrow_pair(
 ) -> Option<Manifold> {
     match (w.shape(i), w.shape(j)) {
         (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
-            narrow::sphere_sphere(w.state.position[i], *ri, w.state.position[j], *rj)
+            narrow::sphere_sphere(w.state.position[i], *ri, w.image_of(i, j), *rj)
         }
-        (si, sj) => narrow::collide_with_hint(si, &w.pose(i), sj, &w.pose(j), hint, separation),
+        (si, sj) => {
+            narrow::collide_with_hint(si, &w.pose(i), sj, &w.pose_from(i, j), hint, separation)
+        }
     }
 }
 

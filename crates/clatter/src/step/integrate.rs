@@ -23,6 +23,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
     let contacts = &world.contacts;
     let consts = &world.consts;
     let rebuild_position = &world.rebuild_position;
+    let periodic = world.periodic;
     let s = &mut world.state;
     // Chunks of bodies, one task each; the loop body sees plain slices.
     let worst = s
@@ -46,7 +47,14 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 ls[k] += t * dt;
                 ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
                 qs[k] = rotate(qs[k], ws[k], &mut rs[k], dt);
-                let d2 = (*x - rebuild_position[i]).length_squared();
+                let moved = match &periodic {
+                    Some(p) => {
+                        *x = p.wrap(*x);
+                        p.nearest(*x - rebuild_position[i])
+                    }
+                    None => *x - rebuild_position[i],
+                };
+                let d2 = moved.length_squared();
                 // NaN or infinity anywhere in the state shows up in d2 or in q.
                 let d2 = if d2.is_finite() && qs[k].w.is_finite() {
                     d2
