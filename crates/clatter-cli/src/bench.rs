@@ -9,9 +9,10 @@ use std::time::Instant;
 use anyhow::Context;
 use clatter::World;
 use clatter::pile::{PileParams, PileShape, pile};
+use clatter_gpu::{Device, Readback, StepError, Stepper};
 
 use crate::BenchShape;
-use crate::backend::{Backend, Engine};
+use crate::backend::Backend;
 
 /// Arguments of `clatter bench`.
 pub struct BenchArgs {
@@ -150,87 +151,55 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             None => World::new(pile(shape, n, &params)),
         };
         let quiet = args.json || !rows.is_empty();
-        let mut engine = match &gpu {
-            Some(ctx) => crate::backend::choose_on(ctx.clone(), args.backend, &world, quiet)?,
-            None => crate::backend::choose(args.backend, &world, quiet)?,
+        let device = match &gpu {
+            Some(ctx) => Device::Shared(ctx.clone()),
+            None => Device::Headless,
         };
+        let mut stepper = crate::backend::choose(args.backend, &world, device, quiet)?;
+        if args.profile.is_some() && !stepper.is_gpu() {
+            anyhow::bail!(
+                "--profile times GPU kernels, but the CPU pipeline was chosen: use --backend gpu"
+            );
+        }
+        // Settling is also the warm-up (on the GPU: pipelines compiled, buffers resident).
+        stepper
+            .step(&mut world, args.settle, Readback::Nothing)
+            .map_err(blew_up("settling"))?;
+        if let Some(dir) = &args.emit_lammps {
+            stepper.sync(&mut world)?;
+            write_lammps(dir, &world, &params, args.steps)?;
+        }
+        let rebuilds_before = stepper.rebuilds(&world);
+        // Wall clock around work that ends with a synchronising read on the GPU.
+        let start = Instant::now();
+        let timed = stepper
+            .step(&mut world, args.steps, Readback::Nothing)
+            .map_err(blew_up("timing"))?;
+        let secs = start.elapsed().as_secs_f64();
+        let (contacts, rebuilds) = (
+            timed.mean_contacts,
+            stepper.rebuilds(&world) - rebuilds_before,
+        );
         let mut kernels = Vec::new();
         let mut pairs = None;
-        let (secs, contacts, rebuilds, backend) = match &mut engine {
-            Engine::Cpu => {
-                if args.profile.is_some() {
-                    anyhow::bail!(
-                        "--profile times GPU kernels, but the CPU pipeline was chosen: use --backend gpu"
+        if let (Some(steps), Some(gpu)) = (args.profile, stepper.as_gpu_mut()) {
+            kernels = gpu.profile(steps)?;
+            pairs = Some(gpu.pairs());
+            if bandwidth.is_none() {
+                let bw = clatter_gpu::bandwidth::copy_bandwidth(gpu.context(), 9)?;
+                bandwidth = Some(bw * 1e-9);
+                if !args.json {
+                    println!(
+                        "# memory bandwidth (copy kernel, read + write): {:.0} GB/s",
+                        bw * 1e-9
                     );
                 }
-                for _ in 0..args.settle {
-                    world.step().context("the pile blew up while settling")?;
-                }
-                if let Some(dir) = &args.emit_lammps {
-                    write_lammps(dir, &world, &params, args.steps)?;
-                }
-                let mut contacts = 0usize;
-                let rebuilds_before = world.rebuilds;
-                let start = Instant::now();
-                for _ in 0..args.steps {
-                    contacts += world
-                        .step()
-                        .context("the pile blew up while timing")?
-                        .contacts;
-                }
-                let secs = start.elapsed().as_secs_f64();
-                let contacts = contacts as f64 / args.steps as f64;
-                (
-                    secs,
-                    contacts,
-                    world.rebuilds - rebuilds_before,
-                    "cpu".to_string(),
-                )
             }
-            Engine::Gpu(gpu) => {
-                // Settling is the warm-up: pipelines compiled, buffers resident.
-                let r = gpu.step(args.settle)?;
-                if r.bad_body.is_some() {
-                    anyhow::bail!("the pile blew up while settling on the GPU");
-                }
-                if let Some(dir) = &args.emit_lammps {
-                    gpu.read_into(&mut world)?;
-                    write_lammps(dir, &world, &params, args.steps)?;
-                }
-                let rebuilds_before = gpu.rebuilds();
-                // Wall clock around work that ends with a synchronising read.
-                let start = Instant::now();
-                let r = gpu.step(args.steps)?;
-                let secs = start.elapsed().as_secs_f64();
-                if r.bad_body.is_some() {
-                    anyhow::bail!("the pile blew up while timing on the GPU");
-                }
-                let name = format!("gpu ({})", gpu.context().adapter_name());
-                if let Some(steps) = args.profile {
-                    kernels = gpu.profile(steps)?;
-                    pairs = Some(gpu.pairs());
-                    if bandwidth.is_none() {
-                        let bw = clatter_gpu::bandwidth::copy_bandwidth(gpu.context(), 9)?;
-                        bandwidth = Some(bw * 1e-9);
-                        if !args.json {
-                            println!(
-                                "# memory bandwidth (copy kernel, read + write): {:.0} GB/s",
-                                bw * 1e-9
-                            );
-                        }
-                    }
-                }
-                (
-                    secs,
-                    r.touching as f64,
-                    gpu.rebuilds() - rebuilds_before,
-                    name,
-                )
-            }
-        };
+        }
+        let backend = stepper.name();
         let sps = args.steps as f64 / secs;
         let frames_per_s = match (&gpu, args.render) {
-            (Some(ctx), Some(frames)) => Some(time_frames(ctx, &mut world, &mut engine, frames)?),
+            (Some(ctx), Some(frames)) => Some(time_frames(ctx, &mut world, &mut stepper, frames)?),
             _ => None,
         };
         let row = Row {
@@ -292,34 +261,29 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
 }
 
 /// Frames per second of one step and an offscreen frame (waiting for the GPU to finish
-/// each), over `frames` frames after one untimed warm-up frame. With the CPU engine the state
-/// is uploaded each frame; with the GPU engine the frame is drawn straight from the
+/// each), over `frames` frames after one untimed warm-up frame. With the CPU pipeline the
+/// state is uploaded each frame; with the GPU pipeline the frame is drawn straight from the
 /// simulation's body buffer (no round trip through the host).
 fn time_frames(
     ctx: &clatter_gpu::GpuContext,
     world: &mut World,
-    engine: &mut Engine,
+    stepper: &mut Stepper,
     frames: u64,
 ) -> anyhow::Result<f64> {
     use clatter_render::{CameraSpec, Offscreen, Poses, Style};
-    if let Engine::Gpu(gpu) = engine {
-        gpu.read_into(world)?;
-    }
+    stepper.sync(world)?;
     let mut off = Offscreen::new(ctx, world, RENDER_SIZE.0, RENDER_SIZE.1)?;
     let camera = off.camera(CameraSpec::Iso);
     let style = Style::default();
     let mut frame = |world: &mut World| -> anyhow::Result<()> {
-        match engine {
-            Engine::Cpu => {
-                world.step().context("the pile blew up while rendering")?;
+        stepper
+            .step(world, 1, Readback::Nothing)
+            .map_err(blew_up("rendering"))?;
+        match stepper.as_gpu() {
+            Some(gpu) => off.draw(&camera, &style, Poses::Gpu(gpu.body_buffer()))?,
+            None => {
                 off.update(world);
                 off.draw(&camera, &style, Poses::Uploaded)?;
-            }
-            Engine::Gpu(gpu) => {
-                if gpu.step(1)?.bad_body.is_some() {
-                    anyhow::bail!("the pile blew up while rendering on the GPU");
-                }
-                off.draw(&camera, &style, Poses::Gpu(gpu.body_buffer()))?;
             }
         }
         ctx.wait()?;
@@ -331,6 +295,17 @@ fn time_frames(
         frame(world)?;
     }
     Ok(frames as f64 / start.elapsed().as_secs_f64())
+}
+
+/// The error of a step of the benchmark: a blow-up says what the pile was doing (`when`:
+/// settling, timing, rendering); a GPU failure is reported as it is.
+fn blew_up(when: &'static str) -> impl Fn(StepError) -> anyhow::Error {
+    move |e| match e {
+        StepError::Sim(e) => {
+            anyhow::Error::new(e).context(format!("the pile blew up while {when}"))
+        }
+        StepError::Gpu(e) => e.into(),
+    }
 }
 
 /// Writes `pile.data` and `in.pile` for LAMMPS (`pair_style gran/hooke/history`) with the same

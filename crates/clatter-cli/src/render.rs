@@ -9,10 +9,10 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::ValueEnum;
-use clatter_gpu::GpuContext;
+use clatter_gpu::{Device, GpuContext, Readback, StepError, Stepper};
 use clatter_render::{CAMERA_SYNTAX, CameraSpec, ColorMode, Offscreen, Poses, Style, save_png};
 
-use crate::backend::{Backend, Engine, choose_on};
+use crate::backend::{Backend, choose};
 use crate::run::load_scene;
 
 /// Colour mode of bodies.
@@ -119,7 +119,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let mut off = Offscreen::new(&ctx, &world, w, h)?;
     let camera = off.camera(args.picture.camera);
     let style = args.picture.style();
-    let mut engine = choose_on(ctx.clone(), args.backend, &world, args.quiet)?;
+    let mut stepper = choose(
+        args.backend,
+        &world,
+        Device::Shared(ctx.clone()),
+        args.quiet,
+    )?;
     if !args.quiet {
         eprintln!(
             "rendering {} ({} bodies, {end} steps) every {} steps at {w}x{h} on {}",
@@ -134,60 +139,53 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let needs_host =
         args.picture.only_contacts || !matches!(args.picture.color, ColorArg::Material);
     let mut frames = 0u64;
-    let mut shoot =
-        |world: &mut clatter::World, engine: &Engine, off: &mut Offscreen| -> anyhow::Result<()> {
-            let img = match engine {
-                Engine::Cpu => {
-                    off.update(world);
-                    off.render(&camera, &style, Poses::Uploaded)?
+    let mut shoot = |world: &mut clatter::World,
+                     stepper: &Stepper,
+                     off: &mut Offscreen|
+     -> anyhow::Result<()> {
+        let img = match stepper.as_gpu() {
+            None => {
+                off.update(world);
+                off.render(&camera, &style, Poses::Uploaded)?
+            }
+            Some(g) => {
+                let mut style = style;
+                if needs_host {
+                    stepper.sync(world)?;
+                    off.renderer.update_styles(world, None);
+                    let vmax = world
+                        .state
+                        .velocity
+                        .iter()
+                        .map(|v| v.length())
+                        .filter(|s| s.is_finite())
+                        .fold(0.0f32, f32::max);
+                    style.speed_max = Some(if vmax > 0.0 { vmax } else { 1.0 });
                 }
-                Engine::Gpu(g) => {
-                    let mut style = style;
-                    if needs_host {
-                        g.read_into(world)?;
-                        off.renderer.update_styles(world, None);
-                        let vmax = world
-                            .state
-                            .velocity
-                            .iter()
-                            .map(|v| v.length())
-                            .filter(|s| s.is_finite())
-                            .fold(0.0f32, f32::max);
-                        style.speed_max = Some(if vmax > 0.0 { vmax } else { 1.0 });
-                    }
-                    off.render(&camera, &style, Poses::Gpu(g.body_buffer()))?
-                }
-            };
-            let path = args.out.join(format!("frame_{frames:06}.png"));
-            save_png(&img, &path)?;
-            frames += 1;
-            Ok(())
+                off.render(&camera, &style, Poses::Gpu(g.body_buffer()))?
+            }
         };
-    shoot(&mut world, &engine, &mut off)?;
+        let path = args.out.join(format!("frame_{frames:06}.png"));
+        save_png(&img, &path)?;
+        frames += 1;
+        Ok(())
+    };
+    shoot(&mut world, &stepper, &mut off)?;
     let mut k = 0u64;
     while k < end {
         // Up to the next frame (a multiple of --every, or the last step).
         let next = ((k / args.every + 1) * args.every).min(end);
-        match &mut engine {
-            Engine::Cpu => {
-                for s in k + 1..=next {
-                    world
-                        .step()
-                        .with_context(|| format!("the simulation failed at step {s}"))?;
-                }
+        match stepper.step(&mut world, next - k, Readback::Nothing) {
+            Ok(_) => {}
+            Err(StepError::Sim(e @ clatter::SimError::NonFinite { step, .. })) => {
+                return Err(
+                    anyhow::Error::new(e).context(format!("the simulation failed at step {step}"))
+                );
             }
-            Engine::Gpu(g) => {
-                let report = g.step(next - k)?;
-                if let Some(body) = report.bad_body {
-                    anyhow::bail!(
-                        "the simulation failed between steps {} and {next}: body {body} is no longer finite (NaN or infinity); try a smaller dt",
-                        k + 1
-                    );
-                }
-            }
+            Err(StepError::Gpu(e)) => return Err(e.into()),
         }
         k = next;
-        shoot(&mut world, &engine, &mut off)?;
+        shoot(&mut world, &stepper, &mut off)?;
     }
     ctx.take_error()?;
     if !args.quiet {
@@ -237,11 +235,7 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         style: args.picture.style(),
         screenshot: args.screenshot,
         frames: args.frames,
-        backend: match args.backend {
-            Backend::Cpu => clatter_render::SimBackend::Cpu,
-            Backend::Gpu => clatter_render::SimBackend::Gpu,
-            Backend::Auto => clatter_render::SimBackend::Auto,
-        },
+        backend: args.backend.into(),
     })?;
     Ok(())
 }

@@ -11,10 +11,11 @@ use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
 use clatter::scene::{Scene, SceneError};
 use clatter::{Checkpoint, World};
+use clatter_gpu::{Device, Readback, StepError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
-use crate::backend::{Backend, Engine};
+use crate::backend::Backend;
 use crate::energy::EnergySeries;
 use crate::output::{AtomicFile, STATE_HEADER, carry_rows, write_state_rows};
 use crate::vtk;
@@ -407,7 +408,7 @@ impl Series {
 }
 
 fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
-    let mut engine = crate::backend::choose(plan.backend, &world, plan.quiet)?;
+    let mut stepper = crate::backend::choose(plan.backend, &world, Device::Headless, plan.quiet)?;
     let start = world.step_count;
     let steps = plan.end_step - start;
     if !plan.resumed {
@@ -499,49 +500,26 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     };
     let mut k = 0;
     let mut last_bar = 0;
+    // Stepping stops at every step whose state is needed here. The CPU goes one step at a
+    // time anyway; the GPU runs up to that step in one go and hands the state back.
     while k < steps {
-        let stats = match &mut engine {
-            Engine::Cpu => match world.step() {
-                Ok(stats) => {
-                    k += 1;
-                    stats
-                }
-                Err(e) => {
-                    bar.finish_and_clear();
-                    let b = plan.health.non_finite(&last_good, &e);
-                    return Err(blown_up(&plan, b, &last_good, energy));
-                }
-            },
-            Engine::Gpu(gpu) => {
-                // Run on the GPU up to the next step whose state is needed here.
-                let mut m = 1;
-                let mut t = world.time + world.dt as f64;
-                while k + m < steps && !due(world.step_count + m, t, next_checkpoint) {
-                    m += 1;
-                    t += world.dt as f64;
-                }
-                // The bodies come back with the last batch's status, then the contacts.
-                let report = gpu.step_into(m, &mut world)?;
-                world.set_contact_state(gpu.contact_state()?);
-                if let Some(body) = report.bad_body {
-                    bar.finish_and_clear();
-                    let e = clatter::SimError::NonFinite {
-                        body,
-                        step: world.step_count + 1,
-                        time: world.time + world.dt as f64,
-                        dt: world.dt,
-                    };
-                    let b = plan.health.non_finite(&last_good, &e);
-                    return Err(blown_up(&plan, b, &last_good, energy));
-                }
-                k += m;
-                clatter::StepStats {
-                    contacts: report.touching,
-                    rebuilt: false,
-                }
+        let mut m = 1;
+        let mut t = world.time + world.dt as f64;
+        while k + m < steps && !due(world.step_count + m, t, next_checkpoint) {
+            m += 1;
+            t += world.dt as f64;
+        }
+        let stats = match stepper.step(&mut world, m, Readback::All) {
+            Ok(stats) => stats,
+            Err(StepError::Sim(e)) => {
+                bar.finish_and_clear();
+                let b = plan.health.non_finite(&last_good, &e);
+                return Err(blown_up(&plan, b, &last_good, energy));
             }
+            Err(StepError::Gpu(e)) => return Err(e.into()),
         };
-        max_contacts = max_contacts.max(stats.contacts);
+        k += stats.steps;
+        max_contacts = max_contacts.max(stats.max_contacts);
         let s = world.step_count;
         let output_step = output_step(s);
         let full = full_step(s);
@@ -570,7 +548,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
                 *next = ((world.time + half_dt) / t).floor() + 1.0;
             }
         }
-        if k - last_bar >= 64 || matches!(engine, Engine::Gpu(_)) {
+        if k - last_bar >= 64 || stepper.is_gpu() {
             last_bar = k;
             bar.set_position(k);
             let rate = bar.per_sec();
@@ -586,7 +564,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         println!("simulated time   {:.6} s", world.time);
         println!("steps            {steps}");
         println!("wall time        {elapsed:.3} s");
-        println!("backend          {}", engine.name());
+        println!("backend          {}", stepper.name());
         println!("steps/s          {steps_per_s:.1}");
         println!("body-steps/s     {:.3e}", steps_per_s * world.len() as f64);
         println!("contacts         {contacts} (max {max_contacts})");
@@ -628,7 +606,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         "wall_time_s": elapsed,
         "steps_per_s": steps_per_s,
         "threads": rayon::current_num_threads(),
-        "backend": engine.name(),
+        "backend": stepper.name(),
         "contacts": contacts,
         "max_contacts": max_contacts,
         "kinetic_energy": ke,

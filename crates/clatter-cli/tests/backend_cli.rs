@@ -93,6 +93,34 @@ fn auto_says_which_backend_and_why() {
     );
 }
 
+/// Looking for an adapter on a machine without a display (a server, a container, CI) prints
+/// the choice and nothing that reads like a failure: Mesa's Vulkan device-selection layer
+/// used to make libwayland print `error: XDG_RUNTIME_DIR is invalid or not set in the
+/// environment.` twice before the run started.
+#[test]
+fn auto_probe_without_a_display_prints_no_errors() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_clatter"))
+        .args(["run", "--steps", "5"])
+        .env_remove("XDG_RUNTIME_DIR")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("DISPLAY")
+        // The layer's own switches, which would hide what this test looks for.
+        .env_remove("NODEVICE_SELECT")
+        .env_remove("MESA_VK_DEVICE_SELECT")
+        .env_remove("DRI_PRIME")
+        .output()
+        .expect("run clatter");
+    assert_ok(&o, "auto run without a display");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.lines().any(|l| l.starts_with("backend: ")),
+        "no backend line:\n{}",
+        text(&o)
+    );
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert!(errors.is_empty(), "{errors:?}\n{}", text(&o));
+}
+
 #[test]
 fn unknown_backend_is_refused() {
     let o = clatter(&[&"run", &"--backend", &"quantum"]);

@@ -65,11 +65,16 @@ impl std::fmt::Debug for GpuContext {
 impl GpuContext {
     /// Opens the best adapter wgpu finds (high performance first; `WGPU_BACKEND`,
     /// `WGPU_ADAPTER_NAME` and `WGPU_POWER_PREF` select another) without any window system.
+    ///
+    /// On a machine without a Wayland session it first turns Mesa's Vulkan device-selection
+    /// layer off for the process (see [`quiet_device_select`]), so that probing prints
+    /// nothing.
     pub fn new() -> Result<GpuContext, GpuError> {
         pollster::block_on(Self::new_async())
     }
 
     async fn new_async() -> Result<GpuContext, GpuError> {
+        quiet_device_select();
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::from_env().unwrap_or(desc.backends);
         desc.flags = instance_flags(desc.flags);
@@ -177,6 +182,55 @@ impl GpuContext {
             })?;
         self.take_error()
     }
+}
+
+/// Keeps Mesa's Vulkan device-selection layer from printing
+/// `error: XDG_RUNTIME_DIR is invalid or not set in the environment.` (twice) on stderr when
+/// a headless [`GpuContext`] looks for adapters on a machine without a Wayland session.
+///
+/// The layer (`VK_LAYER_MESA_device_select`, an implicit layer that Mesa's Vulkan drivers
+/// install) reorders the GPUs so that the one driving the desktop comes first, and to find
+/// it asks Wayland whenever the instance enables `VK_KHR_wayland_surface`, which wgpu always
+/// does; libwayland complains when `XDG_RUNTIME_DIR` is not set. Without a Wayland socket
+/// that question has no answer, and a headless context does not care which GPU drives a
+/// display (wgpu orders the adapters by power preference itself), so the layer is turned
+/// off with its own switch, `NODEVICE_SELECT=1`, unless the user chose a device through it
+/// (`MESA_VK_DEVICE_SELECT`, `DRI_PRIME`) or set `NODEVICE_SELECT` already. The variable
+/// is set once, before the first instance, and left set. Nothing else changes: OpenGL
+/// (`WGPU_BACKEND=gl`) probes through EGL's surfaceless platform, which does not ask
+/// Wayland. The viewer calls it too before its own (windowed) instance: under Xvfb the layer
+/// asks Wayland first in the same way.
+pub fn quiet_device_select() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        if !cfg!(all(
+            unix,
+            not(target_vendor = "apple"),
+            not(target_os = "android")
+        )) {
+            return;
+        }
+        let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
+        let absolute = |name: &str| {
+            std::env::var_os(name).is_some_and(|v| std::path::Path::new(&v).is_absolute())
+        };
+        // libwayland finds a socket with XDG_RUNTIME_DIR, or with WAYLAND_DISPLAY as a path.
+        let wayland_reachable = absolute("XDG_RUNTIME_DIR") || absolute("WAYLAND_DISPLAY");
+        if wayland_reachable
+            || set("NODEVICE_SELECT")
+            || set("MESA_VK_DEVICE_SELECT")
+            || set("DRI_PRIME")
+        {
+            return;
+        }
+        // SAFETY: `set_var` races with threads that read the environment through libc at
+        // the same moment. This runs once, when the first context or window instance is
+        // opened: in the `clatter` binary that is before any GPU driver is loaded, and clatter's own
+        // threads (rayon's pool, the progress bar) read the environment only through
+        // `std::env`, which takes the same lock as `set_var`. A program that opened another
+        // wgpu instance on another thread first would have to avoid doing so concurrently.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
+    });
 }
 
 /// The instance flags clatter runs with: `base` without wgpu's validation of indirect

@@ -5,6 +5,7 @@
 //! the Rust module that dispatches it. Body state stays on the GPU between steps; the host
 //! reads it back only when output is due.
 
+pub mod backend;
 pub mod bandwidth;
 pub mod buffers;
 pub mod context;
@@ -17,7 +18,10 @@ pub mod shapes;
 pub mod stages;
 pub mod world;
 
-pub use context::{GpuContext, GpuError, instance_flags, test_context};
+pub use backend::{
+    BackendChoice, BackendError, Chosen, Device, Readback, StepError, Stepped, Stepper, choose,
+};
+pub use context::{GpuContext, GpuError, instance_flags, quiet_device_select, test_context};
 pub use layout::BodyState;
 pub use narrow::{
     GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,

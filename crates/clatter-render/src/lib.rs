@@ -18,4 +18,4 @@ pub mod viewer;
 pub use camera::{Bounds, CAMERA_SYNTAX, Camera, CameraSpec};
 pub use offscreen::{Offscreen, Targets, read_texture, save_png};
 pub use renderer::{ColorMode, Poses, RenderError, Renderer, Style};
-pub use viewer::{SimBackend, ViewerError, ViewerOptions};
+pub use viewer::{ViewerError, ViewerOptions};

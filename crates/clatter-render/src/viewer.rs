@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use clatter::World;
-use clatter_gpu::{GpuContext, GpuWorld};
+use clatter_gpu::{BackendChoice, BackendError, Device, GpuContext, Readback, StepError, Stepper};
 use glam::{Quat, Vec3};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
@@ -41,19 +41,10 @@ pub struct ViewerOptions {
     pub screenshot: Option<PathBuf>,
     /// Frames shown before the screenshot.
     pub frames: u64,
-    /// Which pipeline steps the world.
-    pub backend: SimBackend,
-}
-
-/// Which pipeline steps the viewer's world.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SimBackend {
-    /// The CPU pipeline; its state is uploaded once per frame.
-    Cpu,
-    /// The GPU pipeline on the window's device; frames are drawn from its body buffer.
-    Gpu,
-    /// The GPU when the window's adapter is hardware and the scene fits it, else the CPU.
-    Auto,
+    /// Which pipeline steps the world, chosen on the window's device
+    /// ([`clatter_gpu::choose`]): the CPU's state is uploaded once per frame; the GPU's
+    /// frames are drawn straight from its body buffer.
+    pub backend: BackendChoice,
 }
 
 /// Errors of the viewer.
@@ -68,8 +59,8 @@ pub enum ViewerError {
     #[error("no GPU adapter can draw into the window: {0}")]
     Adapter(String),
     /// `--backend gpu` and the scene cannot run on the window's adapter.
-    #[error("--backend gpu: cannot run this scene on the GPU: {0}")]
-    Gpu(#[from] clatter_gpu::GpuError),
+    #[error(transparent)]
+    Backend(Box<BackendError>),
     /// Rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
@@ -89,8 +80,8 @@ struct Gfx {
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
     ctx: Arc<GpuContext>,
-    /// The GPU simulation, when it steps the world.
-    sim: Option<GpuWorld>,
+    /// The pipeline that steps the world.
+    stepper: Stepper,
     renderer: Renderer,
     targets: Targets,
     egui_state: egui_winit::State,
@@ -184,6 +175,7 @@ impl App {
                 .create_window(attrs)
                 .map_err(|e| ViewerError::Window(e.to_string()))?,
         );
+        clatter_gpu::quiet_device_select();
         let mut desc = wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
             event_loop.owned_display_handle(),
         ));
@@ -207,26 +199,14 @@ impl App {
             pollster::block_on(GpuContext::from_adapter(adapter.clone()))
                 .map_err(|e| ViewerError::Adapter(e.to_string()))?,
         );
-        let name = ctx.adapter_name();
-        let sim = match self.options.backend {
-            SimBackend::Cpu => None,
-            SimBackend::Gpu => Some(GpuWorld::new(ctx.clone(), &self.world)?),
-            SimBackend::Auto if ctx.is_software() => {
-                eprintln!(
-                    "backend: cpu (auto: the window's adapter, {name}, is a software rasteriser, slower than the CPU pipeline; --backend gpu uses it anyway)"
-                );
-                None
-            }
-            SimBackend::Auto => match GpuWorld::new(ctx.clone(), &self.world) {
-                Ok(g) => Some(g),
-                Err(e) => {
-                    eprintln!("backend: cpu (auto: found {name}, but {e})");
-                    None
-                }
-            },
-        };
-        if sim.is_some() {
-            eprintln!("backend: gpu ({name})");
+        let chosen = clatter_gpu::choose(
+            self.options.backend,
+            &self.world,
+            Device::Window(ctx.clone()),
+        )
+        .map_err(|e| ViewerError::Backend(Box::new(e)))?;
+        if let Some(note) = &chosen.note {
+            eprintln!("{note}");
         }
         let caps = surface.get_capabilities(&adapter);
         let format = caps
@@ -295,7 +275,7 @@ impl App {
             surface,
             config,
             ctx,
-            sim,
+            stepper: chosen.stepper,
             renderer,
             targets,
             egui_state,
@@ -305,18 +285,14 @@ impl App {
 
     /// Advances the simulation by this frame's steps.
     fn simulate(&mut self) {
+        let Some(g) = self.gfx.as_mut() else { return };
         if self.reset {
             self.reset = false;
             self.world = self.options.world.clone();
             self.sim_error = None;
-            if let Some(g) = &mut self.gfx {
-                g.renderer.set_world(&self.world);
-                if g.sim.is_some() {
-                    match GpuWorld::new(g.ctx.clone(), &self.world) {
-                        Ok(sim) => g.sim = Some(sim),
-                        Err(e) => self.sim_error = Some(format!("reset failed: {e}")),
-                    }
-                }
+            g.renderer.set_world(&self.world);
+            if let Err(e) = g.stepper.restart(&self.world) {
+                self.sim_error = Some(format!("reset failed: {e}"));
             }
         }
         let n = if self.sim_error.is_some() {
@@ -329,37 +305,26 @@ impl App {
             self.steps_per_frame
         };
         self.step_once = false;
-        if let Some(sim) = self.gfx.as_mut().and_then(|g| g.sim.as_mut()) {
-            if n > 0 {
-                match sim.step(n as u64) {
-                    Ok(r) => {
-                        self.contacts_now = r.touching;
-                        self.rates.steps += n as u64;
-                        if let Some(b) = r.bad_body {
-                            self.sim_error =
-                                Some(format!("stopped: body {b} is no longer finite (NaN)"));
-                            self.paused = true;
-                        }
-                    }
-                    Err(e) => {
-                        self.sim_error = Some(format!("GPU step failed: {e}"));
-                        self.paused = true;
-                    }
+        if n > 0 {
+            match g.stepper.step(&mut self.world, n as u64, Readback::Nothing) {
+                Ok(s) => {
+                    self.contacts_now = s.contacts;
+                    self.rates.steps += s.steps;
+                }
+                Err(e) => {
+                    self.sim_error = Some(match e {
+                        StepError::Sim(e) => format!("stopped: {e}"),
+                        StepError::Gpu(e) => format!("GPU step failed: {e}"),
+                    });
+                    self.paused = true;
                 }
             }
+        }
+        if let Some(sim) = g.stepper.as_gpu() {
             // The panel's clock (the body state itself stays on the GPU).
             self.world.step_count = self.options.world.step_count + sim.steps_taken();
             self.world.time =
                 self.options.world.time + sim.steps_taken() as f64 * self.world.dt as f64;
-            return;
-        }
-        for _ in 0..n {
-            if let Err(e) = self.world.step() {
-                self.sim_error = Some(format!("stopped at step {}: {e}", self.world.step_count));
-                self.paused = true;
-                break;
-            }
-            self.rates.steps += 1;
         }
     }
 
@@ -431,11 +396,11 @@ impl App {
 
     fn draw(&mut self, g: &mut Gfx, event_loop: &ActiveEventLoop) -> Result<(), ViewerError> {
         let mut style = self.style;
-        if let Some(sim) = &g.sim {
+        if g.stepper.is_gpu() {
             // Drawn from the GPU's buffer; only the contact flags and the speed scale need
             // the host's copy, so only those modes read the state back.
             if style.only_contacts || style.color != ColorMode::Material {
-                sim.read_into(&mut self.world).map_err(RenderError::from)?;
+                g.stepper.sync(&mut self.world).map_err(RenderError::from)?;
                 g.renderer.update_styles(&self.world, None);
                 let vmax = self
                     .world
@@ -457,7 +422,7 @@ impl App {
         let bodies = self.world.len();
         let adapter = format!(
             "{} steps, drawn on {}",
-            if g.sim.is_some() { "GPU" } else { "CPU" },
+            if g.stepper.is_gpu() { "GPU" } else { "CPU" },
             g.ctx.adapter_name()
         );
         let egui_ctx = self.egui.clone();
@@ -513,7 +478,7 @@ impl App {
                 .forget_lifetime();
             let (w, h) = (g.config.width as f32, g.config.height as f32);
             pass.set_viewport(x0 as f32, 0.0, scene_w as f32, h, 0.0, 1.0);
-            let poses = match &g.sim {
+            let poses = match g.stepper.as_gpu() {
                 Some(sim) => Poses::Gpu(sim.body_buffer()),
                 None => Poses::Uploaded,
             };

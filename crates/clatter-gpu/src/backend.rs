@@ -1,0 +1,351 @@
+//! One world, two executors: which pipeline steps a [`World`], and the one interface through
+//! which every command (`run`, `resume`, `bench`, `render`, `view`) steps it.
+//!
+//! [`choose`] turns the user's [`BackendChoice`] into a [`Stepper`]: the CPU pipeline, which
+//! steps the [`World`] in place, or a [`GpuWorld`], which keeps its own copy of the state on
+//! the GPU and hands it back when asked ([`Readback`], [`Stepper::sync`]). The automatic
+//! choice, and the reason it gives, live here only.
+
+use std::sync::Arc;
+
+use clatter::{SimError, World};
+use thiserror::Error;
+
+use crate::{GpuContext, GpuError, GpuWorld};
+
+/// Which pipeline the user asked for (`--backend auto|cpu|gpu`).
+#[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
+pub enum BackendChoice {
+    /// The GPU when a hardware adapter is found and the scene fits it, else the CPU; the
+    /// choice comes with the reason.
+    #[default]
+    Auto,
+    /// The multi-threaded CPU pipeline (the reference).
+    Cpu,
+    /// The wgpu compute pipeline; an error when no adapter is found or the scene does not
+    /// fit it.
+    Gpu,
+}
+
+/// Where the GPU device comes from when the choice needs one.
+#[derive(Clone, Debug)]
+pub enum Device {
+    /// Open the best adapter wgpu finds, without a window ([`GpuContext::new`]), only when
+    /// the choice needs it.
+    Headless,
+    /// A device already opened with [`GpuContext::new`] (an offscreen renderer's, so that it
+    /// draws straight from the simulation's body buffer).
+    Shared(Arc<GpuContext>),
+    /// The device that draws into a window (the viewer's): picked for the window, so the
+    /// messages call it the window's adapter.
+    Window(Arc<GpuContext>),
+}
+
+impl Device {
+    fn open(self) -> Result<(Arc<GpuContext>, &'static str), GpuError> {
+        Ok(match self {
+            Device::Headless => (Arc::new(GpuContext::new()?), "the only GPU adapter"),
+            Device::Shared(ctx) => (ctx, "the only GPU adapter"),
+            Device::Window(ctx) => (ctx, "the window's adapter"),
+        })
+    }
+}
+
+/// Why `--backend gpu` cannot be honoured (`auto` falls back to the CPU instead).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum BackendError {
+    /// No GPU device could be opened.
+    #[error("--backend gpu: {0}")]
+    NoDevice(GpuError),
+    /// The device was found but the scene does not fit it, or uses something the GPU
+    /// pipeline does not support.
+    #[error("--backend gpu: cannot run this scene on the GPU: {0}")]
+    Scene(GpuError),
+}
+
+/// The outcome of [`choose`].
+pub struct Chosen {
+    /// The pipeline that steps the world.
+    pub stepper: Stepper,
+    /// The line to print on stderr (`backend: gpu (auto: found ...)`), with the reason for
+    /// an automatic choice; `None` for `--backend cpu`, which needs no explanation.
+    pub note: Option<String>,
+}
+
+/// Chooses the pipeline for `world`: the one function behind every command's `--backend`.
+///
+/// - `Cpu`: the CPU; no device is opened.
+/// - `Gpu`: the GPU on `device`, or an error saying why not.
+/// - `Auto`: the GPU when the adapter is hardware and the scene fits it; the CPU when no
+///   adapter is found, when the only one is a software rasteriser (lavapipe, llvmpipe,
+///   WARP: correct, but slower than the CPU pipeline), or when the scene does not fit.
+pub fn choose(
+    choice: BackendChoice,
+    world: &World,
+    device: Device,
+) -> Result<Chosen, BackendError> {
+    let gpu = |g: GpuWorld, note: String| Chosen {
+        stepper: Stepper::Gpu(Box::new(g)),
+        note: Some(format!("backend: {note}")),
+    };
+    let cpu = |note: String| Chosen {
+        stepper: Stepper::Cpu,
+        note: Some(format!("backend: cpu (auto: {note})")),
+    };
+    match choice {
+        BackendChoice::Cpu => Ok(Chosen {
+            stepper: Stepper::Cpu,
+            note: None,
+        }),
+        BackendChoice::Gpu => {
+            let (ctx, _) = device.open().map_err(BackendError::NoDevice)?;
+            let g = GpuWorld::new(ctx, world).map_err(BackendError::Scene)?;
+            let name = g.context().adapter_name();
+            Ok(gpu(g, format!("gpu ({name})")))
+        }
+        BackendChoice::Auto => {
+            let (ctx, which) = match device.open() {
+                Ok(c) => c,
+                Err(e) => return Ok(cpu(e.to_string())),
+            };
+            let name = ctx.adapter_name();
+            if ctx.is_software() {
+                return Ok(cpu(format!(
+                    "{which}, {name}, is a software rasteriser, slower than the CPU pipeline; --backend gpu uses it anyway"
+                )));
+            }
+            Ok(match GpuWorld::new(ctx, world) {
+                Ok(g) => gpu(g, format!("gpu (auto: found {name})")),
+                Err(e) => cpu(format!("found {name}, but {e}")),
+            })
+        }
+    }
+}
+
+/// What comes back to the host's [`World`] after GPU steps (the CPU steps the world in
+/// place, so it always has everything).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum Readback {
+    /// Nothing: the state stays on the GPU (timing, drawing from the GPU's body buffer).
+    Nothing,
+    /// Body state, step count and time, in the same transfer as the step's status.
+    Bodies,
+    /// Body state and the contact list with its springs and forces: outputs, health checks
+    /// and checkpoints work on the world as after CPU steps.
+    All,
+}
+
+/// What [`Stepper::step`] did.
+#[derive(Copy, Clone, Debug, PartialEq)]
+pub struct Stepped {
+    /// Steps taken.
+    pub steps: u64,
+    /// Touching contacts after the last step.
+    pub contacts: usize,
+    /// The most touching contacts after any of the steps (the GPU reports the last step
+    /// only, so there it is `contacts`).
+    pub max_contacts: usize,
+    /// Touching contacts per step, averaged over the steps (on the GPU: `contacts`).
+    pub mean_contacts: f64,
+}
+
+/// Why [`Stepper::step`] stopped.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum StepError {
+    /// The simulation blew up (a body became NaN or infinite); the world holds the state
+    /// the pipeline stopped at.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The GPU failed (validation, out of memory, device lost).
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// The pipeline that steps a world: the commands call these methods and look inside only
+/// for what one pipeline alone has (the GPU's body buffer, its kernel profile).
+pub enum Stepper {
+    /// The CPU pipeline: [`World::step`] on the world itself.
+    Cpu,
+    /// The GPU pipeline, with its own copy of the state.
+    Gpu(Box<GpuWorld>),
+}
+
+impl Stepper {
+    /// Short name for messages and summaries: `cpu` or `gpu (<adapter>)`.
+    pub fn name(&self) -> String {
+        match self {
+            Stepper::Cpu => "cpu".into(),
+            Stepper::Gpu(g) => format!("gpu ({})", g.context().adapter_name()),
+        }
+    }
+
+    /// Whether the GPU pipeline steps the world.
+    pub fn is_gpu(&self) -> bool {
+        matches!(self, Stepper::Gpu(_))
+    }
+
+    /// The GPU world, when the GPU steps.
+    pub fn as_gpu(&self) -> Option<&GpuWorld> {
+        match self {
+            Stepper::Cpu => None,
+            Stepper::Gpu(g) => Some(g),
+        }
+    }
+
+    /// The GPU world, mutably, when the GPU steps.
+    pub fn as_gpu_mut(&mut self) -> Option<&mut GpuWorld> {
+        match self {
+            Stepper::Cpu => None,
+            Stepper::Gpu(g) => Some(g),
+        }
+    }
+
+    /// Advances `world` by `steps` steps, stopping at the first that blows up.
+    ///
+    /// On the CPU, [`World::step`] `steps` times. On the GPU, the steps run there and
+    /// `back` says what comes back into `world`; a body that becomes non-finite is reported
+    /// as the CPU reports it ([`SimError::NonFinite`], with the step it happened in), and
+    /// the world then holds the state the GPU stopped at, whatever `back` asked for.
+    pub fn step(
+        &mut self,
+        world: &mut World,
+        steps: u64,
+        back: Readback,
+    ) -> Result<Stepped, StepError> {
+        if steps == 0 {
+            let contacts = world.contact_count();
+            return Ok(Stepped {
+                steps: 0,
+                contacts,
+                max_contacts: contacts,
+                mean_contacts: contacts as f64,
+            });
+        }
+        match self {
+            Stepper::Cpu => {
+                let (mut last, mut max, mut sum) = (0, 0, 0);
+                for _ in 0..steps {
+                    let s = world.step()?;
+                    last = s.contacts;
+                    max = max.max(last);
+                    sum += last;
+                }
+                Ok(Stepped {
+                    steps,
+                    contacts: last,
+                    max_contacts: max,
+                    mean_contacts: sum as f64 / steps as f64,
+                })
+            }
+            Stepper::Gpu(gpu) => {
+                let report = match back {
+                    Readback::Nothing => gpu.step(steps)?,
+                    Readback::Bodies | Readback::All => gpu.step_into(steps, world)?,
+                };
+                if back == Readback::All {
+                    world.set_contact_state(gpu.contact_state()?);
+                }
+                if let Some(body) = report.bad_body {
+                    if back == Readback::Nothing {
+                        gpu.read_into(world)?;
+                    }
+                    return Err(StepError::Sim(SimError::NonFinite {
+                        body,
+                        step: world.step_count + 1,
+                        time: world.time + world.dt as f64,
+                        dt: world.dt,
+                    }));
+                }
+                Ok(Stepped {
+                    steps,
+                    contacts: report.touching,
+                    max_contacts: report.touching,
+                    mean_contacts: report.touching as f64,
+                })
+            }
+        }
+    }
+
+    /// Brings the GPU's state (bodies, step count, time, contacts) back into `world`; on the
+    /// CPU the world is always up to date and this does nothing.
+    pub fn sync(&self, world: &mut World) -> Result<(), GpuError> {
+        match self {
+            Stepper::Cpu => Ok(()),
+            Stepper::Gpu(g) => g.read_into(world),
+        }
+    }
+
+    /// Starts over from `world` (the viewer's Reset): the GPU uploads it again on the same
+    /// device; the CPU needs nothing.
+    pub fn restart(&mut self, world: &World) -> Result<(), GpuError> {
+        if let Stepper::Gpu(g) = self {
+            **g = GpuWorld::new(g.context().clone(), world)?;
+        }
+        Ok(())
+    }
+
+    /// Broad-phase (pair list) rebuilds so far: the world's count on the CPU, the GPU's own
+    /// since upload on the GPU.
+    pub fn rebuilds(&self, world: &World) -> u64 {
+        match self {
+            Stepper::Cpu => world.rebuilds,
+            Stepper::Gpu(g) => g.rebuilds(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn world() -> World {
+        let text = include_str!("../../../scenes/bouncing-ball.toml");
+        clatter::scene::Scene::parse(text, "bouncing-ball.toml")
+            .expect("the scene parses")
+            .world()
+    }
+
+    /// `--backend cpu` opens no device, says nothing, and steps as `World::step` does.
+    #[test]
+    fn cpu_stepper_is_world_step() {
+        let mut a = world();
+        let chosen = choose(BackendChoice::Cpu, &a, Device::Headless).expect("cpu");
+        assert!(chosen.note.is_none());
+        let mut stepper = chosen.stepper;
+        assert_eq!(stepper.name(), "cpu");
+        assert!(stepper.as_gpu().is_none());
+        let mut b = a.clone();
+        let s = stepper.step(&mut a, 25, Readback::Nothing).expect("steps");
+        let mut max = 0;
+        for _ in 0..25 {
+            max = max.max(b.step().expect("steps").contacts);
+        }
+        assert_eq!(s.steps, 25);
+        assert_eq!(s.max_contacts, max);
+        assert_eq!(a.step_count, b.step_count);
+        assert_eq!(a.state.position, b.state.position);
+        stepper.sync(&mut a).expect("no-op");
+        assert_eq!(stepper.rebuilds(&a), b.rebuilds);
+    }
+
+    /// On the GPU, the same steps come back through `Readback::All`.
+    #[test]
+    fn gpu_stepper_reads_back() {
+        let Some(ctx) = crate::test_context() else {
+            return;
+        };
+        let mut w = world();
+        let chosen = choose(BackendChoice::Gpu, &w, Device::Shared(ctx)).expect("gpu");
+        assert!(
+            chosen
+                .note
+                .as_deref()
+                .is_some_and(|n| n.starts_with("backend: gpu ("))
+        );
+        let mut stepper = chosen.stepper;
+        assert!(stepper.is_gpu());
+        let s = stepper.step(&mut w, 10, Readback::All).expect("steps");
+        assert_eq!(s.steps, 10);
+        assert_eq!(w.step_count, 10);
+    }
+}
