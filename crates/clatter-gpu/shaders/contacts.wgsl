@@ -36,8 +36,8 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     // touching[c]: 1 = touching, 0 = not, 1 + hint = not, separated by the hinted axis.
     let was = touching[c];
     nrw_hint_in = select(0u, was - 1u, was >= 2u && use_hint);
-    let m = collide(si.shape, bi.position.xyz, bi.orientation, sj.shape, bj.position.xyz,
-                    bj.orientation);
+    let xj = image_of(i, j);
+    let m = collide(si.shape, bi.position.xyz, bi.orientation, sj.shape, xj, bj.orientation);
     if m.count > 0u {
         let params_ij = pair_table[si.material * params.num_materials + sj.material];
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE,
@@ -47,7 +47,8 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
         let rj = select(sj.equivalent_radius, sj.radius, only);
         let r_eff = ri * rj / (ri + rj);
         let r = contact_force(params_ij, si.mass * sj.mass / (si.mass + sj.mass), r_eff, share, m,
-                            motion_of(i), motion_of(j), hist[c], params.dt);
+                            motion_of(i), BodyMotion(xj, bj.velocity.xyz, bj.omega.xyz),
+                            hist[c], params.dt);
         forces[c] = r.force;
         hist[c] = r.hist;
         touching[c] = 1u;

@@ -49,7 +49,7 @@ fn pair_apart(c: u32) -> bool {
     let was = touching[c];
     nrw_hint_in = select(0u, was - 1u, was >= 2u);
     if !separated(statics[p.x].shape, bodies[p.x].position.xyz, bodies[p.x].orientation,
-                  statics[p.y].shape, bodies[p.y].position.xyz, bodies[p.y].orientation) {
+                  statics[p.y].shape, image_of(p.x, p.y), bodies[p.y].orientation) {
         return false;
     }
     release_pair(c, was);

@@ -74,14 +74,15 @@ fn integrate_body(i: u32) -> u32 {
     if abs(n2 - 1.0) > 4.0 * 1.1920929e-7 {
         qn = q2 * (1.5 - 0.5 * n2);
     }
-    b.position = vec4<f32>(x, 0.0);
+    let xw = periodic_wrap(x);
+    b.position = vec4<f32>(xw, 0.0);
     b.velocity = vec4<f32>(v, 0.0);
     b.angular_momentum = vec4<f32>(l, 0.0);
     b.omega = vec4<f32>(w, 0.0);
     b.orientation = qn;
     b.residual = residual;
     bodies[i] = b;
-    let d = x - rebuild_pos[i].xyz;
+    let d = periodic_nearest(xw - rebuild_pos[i].xyz);
     let d2 = dot(d, d);
     // NaN or infinity anywhere in the state shows up in d2 or in the quaternion.
     let finite = d2 <= 3.0e38 && abs(qn.w) <= 3.0e38 && all(abs(v) <= vec3<f32>(3.0e38));

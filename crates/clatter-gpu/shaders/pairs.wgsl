@@ -4,17 +4,51 @@
 // `carry` keeps the springs of persisting pairs, `commit` swaps in the new list, and
 // `count_b` .. `sort_b` build each body's b-side pair list so forces gather in a fixed order.
 
-// Body i's partners j > i in the 27 cells around it, in cell order; counts them, and with
-// `write` also inserts each pair, sorted by j, into new_pairs from new_a_start[i] on.
+// Body i's partners j > i in the 27 cells around it (and, in a periodic box, around its
+// images across nearby periodic faces: crates/clatter/src/periodic.rs `images_near`), in
+// cell order; counts them, and with `write` also inserts each pair, sorted by j, into
+// new_pairs from new_a_start[i] on.
 fn scan_candidates(i: u32, write: bool) -> u32 {
-    let pi = bodies[i].position.xyz;
+    let xi = bodies[i].position.xyz;
     let ri = statics[i].radius;
-    let c = cell_of(pi);
-    let dims = grid.dims.xyz;
     var s0 = 0u;
     if write {
         s0 = new_a_start[i];
     }
+    // Images: bit k of `m` set = shifted along axis k (only where the body is near a face).
+    var shift = vec3<f32>(0.0);
+    var has = vec3<bool>(false);
+    for (var k = 0u; k < 3u; k++) {
+        let len = params.periodic_len[k];
+        if len > 0.0 {
+            let lo = params.periodic_min[k];
+            if xi[k] - lo < grid.cell_size {
+                shift[k] = len;
+                has[k] = true;
+            } else if (lo + len) - xi[k] <= grid.cell_size {
+                shift[k] = -len;
+                has[k] = true;
+            }
+        }
+    }
+    var count = 0u;
+    for (var m = 0u; m < 8u; m++) {
+        let bits = vec3<bool>((m & 1u) != 0u, (m & 2u) != 0u, (m & 4u) != 0u);
+        if any(bits & !has) {
+            continue;
+        }
+        let pi = xi + select(vec3<f32>(0.0), shift, bits);
+        count += scan_cells(i, pi, ri, write, s0 + count);
+    }
+    return count;
+}
+
+// The 27 cells around `pi` (body i or one of its images): partners j > i within reach,
+// inserted sorted by j among the `first - s0` already written when `write`.
+fn scan_cells(i: u32, pi: vec3<f32>, ri: f32, write: bool, first: u32) -> u32 {
+    let c = cell_of(pi);
+    let dims = grid.dims.xyz;
+    let s0 = select(0u, new_a_start[i], write);
     var count = 0u;
     let lo = vec3<u32>(max(vec3<i32>(c) - vec3<i32>(1), vec3<i32>(0)));
     let hi = min(c + vec3<u32>(1u), dims - vec3<u32>(1u));
@@ -30,7 +64,7 @@ fn scan_candidates(i: u32, write: bool) -> u32 {
                     let d = bodies[j].position.xyz - pi;
                     if dot(d, d) < reach * reach {
                         if write {
-                            var b = s0 + count;
+                            var b = first + count;
                             while b > s0 && new_pairs[b - 1u].y > j {
                                 new_pairs[b] = new_pairs[b - 1u];
                                 b--;

@@ -45,3 +45,43 @@ fn add_status_wg(lid: u32, word: u32, k: u32) {
         }
     }
 }
+
+// Periodic boundaries (crates/clatter/src/periodic.rs, the same operations): `x` wrapped into
+// the box along the periodic axes (params.periodic_len > 0).
+fn periodic_wrap(x: vec3<f32>) -> vec3<f32> {
+    var out = x;
+    for (var k = 0u; k < 3u; k++) {
+        let len = params.periodic_len[k];
+        if len > 0.0 {
+            let lo = params.periodic_min[k];
+            if out[k] >= lo + len {
+                out[k] -= len;
+            } else if out[k] < lo {
+                out[k] += len;
+            }
+        }
+    }
+    return out;
+}
+
+// The shortest periodic image of the difference `d` of two wrapped positions.
+fn periodic_nearest(d: vec3<f32>) -> vec3<f32> {
+    var out = d;
+    for (var k = 0u; k < 3u; k++) {
+        let len = params.periodic_len[k];
+        if len > 0.0 {
+            if out[k] > 0.5 * len {
+                out[k] -= len;
+            } else if out[k] < -0.5 * len {
+                out[k] += len;
+            }
+        }
+    }
+    return out;
+}
+
+// Where body j is seen from body i: its nearest image.
+fn image_of(i: u32, j: u32) -> vec3<f32> {
+    let xi = bodies[i].position.xyz;
+    return xi + periodic_nearest(bodies[j].position.xyz - xi);
+}

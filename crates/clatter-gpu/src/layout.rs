@@ -41,6 +41,10 @@ clatter::gpu_record! {
         /// Always 1.0, unknown to the shader compiler: multiplying by it stops the compiler
         /// from simplifying the compensated orientation sum `(q + y) - q - y` to zero.
         pub one: f32,
+        /// Lower corner of the periodic box (w unused).
+        pub periodic_min: [f32; 4],
+        /// Periodic box length per axis, 0 along non-periodic axes (w unused).
+        pub periodic_len: [f32; 4],
     }
 }
 

@@ -106,6 +106,13 @@ impl GpuWorld {
             num_args: 0,
             spheres_only: world.spheres_only() as u32,
             one: 1.0,
+            periodic_min: world
+                .periodic
+                .map_or([0.0; 4], |p| [p.min.x, p.min.y, p.min.z, 0.0]),
+            periodic_len: world.periodic.map_or([0.0; 4], |p| {
+                let l = p.length();
+                [l.x, l.y, l.z, 0.0]
+            }),
         };
         let device = &ctx.device;
         let compiled = Compiled::get(&ctx)?;

@@ -27,6 +27,11 @@ fn material(law: ContactLaw) -> Material {
 /// A box of `n` random bodies (shapes chosen from `shapes`), overlapping a little, moving
 /// and spinning, with gravity and six walls.
 fn scene(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool) -> World {
+    scene_in(n, seed, shapes, hertz, false)
+}
+
+/// [`scene`], with `periodic_xy` periodic along x and y (walls only below and above).
+fn scene_in(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool, periodic_xy: bool) -> World {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let shapes: Vec<_> = shapes
         .iter()
@@ -60,7 +65,12 @@ fn scene(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool) -> World {
         }
     };
     let (k1, k2) = if hertz { (5e7, 2e8) } else { (2e4, 5e4) };
-    let walls = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+    let normals: &[Vec3] = if periodic_xy {
+        &[Vec3::Z, -Vec3::Z]
+    } else {
+        &[Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+    };
+    let walls = normals
         .iter()
         .map(|&normal| Wall {
             plane: Plane {
@@ -78,7 +88,11 @@ fn scene(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool) -> World {
         gravity: Vec3::new(0.0, 0.0, -9.81),
         dt: None,
         skin: None,
-        periodic: None,
+        periodic: periodic_xy.then_some(clatter::Periodic {
+            min: Vec3::splat(-0.5 * side),
+            max: Vec3::splat(0.5 * side),
+            axes: [true, true, false],
+        }),
     })
 }
 
@@ -99,11 +113,12 @@ fn check_broad_phase(world: &World, gpu: &GpuWorld) {
     let grid = Grid::around(&world.state.position, 2.0 * rmax + world.skin);
     let keys = broad::bin(&grid, &world.state.position);
     let (sorted, start) = broad::sort(&keys, grid.cell_count());
-    let pairs = broad::pairs(
+    let pairs = broad::pairs_periodic(
         &grid,
         &world.state.position,
         &world.consts.radius,
         world.skin,
+        world.periodic.as_ref(),
     );
     let n = world.len();
     let gpu_keys = u32s(&gpu.debug_buffer("keys").unwrap());
@@ -284,6 +299,24 @@ fn spheres_linear_match_cpu_stage_by_stage() {
 #[test]
 fn spheres_hertz_match_cpu_stage_by_stage() {
     compare_run(scene(400, 2, spheres(), true), 200, SPHERE_TRAJECTORY_TOL);
+}
+
+#[test]
+fn periodic_spheres_and_polyhedra_match_cpu_stage_by_stage() {
+    let mut shapes = spheres();
+    shapes.push(ShapeKind::Regular {
+        kind: RegularKind::Cube,
+        radius: 0.006,
+    });
+    let w = scene_in(500, 4, shapes, false, true);
+    let seam = w
+        .state
+        .position
+        .iter()
+        .filter(|p| p.x.abs() > 0.4 * w.periodic.unwrap().max.x)
+        .count();
+    assert!(seam > 20, "bodies near the seam: {seam}");
+    compare_run(w, 200, SPHERE_TRAJECTORY_TOL);
 }
 
 #[test]

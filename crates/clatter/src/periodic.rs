@@ -35,7 +35,8 @@ impl Periodic {
         for k in 0..3 {
             if self.axes[k] {
                 let len = self.max[k] - self.min[k];
-                if out[k] >= self.max[k] {
+                // `min + len` rather than `max`: the GPU knows only `min` and `len`.
+                if out[k] >= self.min[k] + len {
                     out[k] -= len;
                 } else if out[k] < self.min[k] {
                     out[k] += len;
@@ -74,7 +75,7 @@ impl Periodic {
             let len = self.max[k] - self.min[k];
             let shift = if x[k] - self.min[k] < margin {
                 len
-            } else if self.max[k] - x[k] <= margin {
+            } else if (self.min[k] + len) - x[k] <= margin {
                 -len
             } else {
                 continue;

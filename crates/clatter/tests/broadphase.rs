@@ -307,3 +307,67 @@ fn pipeline_contacts_match_all_pairs_narrow_phase_in_a_pile() {
     );
     assert!(seen > 1000, "too few contacts to mean anything: {seen}");
 }
+
+#[test]
+fn periodic_boxes_match_nearest_image_brute_force() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    for (case, axes) in [
+        [true, false, false],
+        [true, true, false],
+        [true, true, true],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for n in [2usize, 40, 600] {
+            let side = 0.5;
+            let periodic = clatter::Periodic {
+                min: Vec3::splat(-0.25),
+                max: Vec3::splat(0.25),
+                axes,
+            };
+            // Bodies crowd the faces, so many pairs cross the seams.
+            let positions: Vec<Vec3> = (0..n)
+                .map(|_| {
+                    let mut p = Vec3::ZERO;
+                    for k in 0..3 {
+                        let u: f32 = rng.random_range(0.0..1.0);
+                        p[k] = -0.25
+                            + side
+                                * if u < 0.5 {
+                                    u * 0.2
+                                } else {
+                                    1.0 - (u - 0.5) * 0.2
+                                };
+                        p[k] = p[k].min(0.25 - 1e-6);
+                    }
+                    p
+                })
+                .collect();
+            let radii = radii(&mut rng, n, 0.005, 0.03);
+            let skin = 0.01;
+            let rmax = radii.iter().copied().fold(0.0, f32::max);
+            let grid = Grid::around(&positions, 2.0 * rmax + skin);
+            let fast = broad::pairs_periodic(&grid, &positions, &radii, skin, Some(&periodic));
+            let slow = broad::pairs_brute_force_periodic(&positions, &radii, skin, Some(&periodic));
+            let across = slow
+                .iter()
+                .filter(|&&[i, j]| {
+                    let d = positions[j as usize] - positions[i as usize];
+                    periodic.nearest(d) != d
+                })
+                .count();
+            assert!(
+                fast.windows(2).all(|w| w[0] < w[1]),
+                "case {case}, n = {n}: pairs not sorted or duplicated"
+            );
+            assert_eq!(fast, slow, "case {case}, n = {n}");
+            if n == 600 {
+                assert!(
+                    across > 50,
+                    "case {case}: only {across} pairs across a seam"
+                );
+            }
+        }
+    }
+}
