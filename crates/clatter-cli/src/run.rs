@@ -435,6 +435,16 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             steps as f64 * world.dt as f64,
             rayon::current_num_threads()
         );
+        if let Some(p) = &world.periodic {
+            let ranges: Vec<String> = (0..3)
+                .filter(|&k| p.axes[k])
+                .map(|k| format!("{} in [{}, {})", ["x", "y", "z"][k], p.min[k], p.max[k]))
+                .collect();
+            eprintln!(
+                "periodic: {}; output positions are wrapped into the box",
+                ranges.join(", ")
+            );
+        }
     }
     let mut last_good = world.clone();
     if !plan.resumed

@@ -526,3 +526,31 @@ fn lattice_includes_max() {
         );
     }
 }
+
+#[test]
+fn periodic_scene_says_positions_are_wrapped_and_keeps_them_in_the_box() {
+    let dir = test_dir("periodic");
+    let out = dir.join("out");
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/periodic-floor.toml");
+    let o = clatter(&[
+        &"run",
+        &scene,
+        &"--steps",
+        &"3000",
+        &"--backend",
+        &"cpu",
+        &"--out",
+        &out,
+    ]);
+    assert_ok(&o, "periodic run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("periodic: x in [0, 0.08), y in [0, 0.08); output positions are wrapped"),
+        "{err}"
+    );
+    let (_, rows) = read_csv(&out.join("final.csv"));
+    assert_eq!(rows.len(), 222);
+    for r in &rows {
+        assert!((0.0..0.08).contains(&r[1]) && (0.0..0.08).contains(&r[2]), "{r:?}");
+    }
+}

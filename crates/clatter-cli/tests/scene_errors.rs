@@ -763,3 +763,49 @@ fn random_count_zero() {
         &["group[0].random.count"],
     );
 }
+
+#[test]
+fn periodic_axes_must_be_letters_of_xyz() {
+    let text = edit(
+        "gravity = [0.0, 0.0, -9.81]",
+        "gravity = [0.0, 0.0, -9.81]\nperiodic = { min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0], axes = \"xw\" }",
+    );
+    check(
+        "periodic-axes",
+        &text,
+        "periodic",
+        &["simulation.periodic.axes", "xyz"],
+    );
+}
+
+#[test]
+fn periodic_box_too_short() {
+    let text = edit(
+        "gravity = [0.0, 0.0, -9.81]",
+        "gravity = [0.0, 0.0, -9.81]\nperiodic = { min = [0.0, 0.0, 0.0], max = [0.05, 1.0, 1.0], axes = \"x\" }",
+    );
+    check(
+        "periodic-short",
+        &text,
+        "periodic",
+        &[
+            "simulation.periodic",
+            "0.05 m long along x",
+            "make it longer",
+        ],
+    );
+}
+
+#[test]
+fn wall_across_a_periodic_axis() {
+    let text = edit(
+        "gravity = [0.0, 0.0, -9.81]",
+        "gravity = [0.0, 0.0, -9.81]\nperiodic = { min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0], axes = \"z\" }",
+    ) + "\n[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\nmaterial = \"steel\"\n";
+    check(
+        "periodic-wall",
+        &text,
+        "periodic",
+        &["wall 0", "parallel to the periodic axes"],
+    );
+}

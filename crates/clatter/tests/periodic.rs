@@ -162,11 +162,7 @@ fn a_periodic_gas_conserves_momentum() {
         max: Vec3::splat(side),
         axes: [true; 3],
     };
-    let mut w = world(
-        ShapeKind::Sphere { radius: r },
-        bodies,
-        Some(periodic),
-    );
+    let mut w = world(ShapeKind::Sphere { radius: r }, bodies, Some(periodic));
     let momentum = |w: &World| {
         let p = w.momentum();
         Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32)
