@@ -551,6 +551,9 @@ fn periodic_scene_says_positions_are_wrapped_and_keeps_them_in_the_box() {
     let (_, rows) = read_csv(&out.join("final.csv"));
     assert_eq!(rows.len(), 222);
     for r in &rows {
-        assert!((0.0..0.08).contains(&r[1]) && (0.0..0.08).contains(&r[2]), "{r:?}");
+        assert!(
+            (0.0..0.08).contains(&r[1]) && (0.0..0.08).contains(&r[2]),
+            "{r:?}"
+        );
     }
 }
