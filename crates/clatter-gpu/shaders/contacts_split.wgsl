@@ -1,13 +1,9 @@
-// Stages 4 and 5 for scenes with polyhedra, in two passes. One thread per candidate pair
-// runs the whole polyhedron narrow phase and contact law, but in a settled pile only about
-// one candidate pair in ten touches, and a GPU runs a group of 32 or 64 threads at the pace
-// of its slowest: nearly every group would wait on one touching pair's clipping. So
-// `contacts_sat` first tries to prove each pair apart (bounding spheres, then the separating
-// axes, the pair's hint first) with a light kernel, releasing pairs that stopped touching,
-// and lists the others; `contacts_size` sizes the second pass; `contacts_full` runs
-// `pair_contact` (forces.wgsl) on the listed pairs only. The list lives in `new_pairs`,
-// which only a rebuild uses, earlier in the step. The list's order depends on the order the
-// atomics ran in, but each pair writes only its own slots, so results do not.
+// Stage **contacts** for scenes with polyhedra, in two passes (most candidate pairs in a
+// pile do not touch, and a GPU thread group waits for its slowest pair): `contacts_sat`
+// proves pairs apart cheaply (bounding spheres, separating axes, the pair's hint first) and
+// lists the rest in `new_pairs` (free outside a rebuild); `contacts_size` sizes the second
+// pass; `contacts_full` runs `pair_contact` (contacts.wgsl) on the list. Each pair writes
+// only its own slots, so the list's order does not change results.
 
 var<workgroup> wg_base: u32;
 

@@ -25,7 +25,7 @@ fn integrate_body(i: u32) -> u32 {
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
     // Contacts that do not touch carry a zero force: only touching ones are read (1 in
-    // `touching`; other values are separating-axis hints, see forces.wgsl).
+    // `touching`; other values are separating-axis hints, see contacts.wgsl).
     for (var c = a_start[i]; c < a_start[i + 1u]; c++) {
         if touching[c] == 1u {
             f -= forces[c].force_b;

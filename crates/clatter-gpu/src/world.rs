@@ -1,18 +1,6 @@
-//! The GPU world: a [`clatter::World`]'s state resident on the GPU and the step pipeline
-//! that advances it, stage by stage as on the CPU:
-//!
-//! 1. `prepare` (bin.wgsl): does this step rebuild the pair list? (a body moved more than
-//!    half the skin since the last rebuild; flagged on the GPU by the last integrate, so the
-//!    host never waits for it: every rebuild-only dispatch is indirect, sized zero otherwise)
-//! 2. **bin** (bin.wgsl): bounding box, grid, cell key per body, bodies per cell
-//! 3. **sort** (scan.wgsl, sort.wgsl): cell ranges by prefix sum, bodies dropped into cells,
-//!    each cell ordered by body index (the CPU's stable counting sort, exactly)
-//! 4. **pairs** (pairs.wgsl): the 27-cell search, pair offsets, sorted pair list, springs
-//!    carried over from the old list, the b-side adjacency for the gather
-//! 5. **narrow** + **forces** (narrow.wgsl, forces.wgsl; contacts_split.wgsl for scenes with
-//!    polyhedra): manifold and contact law per pair
-//! 6. **integrate** (integrate.wgsl): the body-wall contacts, gather in a fixed order,
-//!    update, rebuild check
+//! The GPU world: a [`clatter::World`]'s state resident on the GPU, and the host side of
+//! its step: buffers ([`crate::buffers`]), the recorded dispatch list ([`crate::stages`]),
+//! batching, pair-buffer growth and read-back.
 //!
 //! The host records many steps into one submission and reads a few status words back after
 //! it; body state comes back only when output is due ([`GpuWorld::read_into`]). If the pair
