@@ -363,8 +363,7 @@ impl Simulation {
             write(&path, w).map_err(|e| io(&path, e))?;
             let pvd_path = dir.join(format!("{name}.pvd"));
             let mut pvd = clatter::vtk::Pvd::continuing(&pvd_path, step);
-            pvd.push(step, w.time, file)
-                .map_err(|e| io(&pvd_path, e))?;
+            pvd.push(step, w.time, file).map_err(|e| io(&pvd_path, e))?;
             written.push(path);
         }
         Ok(written)
