@@ -1,6 +1,6 @@
 """Build a scene in code, run it, and plot its energy and the distribution of contact forces.
 
-    python examples/python/pile.py [--out DIR] [--bodies N] [--duration T]
+    python examples/python/pile.py [--out DIR] [--bodies N] [--duration T] [--backend auto|cpu|gpu]
 
 Writes DIR/energy.png (kinetic, potential and total energy over time) and
 DIR/contact_forces.png (a histogram of the normal contact forces at the end), DIR/scene.toml
@@ -39,7 +39,7 @@ def build_scene(bodies: int, duration: float) -> clatter.Scene:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="clatter-out/python-pile")
-    ap.add_argument("--bodies", type=int, default=300)
+    ap.add_argument("--bodies", type=int, default=300, help="about this many bodies (whole lattice layers of cubes, then beads)")
     ap.add_argument("--duration", type=float, default=0.3)
     ap.add_argument("--backend", default="auto")
     args = ap.parse_args()
