@@ -8,7 +8,8 @@ mod output;
 mod query;
 mod render;
 mod run;
-mod vtk;
+
+use clatter::vtk;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

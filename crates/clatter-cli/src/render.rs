@@ -289,6 +289,25 @@ fn encode_mp4(dir: &Path, fps: u32, quiet: bool) -> anyhow::Result<()> {
     }
 }
 
+/// Renders `world` as it is now into the PNG at `path` (1280x720, the iso camera, coloured by
+/// material): the picture `clatter run` leaves with the default scene's results. Fails when
+/// no GPU adapter (hardware or software) can be opened.
+pub fn final_picture(world: &clatter::World, path: &std::path::Path) -> anyhow::Result<()> {
+    let ctx = Arc::new(GpuContext::new()?);
+    let mut off = Offscreen::new(&ctx, world, 1280, 720)?;
+    let camera = off.camera(CameraSpec::Iso);
+    let style = Style {
+        color: ColorMode::Material,
+        only_contacts: false,
+        speed_max: None,
+    };
+    off.update(world);
+    let img = off.render(&camera, &style, Poses::Uploaded)?;
+    save_png(&img, path)?;
+    ctx.take_error()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,6 +27,10 @@ pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 /// steps (and at every output step and the last step).
 pub const FULL_CHECK_EVERY: u64 = 100;
 
+/// Where `clatter run` without a scene file and without `--out` writes the default scene's
+/// results (relative to the working directory), with a picture of the last step.
+pub const DEFAULT_OUT: &str = "clatter-out/default";
+
 /// Exit status of a run stopped by a blow-up (1 is any other error, 2 a usage error).
 pub const BLOW_UP_EXIT: u8 = 3;
 
@@ -136,6 +140,8 @@ struct Plan {
     resumed: bool,
     quiet: bool,
     backend: Backend,
+    /// Also render the last step into `out/final.png` (the default scene's first run).
+    picture: bool,
 }
 
 impl Plan {
@@ -277,8 +283,14 @@ pub fn load_scene(path: Option<&Path>) -> anyhow::Result<(String, Scene)> {
 }
 
 /// `clatter run`: a scene from the start.
-pub fn run(args: RunArgs) -> anyhow::Result<()> {
+pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
     let (text, scene) = load_scene(args.scene.as_deref())?;
+    // The default scene's run leaves something to open: its results in DEFAULT_OUT, with a
+    // picture. A scene file without --out writes nothing (and says how to get the files).
+    let picture = args.scene.is_none() && args.output.out.is_none();
+    if picture {
+        args.output.out = Some(PathBuf::from(DEFAULT_OUT));
+    }
     let Resolved {
         csv,
         vtk,
@@ -306,6 +318,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
             resumed: false,
             quiet: args.quiet,
             backend: args.backend,
+            picture,
             scene,
             scene_text: text,
         },
@@ -366,6 +379,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
             resumed: true,
             quiet: args.quiet,
             backend: args.backend,
+            picture: false,
             scene_text: ckpt.scene_text.clone(),
             scene,
         },
@@ -580,7 +594,14 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         println!("contacts         {contacts} (max {max_contacts})");
         println!("kinetic energy   {ke:.6e} J");
     }
-    let Some(dir) = &plan.out else { return Ok(()) };
+    let Some(dir) = &plan.out else {
+        if !plan.quiet {
+            println!(
+                "no files written: --out DIR writes final.csv, summary.json and the energy plot energy.svg (--format vtk adds ParaView frames; `clatter render` draws pictures)"
+            );
+        }
+        return Ok(());
+    };
     // The last step: a VTK frame, an energy sample and a checkpoint even off the period.
     if plan.vtk && series.last_frame != Some(world.step_count) {
         series.write_vtk(dir, &world)?;
@@ -628,6 +649,16 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     serde_json::to_writer_pretty(f.writer(), &summary)?;
     writeln!(f.writer())?;
     f.commit()?;
+    let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
+    if plan.picture {
+        match crate::render::final_picture(&world, &dir.join("final.png")) {
+            Ok(()) => written.push_str(", final.png"),
+            Err(e) => eprintln!("warning: no picture (final.png): {e:#}"),
+        }
+    }
+    if !plan.quiet {
+        println!("results in {}/: {written}", dir.display());
+    }
     Ok(())
 }
 

@@ -9,7 +9,7 @@ use clatter::scene::Scene;
 const HEADER: &str = "id,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz";
 
 mod common;
-use common::{assert_ok, clatter};
+use common::{assert_ok, clatter, text};
 
 fn test_dir(name: &str) -> PathBuf {
     common::test_dir("run-cli", name)
@@ -556,4 +556,53 @@ fn periodic_scene_says_positions_are_wrapped_and_keeps_them_in_the_box() {
             "{r:?}"
         );
     }
+}
+
+/// The first run of the README (`clatter run`, no scene, no --out) leaves the default scene's
+/// results in clatter-out/default/ with a picture of the last step; a scene file run without
+/// --out writes nothing and says in one line how to get the files.
+#[test]
+fn first_run_leaves_results_to_open() {
+    let dir = test_dir("first-run");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_clatter"))
+        .args(["run", "--steps", "20", "--backend", "cpu"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert_ok(&o, "clatter run (default scene)");
+    let out = dir.join("clatter-out/default");
+    for f in ["final.csv", "summary.json", "energy.csv", "energy.svg"] {
+        assert!(out.join(f).is_file(), "{f} missing:\n{}", text(&o));
+    }
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let png = out.join("final.png");
+    if png.exists() {
+        assert!(stdout.contains("results in clatter-out/default/: final.csv, summary.json, energy.csv, energy.svg, final.png"), "{}", text(&o));
+        let img = image::open(&png).expect("final.png decodes");
+        assert_eq!((img.width(), img.height()), (1280, 720));
+    } else {
+        // Only without any GPU adapter, not even a software one (CI has lavapipe).
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "no final.png:\n{}",
+            text(&o)
+        );
+        assert!(String::from_utf8_lossy(&o.stderr).contains("warning: no picture"));
+    }
+    let scene = dir.join("ball.toml");
+    std::fs::write(&scene, SMALL).unwrap();
+    let o = clatter(&[&"run", &scene, &"--steps", &"5"]);
+    assert_ok(&o, "clatter run ball.toml");
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("no files written: --out DIR writes final.csv, summary.json and the energy plot energy.svg (--format vtk adds ParaView frames; `clatter render` draws pictures)"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        2,
+        "only clatter-out and ball.toml"
+    );
 }

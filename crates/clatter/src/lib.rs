@@ -7,7 +7,7 @@
 //!   stages under the same names.
 //! - [`contract`] defines the records and constants both backends share.
 //! - [`scene`] reads scene files, [`checkpoint`] saves and restores runs, [`health`] finds
-//!   runs that blow up.
+//!   runs that blow up, [`vtk`] writes ParaView frames.
 
 pub mod bodies;
 pub mod checkpoint;
@@ -21,6 +21,7 @@ pub mod pile;
 pub mod scene;
 pub mod shape_spec;
 pub mod step;
+pub mod vtk;
 pub mod world;
 
 pub use step::broad;

@@ -1,6 +1,8 @@
 //! VTK output for ParaView: one XML UnstructuredGrid file (`.vtu`) per output step, and a
 //! `.pvd` collection that indexes them by time.
 //!
+//! Used by `clatter run --format vtk` and the Python module's `Simulation.write_vtk`.
+//!
 //! Written by hand rather than through a crate: the whole format needed here is one grid of
 //! vertex cells with a few point arrays, about 150 lines; `vtkio` (the only maintained-looking
 //! Rust crate) has had no stable release since 0.6 (2021), pulls in an XML parser, serde and
@@ -23,11 +25,10 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use clatter::Partner;
-use clatter::World;
-use clatter::health::{ContactReport, touching_contacts};
-
-use crate::output::AtomicFile;
+use crate::Partner;
+use crate::World;
+use crate::checkpoint::write_atomic;
+use crate::health::{ContactReport, touching_contacts};
 
 /// One data array: name, component count and little-endian bytes of its values.
 struct Array {
@@ -64,10 +65,10 @@ fn write_vtu(
     points: &[f32],
     arrays: &[Array],
     vectors: &str,
-) -> anyhow::Result<()> {
+) -> std::io::Result<()> {
     let n = points.len() / 3;
-    let mut f = AtomicFile::create(path)?;
-    let w = f.writer();
+    let mut buf = Vec::with_capacity(64 * n + 4096);
+    let w = &mut buf;
     writeln!(w, "<?xml version=\"1.0\"?>")?;
     writeln!(
         w,
@@ -120,7 +121,7 @@ fn write_vtu(
     writeln!(w, "    </Piece>")?;
     writeln!(w, "  </UnstructuredGrid>")?;
     writeln!(w, "</VTKFile>")?;
-    f.commit()
+    write_atomic(path, &buf)
 }
 
 fn data_array(w: &mut impl Write, a: &Array) -> std::io::Result<()> {
@@ -168,7 +169,7 @@ pub fn base64(bytes: &[u8]) -> String {
 }
 
 /// Writes the bodies of `world` at its current step.
-pub fn write_bodies(path: &Path, world: &World) -> anyhow::Result<()> {
+pub fn write_bodies(path: &Path, world: &World) -> std::io::Result<()> {
     let n = world.len();
     let counts = world.contacts.counts(world.len());
     let mut points = Vec::with_capacity(3 * n);
@@ -213,7 +214,7 @@ pub fn write_bodies(path: &Path, world: &World) -> anyhow::Result<()> {
 }
 
 /// Writes the touching contacts of `world` at its current step.
-pub fn write_contacts(path: &Path, world: &World) -> anyhow::Result<()> {
+pub fn write_contacts(path: &Path, world: &World) -> std::io::Result<()> {
     let contacts: Vec<ContactReport> = touching_contacts(world);
     let mut points = Vec::with_capacity(3 * contacts.len());
     for c in &contacts {
@@ -305,11 +306,11 @@ impl Pvd {
     }
 
     /// Adds a frame and rewrites the index.
-    pub fn push(&mut self, step: u64, time: f64, file: String) -> anyhow::Result<()> {
+    pub fn push(&mut self, step: u64, time: f64, file: String) -> std::io::Result<()> {
         self.entries.retain(|e| e.0 != step);
         self.entries.push((step, time, file));
-        let mut f = AtomicFile::create(&self.path)?;
-        let w = f.writer();
+        let mut buf = Vec::new();
+        let w = &mut buf;
         writeln!(w, "<?xml version=\"1.0\"?>")?;
         writeln!(
             w,
@@ -324,7 +325,7 @@ impl Pvd {
         }
         writeln!(w, "  </Collection>")?;
         writeln!(w, "</VTKFile>")?;
-        f.commit()
+        write_atomic(&self.path, &buf)
     }
 }
 
