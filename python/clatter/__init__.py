@@ -221,12 +221,13 @@ class Scene:
         youngs_modulus: Optional[float] = None,
         poisson_ratio: Optional[float] = None,
         rolling_friction: Optional[float] = None,
+        spinning_friction: Optional[float] = None,
         cohesion: Optional[Mapping[str, Any]] = None,
     ) -> "Scene":
         """``[[material]]``: density (kg/m^3); the linear model's ``stiffness`` (N/m), or
         ``model="hertz"`` with ``youngs_modulus`` (Pa) and ``poisson_ratio``; ``restitution``
-        in (0, 1] (default 0.5), ``friction`` (default 0.3), ``rolling_friction`` (default 0)
-        and ``cohesion`` (``{"model": "dmt", "surface_energy": gamma}``)."""
+        in (0, 1] (default 0.5), ``friction`` (default 0.3), ``rolling_friction`` and
+        ``spinning_friction`` (default 0) and ``cohesion`` (``{"model": "dmt", "surface_energy": gamma}``)."""
         return self._add(
             "[[material]]",
             dict(
@@ -239,6 +240,7 @@ class Scene:
                 restitution=restitution,
                 friction=friction,
                 rolling_friction=rolling_friction,
+                spinning_friction=spinning_friction,
                 cohesion=cohesion,
             ),
         )

@@ -110,6 +110,19 @@ fn rolling_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyMo
     return vec3<f32>(0.0);
 }
 
+// Spinning resistance, the torque on side b (law.rs `spinning_torque`).
+fn spinning_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyMotion,
+                   b: BodyMotion, normal_force: f32, dt: f32) -> vec3<f32> {
+    let w_n = dot(b.omega - a.omega, n);
+    let limit = p.spinning_friction * r_eff * max(normal_force, 0.0);
+    let speed = abs(w_n);
+    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+    if limit > 0.0 && speed > 0.0 {
+        return n * (-w_n * (limit / max(speed, step_change)));
+    }
+    return vec3<f32>(0.0);
+}
+
 // Adds adhesion (at `at`, along the normal) and rolling resistance to a contact's force.
 fn adhesion_and_rolling(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, at: vec3<f32>,
                         a: BodyMotion, b: BodyMotion, normal_force: f32, dt: f32,
@@ -124,6 +137,11 @@ fn adhesion_and_rolling(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, at:
     }
     if p.rolling_friction > 0.0 {
         let tau = rolling_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        (*out).torque_b += tau;
+        (*out).torque_a -= tau;
+    }
+    if p.spinning_friction > 0.0 {
+        let tau = spinning_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
         (*out).torque_b += tau;
         (*out).torque_a -= tau;
     }

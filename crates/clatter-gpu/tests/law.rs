@@ -56,6 +56,11 @@ fn params(rng: &mut ChaCha8Rng) -> PairParams {
         } else {
             0.0
         },
+        spinning_friction: if rng.random_bool(0.5) {
+            rng.random_range(0.0..0.5)
+        } else {
+            0.0
+        },
         cohesion: rng.random_bool(0.5).then(|| Cohesion::Dmt {
             surface_energy: 10f32.powf(rng.random_range(-3.0..1.0)),
         }),
@@ -166,8 +171,21 @@ fn wgsl_law_matches_the_rust_law() {
             f_scale,
             q.dt,
         );
-        let t_scale =
-            f_scale * lever + c.torque_a.length() + c.torque_b.length() + rolling.length();
+        let spinning = law::spinning_torque(
+            &q.params,
+            q.m_eff,
+            q.r_eff,
+            q.manifold.normal,
+            &q.a,
+            &q.b,
+            f_scale,
+            q.dt,
+        );
+        let t_scale = f_scale * lever
+            + c.torque_a.length()
+            + c.torque_b.length()
+            + rolling.length()
+            + spinning.length();
         let h_scale = hist.length().max(q.history.length()).max(1e-30);
         let errs = [
             (g.force_b - c.force_b).length() / f_scale,
@@ -190,7 +208,10 @@ fn wgsl_law_matches_the_rust_law() {
         if q.manifold.count > 1 {
             patches += 1;
         }
-        if q.params.rolling_friction > 0.0 || q.params.cohesion_model != 0 {
+        if q.params.rolling_friction > 0.0
+            || q.params.spinning_friction > 0.0
+            || q.params.cohesion_model != 0
+        {
             rolling_or_sticky += 1;
         }
     }

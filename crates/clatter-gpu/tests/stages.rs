@@ -20,6 +20,7 @@ fn material(law: ContactLaw) -> Material {
         restitution: 0.4,
         friction: 0.5,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     }
 }

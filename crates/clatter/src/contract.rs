@@ -309,8 +309,9 @@ gpu_record! {
         pub cohesion_model: u32,
         /// Combined surface energy (work of adhesion) `gamma`, J/m^2 (DMT).
         pub surface_energy: f32,
-        /// Unused (16-byte multiple).
-        pub pad0: f32,
+        /// Combined spinning friction coefficient `mu_s` (dimensionless): the constant
+        /// torque `mu_s R* Fn` against relative spin about the contact normal (0: none).
+        pub spinning_friction: f32,
         /// Unused.
         pub pad1: f32,
         /// Unused.

@@ -16,6 +16,8 @@
 //!   tangential law times the patch radius squared, capped at `mu Fn r_patch`.
 //! - **Rolling resistance** ([`rolling_torque`]): a constant directional torque
 //!   `mu_r R* Fn` against the relative rolling velocity.
+//! - **Spinning resistance** ([`spinning_torque`]): `mu_s R* Fn` against relative spin about
+//!   the normal.
 //! - **Cohesion** ([`adhesion`]): DMT, a constant pull `2 pi gamma R*` while touching.
 //!   Friction and rolling resistance are capped by the spring-dashpot force alone.
 
@@ -192,6 +194,32 @@ pub fn rolling_torque(
     }
 }
 
+/// Spinning resistance, the torque on side b (side a gets its negative): the constant torque
+/// `-mu_s R* Fn sign(w_n) n` against the relative spin `w_n` about the normal, shrinking in
+/// proportion near rest as [`rolling_torque`] does.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn spinning_torque(
+    p: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    n: Vec3,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    normal_force: f32,
+    dt: f32,
+) -> Vec3 {
+    let w_n = (b.omega - a.omega).dot(n);
+    let limit = p.spinning_friction * r_eff * normal_force.max(0.0);
+    let speed = w_n.abs();
+    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+    if limit > 0.0 && speed > 0.0 {
+        n * (-w_n * (limit / speed.max(step_change)))
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// Adds adhesion (acting at `at`, along the normal) and rolling resistance to a contact's
 /// force; `normal_force` is the contact's spring-dashpot normal force (without adhesion).
 #[inline(always)]
@@ -218,6 +246,11 @@ fn adhesion_and_rolling(
     }
     if p.rolling_friction > 0.0 {
         let tau = rolling_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        out.torque_b += tau;
+        out.torque_a -= tau;
+    }
+    if p.spinning_friction > 0.0 {
+        let tau = spinning_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
         out.torque_b += tau;
         out.torque_a -= tau;
     }
@@ -373,6 +406,7 @@ mod tests {
             restitution: 0.5,
             friction: 0.3,
             rolling_friction: 0.0,
+            spinning_friction: 0.0,
             cohesion: None,
         };
         PairParams::combine(&m, &m)

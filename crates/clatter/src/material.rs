@@ -5,7 +5,7 @@
 //! - Hertz: the physical effective moduli `1/E* = (1-v1^2)/E1 + (1-v2^2)/E2` and
 //!   `1/G* = 2(2-v1)(1+v1)/E1 + 2(2-v2)(1+v2)/E2` (for one material these are what the
 //!   Hertz-Mindlin law uses for that material);
-//! - restitution, friction and rolling friction: geometric means (`sqrt(e1 e2)`, ...);
+//! - restitution, friction, rolling and spinning friction: geometric means (`sqrt(e1 e2)`, ...);
 //! - cohesion (DMT surface energy): geometric mean, none if either material has none.
 //!
 //! Linear and Hertz materials cannot be mixed in one scene (a scene error says so).
@@ -54,6 +54,8 @@ pub struct Material {
     pub friction: f32,
     /// Rolling friction coefficient `mu_r` (>= 0, dimensionless; 0: none).
     pub rolling_friction: f32,
+    /// Spinning friction coefficient `mu_s` (>= 0, dimensionless; 0: none).
+    pub spinning_friction: f32,
     /// Adhesion, if any.
     pub cohesion: Option<Cohesion>,
 }
@@ -75,6 +77,7 @@ impl Material {
             restitution,
             friction,
             rolling_friction: 0.0,
+            spinning_friction: 0.0,
             cohesion: None,
         }
     }
@@ -96,6 +99,7 @@ impl PairParams {
         let base = 2.0 * (-ln_e) / (std::f64::consts::PI.powi(2) + ln_e * ln_e).sqrt();
         let friction = (a.friction * b.friction).sqrt();
         let rolling_friction = (a.rolling_friction * b.rolling_friction).sqrt();
+        let spinning_friction = (a.spinning_friction * b.spinning_friction).sqrt();
         // Adhesion between two materials: the geometric mean of the surface energies (the
         // Berthelot rule), none when either has none.
         let (cohesion_model, surface_energy) = match (a.cohesion, b.cohesion) {
@@ -130,6 +134,7 @@ impl PairParams {
                     rolling_friction,
                     cohesion_model,
                     surface_energy,
+                    spinning_friction,
                     ..Default::default()
                 }
             }
@@ -149,6 +154,7 @@ impl PairParams {
                     rolling_friction,
                     cohesion_model,
                     surface_energy,
+                    spinning_friction,
                     ..Default::default()
                 }
             }

@@ -121,6 +121,7 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
         restitution: p.restitution,
         friction: p.friction,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     };
     let (wx, wy) = (nx as f32 * gap, ny as f32 * gap);

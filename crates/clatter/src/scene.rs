@@ -296,6 +296,7 @@ struct RawMaterial {
     restitution: Option<Spanned<f64>>,
     friction: Option<Spanned<f64>>,
     rolling_friction: Option<Spanned<f64>>,
+    spinning_friction: Option<Spanned<f64>>,
     cohesion: Option<Spanned<RawCohesion>>,
 }
 
@@ -546,6 +547,10 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             Some(mu) => cx.non_negative(mu, &f("rolling_friction"))? as f32,
             None => 0.0,
         };
+        let spinning_friction = match &r.spinning_friction {
+            Some(mu) => cx.non_negative(mu, &f("spinning_friction"))? as f32,
+            None => 0.0,
+        };
         let cohesion = match &r.cohesion {
             None => None,
             Some(c) => {
@@ -580,6 +585,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             restitution,
             friction,
             rolling_friction,
+            spinning_friction,
             cohesion,
         });
     }

@@ -197,6 +197,7 @@ fn mixed_cloud(n: usize, seed: u64) -> WorldDesc {
             restitution: 0.3,
             friction: 0.5,
             rolling_friction: 0.0,
+            spinning_friction: 0.0,
             cohesion: None,
         }],
         walls: vec![],

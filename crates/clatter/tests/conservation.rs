@@ -34,6 +34,7 @@ fn material(e: f32, mu: f32) -> Material {
         restitution: e,
         friction: mu,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     }
 }

@@ -16,6 +16,7 @@ fn linear(k: f32, e: f32, mu: f32) -> Material {
         restitution: e,
         friction: mu,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     }
 }
@@ -31,6 +32,7 @@ fn hertz(youngs: f32, poisson: f32, e: f32, mu: f32) -> Material {
         restitution: e,
         friction: mu,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     }
 }

@@ -22,6 +22,7 @@ fn material() -> Material {
         restitution: 0.5,
         friction: 0.5,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     }
 }

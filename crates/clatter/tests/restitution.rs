@@ -24,6 +24,7 @@ fn material(law: ContactLaw, e: f32) -> Material {
         restitution: e,
         friction: 0.0,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     }
 }

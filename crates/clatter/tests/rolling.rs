@@ -32,6 +32,7 @@ fn world(velocity: Vec3, omega: Vec3) -> World {
         restitution: 0.5,
         friction: MU,
         rolling_friction: 0.0,
+        spinning_friction: 0.0,
         cohesion: None,
     };
     World::new(WorldDesc {

@@ -152,3 +152,39 @@ fn dmt_pull_off_force_is_two_pi_gamma_r() {
         "a sphere of 1.2x the pull-off weight stays"
     );
 }
+
+#[test]
+fn spinning_sphere_stops_in_the_analytic_time() {
+    // The torque mu_s R m g about the vertical slows a sphere spinning on the floor at a
+    // constant rate: it stops after I w0 / (mu_s R m g) = 0.4 w0 R / (mu_s g).
+    let (mu_s, w0) = (0.1f32, 50.0f32);
+    let mut material = Material::new("m", DENSITY, ContactLaw::Linear { stiffness: K }, 0.5, 0.8);
+    material.spinning_friction = mu_s;
+    let z0 = R - mass() * G / K;
+    let mut w = sphere_world(
+        material,
+        Vec3::Z,
+        Vec3::new(0.0, 0.0, z0),
+        Vec3::ZERO,
+        Vec3::Z * w0,
+    );
+    let t_stop = 0.4 * w0 as f64 * R as f64 / (mu_s as f64 * G as f64);
+    // Half way, the spin is half.
+    let half = (0.5 * t_stop / w.dt as f64).round() as u64;
+    step_n(&mut w, half).unwrap();
+    let spin = w.state.omega[0].z as f64;
+    let expected = w0 as f64 * (1.0 - w.time / t_stop);
+    assert!(
+        (spin - expected).abs() < 0.02 * w0 as f64,
+        "spin {spin} rad/s at {:.4} s, analytic {expected}",
+        w.time
+    );
+    step_n(&mut w, half).unwrap();
+    step_n(&mut w, half / 5).unwrap();
+    assert!(
+        w.state.omega[0].length() < 1e-3 * w0,
+        "still spinning at {} rad/s after {:.4} s (stops at {t_stop:.4} s)",
+        w.state.omega[0].length(),
+        w.time
+    );
+}
