@@ -138,3 +138,29 @@ def test_periodic_box_wraps_positions():
     # 1 m/s for 10 ms: 0.095 + 0.01 wraps to about 0.005.
     assert 0.0 <= sim.positions[0, 0] < 0.1
     assert sim.positions[0, 0] == pytest.approx(0.005, abs=2e-4)
+
+
+def test_a_blow_up_raises_the_command_lines_message():
+    # dt far above the stability bound of the contact: the run must stop with the body, the
+    # step and the likely cause, as `clatter run` reports it, not return garbage.
+    scene = ball_scene(0.0095, stiffness=1e5, dt=2e-3, steps=1)
+    sim = clatter.Simulation(scene, backend="cpu")
+    with pytest.raises(clatter.SimulationError) as err:
+        sim.step(2000)
+    text = str(err.value)
+    assert "blew up at step" in text and "body 0" in text, text
+    assert "Likely cause" in text and "time step" in text, text
+    assert sim.step_count < 2000
+
+
+def test_bodies_starting_deeply_overlapped_are_refused():
+    scene = (
+        clatter.Scene(steps=1, gravity=[0, 0, 0])
+        .material("m", density=1000.0, stiffness=1e4)
+        .shape("ball", sphere=0.01)
+        .body("ball", "m", position=[0.0, 0.0, 0.0])
+        .body("ball", "m", position=[0.005, 0.0, 0.0])
+    )
+    sim = clatter.Simulation(scene, backend="cpu")
+    with pytest.raises(clatter.SimulationError, match="start overlapping"):
+        sim.step()
