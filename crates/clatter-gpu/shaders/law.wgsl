@@ -103,11 +103,16 @@ fn rolling_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyMo
     let w_roll = w - n * dot(w, n);
     let limit = p.rolling_friction * r_eff * max(normal_force, 0.0);
     let speed = length(w_roll);
-    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
     if limit > 0.0 && speed > 0.0 {
-        return -w_roll * (limit / max(speed, step_change));
+        return -w_roll * resisting_scale(limit, speed, m_eff, r_eff, dt);
     }
     return vec3<f32>(0.0);
+}
+
+// law.rs `resisting_scale` (callers check limit > 0 and speed > 0).
+fn resisting_scale(limit: f32, speed: f32, m_eff: f32, r_eff: f32, dt: f32) -> f32 {
+    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+    return limit / max(speed, step_change);
 }
 
 // Spinning resistance, the torque on side b (law.rs `spinning_torque`).
@@ -116,9 +121,8 @@ fn spinning_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyM
     let w_n = dot(b.omega - a.omega, n);
     let limit = p.spinning_friction * r_eff * max(normal_force, 0.0);
     let speed = abs(w_n);
-    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
     if limit > 0.0 && speed > 0.0 {
-        return n * (-w_n * (limit / max(speed, step_change)));
+        return n * (-w_n * resisting_scale(limit, speed, m_eff, r_eff, dt));
     }
     return vec3<f32>(0.0);
 }

@@ -36,12 +36,7 @@ clatter::gpu_record! {
 clatter::gpu_record! {
     /// The law's answer (`LawAnswer` in law_batch.wgsl): force and the new springs.
     pub struct LawAnswerRecord {
-        pub force_b: Vec3,
-        pub normal_force: f32,
-        pub torque_a: Vec3,
-        pub pad0: f32,
-        pub torque_b: Vec3,
-        pub pad1: f32,
+        pub force: ContactForce,
         pub hist: [f32; 4],
     }
 }
@@ -171,15 +166,7 @@ pub fn law_batch(
     }
     let bytes = crate::readback::read_buffers_after(ctx, encoder, &[(&output, 0, out_size)])?;
     let answers: Vec<LawAnswerRecord> = bytemuck::pod_collect_to_vec(&bytes[0]);
-    Ok(answers
-        .iter()
-        .map(|a| {
-            (
-                ContactForce::new(a.force_b, a.torque_a, a.torque_b, a.normal_force),
-                a.hist,
-            )
-        })
-        .collect())
+    Ok(answers.iter().map(|a| (a.force, a.hist)).collect())
 }
 
 #[cfg(test)]

@@ -345,6 +345,12 @@ gpu_record! {
     }
 }
 
+impl WgslType for ContactForce {
+    const WGSL: &'static str = "ContactForce";
+    const ALIGN: usize = 16;
+    const SIZE: usize = std::mem::size_of::<ContactForce>();
+}
+
 impl ContactForce {
     /// A contact's force and torques.
     pub fn new(force_b: Vec3, torque_a: Vec3, torque_b: Vec3, normal_force: f32) -> Self {

@@ -184,14 +184,20 @@ pub fn rolling_torque(
     let w = b.omega - a.omega;
     let w_roll = w - n * w.dot(n);
     let limit = p.rolling_friction * r_eff * normal_force.max(0.0);
-    let speed = w_roll.length();
-    // One step of the full torque changes the rolling speed by this much.
-    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
-    if limit > 0.0 && speed > 0.0 {
-        -w_roll * (limit / speed.max(step_change))
-    } else {
-        Vec3::ZERO
+    match resisting_scale(limit, w_roll.length(), m_eff, r_eff, dt) {
+        Some(scale) => -w_roll * scale,
+        None => Vec3::ZERO,
     }
+}
+
+/// Torque per unit of relative angular velocity of a resisting torque of magnitude `limit`
+/// at angular speed `speed`: `limit / speed`, or less near rest, where one step of the full
+/// torque would take more than `speed` away from a body of inertia `2/5 m* R*^2`. `None`
+/// when there is nothing to resist.
+#[inline(always)]
+fn resisting_scale(limit: f32, speed: f32, m_eff: f32, r_eff: f32, dt: f32) -> Option<f32> {
+    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+    (limit > 0.0 && speed > 0.0).then(|| limit / speed.max(step_change))
 }
 
 /// Spinning resistance, the torque on side b (side a gets its negative): the constant torque
@@ -211,12 +217,9 @@ pub fn spinning_torque(
 ) -> Vec3 {
     let w_n = (b.omega - a.omega).dot(n);
     let limit = p.spinning_friction * r_eff * normal_force.max(0.0);
-    let speed = w_n.abs();
-    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
-    if limit > 0.0 && speed > 0.0 {
-        n * (-w_n * (limit / speed.max(step_change)))
-    } else {
-        Vec3::ZERO
+    match resisting_scale(limit, w_n.abs(), m_eff, r_eff, dt) {
+        Some(scale) => n * (-w_n * scale),
+        None => Vec3::ZERO,
     }
 }
 
