@@ -26,6 +26,15 @@ fn damping(p: PairParams, m_eff: f32, k: f32) -> f32 {
     return p.damping_factor * sqrt(m_eff * max(k, 0.0));
 }
 
+// Tangential damping (law.rs `tangential_damping`): Hertz-Mindlin's on the tangential
+// stiffness, or the linear law's ratio of the normal damping.
+fn tangential_damping(p: PairParams, m_eff: f32, kt: f32, eta_n: f32) -> f32 {
+    if p.model == MODEL_HERTZ {
+        return damping(p, m_eff, kt);
+    }
+    return TANGENTIAL_DAMPING_RATIO * eta_n;
+}
+
 fn tangential_stiffness(p: PairParams, r_eff: f32, depth: f32, share_total: f32) -> f32 {
     if p.model == MODEL_HERTZ {
         return share_total * 8.0 * p.shear * sqrt(r_eff * max(depth, 0.0));
@@ -39,7 +48,7 @@ struct Tangential {
 }
 
 fn tangential_law(p: PairParams, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_force: f32,
-                  eta_n: f32, history: vec3<f32>, dt: f32) -> Tangential {
+                  eta_t: f32, history: vec3<f32>, dt: f32) -> Tangential {
     let vt = vrel - n * dot(vrel, n);
     var xi = history;
     let along = dot(xi, n);
@@ -52,7 +61,7 @@ fn tangential_law(p: PairParams, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_
         }
     }
     xi += vt * dt;
-    var ft = -kt * xi - (TANGENTIAL_DAMPING_RATIO * eta_n) * vt;
+    var ft = -kt * xi - eta_t * vt;
     let cap = p.friction * max(normal_force, 0.0);
     let ft_len2 = dot(ft, ft);
     if ft_len2 > cap * cap {
@@ -68,16 +77,26 @@ struct LawResult {
 }
 
 // One point: normal and tangential forces at `point`, overlap `depth` along the unit
-// normal `n` (from a to b). Twin of `point_contact_force` in law.rs.
+// normal `n` (from a to b); `coverage` the contact's normal state (law.rs). Twin of
+// `point_contact_force` in law.rs.
 fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec3<f32>,
                        point: vec3<f32>, depth: f32, a: BodyMotion, b: BodyMotion,
-                       history: vec3<f32>, dt: f32) -> LawResult {
+                       history: vec3<f32>, coverage: f32, dt: f32) -> LawResult {
     let vrel = point_velocity(b, point) - point_velocity(a, point);
     let sk = spring(p, r_eff, depth, share);
     let eta = damping(p, m_eff, sk.y);
-    let fn_ = sk.x - eta * dot(vrel, n);
+    var fn_: f32;
+    var cov = 0.0;
+    if share == SPHERE_POINT_SHARE {
+        let r = resolved_normal_force(p, m_eff, r_eff, share, depth, -dot(vrel, n), coverage, dt);
+        fn_ = r.x;
+        cov = r.y;
+    } else {
+        fn_ = sk.x - eta * dot(vrel, n);
+    }
     let kt = tangential_stiffness(p, r_eff, depth, share);
-    let t = tangential_law(p, kt, n, vrel, fn_, eta, history, dt);
+    let eta_t = tangential_damping(p, m_eff, kt, eta);
+    let t = tangential_law(p, kt, n, vrel, fn_, eta_t, history, dt);
     let f = n * fn_ + t.force;
     var out = ContactForce();
     out.force_b = f;
@@ -85,7 +104,85 @@ fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec
     out.torque_a = cross(f, point - a.position);
     out.torque_b = cross(point - b.position, f);
     adhesion_and_rolling(p, m_eff, r_eff, n, point, a, b, fn_, dt, &out);
-    return LawResult(out, vec4<f32>(t.spring, 0.0));
+    return LawResult(out, vec4<f32>(t.spring, cov));
+}
+
+const COVERED_TO_RELEASE: f32 = -1.0;
+const EDGE_SLACK: f32 = 0.05;
+
+// The normal force resolved within the step (x) and the new coverage (y): law.rs
+// `resolved_normal_force`, where the method is explained.
+fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, depth: f32,
+                         approach: f32, coverage: f32, dt: f32) -> vec2<f32> {
+    let x = depth;
+    let v = approach;
+    let sk = spring(p, r_eff, x, share);
+    let eta = damping(p, m_eff, sk.y);
+    let first = x - dt * v <= EDGE_SLACK * dt * abs(v);
+    var start = 0.0;
+    if coverage > 0.0 {
+        start = coverage;
+    } else if !(coverage < 0.0 || first) {
+        start = x - 0.5 * dt * v;
+    }
+    let inv_m = 1.0 / m_eff;
+    let predicted = (sk.x + eta * v) / (1.0 + 0.5 * eta * dt * inv_m);
+    var v_next = v - dt * predicted * inv_m;
+    var last = x + dt * v_next <= EDGE_SLACK * dt * abs(v_next);
+    var force = predicted;
+    var end = 0.0;
+    for (var attempt = 0u; attempt < 2u; attempt++) {
+        for (var it = 0u; it < 3u; it++) {
+            var spring_impulse: f32;
+            if first || last {
+                let back = select(-0.5 * dt, -dt, first);
+                let ahead = select(0.5 * dt, dt, last);
+                spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
+                    + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
+            } else {
+                spring_impulse = sk.x * dt;
+            }
+            if last {
+                end = 0.0;
+            } else {
+                end = max(x + 0.5 * dt * v_next, 0.0);
+            }
+            force = (spring_impulse + dashpot_integral(p, m_eff, r_eff, share, start, end)) / dt;
+            v_next = v - dt * force * inv_m;
+        }
+        if last || x + dt * v_next > EDGE_SLACK * dt * abs(v_next) {
+            break;
+        }
+        last = true;
+    }
+    return vec2<f32>(force, select(COVERED_TO_RELEASE, end, end > 0.0));
+}
+
+// law.rs `spring_integral`.
+fn spring_integral(p: PairParams, r_eff: f32, share: f32, x0: f32, v: f32, s0: f32,
+                   s1: f32) -> f32 {
+    let a = x0 + v * s0;
+    let b = x0 + v * s1;
+    if a > 0.0 && b > 0.0 {
+        let mid = x0 + v * (0.5 * (s0 + s1));
+        return (s1 - s0) / 6.0
+            * (spring(p, r_eff, a, share).x + 4.0 * spring(p, r_eff, mid, share).x
+               + spring(p, r_eff, b, share).x);
+    } else if a > 0.0 || b > 0.0 {
+        let top = max(a, b);
+        let exponent = select(2.0, 2.5, p.model == MODEL_HERTZ);
+        return spring(p, r_eff, top, share).x * top / exponent / abs(v);
+    }
+    return 0.0;
+}
+
+// law.rs `dashpot_integral`.
+fn dashpot_integral(p: PairParams, m_eff: f32, r_eff: f32, share: f32, x0: f32,
+                    x1: f32) -> f32 {
+    let eta_1 = damping(p, m_eff, spring(p, r_eff, max(x1, 0.0), share).y);
+    let eta_0 = damping(p, m_eff, spring(p, r_eff, max(x0, 0.0), share).y);
+    let q1 = select(1.0, 1.25, p.model == MODEL_HERTZ);
+    return (eta_1 * x1 - eta_0 * x0) / q1;
 }
 
 // The adhesive pull of a touching pair (DMT: 2 pi gamma R*), 0 without cohesion.
@@ -158,7 +255,7 @@ fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold,
     let n = m.normal;
     if m.count == 1u {
         return point_contact_force(p, m_eff, r_eff, share, n, m.points[0].xyz, m.points[0].w, a,
-                                   b, hist_in.xyz, dt);
+                                   b, hist_in.xyz, hist_in.w, dt);
     }
     let count = m.count;
     let inv_count = 1.0 / f32(count);
@@ -192,8 +289,9 @@ fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold,
     }
     let share_total = share * f32(count);
     let kt = tangential_stiffness(p, r_eff, mean_depth, share_total);
+    let eta_t = tangential_damping(p, m_eff, kt, eta_total);
     let vrel = point_velocity(b, centroid) - point_velocity(a, centroid);
-    let t = tangential_law(p, kt, n, vrel, normal_force, eta_total, hist_in.xyz, dt);
+    let t = tangential_law(p, kt, n, vrel, normal_force, eta_t, hist_in.xyz, dt);
     force_b += t.force;
     torque_b += cross(centroid - b.position, t.force);
     torque_a += cross(t.force, centroid - a.position);
@@ -208,7 +306,7 @@ fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold,
         let w_n = dot(b.omega - a.omega, n);
         let r2 = r_patch * r_patch;
         let k_tw = kt * r2;
-        let eta_tw = TANGENTIAL_DAMPING_RATIO * eta_total * r2;
+        let eta_tw = eta_t * r2;
         twist = hist_in.w + w_n * dt;
         var tau = -k_tw * twist - eta_tw * w_n;
         let cap = p.friction * max(normal_force, 0.0) * r_patch;

@@ -103,11 +103,27 @@ fn query(rng: &mut ChaCha8Rng) -> LawQuery {
     let mass = 10f32.powf(rng.random_range(-6.0..1.0));
     // Springs: zero (a new contact), small, or far beyond the Coulomb cap.
     let reach = [0.0, 1e-4, 1.0][rng.random_range(0..3usize)] * size;
+    let share = if rng.random_bool(0.5) { 1.0 } else { 0.25 };
+    let dt = 10f32.powf(rng.random_range(-6.0..-4.0));
+    let mut twist = rng.random_range(-1.0..1.0) * reach / size;
+    if share == 1.0 && count == 1 {
+        // A sphere contact, resolved within the step: its first or last step (an overlap
+        // within a step's travel) half the time, and a coverage of a new, a released or a
+        // continuing contact.
+        if rng.random_bool(0.5) {
+            points[0].depth = rng.random_range(0.0..1.0) * speed * dt;
+        }
+        twist = match rng.random_range(0..3u32) {
+            0 => 0.0,
+            1 => -1.0,
+            _ => points[0].depth * rng.random_range(0.5..1.5),
+        };
+    }
     LawQuery {
         params: params(rng),
         m_eff: mass,
         r_eff: size,
-        share: if rng.random_bool(0.5) { 1.0 } else { 0.25 },
+        share,
         manifold: Manifold {
             normal,
             points,
@@ -116,8 +132,8 @@ fn query(rng: &mut ChaCha8Rng) -> LawQuery {
         a,
         b,
         history: vec(rng, reach),
-        twist: rng.random_range(-1.0..1.0) * reach / size,
-        dt: 10f32.powf(rng.random_range(-6.0..-4.0)),
+        twist,
+        dt,
     }
 }
 
@@ -186,14 +202,27 @@ fn wgsl_law_matches_the_rust_law() {
             + c.torque_b.length()
             + rolling.length()
             + spinning.length();
-        let h_scale = hist.length().max(q.history.length()).max(1e-30);
+        // Spring scales: what one step of the relative motion adds to a spring (a new
+        // spring is that alone, where rounding in the tangential projection shows), and the
+        // overlap for a sphere contact's coverage.
+        let travel = (q.a.velocity.length()
+            + q.b.velocity.length()
+            + (q.a.omega.length() + q.b.omega.length()) * lever)
+            * q.dt;
+        let h_scale = hist.length().max(q.history.length()).max(travel).max(1e-30);
+        let twist_scale = twist
+            .abs()
+            .max(q.twist.abs())
+            .max((q.a.omega.length() + q.b.omega.length()) * q.dt)
+            .max(q.manifold.points[0].depth)
+            .max(1e-30);
         let errs = [
             (g.force_b - c.force_b).length() / f_scale,
             (g.normal_force - c.normal_force).abs() / f_scale,
             (g.torque_a - c.torque_a).length() / t_scale,
             (g.torque_b - c.torque_b).length() / t_scale,
             (Vec3::new(g_hist[0], g_hist[1], g_hist[2]) - hist).length() / h_scale,
-            (g_hist[3] - twist).abs() / twist.abs().max(q.twist.abs()).max(1e-30),
+            (g_hist[3] - twist).abs() / twist_scale,
         ];
         let err = errs.iter().copied().fold(0.0, f32::max);
         assert!(

@@ -117,3 +117,6 @@ mod rolling_resistance;
 
 #[path = "../../clatter/tests/periodic.rs"]
 mod periodic;
+
+#[path = "../../clatter/tests/hertz_mindlin.rs"]
+mod hertz_mindlin;

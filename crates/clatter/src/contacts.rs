@@ -33,7 +33,9 @@ impl fmt::Display for Partner {
 pub struct ContactSprings {
     /// Tangential spring.
     pub history: Vec<Vec3>,
-    /// Twisting spring (rad).
+    /// Twisting spring (rad) of a patch; for one-point contacts with a sphere, the overlap
+    /// up to which the normal dashpot has been applied (m; see
+    /// `law::resolved_normal_force`).
     pub twist: Vec<f32>,
     /// The last step's force.
     pub forces: Vec<ContactForce>,

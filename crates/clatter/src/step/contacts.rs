@@ -39,8 +39,9 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(touch_pairs.par_iter_mut());
             if w.spheres_only() {
                 return common
+                    .zip(twist_pairs.par_iter_mut())
                     .with_min_len(CHUNK)
-                    .map(|(((p, h), f), t)| sphere_pair(w, *p, h, f, t) as usize)
+                    .map(|((((p, h), f), t), c)| sphere_pair(w, *p, h, c, f, t) as usize)
                     .sum::<usize>();
             }
             common
@@ -76,6 +77,7 @@ fn sphere_pair(
     w: &World,
     [i, j]: [u32; 2],
     hist: &mut Vec3,
+    coverage: &mut f32,
     force: &mut ContactForce,
     touching: &mut bool,
 ) -> bool {
@@ -101,11 +103,12 @@ fn sphere_pair(
             &w.motion(i),
             &w.motion_from(i, j),
             hist,
+            coverage,
             w.dt,
         );
         *touching = true;
     } else if *touching {
-        release(force, hist, None, touching);
+        release(force, hist, Some(coverage), touching);
     }
     *touching
 }
