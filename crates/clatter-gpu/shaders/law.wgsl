@@ -109,6 +109,7 @@ fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec
 
 const COVERED_TO_RELEASE: f32 = -1.0;
 const EDGE_SLACK: f32 = 0.05;
+const RESOLVABLE: f32 = 1.0;
 
 // The normal force resolved within the step (x) and the new coverage (y): law.rs
 // `resolved_normal_force`, where the method is explained.
@@ -118,6 +119,10 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
     let v = approach;
     let sk = spring(p, r_eff, x, share);
     let eta = damping(p, m_eff, sk.y);
+    let inv_m = 1.0 / m_eff;
+    if !(dt * (dt * sk.y + eta) * inv_m <= RESOLVABLE) {
+        return vec2<f32>(sk.x + eta * v, 0.0);
+    }
     let first = x - dt * v <= EDGE_SLACK * dt * abs(v);
     var start = 0.0;
     if coverage > 0.0 {
@@ -125,7 +130,6 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
     } else if !(coverage < 0.0 || first) {
         start = x - 0.5 * dt * v;
     }
-    let inv_m = 1.0 / m_eff;
     let predicted = (sk.x + eta * v) / (1.0 + 0.5 * eta * dt * inv_m);
     var v_next = v - dt * predicted * inv_m;
     var last = x + dt * v_next <= EDGE_SLACK * dt * abs(v_next);
