@@ -120,7 +120,7 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
     let sk = spring(p, r_eff, x, share);
     let eta = damping(p, m_eff, sk.y);
     let inv_m = 1.0 / m_eff;
-    if !(dt * (dt * sk.y + eta) * inv_m <= RESOLVABLE) {
+    if dt * (dt * sk.y + eta) * inv_m > RESOLVABLE {
         return vec2<f32>(sk.x + eta * v, 0.0);
     }
     let first = x - dt * v <= EDGE_SLACK * dt * abs(v);

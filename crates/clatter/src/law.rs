@@ -236,7 +236,7 @@ pub fn resolved_normal_force(
     let (fs, k) = spring(p, r_eff, x, share);
     let eta = damping(p, m_eff, k);
     let inv_m = 1.0 / m_eff;
-    if !(dt * (dt * k + eta) * inv_m <= RESOLVABLE) {
+    if dt * (dt * k + eta) * inv_m > RESOLVABLE {
         // A step too long for the contact (near or past the stability bound): the explicit
         // law, which blows up plainly where the iterations below would not converge.
         *coverage = 0.0;
