@@ -133,25 +133,34 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
     let predicted = (sk.x + eta * v) / (1.0 + 0.5 * eta * dt * inv_m);
     var v_next = v - dt * predicted * inv_m;
     var last = x + dt * v_next <= EDGE_SLACK * dt * abs(v_next);
+    let g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, start).x;
+    if !first && !last {
+        let x1 = max(x + 0.5 * dt * v_next, 0.0);
+        let g1 = dashpot_primitive(p, m_eff, r_eff, share, eta, x1);
+        let inside = (sk.x + (g1.x - g_start) / dt + 0.5 * g1.y * (v - v_next))
+            / (1.0 + 0.5 * g1.y * dt * inv_m);
+        let v_after = v - dt * inside * inv_m;
+        if x + dt * v_after > EDGE_SLACK * dt * abs(v_after) {
+            return vec2<f32>(inside, max(x + 0.5 * dt * v_after, 0.0));
+        }
+        last = true;
+        v_next = v_after;
+    }
     var force = predicted;
     var end = 0.0;
     for (var attempt = 0u; attempt < 2u; attempt++) {
         for (var it = 0u; it < 3u; it++) {
-            var spring_impulse: f32;
-            if first || last {
-                let back = select(-0.5 * dt, -dt, first);
-                let ahead = select(0.5 * dt, dt, last);
-                spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
-                    + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
-            } else {
-                spring_impulse = sk.x * dt;
-            }
+            let back = select(-0.5 * dt, -dt, first);
+            let ahead = select(0.5 * dt, dt, last);
+            let spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
+                + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
             if last {
                 end = 0.0;
             } else {
                 end = max(x + 0.5 * dt * v_next, 0.0);
             }
-            force = (spring_impulse + dashpot_integral(p, m_eff, r_eff, share, start, end)) / dt;
+            let g_end = dashpot_primitive(p, m_eff, r_eff, share, eta, end).x;
+            force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
         }
         if last || x + dt * v_next > EDGE_SLACK * dt * abs(v_next) {
@@ -180,13 +189,14 @@ fn spring_integral(p: PairParams, r_eff: f32, share: f32, x0: f32, v: f32, s0: f
     return 0.0;
 }
 
-// law.rs `dashpot_integral`.
-fn dashpot_integral(p: PairParams, m_eff: f32, r_eff: f32, share: f32, x0: f32,
-                    x1: f32) -> f32 {
-    let eta_1 = damping(p, m_eff, spring(p, r_eff, max(x1, 0.0), share).y);
-    let eta_0 = damping(p, m_eff, spring(p, r_eff, max(x0, 0.0), share).y);
-    let q1 = select(1.0, 1.25, p.model == MODEL_HERTZ);
-    return (eta_1 * x1 - eta_0 * x0) / q1;
+// law.rs `dashpot_primitive`: (G(x), eta(x)).
+fn dashpot_primitive(p: PairParams, m_eff: f32, r_eff: f32, share: f32, eta_linear: f32,
+                     x: f32) -> vec2<f32> {
+    if p.model == MODEL_HERTZ {
+        let eta = damping(p, m_eff, spring(p, r_eff, max(x, 0.0), share).y);
+        return vec2<f32>(eta * x / 1.25, eta);
+    }
+    return vec2<f32>(eta_linear * x, eta_linear);
 }
 
 // The adhesive pull of a touching pair (DMT: 2 pi gamma R*), 0 without cohesion.

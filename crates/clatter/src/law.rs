@@ -216,8 +216,9 @@ const EDGE_SLACK: f32 = 0.05;
 ///   `eta ~ x^q`: 0 linear, 1/4 Hertz), exact however the speed varies. Its sum over a
 ///   contact telescopes, so no part of the contact is damped twice or not at all.
 ///
-/// `v+` depends on the force: three fixed-point iterations on the two-body motion with
-/// effective mass `m_eff`, started from a trapezoidal predictor (and three more as the last
+/// `v+` depends on the force, through the two-body motion with effective mass `m_eff`:
+/// inside the contact one Newton step from a trapezoidal predictor (exact for the linear
+/// law); at the first and last steps three fixed-point iterations (and three more as the last
 /// step if the contact separates after all). At rest the force is the
 /// spring force exactly (no bias in static overlaps).
 #[inline(always)]
@@ -256,23 +257,39 @@ pub fn resolved_normal_force(
     let predicted = (fs + eta * v) / (1.0 + 0.5 * eta * dt * inv_m);
     let mut v_next = v - dt * predicted * inv_m;
     let mut last = x + dt * v_next <= EDGE_SLACK * dt * v_next.abs();
+    let (g_start, _) = dashpot_primitive(p, m_eff, r_eff, share, eta, start);
+    if !first && !last {
+        // Inside the contact: the spring at `x` over the step (midpoint rule), the dashpot
+        // from `start` to `x1 = x + dt v+ / 2`, with `v+ = v - dt F / m*` solved by one
+        // Newton step on the primitive linearised at the predictor (exact for the linear law).
+        let x1 = (x + 0.5 * dt * v_next).max(0.0);
+        let (g1, eta1) = dashpot_primitive(p, m_eff, r_eff, share, eta, x1);
+        let force = (fs + (g1 - g_start) / dt + 0.5 * eta1 * (v - v_next))
+            / (1.0 + 0.5 * eta1 * dt * inv_m);
+        let v_after = v - dt * force * inv_m;
+        if x + dt * v_after > EDGE_SLACK * dt * v_after.abs() {
+            *coverage = (x + 0.5 * dt * v_after).max(0.0);
+            return force;
+        }
+        // Separating after all: this is the contact's last step.
+        last = true;
+        v_next = v_after;
+    }
+    // First or last step: the spring over the part of the interval in contact.
     let (mut force, mut end) = (predicted, 0.0);
     for _pass in 0..2 {
         for _ in 0..3 {
-            let spring_impulse = if first || last {
-                let back = if first { -dt } else { -0.5 * dt };
-                let ahead = if last { dt } else { 0.5 * dt };
-                spring_integral(p, r_eff, share, x, v, back, 0.0)
-                    + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead)
-            } else {
-                fs * dt
-            };
+            let back = if first { -dt } else { -0.5 * dt };
+            let ahead = if last { dt } else { 0.5 * dt };
+            let spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
+                + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
             end = if last {
                 0.0
             } else {
                 (x + 0.5 * dt * v_next).max(0.0)
             };
-            force = (spring_impulse + dashpot_integral(p, m_eff, r_eff, share, start, end)) / dt;
+            let (g_end, _) = dashpot_primitive(p, m_eff, r_eff, share, eta, end);
+            force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
         }
         // Predicted to stay but separating after all: this is the last step.
@@ -315,13 +332,24 @@ fn spring_integral(
     }
 }
 
-/// `integral of eta(x) dx` from overlap `x0` to `x1`: `eta ~ x^q` (q = 0 linear, 1/4
-/// Hertz), so `(eta(x1) x1 - eta(x0) x0) / (1 + q)`.
+/// The dashpot's primitive `G(x) = integral of eta from 0 to x` and `eta(x)`: `eta ~ x^q`
+/// (q = 0 linear, 1/4 Hertz), so `G = eta(x) x / (1 + q)`. `eta_linear` is the linear law's
+/// (constant) damping, passed in to save its square root.
 #[inline(always)]
-fn dashpot_integral(p: &PairParams, m_eff: f32, r_eff: f32, share: f32, x0: f32, x1: f32) -> f32 {
-    let eta_at = |x: f32| damping(p, m_eff, spring(p, r_eff, x.max(0.0), share).1);
-    let q1 = if p.model == MODEL_HERTZ { 1.25 } else { 1.0 };
-    (eta_at(x1) * x1 - eta_at(x0) * x0) / q1
+fn dashpot_primitive(
+    p: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    share: f32,
+    eta_linear: f32,
+    x: f32,
+) -> (f32, f32) {
+    if p.model == MODEL_HERTZ {
+        let eta = damping(p, m_eff, spring(p, r_eff, x.max(0.0), share).1);
+        (eta * x / 1.25, eta)
+    } else {
+        (eta_linear * x, eta_linear)
+    }
 }
 
 /// The adhesive pull of a touching pair (DMT: `2 pi gamma R*`, N), 0 without cohesion.
