@@ -4,8 +4,8 @@
 mod backend;
 mod bench;
 mod energy;
-mod plot;
 mod output;
+mod plot;
 mod query;
 mod render;
 mod run;

@@ -82,13 +82,7 @@ fn validate(backend: &str, dir: &Path) {
     assert_eq!(rows.len(), table.len(), "one table line per row:\n{all}");
     assert_eq!(json["rows_total"].as_u64(), Some(rows.len() as u64));
     for row in rows {
-        for key in [
-            "check",
-            "case",
-            "quantity",
-            "truth",
-            "error_kind",
-        ] {
+        for key in ["check", "case", "quantity", "truth", "error_kind"] {
             assert!(row[key].is_string(), "row lacks {key}: {row}");
         }
         for key in ["expected", "measured", "error", "tolerance", "dt"] {
@@ -114,7 +108,10 @@ fn validate(backend: &str, dir: &Path) {
     // every row passing instead of the two checks below.
     let failed: Vec<&serde_json::Value> = rows.iter().filter(|r| r["pass"] != true).collect();
     for r in &failed {
-        assert_eq!(r["check"], "restitution-default-dt", "a row failed: {r}\n{all}");
+        assert_eq!(
+            r["check"], "restitution-default-dt",
+            "a row failed: {r}\n{all}"
+        );
     }
     if failed.is_empty() {
         assert!(o.status.success(), "{all}");

@@ -260,21 +260,33 @@ pub fn run_cases(
         unreachable!()
     };
     if record {
+        // Each sample: the time and overlap before a step, and the force that step applied
+        // (computed from that overlap): `m dv / dt` of b along the normal.
+        let depth_of = |w: &World, k: usize| -> f64 {
+            let (ia, ib) = index(k);
+            let xb = w.state.position[ib].as_dvec3();
+            match ia {
+                None => cases[k].b.r - xb.z,
+                Some(ia) => {
+                    cases[k].a.r + cases[k].b.r - (xb - w.state.position[ia].as_dvec3()).length()
+                }
+            }
+        };
         for _ in 0..steps {
-            let before: Vec<f64> = (0..cases.len())
-                .map(|k| sim.world.state.velocity[index(k).1].z as f64)
+            let t = sim.world.time;
+            let before: Vec<(f64, f64)> = (0..cases.len())
+                .map(|k| {
+                    (
+                        sim.world.state.velocity[index(k).1].z as f64,
+                        depth_of(&sim.world, k),
+                    )
+                })
                 .collect();
             sim.step(1)?;
-            let w = &sim.world;
             for (k, c) in cases.iter().enumerate() {
-                let (ia, ib) = index(k);
-                let xb = w.state.position[ib].as_dvec3();
-                let depth = match ia {
-                    None => c.b.r - xb.z,
-                    Some(ia) => c.a.r + c.b.r - (xb - w.state.position[ia].as_dvec3()).length(),
-                };
-                let force = c.b.m * (w.state.velocity[ib].z as f64 - before[k]) / step;
-                history[k].push((w.time, depth, force));
+                let v = sim.world.state.velocity[index(k).1].z as f64;
+                let force = c.b.m * (v - before[k].0) / step;
+                history[k].push((t, before[k].1, force));
             }
         }
     } else {
@@ -302,9 +314,8 @@ pub fn run_cases(
 
 /// Overlap peak, force peak, and contact duration (zero crossings of the overlap,
 /// interpolated) of a recorded history.
-fn peaks(h: &[(f64, f64, f64)]) -> (f64, f64, f64) {
+fn peaks(h: &[(f64, f64, f64)]) -> (f64, f64, f64, f64) {
     let d_max = h.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
-    // The force of step n acts between samples n-1 and n, at the overlap of sample n-1.
     let f_max = h.iter().map(|s| s.2).fold(f64::NEG_INFINITY, f64::max);
     let mut t_in = f64::NAN;
     let mut t_out = f64::NAN;
@@ -318,7 +329,7 @@ fn peaks(h: &[(f64, f64, f64)]) -> (f64, f64, f64) {
             t_out = cross;
         }
     }
-    (d_max, f_max, t_out - t_in)
+    (d_max, f_max, t_out - t_in, t_in)
 }
 
 /// Tests 1 and 2: elastic head-on impacts against Hertz theory.
@@ -358,14 +369,28 @@ fn head_on(
         let sphere = material(solid, 1.0, 0.0);
         let wall_mat = wall.map(|ws| material(ws, 1.0, 0.0));
         let run = run_cases(ctx, &[case], &sphere, wall_mat.as_ref(), None, true)?;
-        let (dm, fm, tm) = peaks(&run.history[0]);
+        let (dm, fm, tm, t0) = peaks(&run.history[0]);
         let truth = "Hertz closed form";
         let case_name = format!("{} R={} v={}", solid.name, r, v);
         rows.push(Row::relative(
-            name, &case_name, "max overlap (m)", d, dm, TOL, truth, run.dt,
+            name,
+            &case_name,
+            "max overlap (m)",
+            d,
+            dm,
+            TOL,
+            truth,
+            run.dt,
         ));
         rows.push(Row::relative(
-            name, &case_name, "peak force (N)", f, fm, TOL, truth, run.dt,
+            name,
+            &case_name,
+            "peak force (N)",
+            f,
+            fm,
+            TOL,
+            truth,
+            run.dt,
         ));
         rows.push(Row::relative(
             name,
@@ -378,10 +403,6 @@ fn head_on(
             run.dt,
         ));
         let h = &run.history[0];
-        let t0 = h
-            .iter()
-            .find(|s| s.1 > 0.0)
-            .map_or(0.0, |s| s.0 - run.dt * (s.1 / (speed * run.dt)).min(1.0));
         let inside: Vec<&(f64, f64, f64)> = h.iter().filter(|s| s.1 > -0.05 * d).collect();
         curves.push((
             solid.name.to_string(),

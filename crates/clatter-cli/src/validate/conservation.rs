@@ -3,15 +3,16 @@
 //!   `e = 1` walls: kinetic plus elastic energy (`k d^2 / 2` per contact) stays within 1% of
 //!   its start over the run (semi-implicit Euler's energy error at t_c/50 is bounded, of order
 //!   `(omega dt)^2`, and does not accumulate).
-//! - `momentum-periodic`: a damped, frictional cloud of spheres in a fully periodic box, no
-//!   gravity: the total momentum changes only by f32 rounding, `|dP| / sum m|v| <= 1e-5`.
+//! - `momentum-periodic`: a damped, frictional cloud in a fully periodic box (two thirds
+//!   spheres, one third randomly oriented cubes), no gravity: the total momentum changes only
+//!   by f32 rounding, `|dP| / sum m|v| <= 1e-5`.
 //! - `symmetric-top`: a free box with two equal principal moments (`I1 = I2 != I3`) spinning
 //!   about an axis off its symmetry axis: the body-frame angular velocity precesses about the
 //!   symmetry axis at `Omega = (I3 - I1) / I1 w3` (Euler's equations, closed form; 2%), the
 //!   angular momentum stays constant (1e-5 relative) and so does the rotational energy (1%).
 
-use clatter::geom::ShapeKind;
 use clatter::geom::narrow::Plane;
+use clatter::geom::{RegularKind, ShapeKind};
 use clatter::{BodyInit, ContactLaw, Material, Periodic, Wall, World, WorldDesc};
 use glam::{DVec3, Quat, Vec3};
 use rand::{Rng, SeedableRng};
@@ -80,7 +81,7 @@ fn energy(w: &World) -> f64 {
 /// The elastic gas in a box.
 pub fn energy_gas(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let name = "energy-gas";
-    let n = if ctx.quick { 3 } else { 5 };
+    let n = if ctx.quick { 3 } else { 6 };
     let pitch = 4.0 * R;
     let side = n as f32 * pitch;
     let material = Material::new("gas", 2500.0, ContactLaw::Linear { stiffness: K }, 1.0, 0.0);
@@ -99,7 +100,11 @@ pub fn energy_gas(ctx: &Ctx) -> anyhow::Result<Outcome> {
     })
     .collect();
     let w = World::new(WorldDesc {
-        shapes: vec![ShapeKind::Sphere { radius: R as f64 }.prepare().expect("sphere")],
+        shapes: vec![
+            ShapeKind::Sphere { radius: R as f64 }
+                .prepare()
+                .expect("sphere"),
+        ],
         materials: vec![material],
         walls,
         bodies: lattice(n, pitch, 0.5, 11),
@@ -109,7 +114,7 @@ pub fn energy_gas(ctx: &Ctx) -> anyhow::Result<Outcome> {
         periodic: None,
     });
     let dt = w.dt as f64;
-    let seconds = if ctx.quick { 0.3 } else { 1.0 };
+    let seconds = if ctx.quick { 0.3 } else { 2.0 };
     ctx.progress(&format!("{name}: {} spheres for {seconds} s", n * n * n));
     let mut sim = ctx.sim(w)?;
     let e0 = energy(&sim.world);
@@ -147,17 +152,38 @@ pub fn energy_gas(ctx: &Ctx) -> anyhow::Result<Outcome> {
 /// Momentum of a colliding cloud in a periodic box.
 pub fn momentum_periodic(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let name = "momentum-periodic";
-    let n = if ctx.quick { 4 } else { 6 };
+    let n = if ctx.quick { 4 } else { 8 };
     let pitch = 2.6 * R;
     let side = n as f32 * pitch;
-    let material = Material::new("cloud", 2500.0, ContactLaw::Linear { stiffness: K }, 0.5, 0.5);
+    let material = Material::new(
+        "cloud",
+        2500.0,
+        ContactLaw::Linear { stiffness: K },
+        0.5,
+        0.5,
+    );
     let mut bodies = lattice(n, pitch, 1.0, 7);
     let mut rng = ChaCha8Rng::seed_from_u64(8);
-    for b in &mut bodies {
+    for (i, b) in bodies.iter_mut().enumerate() {
         b.angular_velocity = rand_vec(&mut rng) * 50.0;
+        // Every third body a cube (circumradius R), randomly oriented.
+        if i % 3 == 2 {
+            b.shape = 1;
+            b.orientation = clatter::scene::random_rotation(&mut rng);
+        }
     }
     let w = World::new(WorldDesc {
-        shapes: vec![ShapeKind::Sphere { radius: R as f64 }.prepare().expect("sphere")],
+        shapes: vec![
+            ShapeKind::Sphere { radius: R as f64 }
+                .prepare()
+                .expect("sphere"),
+            ShapeKind::Regular {
+                kind: RegularKind::Cube,
+                radius: R as f64,
+            }
+            .prepare()
+            .expect("cube"),
+        ],
         materials: vec![material],
         walls: vec![],
         bodies,
@@ -171,8 +197,11 @@ pub fn momentum_periodic(ctx: &Ctx) -> anyhow::Result<Outcome> {
         }),
     });
     let dt = w.dt as f64;
-    let seconds = if ctx.quick { 0.1 } else { 0.4 };
-    ctx.progress(&format!("{name}: {} spheres for {seconds} s", n * n * n));
+    let seconds = if ctx.quick { 0.1 } else { 0.5 };
+    ctx.progress(&format!(
+        "{name}: {} spheres and cubes for {seconds} s",
+        n * n * n
+    ));
     let momentum = |w: &World| DVec3::from(w.momentum());
     let scale = |w: &World| -> f64 {
         w.state
@@ -193,9 +222,15 @@ pub fn momentum_periodic(ctx: &Ctx) -> anyhow::Result<Outcome> {
         ke.push(sim.world.kinetic_energy());
     }
     let worst = drift.iter().fold(0.0f64, |a, d| a.max(*d));
-    let rows = vec![Row::bound(name,
-            &format!("{} spheres, {seconds} s", n * n * n),
-            "max |P(t) - P0| / sum m|v0|", worst, 1e-5, "momentum conserved", dt)];
+    let rows = vec![Row::bound(
+        name,
+        &format!("{} spheres+cubes, {seconds} s", n * n * n),
+        "max |P(t) - P0| / sum m|v0|",
+        worst,
+        1e-5,
+        "momentum conserved",
+        dt,
+    )];
     let svg = chart(
         "Colliding cloud in a periodic box: momentum",
         &[
@@ -328,12 +363,24 @@ pub fn symmetric_top(ctx: &Ctx) -> anyhow::Result<Outcome> {
             "(I3 - I1)/I1 w3",
             dt,
         ),
-        Row::bound(name,
-                case,
-                "max |L(t) - L0| / |L0|", l_drift, 1e-5, "L conserved", dt),
-        Row::bound(name,
-                case,
-                "max |E(t)/E0 - 1|", e_drift, 0.01, "rotational energy conserved", dt),
+        Row::bound(
+            name,
+            case,
+            "max |L(t) - L0| / |L0|",
+            l_drift,
+            1e-5,
+            "L conserved",
+            dt,
+        ),
+        Row::bound(
+            name,
+            case,
+            "max |E(t)/E0 - 1|",
+            e_drift,
+            0.01,
+            "rotational energy conserved",
+            dt,
+        ),
     ];
     let b1: Vec<f64> = t.iter().map(|t| w1 * (precession * t).cos()).collect();
     let b2: Vec<f64> = t.iter().map(|t| w1 * (precession * t).sin()).collect();

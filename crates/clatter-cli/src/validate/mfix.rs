@@ -378,10 +378,7 @@ pub fn dem04(ctx: &Ctx) -> anyhow::Result<Outcome> {
             }
         })
         .collect();
-    let rwa: Vec<f64> = t
-        .iter()
-        .map(|t| 2.5 * mu * G * t.min(t_roll))
-        .collect();
+    let rwa: Vec<f64> = t.iter().map(|t| 2.5 * mu * G * t.min(t_roll)).collect();
     let svg = chart(
         "MFIX DEM04: slip to roll on a rough floor",
         &[Panel {

@@ -26,7 +26,11 @@ const G: f32 = 9.81;
 pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let name = "poured-pile";
     let d = 2.0 * R;
-    let (cells, layers) = if ctx.quick { (7usize, 10usize) } else { (10, 24) };
+    let (cells, layers) = if ctx.quick {
+        (7usize, 10usize)
+    } else {
+        (14, 30)
+    };
     let side = cells as f32 * d;
     let pitch = side / cells as f32;
     let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -64,7 +68,11 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
         0.3,
     );
     let w = World::new(WorldDesc {
-        shapes: vec![ShapeKind::Sphere { radius: R as f64 }.prepare().expect("sphere")],
+        shapes: vec![
+            ShapeKind::Sphere { radius: R as f64 }
+                .prepare()
+                .expect("sphere"),
+        ],
         materials: vec![material],
         walls: vec![Wall {
             plane: Plane {

@@ -150,7 +150,11 @@ pub fn impact(law: &Law, mut a: Ball, mut b: Ball, dt: f64) -> Impact {
                     8.0 * law.shear * c,
                 )
             } else {
-                (law.stiffness * depth, law.stiffness, 2.0 / 7.0 * law.stiffness)
+                (
+                    law.stiffness * depth,
+                    law.stiffness,
+                    2.0 / 7.0 * law.stiffness,
+                )
             };
             let factor = if law.hertz {
                 2.0 * (5.0f64 / 6.0).sqrt() * beta

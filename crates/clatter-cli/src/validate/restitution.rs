@@ -101,7 +101,11 @@ fn impact(ctx: &Ctx, hertz: bool, wall: bool, e: f64) -> anyhow::Result<(f64, f6
     let gap = 1.5 * speed * dt;
     let world = build(gap as f32);
     let params = PairParams::combine(&m, &m);
-    let (m_eff, r_eff) = if wall { (mass, R) } else { (mass / 2.0, R / 2.0) };
+    let (m_eff, r_eff) = if wall {
+        (mass, R)
+    } else {
+        (mass / 2.0, R / 2.0)
+    };
     let tc = params.contact_duration(m_eff, r_eff, speed);
     let steps = ((gap / speed + 3.0 * tc) / dt).ceil() as u64 + 5;
     let mut sim = ctx.sim(world)?;
