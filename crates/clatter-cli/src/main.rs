@@ -197,9 +197,9 @@ enum Command {
     /// restitution at the default time step, conservation laws, a poured pile) and print one
     /// row per checked quantity; exits non-zero unless every row passes (docs/validation.md).
     Validate {
-        /// Which pipeline steps the worlds: cpu, gpu, or auto (the GPU when a hardware
-        /// adapter is found, else the CPU).
-        #[arg(long, value_enum, default_value = "cpu")]
+        /// Which pipeline steps the worlds: gpu, cpu, or auto (the GPU when a hardware
+        /// adapter is found, else the CPU, saying which and why).
+        #[arg(long, value_enum, default_value = "auto")]
         backend: backend::Backend,
         /// Write validation.json and one SVG plot per check into DIR (created if needed).
         #[arg(long, value_name = "DIR")]

@@ -341,8 +341,10 @@ fn head_on(
     wall: Option<&Solid>,
 ) -> anyhow::Result<Outcome> {
     let mut rows = Vec::new();
-    let mut curves: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>)> = Vec::new();
-    let mut theory: Vec<(String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>)> = Vec::new();
+    // Per material: name, then (time, force) and (overlap, force), all normalised.
+    type Curves = (String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+    let mut curves: Vec<Curves> = Vec::new();
+    let mut theory: Vec<Curves> = Vec::new();
     for (solid, r, v) in set {
         ctx.progress(&format!("{name}: {}", solid.name));
         let m = mass(solid, *r);

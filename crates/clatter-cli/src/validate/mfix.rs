@@ -71,6 +71,9 @@ fn mass(r: f64) -> f64 {
     DENSITY as f64 * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3)
 }
 
+/// `(t, z, v_z)` of the sphere.
+type Sample = (f64, f64, f64);
+
 /// The bouncing sphere from `h0`: samples `(t, z, v_z)` every `every` steps for `seconds`.
 fn bounce(
     ctx: &Ctx,
@@ -78,7 +81,7 @@ fn bounce(
     e: f64,
     seconds: f64,
     every: u64,
-) -> anyhow::Result<(Vec<(f64, f64, f64)>, f64)> {
+) -> anyhow::Result<(Vec<Sample>, f64)> {
     let w = world(&[R], &[h0], Vec3::ZERO, e, 0.0);
     let dt = w.dt as f64;
     let mut sim = ctx.sim(w)?;
