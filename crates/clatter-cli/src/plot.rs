@@ -127,23 +127,27 @@ fn panel(s: &mut String, k: usize, p: &Panel) {
         .filter(|v| v.is_finite() && (!log || **v > 0.0))
         .map(|&v| map(v))
         .collect();
-    let (tmin, mut tmax) = range(p.series.iter().flat_map(|se| se.x.iter().copied()));
-    if tmax <= tmin {
-        tmax = tmin + 1.0;
-    }
-    let (mut vmin, mut vmax) = range(values.iter().copied());
-    if vmax - vmin <= f64::EPSILON * vmax.abs().max(1e-300) {
-        let pad = if vmax == 0.0 { 1.0 } else { vmax.abs() * 0.1 };
-        vmin -= pad;
-        vmax += pad;
-    }
-    let px = |x: f64| x1 + (x - tmin) / (tmax - tmin).max(1e-300) * w;
+    let (tmin, tmax) = range(p.series.iter().flat_map(|se| se.x.iter().copied()));
+    // x: the data's own range, with the round ticks inside it.
+    let (tmin, tmax) = pad(tmin, tmax);
+    let slack = 1e-9 * (tmax - tmin);
+    let xticks: Vec<f64> = nice(tmin, tmax)
+        .2
+        .into_iter()
+        .filter(|t| *t >= tmin - slack && *t <= tmax + slack)
+        .collect();
+    let (vmin, vmax) = range(values.iter().copied());
+    let (vmin, vmax, yticks) = if log {
+        let (lo, hi) = pad(vmin, vmax);
+        let ticks = (0..=4).map(|i| lo + i as f64 / 4.0 * (hi - lo)).collect();
+        (lo, hi, ticks)
+    } else {
+        nice(vmin, vmax)
+    };
+    let px = |x: f64| x1 + (x - tmin) / (tmax - tmin) * w;
     let py = |v: f64| y0 + PANEL - (map(v) - vmin) / (vmax - vmin) * PANEL;
-    // Ticks: five on each axis.
-    for i in 0..=4 {
-        let f = i as f64 / 4.0;
-        let (xt, vt) = (tmin + f * (tmax - tmin), vmin + f * (vmax - vmin));
-        let (x, y) = (x1 + f * w, y0 + PANEL - f * PANEL);
+    for xt in xticks {
+        let x = px(xt);
         let _ = writeln!(
             s,
             "<line x1=\"{x:.1}\" y1=\"{y0}\" x2=\"{x:.1}\" y2=\"{}\" stroke=\"#ddd\"/>",
@@ -151,14 +155,17 @@ fn panel(s: &mut String, k: usize, p: &Panel) {
         );
         let _ = writeln!(
             s,
-            "<line x1=\"{x1}\" y1=\"{y:.1}\" x2=\"{}\" y2=\"{y:.1}\" stroke=\"#ddd\"/>",
-            x1 + w
-        );
-        let _ = writeln!(
-            s,
             "<text x=\"{x:.1}\" y=\"{}\" text-anchor=\"middle\">{}</text>",
             y0 + PANEL + 15.0,
             number(xt)
+        );
+    }
+    for vt in yticks {
+        let y = y0 + PANEL - (vt - vmin) / (vmax - vmin) * PANEL;
+        let _ = writeln!(
+            s,
+            "<line x1=\"{x1}\" y1=\"{y:.1}\" x2=\"{}\" y2=\"{y:.1}\" stroke=\"#ddd\"/>",
+            x1 + w
         );
         let shown = if log {
             format!("{:.1e}", 10f64.powf(vt))
@@ -251,6 +258,35 @@ fn panel(s: &mut String, k: usize, p: &Panel) {
             xml_escape(se.name)
         );
     }
+}
+
+/// `[lo, hi]` widened when empty or flat.
+fn pad(lo: f64, hi: f64) -> (f64, f64) {
+    if hi - lo <= f64::EPSILON * hi.abs().max(1e-300) {
+        let d = if hi == 0.0 { 1.0 } else { hi.abs() * 0.1 };
+        (lo - d, hi + d)
+    } else {
+        (lo, hi)
+    }
+}
+
+/// An axis from `lo` to `hi` widened to round numbers, and its ticks (4 to 10 of them, at
+/// 1, 2, 2.5 or 5 times a power of ten).
+fn nice(lo: f64, hi: f64) -> (f64, f64, Vec<f64>) {
+    let (lo, hi) = pad(lo, hi);
+    let raw = (hi - lo) / 5.0;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 2.5, 5.0, 10.0]
+        .iter()
+        .map(|f| f * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag);
+    let (a, b) = ((lo / step).floor(), (hi / step).ceil());
+    let ticks = (0..=(b - a) as i64)
+        .map(|k| (a + k as f64) * step)
+        .map(|t| if t.abs() < 1e-9 * step { 0.0 } else { t })
+        .collect();
+    (a * step, b * step, ticks)
 }
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {

@@ -242,3 +242,121 @@ pub fn gross_sliding(mu: f64, e: f64, a: Ball, b: Ball) -> (Ball, Ball) {
     }
     (a2, b2)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ball(m: f64, r: f64, z: f64, v: DVec3, w: DVec3) -> Ball {
+        Ball {
+            m,
+            r,
+            x: DVec3::new(0.0, 0.0, z),
+            v,
+            w,
+        }
+    }
+
+    /// The constant of the Hertz contact time, by quadrature of `1 / sqrt(1 - x^(5/2))`
+    /// (substituting `x = 1 - u^2` to remove the end singularity).
+    #[test]
+    fn hertz_time_constant() {
+        let n = 200_000;
+        let mut sum = 0.0;
+        for i in 0..n {
+            let u = (i as f64 + 0.5) / n as f64;
+            let x: f64 = 1.0 - u * u;
+            sum += 2.0 * u / (1.0 - x.powf(2.5)).sqrt() / n as f64;
+        }
+        assert!((sum - HERTZ_TIME).abs() < 1e-5, "{sum}");
+    }
+
+    /// The f64 integration of an elastic head-on Hertz impact reproduces the closed forms.
+    #[test]
+    fn elastic_impact_matches_hertz_closed_forms() {
+        let (m, r, v, e_star) = (0.01, 0.01, 1.0, 1e9);
+        let law = Law {
+            hertz: true,
+            stiffness: e_star,
+            shear: 0.0,
+            restitution: 1.0,
+            friction: 0.0,
+        };
+        let (d, f, tc) = hertz_impact(m, r, e_star, v);
+        let b = ball(m, r, r + 1e-12, DVec3::new(0.0, 0.0, -v), DVec3::ZERO);
+        let out = impact(&law, Ball::wall(), b, tc / 100_000.0);
+        let dm = out.history.iter().map(|s| s.1).fold(0.0, f64::max);
+        let fm = out.history.iter().map(|s| s.2).fold(0.0, f64::max);
+        let tm = out.history.len() as f64 * tc / 100_000.0;
+        assert!((dm / d - 1.0).abs() < 1e-4, "{dm} {d}");
+        assert!((fm / f - 1.0).abs() < 1e-4, "{fm} {f}");
+        assert!((tm / tc - 1.0).abs() < 1e-3, "{tm} {tc}");
+        assert!((out.b.v.z / v - 1.0).abs() < 1e-6, "elastic: {}", out.b.v.z);
+    }
+
+    /// A damped linear impact meets its restitution (the closed form of the linear law).
+    #[test]
+    fn linear_impact_meets_restitution() {
+        for e in [0.1, 0.5, 0.9] {
+            let law = Law {
+                hertz: false,
+                stiffness: 1e4,
+                shear: 0.0,
+                restitution: e,
+                friction: 0.0,
+            };
+            let b = ball(
+                0.01,
+                0.01,
+                0.01 + 1e-12,
+                DVec3::new(0.0, 0.0, -1.0),
+                DVec3::ZERO,
+            );
+            let out = impact(&law, Ball::wall(), b, 1e-7);
+            assert!((out.b.v.z / e - 1.0).abs() < 1e-3, "e {e}: {}", out.b.v.z);
+        }
+    }
+
+    /// At a steep angle the integration slides throughout and agrees with the closed form.
+    #[test]
+    fn steep_oblique_impact_slides_as_the_closed_form() {
+        let law = Law {
+            hertz: true,
+            stiffness: 6e10,
+            shear: 2.5e10,
+            restitution: 1.0,
+            friction: 0.1,
+        };
+        let t = 70f64.to_radians();
+        let b = ball(
+            2.6e-4,
+            0.0025,
+            0.0025 + 1e-12,
+            DVec3::new(3.9 * t.sin(), 0.0, -3.9 * t.cos()),
+            DVec3::ZERO,
+        );
+        let (_, _, tc) = hertz_impact(b.m, b.r, law.stiffness, 3.9 * t.cos());
+        let out = impact(&law, Ball::wall(), b, tc / 20_000.0);
+        assert!(out.sliding_throughout);
+        let (_, s) = gross_sliding(law.friction, 1.0, Ball::wall(), b);
+        assert!(
+            (out.b.v.x - s.v.x).abs() < 1e-3 * b.v.x,
+            "{} {}",
+            out.b.v.x,
+            s.v.x
+        );
+        assert!(
+            (out.b.w.y - s.w.y).abs() * b.r < 2e-3 * b.v.x,
+            "{} {}",
+            out.b.w.y,
+            s.w.y
+        );
+        // Near normal incidence it sticks.
+        let t = 5f64.to_radians();
+        let b = Ball {
+            v: DVec3::new(3.9 * t.sin(), 0.0, -3.9 * t.cos()),
+            ..b
+        };
+        assert!(!impact(&law, Ball::wall(), b, tc / 20_000.0).sliding_throughout);
+    }
+}
