@@ -5,9 +5,11 @@ mod backend;
 mod bench;
 mod energy;
 mod output;
+mod plot;
 mod query;
 mod render;
 mod run;
+mod validate;
 
 use clatter::vtk;
 
@@ -191,6 +193,27 @@ enum Command {
         #[arg(long, value_name = "FILE|default")]
         scene: Option<PathBuf>,
     },
+    /// Run the DEM verification suite (Chung & Ooi 2011 tests 1-8, MFIX DEM01-04,
+    /// restitution at the default time step, conservation laws, a poured pile) and print one
+    /// row per checked quantity; exits non-zero unless every row passes (docs/validation.md).
+    Validate {
+        /// Which pipeline steps the worlds: gpu, cpu, or auto (the GPU when a hardware
+        /// adapter is found, else the CPU, saying which and why).
+        #[arg(long, value_enum, default_value = "auto")]
+        backend: backend::Backend,
+        /// Write validation.json and one SVG plot per check into DIR (created if needed).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Fewer cases, shorter runs, fewer bodies (under a minute on two cores).
+        #[arg(long)]
+        quick: bool,
+        /// Run only the checks whose name contains one of these (comma-separated).
+        #[arg(long, value_delimiter = ',', value_name = "NAME")]
+        only: Vec<String>,
+        /// Worker threads (default: all cores).
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
+    },
     /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
     Query {
         /// Input file, or - for standard input.
@@ -318,6 +341,27 @@ fn main() -> ExitCode {
             })
         }),
         Command::Query { input } => query::run(&input),
+        Command::Validate {
+            backend,
+            out,
+            quick,
+            only,
+            threads,
+        } => init_threads(threads).and_then(|_| {
+            validate::validate(validate::ValidateArgs {
+                backend,
+                out,
+                quick,
+                only,
+            })
+            .and_then(|passed| {
+                if passed {
+                    Ok(())
+                } else {
+                    Err(validate::Failed.into())
+                }
+            })
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -325,6 +369,7 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::from(run::BLOW_UP_EXIT)
         }
+        Err(e) if e.is::<validate::Failed>() => ExitCode::from(validate::FAILED_EXIT),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

@@ -1,0 +1,480 @@
+//! `clatter validate`: the standard DEM verification suite (docs/validation.md).
+//!
+//! Every check builds a [`World`] through the library API, steps it on the chosen backend
+//! ([`Ctx::sim`]) and compares what it measures with a truth that does not come from clatter:
+//! a closed form (Hertz theory, rigid-body impulse ratios, free fall, slip to roll, torque-free
+//! precession) or an independent f64 integration of the same contact law ([`reference`]).
+//! One [`Row`] per compared quantity; the command prints the table, writes `validation.json`
+//! and one SVG plot per check with `--out`, and fails unless every row passes.
+
+mod chung_ooi;
+mod conservation;
+mod mfix;
+mod pile;
+mod reference;
+mod restitution;
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use clatter::World;
+use clatter_gpu::{Device, GpuContext, Readback, Stepper};
+
+use crate::backend::Backend;
+use crate::output::AtomicFile;
+
+/// The exit status of `clatter validate` when some row fails (1: an error stopped the suite;
+/// 3 is `clatter run`'s blow-up status).
+pub const FAILED_EXIT: u8 = 4;
+
+/// Some row failed (the table and summary line are already printed).
+#[derive(Debug)]
+pub struct Failed;
+
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "some validation rows failed")
+    }
+}
+
+impl std::error::Error for Failed {}
+
+/// How a row's error is computed (and so what its tolerance means).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// `|measured - expected| / |expected|`.
+    Relative,
+    /// `|measured - expected| / scale`, the scale named in the row's note (e.g. the incident
+    /// slip speed, for quantities that cross zero).
+    Normalised,
+    /// `|measured - expected|` (ranges: `expected` is the middle, the tolerance the half
+    /// width).
+    Absolute,
+}
+
+impl ErrorKind {
+    fn name(self) -> &'static str {
+        match self {
+            ErrorKind::Relative => "relative",
+            ErrorKind::Normalised => "normalised",
+            ErrorKind::Absolute => "absolute",
+        }
+    }
+}
+
+/// One compared quantity.
+#[derive(Clone, Debug)]
+pub struct Row {
+    /// Check name, e.g. `chung-ooi-4`.
+    pub check: String,
+    /// The case within the check, e.g. `theta=30deg`.
+    pub case: String,
+    /// What is compared, with its unit.
+    pub quantity: String,
+    /// The truth.
+    pub expected: f64,
+    /// What clatter gave.
+    pub measured: f64,
+    /// The error ([`ErrorKind`]).
+    pub error: f64,
+    /// The largest error that passes.
+    pub tolerance: f64,
+    /// How `error` is computed.
+    pub kind: ErrorKind,
+    /// Where the truth comes from (closed form, f64 ODE, ...).
+    pub truth: String,
+    /// The time step the world ran with, s.
+    pub dt: f64,
+}
+
+impl Row {
+    /// Whether the row passes.
+    pub fn pass(&self) -> bool {
+        self.error.is_finite() && self.error <= self.tolerance
+    }
+
+    /// A row with a relative error.
+    #[allow(clippy::too_many_arguments)]
+    pub fn relative(
+        check: &str,
+        case: &str,
+        quantity: &str,
+        expected: f64,
+        measured: f64,
+        tolerance: f64,
+        truth: &str,
+        dt: f64,
+    ) -> Row {
+        Row {
+            check: check.into(),
+            case: case.into(),
+            quantity: quantity.into(),
+            expected,
+            measured,
+            error: (measured - expected).abs() / expected.abs(),
+            tolerance,
+            kind: ErrorKind::Relative,
+            truth: truth.into(),
+            dt,
+        }
+    }
+
+    /// A row whose error is normalised by `scale`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn normalised(
+        check: &str,
+        case: &str,
+        quantity: &str,
+        expected: f64,
+        measured: f64,
+        scale: f64,
+        tolerance: f64,
+        truth: &str,
+        dt: f64,
+    ) -> Row {
+        Row {
+            check: check.into(),
+            case: case.into(),
+            quantity: quantity.into(),
+            expected,
+            measured,
+            error: (measured - expected).abs() / scale.abs(),
+            tolerance,
+            kind: ErrorKind::Normalised,
+            truth: truth.into(),
+            dt,
+        }
+    }
+
+    /// A row that passes when `measured` lies in `[lo, hi]`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn range(
+        check: &str,
+        case: &str,
+        quantity: &str,
+        lo: f64,
+        hi: f64,
+        measured: f64,
+        truth: &str,
+        dt: f64,
+    ) -> Row {
+        let mid = 0.5 * (lo + hi);
+        Row {
+            check: check.into(),
+            case: case.into(),
+            quantity: quantity.into(),
+            expected: mid,
+            measured,
+            error: (measured - mid).abs(),
+            tolerance: 0.5 * (hi - lo),
+            kind: ErrorKind::Absolute,
+            truth: truth.into(),
+            dt,
+        }
+    }
+
+    /// A row that passes when `|measured| <= tolerance` (a drift that should be zero).
+    pub fn bound(
+        check: &str,
+        case: &str,
+        quantity: &str,
+        measured: f64,
+        tolerance: f64,
+        truth: &str,
+        dt: f64,
+    ) -> Row {
+        Row {
+            check: check.into(),
+            case: case.into(),
+            quantity: quantity.into(),
+            expected: 0.0,
+            measured,
+            error: measured.abs(),
+            tolerance,
+            kind: ErrorKind::Absolute,
+            truth: truth.into(),
+            dt,
+        }
+    }
+}
+
+/// What a check hands back: its rows and its plot.
+pub struct Outcome {
+    /// The compared quantities.
+    pub rows: Vec<Row>,
+    /// `(file name, SVG text)`.
+    pub plots: Vec<(String, String)>,
+}
+
+/// The options of `clatter validate`.
+pub struct ValidateArgs {
+    /// Which pipeline steps the worlds.
+    pub backend: Backend,
+    /// Where validation.json and the plots go.
+    pub out: Option<PathBuf>,
+    /// Fewer cases, shorter runs, fewer bodies.
+    pub quick: bool,
+    /// Only the checks whose name contains one of these.
+    pub only: Vec<String>,
+}
+
+/// What every check needs: the suite's size and the backend that steps its worlds.
+pub struct Ctx {
+    /// Fewer cases, shorter runs, fewer bodies.
+    pub quick: bool,
+    gpu: Option<Arc<GpuContext>>,
+}
+
+/// A world and the pipeline that steps it.
+pub struct Sim {
+    /// The world, up to date after every [`Sim::step`].
+    pub world: World,
+    stepper: Stepper,
+}
+
+impl Sim {
+    /// `n` steps, the bodies read back after them.
+    pub fn step(&mut self, n: u64) -> anyhow::Result<()> {
+        self.stepper
+            .step(&mut self.world, n, Readback::Bodies)
+            .context("stepping a validation world")?;
+        Ok(())
+    }
+
+    /// Steps covering `seconds` of simulated time.
+    pub fn run_for(&mut self, seconds: f64) -> anyhow::Result<()> {
+        let n = (seconds / self.world.dt as f64).ceil().max(0.0) as u64;
+        self.step(n)
+    }
+}
+
+impl Ctx {
+    /// A world ready to step on the chosen backend.
+    pub fn sim(&self, world: World) -> anyhow::Result<Sim> {
+        let stepper = match &self.gpu {
+            None => Stepper::Cpu,
+            Some(ctx) => {
+                clatter_gpu::choose(
+                    clatter_gpu::BackendChoice::Gpu,
+                    &world,
+                    Device::Shared(ctx.clone()),
+                )?
+                .stepper
+            }
+        };
+        Ok(Sim { world, stepper })
+    }
+
+    /// A progress line on stderr.
+    pub fn progress(&self, what: &str) {
+        eprintln!("  ... {what}");
+    }
+}
+
+type CheckFn = fn(&Ctx) -> anyhow::Result<Outcome>;
+
+/// The suite, in the order it runs.
+fn checks() -> Vec<(&'static str, CheckFn)> {
+    vec![
+        ("chung-ooi-1", chung_ooi::test1),
+        ("chung-ooi-2", chung_ooi::test2),
+        ("chung-ooi-3", chung_ooi::test3),
+        ("chung-ooi-4", chung_ooi::test4),
+        ("chung-ooi-5", chung_ooi::test5),
+        ("chung-ooi-6", chung_ooi::test6),
+        ("chung-ooi-7", chung_ooi::test7),
+        ("chung-ooi-8", chung_ooi::test8),
+        (restitution::NAME, restitution::check),
+        ("mfix-dem01", mfix::dem01),
+        ("mfix-dem02", mfix::dem02),
+        ("mfix-dem03", mfix::dem03),
+        ("mfix-dem04", mfix::dem04),
+        ("energy-gas", conservation::energy_gas),
+        ("momentum-periodic", conservation::momentum_periodic),
+        ("symmetric-top", conservation::symmetric_top),
+        ("poured-pile", pile::check),
+    ]
+}
+
+/// Runs the suite; `Ok(true)` when every row passes.
+pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
+    let started = Instant::now();
+    let gpu = match args.backend {
+        Backend::Cpu => None,
+        Backend::Gpu => Some(Arc::new(
+            GpuContext::new().context("--backend gpu: no GPU adapter")?,
+        )),
+        Backend::Auto => match GpuContext::new() {
+            Ok(ctx) if !ctx.is_software() => Some(Arc::new(ctx)),
+            Ok(ctx) => {
+                eprintln!(
+                    "backend: cpu (auto: the only GPU adapter, {}, is a software rasteriser; --backend gpu uses it anyway)",
+                    ctx.adapter_name()
+                );
+                None
+            }
+            Err(e) => {
+                eprintln!("backend: cpu (auto: {e})");
+                None
+            }
+        },
+    };
+    let backend = match &gpu {
+        Some(ctx) => format!("gpu ({})", ctx.adapter_name()),
+        None => "cpu".to_string(),
+    };
+    eprintln!(
+        "clatter validate: backend {backend}, {} suite",
+        if args.quick { "quick" } else { "full" }
+    );
+    let ctx = Ctx {
+        quick: args.quick,
+        gpu,
+    };
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
+    }
+    let mut rows: Vec<Row> = Vec::new();
+    let mut timings = Vec::new();
+    for (name, check) in checks() {
+        if !args.only.is_empty() && !args.only.iter().any(|o| name.contains(o.as_str())) {
+            continue;
+        }
+        let t0 = Instant::now();
+        eprintln!("{name} ...");
+        let outcome = check(&ctx).with_context(|| format!("check {name}"))?;
+        let secs = t0.elapsed().as_secs_f64();
+        let failed = outcome.rows.iter().filter(|r| !r.pass()).count();
+        eprintln!(
+            "{name}: {} rows, {} failed ({secs:.1} s)",
+            outcome.rows.len(),
+            failed
+        );
+        timings.push((name, secs));
+        if let Some(dir) = &args.out {
+            for (file, svg) in &outcome.plots {
+                let mut f = AtomicFile::create(&dir.join(file))?;
+                f.writer().write_all(svg.as_bytes())?;
+                f.commit()?;
+            }
+        }
+        rows.extend(outcome.rows);
+    }
+    let table = table(&rows);
+    print!("{table}");
+    let failed: Vec<&Row> = rows.iter().filter(|r| !r.pass()).collect();
+    let total = started.elapsed().as_secs_f64();
+    if let Some(dir) = &args.out {
+        let json = serde_json::json!({
+            "clatter_version": env!("CARGO_PKG_VERSION"),
+            "backend": backend,
+            "suite": if args.quick { "quick" } else { "full" },
+            "passed": failed.is_empty(),
+            "rows_total": rows.len(),
+            "rows_failed": failed.len(),
+            "checks": timings.iter().map(|(n, _)| *n).collect::<Vec<_>>(),
+            "rows": rows.iter().map(|r| serde_json::json!({
+                "check": r.check,
+                "case": r.case,
+                "quantity": r.quantity,
+                "expected": r.expected,
+                "measured": r.measured,
+                "error": r.error,
+                "error_kind": r.kind.name(),
+                "tolerance": r.tolerance,
+                "pass": r.pass(),
+                "truth": r.truth,
+                "dt": r.dt,
+            })).collect::<Vec<_>>(),
+        });
+        let mut f = AtomicFile::create(&dir.join("validation.json"))?;
+        writeln!(f.writer(), "{}", serde_json::to_string_pretty(&json)?)?;
+        f.commit()?;
+    }
+    if failed.is_empty() {
+        println!(
+            "validation passed: {} rows in {} checks ({total:.1} s)",
+            rows.len(),
+            timings.len()
+        );
+    } else {
+        let mut checks: Vec<&str> = failed.iter().map(|r| r.check.as_str()).collect();
+        checks.dedup();
+        println!(
+            "validation FAILED: {} of {} rows failed, in {} ({total:.1} s)",
+            failed.len(),
+            rows.len(),
+            checks.join(", ")
+        );
+    }
+    Ok(failed.is_empty())
+}
+
+/// The table: one line per row, columns aligned.
+pub fn table(rows: &[Row]) -> String {
+    let header = [
+        "check",
+        "case",
+        "quantity",
+        "expected",
+        "measured",
+        "error",
+        "tolerance",
+        "result",
+    ];
+    let cells: Vec<[String; 8]> = rows
+        .iter()
+        .map(|r| {
+            [
+                r.check.clone(),
+                r.case.clone(),
+                r.quantity.clone(),
+                format!("{:.5e}", r.expected),
+                format!("{:.5e}", r.measured),
+                format!("{:.2e}", r.error),
+                format!(
+                    "{:.1e}{}",
+                    r.tolerance,
+                    match r.kind {
+                        ErrorKind::Relative => " rel",
+                        ErrorKind::Normalised => " norm",
+                        ErrorKind::Absolute => " abs",
+                    }
+                ),
+                if r.pass() { "pass" } else { "FAIL" }.to_string(),
+            ]
+        })
+        .collect();
+    let mut width = header.map(str::len);
+    for c in &cells {
+        for (w, s) in width.iter_mut().zip(c) {
+            *w = (*w).max(s.len());
+        }
+    }
+    let mut s = String::new();
+    let line = |s: &mut String, c: &[&str]| {
+        let mut l = String::new();
+        for (k, (w, x)) in width.iter().zip(c).enumerate() {
+            if k > 0 {
+                l.push_str("  ");
+            }
+            if (3..7).contains(&k) {
+                let _ = write!(l, "{x:>w$}");
+            } else {
+                let _ = write!(l, "{x:<w$}");
+            }
+        }
+        s.push_str(l.trim_end());
+        s.push('\n');
+    };
+    line(&mut s, &header);
+    for c in &cells {
+        let refs: Vec<&str> = c.iter().map(String::as_str).collect();
+        line(&mut s, &refs);
+    }
+    s
+}
