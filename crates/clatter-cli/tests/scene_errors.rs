@@ -79,7 +79,13 @@ fn check_line(case: &str, text: &str, line: usize, needles: &[&str]) {
 }
 
 /// As [`check_line`], with `files` (name, contents) written beside the scene first.
-fn check_with_files(case: &str, text: &str, line: usize, needles: &[&str], files: &[(&str, &[u8])]) {
+fn check_with_files(
+    case: &str,
+    text: &str,
+    line: usize,
+    needles: &[&str],
+    files: &[(&str, &[u8])],
+) {
     let dir = case_dir(case);
     let scene = dir.join("bad.toml");
     std::fs::write(&scene, text).expect("write the scene");
@@ -855,7 +861,11 @@ fn mesh_file_missing() {
         "mesh-missing",
         r#"file = "rock.obj""#,
         &[],
-        &["shape[0].mesh.file", "rock.obj", "cannot read the mesh file"],
+        &[
+            "shape[0].mesh.file",
+            "rock.obj",
+            "cannot read the mesh file",
+        ],
     );
 }
 
@@ -865,7 +875,11 @@ fn mesh_unknown_extension() {
         "mesh-ext",
         r#"file = "rock.off""#,
         &[("rock.off", b"OFF\n")],
-        &["shape[0].mesh.file", "rock.off", "unknown mesh file extension `.off`"],
+        &[
+            "shape[0].mesh.file",
+            "rock.off",
+            "unknown mesh file extension `.off`",
+        ],
     );
 }
 
@@ -876,7 +890,11 @@ fn mesh_garbled_files() {
         "mesh-garbled-stl",
         r#"file = "rock.stl""#,
         &[("rock.stl", &garbage)],
-        &["shape[0].mesh.file", "rock.stl", "cannot parse the STL file"],
+        &[
+            "shape[0].mesh.file",
+            "rock.stl",
+            "cannot parse the STL file",
+        ],
     );
     check_mesh(
         "mesh-garbled-ply",
@@ -885,13 +903,21 @@ fn mesh_garbled_files() {
             "rock.ply",
             b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1 2\n",
         )],
-        &["shape[0].mesh.file", "rock.ply", "cannot parse the PLY file"],
+        &[
+            "shape[0].mesh.file",
+            "rock.ply",
+            "cannot parse the PLY file",
+        ],
     );
     check_mesh(
         "mesh-garbled-obj",
         r#"file = "rock.obj""#,
         &[("rock.obj", b"v 0 0 0\nv 1 0 0\nf 1 2 99\n")],
-        &["shape[0].mesh.file", "rock.obj", "cannot parse the OBJ file"],
+        &[
+            "shape[0].mesh.file",
+            "rock.obj",
+            "cannot parse the OBJ file",
+        ],
     );
 }
 
@@ -921,14 +947,22 @@ fn mesh_degenerate() {
     check_mesh(
         "mesh-flat",
         r#"file = "flat.obj""#,
-        &[("flat.obj", b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")],
+        &[(
+            "flat.obj",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
+        )],
         &["shape[0].mesh.file", "flat.obj", "degenerate hull"],
     );
 }
 
 #[test]
 fn mesh_bad_scale() {
-    for (case, scale) in [("zero", "0.0"), ("negative", "-1.0"), ("nan", "nan"), ("axis", "[1.0, 0.0, 1.0]")] {
+    for (case, scale) in [
+        ("zero", "0.0"),
+        ("negative", "-1.0"),
+        ("nan", "nan"),
+        ("axis", "[1.0, 0.0, 1.0]"),
+    ] {
         check_mesh(
             &format!("mesh-scale-{case}"),
             &format!(r#"file = "cube.obj", scale = {scale}"#),

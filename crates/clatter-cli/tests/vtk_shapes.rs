@@ -78,7 +78,16 @@ fn check_scene(scene: &Path, steps: u64) {
     let o = Command::new(env!("CARGO_BIN_EXE_clatter"))
         .arg("run")
         .arg(scene)
-        .args(["--steps", &steps.to_string(), "--format", "vtk", "--backend", "cpu", "--quiet", "--out"])
+        .args([
+            "--steps",
+            &steps.to_string(),
+            "--format",
+            "vtk",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .expect("run clatter");

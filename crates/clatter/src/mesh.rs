@@ -46,9 +46,7 @@ impl MeshFormat {
             Some(e) => Err(format!(
                 "unknown mesh file extension `.{e}` (expected .obj, .stl or .ply)"
             )),
-            None => Err(
-                "the mesh file has no extension (expected .obj, .stl or .ply)".to_string(),
-            ),
+            None => Err("the mesh file has no extension (expected .obj, .stl or .ply)".to_string()),
         }
     }
 }
@@ -159,9 +157,10 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshVertices, String> {
         for (i, e) in elements.iter().enumerate() {
             let mut v = [0.0; 3];
             for (k, name) in ["x", "y", "z"].iter().enumerate() {
-                v[k] = e.get(*name).and_then(scalar).ok_or_else(|| {
-                    format!("PLY vertex {i} has no scalar property `{name}`")
-                })?;
+                v[k] = e
+                    .get(*name)
+                    .and_then(scalar)
+                    .ok_or_else(|| format!("PLY vertex {i} has no scalar property `{name}`"))?;
             }
             vertices.push(v);
         }
@@ -180,8 +179,14 @@ mod tests {
             MeshFormat::from_path(Path::new("a/rock.OBJ")),
             Ok(MeshFormat::Obj)
         );
-        assert_eq!(MeshFormat::from_path(Path::new("x.stl")), Ok(MeshFormat::Stl));
-        assert_eq!(MeshFormat::from_path(Path::new("x.Ply")), Ok(MeshFormat::Ply));
+        assert_eq!(
+            MeshFormat::from_path(Path::new("x.stl")),
+            Ok(MeshFormat::Stl)
+        );
+        assert_eq!(
+            MeshFormat::from_path(Path::new("x.Ply")),
+            Ok(MeshFormat::Ply)
+        );
         assert!(
             MeshFormat::from_path(Path::new("x.off"))
                 .unwrap_err()
@@ -194,7 +199,12 @@ mod tests {
     fn garbage_is_an_error_in_every_format() {
         let garbage: Vec<u8> = (0..300u32).map(|i| (i * 7919 % 251) as u8).collect();
         for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Ply] {
-            for bytes in [&garbage[..], b"", b"solid x\nfacet normal 0 0 1\n", b"ply\n"] {
+            for bytes in [
+                &garbage[..],
+                b"",
+                b"solid x\nfacet normal 0 0 1\n",
+                b"ply\n",
+            ] {
                 let r = parse_mesh(bytes, f);
                 // Either an error, or (OBJ ignores unknown lines) nothing to build a solid from.
                 if let Ok(m) = r {

@@ -237,7 +237,10 @@ fn body_arrays(world: &World, repeat: impl Fn(usize) -> usize) -> Vec<Array> {
     vec![
         Array::i32("id", bodies().map(|i| i as i32)),
         Array::i32("shape", bodies().map(|i| world.consts.shape[i] as i32)),
-        Array::i32("material", bodies().map(|i| world.consts.material[i] as i32)),
+        Array::i32(
+            "material",
+            bodies().map(|i| world.consts.material[i] as i32),
+        ),
         Array::i32("contacts", bodies().map(|i| counts[i] as i32)),
         Array::f32("radius", 1, bodies().map(|i| world.consts.radius[i])),
         Array::f32(
@@ -344,9 +347,7 @@ fn sphere_mesh() -> &'static (Vec<Vec3>, Vec<[u32; 3]>) {
         }
         let volume: f64 = tris
             .iter()
-            .map(|t| {
-                v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize])) / 6.0
-            })
+            .map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize])) / 6.0)
             .sum();
         let s = (4.0 / 3.0 * std::f64::consts::PI / volume).cbrt();
         (v.iter().map(|p| (*p * s).as_vec3()).collect(), tris)

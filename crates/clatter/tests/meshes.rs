@@ -76,20 +76,24 @@ fn committed_cube_obj_is_a_cube() {
     let p = load_shape(&scenes_meshes(), r#"mesh = { file = "cube.obj" }"#);
     check_solid(&p, 8.0, 8.0 * 4.0 / 6.0, "cube.obj");
     // Scaled by 0.5: V / 8, I / 32.
-    let p = load_shape(&scenes_meshes(), r#"mesh = { file = "cube.obj", scale = 0.5 }"#);
+    let p = load_shape(
+        &scenes_meshes(),
+        r#"mesh = { file = "cube.obj", scale = 0.5 }"#,
+    );
     check_solid(&p, 1.0, 8.0 * 4.0 / 6.0 / 32.0, "cube.obj x 0.5");
     // Anisotropic: a box of half extents (2, 1, 0.5).
     let p = load_shape(
         &scenes_meshes(),
         r#"mesh = { file = "cube.obj", scale = [2.0, 1.0, 0.5] }"#,
     );
-    let b = load_shape(
-        &scenes_meshes(),
-        "box = { half_extents = [2.0, 1.0, 0.5] }",
-    );
+    let b = load_shape(&scenes_meshes(), "box = { half_extents = [2.0, 1.0, 0.5] }");
     assert!(close(p.volume as f64, 8.0, 1e-6));
     for k in 0..3 {
-        assert!(close(p.unit_inertia[k] as f64, b.unit_inertia[k] as f64, 1e-5));
+        assert!(close(
+            p.unit_inertia[k] as f64,
+            b.unit_inertia[k] as f64,
+            1e-5
+        ));
     }
 }
 
@@ -166,7 +170,12 @@ fn write_all_forms(dir: &Path, kind: RegularKind) -> Vec<String> {
     for t in &tris {
         bin.extend([0f32; 3].iter().flat_map(|x| x.to_le_bytes()));
         for &i in t {
-            bin.extend(v[i as usize].to_array().iter().flat_map(|x| x.to_le_bytes()));
+            bin.extend(
+                v[i as usize]
+                    .to_array()
+                    .iter()
+                    .flat_map(|x| x.to_le_bytes()),
+            );
         }
         bin.extend([0u8; 2]);
     }
@@ -232,7 +241,11 @@ fn every_format_of_a_solid_gives_the_same_shape() {
         [
             (RegularKind::Tetrahedron, v_t, v_t * a_t * a_t / 20.0),
             (RegularKind::Octahedron, v_o, v_o * a_o * a_o / 10.0),
-            (RegularKind::Icosahedron, v_i, v_i * PHI * PHI * a_i * a_i / 10.0),
+            (
+                RegularKind::Icosahedron,
+                v_i,
+                v_i * PHI * PHI * a_i * a_i / 10.0,
+            ),
             (
                 RegularKind::Dodecahedron,
                 v_d,
@@ -243,28 +256,54 @@ fn every_format_of_a_solid_gives_the_same_shape() {
     for (kind, volume, moment) in cases {
         let reference = load_shape(
             &dir,
-            &format!("polyhedron = {{ kind = \"{}\", radius = {s} }}", kind.name()),
+            &format!(
+                "polyhedron = {{ kind = \"{}\", radius = {s} }}",
+                kind.name()
+            ),
         );
-        check_solid(&reference, volume * s.powi(3), moment * s.powi(5), kind.name());
+        check_solid(
+            &reference,
+            volume * s.powi(3),
+            moment * s.powi(5),
+            kind.name(),
+        );
         let expected = sorted_vertices(&reference);
         for file in write_all_forms(&dir, kind) {
-            let p = load_shape(&dir, &format!("mesh = {{ file = \"{file}\", scale = {s} }}"));
+            let p = load_shape(
+                &dir,
+                &format!("mesh = {{ file = \"{file}\", scale = {s} }}"),
+            );
             let what = format!("{} from {file}", kind.name());
             check_solid(&p, volume * s.powi(3), moment * s.powi(5), &what);
             let got = sorted_vertices(&p);
             assert_eq!(got.len(), expected.len(), "{what}: vertex count");
             for (a, b) in got.iter().zip(&expected) {
                 for k in 0..3 {
-                    assert!((a[k] - b[k]).abs() < 1e-6, "{what}: vertices {a:?} vs {b:?}");
+                    assert!(
+                        (a[k] - b[k]).abs() < 1e-6,
+                        "{what}: vertices {a:?} vs {b:?}"
+                    );
                 }
             }
         }
         // ASCII and binary STL store the same f32 triangles: the shapes are identical.
-        let ascii = load_shape(&dir, &format!("mesh = {{ file = \"{}_ascii.stl\" }}", kind.name()));
-        let binary = load_shape(&dir, &format!("mesh = {{ file = \"{}_binary.stl\" }}", kind.name()));
+        let ascii = load_shape(
+            &dir,
+            &format!("mesh = {{ file = \"{}_ascii.stl\" }}", kind.name()),
+        );
+        let binary = load_shape(
+            &dir,
+            &format!("mesh = {{ file = \"{}_binary.stl\" }}", kind.name()),
+        );
         assert_eq!(ascii, binary, "{}: ASCII and binary STL", kind.name());
-        let ascii = load_shape(&dir, &format!("mesh = {{ file = \"{}_ascii.ply\" }}", kind.name()));
-        let binary = load_shape(&dir, &format!("mesh = {{ file = \"{}_binary.ply\" }}", kind.name()));
+        let ascii = load_shape(
+            &dir,
+            &format!("mesh = {{ file = \"{}_ascii.ply\" }}", kind.name()),
+        );
+        let binary = load_shape(
+            &dir,
+            &format!("mesh = {{ file = \"{}_binary.ply\" }}", kind.name()),
+        );
         assert_eq!(ascii, binary, "{}: ASCII and binary PLY", kind.name());
     }
     let _ = std::fs::remove_dir_all(&dir);
