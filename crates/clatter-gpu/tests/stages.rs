@@ -452,9 +452,9 @@ fn lean_steps_match_full_steps_bitwise() {
 }
 
 /// The shapes of mesh files (`[[shape]] mesh = ..`: the convex hull of the file's vertices),
-/// as the scene builds them: the irregular rock of `scenes/rocks.toml` (162 vertices, 320
+/// as the scene builds them: the irregular rock of `scenes/rocks.toml` (42 vertices, 80
 /// faces), the same rock stretched unevenly, and the committed PLY tetrahedron, each scaled
-/// to a bounding radius of 6 mm.
+/// to a bounding radius of 7.5 mm (the lattice spacing is 10.5 mm).
 fn mesh_shapes() -> Vec<ShapeKind> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/meshes");
     let load = |file: &str, axes: [f64; 3]| {
@@ -471,7 +471,7 @@ fn mesh_shapes() -> Vec<ShapeKind> {
         .unwrap()
         .shape
         .bounding_radius() as f64;
-        let s = 0.006 / r;
+        let s = 0.0075 / r;
         ShapeKind::Convex {
             points: points.iter().map(|p| p.map(|c| c * s)).collect(),
         }

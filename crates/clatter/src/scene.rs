@@ -411,7 +411,7 @@ pub const MAX_BODIES: usize = 50_000_000;
 /// The GPU narrow phase's limit on the vertices of one polyhedron
 /// (`clatter_gpu::shapes::MAX_SHAPE_VERTICES`, checked equal by a test there); a scene whose
 /// hulls exceed it gets a warning, since it can only run on the CPU.
-pub const GPU_SHAPE_VERTICES: usize = 256;
+pub const GPU_SHAPE_VERTICES: usize = 64;
 
 /// The shape of `[[shape]] mesh = { .. }` (shape `k`, named `name`): the mesh file read
 /// relative to the scene's directory, scaled, and its convex hull prepared. Every failure

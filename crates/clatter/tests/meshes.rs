@@ -336,3 +336,32 @@ fn inside_out_and_open_meshes_are_fine_for_the_hull() {
     assert_eq!(sorted_vertices(&odd), sorted_vertices(&cube));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn hull_too_large_for_the_gpu_is_a_warning() {
+    // 400 points on a sphere (Fibonacci lattice), all on the hull; one face is enough.
+    let dir = tmp_dir("large");
+    let mut obj = String::new();
+    let n = 400;
+    for i in 0..n {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let r = (1.0 - z * z).sqrt();
+        let a = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        writeln!(obj, "v {} {} {}", r * a.cos(), r * a.sin(), z).unwrap();
+    }
+    obj += "f 1 2 3\n";
+    std::fs::write(dir.join("ball.obj"), obj).unwrap();
+    let file = dir.join("scene.toml");
+    let scene = Scene::parse(
+        &scene_with(r#"mesh = { file = "ball.obj", scale = 0.01 }"#),
+        &file.display().to_string(),
+    )
+    .unwrap();
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(
+        scene.warnings[0].contains("400 hull vertices") && scene.warnings[0].contains("CPU"),
+        "{}",
+        scene.warnings[0]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
