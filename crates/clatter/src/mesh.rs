@@ -94,7 +94,6 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshVertices, String> {
         triangulate: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     // Materials (`mtllib`) are not needed: the loader refuses them without touching the disk.
     let (models, _materials) = tobj::load_obj_buf(&mut Cursor::new(bytes), &options, |_| {
