@@ -391,6 +391,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
 struct Series {
     trace: Option<AtomicFile>,
     bodies: Option<vtk::Pvd>,
+    shapes: Option<vtk::Pvd>,
     contacts: Option<vtk::Pvd>,
     last_frame: Option<u64>,
 }
@@ -409,6 +410,11 @@ impl Series {
         if let Some(pvd) = &mut self.bodies {
             let name = format!("bodies_{step:06}.vtu");
             vtk::write_bodies(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        if let Some(pvd) = &mut self.shapes {
+            let name = format!("shapes_{step:06}.vtu");
+            vtk::write_shapes(&dir.join(&name), world)?;
             pvd.push(step, world.time, name)?;
         }
         if let Some(pvd) = &mut self.contacts {
@@ -472,6 +478,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     let mut series = Series {
         trace: None,
         bodies: None,
+        shapes: None,
         contacts: None,
         last_frame: None,
     };
@@ -488,6 +495,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         }
         if plan.vtk {
             series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
+            series.shapes = Some(vtk::Pvd::continuing(&dir.join("shapes.pvd"), start));
             if plan.contacts {
                 series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
             }

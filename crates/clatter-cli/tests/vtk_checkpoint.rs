@@ -150,10 +150,15 @@ fn vtk_output_reads_back_with_meshio() {
         &"--quiet",
     ]);
     assert_ok(&o, "clatter run --format csv,vtk");
-    let mut expected: Vec<String> = vec!["bodies.pvd".into(), "contacts.pvd".into()];
+    let mut expected: Vec<String> = vec![
+        "bodies.pvd".into(),
+        "contacts.pvd".into(),
+        "shapes.pvd".into(),
+    ];
     for s in [0, 10, 20, 30, 40] {
         expected.push(format!("bodies_{s:06}.vtu"));
         expected.push(format!("contacts_{s:06}.vtu"));
+        expected.push(format!("shapes_{s:06}.vtu"));
     }
     expected.extend(
         [
@@ -719,8 +724,8 @@ fn blow_up_on(
                     .trim_end()
                     .ends_with("</svg>")
             ),
-            "bodies.pvd" | "last_good.ckpt" => {}
-            f if f.starts_with("bodies_") => check_vtu(&path),
+            "bodies.pvd" | "shapes.pvd" | "last_good.ckpt" => {}
+            f if f.starts_with("bodies_") || f.starts_with("shapes_") => check_vtu(&path),
             other => panic!("{name}: unexpected file {other}"),
         }
     }

@@ -450,3 +450,56 @@ fn lean_steps_match_full_steps_bitwise() {
         );
     }
 }
+
+/// The shapes of mesh files (`[[shape]] mesh = ..`: the convex hull of the file's vertices),
+/// as the scene builds them: the irregular rock of `scenes/rocks.toml` (42 vertices, 80
+/// faces), the same rock stretched unevenly, and the committed PLY tetrahedron, each scaled
+/// to a bounding radius of 7.5 mm (the lattice spacing is 10.5 mm).
+fn mesh_shapes() -> Vec<ShapeKind> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/meshes");
+    let load = |file: &str, axes: [f64; 3]| {
+        let mesh = clatter::mesh::read_mesh(&dir.join(file)).unwrap_or_else(|e| panic!("{e}"));
+        let points: Vec<[f64; 3]> = mesh
+            .vertices
+            .iter()
+            .map(|v| [v[0] * axes[0], v[1] * axes[1], v[2] * axes[2]])
+            .collect();
+        let r = ShapeKind::Convex {
+            points: points.clone(),
+        }
+        .prepare()
+        .unwrap()
+        .shape
+        .bounding_radius() as f64;
+        let s = 0.0075 / r;
+        ShapeKind::Convex {
+            points: points.iter().map(|p| p.map(|c| c * s)).collect(),
+        }
+    };
+    vec![
+        load("rock.obj", [1.0, 1.0, 1.0]),
+        load("rock.obj", [1.0, 1.0, 0.5]),
+        load("tetrahedron.ply", [1.0, 1.0, 1.0]),
+    ]
+}
+
+#[test]
+fn mesh_file_shapes_match_cpu_stage_by_stage() {
+    let shapes = mesh_shapes();
+    for s in &shapes {
+        let p = s.prepare().unwrap();
+        let clatter::geom::Shape::Polyhedron(h) = &p.shape else {
+            panic!("a polyhedron")
+        };
+        assert!(h.vertices.len() <= clatter_gpu::shapes::MAX_SHAPE_VERTICES);
+    }
+    compare_run(lattice(5, 6, shapes), 200, 1e-5);
+}
+
+#[test]
+fn scene_warning_uses_the_gpu_vertex_limit() {
+    assert_eq!(
+        clatter::scene::GPU_SHAPE_VERTICES,
+        clatter_gpu::shapes::MAX_SHAPE_VERTICES
+    );
+}

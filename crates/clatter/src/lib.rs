@@ -16,6 +16,7 @@ pub mod contract;
 pub mod health;
 pub mod law;
 pub mod material;
+pub mod mesh;
 pub mod periodic;
 pub mod pile;
 pub mod scene;

@@ -83,9 +83,12 @@ impl Scene {
         Scene::parse(&text, &name)
     }
 
-    /// Parses and validates scene text; `file` names it in errors.
+    /// Parses and validates scene text; `file` names it in errors, and mesh files
+    /// (`[[shape]] mesh = { file = .. }`) are found relative to its directory (the current
+    /// directory when `file` has none, like `<default scene>`).
     pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
-        let cx = SourceFile { file, text };
+        let dir = Path::new(file).parent().unwrap_or(Path::new(""));
+        let cx = SourceFile { file, text, dir };
         let raw: RawScene = toml::from_str(text).map_err(|e| SceneError {
             file: file.to_string(),
             line: e.span().map(|s| cx.line_col(s.start)),
@@ -120,10 +123,12 @@ impl Scene {
     }
 }
 
-/// The scene file being read: its name and text, for error locations.
+/// The scene file being read: its name and text, for error locations, and its directory,
+/// against which mesh file paths are resolved.
 struct SourceFile<'a> {
     file: &'a str,
     text: &'a str,
+    dir: &'a Path,
 }
 
 impl SourceFile<'_> {
@@ -316,6 +321,24 @@ struct RawShape {
     box_: Option<Spanned<BoxSpec>>,
     polyhedron: Option<Spanned<PolyhedronSpec>>,
     convex: Option<Spanned<ConvexSpec>>,
+    mesh: Option<Spanned<RawMesh>>,
+}
+
+/// `mesh = { file = "rock.obj", scale = 0.01, mode = "hull" }`
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMesh {
+    file: Spanned<String>,
+    scale: Option<Spanned<RawScale>>,
+    mode: Option<Spanned<String>>,
+}
+
+/// A mesh scale: one factor, or one per axis.
+#[derive(Deserialize)]
+#[serde(untagged, expecting = "a number or an array of three numbers")]
+enum RawScale {
+    Uniform(f64),
+    Axes([f64; 3]),
 }
 
 #[derive(Deserialize)]
@@ -384,6 +407,87 @@ struct RawRandom {
 
 /// Most bodies a scene may create (keeps a typo from allocating the machine away).
 pub const MAX_BODIES: usize = 50_000_000;
+
+/// The GPU narrow phase's limit on the vertices of one polyhedron
+/// (`clatter_gpu::shapes::MAX_SHAPE_VERTICES`, checked equal by a test there); a scene whose
+/// hulls exceed it gets a warning, since it can only run on the CPU.
+pub const GPU_SHAPE_VERTICES: usize = 64;
+
+/// The shape of `[[shape]] mesh = { .. }` (shape `k`, named `name`): the mesh file read
+/// relative to the scene's directory, scaled, and its convex hull prepared. Every failure
+/// names the field and the mesh file.
+fn mesh_shape(
+    cx: &SourceFile,
+    k: usize,
+    name: &str,
+    m: &Spanned<RawMesh>,
+) -> Result<PreparedShape, SceneError> {
+    let r = m.get_ref();
+    let file = r.file.get_ref();
+    let path = cx.dir.join(file);
+    let shown = path.display();
+    match r.mode.as_ref().map(|v| (v.get_ref().as_str(), v.span())) {
+        None | Some(("hull", _)) => {}
+        Some(("decompose", span)) => {
+            return cx.err(
+                span,
+                format!("shape[{k}].mesh.mode"),
+                format!(
+                    "shape `{name}` (mesh file `{shown}`): mode = \"decompose\" needs composite bodies, not yet supported (use mode = \"hull\")"
+                ),
+            );
+        }
+        Some((other, span)) => {
+            return cx.err(
+                span,
+                format!("shape[{k}].mesh.mode"),
+                format!("unknown mesh mode `{other}` (expected \"hull\"; \"decompose\" is not yet supported)"),
+            );
+        }
+    }
+    let scale = match &r.scale {
+        None => [1.0; 3],
+        Some(v) => {
+            let s = match v.get_ref() {
+                RawScale::Uniform(x) => [*x; 3],
+                RawScale::Axes(a) => *a,
+            };
+            if !s.iter().all(|x| x.is_finite() && *x > 0.0) {
+                let got = match v.get_ref() {
+                    RawScale::Uniform(x) => format!("{x}"),
+                    RawScale::Axes(a) => format!("{a:?}"),
+                };
+                return cx.err(
+                    v.span(),
+                    format!("shape[{k}].mesh.scale"),
+                    format!("must be a positive finite number (or three of them), got {got}"),
+                );
+            }
+            s
+        }
+    };
+    let field = format!("shape[{k}].mesh.file");
+    let mesh = crate::mesh::read_mesh(&path).map_err(|e| SceneError {
+        file: cx.file.to_string(),
+        line: Some(cx.line_col(r.file.span().start)),
+        field: Some(field.clone()),
+        message: format!("shape `{name}`: mesh file `{shown}`: {e}"),
+    })?;
+    let points = mesh
+        .vertices
+        .iter()
+        .map(|v| [v[0] * scale[0], v[1] * scale[1], v[2] * scale[2]])
+        .collect();
+    clatter_geom::ShapeKind::Convex { points }
+        .prepare()
+        .or_else(|e| {
+            cx.err(
+                r.file.span(),
+                field,
+                format!("shape `{name}`: mesh file `{shown}`: {e}"),
+            )
+        })
+}
 
 fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     let mut warnings = Vec::new();
@@ -625,6 +729,23 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                 format!("duplicate shape name `{}`", r.name.get_ref()),
             );
         }
+        if let Some(m) = &r.mesh {
+            let others = [
+                r.sphere.is_some(),
+                r.box_.is_some(),
+                r.polyhedron.is_some(),
+                r.convex.is_some(),
+            ];
+            if others.iter().any(|b| *b) {
+                return cx.err(
+                    s.span(),
+                    format!("shape[{k}]"),
+                    "a shape needs exactly one of `sphere`, `box`, `polyhedron`, `convex`, `mesh` (got `mesh` and another)",
+                );
+            }
+            shapes.push(mesh_shape(cx, k, r.name.get_ref(), m)?);
+            continue;
+        }
         let spec = ShapeSpec {
             sphere: r.sphere.as_ref().map(|v| v.get_ref().clone()),
             box_: r.box_.as_ref().map(|v| v.get_ref().clone()),
@@ -643,6 +764,11 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                 // With exactly one variant given, the only failure is an unknown polyhedron kind.
                 return match (&r.polyhedron, given.iter().flatten().count()) {
                     (Some(p), 1) => cx.err(p.span(), format!("shape[{k}].polyhedron.kind"), msg),
+                    (_, 0) => cx.err(
+                        s.span(),
+                        format!("shape[{k}]"),
+                        "a shape needs exactly one of `sphere`, `box`, `polyhedron`, `convex`, `mesh` (got 0)",
+                    ),
                     _ => cx.err(s.span(), format!("shape[{k}]"), msg),
                 };
             }
@@ -667,6 +793,18 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                 };
                 return cx.err(span, field, format!("shape `{}`: {e}", r.name.get_ref()));
             }
+        }
+    }
+
+    for (k, p) in shapes.iter().enumerate() {
+        if let clatter_geom::Shape::Polyhedron(h) = &p.shape
+            && h.vertices.len() > GPU_SHAPE_VERTICES
+        {
+            warnings.push(format!(
+                "shape `{}` has {} hull vertices, more than the GPU backend's {GPU_SHAPE_VERTICES}: this scene runs on the CPU only",
+                raw.shape[k].get_ref().name.get_ref(),
+                h.vertices.len()
+            ));
         }
     }
 

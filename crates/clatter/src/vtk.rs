@@ -16,6 +16,12 @@
 //!   radius), `velocity`, `angular_velocity` (3 components), `orientation` (quaternion
 //!   `w, x, y, z` in the authored frame) and `rotation` (the same rotation as a 3x3 matrix, row
 //!   major: a tensor for ParaView's Tensor Glyph). Field data `TimeValue` and `Step`.
+//! - `shapes_NNNNNN.vtu`: every body as its real geometry in world coordinates: a polyhedron
+//!   as its polygonal faces (`VTK_POLYGON` cells, counter-clockwise seen from outside), a
+//!   sphere as an icosphere of 80 triangles scaled to the sphere's volume; cell data repeats
+//!   the body's arrays above on each of its faces (`id`, `shape`, ...). Polygon faces rather
+//!   than `VTK_POLYHEDRON` cells: every reader (ParaView, VTK, meshio) takes them, and
+//!   ParaView's surface rendering is what a viewer wants of a closed body anyway.
 //! - `contacts_NNNNNN.vtu`: one point per touching contact at the centroid of its manifold,
 //!   with `body_a`, `body_b` (Int32; a wall is `-1 - wall index` in `body_a`), `normal` (unit,
 //!   from a to b), `force` (N, on b; a gets the opposite), `normal_force`, `depth`, `points`.
@@ -23,6 +29,9 @@
 //!   those of the last step.
 
 use std::io::Write;
+
+use clatter_geom::Shape;
+use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
 
 use crate::Partner;
@@ -67,7 +76,41 @@ fn write_vtu(
     vectors: &str,
 ) -> std::io::Result<()> {
     let n = points.len() / 3;
-    let mut buf = Vec::with_capacity(64 * n + 4096);
+    let cells = Cells {
+        connectivity: (0..n as i32).collect(),
+        offsets: (1..=n as i32).collect(),
+        types: vec![VTK_VERTEX; n],
+    };
+    write_grid(path, step, time, points, &cells, arrays, &[], vectors)
+}
+
+/// `VTK_VERTEX`.
+const VTK_VERTEX: u8 = 1;
+/// `VTK_POLYGON`.
+const VTK_POLYGON: u8 = 7;
+
+/// The cells of a grid: point indices, the end of each cell in them, and each cell's type.
+struct Cells {
+    connectivity: Vec<i32>,
+    offsets: Vec<i32>,
+    types: Vec<u8>,
+}
+
+/// Writes an UnstructuredGrid of `cells` on `points`, with point and cell data arrays.
+#[allow(clippy::too_many_arguments)]
+fn write_grid(
+    path: &Path,
+    step: u64,
+    time: f64,
+    points: &[f32],
+    cells: &Cells,
+    arrays: &[Array],
+    cell_arrays: &[Array],
+    vectors: &str,
+) -> std::io::Result<()> {
+    let n = points.len() / 3;
+    let n_cells = cells.types.len();
+    let mut buf = Vec::with_capacity(64 * n + 16 * cells.connectivity.len() + 4096);
     let w = &mut buf;
     writeln!(w, "<?xml version=\"1.0\"?>")?;
     writeln!(
@@ -87,13 +130,22 @@ fn write_vtu(
     writeln!(w, "    </FieldData>")?;
     writeln!(
         w,
-        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n}\">"
+        "    <Piece NumberOfPoints=\"{n}\" NumberOfCells=\"{n_cells}\">"
     )?;
-    writeln!(w, "      <PointData Vectors=\"{vectors}\">")?;
-    for a in arrays {
-        data_array(w, a)?;
+    if !arrays.is_empty() {
+        writeln!(w, "      <PointData Vectors=\"{vectors}\">")?;
+        for a in arrays {
+            data_array(w, a)?;
+        }
+        writeln!(w, "      </PointData>")?;
     }
-    writeln!(w, "      </PointData>")?;
+    if !cell_arrays.is_empty() {
+        writeln!(w, "      <CellData Vectors=\"{vectors}\">")?;
+        for a in cell_arrays {
+            data_array(w, a)?;
+        }
+        writeln!(w, "      </CellData>")?;
+    }
     writeln!(w, "      <Points>")?;
     data_array(
         w,
@@ -106,15 +158,18 @@ fn write_vtu(
     )?;
     writeln!(w, "      </Points>")?;
     writeln!(w, "      <Cells>")?;
-    data_array(w, &Array::i32("connectivity", 0..n as i32))?;
-    data_array(w, &Array::i32("offsets", 1..=n as i32))?;
+    data_array(
+        w,
+        &Array::i32("connectivity", cells.connectivity.iter().copied()),
+    )?;
+    data_array(w, &Array::i32("offsets", cells.offsets.iter().copied()))?;
     data_array(
         w,
         &Array {
             name: "types",
             ty: "UInt8",
             components: 1,
-            bytes: vec![1u8; n],
+            bytes: cells.types.clone(),
         },
     )?;
     writeln!(w, "      </Cells>")?;
@@ -168,46 +223,187 @@ pub fn base64(bytes: &[u8]) -> String {
     String::from_utf8(out).expect("base64 is ASCII")
 }
 
-/// Writes the bodies of `world` at its current step.
-pub fn write_bodies(path: &Path, world: &World) -> std::io::Result<()> {
+/// The per-body arrays of the bodies file, each value repeated `repeat(i)` times for body `i`
+/// (1 for the bodies file, the face count for the shapes file).
+fn body_arrays(world: &World, repeat: impl Fn(usize) -> usize) -> Vec<Array> {
     let n = world.len();
-    let counts = world.contacts.counts(world.len());
-    let mut points = Vec::with_capacity(3 * n);
-    let mut quats = Vec::with_capacity(4 * n);
-    let mut rotations = Vec::with_capacity(9 * n);
-    for i in 0..n {
-        points.extend(world.state.position[i].to_array());
-        let q = world.user_orientation(i);
-        quats.extend([q.w, q.x, q.y, q.z]);
-        let m = glam::Mat3::from_quat(q);
-        for r in 0..3 {
-            rotations.extend([m.x_axis[r], m.y_axis[r], m.z_axis[r]]);
-        }
-    }
-    let arrays = [
-        Array::i32("id", 0..n as i32),
-        Array::i32("shape", world.consts.shape.iter().map(|&s| s as i32)),
-        Array::i32("material", world.consts.material.iter().map(|&m| m as i32)),
-        Array::i32("contacts", counts.iter().map(|&c| c as i32)),
-        Array::f32("radius", 1, world.consts.radius.iter().copied()),
+    let counts = world.contacts.counts(n);
+    let each = |i: usize| std::iter::repeat_n(i, repeat(i));
+    let bodies = || (0..n).flat_map(each);
+    let rotation = |i: usize| {
+        let m = glam::Mat3::from_quat(world.user_orientation(i));
+        [0, 1, 2].map(|r| [m.x_axis[r], m.y_axis[r], m.z_axis[r]])
+    };
+    vec![
+        Array::i32("id", bodies().map(|i| i as i32)),
+        Array::i32("shape", bodies().map(|i| world.consts.shape[i] as i32)),
+        Array::i32(
+            "material",
+            bodies().map(|i| world.consts.material[i] as i32),
+        ),
+        Array::i32("contacts", bodies().map(|i| counts[i] as i32)),
+        Array::f32("radius", 1, bodies().map(|i| world.consts.radius[i])),
         Array::f32(
             "velocity",
             3,
-            world.state.velocity.iter().flat_map(|v| v.to_array()),
+            bodies().flat_map(|i| world.state.velocity[i].to_array()),
         ),
         Array::f32(
             "angular_velocity",
             3,
-            world.state.omega.iter().flat_map(|v| v.to_array()),
+            bodies().flat_map(|i| world.state.omega[i].to_array()),
         ),
-        Array::f32("orientation", 4, quats),
-        Array::f32("rotation", 9, rotations),
-    ];
+        Array::f32(
+            "orientation",
+            4,
+            bodies().flat_map(|i| {
+                let q = world.user_orientation(i);
+                [q.w, q.x, q.y, q.z]
+            }),
+        ),
+        Array::f32(
+            "rotation",
+            9,
+            bodies().flat_map(|i| rotation(i).into_iter().flatten()),
+        ),
+    ]
+}
+
+/// Writes the bodies of `world` at its current step.
+pub fn write_bodies(path: &Path, world: &World) -> std::io::Result<()> {
+    let points: Vec<f32> = world
+        .state
+        .position
+        .iter()
+        .flat_map(|p| p.to_array())
+        .collect();
+    let arrays = body_arrays(world, |_| 1);
     write_vtu(
         path,
         world.step_count,
         world.time,
         &points,
+        &arrays,
+        "velocity",
+    )
+}
+
+/// The unit icosphere the shapes file draws spheres with (one subdivision of the
+/// icosahedron: 42 vertices, 80 triangles), scaled so that its volume is the unit sphere's:
+/// the drawn bodies have the volume (and mass) of the simulated ones.
+fn sphere_mesh() -> &'static (Vec<Vec3>, Vec<[u32; 3]>) {
+    static MESH: std::sync::OnceLock<(Vec<Vec3>, Vec<[u32; 3]>)> = std::sync::OnceLock::new();
+    MESH.get_or_init(|| {
+        let phi = (1.0 + 5f64.sqrt()) / 2.0;
+        let mut v: Vec<DVec3> = [
+            [-1.0, phi, 0.0],
+            [1.0, phi, 0.0],
+            [-1.0, -phi, 0.0],
+            [1.0, -phi, 0.0],
+            [0.0, -1.0, phi],
+            [0.0, 1.0, phi],
+            [0.0, -1.0, -phi],
+            [0.0, 1.0, -phi],
+            [phi, 0.0, -1.0],
+            [phi, 0.0, 1.0],
+            [-phi, 0.0, -1.0],
+            [-phi, 0.0, 1.0],
+        ]
+        .map(|p| DVec3::from_array(p).normalize())
+        .to_vec();
+        let ico: [[u32; 3]; 20] = [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        let mut mids = std::collections::HashMap::new();
+        let mut mid = |a: u32, b: u32, v: &mut Vec<DVec3>| {
+            *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                v.push(((v[a as usize] + v[b as usize]) / 2.0).normalize());
+                v.len() as u32 - 1
+            })
+        };
+        let mut tris = Vec::with_capacity(80);
+        for [a, b, c] in ico {
+            let (ab, bc, ca) = (mid(a, b, &mut v), mid(b, c, &mut v), mid(c, a, &mut v));
+            tris.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        let volume: f64 = tris
+            .iter()
+            .map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize])) / 6.0)
+            .sum();
+        let s = (4.0 / 3.0 * std::f64::consts::PI / volume).cbrt();
+        (v.iter().map(|p| (*p * s).as_vec3()).collect(), tris)
+    })
+}
+
+/// Writes every body of `world` as its geometry in world coordinates (see the module
+/// documentation): polygon cells per face, with the body arrays as cell data.
+pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
+    let n = world.len();
+    let sphere = sphere_mesh();
+    let faces_of = |i: usize| match &world.shapes[world.consts.shape[i] as usize].shape {
+        Shape::Sphere { .. } => sphere.1.len(),
+        Shape::Polyhedron(h) => h.faces.len(),
+    };
+    let mut points: Vec<f32> = Vec::new();
+    let mut cells = Cells {
+        connectivity: Vec::new(),
+        offsets: Vec::new(),
+        types: Vec::new(),
+    };
+    for i in 0..n {
+        let pose = world.pose(i);
+        let base = (points.len() / 3) as i32;
+        let face = |loop_: &mut dyn Iterator<Item = u32>, cells: &mut Cells| {
+            cells.connectivity.extend(loop_.map(|k| base + k as i32));
+            cells.offsets.push(cells.connectivity.len() as i32);
+            cells.types.push(VTK_POLYGON);
+        };
+        match &world.shapes[world.consts.shape[i] as usize].shape {
+            Shape::Sphere { radius } => {
+                for v in &sphere.0 {
+                    points.extend(pose.transform_point(*v * *radius).to_array());
+                }
+                for t in &sphere.1 {
+                    face(&mut t.iter().copied(), &mut cells);
+                }
+            }
+            Shape::Polyhedron(h) => {
+                for v in &h.vertices {
+                    points.extend(pose.transform_point(*v).to_array());
+                }
+                for f in 0..h.faces.len() {
+                    face(&mut h.face_loop(f).iter().copied(), &mut cells);
+                }
+            }
+        }
+    }
+    let arrays = body_arrays(world, faces_of);
+    write_grid(
+        path,
+        world.step_count,
+        world.time,
+        &points,
+        &cells,
+        &[],
         &arrays,
         "velocity",
     )

@@ -1,0 +1,215 @@
+//! Mesh files for `[[shape]] mesh = { file = .. }`: the vertices of an OBJ, STL (ASCII or
+//! binary) or PLY (ASCII or binary) surface mesh, from which the scene takes the convex hull.
+//!
+//! Readers: `tobj` (OBJ), `stl_io` (STL, both encodings, detected from the content) and
+//! `ply-rs-bw` (PLY, the maintained fork of `ply-rs`; every PLY encoding). The format comes
+//! from the file's extension (case-insensitive).
+//!
+//! Only the vertices that the faces use matter for a hull, but a mesh without faces is refused
+//! as empty: a file with no faces is more likely a point cloud or a mistake than a solid.
+//! Face orientation, manifoldness and duplicated vertices do not matter to the hull.
+
+use std::io::Cursor;
+use std::path::Path;
+
+/// A mesh read from a file: its vertices (as written, before any scale) and its face count.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshVertices {
+    /// Vertex positions, in file order (OBJ: per object, in the order tobj gives them).
+    pub vertices: Vec<[f64; 3]>,
+    /// Number of faces (polygons or triangles) in the file.
+    pub faces: usize,
+}
+
+/// The mesh formats by extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeshFormat {
+    /// Wavefront OBJ (`.obj`).
+    Obj,
+    /// STL, ASCII or binary (`.stl`).
+    Stl,
+    /// PLY, ASCII or binary (`.ply`).
+    Ply,
+}
+
+impl MeshFormat {
+    /// The format named by `path`'s extension, or a message listing the known ones.
+    pub fn from_path(path: &Path) -> Result<MeshFormat, String> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("obj") => Ok(MeshFormat::Obj),
+            Some("stl") => Ok(MeshFormat::Stl),
+            Some("ply") => Ok(MeshFormat::Ply),
+            Some(e) => Err(format!(
+                "unknown mesh file extension `.{e}` (expected .obj, .stl or .ply)"
+            )),
+            None => Err("the mesh file has no extension (expected .obj, .stl or .ply)".to_string()),
+        }
+    }
+}
+
+/// Reads the vertices of the mesh file at `path`. The message of an error says what is wrong
+/// with the file, without naming it (the caller names the file and the scene field).
+/// Checks: readable, parseable, at least one face and one vertex, every coordinate finite.
+pub fn read_mesh(path: &Path) -> Result<MeshVertices, String> {
+    let format = MeshFormat::from_path(path)?;
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the mesh file: {e}"))?;
+    let mesh = parse_mesh(&bytes, format)?;
+    if mesh.faces == 0 || mesh.vertices.is_empty() {
+        return Err(format!(
+            "empty mesh: {} vertices and {} faces (a solid needs faces)",
+            mesh.vertices.len(),
+            mesh.faces
+        ));
+    }
+    if let Some((i, v)) = mesh
+        .vertices
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !v.iter().all(|c| c.is_finite()))
+    {
+        return Err(format!(
+            "vertex {i} has a non-finite coordinate: [{}, {}, {}]",
+            v[0], v[1], v[2]
+        ));
+    }
+    Ok(mesh)
+}
+
+/// Parses a mesh held in memory.
+pub fn parse_mesh(bytes: &[u8], format: MeshFormat) -> Result<MeshVertices, String> {
+    match format {
+        MeshFormat::Obj => parse_obj(bytes),
+        MeshFormat::Stl => parse_stl(bytes),
+        MeshFormat::Ply => parse_ply(bytes),
+    }
+}
+
+fn parse_obj(bytes: &[u8]) -> Result<MeshVertices, String> {
+    let options = tobj::LoadOptions {
+        single_index: false,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    // Materials (`mtllib`) are not needed: the loader refuses them without touching the disk.
+    let (models, _materials) = tobj::load_obj_buf(&mut Cursor::new(bytes), &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| format!("cannot parse the OBJ file: {e}"))?;
+    let mut vertices = Vec::new();
+    let mut faces = 0;
+    for m in &models {
+        let mesh = &m.mesh;
+        vertices.extend(
+            mesh.positions
+                .chunks_exact(3)
+                .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]),
+        );
+        faces += if mesh.face_arities.is_empty() {
+            mesh.indices.len() / 3
+        } else {
+            mesh.face_arities.len()
+        };
+    }
+    Ok(MeshVertices { vertices, faces })
+}
+
+fn parse_stl(bytes: &[u8]) -> Result<MeshVertices, String> {
+    let mesh = stl_io::read_stl(&mut Cursor::new(bytes))
+        .map_err(|e| format!("cannot parse the STL file (ASCII or binary): {e}"))?;
+    Ok(MeshVertices {
+        vertices: mesh
+            .vertices
+            .iter()
+            .map(|v| [v.0[0] as f64, v.0[1] as f64, v.0[2] as f64])
+            .collect(),
+        faces: mesh.faces.len(),
+    })
+}
+
+fn parse_ply(bytes: &[u8]) -> Result<MeshVertices, String> {
+    use ply_rs_bw::parser::Parser;
+    use ply_rs_bw::ply::{DefaultElement, Property};
+    let ply = Parser::<DefaultElement>::new()
+        .read_ply(&mut Cursor::new(bytes))
+        .map_err(|e| format!("cannot parse the PLY file: {e}"))?;
+    let scalar = |p: &Property| -> Option<f64> {
+        Some(match *p {
+            Property::Char(v) => v as f64,
+            Property::UChar(v) => v as f64,
+            Property::Short(v) => v as f64,
+            Property::UShort(v) => v as f64,
+            Property::Int(v) => v as f64,
+            Property::UInt(v) => v as f64,
+            Property::Float(v) => v as f64,
+            Property::Double(v) => v,
+            _ => return None,
+        })
+    };
+    let mut vertices = Vec::new();
+    if let Some(elements) = ply.payload.get("vertex") {
+        vertices.reserve(elements.len());
+        for (i, e) in elements.iter().enumerate() {
+            let mut v = [0.0; 3];
+            for (k, name) in ["x", "y", "z"].iter().enumerate() {
+                v[k] = e
+                    .get(*name)
+                    .and_then(scalar)
+                    .ok_or_else(|| format!("PLY vertex {i} has no scalar property `{name}`"))?;
+            }
+            vertices.push(v);
+        }
+    }
+    let faces = ply.payload.get("face").map_or(0, Vec::len);
+    Ok(MeshVertices { vertices, faces })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_by_extension() {
+        assert_eq!(
+            MeshFormat::from_path(Path::new("a/rock.OBJ")),
+            Ok(MeshFormat::Obj)
+        );
+        assert_eq!(
+            MeshFormat::from_path(Path::new("x.stl")),
+            Ok(MeshFormat::Stl)
+        );
+        assert_eq!(
+            MeshFormat::from_path(Path::new("x.Ply")),
+            Ok(MeshFormat::Ply)
+        );
+        assert!(
+            MeshFormat::from_path(Path::new("x.off"))
+                .unwrap_err()
+                .contains("`.off`")
+        );
+        assert!(MeshFormat::from_path(Path::new("x")).is_err());
+    }
+
+    #[test]
+    fn garbage_is_an_error_in_every_format() {
+        let garbage: Vec<u8> = (0..300u32).map(|i| (i * 7919 % 251) as u8).collect();
+        for f in [MeshFormat::Obj, MeshFormat::Stl, MeshFormat::Ply] {
+            for bytes in [
+                &garbage[..],
+                b"",
+                b"solid x\nfacet normal 0 0 1\n",
+                b"ply\n",
+            ] {
+                let r = parse_mesh(bytes, f);
+                // Either an error, or (OBJ ignores unknown lines) nothing to build a solid from.
+                if let Ok(m) = r {
+                    assert_eq!(m.faces, 0, "{f:?}");
+                }
+            }
+        }
+    }
+}
