@@ -10,6 +10,7 @@
 mod chung_ooi;
 mod conservation;
 mod mfix;
+mod mindlin;
 mod pile;
 mod reference;
 mod restitution;
@@ -245,6 +246,20 @@ impl Sim {
         Ok(())
     }
 
+    /// Hands a changed world (e.g. a kicked body) to the pipeline: the contact list and its
+    /// springs are brought up to date from the pipeline first, then the whole world is
+    /// restarted from the host's copy.
+    pub fn restart_with(&mut self, change: impl FnOnce(&mut World)) -> anyhow::Result<()> {
+        self.stepper
+            .sync(&mut self.world)
+            .context("reading a validation world back")?;
+        change(&mut self.world);
+        self.stepper
+            .restart(&self.world)
+            .context("restarting a validation world")?;
+        Ok(())
+    }
+
     /// Steps covering `seconds` of simulated time.
     pub fn run_for(&mut self, seconds: f64) -> anyhow::Result<()> {
         let n = (seconds / self.world.dt as f64).ceil().max(0.0) as u64;
@@ -289,6 +304,7 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
         ("chung-ooi-7", chung_ooi::test7),
         ("chung-ooi-8", chung_ooi::test8),
         (restitution::NAME, restitution::check),
+        (mindlin::NAME, mindlin::check),
         ("mfix-dem01", mfix::dem01),
         ("mfix-dem02", mfix::dem02),
         ("mfix-dem03", mfix::dem03),
@@ -335,6 +351,17 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         quick: args.quick,
         gpu,
     };
+    let names: Vec<&str> = checks().iter().map(|(n, _)| *n).collect();
+    if let Some(o) = args
+        .only
+        .iter()
+        .find(|o| !names.iter().any(|n| n.contains(o.as_str())))
+    {
+        anyhow::bail!(
+            "--only {o}: no check's name contains it; the checks are {}",
+            names.join(", ")
+        );
+    }
     if let Some(dir) = &args.out {
         std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
     }
