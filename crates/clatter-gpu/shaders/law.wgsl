@@ -88,7 +88,8 @@ fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec
     var fn_: f32;
     var cov = 0.0;
     if share == SPHERE_POINT_SHARE {
-        let r = resolved_normal_force(p, m_eff, r_eff, share, depth, -dot(vrel, n), coverage, dt);
+        let r = resolved_normal_force(p, m_eff, r_eff, share, depth, -dot(vrel, n), sk, eta,
+                                      coverage, dt);
         fn_ = r.x;
         cov = r.y;
     } else {
@@ -114,40 +115,45 @@ const RESOLVABLE: f32 = 1.0;
 // The normal force resolved within the step (x) and the new coverage (y): law.rs
 // `resolved_normal_force`, where the method is explained.
 fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, depth: f32,
-                         approach: f32, coverage: f32, dt: f32) -> vec2<f32> {
+                         approach: f32, sk: vec2<f32>, eta: f32, coverage: f32,
+                         dt: f32) -> vec2<f32> {
     let x = depth;
     let v = approach;
-    let sk = spring(p, r_eff, x, share);
-    let eta = damping(p, m_eff, sk.y);
-    let inv_m = 1.0 / m_eff;
-    if dt * (dt * sk.y + eta) * inv_m > RESOLVABLE {
-        return vec2<f32>(sk.x + eta * v, 0.0);
+    let fs = sk.x;
+    if dt * (dt * sk.y + eta) > RESOLVABLE * m_eff {
+        return vec2<f32>(fs + eta * v, 0.0);
     }
     let first = x - dt * v <= EDGE_SLACK * dt * abs(v);
-    var start = 0.0;
+    var g_start = 0.0;
     if coverage > 0.0 {
-        start = coverage;
+        g_start = coverage;
     } else if !(coverage < 0.0 || first) {
-        start = x - 0.5 * dt * v;
+        g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v);
     }
-    let predicted = (sk.x + eta * v) / (1.0 + 0.5 * eta * dt * inv_m);
-    var v_next = v - dt * predicted * inv_m;
-    var last = x + dt * v_next <= EDGE_SLACK * dt * abs(v_next);
-    let g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, start).x;
-    if !first && !last {
-        let x1 = max(x + 0.5 * dt * v_next, 0.0);
-        let g1 = dashpot_primitive(p, m_eff, r_eff, share, eta, x1);
-        let inside = (sk.x + (g1.x - g_start) / dt + 0.5 * g1.y * (v - v_next))
-            / (1.0 + 0.5 * g1.y * dt * inv_m);
-        let v_after = v - dt * inside * inv_m;
+    let g_x = eta * x / dashpot_exponent(p);
+    if !first {
+        let impulse = fs * dt + (g_x - g_start) + 0.5 * eta * v * dt;
+        let per_mass = 1.0 / (m_eff + 0.5 * eta * dt);
+        let v_after = v - impulse * per_mass;
+        let force = impulse * per_mass * m_eff / dt;
         if x + dt * v_after > EDGE_SLACK * dt * abs(v_after) {
-            return vec2<f32>(inside, max(x + 0.5 * dt * v_after, 0.0));
+            return vec2<f32>(force, max(g_x + 0.5 * eta * dt * v_after, 1.17549435e-38));
         }
-        last = true;
-        v_next = v_after;
+        return contact_edge(p, m_eff, r_eff, share, x, v, false, true, v_after, g_start, eta, dt);
     }
-    var force = predicted;
-    var end = 0.0;
+    let v_next = v - (fs + eta * v) * dt / (m_eff + 0.5 * eta * dt);
+    let last = x + dt * v_next <= EDGE_SLACK * dt * abs(v_next);
+    return contact_edge(p, m_eff, r_eff, share, x, v, true, last, v_next, g_start, eta, dt);
+}
+
+// law.rs `contact_edge`: the force (x) and the new coverage (y) of a first or last step.
+fn contact_edge(p: PairParams, m_eff: f32, r_eff: f32, share: f32, x: f32, v: f32, first: bool,
+                last_in: bool, v_in: f32, g_start: f32, eta: f32, dt: f32) -> vec2<f32> {
+    let inv_m = 1.0 / m_eff;
+    var last = last_in;
+    var v_next = v_in;
+    var force = 0.0;
+    var g_end = 0.0;
     for (var attempt = 0u; attempt < 2u; attempt++) {
         for (var it = 0u; it < 3u; it++) {
             let back = select(-0.5 * dt, -dt, first);
@@ -155,11 +161,10 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
             let spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
                 + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
             if last {
-                end = 0.0;
+                g_end = 0.0;
             } else {
-                end = max(x + 0.5 * dt * v_next, 0.0);
+                g_end = dashpot_primitive(p, m_eff, r_eff, share, eta, x + 0.5 * dt * v_next);
             }
-            let g_end = dashpot_primitive(p, m_eff, r_eff, share, eta, end).x;
             force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
         }
@@ -168,7 +173,7 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
         }
         last = true;
     }
-    return vec2<f32>(force, select(COVERED_TO_RELEASE, end, end > 0.0));
+    return vec2<f32>(force, select(COVERED_TO_RELEASE, g_end, g_end > 0.0));
 }
 
 // law.rs `spring_integral`.
@@ -189,14 +194,20 @@ fn spring_integral(p: PairParams, r_eff: f32, share: f32, x0: f32, v: f32, s0: f
     return 0.0;
 }
 
-// law.rs `dashpot_primitive`: (G(x), eta(x)).
+// law.rs `dashpot_exponent`: 1 + q for eta ~ x^q.
+fn dashpot_exponent(p: PairParams) -> f32 {
+    return select(1.0, 1.25, p.model == MODEL_HERTZ);
+}
+
+// law.rs `dashpot_primitive`: G(x) = eta(x) x / (1 + q), 0 for x <= 0.
 fn dashpot_primitive(p: PairParams, m_eff: f32, r_eff: f32, share: f32, eta_linear: f32,
-                     x: f32) -> vec2<f32> {
+                     x_in: f32) -> f32 {
+    let x = max(x_in, 0.0);
+    var eta = eta_linear;
     if p.model == MODEL_HERTZ {
-        let eta = damping(p, m_eff, spring(p, r_eff, max(x, 0.0), share).y);
-        return vec2<f32>(eta * x / 1.25, eta);
+        eta = damping(p, m_eff, spring(p, r_eff, x, share).y);
     }
-    return vec2<f32>(eta_linear * x, eta_linear);
+    return eta * x / dashpot_exponent(p);
 }
 
 // The adhesive pull of a touching pair (DMT: 2 pi gamma R*), 0 without cohesion.

@@ -33,8 +33,8 @@ impl fmt::Display for Partner {
 pub struct ContactSprings {
     /// Tangential spring.
     pub history: Vec<Vec3>,
-    /// Twisting spring (rad) of a patch; for one-point contacts with a sphere, the overlap
-    /// up to which the normal dashpot has been applied (m; see
+    /// Twisting spring (rad) of a patch; for one-point contacts with a sphere, the normal
+    /// dashpot's primitive where it has been applied up to (N s; see
     /// `law::resolved_normal_force`).
     pub twist: Vec<f32>,
     /// The last step's force.

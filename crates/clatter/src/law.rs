@@ -143,8 +143,8 @@ fn tangential_law(
 /// tangential forces act at `point`, overlap `depth` along the unit normal `n` (from a to b).
 /// `coverage` is the contact's normal state across steps: for contacts with a sphere
 /// (`share` = [`SPHERE_POINT_SHARE`]) the normal force is resolved within the step
-/// ([`resolved_normal_force`]) and `coverage` carries the overlap up to which its dashpot
-/// has been applied; polyhedron contacts use the explicit law and get 0.
+/// ([`resolved_normal_force`]) and `coverage` carries the dashpot's primitive at the overlap
+/// up to which it has been applied; polyhedron contacts use the explicit law and get 0.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn point_contact_force(
@@ -165,7 +165,17 @@ pub fn point_contact_force(
     let (fs, k) = spring(p, r_eff, depth, share);
     let eta = damping(p, m_eff, k);
     let fn_ = if share == SPHERE_POINT_SHARE {
-        resolved_normal_force(p, m_eff, r_eff, share, depth, -vrel.dot(n), coverage, dt)
+        resolved_normal_force(
+            p,
+            m_eff,
+            r_eff,
+            share,
+            depth,
+            -vrel.dot(n),
+            (fs, k, eta),
+            coverage,
+            dt,
+        )
     } else {
         *coverage = 0.0;
         fs - eta * vrel.dot(n)
@@ -211,16 +221,18 @@ const EDGE_SLACK: f32 = 0.05;
 ///   step: the part of the previous interval in contact is folded in), and at the last step
 ///   (the overlap predicted to reach zero before the next step) it ends where the overlap
 ///   crosses zero;
-/// - **dashpot**: `integral eta dx = eta x / (1 + q)` between the overlap where the last
-///   step's interval ended (`coverage`) and where this one ends (`q` the exponent of
-///   `eta ~ x^q`: 0 linear, 1/4 Hertz), exact however the speed varies. Its sum over a
-///   contact telescopes, so no part of the contact is damped twice or not at all.
+/// - **dashpot**: the difference of its primitive `G(x) = integral eta dx = eta x / (1 + q)`
+///   (`eta ~ x^q`: q = 0 linear, 1/4 Hertz) between where the last step's interval ended
+///   (`coverage` stores `G` there) and where this one ends, exact however the speed varies.
+///   Its sum over a contact telescopes, so no part of the contact is damped twice or not at
+///   all.
 ///
 /// `v+` depends on the force, through the two-body motion with effective mass `m_eff`:
-/// inside the contact one Newton step from a trapezoidal predictor (exact for the linear
-/// law); at the first and last steps three fixed-point iterations (and three more as the last
-/// step if the contact separates after all). At rest the force is the
-/// spring force exactly (no bias in static overlaps).
+/// inside the contact in closed form, `G` linearised at `x` (exact for the linear law); at
+/// the first and last steps by three fixed-point iterations (three more as the last step if
+/// the contact separates after all). At rest the force is the spring force exactly (no bias
+/// in static overlaps). `(spring_force, stiffness, eta)` are [`spring`] and the damping at
+/// `depth`, which the caller has computed already.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn resolved_normal_force(
@@ -230,65 +242,109 @@ pub fn resolved_normal_force(
     share: f32,
     depth: f32,
     approach: f32,
+    (spring_force, stiffness, eta): (f32, f32, f32),
     coverage: &mut f32,
     dt: f32,
 ) -> f32 {
-    let (x, v) = (depth, approach);
-    let (fs, k) = spring(p, r_eff, x, share);
-    let eta = damping(p, m_eff, k);
-    let inv_m = 1.0 / m_eff;
-    if dt * (dt * k + eta) * inv_m > RESOLVABLE {
+    let (x, v, fs) = (depth, approach, spring_force);
+    if dt * (dt * stiffness + eta) > RESOLVABLE * m_eff {
         // A step too long for the contact (near or past the stability bound): the explicit
         // law, which blows up plainly where the iterations below would not converge.
         *coverage = 0.0;
         return fs + eta * v;
     }
     // The overlap was not positive one step ago: this is the contact's first step. (Both
-    // this and `last` below allow a sliver of a step's travel for the rounding of positions.)
+    // this and the test for the last step allow a sliver of a step's travel for the
+    // rounding of positions.)
     let first = x - dt * v <= EDGE_SLACK * dt * v.abs();
-    let start = if *coverage > 0.0 {
+    let g_start = if *coverage > 0.0 {
         *coverage
     } else if *coverage < 0.0 || first {
         0.0
     } else {
         // A contact found already overlapping (a scene that starts so): no kick.
-        x - 0.5 * dt * v
+        dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v)
     };
-    let predicted = (fs + eta * v) / (1.0 + 0.5 * eta * dt * inv_m);
-    let mut v_next = v - dt * predicted * inv_m;
-    let mut last = x + dt * v_next <= EDGE_SLACK * dt * v_next.abs();
-    let (g_start, _) = dashpot_primitive(p, m_eff, r_eff, share, eta, start);
-    if !first && !last {
+    let g_x = eta * x / dashpot_exponent(p);
+    if !first {
         // Inside the contact: the spring at `x` over the step (midpoint rule), the dashpot
-        // from `start` to `x1 = x + dt v+ / 2`, with `v+ = v - dt F / m*` solved by one
-        // Newton step on the primitive linearised at the predictor (exact for the linear law).
-        let x1 = (x + 0.5 * dt * v_next).max(0.0);
-        let (g1, eta1) = dashpot_primitive(p, m_eff, r_eff, share, eta, x1);
-        let force = (fs + (g1 - g_start) / dt + 0.5 * eta1 * (v - v_next))
-            / (1.0 + 0.5 * eta1 * dt * inv_m);
-        let v_after = v - dt * force * inv_m;
+        // from the covered end to `x1 = x + dt v+ / 2`, its primitive linearised at `x`
+        // (exact for the linear law); `v+ = v - dt F / m*` solved in closed form: the
+        // step's impulse is `J / (1 + eta dt / 2m*)`, `J` its value at `v+ = v`.
+        let impulse = fs * dt + (g_x - g_start) + 0.5 * eta * v * dt;
+        let per_mass = 1.0 / (m_eff + 0.5 * eta * dt);
+        let v_after = v - impulse * per_mass;
+        let force = impulse * per_mass * m_eff / dt;
         if x + dt * v_after > EDGE_SLACK * dt * v_after.abs() {
-            *coverage = (x + 0.5 * dt * v_after).max(0.0);
+            *coverage = (g_x + 0.5 * eta * dt * v_after).max(f32::MIN_POSITIVE);
             return force;
         }
-        // Separating after all: this is the contact's last step.
-        last = true;
-        v_next = v_after;
+        // Separating within the step: this is the contact's last step.
+        return contact_edge(
+            p,
+            m_eff,
+            r_eff,
+            share,
+            x,
+            v,
+            (false, true),
+            v_after,
+            g_start,
+            eta,
+            coverage,
+            dt,
+        );
     }
-    // First or last step: the spring over the part of the interval in contact.
-    let (mut force, mut end) = (predicted, 0.0);
+    let v_next = v - (fs + eta * v) * dt / (m_eff + 0.5 * eta * dt);
+    let last = x + dt * v_next <= EDGE_SLACK * dt * v_next.abs();
+    contact_edge(
+        p,
+        m_eff,
+        r_eff,
+        share,
+        x,
+        v,
+        (true, last),
+        v_next,
+        g_start,
+        eta,
+        coverage,
+        dt,
+    )
+}
+
+/// The first or last step of a contact ([`resolved_normal_force`]): the spring over the part
+/// of the interval in contact, `v+` by three fixed-point iterations from `v_next` (three more
+/// as the last step if a first step separates after all).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn contact_edge(
+    p: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    share: f32,
+    x: f32,
+    v: f32,
+    (first, mut last): (bool, bool),
+    mut v_next: f32,
+    g_start: f32,
+    eta: f32,
+    coverage: &mut f32,
+    dt: f32,
+) -> f32 {
+    let inv_m = 1.0 / m_eff;
+    let (mut force, mut g_end) = (0.0, 0.0);
     for _pass in 0..2 {
         for _ in 0..3 {
             let back = if first { -dt } else { -0.5 * dt };
             let ahead = if last { dt } else { 0.5 * dt };
             let spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
                 + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
-            end = if last {
+            g_end = if last {
                 0.0
             } else {
-                (x + 0.5 * dt * v_next).max(0.0)
+                dashpot_primitive(p, m_eff, r_eff, share, eta, x + 0.5 * dt * v_next)
             };
-            let (g_end, _) = dashpot_primitive(p, m_eff, r_eff, share, eta, end);
             force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
         }
@@ -298,7 +354,11 @@ pub fn resolved_normal_force(
         }
         last = true;
     }
-    *coverage = if end > 0.0 { end } else { COVERED_TO_RELEASE };
+    *coverage = if g_end > 0.0 {
+        g_end
+    } else {
+        COVERED_TO_RELEASE
+    };
     force
 }
 
@@ -332,9 +392,15 @@ fn spring_integral(
     }
 }
 
-/// The dashpot's primitive `G(x) = integral of eta from 0 to x` and `eta(x)`: `eta ~ x^q`
-/// (q = 0 linear, 1/4 Hertz), so `G = eta(x) x / (1 + q)`. `eta_linear` is the linear law's
-/// (constant) damping, passed in to save its square root.
+/// `1 + q` for the dashpot `eta ~ x^q` (q = 0 linear, 1/4 Hertz).
+#[inline(always)]
+fn dashpot_exponent(p: &PairParams) -> f32 {
+    if p.model == MODEL_HERTZ { 1.25 } else { 1.0 }
+}
+
+/// The dashpot's primitive `G(x) = integral of eta from 0 to x = eta(x) x / (1 + q)` (0 for
+/// `x <= 0`). `eta_linear` is the linear law's (constant) damping, passed in to save its
+/// square root.
 #[inline(always)]
 fn dashpot_primitive(
     p: &PairParams,
@@ -343,13 +409,14 @@ fn dashpot_primitive(
     share: f32,
     eta_linear: f32,
     x: f32,
-) -> (f32, f32) {
-    if p.model == MODEL_HERTZ {
-        let eta = damping(p, m_eff, spring(p, r_eff, x.max(0.0), share).1);
-        (eta * x / 1.25, eta)
+) -> f32 {
+    let x = x.max(0.0);
+    let eta = if p.model == MODEL_HERTZ {
+        damping(p, m_eff, spring(p, r_eff, x, share).1)
     } else {
-        (eta_linear * x, eta_linear)
-    }
+        eta_linear
+    };
+    eta * x / dashpot_exponent(p)
 }
 
 /// The adhesive pull of a touching pair (DMT: `2 pi gamma R*`, N), 0 without cohesion.

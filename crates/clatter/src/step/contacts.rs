@@ -32,19 +32,35 @@ pub(crate) fn run(world: &mut World) -> usize {
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
     let (pairs_touching, walls_touching) = rayon::join(
         || {
-            let pairs = w.contacts.pairs.par_iter();
-            let common = pairs
-                .zip(hist_pairs.par_iter_mut())
-                .zip(force_pairs.par_iter_mut())
-                .zip(touch_pairs.par_iter_mut());
             if w.spheres_only() {
-                return common
-                    .zip(twist_pairs.par_iter_mut())
-                    .with_min_len(CHUNK)
-                    .map(|((((p, h), f), t), c)| sphere_pair(w, *p, h, c, f, t) as usize)
+                // Chunks of plain slices: the sphere law is cheap, so the per-item cost of
+                // a deep parallel zip would show.
+                return w
+                    .contacts
+                    .pairs
+                    .par_chunks(CHUNK)
+                    .zip(hist_pairs.par_chunks_mut(CHUNK))
+                    .zip(force_pairs.par_chunks_mut(CHUNK))
+                    .zip(touch_pairs.par_chunks_mut(CHUNK))
+                    .zip(twist_pairs.par_chunks_mut(CHUNK))
+                    .map(|((((p, h), f), t), c)| {
+                        let n = p.len();
+                        let (h, f, t, c) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut c[..n]);
+                        (0..n)
+                            .map(|k| {
+                                sphere_pair(w, p[k], &mut h[k], &mut c[k], &mut f[k], &mut t[k])
+                                    as usize
+                            })
+                            .sum::<usize>()
+                    })
                     .sum::<usize>();
             }
-            common
+            w.contacts
+                .pairs
+                .par_iter()
+                .zip(hist_pairs.par_iter_mut())
+                .zip(force_pairs.par_iter_mut())
+                .zip(touch_pairs.par_iter_mut())
                 .zip(hints.par_iter_mut())
                 .zip(twist_pairs.par_iter_mut())
                 .zip(separation_bound.par_iter_mut())
