@@ -11,7 +11,7 @@ use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
 use clatter::scene::{Scene, SceneError};
 use clatter::{Checkpoint, World};
-use clatter_gpu::{Device, Readback, StepError};
+use clatter_gpu::{Device, HealthSetup, Readback, StepError, Stepper};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
@@ -512,15 +512,24 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     );
     let started = Instant::now();
     let mut max_contacts = world.contact_count();
+    // On the GPU the checks, the energy samples and the last good state stay on the device
+    // (`GpuWorld::set_health`): the state comes back only for outputs, checkpoints, the last
+    // step, and the steps the GPU's checks stop at for the host to look.
+    let gpu_checks = start_gpu_checks(&mut stepper, &world, &plan.health, &plan.checks());
     let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
     let full_step =
         |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;
     // Whether step `s` (simulated time `t` after it) needs the state on the host.
     let due = |s: u64, t: f64, next_checkpoint: Option<f64>| {
+        let checkpoint =
+            period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p));
+        if gpu_checks {
+            return output_step(s) || s == plan.end_step || checkpoint;
+        }
         full_step(s)
             || s.is_multiple_of(plan.check_every)
             || (plan.out.is_some() && s.is_multiple_of(plan.energy_every))
-            || period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p))
+            || checkpoint
     };
     let mut k = 0;
     let mut last_bar = 0;
@@ -533,10 +542,17 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             m += 1;
             t += world.dt as f64;
         }
-        let stats = match stepper.step(&mut world, m, Readback::All) {
+        let result = stepper.step(&mut world, m, Readback::All);
+        if let (Some(g), Some(e)) = (stepper.as_gpu_mut(), &mut energy) {
+            for x in g.take_samples() {
+                e.record(x.step, x.time, x.kinetic, x.potential, x.momentum)?;
+            }
+        }
+        let stats = match result {
             Ok(stats) => stats,
             Err(StepError::Sim(e)) => {
                 bar.finish_and_clear();
+                newer_last_good(&stepper, &mut last_good)?;
                 let b = plan.health.non_finite(&last_good, &e);
                 return Err(blown_up(&plan, b, &last_good, energy));
             }
@@ -547,14 +563,21 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         let s = world.step_count;
         let output_step = output_step(s);
         let full = full_step(s);
-        if full || s.is_multiple_of(plan.check_every) {
+        if full || s.is_multiple_of(plan.check_every) || stats.alarm {
             if let Err(b) = plan.health.check(&world, full) {
                 bar.finish_and_clear();
+                newer_last_good(&stepper, &mut last_good)?;
                 return Err(blown_up(&plan, b, &last_good, energy));
             }
             if full {
                 last_good.clone_from(&world);
             }
+        }
+        if stats.alarm
+            && let Some(g) = stepper.as_gpu_mut()
+        {
+            // The GPU's f32 sums looked alarming but the host's exact check passed.
+            g.clear_alarm()?;
         }
         if let Some(dir) = &plan.out {
             if output_step {
@@ -658,6 +681,60 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     }
     if !plan.quiet {
         println!("results in {}/: {written}", dir.display());
+    }
+    Ok(())
+}
+
+/// What the GPU's blow-up checks are asked to do (see [`start_gpu_checks`]).
+struct Checks {
+    check_every: u64,
+    energy_every: u64,
+}
+
+impl Plan {
+    fn checks(&self) -> Checks {
+        Checks {
+            check_every: self.check_every,
+            energy_every: if self.out.is_some() {
+                self.energy_every
+            } else {
+                0
+            },
+        }
+    }
+}
+
+/// Turns on the GPU's own blow-up checks when the GPU steps (the same cheap checks as
+/// [`Health::check`] at the same steps, the energy samples, and the last good state every
+/// [`FULL_CHECK_EVERY`] steps, all on the device); returns whether it did. The GPU stops for
+/// the host when its f32 sums come near what the host would report: the kinetic energy above
+/// half the host's factor, a body behind a wall, a contact whose force may mean a deep
+/// overlap. The host then checks that step exactly, so the reports are the CPU's.
+fn start_gpu_checks(stepper: &mut Stepper, world: &World, health: &Health, c: &Checks) -> bool {
+    let Some(g) = stepper.as_gpu_mut() else {
+        return false;
+    };
+    g.set_health(
+        world,
+        HealthSetup {
+            check_every: c.check_every,
+            energy_every: c.energy_every,
+            snapshot_every: FULL_CHECK_EVERY,
+            budget: health.baseline(),
+            alarm_factor: 0.5 * clatter::health::ENERGY_FACTOR,
+            force_floor: health.force_floor(),
+        },
+    );
+    true
+}
+
+/// On the GPU, the last good state kept on the device, when it is newer than `last_good`.
+fn newer_last_good(stepper: &Stepper, last_good: &mut World) -> anyhow::Result<()> {
+    if let Some(g) = stepper.as_gpu() {
+        let mut snap = last_good.clone();
+        if g.read_last_good(&mut snap)? && snap.step_count > last_good.step_count {
+            *last_good = snap;
+        }
     }
     Ok(())
 }

@@ -28,4 +28,4 @@ pub use narrow::{
 };
 pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;
-pub use world::{GpuWorld, StepReport};
+pub use world::{EnergySample, GpuWorld, HealthSetup, StepReport};
