@@ -11,7 +11,7 @@ use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
 use clatter::scene::{Scene, SceneError};
 use clatter::{Checkpoint, World};
-use clatter_gpu::{Device, HealthSetup, Readback, StepError, Stepper};
+use clatter_gpu::{Device, Readback, StepError, Stepper, Watch, WatchError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
@@ -25,7 +25,7 @@ pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).
-pub const FULL_CHECK_EVERY: u64 = 100;
+pub const FULL_CHECK_EVERY: u64 = clatter_gpu::watch::FULL_CHECK_EVERY;
 
 /// Where `clatter run` without a scene file and without `--out` writes the default scene's
 /// results (relative to the working directory), with a picture of the last step.
@@ -515,7 +515,19 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     // On the GPU the checks, the energy samples and the last good state stay on the device
     // (`GpuWorld::set_health`): the state comes back only for outputs, checkpoints, the last
     // step, and the steps the GPU's checks stop at for the host to look.
-    let gpu_checks = start_gpu_checks(&mut stepper, &world, &plan.health, &plan.checks());
+    let energy_on_gpu = if plan.out.is_some() {
+        plan.energy_every
+    } else {
+        0
+    };
+    let watch = Watch::start(
+        &mut stepper,
+        &world,
+        plan.health.clone(),
+        plan.check_every,
+        energy_on_gpu,
+    );
+    let gpu_checks = stepper.is_gpu();
     let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
     let full_step =
         |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;
@@ -563,21 +575,18 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         let s = world.step_count;
         let output_step = output_step(s);
         let full = full_step(s);
-        if full || s.is_multiple_of(plan.check_every) || stats.alarm {
-            if let Err(b) = plan.health.check(&world, full) {
+        match watch.after(&mut stepper, &world, &stats, full) {
+            Ok(checked) => {
+                if checked && full {
+                    last_good.clone_from(&world);
+                }
+            }
+            Err(WatchError::BlowUp(b)) => {
                 bar.finish_and_clear();
                 newer_last_good(&stepper, &mut last_good)?;
-                return Err(blown_up(&plan, b, &last_good, energy));
+                return Err(blown_up(&plan, *b, &last_good, energy));
             }
-            if full {
-                last_good.clone_from(&world);
-            }
-        }
-        if stats.alarm
-            && let Some(g) = stepper.as_gpu_mut()
-        {
-            // The GPU's f32 sums looked alarming but the host's exact check passed.
-            g.clear_alarm()?;
+            Err(WatchError::Gpu(e)) => return Err(e.into()),
         }
         if let Some(dir) = &plan.out {
             if output_step {
@@ -683,49 +692,6 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         println!("results in {}/: {written}", dir.display());
     }
     Ok(())
-}
-
-/// What the GPU's blow-up checks are asked to do (see [`start_gpu_checks`]).
-struct Checks {
-    check_every: u64,
-    energy_every: u64,
-}
-
-impl Plan {
-    fn checks(&self) -> Checks {
-        Checks {
-            check_every: self.check_every,
-            energy_every: if self.out.is_some() {
-                self.energy_every
-            } else {
-                0
-            },
-        }
-    }
-}
-
-/// Turns on the GPU's own blow-up checks when the GPU steps (the same cheap checks as
-/// [`Health::check`] at the same steps, the energy samples, and the last good state every
-/// [`FULL_CHECK_EVERY`] steps, all on the device); returns whether it did. The GPU stops for
-/// the host when its f32 sums come near what the host would report: the kinetic energy above
-/// half the host's factor, a body behind a wall, a contact whose force may mean a deep
-/// overlap. The host then checks that step exactly, so the reports are the CPU's.
-fn start_gpu_checks(stepper: &mut Stepper, world: &World, health: &Health, c: &Checks) -> bool {
-    let Some(g) = stepper.as_gpu_mut() else {
-        return false;
-    };
-    g.set_health(
-        world,
-        HealthSetup {
-            check_every: c.check_every,
-            energy_every: c.energy_every,
-            snapshot_every: FULL_CHECK_EVERY,
-            budget: health.baseline(),
-            alarm_factor: 0.5 * clatter::health::ENERGY_FACTOR,
-            force_floor: health.force_floor(),
-        },
-    );
-    true
 }
 
 /// On the GPU, the last good state kept on the device, when it is newer than `last_good`.
