@@ -31,6 +31,11 @@ pub const FULL_CHECK_EVERY: u64 = clatter_gpu::watch::FULL_CHECK_EVERY;
 /// results (relative to the working directory), with a picture of the last step.
 pub const DEFAULT_OUT: &str = "clatter-out/default";
 
+/// With this environment variable set (not `0`), `clatter run --backend gpu` runs the
+/// blow-up checks on the host as on the CPU, reading the state back every check step (the run
+/// loop before the device-side checks; for timing comparisons, see BENCHMARKS.md).
+pub const HOST_CHECKS_VAR: &str = "CLATTER_GPU_HOST_CHECKS";
+
 /// Exit status of a run stopped by a blow-up (1 is any other error, 2 a usage error).
 pub const BLOW_UP_EXIT: u8 = 3;
 
@@ -520,14 +525,20 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     } else {
         0
     };
-    let watch = Watch::start(
-        &mut stepper,
-        &world,
-        plan.health.clone(),
-        plan.check_every,
-        energy_on_gpu,
-    );
-    let gpu_checks = stepper.is_gpu();
+    // CLATTER_GPU_HOST_CHECKS=1: the host checks as on the CPU (for timing comparisons).
+    let host_checks = std::env::var_os(HOST_CHECKS_VAR).is_some_and(|v| v != "0");
+    let watch = if host_checks {
+        Watch::host_only(plan.health.clone(), plan.check_every)
+    } else {
+        Watch::start(
+            &mut stepper,
+            &world,
+            plan.health.clone(),
+            plan.check_every,
+            energy_on_gpu,
+        )
+    };
+    let gpu_checks = stepper.is_gpu() && !host_checks;
     let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
     let full_step =
         |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;

@@ -381,6 +381,8 @@ fn bench_render_adds_frames_per_second() {
     }
     let args: &[&dyn AsRef<std::ffi::OsStr>] = &[
         &"bench",
+        &"--pile",
+        &"lattice",
         &"--render",
         &"--render-frames",
         &"2",
@@ -399,10 +401,11 @@ fn bench_render_adds_frames_per_second() {
     assert_eq!(rows.len(), 3, "{table}");
     for row in &rows[1..] {
         let cols: Vec<&str> = row.split_whitespace().collect();
-        // bodies, steps/s, body-steps/s, contacts/body, ms/step, rebuilds, frames/s, backend
-        assert_eq!(cols.len(), 8, "{row}");
-        let fps: f64 = cols[6].parse().expect("frames/s is a number");
-        assert_eq!(cols[7], "cpu", "{row}");
+        // bodies, steps/s, body-steps/s, contacts/body, pairs/body, ms/step, rebuilds,
+        // frames/s, backend
+        assert_eq!(cols.len(), 9, "{row}");
+        let fps: f64 = cols[7].parse().expect("frames/s is a number");
+        assert_eq!(cols[8], "cpu", "{row}");
         assert!(fps > 0.0 && fps.is_finite(), "{row}");
     }
     let mut json_args = args.to_vec();
@@ -418,6 +421,8 @@ fn bench_render_adds_frames_per_second() {
     // Without --render there is no such column.
     let o = clatter(&[
         &"bench",
+        &"--pile",
+        &"lattice",
         &"--bodies",
         &"27",
         &"--steps",

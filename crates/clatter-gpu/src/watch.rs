@@ -79,6 +79,16 @@ impl Watch {
         w
     }
 
+    /// Watches with the host's checks only, also on the GPU (which then hands the state
+    /// back at every check step: the run loop before the device-side checks, kept for
+    /// comparisons, `CLATTER_GPU_HOST_CHECKS=1`).
+    pub fn host_only(health: Health, check_every: u64) -> Watch {
+        Watch {
+            health,
+            check_every: check_every.max(1),
+        }
+    }
+
     /// Sets up the GPU's checks (again, after [`Stepper::restart`]).
     pub fn arm(&self, gpu: &mut GpuWorld, world: &World, energy_every: u64) {
         gpu.set_health(
