@@ -171,7 +171,8 @@ fn poured_pile(
     clatter::checkpoint::write_atomic(&path, &bytes)
         .with_context(|| format!("cannot write {}", path.display()))?;
     eprintln!(
-        "# poured pile: settled in {steps} steps, cached in {}",
+        "# poured pile: settled in {steps} steps ({:.0} s), cached in {}",
+        started.elapsed().as_secs_f64(),
         path.display()
     );
     Ok(world)

@@ -79,7 +79,9 @@ pub struct OutputArgs {
     pub energy_every: Option<u64>,
     /// Run the cheap blow-up checks (escape, energy growth, deep overlaps) every N steps
     /// (default 10); the
-    /// overlap check of all contacts runs every 100 steps and at output steps.
+    /// overlap check of all contacts runs every 100 steps and at output steps. With the GPU
+    /// backend the cheap checks run on the device (the host checks only the steps they flag,
+    /// output steps and the last step).
     #[arg(long, value_name = "N")]
     pub check_every: Option<u64>,
 }
