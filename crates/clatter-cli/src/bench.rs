@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clatter::World;
-use clatter::pile::{PileParams, PileShape, pile};
+use clatter::pile::{PileParams, PileShape, pile, poured};
 use clatter_gpu::{Device, Readback, StepError, Stepper};
 
-use crate::BenchShape;
 use crate::backend::Backend;
+use crate::{BenchShape, PileArg};
 
 /// Arguments of `clatter bench`.
 pub struct BenchArgs {
@@ -30,6 +30,152 @@ pub struct BenchArgs {
     pub profile: Option<u64>,
     /// Time this scene file (`default`: the embedded default scene) instead of the piles.
     pub scene: Option<PathBuf>,
+    /// How the pile is made.
+    pub pile: PileArg,
+    /// Where settled poured piles are cached (see [`pile_cache_dir`]).
+    pub pile_cache: Option<PathBuf>,
+}
+
+/// The environment variable that names the poured-pile cache directory.
+pub const PILE_CACHE_VAR: &str = "CLATTER_PILE_CACHE";
+
+/// The seed of the poured piles (positions jitter, orientations, speeds).
+pub const POUR_SEED: u64 = 7;
+
+/// A poured pile is settled when its kinetic energy is below this fraction of the energy of
+/// lifting every body by its radius (`sum m g r`): a mean speed of about 1.4 cm/s for the
+/// default 1 cm bodies.
+pub const SETTLED_ENERGY: f64 = 1.0e-3;
+
+/// A poured pile stops settling after this many steps even if it is not at rest (with a
+/// warning; it is cached all the same).
+pub const MAX_SETTLE_STEPS: u64 = 400_000;
+
+/// Bump when the poured pile or its settling changes, so that old cached piles are not used.
+const PILE_CACHE_VERSION: u32 = 1;
+
+/// Where settled poured piles are cached: `--pile-cache DIR`, else `$CLATTER_PILE_CACHE`,
+/// else `$XDG_CACHE_HOME/clatter/piles`, else `~/.cache/clatter/piles`.
+pub fn pile_cache_dir(flag: Option<&Path>) -> anyhow::Result<PathBuf> {
+    if let Some(dir) = flag {
+        return Ok(dir.to_path_buf());
+    }
+    let env = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    if let Some(dir) = env(PILE_CACHE_VAR) {
+        return Ok(dir);
+    }
+    if let Some(dir) = env("XDG_CACHE_HOME") {
+        return Ok(dir.join("clatter").join("piles"));
+    }
+    match env("HOME") {
+        Some(home) => Ok(home.join(".cache").join("clatter").join("piles")),
+        None => anyhow::bail!(
+            "no cache directory for the poured pile: set --pile-cache DIR or {PILE_CACHE_VAR}"
+        ),
+    }
+}
+
+/// The cache file name of a poured pile: every parameter that changes it.
+fn pile_key(name: &str, n: usize, p: &PileParams) -> String {
+    format!(
+        "{name}-n{n}-seed{POUR_SEED}-r{}-rho{}-k{}-e{}-mu{}-v{PILE_CACHE_VERSION}.ckpt",
+        p.radius, p.density, p.stiffness, p.restitution, p.friction
+    )
+}
+
+/// The poured pile of `n` bodies, settled: from the cache when it is there, else rained into
+/// the box and stepped (on `backend`) until its kinetic energy is below [`SETTLED_ENERGY`],
+/// with progress lines on stderr, then cached.
+fn poured_pile(
+    shape: PileShape,
+    name: &str,
+    n: usize,
+    params: &PileParams,
+    args: &BenchArgs,
+    quiet: bool,
+) -> anyhow::Result<World> {
+    let dir = pile_cache_dir(args.pile_cache.as_deref())?;
+    let path = dir.join(pile_key(name, n, params));
+    let fresh = World::new(poured(shape, n, params, POUR_SEED));
+    if path.exists() {
+        let loaded = clatter::Checkpoint::load(&path)
+            .map_err(anyhow::Error::from)
+            .and_then(|c| Ok(c.restore_onto(fresh.clone())?));
+        match loaded {
+            Ok(world) => {
+                eprintln!("# poured pile: reusing {}", path.display());
+                return Ok(world);
+            }
+            Err(e) => eprintln!(
+                "warning: cannot use the cached pile {} ({e:#}); settling it again",
+                path.display()
+            ),
+        }
+    }
+    let mut world = fresh;
+    let mut stepper = crate::backend::choose(args.backend, &world, Device::Headless, true)?;
+    let g = world.gravity.length() as f64;
+    let target = SETTLED_ENERGY
+        * world
+            .consts
+            .mass
+            .iter()
+            .zip(&world.consts.radius)
+            .map(|(&m, &r)| m as f64 * g * r as f64)
+            .sum::<f64>();
+    eprintln!(
+        "# poured pile: settling {n} {name} bodies on the {} (once; cached in {})",
+        stepper.name(),
+        dir.display()
+    );
+    let started = Instant::now();
+    let mut last_line = Instant::now();
+    let chunk = 500;
+    let mut steps = 0;
+    loop {
+        stepper
+            .step(&mut world, chunk, Readback::Bodies)
+            .map_err(blew_up("settling the poured pile"))?;
+        steps += chunk;
+        let ke = world.kinetic_energy();
+        let done = ke < target;
+        if done || last_line.elapsed().as_secs_f64() > 2.0 || steps >= MAX_SETTLE_STEPS {
+            last_line = Instant::now();
+            if !quiet || done {
+                eprintln!(
+                    "#   step {steps}: kinetic energy {:.3e} J per body (at rest below {:.3e}), {:.0} s",
+                    ke / n as f64,
+                    target / n as f64,
+                    started.elapsed().as_secs_f64()
+                );
+            }
+        }
+        if done {
+            break;
+        }
+        if steps >= MAX_SETTLE_STEPS {
+            eprintln!(
+                "warning: the poured pile is not at rest after {steps} steps; caching it as it is"
+            );
+            break;
+        }
+    }
+    stepper.sync(&mut world)?;
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create the pile cache {}", dir.display()))?;
+    let bytes = world.checkpoint_bytes(&format!("clatter bench poured pile {name}"), "", &[]);
+    clatter::checkpoint::write_atomic(&path, &bytes)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    eprintln!(
+        "# poured pile: settled in {steps} steps ({:.0} s), cached in {}",
+        started.elapsed().as_secs_f64(),
+        path.display()
+    );
+    Ok(world)
 }
 
 /// Size of the frames timed by `--render`.
@@ -44,6 +190,10 @@ struct Row {
     steps_per_s: f64,
     body_steps_per_s: f64,
     contacts_per_body: f64,
+    /// Candidate pairs (the Verlet list) per body after the timed steps.
+    pairs_per_body: f64,
+    /// How the pile was made: `lattice`, `poured`, or `scene` (`--scene`).
+    pile: &'static str,
     ms_per_step: f64,
     threads: usize,
     dt: f32,
@@ -126,7 +276,13 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         let what = match &args.scene {
             Some(p) if p.as_os_str() != "default" => format!("scene {}", p.display()),
             Some(_) => "the default scene".to_string(),
-            None => format!("{name} pile"),
+            None => format!(
+                "{name} pile ({})",
+                match args.pile {
+                    PileArg::Lattice => "lattice",
+                    PileArg::Poured => "poured",
+                }
+            ),
         };
         println!(
             "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
@@ -135,8 +291,14 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             args.steps
         );
         print!(
-            "{:>10} {:>12} {:>16} {:>14} {:>10} {:>9}",
-            "bodies", "steps/s", "body-steps/s", "contacts/body", "ms/step", "rebuilds"
+            "{:>10} {:>12} {:>16} {:>14} {:>11} {:>10} {:>9}",
+            "bodies",
+            "steps/s",
+            "body-steps/s",
+            "contacts/body",
+            "pairs/body",
+            "ms/step",
+            "rebuilds"
         );
         if gpu.is_some() {
             print!(" {:>10}", "frames/s");
@@ -146,11 +308,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     let mut bandwidth: Option<f64> = None;
     for &n in &counts {
-        let mut world = match &scene_world {
-            Some(w) => w.clone(),
-            None => World::new(pile(shape, n, &params)),
-        };
         let quiet = args.json || !rows.is_empty();
+        let mut world = match (&scene_world, args.pile) {
+            (Some(w), _) => w.clone(),
+            (None, PileArg::Lattice) => World::new(pile(shape, n, &params)),
+            (None, PileArg::Poured) => poured_pile(shape, name, n, &params, &args, args.json)?,
+        };
         let device = match &gpu {
             Some(ctx) => Device::Shared(ctx.clone()),
             None => Device::Headless,
@@ -180,6 +343,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             timed.mean_contacts,
             stepper.rebuilds(&world) - rebuilds_before,
         );
+        let pairs_now = match stepper.as_gpu() {
+            Some(g) => g.pairs(),
+            None => world.contact_state().pairs.len(),
+        };
         let mut kernels = Vec::new();
         let mut pairs = None;
         if let (Some(steps), Some(gpu)) = (args.profile, stepper.as_gpu_mut()) {
@@ -209,6 +376,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             steps_per_s: sps,
             body_steps_per_s: sps * n as f64,
             contacts_per_body: 2.0 * contacts / n as f64,
+            pairs_per_body: pairs_now as f64 / n as f64,
+            pile: match (&scene_world, args.pile) {
+                (Some(_), _) => "scene",
+                (None, PileArg::Lattice) => "lattice",
+                (None, PileArg::Poured) => "poured",
+            },
             ms_per_step: 1e3 * secs / args.steps as f64,
             threads: rayon::current_num_threads(),
             dt: world.dt,
@@ -221,11 +394,12 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         };
         if !args.json {
             print!(
-                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>10.3} {:>9}",
+                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>11.2} {:>10.3} {:>9}",
                 row.bodies,
                 row.steps_per_s,
                 row.body_steps_per_s,
                 row.contacts_per_body,
+                row.pairs_per_body,
                 row.ms_per_step,
                 row.rebuilds,
             );

@@ -62,16 +62,20 @@ impl EnergySeries {
     pub fn sample(&mut self, world: &World) -> anyhow::Result<()> {
         let (k, p) = (world.kinetic_energy(), world.potential_energy());
         let m = world.momentum();
-        let s = [
-            world.step_count as f64,
-            world.time,
-            k,
-            p,
-            k + p,
-            m[0],
-            m[1],
-            m[2],
-        ];
+        self.record(world.step_count, world.time, k, p, m)
+    }
+
+    /// Records a sample computed elsewhere (the GPU's, `clatter_gpu::EnergySample`); a
+    /// second sample of the same step is dropped.
+    pub fn record(
+        &mut self,
+        step: u64,
+        time: f64,
+        k: f64,
+        p: f64,
+        m: [f64; 3],
+    ) -> anyhow::Result<()> {
+        let s = [step as f64, time, k, p, k + p, m[0], m[1], m[2]];
         if self.samples.last().is_some_and(|l| l[0] == s[0]) {
             return Ok(());
         }

@@ -37,6 +37,16 @@ pub enum BenchShape {
     Mixed,
 }
 
+/// How the benchmark pile is made.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PileArg {
+    /// Stacked on a cubic lattice, touching.
+    Lattice,
+    /// Rained into the box and settled until at rest; the settled pile is cached (see
+    /// `--pile-cache`), so the settle runs once per machine.
+    Poured,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Run a scene (the embedded default scene when SCENE is omitted).
@@ -192,6 +202,14 @@ enum Command {
         /// ignored.
         #[arg(long, value_name = "FILE|default")]
         scene: Option<PathBuf>,
+        /// How the pile is made: poured (rained into the box and settled, cached) or lattice
+        /// (stacked, touching).
+        #[arg(long, value_enum, default_value = "poured")]
+        pile: PileArg,
+        /// Where settled poured piles are cached (default: $CLATTER_PILE_CACHE, else
+        /// $XDG_CACHE_HOME/clatter/piles, else ~/.cache/clatter/piles).
+        #[arg(long, value_name = "DIR")]
+        pile_cache: Option<PathBuf>,
     },
     /// Run the DEM verification suite (Chung & Ooi 2011 tests 1-8, MFIX DEM01-04,
     /// restitution at the default time step, conservation laws, a poured pile) and print one
@@ -282,6 +300,8 @@ fn main() -> ExitCode {
             profile,
             profile_steps,
             scene,
+            pile,
+            pile_cache,
         } => init_threads(threads).and_then(|_| {
             bench::bench(bench::BenchArgs {
                 shape,
@@ -294,6 +314,8 @@ fn main() -> ExitCode {
                 render: render.then_some(render_frames),
                 profile: profile.then_some(profile_steps),
                 scene,
+                pile,
+                pile_cache,
             })
         }),
         Command::Render {

@@ -9,11 +9,13 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clap::ValueEnum;
-use clatter_gpu::{Device, GpuContext, Readback, StepError, Stepper};
+use clatter::health::Health;
+use clatter_gpu::watch::CHECK_EVERY;
+use clatter_gpu::{Device, GpuContext, Readback, Stepper, Watch, WatchError};
 use clatter_render::{CAMERA_SYNTAX, CameraSpec, ColorMode, Offscreen, Poses, Style, save_png};
 
 use crate::backend::{Backend, choose};
-use crate::run::load_scene;
+use crate::run::{BlownUp, load_scene};
 
 /// Colour mode of bodies.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -170,20 +172,17 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         frames += 1;
         Ok(())
     };
+    // The blow-up checks of `clatter run` (the same code path: `Watch`), so that a scene
+    // that blows up there stops here too, with the same report and exit status.
+    let watch = start_watch(&mut stepper, &world)?;
     shoot(&mut world, &stepper, &mut off)?;
     let mut k = 0u64;
     while k < end {
         // Up to the next frame (a multiple of --every, or the last step).
         let next = ((k / args.every + 1) * args.every).min(end);
-        match stepper.step(&mut world, next - k, Readback::Nothing) {
-            Ok(_) => {}
-            Err(StepError::Sim(e @ clatter::SimError::NonFinite { step, .. })) => {
-                return Err(
-                    anyhow::Error::new(e).context(format!("the simulation failed at step {step}"))
-                );
-            }
-            Err(StepError::Gpu(e)) => return Err(e.into()),
-        }
+        watch
+            .step(&mut stepper, &mut world, next - k, Readback::Nothing)
+            .map_err(watch_error)?;
         k = next;
         shoot(&mut world, &stepper, &mut off)?;
     }
@@ -195,6 +194,27 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     encode_mp4(&args.out, args.fps, args.quiet)
+}
+
+/// The blow-up checks for a `render` or `view` of `world`: the warnings and the check before
+/// the first step as `clatter run` has them, then a [`Watch`] with `run`'s defaults.
+pub fn start_watch(stepper: &mut Stepper, world: &clatter::World) -> anyhow::Result<Watch> {
+    let health = Health::new(world);
+    for w in health.warnings(world) {
+        eprintln!("warning: {w}");
+    }
+    if let Err(b) = health.check_initial(world) {
+        return Err(anyhow::Error::new(BlownUp(b.to_string())));
+    }
+    Ok(Watch::start(stepper, world, health, CHECK_EVERY, 0))
+}
+
+/// A [`WatchError`] as `main` reports it (a blow-up exits with `run::BLOW_UP_EXIT`).
+pub fn watch_error(e: WatchError) -> anyhow::Error {
+    match e {
+        WatchError::BlowUp(b) => anyhow::Error::new(BlownUp(b.to_string())),
+        WatchError::Gpu(e) => e.into(),
+    }
 }
 
 /// Arguments of `clatter view`.
@@ -226,7 +246,7 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         );
     }
     let (_, scene) = load_scene(args.scene.as_deref())?;
-    clatter_render::viewer::run(clatter_render::ViewerOptions {
+    let viewed = clatter_render::viewer::run(clatter_render::ViewerOptions {
         world: scene.world(),
         title: format!("clatter: {}", scene.source),
         size: args.size,
@@ -236,8 +256,13 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         screenshot: args.screenshot,
         frames: args.frames,
         backend: args.backend.into(),
-    })?;
-    Ok(())
+    });
+    match viewed {
+        Err(clatter_render::ViewerError::BlowUp(report)) => {
+            Err(anyhow::Error::new(BlownUp(report)))
+        }
+        other => Ok(other?),
+    }
 }
 
 /// Encodes `DIR/frame_%06d.png` into `DIR/frames.mp4` with ffmpeg, or says why not.

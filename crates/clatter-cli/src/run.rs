@@ -11,7 +11,7 @@ use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
 use clatter::scene::{Scene, SceneError};
 use clatter::{Checkpoint, World};
-use clatter_gpu::{Device, Readback, StepError};
+use clatter_gpu::{Device, Readback, StepError, Stepper, Watch, WatchError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
@@ -25,11 +25,16 @@ pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).
-pub const FULL_CHECK_EVERY: u64 = 100;
+pub const FULL_CHECK_EVERY: u64 = clatter_gpu::watch::FULL_CHECK_EVERY;
 
 /// Where `clatter run` without a scene file and without `--out` writes the default scene's
 /// results (relative to the working directory), with a picture of the last step.
 pub const DEFAULT_OUT: &str = "clatter-out/default";
+
+/// With this environment variable set (not `0`), `clatter run --backend gpu` runs the
+/// blow-up checks on the host as on the CPU, reading the state back every check step (the run
+/// loop before the device-side checks; for timing comparisons, see BENCHMARKS.md).
+pub const HOST_CHECKS_VAR: &str = "CLATTER_GPU_HOST_CHECKS";
 
 /// Exit status of a run stopped by a blow-up (1 is any other error, 2 a usage error).
 pub const BLOW_UP_EXIT: u8 = 3;
@@ -74,7 +79,9 @@ pub struct OutputArgs {
     pub energy_every: Option<u64>,
     /// Run the cheap blow-up checks (escape, energy growth, deep overlaps) every N steps
     /// (default 10); the
-    /// overlap check of all contacts runs every 100 steps and at output steps.
+    /// overlap check of all contacts runs every 100 steps and at output steps. With the GPU
+    /// backend the cheap checks run on the device (the host checks only the steps they flag,
+    /// output steps and the last step).
     #[arg(long, value_name = "N")]
     pub check_every: Option<u64>,
 }
@@ -520,15 +527,42 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     );
     let started = Instant::now();
     let mut max_contacts = world.contact_count();
+    // On the GPU the checks, the energy samples and the last good state stay on the device
+    // (`GpuWorld::set_health`): the state comes back only for outputs, checkpoints, the last
+    // step, and the steps the GPU's checks stop at for the host to look.
+    let energy_on_gpu = if plan.out.is_some() {
+        plan.energy_every
+    } else {
+        0
+    };
+    // CLATTER_GPU_HOST_CHECKS=1: the host checks as on the CPU (for timing comparisons).
+    let host_checks = std::env::var_os(HOST_CHECKS_VAR).is_some_and(|v| v != "0");
+    let watch = if host_checks {
+        Watch::host_only(plan.health.clone(), plan.check_every)
+    } else {
+        Watch::start(
+            &mut stepper,
+            &world,
+            plan.health.clone(),
+            plan.check_every,
+            energy_on_gpu,
+        )
+    };
+    let gpu_checks = stepper.is_gpu() && !host_checks;
     let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
     let full_step =
         |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;
     // Whether step `s` (simulated time `t` after it) needs the state on the host.
     let due = |s: u64, t: f64, next_checkpoint: Option<f64>| {
+        let checkpoint =
+            period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p));
+        if gpu_checks {
+            return output_step(s) || s == plan.end_step || checkpoint;
+        }
         full_step(s)
             || s.is_multiple_of(plan.check_every)
             || (plan.out.is_some() && s.is_multiple_of(plan.energy_every))
-            || period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p))
+            || checkpoint
     };
     let mut k = 0;
     let mut last_bar = 0;
@@ -541,10 +575,17 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             m += 1;
             t += world.dt as f64;
         }
-        let stats = match stepper.step(&mut world, m, Readback::All) {
+        let result = stepper.step(&mut world, m, Readback::All);
+        if let (Some(g), Some(e)) = (stepper.as_gpu_mut(), &mut energy) {
+            for x in g.take_samples() {
+                e.record(x.step, x.time, x.kinetic, x.potential, x.momentum)?;
+            }
+        }
+        let stats = match result {
             Ok(stats) => stats,
             Err(StepError::Sim(e)) => {
                 bar.finish_and_clear();
+                newer_last_good(&stepper, &mut last_good)?;
                 let b = plan.health.non_finite(&last_good, &e);
                 return Err(blown_up(&plan, b, &last_good, energy));
             }
@@ -555,14 +596,18 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         let s = world.step_count;
         let output_step = output_step(s);
         let full = full_step(s);
-        if full || s.is_multiple_of(plan.check_every) {
-            if let Err(b) = plan.health.check(&world, full) {
+        match watch.after(&mut stepper, &world, &stats, full) {
+            Ok(checked) => {
+                if checked && full {
+                    last_good.clone_from(&world);
+                }
+            }
+            Err(WatchError::BlowUp(b)) => {
                 bar.finish_and_clear();
-                return Err(blown_up(&plan, b, &last_good, energy));
+                newer_last_good(&stepper, &mut last_good)?;
+                return Err(blown_up(&plan, *b, &last_good, energy));
             }
-            if full {
-                last_good.clone_from(&world);
-            }
+            Err(WatchError::Gpu(e)) => return Err(e.into()),
         }
         if let Some(dir) = &plan.out {
             if output_step {
@@ -666,6 +711,17 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     }
     if !plan.quiet {
         println!("results in {}/: {written}", dir.display());
+    }
+    Ok(())
+}
+
+/// On the GPU, the last good state kept on the device, when it is newer than `last_good`.
+fn newer_last_good(stepper: &Stepper, last_good: &mut World) -> anyhow::Result<()> {
+    if let Some(g) = stepper.as_gpu() {
+        let mut snap = last_good.clone();
+        if g.read_last_good(&mut snap)? && snap.step_count > last_good.step_count {
+            *last_good = snap;
+        }
     }
     Ok(())
 }

@@ -131,7 +131,8 @@ fn unknown_backend_is_refused() {
 
 /// `clatter bench --backend gpu --json` with `extra` arguments: the first row.
 fn gpu_bench_row(extra: &[&str]) -> serde_json::Value {
-    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"bench", &"--backend", &"gpu"];
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+        vec![&"bench", &"--backend", &"gpu", &"--pile", &"lattice"];
     args.extend(extra.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
     args.push(&"--json");
     let o = clatter(&args);
@@ -251,4 +252,84 @@ fn bench_times_a_scene_file_or_the_default_scene() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no/such/scene.toml"), "{err}");
+}
+
+/// `--pile poured` (the default) rains the bodies into the box and settles them once: the
+/// second call reuses the cached pile (the file is not written again), and the rows say which
+/// pile they timed, with contacts and candidate pairs per body.
+#[test]
+fn poured_pile_is_settled_once_and_cached() {
+    let dir = test_dir("backend", "pile-cache");
+    let _ = std::fs::remove_dir_all(&dir);
+    let cache = dir.join("piles");
+    let args: [&dyn AsRef<std::ffi::OsStr>; 14] = [
+        &"bench",
+        &"--pile-cache",
+        &cache,
+        &"--bodies",
+        &"64",
+        &"--shape",
+        &"mixed",
+        &"--steps",
+        &"5",
+        &"--settle",
+        &"0",
+        &"--backend",
+        &"cpu",
+        &"--json",
+    ];
+    let first = clatter(&args);
+    assert_ok(&first, "bench poured (settle)");
+    let err = String::from_utf8_lossy(&first.stderr);
+    assert!(
+        err.contains("poured pile: settling 64 mixed bodies"),
+        "{err}"
+    );
+    assert!(err.contains("cached in"), "{err}");
+    let files: Vec<_> = std::fs::read_dir(&cache)
+        .expect("the cache directory")
+        .map(|e| e.expect("entry").path())
+        .collect();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let name = files[0].file_name().unwrap().to_string_lossy().into_owned();
+    assert!(
+        name.starts_with("mixed-n64-seed") && name.ends_with(".ckpt"),
+        "{name}"
+    );
+    let written = std::fs::metadata(&files[0]).unwrap().modified().unwrap();
+    let second = clatter(&args);
+    assert_ok(&second, "bench poured (cached)");
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert!(err.contains("poured pile: reusing"), "{err}");
+    assert!(!err.contains("settling"), "{err}");
+    assert_eq!(
+        std::fs::metadata(&files[0]).unwrap().modified().unwrap(),
+        written,
+        "the cached pile is not written again"
+    );
+    // The same timings from the same settled pile, and a pile in contact.
+    let rows = |o: &std::process::Output| -> serde_json::Value {
+        serde_json::from_slice(&o.stdout).expect("JSON rows")
+    };
+    let (a, b) = (rows(&first), rows(&second));
+    assert_eq!(a[0]["pile"], "poured");
+    assert_eq!(a[0]["contacts_per_body"], b[0]["contacts_per_body"]);
+    assert!(a[0]["contacts_per_body"].as_f64().unwrap() > 1.0, "{a}");
+    assert!(a[0]["pairs_per_body"].as_f64().unwrap() > 1.0, "{a}");
+    // The lattice pile needs no cache.
+    let o = clatter(&[
+        &"bench",
+        &"--pile",
+        &"lattice",
+        &"--bodies",
+        &"27",
+        &"--steps",
+        &"2",
+        &"--settle",
+        &"0",
+        &"--json",
+    ]);
+    assert_ok(&o, "bench lattice");
+    assert_eq!(rows(&o)[0]["pile"], "lattice");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -231,6 +231,103 @@ fn render_rejects_bad_arguments() {
 }
 
 /// Whether `xvfb-run` exists; with `CI` set its absence is a failure.
+/// A scene that blows up in `clatter run` stops `clatter render` too: the same report, exit
+/// status 3 (`run::BLOW_UP_EXIT`), no frames after the blow-up.
+#[test]
+fn render_stops_at_a_blow_up_with_the_run_report() {
+    let dir = test_dir("render", "blowup");
+    let scene = dir.join("escape.toml");
+    // 500 m/s with dt = 1e-4: five radii per step, through the wall at x = 0.2.
+    std::fs::write(
+        &scene,
+        r#"[simulation]
+steps = 100
+dt = 1.0e-4
+
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 1.0e4
+restitution = 0.5
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.01 }
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.2, 0.2]
+material = "m"
+
+[[body]]
+shape = "ball"
+material = "m"
+position = [0.1, 0.1, 0.1]
+velocity = [500.0, 0.0, 0.0]
+"#,
+    )
+    .expect("write the scene");
+    let mut backends = vec!["cpu"];
+    if clatter_gpu::test_context().is_some() {
+        backends.push("gpu");
+    }
+    for backend in backends {
+        let out = dir.join(format!("out-{backend}"));
+        let r = clatter(&[
+            &"render",
+            &scene,
+            &"--out",
+            &out,
+            &"--every",
+            &"5",
+            &"--size",
+            &"64x48",
+            &"--quiet",
+            &"--backend",
+            &backend,
+        ]);
+        let run = clatter(&[&"run", &scene, &"--quiet", &"--backend", &backend]);
+        let (rerr, runerr) = (
+            String::from_utf8_lossy(&r.stderr),
+            String::from_utf8_lossy(&run.stderr),
+        );
+        assert_eq!(
+            r.status.code(),
+            Some(3),
+            "{backend}: render exit\n{}",
+            text(&r)
+        );
+        assert_eq!(
+            run.status.code(),
+            Some(3),
+            "{backend}: run exit\n{}",
+            text(&run)
+        );
+        let report = |e: &str| {
+            e.lines()
+                .find(|l| l.contains("the simulation blew up"))
+                .map(|l| l.trim_start_matches("error: ").to_string())
+        };
+        let report_r = report(&rerr).unwrap_or_else(|| panic!("{backend}: no report in {rerr}"));
+        assert!(
+            report_r.contains("step 10 ") && report_r.contains("body 0 escaped through wall 1"),
+            "{backend}: {report_r}"
+        );
+        assert_eq!(
+            Some(report_r),
+            report(&runerr),
+            "{backend}: the same report as run"
+        );
+        // Frames at steps 0 and 5 only: none after the blow-up at step 10.
+        let frames = names(&out)
+            .into_iter()
+            .filter(|f| f.starts_with("frame_"))
+            .count();
+        assert_eq!(frames, 2, "{backend}: frames before the blow-up");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn have_xvfb() -> bool {
     let found = Command::new("xvfb-run").arg("--help").output().is_ok();
     if !found {
@@ -284,6 +381,8 @@ fn bench_render_adds_frames_per_second() {
     }
     let args: &[&dyn AsRef<std::ffi::OsStr>] = &[
         &"bench",
+        &"--pile",
+        &"lattice",
         &"--render",
         &"--render-frames",
         &"2",
@@ -302,10 +401,11 @@ fn bench_render_adds_frames_per_second() {
     assert_eq!(rows.len(), 3, "{table}");
     for row in &rows[1..] {
         let cols: Vec<&str> = row.split_whitespace().collect();
-        // bodies, steps/s, body-steps/s, contacts/body, ms/step, rebuilds, frames/s, backend
-        assert_eq!(cols.len(), 8, "{row}");
-        let fps: f64 = cols[6].parse().expect("frames/s is a number");
-        assert_eq!(cols[7], "cpu", "{row}");
+        // bodies, steps/s, body-steps/s, contacts/body, pairs/body, ms/step, rebuilds,
+        // frames/s, backend
+        assert_eq!(cols.len(), 9, "{row}");
+        let fps: f64 = cols[7].parse().expect("frames/s is a number");
+        assert_eq!(cols[8], "cpu", "{row}");
         assert!(fps > 0.0 && fps.is_finite(), "{row}");
     }
     let mut json_args = args.to_vec();
@@ -321,6 +421,8 @@ fn bench_render_adds_frames_per_second() {
     // Without --render there is no such column.
     let o = clatter(&[
         &"bench",
+        &"--pile",
+        &"lattice",
         &"--bodies",
         &"27",
         &"--steps",

@@ -790,6 +790,40 @@ fn blow_up_non_finite_on_the_gpu() {
     );
 }
 
+/// The GPU's own checks (health.wgsl) stop the pipeline at the check step where the host's
+/// would fire; the report is then the host's, word for word as on the CPU.
+#[test]
+fn blow_up_escape_and_overlap_on_the_gpu() {
+    if clatter_gpu::test_context().is_none() {
+        return;
+    }
+    blow_up_on(
+        "gpu",
+        "escape-gpu",
+        "steps = 100\ndt = 1.0e-4",
+        "[[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.1, 0.1, 0.1]\nvelocity = [500.0, 0.0, 0.0]\n",
+        &[
+            "step 10 ",
+            "body 0 escaped through wall 1",
+            "body 0 moves 5.00 of its size per step",
+            "too fast for dt",
+        ],
+        Some(0),
+    );
+    blow_up_on(
+        "gpu",
+        "overlap-gpu",
+        "steps = 2000\ndt = 1.0e-4",
+        "[[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.1, 0.1, 0.0102]\n[[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.1, 0.1, 0.035]\nvelocity = [0.0, 0.0, -60.0]\n",
+        &[
+            "step 10 ",
+            "body 0 and body 1 overlap by",
+            "body 1 moves 0.60 of its size per step",
+        ],
+        Some(0),
+    );
+}
+
 #[test]
 fn blow_up_energy_growth() {
     // A lattice of touching balls on the floor with dt twice the stability bound.

@@ -9,10 +9,10 @@ fn thread_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
 
 // Whether the pipeline is stopped (pair overflow, a non-finite body, or a rebuild due in a
 // lean step): nothing runs until the host acts, so the state stays at the start of the step
-// that could not be done.
+// that could not be done. A health alarm (health.wgsl) stops it after the step it checked.
 fn halted() -> bool {
     return atomicLoad(&status[ST_OVERFLOW]) != 0u || atomicLoad(&status[ST_BAD_BODY]) != NONE
-        || atomicLoad(&status[ST_STALL]) != 0u;
+        || atomicLoad(&status[ST_STALL]) != 0u || atomicLoad(&status[ST_HEALTH]) != 0u;
 }
 
 var<workgroup> wg_flag: u32;

@@ -147,6 +147,11 @@ pub struct Stepped {
     pub max_contacts: usize,
     /// Touching contacts per step, averaged over the steps (on the GPU: `contacts`).
     pub mean_contacts: f64,
+    /// The GPU's blow-up checks ([`GpuWorld::set_health`]) stopped it after `steps` steps,
+    /// fewer than asked for maybe: the host checks that step itself
+    /// (`clatter::health::Health::check`) and, if all is well, calls
+    /// [`GpuWorld::clear_alarm`] and goes on. Always false on the CPU.
+    pub alarm: bool,
 }
 
 /// Why [`Stepper::step`] stopped.
@@ -219,6 +224,7 @@ impl Stepper {
                 contacts,
                 max_contacts: contacts,
                 mean_contacts: contacts as f64,
+                alarm: false,
             });
         }
         match self {
@@ -235,15 +241,19 @@ impl Stepper {
                     contacts: last,
                     max_contacts: max,
                     mean_contacts: sum as f64 / steps as f64,
+                    alarm: false,
                 })
             }
             Stepper::Gpu(gpu) => {
+                let before = gpu.steps_taken();
                 let report = match back {
                     Readback::Nothing => gpu.step(steps)?,
                     Readback::Bodies | Readback::All => gpu.step_into(steps, world)?,
                 };
                 if back == Readback::All {
                     world.set_contact_state(gpu.contact_state()?);
+                } else if report.alarm {
+                    gpu.read_into(world)?;
                 }
                 if let Some(body) = report.bad_body {
                     if back == Readback::Nothing {
@@ -257,10 +267,11 @@ impl Stepper {
                     }));
                 }
                 Ok(Stepped {
-                    steps,
+                    steps: report.steps_done - before,
                     contacts: report.touching,
                     max_contacts: report.touching,
                     mean_contacts: report.touching as f64,
+                    alarm: report.alarm,
                 })
             }
         }

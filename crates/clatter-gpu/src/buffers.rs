@@ -39,6 +39,10 @@ pub enum Count {
     Walls,
     /// Bodies times walls.
     WallSlots,
+    /// The energy log's slots plus one per workgroup of bodies.
+    HealthSlots,
+    /// The snapshot's words (`layout::snapshot::words`).
+    SnapshotWords,
 }
 
 /// One group-0 binding.
@@ -86,6 +90,10 @@ impl Binding {
             Count::MaterialPairs => d.materials * d.materials,
             Count::Walls => d.walls,
             Count::WallSlots => d.bodies * d.walls,
+            Count::HealthSlots => {
+                crate::layout::HEALTH_LOG as u64 + d.bodies.div_ceil(crate::layout::WG as u64)
+            }
+            Count::SnapshotWords => crate::layout::snapshot::words(d.bodies, d.walls, d.pairs),
         };
         (n * self.element).max(64)
     }
@@ -174,6 +182,13 @@ buffers! {
     WallForces = "wall_forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), WallSlots;
     /// Whether each body touched each wall in the last step.
     WallTouching = "wall_touching", ReadWrite, "array<u32>", 4, WallSlots;
+    /// What the blow-up checks compare against.
+    HealthParams = "health_params", Uniform, "HealthParams", size_of::<crate::layout::HealthParams>(), One;
+    /// The energy log (a ring of `HEALTH_LOG` samples, status word `SAMPLES` counts them),
+    /// then the checks' sums per workgroup of bodies (summed by `health_reduce`).
+    Health = "health", ReadWrite, "array<HealthRecord>", size_of::<crate::layout::HealthRecord>(), HealthSlots;
+    /// The last good state (`snapshot` in health.wgsl), as words: see `layout::snapshot`.
+    Snapshot = "snapshot", ReadWrite, "array<u32>", 4, SnapshotWords, keep;
 }
 
 /// The `@binding` declarations of group 0.
@@ -277,7 +292,7 @@ impl Buffers {
     /// contents of those marked `keep_on_grow` in `encoder`.
     pub fn grow(&mut self, device: &wgpu::Device, dims: &Dims, encoder: &mut wgpu::CommandEncoder) {
         for (k, b) in BUFFERS.iter().enumerate() {
-            if b.count != Count::Pairs {
+            if b.count != Count::Pairs && b.count != Count::SnapshotWords {
                 continue;
             }
             let new = device.create_buffer(&wgpu::BufferDescriptor {

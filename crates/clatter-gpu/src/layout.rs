@@ -66,6 +66,90 @@ clatter::gpu_record! {
     }
 }
 
+clatter::gpu_record! {
+    /// What the blow-up checks compare against (`health_params` in WGSL), written by the
+    /// host when a run turns the checks on (`GpuWorld::set_health`). Step numbers are the
+    /// GPU's own step count (status word `STEPS`) plus `base_*`, taken modulo the period.
+    pub struct HealthParams {
+        /// The reference point potential energies are measured from (w unused): the sums
+        /// stay small, so `budget - potential` does not cancel in f32.
+        pub reference: [f32; 4],
+        /// Check every this many steps (0: never).
+        pub check_every: u32,
+        /// Record an energy sample every this many steps (0: never).
+        pub energy_every: u32,
+        /// Keep the last good state every this many steps (a multiple of `check_every`).
+        pub snapshot_every: u32,
+        /// `(world step at upload) mod check_every`.
+        pub base_check: u32,
+        /// `(world step at upload) mod energy_every`.
+        pub base_energy: u32,
+        /// `(world step at upload) mod snapshot_every`.
+        pub base_snapshot: u32,
+        /// The energy available to the run plus the potential energy of the reference
+        /// point, J: the available energy is this minus the potential energy sum.
+        pub budget: f32,
+        /// The kinetic energy above this multiple of the available energy raises the alarm
+        /// (below the host's factor: the GPU's f32 sums only say when to look).
+        pub alarm_factor: f32,
+        /// A touching contact with a normal force above this may be deep: the alarm.
+        pub force_floor: f32,
+        /// Unused.
+        pub pad0: u32,
+        /// Unused.
+        pub pad1: u32,
+        /// Unused.
+        pub pad2: u32,
+    }
+}
+
+clatter::gpu_record! {
+    /// The checks' sums over some bodies (a workgroup's, or all of them): one element of
+    /// the `health` buffer (energy log, then per-workgroup sums).
+    pub struct HealthRecord {
+        /// Kinetic energy, potential energy (about `HealthParams::reference`), momentum x
+        /// and y.
+        pub sums: [f32; 4],
+        /// Momentum z.
+        pub pz: f32,
+        /// The GPU step count of the sample (`health_log`).
+        pub step: u32,
+        /// The first body entirely behind a wall, or `u32::MAX`.
+        pub escaped: u32,
+        /// The first body with a touching contact whose normal force is above
+        /// `HealthParams::force_floor`, or `u32::MAX`.
+        pub suspect: u32,
+    }
+}
+
+/// Slots of the energy log ring (the start of the `health` buffer): more than the steps of
+/// one batch.
+pub const HEALTH_LOG: u32 = 128;
+
+/// The last good state in the `snapshot` buffer, as 32-bit words: the status words, then per
+/// body its state, rebuild position and wall slots, then per pair its entry (`pair`, springs,
+/// touching flag, force), so that a larger pair capacity only extends the buffer.
+pub mod snapshot {
+    /// Words of the status block.
+    pub const STATUS: u64 = 32;
+    /// Words per body: state (24), rebuild position (4).
+    pub const BODY: u64 = 28;
+    /// Words per body-wall slot: springs (4), force (12), touching (1).
+    pub const SLOT: u64 = 17;
+    /// Words per pair: bodies (2), springs (4), touching (1), force (12).
+    pub const PAIR: u64 = 19;
+
+    /// The first word of the pair entries.
+    pub fn pairs_at(bodies: u64, walls: u64) -> u64 {
+        STATUS + BODY * bodies + SLOT * bodies * walls
+    }
+
+    /// Words of the whole snapshot.
+    pub fn words(bodies: u64, walls: u64, pairs: u64) -> u64 {
+        pairs_at(bodies, walls) + PAIR * pairs
+    }
+}
+
 /// Words of the status buffer (`ST_*` in WGSL).
 pub mod status {
     /// Set by integrate: rebuild the pair list next step.
@@ -93,8 +177,15 @@ pub mod status {
     /// Set by a lean step that found a rebuild due: the pipeline stops until the next full
     /// step, which clears it and runs that step again.
     pub const STALL: usize = 16;
+    /// Set by `health_reduce` when a check found something the host must look at (energy
+    /// growth, escape, a suspect contact): the pipeline stops at that step.
+    pub const HEALTH: usize = 17;
+    /// The last step (GPU count) whose checks passed.
+    pub const CHECKED: usize = 18;
+    /// Energy samples written to `health_log` so far.
+    pub const SAMPLES: usize = 19;
     /// Number of status words.
-    pub const LEN: usize = 17;
+    pub const LEN: usize = 20;
 }
 
 /// Indirect-dispatch slots (`ARG_*` in WGSL); the scan levels' slots follow.
@@ -139,6 +230,15 @@ fn constants() -> Vec<Constant> {
         st("ST_WORK", status::WORK),
         st("ST_BBOX", status::BBOX),
         st("ST_STALL", status::STALL),
+        st("ST_HEALTH", status::HEALTH),
+        st("ST_CHECKED", status::CHECKED),
+        st("ST_SAMPLES", status::SAMPLES),
+        st("ST_LEN", status::LEN),
+        U32("SNAP_STATUS", snapshot::STATUS as u32),
+        U32("SNAP_BODY", snapshot::BODY as u32),
+        U32("SNAP_SLOT", snapshot::SLOT as u32),
+        U32("SNAP_PAIR", snapshot::PAIR as u32),
+        U32("HEALTH_LOG", HEALTH_LOG),
         U32("ARG_BODIES_REBUILD", arg::BODIES_REBUILD),
         U32("ARG_CELLS_REBUILD", arg::CELLS_REBUILD),
         U32("ARG_PAIRS_NEW", arg::PAIRS_NEW),
@@ -160,6 +260,8 @@ pub fn wgsl_prelude() -> String {
         wgsl_constants(&constants()),
         Params::wgsl(),
         Grid::wgsl(),
+        HealthParams::wgsl(),
+        HealthRecord::wgsl(),
         crate::buffers::wgsl_bindings(),
     ]
     .join("\n")
@@ -174,6 +276,8 @@ mod tests {
     fn gpu_records_have_the_wgsl_layout() {
         assert_eq!(layout_mismatch::<Params>(), None);
         assert_eq!(layout_mismatch::<Grid>(), None);
+        assert_eq!(layout_mismatch::<HealthParams>(), None);
+        assert_eq!(layout_mismatch::<HealthRecord>(), None);
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub(crate) mod pipeline;
 pub mod readback;
 pub mod shapes;
 pub mod stages;
+pub mod watch;
 pub mod world;
 
 pub use backend::{
@@ -28,4 +29,5 @@ pub use narrow::{
 };
 pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;
-pub use world::{GpuWorld, StepReport};
+pub use watch::{Watch, WatchError};
+pub use world::{EnergySample, GpuWorld, HealthSetup, StepReport};

@@ -19,6 +19,7 @@ pub(crate) const LAW: &str = include_str!("../shaders/law.wgsl");
 pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts.wgsl");
 pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts_split.wgsl");
 pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
+pub(crate) const HEALTH: &str = include_str!("../shaders/health.wgsl");
 
 /// Every simulation shader file, for the test that no file retypes a generated declaration.
 #[cfg(test)]
@@ -36,6 +37,7 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("contacts.wgsl", CONTACTS),
     ("contacts_split.wgsl", CONTACTS_SPLIT),
     ("integrate.wgsl", INTEGRATE),
+    ("health.wgsl", HEALTH),
 ];
 
 /// A kernel's source: the generated prelude, the shared helpers, then `parts`.
@@ -66,6 +68,8 @@ pub(crate) enum Size {
     Single,
     /// Indirect, from an argument slot.
     Indirect(u32),
+    /// A fixed grid of workgroups, sized when the step is recorded.
+    Fixed([u32; 3]),
 }
 
 /// Which compiled set a kernel is in.

@@ -15,7 +15,7 @@ use glam::Vec3;
 use wgpu::util::DeviceExt;
 
 use crate::buffers::{Buf, Buffers, Dims};
-use crate::layout::{Params, status};
+use crate::layout::{HEALTH_LOG, HealthParams, HealthRecord, Params, status};
 use crate::pipeline::{Compiled, Dispatch, Group2, KernelSet, Kernels, Size};
 use crate::readback::{Pending, read_buffer, read_buffers, read_buffers_after, submit_read};
 use crate::shapes::GpuShapes;
@@ -65,6 +65,55 @@ pub struct GpuWorld {
     base_time: f64,
     dt: f32,
     last_status: [u32; status::LEN],
+    /// The blow-up checks and energy samples, when a run turned them on.
+    health: Option<Health>,
+    /// Energy samples read back and not yet taken ([`GpuWorld::take_samples`]).
+    samples: Vec<EnergySample>,
+}
+
+/// What a run asks of the GPU's blow-up checks ([`GpuWorld::set_health`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HealthSetup {
+    /// Check every this many steps (the host's `--check-every`; 0: never).
+    pub check_every: u64,
+    /// Record an energy sample every this many steps (0: never).
+    pub energy_every: u64,
+    /// Keep the last good state every this many steps (rounded up to a multiple of
+    /// `check_every`).
+    pub snapshot_every: u64,
+    /// The energy available to the run plus its potential energy
+    /// (`clatter::health::Health::baseline`), J.
+    pub budget: f64,
+    /// The kinetic energy above this multiple of the available energy stops the pipeline
+    /// for the host's check (below `clatter::health::ENERGY_FACTOR`, so that f32 sums never
+    /// miss what the host would find).
+    pub alarm_factor: f64,
+    /// A touching contact whose normal force is above this stops the pipeline for the host's
+    /// check (`clatter::health::Health::force_floor`), N.
+    pub force_floor: f32,
+}
+
+/// The checks as set up on the GPU.
+#[derive(Debug, Clone, Copy)]
+struct Health {
+    setup: HealthSetup,
+    /// The potential energy of all the mass at `HealthParams::reference`, J.
+    reference_energy: f64,
+}
+
+/// One energy sample computed on the GPU (sums in f32, in a fixed order).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergySample {
+    /// The world's step count.
+    pub step: u64,
+    /// Simulated time, s (the CPU's sum of `dt`).
+    pub time: f64,
+    /// Kinetic energy, translational plus rotational, J.
+    pub kinetic: f64,
+    /// Gravitational potential energy relative to the origin, J.
+    pub potential: f64,
+    /// Linear momentum, kg m/s.
+    pub momentum: [f64; 3],
 }
 
 impl GpuWorld {
@@ -141,6 +190,10 @@ impl GpuWorld {
         let mut st = [0u32; status::LEN];
         st[status::REBUILD] = 1;
         st[status::BAD_BODY] = u32::MAX;
+        // The snapshot's HEALTH word is never 1 once a snapshot was taken (it is taken only
+        // from a running pipeline): 1 marks "none yet".
+        let mut snap_st = [0u32; crate::layout::snapshot::STATUS as usize];
+        snap_st[status::HEALTH] = 1;
         let dims = Dims {
             bodies: nb,
             cells: params.max_cells as u64,
@@ -162,6 +215,7 @@ impl GpuWorld {
             Buf::WallHist => bytes(bytemuck::cast_slice(&wall_hist)),
             Buf::WallForces => bytes(bytemuck::cast_slice(wall_forces)),
             Buf::WallTouching => bytes(bytemuck::cast_slice(&wall_touching)),
+            Buf::Snapshot => bytes(bytemuck::cast_slice(&snap_st)),
             _ => None,
         });
         let mut params = params;
@@ -186,6 +240,8 @@ impl GpuWorld {
             base_time: world.time,
             dt: world.dt,
             last_status: st,
+            health: None,
+            samples: Vec::new(),
         };
         w.ctx.wait()?;
         Ok(w)
@@ -255,6 +311,7 @@ impl GpuWorld {
             timestamp_writes: None,
         });
         self.plan.bind(&mut pass);
+        let health = self.health.is_some();
         for k in 0..steps {
             let ops = if lean && k > 0 {
                 &self.plan.lean_ops
@@ -263,6 +320,11 @@ impl GpuWorld {
             };
             for op in ops {
                 self.plan.encode(&mut pass, op);
+            }
+            if health {
+                for op in &self.plan.health_ops {
+                    self.plan.encode(&mut pass, op);
+                }
             }
         }
     }
@@ -462,12 +524,18 @@ impl GpuWorld {
                     } else {
                         0
                     };
+                    let log_bytes = if self.health.is_some_and(|h| h.setup.energy_every > 0) {
+                        (HEALTH_LOG as usize * std::mem::size_of::<HealthRecord>()) as u64
+                    } else {
+                        0
+                    };
                     let pending = submit_read(
                         &self.ctx,
                         encoder,
                         &[
                             (&self.bufs[Buf::Status], 0, 4 * status::LEN as u64),
                             (&self.bufs[Buf::Bodies], 0, body_bytes),
+                            (&self.bufs[Buf::Health], 0, log_bytes),
                         ],
                     )?;
                     in_flight.push_back((pending, body_bytes > 0, batch));
@@ -484,9 +552,14 @@ impl GpuWorld {
                 st[status::STEPS] = st[status::STEPS].wrapping_add(batch as u32);
             }
             let done = st[status::STEPS].wrapping_sub(self.last_status[status::STEPS]) as u64;
+            let new_samples = st[status::SAMPLES].wrapping_sub(self.last_status[status::SAMPLES]);
             self.gpu_steps = (self.gpu_steps + done).min(target);
             self.last_status = st;
-            let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0;
+            if new_samples > 0 && !parts[2].is_empty() {
+                self.collect_samples(&parts[2], st[status::SAMPLES], new_samples);
+            }
+            let alarm = st[status::HEALTH] != 0;
+            let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0 || alarm;
             if stopped {
                 // Drain: the batches behind did nothing (the pipeline is stopped).
                 for (p, _, _) in in_flight.drain(..) {
@@ -498,6 +571,15 @@ impl GpuWorld {
                     bad_body: Some(st[status::BAD_BODY] as usize),
                     touching: st[status::TOUCHING] as usize,
                     steps_done: self.gpu_steps,
+                    alarm: false,
+                });
+            }
+            if alarm {
+                return Ok(StepReport {
+                    bad_body: None,
+                    touching: st[status::TOUCHING] as usize,
+                    steps_done: self.gpu_steps,
+                    alarm: true,
                 });
             }
             if st[status::OVERFLOW] != 0 {
@@ -533,6 +615,7 @@ impl GpuWorld {
             bad_body: None,
             touching: self.last_status[status::TOUCHING] as usize,
             steps_done: self.gpu_steps,
+            alarm: false,
         })
     }
 
@@ -665,22 +748,24 @@ impl GpuWorld {
 
     /// The contact list and springs (see [`ContactState`]).
     pub fn contact_state(&self) -> Result<ContactState, GpuError> {
+        let st = &self.last_status;
+        let b = |live: Buf| &self.bufs[live];
         let n = self.n as usize;
-        let np = self.last_status[status::PAIRS] as usize;
+        let np = st[status::PAIRS] as usize;
         let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
         let ns = (n * self.num_walls as usize) as u64;
         let (np, n) = (np as u64, n as u64);
         let mut parts = read_buffers(
             &self.ctx,
             &[
-                (&self.bufs[Buf::Pairs], 0, 8 * np),
-                (&self.bufs[Buf::Hist], 0, 16 * np),
-                (&self.bufs[Buf::Touching], 0, 4 * np),
-                (&self.bufs[Buf::Forces], 0, 48 * np),
-                (&self.bufs[Buf::WallHist], 0, 16 * ns),
-                (&self.bufs[Buf::WallTouching], 0, 4 * ns),
-                (&self.bufs[Buf::WallForces], 0, 48 * ns),
-                (&self.bufs[Buf::RebuildPos], 0, 16 * n),
+                (b(Buf::Pairs), 0, 8 * np),
+                (b(Buf::Hist), 0, 16 * np),
+                (b(Buf::Touching), 0, 4 * np),
+                (b(Buf::Forces), 0, 48 * np),
+                (b(Buf::WallHist), 0, 16 * ns),
+                (b(Buf::WallTouching), 0, 4 * ns),
+                (b(Buf::WallForces), 0, 48 * ns),
+                (b(Buf::RebuildPos), 0, 16 * n),
             ],
         )?
         .into_iter();
@@ -691,7 +776,7 @@ impl GpuWorld {
         let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
         let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
         let wall_forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&wf);
-        let rebuilt = self.last_status[status::REBUILDS] > 0;
+        let rebuilt = st[status::REBUILDS] > 0;
         Ok(ContactState {
             rebuild_position: if rebuilt {
                 bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&rb)
@@ -758,6 +843,9 @@ pub struct StepReport {
     pub touching: usize,
     /// Steps taken on the GPU since upload.
     pub steps_done: u64,
+    /// The GPU's blow-up checks ([`GpuWorld::set_health`]) stopped the pipeline after the
+    /// last step: the host must check that step itself, then [`GpuWorld::clear_alarm`].
+    pub alarm: bool,
 }
 
 /// The recorded step of a world: bind groups, dispatch arguments and the dispatch lists of
@@ -774,6 +862,8 @@ struct Plan {
     args_group: wgpu::BindGroup,
     ops: Vec<Dispatch>,
     lean_ops: Vec<Dispatch>,
+    /// The checks and the snapshot after every step, when on (stages::health).
+    health_ops: Vec<Dispatch>,
 }
 
 /// Which contact kernel set a world uses.
@@ -834,6 +924,7 @@ impl Plan {
             ],
         });
         let (ops, lean_ops) = stages::record(&compiled.base, contacts, &scans, spheres_only);
+        let health_ops = stages::health::record(&compiled.base, params.n as u64);
         Ok(Plan {
             compiled: compiled.clone(),
             contacts: KernelChoice { spheres_only },
@@ -848,6 +939,7 @@ impl Plan {
             args_group,
             ops,
             lean_ops,
+            health_ops,
         })
     }
 
@@ -888,6 +980,197 @@ impl Plan {
         match op.size {
             Size::Single => pass.dispatch_workgroups(1, 1, 1),
             Size::Indirect(slot) => pass.dispatch_workgroups_indirect(&self.args, slot as u64 * 12),
+            Size::Fixed([x, y, z]) => pass.dispatch_workgroups(x, y, z),
         }
+    }
+}
+
+impl GpuWorld {
+    /// Turns on the blow-up checks and energy samples on the GPU for a run starting from
+    /// `world` (the world this was created from, at the same step): after every step the GPU
+    /// checks what `clatter::health::Health::check` checks cheaply, and stops the pipeline
+    /// when it finds something the host must look at ([`StepReport::alarm`]); it keeps the
+    /// last good state on the device ([`GpuWorld::read_last_good`]) and logs energy samples
+    /// ([`GpuWorld::take_samples`]). Nothing of it comes back unless asked for.
+    pub fn set_health(&mut self, world: &World, setup: HealthSetup) {
+        let mut setup = setup;
+        let check = setup.check_every.max(1);
+        setup.snapshot_every = setup.snapshot_every.max(1).div_ceil(check) * check;
+        // The centroid of the bodies as the reference of the potential energy.
+        let n = world.len().max(1) as f64;
+        let c = world.state.position.iter().fold([0.0f64; 3], |a, p| {
+            [a[0] + p.x as f64, a[1] + p.y as f64, a[2] + p.z as f64]
+        });
+        let reference = Vec3::new((c[0] / n) as f32, (c[1] / n) as f32, (c[2] / n) as f32);
+        let mass: f64 = world.consts.mass.iter().map(|&m| m as f64).sum();
+        let reference_energy = -mass * world.gravity.dot(reference) as f64;
+        let base = |every: u64| {
+            if every == 0 {
+                0
+            } else {
+                (self.base_step % every) as u32
+            }
+        };
+        let hp = HealthParams {
+            reference: [reference.x, reference.y, reference.z, 0.0],
+            check_every: setup.check_every as u32,
+            energy_every: setup.energy_every as u32,
+            snapshot_every: setup.snapshot_every as u32,
+            base_check: base(setup.check_every),
+            base_energy: base(setup.energy_every),
+            base_snapshot: base(setup.snapshot_every),
+            budget: (setup.budget - reference_energy) as f32,
+            alarm_factor: setup.alarm_factor as f32,
+            force_floor: setup.force_floor,
+            ..Default::default()
+        };
+        self.ctx
+            .queue
+            .write_buffer(&self.bufs[Buf::HealthParams], 0, bytemuck::bytes_of(&hp));
+        self.health = Some(Health {
+            setup,
+            reference_energy,
+        });
+    }
+
+    /// Lets the pipeline go on after an alarm that the host's own check found harmless.
+    pub fn clear_alarm(&mut self) -> Result<(), GpuError> {
+        let steps = self.last_status[status::STEPS];
+        self.last_status[status::HEALTH] = 0;
+        self.last_status[status::CHECKED] = steps;
+        let words = [0u32, steps];
+        // HEALTH and CHECKED are adjacent words.
+        self.ctx.queue.write_buffer(
+            &self.bufs[Buf::Status],
+            4 * status::HEALTH as u64,
+            bytemuck::cast_slice(&words),
+        );
+        self.ctx.wait()
+    }
+
+    /// The energy samples computed on the GPU since the last call, in step order.
+    pub fn take_samples(&mut self) -> Vec<EnergySample> {
+        std::mem::take(&mut self.samples)
+    }
+
+    /// The `new` samples before the `total`-th from a read-back of the log ring.
+    fn collect_samples(&mut self, log: &[u8], total: u32, new: u32) {
+        let Some(h) = self.health else {
+            return;
+        };
+        let records: Vec<HealthRecord> = bytemuck::pod_collect_to_vec(log);
+        let new = new.min(HEALTH_LOG);
+        for k in (0..new).rev() {
+            let slot = (total.wrapping_sub(1 + k) % HEALTH_LOG) as usize;
+            let r = records[slot];
+            // The sample's GPU step count, from its low 32 bits.
+            let back = (self.gpu_steps as u32).wrapping_sub(r.step) as u64;
+            let g = self.gpu_steps.saturating_sub(back);
+            self.samples.push(EnergySample {
+                step: self.base_step + g,
+                time: self.time_after(g),
+                kinetic: r.sums[0] as f64,
+                potential: r.sums[1] as f64 + h.reference_energy,
+                momentum: [r.sums[2] as f64, r.sums[3] as f64, r.pz as f64],
+            });
+        }
+    }
+
+    /// The simulated time after `g` GPU steps: the CPU's sum of `dt`, continued from the
+    /// last call's when it can be.
+    fn time_after(&self, g: u64) -> f64 {
+        let mut cache = self
+            .time_sum
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (mut k, mut t) = *cache;
+        if k > g {
+            (k, t) = (0, self.base_time);
+        }
+        while k < g {
+            t += self.dt as f64;
+            k += 1;
+        }
+        *cache = (k, t);
+        t
+    }
+
+    /// The last good state kept on the device (see [`GpuWorld::set_health`]) into `world`
+    /// (a copy of the world this was created from): bodies, step count, time and contacts.
+    /// Returns false, leaving `world` alone, when no snapshot was taken yet.
+    pub fn read_last_good(&self, world: &mut World) -> Result<bool, GpuError> {
+        use crate::layout::snapshot as snap;
+        let buf = &self.bufs[Buf::Snapshot];
+        let st: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&self.read_buffer(buf, 0, 4 * snap::STATUS)?);
+        if st[status::HEALTH] != 0 {
+            return Ok(false);
+        }
+        let (n, walls) = (self.n as u64, self.num_walls as u64);
+        let np = (st[status::PAIRS] as u64).min(self.params.pair_capacity as u64);
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read_buffer(
+            buf,
+            0,
+            4 * snap::words(n, walls, np),
+        )?);
+        let f4 = |at: usize| -> [f32; 4] { std::array::from_fn(|k| f32::from_bits(words[at + k])) };
+        let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        let force = |at: usize| {
+            let (a, b, c) = (f4(at), f4(at + 4), f4(at + 8));
+            ContactForce {
+                force_b: v3(a),
+                normal_force: a[3],
+                torque_a: v3(b),
+                pad0: b[3],
+                torque_b: v3(c),
+                pad1: c[3],
+            }
+        };
+        let body_at = |i: u64| (snap::STATUS + snap::BODY * i) as usize;
+        for i in 0..n {
+            let at = body_at(i);
+            let s = BodyState {
+                position: f4(at),
+                velocity: f4(at + 4),
+                orientation: f4(at + 8),
+                residual: f4(at + 12),
+                angular_momentum: f4(at + 16),
+                omega: f4(at + 20),
+            };
+            world.state.set_record(i as usize, &s);
+        }
+        let slot_at = |k: u64| (snap::STATUS + snap::BODY * n + snap::SLOT * k) as usize;
+        let pair_at = |k: u64| (snap::pairs_at(n, walls) + snap::PAIR * k) as usize;
+        let slots = n * walls;
+        let hist: Vec<[f32; 4]> = (0..np).map(|k| f4(pair_at(k) + 2)).collect();
+        let wall_hist: Vec<[f32; 4]> = (0..slots).map(|k| f4(slot_at(k))).collect();
+        let state = ContactState {
+            rebuild_position: if st[status::REBUILDS] > 0 {
+                (0..n).map(|i| v3(f4(body_at(i) + 24))).collect()
+            } else {
+                Vec::new()
+            },
+            pairs: (0..np)
+                .map(|k| [words[pair_at(k)], words[pair_at(k) + 1]])
+                .collect(),
+            history: hist.iter().map(|&h| v3(h)).collect(),
+            twist: hist.iter().map(|h| h[3]).collect(),
+            touching: (0..np).map(|k| words[pair_at(k) + 6] == 1).collect(),
+            forces: (0..np).map(|k| force(pair_at(k) + 7)).collect(),
+            wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
+            wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
+            wall_touching: (0..slots).map(|k| words[slot_at(k) + 16] != 0).collect(),
+            wall_forces: (0..slots).map(|k| force(slot_at(k) + 4)).collect(),
+        };
+        let back = (self.gpu_steps as u32).wrapping_sub(st[status::STEPS]) as u64;
+        let g = self.gpu_steps.saturating_sub(back);
+        world.step_count = self.base_step + g;
+        let mut t = self.base_time;
+        for _ in 0..g {
+            t += self.dt as f64;
+        }
+        world.time = t;
+        world.set_contact_state(state);
+        Ok(true)
     }
 }

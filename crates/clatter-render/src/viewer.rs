@@ -11,7 +11,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use clatter::World;
-use clatter_gpu::{BackendChoice, BackendError, Device, GpuContext, Readback, StepError, Stepper};
+use clatter::health::Health;
+use clatter_gpu::watch::CHECK_EVERY;
+use clatter_gpu::{
+    BackendChoice, BackendError, Device, GpuContext, Readback, Stepper, Watch, WatchError,
+};
 use glam::{Quat, Vec3};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
@@ -64,6 +68,10 @@ pub enum ViewerError {
     /// Rendering failed.
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// The simulation blew up (the blow-up checks of `clatter run`); the window showed it
+    /// and was closed, or the screenshot was saved after it.
+    #[error("{0}")]
+    BlowUp(String),
 }
 
 /// Orbit-camera state driven by the mouse.
@@ -82,6 +90,8 @@ struct Gfx {
     ctx: Arc<GpuContext>,
     /// The pipeline that steps the world.
     stepper: Stepper,
+    /// The blow-up checks of `clatter run`.
+    watch: Watch,
     renderer: Renderer,
     targets: Targets,
     egui_state: egui_winit::State,
@@ -108,6 +118,8 @@ struct App {
     step_once: bool,
     reset: bool,
     sim_error: Option<String>,
+    /// The blow-up report, if the simulation blew up (returned when the viewer closes).
+    blow_up: Option<String>,
     contacts_now: usize,
     mouse: Mouse,
     rates: Rates,
@@ -138,6 +150,7 @@ pub fn run(options: ViewerOptions) -> Result<(), ViewerError> {
         step_once: false,
         reset: false,
         sim_error: None,
+        blow_up: None,
         contacts_now: 0,
         mouse: Mouse::default(),
         rates: Rates {
@@ -156,10 +169,22 @@ pub fn run(options: ViewerOptions) -> Result<(), ViewerError> {
     event_loop
         .run_app(&mut app)
         .map_err(|e| ViewerError::Window(e.to_string()))?;
-    app.result
+    app.result?;
+    match app.blow_up {
+        Some(report) => Err(ViewerError::BlowUp(report)),
+        None => Ok(()),
+    }
 }
 
 impl App {
+    /// Stops the simulation on a blow-up: the report in the panel (and, when the viewer
+    /// closes, its error).
+    fn blown_up(&mut self, report: String) {
+        self.sim_error = Some(format!("stopped: {report}"));
+        self.blow_up = Some(report);
+        self.paused = true;
+    }
+
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: ViewerError) {
         self.result = Err(e);
         event_loop.exit();
@@ -270,12 +295,22 @@ impl App {
                 ..Default::default()
             },
         );
+        let mut stepper = chosen.stepper;
+        let health = Health::new(&self.world);
+        for w in health.warnings(&self.world) {
+            eprintln!("warning: {w}");
+        }
+        if let Err(b) = health.check_initial(&self.world) {
+            self.blown_up(b.to_string());
+        }
+        let watch = Watch::start(&mut stepper, &self.world, health, CHECK_EVERY, 0);
         Ok(Gfx {
             window,
             surface,
             config,
             ctx,
-            stepper: chosen.stepper,
+            stepper,
+            watch,
             renderer,
             targets,
             egui_state,
@@ -290,9 +325,13 @@ impl App {
             self.reset = false;
             self.world = self.options.world.clone();
             self.sim_error = None;
+            self.blow_up = None;
             g.renderer.set_world(&self.world);
             if let Err(e) = g.stepper.restart(&self.world) {
                 self.sim_error = Some(format!("reset failed: {e}"));
+            }
+            if let Some(gpu) = g.stepper.as_gpu_mut() {
+                g.watch.arm(gpu, &self.world, 0);
             }
         }
         let n = if self.sim_error.is_some() {
@@ -306,16 +345,22 @@ impl App {
         };
         self.step_once = false;
         if n > 0 {
-            match g.stepper.step(&mut self.world, n as u64, Readback::Nothing) {
+            let stepped =
+                g.watch
+                    .step(&mut g.stepper, &mut self.world, n as u64, Readback::Nothing);
+            match stepped {
                 Ok(s) => {
                     self.contacts_now = s.contacts;
                     self.rates.steps += s.steps;
                 }
-                Err(e) => {
-                    self.sim_error = Some(match e {
-                        StepError::Sim(e) => format!("stopped: {e}"),
-                        StepError::Gpu(e) => format!("GPU step failed: {e}"),
-                    });
+                Err(WatchError::BlowUp(b)) => {
+                    let report = b.to_string();
+                    self.sim_error = Some(format!("stopped: {report}"));
+                    self.blow_up = Some(report);
+                    self.paused = true;
+                }
+                Err(WatchError::Gpu(e)) => {
+                    self.sim_error = Some(format!("GPU step failed: {e}"));
                     self.paused = true;
                 }
             }

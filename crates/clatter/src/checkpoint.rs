@@ -283,8 +283,15 @@ impl Checkpoint {
     /// The world exactly as it was when the checkpoint was written, built on `scene` (which
     /// must be [`Checkpoint::scene`]).
     pub fn restore(&self, scene: &Scene) -> Result<World, CheckpointError> {
+        self.restore_onto(scene.world())
+    }
+
+    /// The state restored onto `world`, built the way the checkpointed world was (for worlds
+    /// that come from no scene file, such as `clatter bench`'s piles: the static data is the
+    /// caller's, the checks on body and wall counts and mass properties still apply).
+    pub fn restore_onto(&self, world: World) -> Result<World, CheckpointError> {
         let st = &self.state;
-        let mut w = scene.world();
+        let mut w = world;
         if w.len() as u64 != st.bodies || w.walls.len() as u64 != st.walls {
             return Err(CheckpointError::Mismatch(format!(
                 "the scene has {} bodies and {} walls, the checkpoint {} and {}",

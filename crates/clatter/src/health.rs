@@ -366,6 +366,12 @@ impl Health {
         self.budget
     }
 
+    /// The smallest normal force any contact can have at an overlap of [`OVERLAP_LIMIT`], N:
+    /// the cheap check looks only at touching contacts above it (so does the GPU's).
+    pub fn force_floor(&self) -> f32 {
+        self.force_floor
+    }
+
     /// The largest stable time step of the stiffest contact (`2 / omega`, about `0.64 t_c`), s.
     pub fn stable_dt(&self) -> f64 {
         self.stable_dt

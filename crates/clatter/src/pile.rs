@@ -58,6 +58,47 @@ pub fn lattice_dims(n: usize) -> [usize; 3] {
     [side, side, layers]
 }
 
+/// How the pile is made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PileKind {
+    /// Stacked on a simple cubic lattice, touching ([`pile`]).
+    Lattice,
+    /// Rained into the box from a loose lattice with random jitter, orientation and speed
+    /// ([`poured`]), then settled by the caller until at rest.
+    Poured,
+}
+
+/// Bodies rained into a box: the lattice of [`pile`] loosened to [`POUR_SPACING`] bounding
+/// diameters in every direction, each body jittered by up to a twentieth of its radius
+/// along each axis, randomly oriented, and given a random velocity of up to 0.1 m/s per axis
+/// (all from `seed`). The box has the loose lattice's footprint.
+pub fn poured(shape: PileShape, n: usize, p: &PileParams, seed: u64) -> WorldDesc {
+    let mut desc = pile(shape, n, p);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    use rand::Rng;
+    let spacing = match shape {
+        PileShape::Cube => 2.0 * p.radius / 3f32.sqrt(),
+        _ => 2.0 * p.radius,
+    };
+    let scale = POUR_SPACING * 2.0 * p.radius / spacing;
+    let jitter = 0.05 * p.radius;
+    let jit = |rng: &mut ChaCha8Rng| rng.random_range(-1.0f32..=1.0);
+    for b in &mut desc.bodies {
+        let x = b.position * scale;
+        b.position = x + jitter * Vec3::new(jit(&mut rng), jit(&mut rng), jit(&mut rng));
+        b.position.z = b.position.z.max(p.radius * 1.05);
+        b.orientation = random_rotation(&mut rng);
+        b.velocity = 0.1 * Vec3::new(jit(&mut rng), jit(&mut rng), jit(&mut rng));
+    }
+    for w in &mut desc.walls {
+        w.plane.offset *= scale;
+    }
+    desc
+}
+
+/// The poured pile's starting lattice spacing, in bounding diameters.
+pub const POUR_SPACING: f32 = 1.15;
+
 /// Builds the pile description.
 pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
     let r = p.radius as f64;

@@ -11,6 +11,7 @@
 
 pub mod broad;
 pub mod contacts;
+pub mod health;
 pub mod integrate;
 
 use crate::pipeline::{Dispatch, KernelSet, KernelSpec, Kernels, Size};
@@ -77,7 +78,10 @@ pub(crate) fn record(
 pub(crate) fn base_kernels() -> (Vec<(&'static str, String)>, Vec<KernelSpec>) {
     let mut kernels: Vec<KernelSpec> = broad::KERNELS.to_vec();
     kernels.extend_from_slice(integrate::BASE_KERNELS);
-    (broad::modules(), kernels)
+    kernels.extend_from_slice(health::KERNELS);
+    let mut modules = broad::modules();
+    modules.push(health::module());
+    (modules, kernels)
 }
 
 /// Sources and kernels of the contact set: sphere-only scenes, or any scene.

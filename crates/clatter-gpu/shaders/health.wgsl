@@ -1,0 +1,229 @@
+// The blow-up checks and the energy samples on the GPU (src/stages/health.rs), so that a run
+// never waits on the host for them: the twin of clatter's health.rs cheap check.
+//
+// After every step, on the steps a check or an energy sample is due:
+// - `health_bodies`: per workgroup of bodies, the kinetic and potential energy and the
+//   momentum (a fixed-order tree in workgroup memory: no float atomics, so the sums are the
+//   same on every run), the first body entirely behind a wall, the first body with a
+//   touching contact whose normal force may mean a deep overlap;
+// - `health_reduce`: one workgroup sums the workgroups' records in a fixed order, logs the
+//   energy sample, and on a check step either marks the step checked or raises ST_HEALTH,
+//   which stops the pipeline there: the host reads that step back and runs its own exact
+//   checks (the GPU's threshold is lower than the host's, so the host sees every blow-up).
+// Then `snapshot_state` copies the state into the `snapshot` buffer when the step is a
+// snapshot step whose checks passed: the last good state, read back only for a blow-up
+// report (its layout: src/layout.rs `snapshot`).
+
+var<workgroup> red_a: array<vec4<f32>, 256>;
+var<workgroup> red_b: array<f32, 256>;
+var<workgroup> red_escaped: atomic<u32>;
+var<workgroup> red_suspect: atomic<u32>;
+var<workgroup> red_step: u32;
+
+// Whether GPU step `g` (status word STEPS) is a multiple of `every` in world steps.
+fn due_every(g: u32, every: u32, base: u32) -> bool {
+    return every != 0u && (g % every + base) % every == 0u;
+}
+
+// The step just completed, when a check or a sample is due after it (else NONE); the same
+// value in every thread of the workgroup.
+fn health_step(lid: u32) -> u32 {
+    if lid == 0u {
+        let g = atomicLoad(&status[ST_STEPS]);
+        let hp = health_params;
+        let due = due_every(g, hp.check_every, hp.base_check)
+            || due_every(g, hp.energy_every, hp.base_energy);
+        red_step = select(NONE, g, due && !halted());
+    }
+    return workgroupUniformLoad(&red_step);
+}
+
+// Tree reduction of red_a/red_b in workgroup memory: always the same pairs, in the same order.
+fn reduce_tree(lid: u32) {
+    for (var half = WG / 2u; half > 0u; half = half / 2u) {
+        workgroupBarrier();
+        if lid < half {
+            red_a[lid] = red_a[lid] + red_a[lid + half];
+            red_b[lid] = red_b[lid] + red_b[lid + half];
+        }
+    }
+    workgroupBarrier();
+}
+
+@compute @workgroup_size(256)
+fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                 @builtin(local_invocation_index) lid: u32) {
+    if lid == 0u {
+        atomicStore(&red_escaped, NONE);
+        atomicStore(&red_suspect, NONE);
+    }
+    if health_step(lid) == NONE {
+        return;
+    }
+    let i = thread_index(wid, nwg, lid);
+    var a = vec4<f32>(0.0);
+    var pz = 0.0;
+    if i < params.n {
+        let s = bodies[i];
+        let m = statics[i].mass;
+        let v = s.velocity.xyz;
+        let ke = 0.5 * m * dot(v, v) + 0.5 * dot(s.omega.xyz, s.angular_momentum.xyz);
+        let pe = -m * dot(params.gravity.xyz, s.position.xyz - health_params.reference.xyz);
+        let p = v * m;
+        a = vec4<f32>(ke, pe, p.x, p.y);
+        pz = p.z;
+        // Escape: the centre more than the bounding radius behind a wall.
+        let r = statics[i].radius;
+        for (var w = 0u; w < params.num_walls; w++) {
+            let plane = walls[w].plane;
+            if dot(plane.xyz, s.position.xyz) - plane.w < -r {
+                atomicMin(&red_escaped, i);
+            }
+        }
+        // Contacts whose last normal force may mean a deep overlap: the pairs where i is
+        // side a, and i's wall slots.
+        var suspect = false;
+        for (var k = a_start[i]; k < a_start[i + 1u]; k++) {
+            if touching[k] == 1u && abs(forces[k].normal_force) > health_params.force_floor {
+                suspect = true;
+            }
+        }
+        for (var w = 0u; w < params.num_walls; w++) {
+            let t = i * params.num_walls + w;
+            if wall_touching[t] != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
+                suspect = true;
+            }
+        }
+        if suspect {
+            atomicMin(&red_suspect, i);
+        }
+    }
+    red_a[lid] = a;
+    red_b[lid] = pz;
+    reduce_tree(lid);
+    if lid == 0u {
+        let g = wid.y * nwg.x + wid.x;
+        health[HEALTH_LOG + g] = HealthRecord(red_a[0], red_b[0], 0u, atomicLoad(&red_escaped),
+                                       atomicLoad(&red_suspect));
+    }
+}
+
+@compute @workgroup_size(256)
+fn health_reduce(@builtin(local_invocation_index) lid: u32) {
+    if lid == 0u {
+        atomicStore(&red_escaped, NONE);
+        atomicStore(&red_suspect, NONE);
+    }
+    let g = health_step(lid);
+    if g == NONE {
+        return;
+    }
+    // Thread lid sums records lid, lid + WG, ... in order; then the tree.
+    let parts = (params.n + WG - 1u) / WG;
+    var a = vec4<f32>(0.0);
+    var pz = 0.0;
+    for (var k = lid; k < parts; k += WG) {
+        let r = health[HEALTH_LOG + k];
+        a = a + r.sums;
+        pz = pz + r.pz;
+        atomicMin(&red_escaped, r.escaped);
+        atomicMin(&red_suspect, r.suspect);
+    }
+    red_a[lid] = a;
+    red_b[lid] = pz;
+    reduce_tree(lid);
+    if lid != 0u {
+        return;
+    }
+    let hp = health_params;
+    let rec = HealthRecord(red_a[0], red_b[0], g, atomicLoad(&red_escaped),
+                           atomicLoad(&red_suspect));
+    if due_every(g, hp.energy_every, hp.base_energy) {
+        let slot = atomicAdd(&status[ST_SAMPLES], 1u) % HEALTH_LOG;
+        health[slot] = rec;
+    }
+    if due_every(g, hp.check_every, hp.base_check) {
+        let ke = rec.sums.x;
+        let available = hp.budget - rec.sums.y;
+        // NaN fails every comparison: `!(ke <= limit)` raises the alarm for it too.
+        let calm = ke <= hp.alarm_factor * max(available, 0.0) && rec.sums.y == rec.sums.y;
+        if calm && rec.escaped == NONE && rec.suspect == NONE {
+            atomicStore(&status[ST_CHECKED], g);
+        } else {
+            atomicStore(&status[ST_HEALTH], 1u);
+        }
+    }
+}
+
+fn snap4(at: u32, v: vec4<f32>) {
+    let w = bitcast<vec4<u32>>(v);
+    snapshot[at] = w.x;
+    snapshot[at + 1u] = w.y;
+    snapshot[at + 2u] = w.z;
+    snapshot[at + 3u] = w.w;
+}
+
+fn snap_force(at: u32, f: ContactForce) {
+    snap4(at, vec4<f32>(f.force_b, f.normal_force));
+    snap4(at + 4u, vec4<f32>(f.torque_a, f.pad0));
+    snap4(at + 8u, vec4<f32>(f.torque_b, f.pad1));
+}
+
+// The last good state: every state buffer copied (a grid-stride loop over bodies, pairs and
+// wall slots) after a snapshot step whose checks passed.
+@compute @workgroup_size(256)
+fn snapshot_state(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                  @builtin(local_invocation_index) lid: u32) {
+    if lid == 0u {
+        let g = atomicLoad(&status[ST_STEPS]);
+        let hp = health_params;
+        let good = !halted() && due_every(g, hp.snapshot_every, hp.base_snapshot)
+            && atomicLoad(&status[ST_CHECKED]) == g;
+        red_step = select(NONE, g, good);
+    }
+    if workgroupUniformLoad(&red_step) == NONE {
+        return;
+    }
+    let n = params.n;
+    let slots = n * params.num_walls;
+    let stride = nwg.x * WG;
+    let end = max(max(n, slots), max(params.pair_capacity, ST_LEN));
+    for (var i = thread_index(wid, nwg, lid); i < end; i += stride) {
+        snapshot_one(i, n, slots);
+    }
+}
+
+// Copies element `i` of every state buffer that has one.
+fn snapshot_one(i: u32, n: u32, slots: u32) {
+    if i < ST_LEN {
+        snapshot[i] = atomicLoad(&status[i]);
+        if i == ST_HEALTH {
+            snapshot[i] = 0u;
+        }
+    }
+    if i < n {
+        let s = bodies[i];
+        let at = SNAP_STATUS + SNAP_BODY * i;
+        snap4(at, s.position);
+        snap4(at + 4u, s.velocity);
+        snap4(at + 8u, s.orientation);
+        snap4(at + 12u, s.residual);
+        snap4(at + 16u, s.angular_momentum);
+        snap4(at + 20u, s.omega);
+        snap4(at + 24u, rebuild_pos[i]);
+    }
+    if i < slots {
+        let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * i;
+        snap4(at, wall_hist[i]);
+        snap_force(at + 4u, wall_forces[i]);
+        snapshot[at + 16u] = wall_touching[i];
+    }
+    if i < params.pair_capacity {
+        let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * slots + SNAP_PAIR * i;
+        snapshot[at] = pairs[i].x;
+        snapshot[at + 1u] = pairs[i].y;
+        snap4(at + 2u, hist[i]);
+        snapshot[at + 6u] = touching[i];
+        snap_force(at + 7u, forces[i]);
+    }
+}
