@@ -123,12 +123,12 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
     if dt * (dt * sk.y + eta) > RESOLVABLE * m_eff {
         return vec2<f32>(fs + eta * v, 0.0);
     }
-    let first = x - dt * v <= EDGE_SLACK * dt * abs(v);
+    let first = coverage == 0.0;
     var g_start = 0.0;
     if coverage > 0.0 {
         g_start = coverage;
-    } else if !(coverage < 0.0 || first) {
-        g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v);
+    } else if first {
+        g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v);
     }
     let g_x = eta * x / dashpot_exponent(p);
     if !first {

@@ -203,9 +203,9 @@ const COVERED_TO_RELEASE: f32 = -1.0;
 const RESOLVABLE: f32 = 1.0;
 
 /// The fraction of a step's travel within which an overlap counts as zero when deciding
-/// whether a step is a contact's first or last (positions round to a few ulps; a contact
-/// called ended a sliver early only adds a sliver of spring force in the next step, one
-/// that ends unnoticed loses the rest of the step's damping).
+/// whether a step is a contact's last (positions round to a few ulps; a contact called
+/// ended a sliver early only adds a sliver of spring force in the next step, one that ends
+/// unnoticed loses the rest of the step's damping).
 const EDGE_SLACK: f32 = 0.05;
 
 /// The normal force of a one-point contact resolved within the step, for a requested
@@ -253,17 +253,17 @@ pub fn resolved_normal_force(
         *coverage = 0.0;
         return fs + eta * v;
     }
-    // The overlap was not positive one step ago: this is the contact's first step. (Both
-    // this and the test for the last step allow a sliver of a step's travel for the
-    // rounding of positions.)
-    let first = x - dt * v <= EDGE_SLACK * dt * v.abs();
+    // A contact's first step (no coverage yet): the interval reaches back over the last
+    // step, which had no force, to where the overlap was then (0 where it crossed zero
+    // within that step, as it does for every contact that starts between two steps; a
+    // contact found already overlapping, as a scene may start, gets no dashpot kick).
+    let first = *coverage == 0.0;
     let g_start = if *coverage > 0.0 {
         *coverage
-    } else if *coverage < 0.0 || first {
-        0.0
+    } else if first {
+        dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v)
     } else {
-        // A contact found already overlapping (a scene that starts so): no kick.
-        dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v)
+        0.0
     };
     let g_x = eta * x / dashpot_exponent(p);
     if !first {
