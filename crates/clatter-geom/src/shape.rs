@@ -227,3 +227,69 @@ impl ShapeKind {
         })
     }
 }
+
+/// The unit icosphere: the icosahedron's vertices on the unit sphere, each triangle split
+/// into four `levels` times with the new vertices pushed out onto the sphere (12, 42, 162
+/// ... vertices; 20 * 4^levels outward-wound triangles). Drawing and output code use it
+/// for spheres.
+pub fn icosphere(levels: u32) -> (Vec<glam::DVec3>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut points: Vec<glam::DVec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .map(|p| glam::DVec3::from_array(p).normalize())
+    .to_vec();
+    let mut triangles: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mids = std::collections::HashMap::new();
+        let mut mid = |a: u32, b: u32, points: &mut Vec<glam::DVec3>| -> u32 {
+            *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                points.push((points[a as usize] + points[b as usize]).normalize());
+                points.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(triangles.len() * 4);
+        for [a, b, c] in triangles {
+            let (ab, bc, ca) = (
+                mid(a, b, &mut points),
+                mid(b, c, &mut points),
+                mid(c, a, &mut points),
+            );
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        triangles = next;
+    }
+    (points, triangles)
+}

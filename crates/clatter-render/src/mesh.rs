@@ -64,63 +64,9 @@ impl Mesh {
 
     /// A sphere of `radius` made by subdividing an icosahedron `levels` times.
     pub fn icosphere(radius: f32, levels: u32) -> Mesh {
-        let t = (1.0 + 5f32.sqrt()) / 2.0;
-        let mut pts: Vec<Vec3> = [
-            [-1.0, t, 0.0],
-            [1.0, t, 0.0],
-            [-1.0, -t, 0.0],
-            [1.0, -t, 0.0],
-            [0.0, -1.0, t],
-            [0.0, 1.0, t],
-            [0.0, -1.0, -t],
-            [0.0, 1.0, -t],
-            [t, 0.0, -1.0],
-            [t, 0.0, 1.0],
-            [-t, 0.0, -1.0],
-            [-t, 0.0, 1.0],
-        ]
-        .iter()
-        .map(|p| Vec3::from_array(*p).normalize())
-        .collect();
-        let mut tris: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..levels {
-            let mut mid = std::collections::HashMap::new();
-            let mut midpoint = |a: u32, b: u32, pts: &mut Vec<Vec3>| -> u32 {
-                *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    pts.push((pts[a as usize] + pts[b as usize]).normalize());
-                    pts.len() as u32 - 1
-                })
-            };
-            let mut next = Vec::with_capacity(tris.len() * 4);
-            for [a, b, c] in tris {
-                let ab = midpoint(a, b, &mut pts);
-                let bc = midpoint(b, c, &mut pts);
-                let ca = midpoint(c, a, &mut pts);
-                next.extend_from_slice(&[[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-            }
-            tris = next;
-        }
+        let (points, triangles) = clatter::geom::shape::icosphere(levels);
+        let pts: Vec<Vec3> = points.iter().map(|p| p.as_vec3()).collect();
+        let tris = triangles;
         Mesh {
             vertices: pts
                 .iter()

@@ -31,7 +31,7 @@
 use std::io::Write;
 
 use clatter_geom::Shape;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use std::path::{Path, PathBuf};
 
 use crate::Partner;
@@ -294,57 +294,7 @@ pub fn write_bodies(path: &Path, world: &World) -> std::io::Result<()> {
 fn sphere_mesh() -> &'static (Vec<Vec3>, Vec<[u32; 3]>) {
     static MESH: std::sync::OnceLock<(Vec<Vec3>, Vec<[u32; 3]>)> = std::sync::OnceLock::new();
     MESH.get_or_init(|| {
-        let phi = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut v: Vec<DVec3> = [
-            [-1.0, phi, 0.0],
-            [1.0, phi, 0.0],
-            [-1.0, -phi, 0.0],
-            [1.0, -phi, 0.0],
-            [0.0, -1.0, phi],
-            [0.0, 1.0, phi],
-            [0.0, -1.0, -phi],
-            [0.0, 1.0, -phi],
-            [phi, 0.0, -1.0],
-            [phi, 0.0, 1.0],
-            [-phi, 0.0, -1.0],
-            [-phi, 0.0, 1.0],
-        ]
-        .map(|p| DVec3::from_array(p).normalize())
-        .to_vec();
-        let ico: [[u32; 3]; 20] = [
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        let mut mids = std::collections::HashMap::new();
-        let mut mid = |a: u32, b: u32, v: &mut Vec<DVec3>| {
-            *mids.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push(((v[a as usize] + v[b as usize]) / 2.0).normalize());
-                v.len() as u32 - 1
-            })
-        };
-        let mut tris = Vec::with_capacity(80);
-        for [a, b, c] in ico {
-            let (ab, bc, ca) = (mid(a, b, &mut v), mid(b, c, &mut v), mid(c, a, &mut v));
-            tris.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
+        let (v, tris) = clatter_geom::shape::icosphere(1);
         let volume: f64 = tris
             .iter()
             .map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize])) / 6.0)
