@@ -73,9 +73,10 @@ impl Drop for AtomicFile {
 }
 
 /// Writes one CSV row per body (`id,x,...,wz`), optionally prefixed by `prefix` (`step,time,`).
+/// Bodies removed by a sink have no row (their ids are missing).
 pub fn write_state_rows(w: &mut impl Write, world: &World, prefix: &str) -> std::io::Result<()> {
     let mut line = String::with_capacity(256);
-    for i in 0..world.len() {
+    for i in (0..world.len()).filter(|&i| !world.is_removed(i)) {
         use std::fmt::Write as _;
         line.clear();
         let x = world.state.position[i];
@@ -119,4 +120,48 @@ pub fn carry_rows(
         }
     }
     Ok(())
+}
+
+/// The CSV header of `discharge.csv`.
+pub const DISCHARGE_HEADER: &str = "step,time,count,mass";
+
+/// `discharge.csv` of a scene with sinks: the bodies removed so far and their mass
+/// (cumulative), one row at the first step, at every energy sample step and at the last step.
+/// Both columns come from the removed flags ([`clatter::World::discharged`]), so CPU and GPU
+/// runs whose trajectories agree write the same rows; a resumed run continues the file.
+pub struct DischargeSeries {
+    file: AtomicFile,
+    last: Option<u64>,
+}
+
+impl DischargeSeries {
+    /// Creates `path`, keeping the rows of an existing file before step `start`.
+    pub fn create(path: &Path, start: u64) -> anyhow::Result<DischargeSeries> {
+        let mut file = AtomicFile::create(path)?;
+        writeln!(file.writer(), "{DISCHARGE_HEADER}")?;
+        if start > 0 {
+            carry_rows(path, DISCHARGE_HEADER, start, file.writer())?;
+        }
+        Ok(DischargeSeries { file, last: None })
+    }
+
+    /// Writes the row of the world's current step (once per step).
+    pub fn sample(&mut self, world: &World) -> anyhow::Result<()> {
+        if self.last == Some(world.step_count) {
+            return Ok(());
+        }
+        let d = world.discharged();
+        writeln!(
+            self.file.writer(),
+            "{},{},{},{}",
+            world.step_count, world.time, d.count, d.mass
+        )?;
+        self.last = Some(world.step_count);
+        Ok(())
+    }
+
+    /// Renames the file into place.
+    pub fn commit(self) -> anyhow::Result<()> {
+        self.file.commit()
+    }
 }

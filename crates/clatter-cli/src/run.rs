@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
-use crate::output::{AtomicFile, STATE_HEADER, carry_rows, write_state_rows};
+use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, carry_rows, write_state_rows};
 use crate::vtk;
 
 /// The embedded default scene: mixed polyhedra poured into a box.
@@ -490,6 +490,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         last_frame: None,
     };
     let mut energy = None;
+    let mut discharge: Option<DischargeSeries> = None;
     if let Some(dir) = &plan.out {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create output directory {}", dir.display()))?;
@@ -511,6 +512,11 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         let mut e = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
         e.sample(&world)?;
         energy = Some(e);
+        if !world.sinks.is_empty() {
+            let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
+            d.sample(&world)?;
+            discharge = Some(d);
+        }
     }
     let period = plan.checkpoint_every;
     let half_dt = 0.5 * world.dt as f64;
@@ -550,6 +556,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     };
     let gpu_checks = stepper.is_gpu() && !host_checks;
     let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
+    let discharge_rows = discharge.is_some();
     let full_step =
         |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;
     // Whether step `s` (simulated time `t` after it) needs the state on the host.
@@ -557,7 +564,9 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         let checkpoint =
             period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p));
         if gpu_checks {
-            return output_step(s) || s == plan.end_step || checkpoint;
+            // discharge.csv's rows need the removed flags at the energy sample steps.
+            let discharge_row = discharge_rows && s.is_multiple_of(plan.energy_every);
+            return output_step(s) || s == plan.end_step || checkpoint || discharge_row;
         }
         full_step(s)
             || s.is_multiple_of(plan.check_every)
@@ -618,6 +627,11 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             {
                 e.sample(&world)?;
             }
+            if let Some(d) = &mut discharge
+                && s.is_multiple_of(plan.energy_every)
+            {
+                d.sample(&world)?;
+            }
             if let (Some(t), Some(next)) = (period, &mut next_checkpoint)
                 && world.time + half_dt >= *next * t
             {
@@ -662,6 +676,10 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     if let Some(f) = series.trace.take() {
         f.commit()?;
     }
+    if let Some(mut d) = discharge.take() {
+        d.sample(&world)?;
+        d.commit()?;
+    }
     if let Some(mut e) = energy.take() {
         e.sample(&world)?;
         e.finish(
@@ -677,6 +695,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     write_state_rows(f.writer(), &world, "")?;
     f.commit()?;
     let momentum = world.momentum();
+    let discharged = world.discharged();
     let summary = serde_json::json!({
         "scene": plan.scene.source,
         "bodies": world.len(),
@@ -697,12 +716,17 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         "potential_energy": world.potential_energy(),
         "momentum": momentum,
         "broad_phase_rebuilds": world.rebuilds,
+        "removed": discharged.count,
+        "removed_mass": discharged.mass,
     });
     let mut f = AtomicFile::create(&dir.join("summary.json"))?;
     serde_json::to_writer_pretty(f.writer(), &summary)?;
     writeln!(f.writer())?;
     f.commit()?;
     let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
+    if !world.sinks.is_empty() {
+        written.push_str(", discharge.csv");
+    }
     if plan.picture {
         match crate::render::final_picture(&world, &dir.join("final.png")) {
             Ok(()) => written.push_str(", final.png"),

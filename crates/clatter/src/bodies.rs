@@ -24,6 +24,10 @@ pub struct BodyStates {
     pub angular_momentum: Vec<Vec3>,
     /// Angular velocity (world frame), derived from the angular momentum.
     pub omega: Vec<Vec3>,
+    /// Whether the body has been taken out by a sink ([`crate::sink`]): it stays in the
+    /// arrays, frozen, but is no longer integrated and touches nothing. On the GPU this is
+    /// the `w` of [`BodyState::position`] (1.0 = removed).
+    pub removed: Vec<bool>,
 }
 
 impl BodyStates {
@@ -39,14 +43,16 @@ impl BodyStates {
 
     /// Body `i`'s state as a record.
     pub fn record(&self, i: usize) -> BodyState {
-        BodyState::new(
+        let mut r = BodyState::new(
             self.position[i],
             self.velocity[i],
             self.orientation[i],
             self.orientation_residual[i],
             self.angular_momentum[i],
             self.omega[i],
-        )
+        );
+        r.position[3] = if self.removed[i] { 1.0 } else { 0.0 };
+        r
     }
 
     /// Sets body `i`'s state from a record.
@@ -57,6 +63,7 @@ impl BodyStates {
         self.orientation_residual[i] = quat_of(s.residual);
         self.angular_momentum[i] = vec3_of(s.angular_momentum);
         self.omega[i] = vec3_of(s.omega);
+        self.removed[i] = s.position[3] != 0.0;
     }
 
     /// Whether every field of body `i` is finite.

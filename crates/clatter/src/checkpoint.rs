@@ -23,6 +23,8 @@
 //!   scene that builds different bodies than when the checkpoint was written is refused).
 //! - `BODY`: per body position, velocity, orientation, the rounding residual of the
 //!   compensated orientation update, angular momentum, angular velocity.
+//! - `SINK` (optional; none = no body removed): the bodies removed by sinks, as a count and
+//!   their indices in increasing order (u32).
 //! - `RBLD`: the positions the Verlet list was built at (empty before the first step).
 //! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
 //!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
@@ -191,6 +193,7 @@ impl Checkpoint {
         let mut found: Vec<[u8; 4]> = Vec::new();
         let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) =
             (None, None, None, None, None, None);
+        let mut sink = None;
         for _ in 0..sections {
             let tag: [u8; 4] = r.bytes(4)?.try_into().expect("4 bytes");
             let n = r.len_u64()?;
@@ -212,6 +215,7 @@ impl Checkpoint {
                 b"META" => meta = Some(reader),
                 b"BODY" => body = Some(reader),
                 b"RBLD" => rbld = Some(reader),
+                b"SINK" => sink = Some(reader),
                 b"CONT" => cont = Some(reader),
                 b"APP " => app = Some(payload.to_vec()),
                 _ => {} // optional section of a later version
@@ -231,6 +235,10 @@ impl Checkpoint {
         let mut st = State::default();
         read_meta(&mut need(meta, "META")?, &mut st)?;
         read_bodies(&mut need(body, "BODY")?, &mut st)?;
+        st.body.removed = vec![false; st.bodies as usize];
+        if let Some(mut r) = sink {
+            read_removed(&mut r, &mut st)?;
+        }
         let mut rb = need(rbld, "RBLD")?;
         let nr = rb.count(12)?;
         if nr != 0 && nr != st.bodies as usize {
@@ -318,20 +326,25 @@ impl Checkpoint {
             }
         } else {
             // Rebuild the derived gather ranges exactly as the run did, from the same positions.
+            // A body removed by a sink after the list was built is still in the stored list
+            // (the next step rebuilds without it): its contacts are dropped first, which
+            // changes nothing the next rebuild carries over.
+            w.state.removed.clone_from(&st.body.removed);
             w.state.position.clone_from(&st.rebuild_position);
             w.rebuild_contacts();
+            let (pairs, wall_pairs, springs) = without_removed(st, &st.body.removed);
             let c = &w.contacts;
-            if c.pairs() != st.pairs.as_slice() || c.wall_pairs() != st.wall_pairs.as_slice() {
+            if c.pairs() != pairs.as_slice() || c.wall_pairs() != wall_pairs.as_slice() {
                 return Err(CheckpointError::Mismatch(format!(
                     "the broad phase finds {} body pairs and {} wall pairs at the stored positions, the checkpoint lists {} and {}",
                     c.pairs().len(),
                     c.wall_pairs().len(),
-                    st.pairs.len(),
-                    st.wall_pairs.len()
+                    pairs.len(),
+                    wall_pairs.len()
                 )));
             }
             w.contacts
-                .set_springs(st.springs.clone())
+                .set_springs(springs)
                 .map_err(CheckpointError::Malformed)?;
         }
         w.state.clone_from(&st.body);
@@ -366,7 +379,7 @@ impl World {
         w.buf.extend_from_slice(&MAGIC);
         w.u32(FORMAT_VERSION);
         w.u64(0); // length, patched below
-        w.u32(6);
+        w.u32(7);
         w.section(b"SCEN", |w| {
             w.string(concat!("clatter ", env!("CARGO_PKG_VERSION")));
             w.string(scene_source);
@@ -396,6 +409,13 @@ impl World {
                 }
                 w.vec3(st.angular_momentum[i]);
                 w.vec3(st.omega[i]);
+            }
+        });
+        w.section(b"SINK", |w| {
+            let removed: Vec<u32> = (0..n as u32).filter(|&i| st.removed[i as usize]).collect();
+            w.u64(removed.len() as u64);
+            for i in removed {
+                w.u32(i);
             }
         });
         w.section(b"RBLD", |w| {
@@ -514,6 +534,58 @@ fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError
         st.body.omega.push(w);
     }
     r.finish()
+}
+
+fn read_removed(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
+    let n = r.count(4)?;
+    let mut last: Option<u32> = None;
+    for _ in 0..n {
+        let i = r.u32()?;
+        if i as u64 >= st.bodies || last.is_some_and(|l| i <= l) {
+            return Err(CheckpointError::Malformed(format!(
+                "removed body {i} is out of range or out of order ({} bodies)",
+                st.bodies
+            )));
+        }
+        st.body.removed[i as usize] = true;
+        last = Some(i);
+    }
+    r.finish()
+}
+
+/// The stored contact list without the contacts of removed bodies.
+fn without_removed(
+    st: &State,
+    removed: &[bool],
+) -> (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings) {
+    let np = st.pairs.len();
+    let keep: Vec<bool> = st
+        .pairs
+        .iter()
+        .map(|&[i, j]| !(removed[i as usize] || removed[j as usize]))
+        .chain(st.wall_pairs.iter().map(|&[i, _]| !removed[i as usize]))
+        .collect();
+    fn select<T: Clone>(v: &[T], keep: &[bool]) -> Vec<T> {
+        v.iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| x.clone())
+            .collect()
+    }
+    let sp = &st.springs;
+    let springs = ContactSprings {
+        history: select(&sp.history, &keep),
+        twist: select(&sp.twist, &keep),
+        forces: select(&sp.forces, &keep),
+        touching: select(&sp.touching, &keep),
+        hints: select(&sp.hints, &keep[..np]),
+        separation_bound: select(&sp.separation_bound, &keep[..np]),
+    };
+    (
+        select(&st.pairs, &keep[..np]),
+        select(&st.wall_pairs, &keep[np..]),
+        springs,
+    )
 }
 
 fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {

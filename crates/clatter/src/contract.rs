@@ -199,8 +199,8 @@ pub const LAW_CONSTANTS: &[Constant] = &[
 
 gpu_record! {
     /// One body's integrated state, 96 bytes; the GPU stores one per body, the CPU the same
-    /// fields as arrays ([`crate::bodies::BodyStates`]). The `w` of the vector fields is
-    /// unused. The renderer reads `position` (byte 0) and `orientation` (byte 32) straight
+    /// fields as arrays ([`crate::bodies::BodyStates`]). The `w` of `position` is 1.0 for a
+    /// body removed by a sink ([`crate::sink`]), else 0.0; the other `w`s are unused. The renderer reads `position` (byte 0) and `orientation` (byte 32) straight
     /// from the GPU's buffer.
     pub struct BodyState {
         /// Centre of mass, m.

@@ -78,6 +78,10 @@ fn contact_report(world: &World, k: usize) -> Option<ContactReport> {
         return None;
     }
     let (body, other) = world.contacts.partners(k);
+    // A body removed by a sink in the last step is still in the list until the rebuild.
+    if world.is_removed(body as usize) || matches!(other, Partner::Body(j) if world.is_removed(j as usize)) {
+        return None;
+    }
     Some(ContactReport {
         body,
         other,
@@ -132,6 +136,12 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
     let radii = &world.consts.radius;
     let pairs = broad::pairs_periodic(&grid, positions, radii, 0.0, world.periodic.as_ref());
     let report = |body: u32, other: Partner| {
+        // Bodies removed by a sink touch nothing.
+        if world.is_removed(body as usize)
+            || matches!(other, Partner::Body(j) if world.is_removed(j as usize))
+        {
+            return None;
+        }
         Some(ContactReport {
             body,
             other,
@@ -461,22 +471,26 @@ impl Health {
         }
         // Escape: per wall, how many bodies are entirely behind it (a count has no loop-carried
         // float dependency, unlike a running minimum); only when some are, which body.
+        // Bodies removed by a sink are out of the simulation and are not looked at.
         let (x, r) = (&world.state.position, &world.consts.radius);
+        let gone = &world.state.removed;
         let escaped = world.walls.iter().any(|w| {
             let (n, o) = (w.plane.normal, w.plane.offset);
             x.iter()
                 .zip(r)
-                .map(|(x, r)| (n.dot(*x) - o < -r) as u32)
+                .zip(gone)
+                .map(|((x, r), g)| (!g & (n.dot(*x) - o < -r)) as u32)
                 .sum::<u32>()
                 > 0
         });
         let escaped = escaped
             .then(|| {
                 (0..world.len()).find(|&i| {
-                    world
-                        .walls
-                        .iter()
-                        .any(|w| w.plane.normal.dot(x[i]) - w.plane.offset < -r[i])
+                    !gone[i]
+                        && world
+                            .walls
+                            .iter()
+                            .any(|w| w.plane.normal.dot(x[i]) - w.plane.offset < -r[i])
                 })
             })
             .flatten();

@@ -6,6 +6,8 @@
 //!   the contact [`law`]), **integrate**; the GPU backend (`clatter-gpu`) runs the same
 //!   stages under the same names.
 //! - [`contract`] defines the records and constants both backends share.
+//! - [`sink`]: boxes that remove the bodies entering them (counted, see
+//!   [`World::discharged`]).
 //! - [`scene`] reads scene files, [`checkpoint`] saves and restores runs, [`health`] finds
 //!   runs that blow up, [`vtk`] writes ParaView frames.
 
@@ -21,6 +23,7 @@ pub mod periodic;
 pub mod pile;
 pub mod scene;
 pub mod shape_spec;
+pub mod sink;
 pub mod step;
 pub mod vtk;
 pub mod world;
@@ -34,4 +37,5 @@ pub use contract::{BodyConsts, BodyState, ContactForce, PairParams};
 pub use health::{BlowUp, Health};
 pub use material::{Cohesion, ContactLaw, Material, Materials};
 pub use periodic::Periodic;
+pub use sink::{Discharged, Sink};
 pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};

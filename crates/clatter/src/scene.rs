@@ -14,6 +14,7 @@ use toml::Spanned;
 
 use crate::material::{Cohesion, ContactLaw, Material};
 use crate::periodic::Periodic;
+use crate::sink::Sink;
 use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
 use crate::world::{BodyInit, Wall, World, WorldDesc};
 use clatter_geom::narrow::Plane;
@@ -68,6 +69,8 @@ pub struct Scene {
     pub length: RunLength,
     /// Things that are legal but probably not meant (overlapping lattice, large dt...).
     pub warnings: Vec<String>,
+    /// `[[sink]]` boxes ([`crate::sink`]).
+    pub sinks: Vec<Sink>,
 }
 
 impl Scene {
@@ -100,7 +103,9 @@ impl Scene {
 
     /// The world, ready to step.
     pub fn world(&self) -> World {
-        World::new(self.desc.clone())
+        let mut w = World::new(self.desc.clone());
+        w.sinks.clone_from(&self.sinks);
+        w
     }
 
     /// Number of steps to run with time step `dt`.
@@ -263,6 +268,8 @@ struct RawScene {
     shape: Vec<Spanned<RawShape>>,
     #[serde(default)]
     wall: Vec<Spanned<RawWall>>,
+    #[serde(default)]
+    sink: Vec<Spanned<RawSink>>,
     container: Option<Spanned<RawContainer>>,
     #[serde(default)]
     body: Vec<Spanned<RawBody>>,
@@ -347,6 +354,13 @@ struct RawWall {
     point: Spanned<[f64; 3]>,
     normal: Spanned<[f64; 3]>,
     material: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSink {
+    min: Spanned<[f64; 3]>,
+    max: Spanned<[f64; 3]>,
 }
 
 #[derive(Deserialize)]
@@ -1034,6 +1048,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     if let Some((p, span)) = &periodic {
         check_periodic(cx, p, span.clone(), &walls, &bodies, &shapes, skin)?;
     }
+    let sinks = sinks(cx, &raw.sink, &walls, periodic.as_ref().map(|(p, _)| p))?;
     if let Some((lo, hi)) = container_bounds {
         let outside = bodies
             .iter()
@@ -1057,7 +1072,71 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         },
         length,
         warnings,
+        sinks,
     })
+}
+
+/// `[[sink]]`: boxes with finite corners, `min <= max`, that can catch something: a box
+/// entirely behind a wall plane, or entirely outside the periodic box along a periodic axis
+/// (positions are wrapped into it), is refused.
+fn sinks(
+    cx: &SourceFile,
+    raw: &[Spanned<RawSink>],
+    walls: &[Wall],
+    periodic: Option<&Periodic>,
+) -> Result<Vec<Sink>, SceneError> {
+    let mut out = Vec::new();
+    for (k, r) in raw.iter().enumerate() {
+        let r = r.get_ref();
+        let min = cx.vec3(&r.min, &format!("sink[{k}].min"))?;
+        let max = cx.vec3(&r.max, &format!("sink[{k}].max"))?;
+        if let Some(axis) = (0..3).find(|&a| min[a] > max[a]) {
+            return cx.err(
+                r.max.span(),
+                format!("sink[{k}].max"),
+                format!(
+                    "must not be below sink[{k}].min along {} ({} < {})",
+                    ["x", "y", "z"][axis],
+                    max[axis],
+                    min[axis]
+                ),
+            );
+        }
+        let sink = Sink { min, max };
+        for (w, wall) in walls.iter().enumerate() {
+            // The corner farthest in front of the wall: if even it is behind (or on) the
+            // plane, no body centre can ever be in the box.
+            let n = wall.plane.normal;
+            let far = Vec3::select(n.cmpge(Vec3::ZERO), max, min);
+            if n.dot(far) - wall.plane.offset <= 0.0 {
+                return cx.err(
+                    r.min.span(),
+                    format!("sink[{k}]"),
+                    format!(
+                        "the box [{min}, {max}] lies entirely behind wall {w} (normal {n}): no body can ever enter it"
+                    ),
+                );
+            }
+        }
+        if let Some(p) = periodic {
+            for a in (0..3).filter(|&a| p.axes[a]) {
+                if max[a] < p.min[a] || min[a] >= p.max[a] {
+                    return cx.err(
+                        r.min.span(),
+                        format!("sink[{k}]"),
+                        format!(
+                            "the box [{min}, {max}] lies outside the periodic box along {} ([{}, {})): positions are wrapped into it, so no body can ever enter the sink",
+                            ["x", "y", "z"][a],
+                            p.min[a],
+                            p.max[a]
+                        ),
+                    );
+                }
+            }
+        }
+        out.push(sink);
+    }
+    Ok(out)
 }
 
 /// `[simulation] periodic = { min, max, axes }`.

@@ -228,7 +228,8 @@ pub fn base64(bytes: &[u8]) -> String {
 fn body_arrays(world: &World, repeat: impl Fn(usize) -> usize) -> Vec<Array> {
     let n = world.len();
     let counts = world.contacts.counts(n);
-    let each = |i: usize| std::iter::repeat_n(i, repeat(i));
+    // Bodies removed by a sink are left out (repeated 0 times).
+    let each = |i: usize| std::iter::repeat_n(i, if world.is_removed(i) { 0 } else { repeat(i) });
     let bodies = || (0..n).flat_map(each);
     let rotation = |i: usize| {
         let m = glam::Mat3::from_quat(world.user_orientation(i));
@@ -269,13 +270,12 @@ fn body_arrays(world: &World, repeat: impl Fn(usize) -> usize) -> Vec<Array> {
     ]
 }
 
-/// Writes the bodies of `world` at its current step.
+/// Writes the bodies of `world` at its current step (not those removed by a sink; the `id`
+/// array keeps every body's index).
 pub fn write_bodies(path: &Path, world: &World) -> std::io::Result<()> {
-    let points: Vec<f32> = world
-        .state
-        .position
-        .iter()
-        .flat_map(|p| p.to_array())
+    let points: Vec<f32> = (0..world.len())
+        .filter(|&i| !world.is_removed(i))
+        .flat_map(|i| world.state.position[i].to_array())
         .collect();
     let arrays = body_arrays(world, |_| 1);
     write_vtu(
@@ -319,7 +319,7 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
         offsets: Vec::new(),
         types: Vec::new(),
     };
-    for i in 0..n {
+    for i in (0..n).filter(|&i| !world.is_removed(i)) {
         let pose = world.pose(i);
         let base = (points.len() / 3) as i32;
         let face = |loop_: &mut dyn Iterator<Item = u32>, cells: &mut Cells| {

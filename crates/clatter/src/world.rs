@@ -9,6 +9,7 @@ use crate::contacts::{ContactState, Contacts};
 use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
 use crate::periodic::Periodic;
+use crate::sink::{Discharged, Sink};
 use crate::step;
 use clatter_geom::narrow::Plane;
 use clatter_geom::{Pose, PreparedShape, Shape};
@@ -84,6 +85,9 @@ pub struct World {
     pub walls: Vec<Wall>,
     /// Periodic boundaries, if any (positions are kept wrapped into its box).
     pub periodic: Option<Periodic>,
+    /// Sink boxes: a body whose centre enters one is removed ([`crate::sink`]). Set after
+    /// [`World::new`] (the scene loader does, from `[[sink]]`).
+    pub sinks: Vec<Sink>,
     /// Gravity, m/s^2.
     pub gravity: Vec3,
     /// Time step, s.
@@ -146,6 +150,7 @@ impl World {
                 .push((3.0 * shape.volume / (4.0 * std::f32::consts::PI)).cbrt());
         }
         state.orientation_residual = vec![Quat::from_xyzw(0.0, 0.0, 0.0, 0.0); n];
+        state.removed = vec![false; n];
         let spheres_only = consts.is_sphere.iter().all(|&s| s);
         let skin = desc.skin.unwrap_or(0.2 * consts.max_radius());
         let mut w = World {
@@ -153,6 +158,7 @@ impl World {
             materials,
             walls: desc.walls,
             periodic: desc.periodic,
+            sinks: Vec::new(),
             gravity: desc.gravity,
             dt: 0.0,
             skin,
@@ -304,8 +310,30 @@ impl World {
         &self.shapes[self.consts.shape[i] as usize].shape
     }
 
-    /// Body `i`'s kinetic energy, translational plus rotational, J.
+    /// Whether body `i` has been removed by a sink.
+    #[inline]
+    pub fn is_removed(&self, i: usize) -> bool {
+        self.state.removed[i]
+    }
+
+    /// The bodies removed by sinks so far: how many, and their mass summed in f64 in body
+    /// order (exact, the same on every backend and thread count).
+    pub fn discharged(&self) -> Discharged {
+        let mut d = Discharged::default();
+        for i in 0..self.len() {
+            if self.state.removed[i] {
+                d.count += 1;
+                d.mass += self.consts.mass[i] as f64;
+            }
+        }
+        d
+    }
+
+    /// Body `i`'s kinetic energy, translational plus rotational, J (0 for a removed body).
     pub fn body_kinetic_energy(&self, i: usize) -> f64 {
+        if self.state.removed[i] {
+            return 0.0;
+        }
         let v = self.state.velocity[i];
         0.5 * self.consts.mass[i] as f64 * v.length_squared() as f64
             + 0.5 * self.state.omega[i].dot(self.state.angular_momentum[i]) as f64
@@ -316,7 +344,9 @@ impl World {
         (0..self.len()).map(|i| self.body_kinetic_energy(i)).sum()
     }
 
-    /// Total gravitational potential energy relative to the origin, J.
+    /// Total gravitational potential energy relative to the origin, J. Removed bodies count
+    /// where they were removed (a constant), so that taking a body out never looks like
+    /// energy appearing to the blow-up checks.
     pub fn potential_energy(&self) -> f64 {
         (0..self.len())
             .map(|i| {
@@ -325,10 +355,13 @@ impl World {
             .sum()
     }
 
-    /// Total linear momentum, kg m/s (summed in f64).
+    /// Total linear momentum of the bodies still in the simulation, kg m/s (summed in f64).
     pub fn momentum(&self) -> [f64; 3] {
         let mut p = [0.0f64; 3];
         for i in 0..self.len() {
+            if self.state.removed[i] {
+                continue;
+            }
             let m = self.state.velocity[i] * self.consts.mass[i];
             p[0] += m.x as f64;
             p[1] += m.y as f64;
@@ -431,6 +464,14 @@ impl World {
         }
         let nw = self.walls.len();
         let wall_pairs = step::broad::wall_candidates(self, &state.rebuild_position);
+        // Pairs of a body removed since the list was built (the next step rebuilds without
+        // them) are dropped now: the list then is what the broad phase finds at
+        // `rebuild_position` for the bodies still in, as after a checkpoint restore.
+        let state = if self.state.removed.iter().any(|&r| r) {
+            drop_removed_pairs(state, &self.state.removed)
+        } else {
+            state
+        };
         let mut history = state.history;
         let mut twist = state.twist;
         for &[i, w] in &wall_pairs {
@@ -472,4 +513,26 @@ impl World {
             omega: self.state.omega[i],
         }
     }
+}
+
+/// `state` without the body pairs that involve a removed body.
+fn drop_removed_pairs(mut state: ContactState, removed: &[bool]) -> ContactState {
+    let keep: Vec<bool> = state
+        .pairs
+        .iter()
+        .map(|&[i, j]| !(removed[i as usize] || removed[j as usize]))
+        .collect();
+    fn select<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
+        v.iter()
+            .zip(keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| *x)
+            .collect()
+    }
+    state.pairs = select(&state.pairs, &keep);
+    state.history = select(&state.history, &keep);
+    state.twist = select(&state.twist, &keep);
+    state.touching = select(&state.touching, &keep);
+    state.forces = select(&state.forces, &keep);
+    state
 }

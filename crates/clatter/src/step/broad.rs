@@ -197,7 +197,13 @@ pub(crate) fn rebuild(world: &mut World) {
     let positions = &world.state.position;
     let radii = &world.consts.radius;
     let grid = Grid::around(positions, 2.0 * world.consts.max_radius() + world.skin);
-    let pairs = pairs_periodic(&grid, positions, radii, world.skin, world.periodic.as_ref());
+    let mut pairs = pairs_periodic(&grid, positions, radii, world.skin, world.periodic.as_ref());
+    // Bodies removed by a sink are binned as any other (the grid does not depend on them
+    // being in) but take part in no pair.
+    let removed = &world.state.removed;
+    if removed.iter().any(|&r| r) {
+        pairs.retain(|&[i, j]| !(removed[i as usize] || removed[j as usize]));
+    }
     let wall_pairs = wall_candidates(world, positions);
     let old = &world.contacts;
     let np_old = old.pairs.len();
@@ -220,11 +226,14 @@ pub(crate) fn rebuild(world: &mut World) {
     world.install_contacts(contacts);
 }
 
-/// Wall candidates: `(body, wall)` for the bodies whose bounding sphere at `positions` comes
-/// within the skin of a wall, sorted.
+/// Wall candidates: `(body, wall)` for the bodies (not removed by a sink) whose bounding
+/// sphere at `positions` comes within the skin of a wall, sorted.
 pub(crate) fn wall_candidates(world: &World, positions: &[Vec3]) -> Vec<[u32; 2]> {
     let mut wall_pairs = Vec::new();
     for (i, p) in positions.iter().enumerate() {
+        if world.state.removed[i] {
+            continue;
+        }
         for (w, wall) in world.walls.iter().enumerate() {
             let h = wall.plane.normal.dot(*p) - wall.plane.offset;
             if h < world.consts.radius[i] + world.skin {

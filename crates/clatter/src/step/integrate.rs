@@ -1,12 +1,15 @@
 //! Stage 3 of the step, **integrate**: each body's contact forces and torques gathered in
 //! contact order (a fixed order: no atomics, action equals reaction exactly), then
 //! semi-implicit Euler for the translation and the angular momentum, and a compensated
-//! quaternion update for the orientation.
+//! quaternion update for the orientation. Then the sink test: a body whose centre is inside
+//! a sink after the update is removed (and asks for a rebuild, which drops its pairs);
+//! removed bodies are skipped.
 
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
 
 use super::CHUNK;
+use crate::sink::in_any;
 use crate::world::World;
 
 /// How far the bodies moved since the last rebuild.
@@ -24,6 +27,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
     let consts = &world.consts;
     let rebuild_position = &world.rebuild_position;
     let periodic = world.periodic;
+    let sinks = &world.sinks;
     let s = &mut world.state;
     // Chunks of bodies, one task each; the loop body sees plain slices.
     let worst = s
@@ -34,11 +38,15 @@ pub(crate) fn run(world: &mut World) -> Moved {
         .zip(s.angular_momentum.par_chunks_mut(CHUNK))
         .zip(s.omega.par_chunks_mut(CHUNK))
         .zip(s.orientation_residual.par_chunks_mut(CHUNK))
+        .zip(s.removed.par_chunks_mut(CHUNK))
         .enumerate()
-        .map(|(chunk, (((((xs, vs), qs), ls), ws), rs))| {
+        .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
             let mut worst = 0.0f32;
             for k in 0..xs.len() {
                 let i = chunk * CHUNK + k;
+                if gone[k] {
+                    continue;
+                }
                 let (f, t) = contacts.gather(i);
                 let v = &mut vs[k];
                 let x = &mut xs[k];
@@ -60,6 +68,14 @@ pub(crate) fn run(world: &mut World) -> Moved {
                     d2
                 } else {
                     f32::INFINITY
+                };
+                // A removed body asks for a rebuild (which drops its pairs) with the
+                // largest finite distance.
+                let d2 = if d2.is_finite() && in_any(sinks, *x) {
+                    gone[k] = true;
+                    f32::MAX
+                } else {
+                    d2
                 };
                 worst = if d2 > worst { d2 } else { worst };
             }
