@@ -63,7 +63,13 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
     let i = thread_index(wid, nwg, lid);
     var a = vec4<f32>(0.0);
     var pz = 0.0;
-    if i < params.n {
+    if i < params.n && bodies[i].position.w != 0.0 {
+        // Removed by a sink: only its (constant) potential energy counts, as on the CPU.
+        let s = bodies[i];
+        let m = statics[i].mass;
+        a = vec4<f32>(0.0, -m * dot(params.gravity.xyz, s.position.xyz - health_params.reference.xyz),
+                      0.0, 0.0);
+    } else if i < params.n {
         let s = bodies[i];
         let m = statics[i].mass;
         let v = s.velocity.xyz;

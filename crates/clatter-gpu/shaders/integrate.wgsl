@@ -3,7 +3,9 @@
 // then walls; no float atomics), then semi-implicit Euler and the compensated quaternion
 // update. Wall contacts (contacts.wgsl `wall_contact`) are computed here, where they are
 // summed, saving a second read of every body. Flags a rebuild once a body has moved half the
-// skin; a non-finite state stops the pipeline.
+// skin; a non-finite state stops the pipeline. Then the sink test (crates/clatter/src/sink.rs):
+// a body whose centre is inside a sink's closed box is removed (`position.w` = 1) and asks
+// for a rebuild, which drops its pairs; removed bodies are skipped.
 
 @compute @workgroup_size(256)
 fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
@@ -19,8 +21,23 @@ fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg
     add_status_wg(lid, ST_TOUCHING, touched);
 }
 
+// Whether `x` is inside a sink's closed box (the sinks' corners follow the walls).
+fn in_sink(x: vec3<f32>) -> bool {
+    for (var k = 0u; k < params.num_sinks; k++) {
+        let lo = walls[params.num_walls + 2u * k].plane.xyz;
+        let hi = walls[params.num_walls + 2u * k + 1u].plane.xyz;
+        if all(x >= lo) && all(x <= hi) {
+            return true;
+        }
+    }
+    return false;
+}
+
 // Body i: wall contacts, gather, update. Returns the number of walls it touches.
 fn integrate_body(i: u32) -> u32 {
+    if bodies[i].position.w != 0.0 {
+        return 0u; // removed by a sink
+    }
     var touched = 0u;
     var f = vec3<f32>(0.0);
     var t = vec3<f32>(0.0);
@@ -75,7 +92,8 @@ fn integrate_body(i: u32) -> u32 {
         qn = q2 * (1.5 - 0.5 * n2);
     }
     let xw = periodic_wrap(x);
-    b.position = vec4<f32>(xw, 0.0);
+    let removed = in_sink(xw);
+    b.position = vec4<f32>(xw, select(0.0, 1.0, removed));
     b.velocity = vec4<f32>(v, 0.0);
     b.angular_momentum = vec4<f32>(l, 0.0);
     b.omega = vec4<f32>(w, 0.0);
@@ -88,7 +106,7 @@ fn integrate_body(i: u32) -> u32 {
     let finite = d2 <= 3.0e38 && abs(qn.w) <= 3.0e38 && all(abs(v) <= vec3<f32>(3.0e38));
     if !finite {
         atomicMin(&status[ST_BAD_BODY], i);
-    } else if d2 > params.half_skin2 {
+    } else if d2 > params.half_skin2 || removed {
         atomicStore(&status[ST_REBUILD], 1u);
     }
     return touched;

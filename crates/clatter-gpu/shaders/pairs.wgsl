@@ -9,6 +9,10 @@
 // cell order; counts them, and with `write` also inserts each pair, sorted by j, into
 // new_pairs from new_a_start[i] on.
 fn scan_candidates(i: u32, write: bool) -> u32 {
+    // A body removed by a sink (position.w != 0) takes part in no pair.
+    if bodies[i].position.w != 0.0 {
+        return 0u;
+    }
     let xi = bodies[i].position.xyz;
     let ri = statics[i].radius;
     var s0 = 0u;
@@ -59,7 +63,7 @@ fn scan_cells(i: u32, pi: vec3<f32>, ri: f32, write: bool, first: u32) -> u32 {
             let e = cell_start[row + hi.x + 1u];
             for (var k = s; k < e; k++) {
                 let j = sorted[k];
-                if j > i {
+                if j > i && bodies[j].position.w == 0.0 {
                     let reach = ri + statics[j].radius + params.skin;
                     let d = bodies[j].position.xyz - pi;
                     if dot(d, d) < reach * reach {

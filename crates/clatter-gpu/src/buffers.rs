@@ -35,8 +35,8 @@ pub enum Count {
     Pairs,
     /// Materials squared.
     MaterialPairs,
-    /// Walls.
-    Walls,
+    /// Walls plus two per sink (its corners, see `Params::num_sinks`).
+    WallsAndSinks,
     /// Bodies times walls.
     WallSlots,
     /// The energy log's slots plus one per workgroup of bodies.
@@ -75,6 +75,8 @@ pub struct Dims {
     pub materials: u64,
     /// Walls.
     pub walls: u64,
+    /// Sink boxes.
+    pub sinks: u64,
 }
 
 impl Binding {
@@ -88,7 +90,7 @@ impl Binding {
             Count::CellsPlusOne => d.cells + 1,
             Count::Pairs => d.pairs,
             Count::MaterialPairs => d.materials * d.materials,
-            Count::Walls => d.walls,
+            Count::WallsAndSinks => d.walls + 2 * d.sinks,
             Count::WallSlots => d.bodies * d.walls,
             Count::HealthSlots => {
                 crate::layout::HEALTH_LOG as u64 + d.bodies.div_ceil(crate::layout::WG as u64)
@@ -139,7 +141,7 @@ buffers! {
     /// The contact law's parameters per material pair.
     PairTable = "pair_table", Read, "array<PairParams>", size_of::<PairParams>(), MaterialPairs;
     /// Wall planes.
-    Walls = "walls", Read, "array<WallRecord>", size_of::<WallRecord>(), Walls;
+    Walls = "walls", Read, "array<WallRecord>", size_of::<WallRecord>(), WallsAndSinks;
     /// Status words (`layout::status`).
     Status = "status", ReadWrite, "array<atomic<u32>>", 4, StatusWords;
     /// The grid of the last rebuild.

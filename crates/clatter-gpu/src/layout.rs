@@ -45,6 +45,16 @@ clatter::gpu_record! {
         pub periodic_min: [f32; 4],
         /// Periodic box length per axis, 0 along non-periodic axes (w unused).
         pub periodic_len: [f32; 4],
+        /// Number of sink boxes: their corners follow the walls in the `walls` buffer
+        /// (`walls[num_walls + 2k].plane.xyz` = min, `walls[num_walls + 2k + 1].plane.xyz` =
+        /// max), so they need no buffer of their own.
+        pub num_sinks: u32,
+        /// Unused.
+        pub pad0: u32,
+        /// Unused.
+        pub pad1: u32,
+        /// Unused.
+        pub pad2: u32,
     }
 }
 

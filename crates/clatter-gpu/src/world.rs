@@ -150,6 +150,8 @@ impl GpuWorld {
                 let l = p.length();
                 [l.x, l.y, l.z, 0.0]
             }),
+            num_sinks: world.sinks.len() as u32,
+            ..Default::default()
         };
         let device = &ctx.device;
         let compiled = Compiled::get(&ctx)?;
@@ -157,7 +159,16 @@ impl GpuWorld {
         let states: Vec<BodyState> = (0..world.len()).map(|i| world.state.record(i)).collect();
         let statics: Vec<BodyConsts> = (0..world.len()).map(|i| world.consts.record(i)).collect();
         let table = world.materials.table();
-        let walls: Vec<WallRecord> = world.walls.iter().map(WallRecord::from).collect();
+        // The walls, then each sink's corners (min, max) as two records.
+        let mut walls: Vec<WallRecord> = world.walls.iter().map(WallRecord::from).collect();
+        for k in &world.sinks {
+            for c in [k.min, k.max] {
+                walls.push(WallRecord {
+                    plane: [c.x, c.y, c.z, 0.0],
+                    ..Default::default()
+                });
+            }
+        }
         // Contacts carried from the world (a resumed run): the old list that the first
         // rebuild carries springs from.
         let nb = world.len() as u64;
@@ -200,6 +211,7 @@ impl GpuWorld {
             pairs: capacity,
             materials: world.materials.len() as u64,
             walls: num_walls as u64,
+            sinks: world.sinks.len() as u64,
         };
         let bytes = |b: &[u8]| Some(b.to_vec());
         let bufs = Buffers::new(device, &dims, |b| match b {

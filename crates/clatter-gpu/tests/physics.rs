@@ -120,3 +120,6 @@ mod periodic;
 
 #[path = "../../clatter/tests/hertz_mindlin.rs"]
 mod hertz_mindlin;
+
+#[path = "../../clatter/tests/sinks.rs"]
+mod sinks;

@@ -48,7 +48,8 @@ fn vs_body(
     let state = bodies[b];
     let style = styles[b];
     let touching = style.w > 0.5;
-    if frame.only_contacts == 1u && !touching {
+    // position.w != 0: removed by a sink (crates/clatter/src/sink.rs), not drawn.
+    if (frame.only_contacts == 1u && !touching) || state.position.w != 0.0 {
         // Every vertex at one point outside the clip volume: the triangles vanish.
         out.clip = vec4<f32>(0.0, 0.0, -2.0, 1.0);
         out.normal = vec3<f32>(0.0, 0.0, 1.0);

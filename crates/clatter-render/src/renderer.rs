@@ -521,7 +521,8 @@ impl Renderer {
                 vmax = vmax.max(speed);
             }
             records.push(BodyState {
-                position: [x.x, x.y, x.z, 0.0],
+                // w = 1: removed by a sink, not drawn (as in the simulation's own buffer).
+                position: [x.x, x.y, x.z, if world.is_removed(i) { 1.0 } else { 0.0 }],
                 velocity: [v.x, v.y, v.z, 0.0],
                 orientation: q.to_array(),
                 ..Default::default()
