@@ -11,6 +11,7 @@
 //! - [`scene`] reads scene files, [`checkpoint`] saves and restores runs, [`health`] finds
 //!   runs that blow up, [`vtk`] writes ParaView frames.
 
+pub mod analysis;
 pub mod bodies;
 pub mod checkpoint;
 pub mod contacts;

@@ -1,0 +1,138 @@
+#!/usr/bin/env python3
+"""Writes the triangle meshes of the example equipment (scenes/meshes/, docs/equipment.md) as
+ASCII STL, with the standard library only.
+
+    python3 scripts/make_meshes.py                  # the default set into scenes/meshes/
+    python3 scripts/make_meshes.py silo --orifice 0.012 --out scenes/meshes/silo_D12.stl
+
+Meshes (units: m; z up; every triangle is wound counter-clockwise seen from the side the
+bodies are on, and its facet normal points there, into the equipment):
+
+- silo: a flat-bottomed square silo, side `width`, walls `height` high, standing on z = 0,
+  centred on the z axis, with a central square orifice of side `orifice` in its floor.
+- plate: a square plate of side `size` at height `z`, facing up: it closes the orifice from
+  below until it slides away (the scene's `motion` with a `start` time).
+- drum: a closed cylinder of radius `radius` and length `length` around the y axis, centred
+  at the origin, with its two end caps, `segments` facets around.
+"""
+
+import argparse
+import math
+import os
+import sys
+
+
+def quad(a, b, c, d):
+    """Two triangles of the planar quad a-b-c-d (counter-clockwise seen from its front)."""
+    return [(a, b, c), (a, c, d)]
+
+
+def normal(t):
+    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = t
+    ux, uy, uz = bx - ax, by - ay, bz - az
+    vx, vy, vz = cx - ax, cy - ay, cz - az
+    n = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
+    length = math.sqrt(sum(x * x for x in n))
+    return tuple(x / length for x in n)
+
+
+def silo(width, height, orifice):
+    """Floor with a square hole (four quads around it) and four inward-facing walls."""
+    if not 0 < orifice < width:
+        raise ValueError(f"the orifice ({orifice}) must be narrower than the silo ({width})")
+    w, o = width / 2, orifice / 2
+    tris = []
+    # Floor at z = 0, facing up, as four strips around the orifice.
+    tris += quad((-w, -w, 0), (w, -w, 0), (w, -o, 0), (-w, -o, 0))
+    tris += quad((-w, o, 0), (w, o, 0), (w, w, 0), (-w, w, 0))
+    tris += quad((-w, -o, 0), (-o, -o, 0), (-o, o, 0), (-w, o, 0))
+    tris += quad((o, -o, 0), (w, -o, 0), (w, o, 0), (o, o, 0))
+    h = height
+    # Walls facing inwards.
+    tris += quad((-w, -w, 0), (-w, w, 0), (-w, w, h), (-w, -w, h))  # x = -w, normal +x
+    tris += quad((w, w, 0), (w, -w, 0), (w, -w, h), (w, w, h))  # x = +w, normal -x
+    tris += quad((w, -w, 0), (-w, -w, 0), (-w, -w, h), (w, -w, h))  # y = -w, normal +y
+    tris += quad((-w, w, 0), (w, w, 0), (w, w, h), (-w, w, h))  # y = +w, normal -y
+    return tris
+
+
+def plate(size, z):
+    """A square facing up at height z."""
+    s = size / 2
+    return quad((-s, -s, z), (s, -s, z), (s, s, z), (-s, s, z))
+
+
+def drum(radius, length, segments):
+    """Mantle and end caps of a cylinder around the y axis, facing inwards."""
+    tris = []
+    y0, y1 = -length / 2, length / 2
+    ring = [
+        (radius * math.cos(2 * math.pi * k / segments), radius * math.sin(2 * math.pi * k / segments))
+        for k in range(segments)
+    ]
+    for k in range(segments):
+        (x0, z0), (x1, z1) = ring[k], ring[(k + 1) % segments]
+        # Mantle, normal towards the axis.
+        tris += quad((x0, y0, z0), (x1, y0, z1), (x1, y1, z1), (x0, y1, z0))
+        # Caps: y = y0 faces +y, y = y1 faces -y.
+        tris.append(((0, y0, 0), (x1, y0, z1), (x0, y0, z0)))
+        tris.append(((0, y1, 0), (x0, y1, z0), (x1, y1, z1)))
+    return tris
+
+
+def write_stl(path, name, tris):
+    os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+    with open(path, "w") as f:
+        f.write(f"solid {name}\n")
+        for t in tris:
+            n = normal(t)
+            f.write(f"  facet normal {n[0]:.9g} {n[1]:.9g} {n[2]:.9g}\n    outer loop\n")
+            for v in t:
+                f.write(f"      vertex {v[0]:.9g} {v[1]:.9g} {v[2]:.9g}\n")
+            f.write("    endloop\n  endfacet\n")
+        f.write(f"endsolid {name}\n")
+
+
+# The default set: the hopper's silo and plate, and the drum (docs/equipment.md).
+DEFAULTS = {
+    "hopper_silo.stl": lambda: silo(width=0.08, height=0.16, orifice=0.016),
+    "hopper_plate.stl": lambda: plate(size=0.03, z=-0.0005),
+    "drum.stl": lambda: drum(radius=0.05, length=0.03, segments=48),
+}
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="kind")
+    s = sub.add_parser("silo")
+    s.add_argument("--width", type=float, default=0.08)
+    s.add_argument("--height", type=float, default=0.16)
+    s.add_argument("--orifice", type=float, default=0.016)
+    s.add_argument("--out", required=True)
+    pl = sub.add_parser("plate")
+    pl.add_argument("--size", type=float, default=0.03)
+    pl.add_argument("--z", type=float, default=-0.0005)
+    pl.add_argument("--out", required=True)
+    d = sub.add_parser("drum")
+    d.add_argument("--radius", type=float, default=0.05)
+    d.add_argument("--length", type=float, default=0.03)
+    d.add_argument("--segments", type=int, default=48)
+    d.add_argument("--out", required=True)
+    a = p.parse_args(argv)
+    if a.kind is None:
+        here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scenes", "meshes")
+        for name, make in DEFAULTS.items():
+            write_stl(os.path.join(here, name), name[:-4], make())
+            print(os.path.normpath(os.path.join(here, name)))
+        return
+    if a.kind == "silo":
+        tris = silo(a.width, a.height, a.orifice)
+    elif a.kind == "plate":
+        tris = plate(a.size, a.z)
+    else:
+        tris = drum(a.radius, a.length, a.segments)
+    write_stl(a.out, a.kind, tris)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
