@@ -154,7 +154,10 @@ impl DischargeSeries {
         writeln!(
             self.file.writer(),
             "{},{},{},{}",
-            world.step_count, world.time, d.count, d.mass
+            world.step_count,
+            world.time,
+            d.count,
+            d.mass
         )?;
         self.last = Some(world.step_count);
         Ok(())

@@ -158,7 +158,7 @@ mod tests {
 
     #[test]
     fn beverloo_constants_are_recovered() {
-        let (c, k, rho, g, d) = (0.58, 1.5, 1500.0, 9.81, 0.002);
+        let (c, k, rho, g, d): (f64, f64, f64, f64, f64) = (0.58, 1.5, 1500.0, 9.81, 0.002);
         // Four orifices, D/d from 5 to 15, rates with 1% noise.
         let mut seed = 7;
         let points: Vec<(f64, f64)> = [5.0, 8.0, 11.0, 15.0]

@@ -554,10 +554,7 @@ fn read_removed(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErro
 }
 
 /// The stored contact list without the contacts of removed bodies.
-fn without_removed(
-    st: &State,
-    removed: &[bool],
-) -> (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings) {
+fn without_removed(st: &State, removed: &[bool]) -> (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings) {
     let np = st.pairs.len();
     let keep: Vec<bool> = st
         .pairs

@@ -79,7 +79,9 @@ fn contact_report(world: &World, k: usize) -> Option<ContactReport> {
     }
     let (body, other) = world.contacts.partners(k);
     // A body removed by a sink in the last step is still in the list until the rebuild.
-    if world.is_removed(body as usize) || matches!(other, Partner::Body(j) if world.is_removed(j as usize)) {
+    if world.is_removed(body as usize)
+        || matches!(other, Partner::Body(j) if world.is_removed(j as usize))
+    {
         return None;
     }
     Some(ContactReport {

@@ -14,8 +14,8 @@ use toml::Spanned;
 
 use crate::material::{Cohesion, ContactLaw, Material};
 use crate::periodic::Periodic;
-use crate::sink::Sink;
 use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
+use crate::sink::Sink;
 use crate::world::{BodyInit, Wall, World, WorldDesc};
 use clatter_geom::narrow::Plane;
 use clatter_geom::{GeomError, PreparedShape};

@@ -162,9 +162,8 @@ fn sink_error(sink: &str, periodic: bool) -> String {
 
 #[test]
 fn bad_sinks_are_refused_with_file_line_and_field() {
-    let line_of = |needle: &str, text: &str| {
-        text[..text.find(needle).unwrap()].matches('\n').count() + 1
-    };
+    let line_of =
+        |needle: &str, text: &str| text[..text.find(needle).unwrap()].matches('\n').count() + 1;
     let cases = [
         (
             "[[sink]]\nmin = [0.0, 0.0, 0.02]\nmax = [0.03, 0.06, 0.01]\n",
@@ -205,7 +204,9 @@ fn bad_sinks_are_refused_with_file_line_and_field() {
         true,
     );
     assert!(
-        msg.starts_with("bad.toml:") && msg.contains("`sink[0]`") && msg.contains("periodic box along x"),
+        msg.starts_with("bad.toml:")
+            && msg.contains("`sink[0]`")
+            && msg.contains("periodic box along x"),
         "{msg}"
     );
 }

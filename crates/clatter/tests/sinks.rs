@@ -83,14 +83,20 @@ fn dropped_bodies_enter_the_sink_at_the_free_fall_time() {
                 }
             } else {
                 assert!(frozen[i].is_none(), "body {i} came back at step {s}");
-                assert!(w.state.position[i].z > 0.0, "body {i} is below the sink's top");
+                assert!(
+                    w.state.position[i].z > 0.0,
+                    "body {i} is below the sink's top"
+                );
             }
         }
         assert_eq!(
             d.count,
             removed_at.iter().filter(|r| r.is_some()).count() as u64
         );
-        assert_eq!(d.mass, expect_mass, "the mass is the sum of the removed masses");
+        assert_eq!(
+            d.mass, expect_mass,
+            "the mass is the sum of the removed masses"
+        );
     }
     for (i, h) in HEIGHTS.iter().enumerate() {
         let t = (2.0 * h / G).sqrt();
@@ -116,7 +122,10 @@ fn stack(sink: bool) -> World {
     let zb = R - 2.0 * m * G / k;
     let za = zb + 2.0 * R - m * G / k;
     let sink = if sink {
-        format!("[[sink]]\nmin = [-{R}, -{R}, 0.0]\nmax = [{R}, {R}, {}]\n", 1.5 * R)
+        format!(
+            "[[sink]]\nmin = [-{R}, -{R}, 0.0]\nmax = [{R}, {R}, {}]\n",
+            1.5 * R
+        )
     } else {
         String::new()
     };
@@ -185,7 +194,10 @@ fn a_body_resting_on_a_removed_one_falls_freely() {
     let z = w.state.position[1].z as f64;
     // Semi-implicit Euler in free fall: v_k = v_1 - g k dt, z_k = z_1 + k v_1 dt - g dt^2 k(k+1)/2.
     let kf = k as f64;
-    assert!((v - (v1 - G * kf * dt)).abs() < 1e-4 * G * kf * dt, "v = {v}");
+    assert!(
+        (v - (v1 - G * kf * dt)).abs() < 1e-4 * G * kf * dt,
+        "v = {v}"
+    );
     let z_free = z1 + kf * v1 * dt - G * dt * dt * kf * (kf + 1.0) / 2.0;
     assert!((z - z_free).abs() < 1e-6, "z = {z}, free fall {z_free}");
     // A falls freely through B's frozen place (B exerts no force) into the same sink: at the
@@ -205,5 +217,9 @@ fn a_body_resting_on_a_removed_one_falls_freely() {
         "A removed {k_removed} steps after B, free fall says {expected}"
     );
     assert_eq!(w.discharged().count, 2);
-    assert_eq!(b, (w.state.position[0], w.state.velocity[0]), "B stays frozen");
+    assert_eq!(
+        b,
+        (w.state.position[0], w.state.velocity[0]),
+        "B stays frozen"
+    );
 }
