@@ -95,8 +95,8 @@ def write_stl(path, name, tris):
 
 # The default set: the hopper's silo and plate, and the drum (docs/equipment.md).
 DEFAULTS = {
-    "hopper_silo.stl": lambda: silo(width=0.08, height=0.16, orifice=0.016),
-    "hopper_plate.stl": lambda: plate(size=0.03, z=-0.0005),
+    "hopper_silo.stl": lambda: silo(width=0.05, height=0.12, orifice=0.02),
+    "hopper_plate.stl": lambda: plate(size=0.03, z=-0.001),
     "drum.stl": lambda: drum(radius=0.05, length=0.03, segments=48),
 }
 
@@ -105,13 +105,13 @@ def main(argv):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="kind")
     s = sub.add_parser("silo")
-    s.add_argument("--width", type=float, default=0.08)
-    s.add_argument("--height", type=float, default=0.16)
-    s.add_argument("--orifice", type=float, default=0.016)
+    s.add_argument("--width", type=float, default=0.05)
+    s.add_argument("--height", type=float, default=0.12)
+    s.add_argument("--orifice", type=float, default=0.02)
     s.add_argument("--out", required=True)
     pl = sub.add_parser("plate")
     pl.add_argument("--size", type=float, default=0.03)
-    pl.add_argument("--z", type=float, default=-0.0005)
+    pl.add_argument("--z", type=float, default=-0.001)
     pl.add_argument("--out", required=True)
     d = sub.add_parser("drum")
     d.add_argument("--radius", type=float, default=0.05)

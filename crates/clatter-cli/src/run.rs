@@ -399,6 +399,7 @@ struct Series {
     trace: Option<AtomicFile>,
     bodies: Option<vtk::Pvd>,
     shapes: Option<vtk::Pvd>,
+    boundaries: Option<vtk::Pvd>,
     contacts: Option<vtk::Pvd>,
     last_frame: Option<u64>,
 }
@@ -422,6 +423,11 @@ impl Series {
         if let Some(pvd) = &mut self.shapes {
             let name = format!("shapes_{step:06}.vtu");
             vtk::write_shapes(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        if let Some(pvd) = &mut self.boundaries {
+            let name = format!("boundaries_{step:06}.vtu");
+            vtk::write_boundaries(&dir.join(&name), world)?;
             pvd.push(step, world.time, name)?;
         }
         if let Some(pvd) = &mut self.contacts {
@@ -486,6 +492,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         trace: None,
         bodies: None,
         shapes: None,
+        boundaries: None,
         contacts: None,
         last_frame: None,
     };
@@ -504,6 +511,9 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         if plan.vtk {
             series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
             series.shapes = Some(vtk::Pvd::continuing(&dir.join("shapes.pvd"), start));
+            if !world.boundaries.is_empty() {
+                series.boundaries = Some(vtk::Pvd::continuing(&dir.join("boundaries.pvd"), start));
+            }
             if plan.contacts {
                 series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
             }

@@ -13,6 +13,7 @@ pub mod polyhedron;
 pub mod query;
 mod reduce;
 pub mod shape;
+pub mod triangle;
 
 pub use hull::convex_hull;
 pub use mass::MassProperties;

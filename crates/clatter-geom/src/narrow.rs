@@ -285,6 +285,12 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
     }
 }
 
+/// A manifold of at most four of the patch points `(point, depth)` with `normal` (the
+/// same reduction as the narrow phase's: deepest point, then the widest support polygon).
+pub fn patch(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
+    reduce(pts, normal)
+}
+
 /// Keeps at most four points of a contact patch (see [`crate::reduce::reduce`]).
 fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
     let (idx, count) = crate::reduce::reduce(pts, normal);

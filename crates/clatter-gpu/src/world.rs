@@ -120,6 +120,13 @@ impl GpuWorld {
     /// Uploads `world` (bodies, shapes, materials, walls and its contact springs) and builds
     /// the pipeline. Fails with a clear error when the scene does not fit the adapter.
     pub fn new(ctx: Arc<GpuContext>, world: &World) -> Result<GpuWorld, GpuError> {
+        if !world.boundaries.is_empty() {
+            // Not yet twinned in WGSL: `--backend auto` falls back to the CPU on this error.
+            return Err(GpuError::Unsupported(format!(
+                "the scene has {} triangle-mesh boundaries ([[boundary]]), which only the CPU backend supports so far",
+                world.boundaries.len()
+            )));
+        }
         let n = world.len() as u32;
         let num_walls = world.walls.len() as u32;
         let shapes = GpuShapes::upload(&ctx, &world.shapes)?;

@@ -48,8 +48,8 @@ impl Bounds {
 
     /// What a frame of `world` should show: every body's bounding sphere, extended to each
     /// wall that lies within half the box's diagonal of it (so a floor under a falling body or
-    /// the sides of a container are in the picture, a far-away wall is not). An empty world
-    /// gives a unit box at the origin.
+    /// the sides of a container are in the picture, a far-away wall is not), and every
+    /// boundary mesh at its current pose. An empty world gives a unit box at the origin.
     pub fn of_world(world: &World) -> Bounds {
         let mut min = Vec3::splat(f32::INFINITY);
         let mut max = Vec3::splat(f32::NEG_INFINITY);
@@ -76,6 +76,17 @@ impl Bounds {
                 let foot = c - dist * n;
                 min = min.min(foot);
                 max = max.max(foot);
+            }
+        }
+        // Boundary meshes where they are now (a hopper or a drum frames the picture).
+        for b in &world.boundaries {
+            let pose = b.pose(world.time);
+            for v in &b.vertices {
+                let p = pose.apply(*v);
+                if p.is_finite() {
+                    min = min.min(p);
+                    max = max.max(p);
+                }
             }
         }
         Bounds { min, max }

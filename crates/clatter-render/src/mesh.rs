@@ -163,6 +163,36 @@ pub fn wall_quads(walls: &[Wall], bounds: &Bounds, up: Vec3) -> (Vec<WallVertex>
     (vertices, indices)
 }
 
+/// The triangles of every boundary mesh of `world` at its current time, as wall vertices
+/// (three per triangle, drawn with the walls' translucent pipeline): a neutral grey, flat
+/// shaded by the triangle's facing to a light from `light` (its opacity), with the wall grid
+/// in the triangle's plane.
+pub fn boundary_triangles(world: &clatter::World, light: Vec3) -> Vec<WallVertex> {
+    let spacing = grid_spacing(2.0 * Bounds::of_world(world).radius());
+    let mut out = Vec::new();
+    for b in &world.boundaries {
+        let pose = b.pose(world.time);
+        for (t, tri) in b.triangles.iter().enumerate() {
+            let n = pose.rotation * b.normals[t];
+            let a = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+            let t1 = (a - n * n.dot(a)).normalize_or_zero();
+            let t2 = n.cross(t1);
+            let alpha = 0.18 + 0.3 * n.dot(light).abs();
+            for &k in tri {
+                let p = pose.apply(b.vertices[k as usize]);
+                out.push(WallVertex {
+                    position: p.to_array(),
+                    plane_uv: [p.dot(t1), p.dot(t2)],
+                    alpha,
+                    spacing,
+                    _pad: 0.0,
+                });
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

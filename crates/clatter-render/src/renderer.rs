@@ -15,7 +15,7 @@ use glam::{Mat4, Vec3};
 use wgpu::util::DeviceExt;
 
 use crate::camera::{Bounds, Camera, up_of};
-use crate::mesh::{Mesh, Vertex, WallVertex, wall_quads};
+use crate::mesh::{Mesh, Vertex, WallVertex, boundary_triangles, wall_quads};
 
 /// The background (linear RGB): a dark slate blue.
 pub const BACKGROUND: [f64; 3] = [0.012, 0.016, 0.026];
@@ -178,6 +178,9 @@ struct Geometry {
     draws: Vec<Draw>,
     instance_body: wgpu::Buffer,
     walls: Option<(wgpu::Buffer, wgpu::Buffer, u32)>,
+    /// Boundary mesh triangles (wall vertices, three per triangle) and their vertex count;
+    /// rewritten by [`Renderer::update`] when a boundary moves.
+    boundaries: Option<(wgpu::Buffer, u32)>,
     bodies: usize,
 }
 
@@ -458,6 +461,17 @@ impl Renderer {
                 wi.len() as u32,
             )
         });
+        let bv = boundary_triangles(world, boundary_light(self.up));
+        let boundaries = (!bv.is_empty()).then(|| {
+            (
+                buffer(
+                    "clatter-render boundary triangles",
+                    bytemuck::cast_slice(&bv),
+                    wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                ),
+                bv.len() as u32,
+            )
+        });
         self.geometry = Some(Geometry {
             vertices: buffer(
                 "clatter-render vertices",
@@ -476,6 +490,7 @@ impl Renderer {
                 wgpu::BufferUsages::STORAGE,
             ),
             walls,
+            boundaries,
             bodies: n,
         });
         let records = (n.max(1) * std::mem::size_of::<BodyState>()) as u64;
@@ -529,6 +544,16 @@ impl Renderer {
             });
         }
         self.auto_speed_max = if vmax > 0.0 { vmax } else { 1.0 };
+        if world.boundaries.iter().any(|b| b.moves())
+            && let Some((buffer, count)) =
+                self.geometry.as_ref().and_then(|g| g.boundaries.as_ref())
+        {
+            let bv = boundary_triangles(world, boundary_light(self.up));
+            if bv.len() as u32 == *count {
+                self.queue
+                    .write_buffer(buffer, 0, bytemuck::cast_slice(&bv));
+            }
+        }
         if !records.is_empty() {
             self.queue
                 .write_buffer(&self.poses, 0, bytemuck::cast_slice(&records));
@@ -662,8 +687,19 @@ impl Renderer {
             pass.set_index_buffer(i.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..*count, 0, 0..1);
         }
+        if let Some((v, count)) = &g.boundaries {
+            pass.set_pipeline(&self.wall_pipeline);
+            pass.set_vertex_buffer(0, v.slice(..));
+            pass.draw(0..*count, 0..1);
+        }
         Ok(())
     }
+}
+
+/// The fixed light the boundary meshes' flat shading is computed for: mostly from above.
+fn boundary_light(up: Vec3) -> Vec3 {
+    let side = if up.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+    (up * 0.85 + side * 0.4).normalize_or(up)
 }
 
 /// The clear colour of frames.

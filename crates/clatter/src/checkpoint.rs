@@ -30,6 +30,10 @@
 //!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
+//! - `MESH` (only when the scene has `[[boundary]]` meshes): the time the mesh candidates
+//!   were found at, then per body its `MESH_SLOTS` mesh contact slots (boundary, touching,
+//!   normal, tangential spring, twist, last force). The candidates are found again by the
+//!   broad phase at the `RBLD` positions and that time.
 //! - `APP `: opaque bytes of the program that wrote the file (the CLI stores its run options).
 //!
 //! Files are written under `NAME.tmp`, synced and renamed ([`write_atomic`]), so a file with
@@ -46,6 +50,7 @@ use glam::{Quat, Vec3};
 use thiserror::Error;
 
 use crate::bodies::BodyStates;
+use crate::boundary::{MESH_SLOTS, MeshSlot};
 use crate::contacts::ContactSprings;
 use crate::law::ContactForce;
 use crate::scene::{Scene, SceneError};
@@ -125,6 +130,8 @@ struct State {
     pairs: Vec<[u32; 2]>,
     wall_pairs: Vec<[u32; 2]>,
     springs: ContactSprings,
+    mesh_rebuild_time: f64,
+    mesh_slots: Vec<MeshSlot>,
 }
 
 impl Checkpoint {
@@ -194,6 +201,7 @@ impl Checkpoint {
         let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) =
             (None, None, None, None, None, None);
         let mut sink = None;
+        let mut mesh = None;
         for _ in 0..sections {
             let tag: [u8; 4] = r.bytes(4)?.try_into().expect("4 bytes");
             let n = r.len_u64()?;
@@ -218,6 +226,7 @@ impl Checkpoint {
                 b"SINK" => sink = Some(reader),
                 b"CONT" => cont = Some(reader),
                 b"APP " => app = Some(payload.to_vec()),
+                b"MESH" => mesh = Some(reader),
                 _ => {} // optional section of a later version
             }
         }
@@ -250,6 +259,9 @@ impl Checkpoint {
         st.rebuild_position = rb.vec3s(nr)?;
         rb.finish()?;
         read_contacts(&mut need(cont, "CONT")?, &mut st)?;
+        if let Some(mut m) = mesh {
+            read_mesh_slots(&mut m, &mut st)?;
+        }
         Ok(Checkpoint {
             producer,
             scene_source,
@@ -325,12 +337,13 @@ impl Checkpoint {
                 ));
             }
         } else {
-            // Rebuild the derived gather ranges exactly as the run did, from the same positions.
-            // A body removed by a sink after the list was built is still in the stored list
-            // (the next step rebuilds without it): its contacts are dropped first, which
-            // changes nothing the next rebuild carries over.
+            // Rebuild the derived gather ranges exactly as the run did, from the same positions
+            // (and the meshes where they were then). A body removed by a sink after the list
+            // was built is still in the stored list (the next step rebuilds without it): its
+            // contacts are dropped first, which changes nothing the next rebuild carries over.
             w.state.removed.clone_from(&st.body.removed);
             w.state.position.clone_from(&st.rebuild_position);
+            w.time = st.mesh_rebuild_time;
             w.rebuild_contacts();
             let (pairs, wall_pairs, springs) = without_removed(st, &st.body.removed);
             let c = &w.contacts;
@@ -346,6 +359,10 @@ impl Checkpoint {
             w.contacts
                 .set_springs(springs)
                 .map_err(CheckpointError::Malformed)?;
+        }
+        if !w.boundaries.is_empty() || !st.mesh_slots.is_empty() {
+            w.set_mesh_slots(st.mesh_slots.clone())
+                .map_err(|e| CheckpointError::Mismatch(format!("the scene's boundaries: {e}")))?;
         }
         w.state.clone_from(&st.body);
         w.rebuilds = st.rebuilds;
@@ -379,7 +396,8 @@ impl World {
         w.buf.extend_from_slice(&MAGIC);
         w.u32(FORMAT_VERSION);
         w.u64(0); // length, patched below
-        w.u32(7);
+        let mesh = !self.boundaries.is_empty();
+        w.u32(7 + mesh as u32);
         w.section(b"SCEN", |w| {
             w.string(concat!("clatter ", env!("CARGO_PKG_VERSION")));
             w.string(scene_source);
@@ -452,6 +470,24 @@ impl World {
                 w.f32(b);
             }
         });
+        if mesh {
+            w.section(b"MESH", |w| {
+                w.f64(self.mesh_rebuild_time());
+                let slots = self.mesh_slots();
+                w.u64(slots.len() as u64);
+                for s in slots {
+                    w.u32(s.boundary);
+                    w.buf.push(s.touching as u8);
+                    w.vec3(s.normal);
+                    w.vec3(s.history);
+                    w.f32(s.twist);
+                    w.vec3(s.force.force_b);
+                    w.vec3(s.force.torque_a);
+                    w.vec3(s.force.torque_b);
+                    w.f32(s.force.normal_force);
+                }
+            });
+        }
         w.section(b"APP ", |w| w.buf.extend_from_slice(app));
         let total = (w.buf.len() + TRAILER_LEN) as u64;
         w.buf[12..20].copy_from_slice(&total.to_le_bytes());
@@ -636,6 +672,46 @@ fn read_contacts(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErr
     r.finish()
 }
 
+fn read_mesh_slots(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
+    st.mesh_rebuild_time = r.f64()?;
+    if !st.mesh_rebuild_time.is_finite() {
+        return Err(CheckpointError::Malformed(
+            "non-finite mesh rebuild time".into(),
+        ));
+    }
+    let n = r.count(73)?;
+    if n as u64 != st.bodies * MESH_SLOTS as u64 {
+        return Err(CheckpointError::Malformed(format!(
+            "{n} mesh slots for {} bodies",
+            st.bodies
+        )));
+    }
+    for _ in 0..n {
+        let boundary = r.u32()?;
+        let touching = match r.bytes(1)?[0] {
+            0 => false,
+            1 => true,
+            b => {
+                return Err(CheckpointError::Malformed(format!(
+                    "mesh touching flag {b} is neither 0 nor 1"
+                )));
+            }
+        };
+        let (normal, history, twist) = (r.vec3()?, r.vec3()?, r.f32()?);
+        let (force_b, torque_a, torque_b) = (r.vec3()?, r.vec3()?, r.vec3()?);
+        let force = ContactForce::new(force_b, torque_a, torque_b, r.f32()?);
+        st.mesh_slots.push(MeshSlot {
+            boundary,
+            touching,
+            normal,
+            history,
+            twist,
+            force,
+        });
+    }
+    r.finish()
+}
+
 /// A CRC-32 of the bits of every body's mass properties and size: equal when a scene builds
 /// the same bodies.
 fn fingerprint(w: &World) -> u32 {
@@ -752,6 +828,7 @@ fn tag_str(tag: &[u8; 4]) -> &'static str {
         b"BODY" => "BODY section",
         b"RBLD" => "RBLD section",
         b"CONT" => "CONT section",
+        b"MESH" => "MESH section",
         _ => "section",
     }
 }

@@ -1,7 +1,8 @@
 //! clatter: Discrete Element Method simulation of rigid convex polyhedra and spheres.
 //!
 //! - [`World`] holds the bodies ([`bodies`]: state and constants), the materials
-//!   ([`material`]), the walls and the contact list ([`contacts`]).
+//!   ([`material`]), the walls, the triangle-mesh boundaries ([`boundary`]) and the contact
+//!   list ([`contacts`]).
 //! - [`World::step`] runs the stages of [`step`]: **broad**, **contacts** (narrow phase and
 //!   the contact [`law`]), **integrate**; the GPU backend (`clatter-gpu`) runs the same
 //!   stages under the same names.
@@ -13,6 +14,7 @@
 
 pub mod analysis;
 pub mod bodies;
+pub mod boundary;
 pub mod checkpoint;
 pub mod contacts;
 pub mod contract;
@@ -31,6 +33,7 @@ pub mod world;
 
 pub use step::broad;
 
+pub use boundary::{Boundary, BoundaryMotion};
 pub use checkpoint::{Checkpoint, CheckpointError};
 pub use clatter_geom as geom;
 pub use contacts::{ContactSprings, ContactState, Contacts, Partner};

@@ -12,13 +12,24 @@
 use std::io::Cursor;
 use std::path::Path;
 
-/// A mesh read from a file: its vertices (as written, before any scale) and its face count.
+/// A mesh read from a file: its vertices (as written, before any scale), its face count and
+/// its faces as triangles (polygons fanned from their first vertex), for boundary meshes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshVertices {
     /// Vertex positions, in file order (OBJ: per object, in the order tobj gives them).
     pub vertices: Vec<[f64; 3]>,
     /// Number of faces (polygons or triangles) in the file.
     pub faces: usize,
+    /// The faces as triangles of indices into `vertices`, in file order, with the winding of
+    /// the file (a polygon `a b c d` gives `a b c`, `a c d`). Indices are not checked here.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Fans a polygon (vertex indices, file winding) into triangles.
+fn fan(poly: &[u32], out: &mut Vec<[u32; 3]>) {
+    for k in 1..poly.len().saturating_sub(1) {
+        out.push([poly[0], poly[k], poly[k + 1]]);
+    }
 }
 
 /// The mesh formats by extension.
@@ -102,8 +113,23 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshVertices, String> {
     .map_err(|e| format!("cannot parse the OBJ file: {e}"))?;
     let mut vertices = Vec::new();
     let mut faces = 0;
+    let mut triangles = Vec::new();
     for m in &models {
         let mesh = &m.mesh;
+        let base = vertices.len() as u32;
+        let idx: Vec<u32> = mesh.indices.iter().map(|&i| i.wrapping_add(base)).collect();
+        if mesh.face_arities.is_empty() {
+            for t in idx.chunks_exact(3) {
+                fan(t, &mut triangles);
+            }
+        } else {
+            let mut at = 0usize;
+            for &a in &mesh.face_arities {
+                let end = (at + a as usize).min(idx.len());
+                fan(&idx[at..end], &mut triangles);
+                at = end;
+            }
+        }
         vertices.extend(
             mesh.positions
                 .chunks_exact(3)
@@ -115,7 +141,11 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshVertices, String> {
             mesh.face_arities.len()
         };
     }
-    Ok(MeshVertices { vertices, faces })
+    Ok(MeshVertices {
+        vertices,
+        faces,
+        triangles,
+    })
 }
 
 fn parse_stl(bytes: &[u8]) -> Result<MeshVertices, String> {
@@ -128,6 +158,11 @@ fn parse_stl(bytes: &[u8]) -> Result<MeshVertices, String> {
             .map(|v| [v.0[0] as f64, v.0[1] as f64, v.0[2] as f64])
             .collect(),
         faces: mesh.faces.len(),
+        triangles: mesh
+            .faces
+            .iter()
+            .map(|f| f.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX)))
+            .collect(),
     })
 }
 
@@ -165,7 +200,32 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshVertices, String> {
         }
     }
     let faces = ply.payload.get("face").map_or(0, Vec::len);
-    Ok(MeshVertices { vertices, faces })
+    let mut triangles = Vec::new();
+    for (i, e) in ply.payload.get("face").into_iter().flatten().enumerate() {
+        let list = e
+            .get("vertex_indices")
+            .or_else(|| e.get("vertex_index"))
+            .ok_or_else(|| format!("PLY face {i} has no list property `vertex_indices`"))?;
+        let poly: Vec<u32> = match list {
+            Property::ListChar(v) => v.iter().map(|&x| x as u32).collect(),
+            Property::ListUChar(v) => v.iter().map(|&x| x as u32).collect(),
+            Property::ListShort(v) => v.iter().map(|&x| x as u32).collect(),
+            Property::ListUShort(v) => v.iter().map(|&x| x as u32).collect(),
+            Property::ListInt(v) => v.iter().map(|&x| x as u32).collect(),
+            Property::ListUInt(v) => v.clone(),
+            _ => {
+                return Err(format!(
+                    "PLY face {i}: `vertex_indices` is not a list of integers"
+                ));
+            }
+        };
+        fan(&poly, &mut triangles);
+    }
+    Ok(MeshVertices {
+        vertices,
+        faces,
+        triangles,
+    })
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::boundary::{Boundary, BoundaryMotion};
 use crate::material::{Cohesion, ContactLaw, Material};
 use crate::periodic::Periodic;
 use crate::shape_spec::{BoxSpec, ConvexSpec, PolyhedronSpec, ShapeSpec, SphereSpec};
@@ -65,6 +66,8 @@ pub struct Scene {
     pub source: String,
     /// The world to build.
     pub desc: WorldDesc,
+    /// Its triangle-mesh boundaries (`[[boundary]]`).
+    pub boundaries: Vec<Boundary>,
     /// How long to run.
     pub length: RunLength,
     /// Things that are legal but probably not meant (overlapping lattice, large dt...).
@@ -103,7 +106,7 @@ impl Scene {
 
     /// The world, ready to step.
     pub fn world(&self) -> World {
-        let mut w = World::new(self.desc.clone());
+        let mut w = World::with_boundaries(self.desc.clone(), self.boundaries.clone());
         w.sinks.clone_from(&self.sinks);
         w
     }
@@ -270,6 +273,8 @@ struct RawScene {
     wall: Vec<Spanned<RawWall>>,
     #[serde(default)]
     sink: Vec<Spanned<RawSink>>,
+    #[serde(default)]
+    boundary: Vec<Spanned<RawBoundary>>,
     container: Option<Spanned<RawContainer>>,
     #[serde(default)]
     body: Vec<Spanned<RawBody>>,
@@ -354,6 +359,33 @@ struct RawWall {
     point: Spanned<[f64; 3]>,
     normal: Spanned<[f64; 3]>,
     material: Spanned<String>,
+}
+
+/// `[[boundary]] mesh = { file, scale }, material, motion = { .. }, start, end`
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBoundary {
+    mesh: Spanned<RawBoundaryMesh>,
+    material: Spanned<String>,
+    motion: Option<Spanned<RawMotion>>,
+    start: Option<Spanned<f64>>,
+    end: Option<Spanned<f64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBoundaryMesh {
+    file: Spanned<String>,
+    scale: Option<Spanned<RawScale>>,
+}
+
+/// `motion = { velocity = [..] }` or `{ angular_velocity = [..], center = [..] }`
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMotion {
+    velocity: Option<Spanned<[f64; 3]>>,
+    angular_velocity: Option<Spanned<[f64; 3]>>,
+    center: Option<Spanned<[f64; 3]>>,
 }
 
 #[derive(Deserialize)]
@@ -459,27 +491,7 @@ fn mesh_shape(
             );
         }
     }
-    let scale = match &r.scale {
-        None => [1.0; 3],
-        Some(v) => {
-            let s = match v.get_ref() {
-                RawScale::Uniform(x) => [*x; 3],
-                RawScale::Axes(a) => *a,
-            };
-            if !s.iter().all(|x| x.is_finite() && *x > 0.0) {
-                let got = match v.get_ref() {
-                    RawScale::Uniform(x) => format!("{x}"),
-                    RawScale::Axes(a) => format!("{a:?}"),
-                };
-                return cx.err(
-                    v.span(),
-                    format!("shape[{k}].mesh.scale"),
-                    format!("must be a positive finite number (or three of them), got {got}"),
-                );
-            }
-            s
-        }
-    };
+    let scale = mesh_scale(cx, &r.scale, &format!("shape[{k}].mesh.scale"))?;
     let field = format!("shape[{k}].mesh.file");
     let mesh = crate::mesh::read_mesh(&path).map_err(|e| SceneError {
         file: cx.file.to_string(),
@@ -501,6 +513,119 @@ fn mesh_shape(
                 format!("shape `{name}`: mesh file `{shown}`: {e}"),
             )
         })
+}
+
+/// A mesh's `scale` (one factor or one per axis), checked positive and finite.
+fn mesh_scale(
+    cx: &SourceFile,
+    scale: &Option<Spanned<RawScale>>,
+    field: &str,
+) -> Result<[f64; 3], SceneError> {
+    let Some(v) = scale else {
+        return Ok([1.0; 3]);
+    };
+    let s = match v.get_ref() {
+        RawScale::Uniform(x) => [*x; 3],
+        RawScale::Axes(a) => *a,
+    };
+    if !s.iter().all(|x| x.is_finite() && *x > 0.0) {
+        let got = match v.get_ref() {
+            RawScale::Uniform(x) => format!("{x}"),
+            RawScale::Axes(a) => format!("{a:?}"),
+        };
+        return cx.err(
+            v.span(),
+            field,
+            format!("must be a positive finite number (or three of them), got {got}"),
+        );
+    }
+    Ok(s)
+}
+
+/// `[[boundary]]` `k`: its mesh file read relative to the scene's directory, scaled, checked
+/// (see [`Boundary::new`]) and given its material and motion. Every failure names the field
+/// and the mesh file.
+fn boundary(
+    cx: &SourceFile,
+    k: usize,
+    b: &Spanned<RawBoundary>,
+    material_names: &HashMap<String, u32>,
+) -> Result<Boundary, SceneError> {
+    let r = b.get_ref();
+    let m = r.mesh.get_ref();
+    let material = cx.lookup(
+        material_names,
+        &r.material,
+        &format!("boundary[{k}].material"),
+        "material",
+    )?;
+    let scale = mesh_scale(cx, &m.scale, &format!("boundary[{k}].mesh.scale"))?;
+    let time = |v: &Option<Spanned<f64>>, field: &str, default: f64| match v {
+        None => Ok(default),
+        Some(v) => cx.non_negative(v, &format!("boundary[{k}].{field}")),
+    };
+    let start = time(&r.start, "start", 0.0)?;
+    let end = time(&r.end, "end", f64::INFINITY)?;
+    if let Some(e) = &r.end
+        && end <= start
+    {
+        return cx.err(
+            e.span(),
+            format!("boundary[{k}].end"),
+            format!("must be later than `start` ({start} s), got {end} s"),
+        );
+    }
+    let motion = match &r.motion {
+        None => BoundaryMotion::Fixed,
+        Some(mo) => {
+            let raw = mo.get_ref();
+            match (&raw.velocity, &raw.angular_velocity, &raw.center) {
+                (Some(v), None, None) => BoundaryMotion::Translate {
+                    velocity: cx.vec3(v, &format!("boundary[{k}].motion.velocity"))?,
+                },
+                (None, Some(w), Some(c)) => BoundaryMotion::Rotate {
+                    angular_velocity: cx
+                        .vec3(w, &format!("boundary[{k}].motion.angular_velocity"))?,
+                    center: cx.vec3(c, &format!("boundary[{k}].motion.center"))?,
+                },
+                (None, Some(_), None) => {
+                    return cx.err(
+                        mo.span(),
+                        format!("boundary[{k}].motion.center"),
+                        "a rotation needs `center` (a point on the axis) with `angular_velocity`",
+                    );
+                }
+                _ => {
+                    return cx.err(
+                        mo.span(),
+                        format!("boundary[{k}].motion"),
+                        "give either `velocity = [..]` (translation) or `angular_velocity = [..]` and `center = [..]` (rotation)",
+                    );
+                }
+            }
+        }
+    };
+    let file = m.file.get_ref();
+    let path = cx.dir.join(file);
+    let shown = path.display();
+    let fail = |e: String| SceneError {
+        file: cx.file.to_string(),
+        line: Some(cx.line_col(m.file.span().start)),
+        field: Some(format!("boundary[{k}].mesh.file")),
+        message: format!("mesh file `{shown}`: {e}"),
+    };
+    let mesh = crate::mesh::read_mesh(&path).map_err(fail)?;
+    Boundary::new(
+        file,
+        &mesh.vertices,
+        &mesh.triangles,
+        scale,
+        material,
+        motion,
+        start,
+        end,
+    )
+    .map_err(fail)
 }
 
 fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
@@ -842,6 +967,12 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             material,
         });
     }
+    let boundaries = raw
+        .boundary
+        .iter()
+        .enumerate()
+        .map(|(k, b)| boundary(cx, k, b, &material_names))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut container_bounds = None;
     if let Some(c) = &raw.container {
         let r = c.get_ref();
@@ -1070,6 +1201,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
             skin,
             periodic: periodic.map(|(p, _)| p),
         },
+        boundaries,
         length,
         warnings,
         sinks,

@@ -27,6 +27,10 @@
 //!   from a to b), `force` (N, on b; a gets the opposite), `normal_force`, `depth`, `points`.
 //!   Points and normals are recomputed at output time from the current positions; forces are
 //!   those of the last step.
+//! - `boundaries_NNNNNN.vtu` (scenes with `[[boundary]]` meshes): every boundary's triangles
+//!   in world coordinates at the frame's time (moved by their motion), as `VTK_POLYGON`
+//!   cells with cell data `boundary` (index), `material` (Int32) and `velocity` (the
+//!   surface's velocity at the triangle's centroid, m/s).
 
 use std::io::Write;
 
@@ -347,6 +351,57 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
         }
     }
     let arrays = body_arrays(world, faces_of);
+    write_grid(
+        path,
+        world.step_count,
+        world.time,
+        &points,
+        &cells,
+        &[],
+        &arrays,
+        "velocity",
+    )
+}
+
+/// Writes every triangle-mesh boundary of `world` in world coordinates at its current time
+/// (see the module documentation).
+pub fn write_boundaries(path: &Path, world: &World) -> std::io::Result<()> {
+    let mut points: Vec<f32> = Vec::new();
+    let mut cells = Cells {
+        connectivity: Vec::new(),
+        offsets: Vec::new(),
+        types: Vec::new(),
+    };
+    let (mut ids, mut materials, mut velocity) = (Vec::new(), Vec::new(), Vec::new());
+    for (b, mesh) in world.boundaries.iter().enumerate() {
+        let pose = mesh.pose(world.time);
+        let motion = mesh.motion_at(world.time);
+        let base = (points.len() / 3) as i32;
+        for v in &mesh.vertices {
+            points.extend(pose.apply(*v).to_array());
+        }
+        for t in &mesh.triangles {
+            cells
+                .connectivity
+                .extend(t.iter().map(|&k| base + k as i32));
+            cells.offsets.push(cells.connectivity.len() as i32);
+            cells.types.push(VTK_POLYGON);
+            let centroid = t
+                .iter()
+                .map(|&k| pose.apply(mesh.vertices[k as usize]))
+                .sum::<Vec3>()
+                / 3.0;
+            let v = motion.velocity + motion.omega.cross(centroid - motion.position);
+            ids.push(b as i32);
+            materials.push(mesh.material as i32);
+            velocity.extend(v.to_array());
+        }
+    }
+    let arrays = [
+        Array::i32("boundary", ids),
+        Array::i32("material", materials),
+        Array::f32("velocity", 3, velocity),
+    ];
     write_grid(
         path,
         world.step_count,

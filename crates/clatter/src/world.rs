@@ -5,6 +5,7 @@ use glam::{Quat, Vec3};
 use thiserror::Error;
 
 use crate::bodies::{BodyConstants, BodyStates};
+use crate::boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshSlot};
 use crate::contacts::{ContactState, Contacts};
 use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
@@ -83,6 +84,10 @@ pub struct World {
     pub materials: Materials,
     /// Wall planes.
     pub walls: Vec<Wall>,
+    /// Triangle-mesh boundaries (static or moving), see [`crate::boundary`].
+    pub boundaries: Vec<Boundary>,
+    /// Per body: candidate triangles and mesh contact slots.
+    pub(crate) mesh: MeshContacts,
     /// Periodic boundaries, if any (positions are kept wrapped into its box).
     pub periodic: Option<Periodic>,
     /// Sink boxes: a body whose centre enters one is removed ([`crate::sink`]). Set after
@@ -117,6 +122,12 @@ pub struct World {
 impl World {
     /// Builds the world; the caller (the scene loader) has validated indices and values.
     pub fn new(desc: WorldDesc) -> World {
+        World::with_boundaries(desc, Vec::new())
+    }
+
+    /// [`World::new`] with triangle-mesh boundaries (their grids are built here, with the
+    /// body grid's cell size `2 r_max + skin`).
+    pub fn with_boundaries(desc: WorldDesc, boundaries: Vec<Boundary>) -> World {
         let n = desc.bodies.len();
         let mut state = BodyStates::default();
         let mut consts = BodyConstants::default();
@@ -157,6 +168,8 @@ impl World {
             shapes: desc.shapes,
             materials,
             walls: desc.walls,
+            boundaries,
+            mesh: MeshContacts::default(),
             periodic: desc.periodic,
             sinks: Vec::new(),
             gravity: desc.gravity,
@@ -172,8 +185,53 @@ impl World {
             rebuild_position: Vec::new(),
             needs_rebuild: true,
         };
+        if !w.boundaries.is_empty() {
+            let cell = 2.0 * w.consts.max_radius() + w.skin;
+            let mut first = vec![0u32];
+            for b in &mut w.boundaries {
+                b.build_grid(cell);
+                first.push(first.last().copied().unwrap_or(0) + b.triangles.len() as u32);
+            }
+            w.mesh.first = first;
+            w.mesh.slots = vec![MeshSlot::default(); n * MESH_SLOTS];
+        }
         w.dt = desc.dt.unwrap_or_else(|| w.auto_dt());
         w
+    }
+
+    /// Every body's mesh contact slots ([`MESH_SLOTS`] per body; empty without boundaries).
+    pub fn mesh_slots(&self) -> &[MeshSlot] {
+        &self.mesh.slots
+    }
+
+    /// Replaces the mesh slots (a checkpoint's); fails when the length does not match.
+    pub fn set_mesh_slots(&mut self, slots: Vec<MeshSlot>) -> Result<(), String> {
+        if slots.len() != self.mesh.slots.len() {
+            return Err(format!(
+                "{} mesh contact slots for {} expected",
+                slots.len(),
+                self.mesh.slots.len()
+            ));
+        }
+        self.mesh.slots = slots;
+        Ok(())
+    }
+
+    /// The time the boundaries' candidate triangles were last found at.
+    pub fn mesh_rebuild_time(&self) -> f64 {
+        self.mesh.rebuild_time
+    }
+
+    /// Body `i`'s candidate triangles from the last rebuild, as `(boundary, triangle)`.
+    pub fn mesh_candidates(&self, i: usize) -> Vec<(usize, usize)> {
+        let m = &self.mesh;
+        if m.start.len() <= i + 1 {
+            return Vec::new();
+        }
+        m.candidates[m.start[i] as usize..m.start[i + 1] as usize]
+            .iter()
+            .map(|&g| m.locate(g))
+            .collect()
     }
 
     /// Number of bodies.
@@ -245,11 +303,13 @@ impl World {
                         .contact_duration(m_min / 2.0, r_min / 2.0, speed),
                 );
             }
-            for wall in &self.walls {
-                t = t.min(
-                    self.pair_params(a, wall.material)
-                        .contact_duration(m_min, r_min, speed),
-                );
+            for m in self
+                .walls
+                .iter()
+                .map(|w| w.material)
+                .chain(self.boundaries.iter().map(|b| b.material))
+            {
+                t = t.min(self.pair_params(a, m).contact_duration(m_min, r_min, speed));
             }
         }
         t
@@ -370,7 +430,7 @@ impl World {
         p
     }
 
-    /// Number of contacts (body-body and body-wall) that touched in the last step.
+    /// Number of contacts (body-body, body-wall and body-mesh) that touched in the last step.
     pub fn contact_count(&self) -> usize {
         self.contacts
             .springs
@@ -378,6 +438,7 @@ impl World {
             .iter()
             .filter(|&&t| t)
             .count()
+            + self.mesh.slots.iter().filter(|s| s.touching).count()
     }
 
     /// Body pairs currently in contact, sorted (for tests and output).

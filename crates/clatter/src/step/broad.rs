@@ -224,6 +224,7 @@ pub(crate) fn rebuild(world: &mut World) {
     twist.extend(wall_twist);
     let contacts = Contacts::new(world.len(), pairs, wall_pairs, history, twist);
     world.install_contacts(contacts);
+    super::boundary::rebuild(world);
 }
 
 /// Wall candidates: `(body, wall)` for the bodies (not removed by a sink) whose bounding

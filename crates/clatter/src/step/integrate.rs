@@ -24,6 +24,7 @@ pub(crate) enum Moved {
 pub(crate) fn run(world: &mut World) -> Moved {
     let (dt, gravity) = (world.dt, world.gravity);
     let contacts = &world.contacts;
+    let mesh = (!world.mesh.slots.is_empty()).then_some(&world.mesh);
     let consts = &world.consts;
     let rebuild_position = &world.rebuild_position;
     let periodic = world.periodic;
@@ -48,6 +49,10 @@ pub(crate) fn run(world: &mut World) -> Moved {
                     continue;
                 }
                 let (f, t) = contacts.gather(i);
+                let (f, t) = match mesh {
+                    Some(m) => m.gather(i, f, t),
+                    None => (f, t),
+                };
                 let v = &mut vs[k];
                 let x = &mut xs[k];
                 *v += (f * consts.inv_mass[i] + gravity) * dt;

@@ -1,0 +1,709 @@
+//! Triangle-mesh boundaries (`[[boundary]]` in a scene): static or rigidly moving surfaces
+//! made of triangles (hoppers, drums, chutes), with which bodies collide like with walls.
+//!
+//! # Data
+//! A [`Boundary`] keeps its triangles in its own *mesh frame* (the file's coordinates times
+//! the scale; the world frame before the motion starts), with per-triangle normals, the
+//! triangle across each edge and each vertex's neighbours (for the ghost-contact tests), and
+//! a [`MeshGrid`]: a uniform grid with the body grid's cell size (`2 r_max + skin`), built
+//! once at load, in which every triangle is listed in each cell its plane slab crosses
+//! within its bounding box. The grid moves with the mesh: a body is looked up at its position
+//! in the mesh frame. It is the same grid as the bodies' in spirit (same cells, same
+//! `27`-neighbourhood reach) without rebinning the triangles at every rebuild.
+//!
+//! # Motion
+//! A boundary's pose at time `t` is closed-form: a translation `v (t' - start)` or a rotation
+//! by `|w| (t' - start)` about the axis through `center`, with `t' = clamp(t, start, end)`.
+//! While `start <= t < end` its surface moves with velocity `v`, or `w x (x - center)`; that
+//! is the motion the contact law sees on side a of the contact (a drum drags its bed).
+//!
+//! # Contacts
+//! At each broad-phase rebuild every body collects its candidate triangles (those within its
+//! bounding radius plus the skin), sorted by id. Every step, each body's piece is tested
+//! against its candidates ([`clatter_geom::triangle`]), then:
+//! - face contacts with coplanar triangles (same boundary, same plane) become **one** plane
+//!   contact: a body resting or rolling across a floor of many triangles feels exactly the
+//!   plane (the same manifold as a `[[wall]]`, when its contact patch lies on the mesh);
+//! - an edge contact is kept only when its normal is in the edge's Voronoi region: not
+//!   pointing into the neighbouring triangle's face region (no *ghost* contacts at the
+//!   internal edges of flat or convex surfaces), and once per shared edge;
+//! - a vertex contact is kept only when its normal points away from every edge at the
+//!   vertex (the vertex's Voronoi region), once per vertex.
+//!
+//! The remaining contacts (at most [`MESH_SLOTS`], the deepest) go into the body's mesh
+//! slots, each with a tangential spring and the law's coverage/twist word. A new contact
+//! takes over the springs of the old slot of the same boundary with the closest normal
+//! (within [`SLOT_MATCH_COS`]), so a ball rolling from one triangle to the next keeps its
+//! spring exactly as on a plane.
+
+use glam::{DVec3, Quat, Vec3};
+
+use crate::law::{BodyMotion, ContactForce};
+
+/// Mesh contacts kept per body.
+pub const MESH_SLOTS: usize = 4;
+
+/// A new mesh contact takes over an old slot's springs when their normals' cosine is at
+/// least this (about 37 degrees).
+pub const SLOT_MATCH_COS: f32 = 0.8;
+
+/// No triangle across this edge (a border edge of the mesh).
+pub const NO_NEIGHBOUR: u32 = u32::MAX;
+
+/// How a boundary moves (rigidly).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum BoundaryMotion {
+    /// It stays where the file puts it.
+    Fixed,
+    /// Translation at `velocity` (m/s).
+    Translate { velocity: Vec3 },
+    /// Rotation at `angular_velocity` (rad/s, world frame) about the axis through `center`.
+    Rotate {
+        angular_velocity: Vec3,
+        center: Vec3,
+    },
+}
+
+/// A rigid transform of a boundary at some time: `world = rotation * local + translation`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshPose {
+    pub rotation: Quat,
+    pub translation: Vec3,
+}
+
+impl MeshPose {
+    /// A mesh-frame point in the world.
+    #[inline]
+    pub fn apply(&self, p: Vec3) -> Vec3 {
+        self.rotation * p + self.translation
+    }
+
+    /// A world point in the mesh frame.
+    #[inline]
+    pub fn inverse(&self, p: Vec3) -> Vec3 {
+        self.rotation.conjugate() * (p - self.translation)
+    }
+}
+
+/// The triangles of a boundary, binned into a uniform grid in the mesh frame: the cells
+/// that hold something, sorted by key, each with its triangles (sorted by id).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MeshGrid {
+    /// Lower corner (mesh frame).
+    pub min: Vec3,
+    /// Cell edge length.
+    pub cell: f32,
+    /// Cells along x, y, z.
+    pub dims: [u32; 3],
+    /// Keys (`(z ny + y) nx + x`) of the occupied cells, ascending.
+    pub keys: Vec<u64>,
+    /// Cell `keys[c]` holds `tris[start[c]..start[c + 1]]`.
+    pub start: Vec<u32>,
+    /// Triangle ids, per cell.
+    pub tris: Vec<u32>,
+}
+
+/// Most cell entries one boundary's grid may hold before its cells are made larger.
+const MAX_GRID_ENTRIES: usize = 1 << 24;
+
+impl MeshGrid {
+    fn build(vertices: &[Vec3], triangles: &[[u32; 3]], normals: &[Vec3], cell: f32) -> Self {
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for v in vertices {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+        let mut cell = cell.max((hi - lo).max_element() * 1e-6).max(1e-9);
+        loop {
+            let d = ((hi - lo) / cell).floor() + Vec3::ONE;
+            let dims = [d.x as u32, d.y as u32, d.z as u32];
+            if let Some(g) = Self::fill(vertices, triangles, normals, lo, cell, dims) {
+                return g;
+            }
+            cell *= 2.0;
+        }
+    }
+
+    /// Bins every triangle into the cells of its bounding box that its plane's slab crosses;
+    /// `None` when that makes more than [`MAX_GRID_ENTRIES`] entries.
+    fn fill(
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        normals: &[Vec3],
+        min: Vec3,
+        cell: f32,
+        dims: [u32; 3],
+    ) -> Option<Self> {
+        let mut entries: Vec<(u64, u32)> = Vec::new();
+        let half_diag = 0.5 * cell * 3f32.sqrt();
+        let cell_of = |x: f32, a: usize| -> u32 {
+            (((x - min[a]) / cell).floor().max(0.0) as u32).min(dims[a] - 1)
+        };
+        for (t, tri) in triangles.iter().enumerate() {
+            let p = tri.map(|i| vertices[i as usize]);
+            let lo = p[0].min(p[1]).min(p[2]);
+            let hi = p[0].max(p[1]).max(p[2]);
+            let (c0, c1) = (
+                [0, 1, 2].map(|a| cell_of(lo[a], a)),
+                [0, 1, 2].map(|a| cell_of(hi[a], a)),
+            );
+            let n = normals[t];
+            let off = n.dot(p[0]);
+            for z in c0[2]..=c1[2] {
+                for y in c0[1]..=c1[1] {
+                    for x in c0[0]..=c1[0] {
+                        let centre = min + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * cell;
+                        if (n.dot(centre) - off).abs() <= half_diag {
+                            let key =
+                                (z as u64 * dims[1] as u64 + y as u64) * dims[0] as u64 + x as u64;
+                            entries.push((key, t as u32));
+                            if entries.len() > MAX_GRID_ENTRIES {
+                                return None;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        entries.sort_unstable();
+        let mut g = MeshGrid {
+            min,
+            cell,
+            dims,
+            ..Default::default()
+        };
+        for (key, t) in entries {
+            if g.keys.last() != Some(&key) {
+                g.keys.push(key);
+                g.start.push(g.tris.len() as u32);
+            }
+            g.tris.push(t);
+        }
+        g.start.push(g.tris.len() as u32);
+        Some(g)
+    }
+
+    /// Appends to `out` the triangles of every cell that the ball `(centre, radius)` (mesh
+    /// frame) overlaps (with repeats).
+    pub fn query(&self, centre: Vec3, radius: f32, out: &mut Vec<u32>) {
+        if self.keys.is_empty() {
+            return;
+        }
+        let lo = ((centre - radius - self.min) / self.cell).floor();
+        let hi = ((centre + radius - self.min) / self.cell).floor();
+        let dims = Vec3::new(
+            self.dims[0] as f32,
+            self.dims[1] as f32,
+            self.dims[2] as f32,
+        );
+        if hi.cmplt(Vec3::ZERO).any() || lo.cmpge(dims).any() || !(lo.is_finite() && hi.is_finite())
+        {
+            return;
+        }
+        let lo = lo.max(Vec3::ZERO);
+        let hi = hi.min(dims - 1.0);
+        for z in lo.z as u64..=hi.z as u64 {
+            for y in lo.y as u64..=hi.y as u64 {
+                for x in lo.x as u64..=hi.x as u64 {
+                    let key = (z * self.dims[1] as u64 + y) * self.dims[0] as u64 + x;
+                    if let Ok(c) = self.keys.binary_search(&key) {
+                        out.extend_from_slice(
+                            &self.tris[self.start[c] as usize..self.start[c + 1] as usize],
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A triangle-mesh boundary: its triangles (mesh frame), material and motion. See the module
+/// docs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Boundary {
+    /// The mesh file as the scene names it (for messages and outputs).
+    pub file: String,
+    /// Material bodies touch it with.
+    pub material: u32,
+    /// Its motion.
+    pub motion: BoundaryMotion,
+    /// When the motion starts (s).
+    pub start: f64,
+    /// When it stops (s; infinite: never).
+    pub end: f64,
+    /// Vertices, mesh frame (duplicates welded).
+    pub vertices: Vec<Vec3>,
+    /// Triangles (vertex indices, the file's winding).
+    pub triangles: Vec<[u32; 3]>,
+    /// Unit normal per triangle (right-handed with the winding).
+    pub normals: Vec<Vec3>,
+    /// Per triangle and edge `k` (vertex `k` to `k + 1`): the triangle across it, or
+    /// [`NO_NEIGHBOUR`].
+    pub neighbours: Vec<[u32; 3]>,
+    /// Vertex `v`'s neighbour vertices are `links[link_start[v]..link_start[v + 1]]`.
+    pub link_start: Vec<u32>,
+    pub links: Vec<u32>,
+    /// Largest distance of a vertex from the rotation centre (or 0): bounds how far a point
+    /// of the mesh moves per radian.
+    pub reach: f32,
+    /// The triangles binned in the mesh frame (built by the world, with its cell size).
+    pub grid: MeshGrid,
+}
+
+impl Boundary {
+    /// Builds a boundary from a mesh's vertices (file coordinates, scaled by `scale`) and
+    /// triangles; checks it and derives normals and adjacency. The error says what is wrong
+    /// with the mesh (the caller names the file and field): no triangles, an index out of
+    /// range, a non-finite coordinate, a degenerate triangle, an edge shared by more than two
+    /// triangles (non-manifold), neighbours wound in opposite directions, or a closed mesh
+    /// wound inside out (negative volume).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        file: &str,
+        vertices: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        scale: [f64; 3],
+        material: u32,
+        motion: BoundaryMotion,
+        start: f64,
+        end: f64,
+    ) -> Result<Boundary, String> {
+        if triangles.is_empty() {
+            return Err(format!(
+                "empty mesh: {} vertices and no triangles (a boundary needs triangles)",
+                vertices.len()
+            ));
+        }
+        // Weld vertices with equal (scaled) coordinates: OBJ objects and STL files repeat them.
+        let mut weld: std::collections::HashMap<[u64; 3], u32> = Default::default();
+        let mut pos: Vec<DVec3> = Vec::new();
+        let mut remap = Vec::with_capacity(vertices.len());
+        for (i, v) in vertices.iter().enumerate() {
+            let s = DVec3::new(v[0] * scale[0], v[1] * scale[1], v[2] * scale[2]);
+            if !s.is_finite() {
+                return Err(format!(
+                    "vertex {i} has a non-finite coordinate: [{}, {}, {}]",
+                    v[0], v[1], v[2]
+                ));
+            }
+            let s = s + DVec3::ZERO; // -0.0 and 0.0 weld together
+            let key = [s.x.to_bits(), s.y.to_bits(), s.z.to_bits()];
+            let id = *weld.entry(key).or_insert_with(|| {
+                pos.push(s);
+                (pos.len() - 1) as u32
+            });
+            remap.push(id);
+        }
+        let mut tris = Vec::with_capacity(triangles.len());
+        let mut normals = Vec::with_capacity(triangles.len());
+        let mut volume = 0.0f64;
+        for (t, tri) in triangles.iter().enumerate() {
+            let mut w = [0u32; 3];
+            for k in 0..3 {
+                let i = tri[k] as usize;
+                w[k] = *remap.get(i).ok_or_else(|| {
+                    format!(
+                        "triangle {t} uses vertex {i}, but the mesh has {} vertices",
+                        vertices.len()
+                    )
+                })?;
+            }
+            let [a, b, c] = w.map(|i| pos[i as usize]);
+            let n = (b - a).cross(c - a);
+            let longest = (b - a)
+                .length_squared()
+                .max((c - b).length_squared())
+                .max((a - c).length_squared());
+            if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || n.length() <= 1e-9 * longest {
+                return Err(format!(
+                    "triangle {t} is degenerate (its vertices [{a}], [{b}], [{c}] are on one line)"
+                ));
+            }
+            volume += a.dot(b.cross(c));
+            normals.push(n.normalize().as_vec3());
+            tris.push(w);
+        }
+        // Edges: each shared by at most two triangles, which run along it in opposite
+        // directions (consistent winding).
+        let mut edges: std::collections::HashMap<(u32, u32), Vec<(u32, u8)>> = Default::default();
+        for (t, w) in tris.iter().enumerate() {
+            for k in 0..3u8 {
+                let (a, b) = (w[k as usize], w[(k as usize + 1) % 3]);
+                edges
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push((t as u32, k));
+            }
+        }
+        let mut neighbours = vec![[NO_NEIGHBOUR; 3]; tris.len()];
+        let mut border = false;
+        let mut sorted: Vec<_> = edges.into_iter().collect();
+        sorted.sort_unstable();
+        let mut link_pairs = Vec::with_capacity(2 * sorted.len());
+        for ((a, b), users) in &sorted {
+            link_pairs.push((*a, *b));
+            link_pairs.push((*b, *a));
+            match users.as_slice() {
+                [_] => border = true,
+                [(t0, k0), (t1, k1)] => {
+                    if tris[*t0 as usize][*k0 as usize] == tris[*t1 as usize][*k1 as usize] {
+                        return Err(format!(
+                            "triangles {t0} and {t1} are wound in opposite directions (flipped normals): they run along their shared edge the same way"
+                        ));
+                    }
+                    neighbours[*t0 as usize][*k0 as usize] = *t1;
+                    neighbours[*t1 as usize][*k1 as usize] = *t0;
+                }
+                many => {
+                    return Err(format!(
+                        "non-manifold mesh: the edge from [{}] to [{}] is shared by {} triangles ({}), at most two may share an edge",
+                        pos[*a as usize],
+                        pos[*b as usize],
+                        many.len(),
+                        many.iter()
+                            .map(|(t, _)| t.to_string())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ));
+                }
+            }
+        }
+        if !border && volume < 0.0 {
+            return Err(format!(
+                "the mesh is closed but inside out (its triangles are wound clockwise seen from outside: signed volume {:.6e} m^3); flip the winding",
+                volume / 6.0
+            ));
+        }
+        link_pairs.sort_unstable();
+        let mut link_start = vec![0u32; pos.len() + 1];
+        for &(a, _) in &link_pairs {
+            link_start[a as usize + 1] += 1;
+        }
+        for v in 0..pos.len() {
+            link_start[v + 1] += link_start[v];
+        }
+        let links = link_pairs.iter().map(|&(_, b)| b).collect();
+        let vertices: Vec<Vec3> = pos.iter().map(|p| p.as_vec3()).collect();
+        let reach = match motion {
+            BoundaryMotion::Rotate { center, .. } => vertices
+                .iter()
+                .map(|v| (*v - center).length())
+                .fold(0.0, f32::max),
+            _ => 0.0,
+        };
+        Ok(Boundary {
+            file: file.to_string(),
+            material,
+            motion,
+            start,
+            end,
+            vertices,
+            triangles: tris,
+            normals,
+            neighbours,
+            link_start,
+            links,
+            reach,
+            grid: MeshGrid::default(),
+        })
+    }
+
+    /// Bins the triangles with cells of `cell` (the world does this once it knows its cell
+    /// size).
+    pub fn build_grid(&mut self, cell: f32) {
+        self.grid = MeshGrid::build(&self.vertices, &self.triangles, &self.normals, cell);
+    }
+
+    /// How long the motion has run at time `t` (s, f32 as both backends compute it).
+    #[inline]
+    fn elapsed(&self, t: f64) -> f32 {
+        (t.clamp(self.start, self.end.max(self.start)) - self.start) as f32
+    }
+
+    /// The boundary's pose at time `t`.
+    pub fn pose(&self, t: f64) -> MeshPose {
+        let tau = self.elapsed(t);
+        match self.motion {
+            BoundaryMotion::Fixed => MeshPose {
+                rotation: Quat::IDENTITY,
+                translation: Vec3::ZERO,
+            },
+            BoundaryMotion::Translate { velocity } => MeshPose {
+                rotation: Quat::IDENTITY,
+                translation: velocity * tau,
+            },
+            BoundaryMotion::Rotate {
+                angular_velocity,
+                center,
+            } => {
+                let q = Quat::from_scaled_axis(angular_velocity * tau);
+                MeshPose {
+                    rotation: q,
+                    translation: center - q * center,
+                }
+            }
+        }
+    }
+
+    /// The rigid motion of the boundary's surface at time `t`, as the contact law's side a.
+    pub fn motion_at(&self, t: f64) -> BodyMotion {
+        if !(t >= self.start && t < self.end) {
+            return BodyMotion::default();
+        }
+        match self.motion {
+            BoundaryMotion::Fixed => BodyMotion::default(),
+            BoundaryMotion::Translate { velocity } => BodyMotion {
+                position: Vec3::ZERO,
+                velocity,
+                omega: Vec3::ZERO,
+            },
+            BoundaryMotion::Rotate {
+                angular_velocity,
+                center,
+            } => BodyMotion {
+                position: center,
+                velocity: Vec3::ZERO,
+                omega: angular_velocity,
+            },
+        }
+    }
+
+    /// An upper bound of how far any point of the mesh moves between times `t0` and `t1`.
+    pub fn displacement_bound(&self, t0: f64, t1: f64) -> f32 {
+        let d = (self.elapsed(t1) - self.elapsed(t0)).abs();
+        match self.motion {
+            BoundaryMotion::Fixed => 0.0,
+            BoundaryMotion::Translate { velocity } => velocity.length() * d * 1.000_001,
+            BoundaryMotion::Rotate {
+                angular_velocity, ..
+            } => angular_velocity.length() * d * self.reach * 1.000_001,
+        }
+    }
+
+    /// Whether the boundary ever moves.
+    pub fn moves(&self) -> bool {
+        match self.motion {
+            BoundaryMotion::Fixed => false,
+            BoundaryMotion::Translate { velocity } => velocity != Vec3::ZERO,
+            BoundaryMotion::Rotate {
+                angular_velocity, ..
+            } => angular_velocity != Vec3::ZERO,
+        }
+    }
+
+    /// Triangle `t`'s vertices in the world at `pose`.
+    #[inline]
+    pub fn world_triangle(&self, t: usize, pose: &MeshPose) -> [Vec3; 3] {
+        self.triangles[t].map(|i| pose.apply(self.vertices[i as usize]))
+    }
+
+    /// Whether an edge contact on edge `k` of triangle `t`, with unit normal `d` (mesh
+    /// frame), lies in the edge's Voronoi region: it does not point into the face region of
+    /// the triangle across the edge (within a small tolerance).
+    pub fn edge_region(&self, t: usize, k: usize, d: Vec3) -> bool {
+        let other = self.neighbours[t][k];
+        if other == NO_NEIGHBOUR {
+            return true;
+        }
+        let o = other as usize;
+        let [a, b] = [
+            self.triangles[t][k] as usize,
+            self.triangles[t][(k + 1) % 3] as usize,
+        ];
+        let (va, vb) = (self.vertices[a], self.vertices[b]);
+        let apex = self.triangles[o]
+            .iter()
+            .map(|&i| i as usize)
+            .find(|&i| i != a && i != b)
+            .unwrap_or(a);
+        let e = vb - va;
+        // In the other triangle's plane, perpendicular to the edge, pointing into it.
+        let mut u = self.normals[o].cross(e).normalize_or_zero();
+        if u.dot(self.vertices[apex] - va) < 0.0 {
+            u = -u;
+        }
+        d.dot(u) <= REGION_TOLERANCE
+    }
+
+    /// Whether a vertex contact at vertex `v` with unit normal `d` (mesh frame) lies in the
+    /// vertex's Voronoi region: `d` points away from (or across) every edge at the vertex.
+    pub fn vertex_region(&self, v: usize, d: Vec3) -> bool {
+        let p = self.vertices[v];
+        self.links[self.link_start[v] as usize..self.link_start[v + 1] as usize]
+            .iter()
+            .all(|&w| {
+                let e = self.vertices[w as usize] - p;
+                d.dot(e) <= REGION_TOLERANCE * e.length()
+            })
+    }
+}
+
+/// How far (cosine) a feature contact's normal may lean into a neighbouring region and still
+/// count as the feature's.
+const REGION_TOLERANCE: f32 = 1e-5;
+
+/// One mesh contact slot of a body: the springs it carries, its normal (to match the next
+/// step's contacts) and what the last step computed.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MeshSlot {
+    /// The boundary touched.
+    pub boundary: u32,
+    /// Whether the slot held a contact in the last step.
+    pub touching: bool,
+    /// The contact's normal in the last step (from the boundary to the body).
+    pub normal: Vec3,
+    /// Tangential spring.
+    pub history: Vec3,
+    /// The law's twist / coverage word.
+    pub twist: f32,
+    /// The last step's force (the body is side b).
+    pub force: ContactForce,
+}
+
+/// The mesh contacts of every body: candidates from the last rebuild and the slots.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MeshContacts {
+    /// Body `i`'s candidate triangles are `candidates[start[i]..start[i + 1]]`: global ids
+    /// (boundary `b`'s triangle `t` is `first[b] + t`), ascending.
+    pub start: Vec<u32>,
+    pub candidates: Vec<u32>,
+    /// The first global triangle id of each boundary (and the total at the end).
+    pub first: Vec<u32>,
+    /// [`MESH_SLOTS`] per body.
+    pub slots: Vec<MeshSlot>,
+    /// The time of the last rebuild (the mesh poses the candidates were found at).
+    pub rebuild_time: f64,
+}
+
+impl MeshContacts {
+    /// The boundary and its triangle of global id `g`.
+    #[inline]
+    pub fn locate(&self, g: u32) -> (usize, usize) {
+        let b = self.first.partition_point(|&f| f <= g) - 1;
+        (b, (g - self.first[b]) as usize)
+    }
+
+    /// Adds body `i`'s mesh forces and torques to `(f, t)`, in slot order.
+    #[inline]
+    pub fn gather(&self, i: usize, f: Vec3, t: Vec3) -> (Vec3, Vec3) {
+        let (mut f, mut t) = (f, t);
+        for s in &self.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS] {
+            if s.touching {
+                f += s.force.force_b;
+                t += s.force.torque_b;
+            }
+        }
+        (f, t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        (
+            vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        )
+    }
+
+    #[test]
+    fn adjacency_and_regions() {
+        let (v, t) = square();
+        let b = Boundary::new("sq", &v, &t, [1.0; 3], 0, BoundaryMotion::Fixed, 0.0, 1.0).unwrap();
+        // Edge 2 of triangle 0 (vertex 2 -> 0) is shared with triangle 1's edge 0.
+        assert_eq!(b.neighbours[0], [NO_NEIGHBOUR, NO_NEIGHBOUR, 1]);
+        assert_eq!(b.neighbours[1], [0, NO_NEIGHBOUR, NO_NEIGHBOUR]);
+        // A normal straight up at the internal edge is in its region (flat surface: the
+        // face's normal); one leaning into triangle 1 is not.
+        assert!(b.edge_region(0, 2, Vec3::Z));
+        let lean = Vec3::new(-1.0, 1.0, 1.0).normalize();
+        assert!(!b.edge_region(0, 2, lean));
+        // A border edge accepts any normal.
+        assert!(b.edge_region(0, 0, -Vec3::Y));
+        // Vertex 0 (corner): a normal pointing out of the corner is its own, up is not
+        // beyond the edges, into the square is not.
+        assert!(b.vertex_region(0, Vec3::new(-1.0, -1.0, 0.5).normalize()));
+        assert!(!b.vertex_region(0, Vec3::new(1.0, 0.2, 0.5).normalize()));
+    }
+
+    #[test]
+    fn bad_meshes() {
+        let (v, t) = square();
+        let motion = BoundaryMotion::Fixed;
+        let err = |v: &[[f64; 3]], t: &[[u32; 3]]| {
+            Boundary::new("m", v, t, [1.0; 3], 0, motion, 0.0, 1.0).unwrap_err()
+        };
+        assert!(err(&v, &[]).contains("empty"));
+        assert!(err(&v, &[[0, 1, 7]]).contains("vertex 7"));
+        assert!(err(&v, &[[0, 1, 1]]).contains("degenerate"));
+        let mut nan = v.clone();
+        nan[2][1] = f64::NAN;
+        assert!(err(&nan, &t).contains("non-finite"));
+        assert!(err(&v, &[[0, 1, 2], [0, 3, 2]]).contains("opposite directions"));
+        let mut fin = v.clone();
+        fin.push([0.5, 0.5, 1.0]);
+        fin.push([0.5, 0.5, -1.0]);
+        assert!(err(&fin, &[[0, 2, 4], [2, 0, 5], [0, 2, 3]]).contains("non-manifold"));
+        // A tetrahedron wound outward is fine; inside out is refused.
+        let tv = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ];
+        let out = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+        assert!(Boundary::new("t", &tv, &out, [1.0; 3], 0, motion, 0.0, 1.0).is_ok());
+        let inside: Vec<[u32; 3]> = out.iter().map(|t| [t[0], t[2], t[1]]).collect();
+        assert!(err(&tv, &inside).contains("inside out"));
+    }
+
+    #[test]
+    fn grid_finds_what_brute_force_finds() {
+        // A bumpy 10 x 10 sheet of 200 triangles; every ball's grid candidates include every
+        // triangle whose bounding box the ball's box overlaps.
+        let n = 10;
+        let mut v = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (i as f64 * 0.1, j as f64 * 0.1);
+                v.push([x, y, 0.03 * ((7.0 * x).sin() + (5.0 * y).cos())]);
+            }
+        }
+        let mut t = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let a = (j * (n + 1) + i) as u32;
+                t.push([a, a + 1, a + n as u32 + 2]);
+                t.push([a, a + n as u32 + 2, a + n as u32 + 1]);
+            }
+        }
+        let mut b =
+            Boundary::new("g", &v, &t, [1.0; 3], 0, BoundaryMotion::Fixed, 0.0, 1.0).unwrap();
+        b.build_grid(0.037);
+        let mut out = Vec::new();
+        for k in 0..500 {
+            let c = Vec3::new(
+                (k as f32 * 0.618).fract() * 1.2 - 0.1,
+                (k as f32 * 0.377).fract() * 1.2 - 0.1,
+                (k as f32 * 0.211).fract() * 0.2 - 0.1,
+            );
+            let r = 0.02;
+            out.clear();
+            b.grid.query(c, r, &mut out);
+            for (ti, tri) in b.triangles.iter().enumerate() {
+                let p = tri.map(|i| b.vertices[i as usize]);
+                let (q, _) = clatter_geom::triangle::closest_on_triangle(c, p[0], p[1], p[2]);
+                if (q - c).length() < r {
+                    assert!(out.contains(&(ti as u32)), "ball {k} misses triangle {ti}");
+                }
+            }
+        }
+    }
+}

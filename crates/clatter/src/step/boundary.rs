@@ -1,0 +1,340 @@
+//! The triangle-mesh boundaries' part of the **broad** and **contacts** stages (see
+//! [`crate::boundary`] for the design): candidate triangles per body at each rebuild, and
+//! per body and step the contacts with them, ghost contacts dropped, coplanar faces merged,
+//! matched to the body's mesh slots and run through the contact law. Each body writes only
+//! its own slots, so the result does not depend on the thread count.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::boundary::{Boundary, MESH_SLOTS, MeshPose, MeshSlot, SLOT_MATCH_COS};
+use crate::law::{self, BodyMotion};
+use crate::world::World;
+use clatter_geom::narrow::{self, Manifold, Plane};
+use clatter_geom::triangle::{self, TriContact, TriFeature};
+use clatter_geom::{Pose, Shape};
+
+/// **broad** for the boundaries: every body's candidate triangles (within its bounding
+/// radius plus the skin of the body at its current position, with the meshes at the current
+/// time), sorted by global id; clears the slots of bodies that have none.
+pub(crate) fn rebuild(world: &mut World) {
+    if world.boundaries.is_empty() {
+        return;
+    }
+    let t = world.time;
+    let poses: Vec<MeshPose> = world.boundaries.iter().map(|b| b.pose(t)).collect();
+    let first = world.mesh.first.clone();
+    let w = &*world;
+    let per_body: Vec<Vec<u32>> = (0..w.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .map(|i| {
+            // A body removed by a sink touches no mesh.
+            if w.state.removed[i] {
+                return Vec::new();
+            }
+            let reach = w.consts.radius[i] + w.skin;
+            let x = w.state.position[i];
+            let mut out = Vec::new();
+            let mut cells = Vec::new();
+            for (b, (mesh, pose)) in w.boundaries.iter().zip(&poses).enumerate() {
+                let local = pose.inverse(x);
+                cells.clear();
+                mesh.grid.query(local, reach, &mut cells);
+                cells.sort_unstable();
+                cells.dedup();
+                for &tri in &cells {
+                    let p = mesh.triangles[tri as usize].map(|k| mesh.vertices[k as usize]);
+                    let (q, _) = triangle::closest_on_triangle(local, p[0], p[1], p[2]);
+                    if (q - local).length_squared() < reach * reach {
+                        out.push(first[b] + tri);
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mc = &mut world.mesh;
+    mc.start.clear();
+    mc.candidates.clear();
+    mc.start.push(0);
+    for list in per_body {
+        mc.candidates.extend(list);
+        mc.start.push(mc.candidates.len() as u32);
+    }
+    mc.rebuild_time = t;
+}
+
+/// How far the meshes may have moved since the last rebuild, at the current time.
+pub(crate) fn moved_since_rebuild(world: &World) -> f32 {
+    world
+        .boundaries
+        .iter()
+        .map(|b| b.displacement_bound(world.mesh.rebuild_time, world.time))
+        .fold(0.0, f32::max)
+}
+
+/// **contacts** for the boundaries: each body against its candidate triangles. Returns the
+/// number of touching mesh contacts.
+pub(crate) fn run(world: &mut World) -> usize {
+    if world.boundaries.is_empty() {
+        return 0;
+    }
+    let t = world.time;
+    let poses: Vec<MeshPose> = world.boundaries.iter().map(|b| b.pose(t)).collect();
+    let motions: Vec<BodyMotion> = world.boundaries.iter().map(|b| b.motion_at(t)).collect();
+    let mut slots = std::mem::take(&mut world.mesh.slots);
+    let w = &*world;
+    let touching = slots
+        .par_chunks_mut(MESH_SLOTS)
+        .enumerate()
+        .with_min_len(64)
+        .map(|(i, s)| body_slots(w, i, &poses, &motions, s))
+        .sum();
+    world.mesh.slots = slots;
+    touching
+}
+
+/// One contact with a boundary, before the law.
+#[derive(Clone, Copy)]
+struct Found {
+    boundary: u32,
+    manifold: Manifold,
+}
+
+/// Body `i`'s mesh contacts this step, into its slots.
+fn body_slots(
+    w: &World,
+    i: usize,
+    poses: &[MeshPose],
+    motions: &[BodyMotion],
+    slots: &mut [MeshSlot],
+) -> usize {
+    let mc = &w.mesh;
+    let cands = &mc.candidates[mc.start[i] as usize..mc.start[i + 1] as usize];
+    if cands.is_empty() {
+        if slots.iter().any(|s| s.touching) {
+            slots.fill(MeshSlot::default());
+        }
+        return 0;
+    }
+    let found = piece_contacts(w, w.shape(i), &w.pose(i), cands, poses);
+    assign(w, i, &found, motions, slots)
+}
+
+/// A face contact group: one plane of one boundary and the triangles on it that the piece
+/// touches.
+struct FaceGroup {
+    boundary: u32,
+    normal: Vec3,
+    offset: f32,
+    tris: Vec<[Vec3; 3]>,
+}
+
+/// The contacts of one convex piece (`shape` at `pose`) with candidate triangles `cands`
+/// (global ids, ascending): face contacts merged per plane, edge and vertex contacts that are
+/// not ghosts, at most [`MESH_SLOTS`] (the deepest), in a deterministic order.
+fn piece_contacts(
+    w: &World,
+    shape: &Shape,
+    pose: &Pose,
+    cands: &[u32],
+    poses: &[MeshPose],
+) -> Vec<Found> {
+    let mc = &w.mesh;
+    let size = shape.bounding_radius();
+    let mut groups: Vec<FaceGroup> = Vec::new();
+    let mut features: Vec<(Found, u32, [u32; 2])> = Vec::new(); // (contact, boundary, key)
+    for &g in cands {
+        let (b, t) = mc.locate(g);
+        let mesh: &Boundary = &w.boundaries[b];
+        let mp = &poses[b];
+        let tri = mesh.world_triangle(t, mp);
+        let normal = mp.rotation * mesh.normals[t];
+        match triangle::collide_triangle(shape, pose, &tri, normal) {
+            None => {}
+            Some(TriContact::Face { normal, offset }) => {
+                let same = groups.iter_mut().find(|f| {
+                    f.boundary == b as u32
+                        && f.normal.dot(normal) >= 1.0 - 1e-6
+                        && (f.offset - offset).abs() <= 1e-5 * size
+                });
+                match same {
+                    Some(f) => f.tris.push(tri),
+                    None => groups.push(FaceGroup {
+                        boundary: b as u32,
+                        normal,
+                        offset,
+                        tris: vec![tri],
+                    }),
+                }
+            }
+            Some(TriContact::Feature { feature, manifold }) => {
+                let d = mp.rotation.conjugate() * manifold.normal;
+                let verts = mesh.triangles[t];
+                let key = match feature {
+                    TriFeature::Edge(k) => {
+                        let k = k as usize;
+                        if !mesh.edge_region(t, k, d) {
+                            continue;
+                        }
+                        let (a, c) = (verts[k], verts[(k + 1) % 3]);
+                        [a.min(c), a.max(c)]
+                    }
+                    TriFeature::Vertex(k) => {
+                        let v = verts[k as usize];
+                        if !mesh.vertex_region(v as usize, d) {
+                            continue;
+                        }
+                        [v, u32::MAX]
+                    }
+                    TriFeature::Face => continue,
+                };
+                // A shared edge or vertex counts once (the first triangle, by id, has it).
+                if features
+                    .iter()
+                    .any(|(_, fb, k)| *fb == b as u32 && *k == key)
+                {
+                    continue;
+                }
+                features.push((
+                    Found {
+                        boundary: b as u32,
+                        manifold,
+                    },
+                    b as u32,
+                    key,
+                ));
+            }
+        }
+    }
+    let mut found: Vec<Found> = Vec::with_capacity(groups.len() + features.len());
+    for g in &groups {
+        if let Some(m) = plane_manifold(shape, pose, g) {
+            found.push(Found {
+                boundary: g.boundary,
+                manifold: m,
+            });
+        }
+    }
+    found.extend(features.into_iter().map(|(f, _, _)| f));
+    if found.len() > MESH_SLOTS {
+        // Keep the deepest (a stable sort: ties keep their order).
+        found.sort_by(|a, b| b.manifold.max_depth().total_cmp(&a.manifold.max_depth()));
+        found.truncate(MESH_SLOTS);
+    }
+    found
+}
+
+/// The manifold of a piece against one plane of coplanar triangles: the plane's own manifold
+/// (as for a `[[wall]]`) when all its points lie on the triangles, else the piece's vertices
+/// over the triangles and the triangles' vertices inside the piece.
+fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold> {
+    let plane = Plane {
+        normal: g.normal,
+        offset: g.offset,
+    };
+    let m = narrow::collide_plane(&plane, shape, pose)?;
+    const TOL: f32 = 1e-6;
+    let on_mesh = |x: Vec3| g.tris.iter().any(|t| triangle::projects_inside(x, t, TOL));
+    if m.points().iter().all(|p| on_mesh(p.point)) {
+        return Some(m);
+    }
+    let Shape::Polyhedron(p) = shape else {
+        // A sphere's face contact point is over its triangle by construction.
+        return Some(m);
+    };
+    let n = g.normal;
+    let mut pts: Vec<(Vec3, f32)> = Vec::new();
+    for &v in &p.vertices {
+        let x = pose.transform_point(v);
+        let h = n.dot(x) - g.offset;
+        if h < 0.0 && on_mesh(x) {
+            pts.push((x - n * (0.5 * h), -h));
+        }
+    }
+    let n_local = pose.rotation.conjugate() * n;
+    for t in &g.tris {
+        for &x in t {
+            let local = pose.inverse_transform_point(x);
+            if let Some(depth) = triangle::depth_inside(p, local, n_local)
+                && depth > 0.0
+            {
+                pts.push((x - n * (0.5 * depth), depth));
+            }
+        }
+    }
+    if pts.is_empty() {
+        return None;
+    }
+    Some(narrow::patch(&pts, n))
+}
+
+/// Puts this step's contacts of body `i` into its slots (springs carried from the old slot
+/// of the same boundary with the closest normal), runs the law, and releases the rest.
+fn assign(
+    w: &World,
+    i: usize,
+    found: &[Found],
+    motions: &[BodyMotion],
+    slots: &mut [MeshSlot],
+) -> usize {
+    let old: [MeshSlot; MESH_SLOTS] = std::array::from_fn(|k| slots[k]);
+    let mut taken = [false; MESH_SLOTS];
+    let mut place = [usize::MAX; MESH_SLOTS];
+    for (c, f) in found.iter().enumerate() {
+        let mut best = (SLOT_MATCH_COS, usize::MAX);
+        for (k, s) in old.iter().enumerate() {
+            if s.touching && !taken[k] && s.boundary == f.boundary {
+                let cos = s.normal.dot(f.manifold.normal);
+                if cos >= best.0 {
+                    best = (cos, k);
+                }
+            }
+        }
+        if best.1 != usize::MAX {
+            taken[best.1] = true;
+            place[c] = best.1;
+        }
+    }
+    for s in slots.iter_mut() {
+        *s = MeshSlot::default();
+    }
+    for slot in place.iter_mut().take(found.len()) {
+        if *slot == usize::MAX {
+            let k = (0..MESH_SLOTS)
+                .find(|&k| !taken[k])
+                .expect("at most MESH_SLOTS contacts");
+            taken[k] = true;
+            *slot = k;
+        } else {
+            let o = old[*slot];
+            slots[*slot].history = o.history;
+            slots[*slot].twist = o.twist;
+        }
+    }
+    let body = w.motion(i);
+    let (mass, r_eff) = (w.consts.mass[i], w.consts.equivalent_radius[i]);
+    let share = law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[i]);
+    for (c, f) in found.iter().enumerate() {
+        let s = &mut slots[place[c]];
+        let b = f.boundary as usize;
+        let params = w.pair_params(w.boundaries[b].material, w.consts.material[i]);
+        s.force = law::contact_force(
+            params,
+            mass,
+            r_eff,
+            share,
+            &f.manifold,
+            &motions[b],
+            &body,
+            &mut s.history,
+            &mut s.twist,
+            w.dt,
+        );
+        s.boundary = f.boundary;
+        s.normal = f.manifold.normal;
+        s.touching = true;
+    }
+    found.len()
+}
