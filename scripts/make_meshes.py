@@ -5,8 +5,10 @@ ASCII STL, with the standard library only.
     python3 scripts/make_meshes.py                  # the default set into scenes/meshes/
     python3 scripts/make_meshes.py silo --orifice 0.012 --out scenes/meshes/silo_D12.stl
 
-Meshes (units: m; z up; every triangle is wound counter-clockwise seen from the side the
-bodies are on, and its facet normal points there, into the equipment):
+Meshes (units: m; z up). Triangles are two-sided in clatter, but a closed mesh must follow
+the STL convention, wound counter-clockwise seen from outside with its facet normals pointing
+out (clatter refuses an inside-out closed mesh): the drum does. The open silo and plate face
+the bodies (normals into the silo, the plate's up).
 
 - silo: a flat-bottomed square silo, side `width`, walls `height` high, standing on z = 0,
   centred on the z axis, with a central square orifice of side `orifice` in its floor.
@@ -63,7 +65,7 @@ def plate(size, z):
 
 
 def drum(radius, length, segments):
-    """Mantle and end caps of a cylinder around the y axis, facing inwards."""
+    """Mantle and end caps of a cylinder around the y axis, wound outwards (closed mesh)."""
     tris = []
     y0, y1 = -length / 2, length / 2
     ring = [
@@ -72,11 +74,11 @@ def drum(radius, length, segments):
     ]
     for k in range(segments):
         (x0, z0), (x1, z1) = ring[k], ring[(k + 1) % segments]
-        # Mantle, normal towards the axis.
-        tris += quad((x0, y0, z0), (x1, y0, z1), (x1, y1, z1), (x0, y1, z0))
-        # Caps: y = y0 faces +y, y = y1 faces -y.
-        tris.append(((0, y0, 0), (x1, y0, z1), (x0, y0, z0)))
-        tris.append(((0, y1, 0), (x0, y1, z0), (x1, y1, z1)))
+        # Mantle, normal away from the axis.
+        tris += quad((x0, y0, z0), (x0, y1, z0), (x1, y1, z1), (x1, y0, z1))
+        # Caps: y = y0 faces -y, y = y1 faces +y.
+        tris.append(((0, y0, 0), (x0, y0, z0), (x1, y0, z1)))
+        tris.append(((0, y1, 0), (x1, y1, z1), (x0, y1, z0)))
     return tris
 
 
