@@ -119,7 +119,10 @@ fn boundary_frames_follow_the_motion() {
         assert!((xs[0] - (-0.1 + shift)).abs() < 1e-6, "step {step}: {xs:?}");
         assert!((xs[3] - (0.1 + shift)).abs() < 1e-6, "step {step}: {xs:?}");
         for vx in v["vx"].as_array().unwrap() {
-            assert!((vx.as_f64().unwrap() - speed).abs() < 1e-6, "step {step}: {v}");
+            assert!(
+                (vx.as_f64().unwrap() - speed).abs() < 1e-6,
+                "step {step}: {v}"
+            );
         }
     }
 }

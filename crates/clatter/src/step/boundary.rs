@@ -7,7 +7,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::boundary::{Boundary, MESH_SLOTS, MeshPose, MeshSlot, SLOT_MATCH_COS};
+use crate::boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS};
 use crate::law::{self, BodyMotion};
 use crate::world::World;
 use clatter_geom::narrow::{self, Manifold, Plane};
@@ -54,9 +54,21 @@ pub(crate) fn rebuild(world: &mut World) {
     mc.start.clear();
     mc.candidates.clear();
     mc.start.push(0);
-    for list in per_body {
+    let old_active = std::mem::take(&mut mc.active);
+    for (i, list) in per_body.into_iter().enumerate() {
+        if !list.is_empty() {
+            mc.active.push(i as u32);
+        }
         mc.candidates.extend(list);
         mc.start.push(mc.candidates.len() as u32);
+    }
+    // Bodies that lost every candidate lose their contacts (the others keep their springs).
+    for i in old_active {
+        if mc.active.binary_search(&i).is_err() {
+            let i = i as usize;
+            mc.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS].fill(MeshSlot::default());
+            mc.total[i] = [Vec3::ZERO; 2];
+        }
     }
     mc.rebuild_time = t;
 }
@@ -79,15 +91,28 @@ pub(crate) fn run(world: &mut World) -> usize {
     let t = world.time;
     let poses: Vec<MeshPose> = world.boundaries.iter().map(|b| b.pose(t)).collect();
     let motions: Vec<BodyMotion> = world.boundaries.iter().map(|b| b.motion_at(t)).collect();
-    let mut slots = std::mem::take(&mut world.mesh.slots);
     let w = &*world;
-    let touching = slots
-        .par_chunks_mut(MESH_SLOTS)
-        .enumerate()
-        .with_min_len(64)
-        .map(|(i, s)| body_slots(w, i, &poses, &motions, s))
-        .sum();
-    world.mesh.slots = slots;
+    let updated: Vec<([MeshSlot; MESH_SLOTS], usize)> = w
+        .mesh
+        .active
+        .par_iter()
+        .with_min_len(16)
+        .map(|&i| {
+            let i = i as usize;
+            let mut s: [MeshSlot; MESH_SLOTS] =
+                std::array::from_fn(|k| w.mesh.slots[i * MESH_SLOTS + k]);
+            let n = body_slots(w, i, &poses, &motions, &mut s);
+            (s, n)
+        })
+        .collect();
+    let mc = &mut world.mesh;
+    let mut touching = 0;
+    for (&i, (s, n)) in mc.active.iter().zip(updated) {
+        let i = i as usize;
+        mc.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS].copy_from_slice(&s);
+        mc.total[i] = MeshContacts::sum_slots(&s);
+        touching += n;
+    }
     touching
 }
 
