@@ -212,6 +212,44 @@ fn cube_rests_on_a_mesh_floor_as_on_the_plane() {
     );
 }
 
+#[test]
+fn cube_slides_across_a_mesh_floor_exactly_as_on_the_plane() {
+    // A cube sliding (and spinning) over many internal edges, straight and diagonally,
+    // until friction stops it: the same trajectory as on the plane, bit for bit.
+    let half = 0.015f32;
+    for (dir, spin) in [
+        (Vec3::X, 0.0f32),
+        (Vec3::new(1.0, 0.7, 0.0).normalize(), 4.0),
+    ] {
+        let mk = |mesh: bool| {
+            let mut b = body(
+                Vec3::new(-0.3 * dir.x, -0.3 * dir.y, half - 1e-4),
+                dir * 1.5,
+                Vec3::new(0.0, 0.0, spin),
+            );
+            b.orientation = Quat::from_rotation_z(0.4);
+            on_floor(cube(half as f64), b, mesh, 0.3)
+        };
+        let (mut plane, mut mesh) = (mk(false), mk(true));
+        for _ in 0..20 {
+            run(&mut plane, 1000);
+            run(&mut mesh, 1000);
+            assert_eq!(
+                plane.state.position[0], mesh.state.position[0],
+                "along {dir}"
+            );
+            assert_eq!(
+                plane.state.velocity[0], mesh.state.velocity[0],
+                "along {dir}"
+            );
+        }
+        let moved = (mesh.state.position[0] - Vec3::new(-0.3 * dir.x, -0.3 * dir.y, 0.0))
+            .truncate()
+            .length();
+        assert!(moved > 0.3, "slid {moved} m");
+    }
+}
+
 /// A closed cube `[0, s]^3` (12 triangles, wound outward).
 fn box_mesh(s: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     let mut v = Vec::new();

@@ -149,7 +149,9 @@ struct FaceGroup {
     boundary: u32,
     normal: Vec3,
     offset: f32,
-    tris: Vec<[Vec3; 3]>,
+    /// Every candidate triangle on the plane (those the piece touches on their faces and the
+    /// others).
+    support: Vec<[Vec3; 3]>,
 }
 
 /// The contacts of one convex piece (`shape` at `pose`) with candidate triangles `cands`
@@ -166,12 +168,14 @@ fn piece_contacts(
     let size = shape.bounding_radius();
     let mut groups: Vec<FaceGroup> = Vec::new();
     let mut features: Vec<(Found, u32, [u32; 2])> = Vec::new(); // (contact, boundary, key)
+    let mut seen: Vec<(u32, [Vec3; 3], Vec3)> = Vec::with_capacity(cands.len());
     for &g in cands {
         let (b, t) = mc.locate(g);
         let mesh: &Boundary = &w.boundaries[b];
         let mp = &poses[b];
         let tri = mesh.world_triangle(t, mp);
         let normal = mp.rotation * mesh.normals[t];
+        seen.push((b as u32, tri, normal));
         match triangle::collide_triangle(shape, pose, &tri, normal) {
             None => {}
             Some(TriContact::Face { normal, offset }) => {
@@ -181,12 +185,12 @@ fn piece_contacts(
                         && (f.offset - offset).abs() <= 1e-5 * size
                 });
                 match same {
-                    Some(f) => f.tris.push(tri),
+                    Some(_) => {}
                     None => groups.push(FaceGroup {
                         boundary: b as u32,
                         normal,
                         offset,
-                        tris: vec![tri],
+                        support: Vec::new(),
                     }),
                 }
             }
@@ -229,6 +233,19 @@ fn piece_contacts(
             }
         }
     }
+    // Every candidate triangle on a group's plane supports it (also those whose own test
+    // found an edge contact, dropped as a ghost): the plane's manifold stands on them all.
+    for g in &mut groups {
+        g.support = seen
+            .iter()
+            .filter(|(b, tri, n)| {
+                *b == g.boundary
+                    && n.dot(g.normal).abs() >= 1.0 - 1e-6
+                    && (g.normal.dot(tri[0]) - g.offset).abs() <= 1e-5 * size
+            })
+            .map(|(_, tri, _)| *tri)
+            .collect();
+    }
     let mut found: Vec<Found> = Vec::with_capacity(groups.len() + features.len());
     for g in &groups {
         if let Some(m) = plane_manifold(shape, pose, g) {
@@ -257,7 +274,11 @@ fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold>
     };
     let m = narrow::collide_plane(&plane, shape, pose)?;
     const TOL: f32 = 1e-6;
-    let on_mesh = |x: Vec3| g.tris.iter().any(|t| triangle::projects_inside(x, t, TOL));
+    let on_mesh = |x: Vec3| {
+        g.support
+            .iter()
+            .any(|t| triangle::projects_inside(x, t, TOL))
+    };
     if m.points().iter().all(|p| on_mesh(p.point)) {
         return Some(m);
     }
@@ -275,7 +296,7 @@ fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold>
         }
     }
     let n_local = pose.rotation.conjugate() * n;
-    for t in &g.tris {
+    for t in &g.support {
         for &x in t {
             let local = pose.inverse_transform_point(x);
             if let Some(depth) = triangle::depth_inside(p, local, n_local)
