@@ -250,6 +250,49 @@ fn cube_slides_across_a_mesh_floor_exactly_as_on_the_plane() {
     }
 }
 
+#[test]
+fn a_ball_hitting_a_plate_rim_bounces_off_along_the_rim_normal() {
+    // Frictionless, no gravity: a ball falls past the border edge x = 0.1 of a plate (and
+    // past its corner) and touches only the edge (the corner): it leaves with
+    // v - (1 + e)(v . n) n, n from the edge (corner) point to its centre at impact.
+    let e = 0.5f32;
+    let (v, t) = floor_mesh(4, 0.1);
+    for (start, n) in [
+        (Vec3::new(0.106, 0.0, 0.02), Vec3::new(0.6, 0.0, 0.8)),
+        (
+            Vec3::new(0.1 + 0.006 / 2f32.sqrt(), 0.1 + 0.006 / 2f32.sqrt(), 0.02),
+            Vec3::new(0.6 / 2f32.sqrt(), 0.6 / 2f32.sqrt(), 0.8),
+        ),
+    ] {
+        // Stiff, so that the ball barely moves while in contact (0.1 ms) and the normal
+        // stays the one at impact.
+        let mut m = material(0.0, e);
+        m.law = ContactLaw::Linear { stiffness: 1e7 };
+        let desc = WorldDesc {
+            shapes: vec![sphere()],
+            materials: vec![m],
+            walls: vec![],
+            bodies: vec![body(start, Vec3::new(0.0, 0.0, -1.0), Vec3::ZERO)],
+            gravity: Vec3::ZERO,
+            dt: Some(1e-6),
+            skin: None,
+            periodic: None,
+        };
+        let mut w = World::with_boundaries(
+            desc,
+            vec![boundary(&v, &t, BoundaryMotion::Fixed, f64::INFINITY)],
+        );
+        run(&mut w, 30_000);
+        let v0 = Vec3::new(0.0, 0.0, -1.0);
+        let want = v0 - (1.0 + e) * v0.dot(n) * n;
+        let got = w.state.velocity[0];
+        assert!(
+            (got - want).length() < 0.01 * want.length(),
+            "from {start}: {got}, expected {want}"
+        );
+    }
+}
+
 /// A closed cube `[0, s]^3` (12 triangles, wound outward).
 fn box_mesh(s: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     let mut v = Vec::new();
