@@ -168,14 +168,12 @@ fn piece_contacts(
     let size = shape.bounding_radius();
     let mut groups: Vec<FaceGroup> = Vec::new();
     let mut features: Vec<(Found, u32, [u32; 2])> = Vec::new(); // (contact, boundary, key)
-    let mut seen: Vec<(u32, [Vec3; 3], Vec3)> = Vec::with_capacity(cands.len());
     for &g in cands {
         let (b, t) = mc.locate(g);
         let mesh: &Boundary = &w.boundaries[b];
         let mp = &poses[b];
         let tri = mesh.world_triangle(t, mp);
         let normal = mp.rotation * mesh.normals[t];
-        seen.push((b as u32, tri, normal));
         match triangle::collide_triangle(shape, pose, &tri, normal) {
             None => {}
             Some(TriContact::Face { normal, offset }) => {
@@ -235,16 +233,20 @@ fn piece_contacts(
     }
     // Every candidate triangle on a group's plane supports it (also those whose own test
     // found an edge contact, dropped as a ghost): the plane's manifold stands on them all.
-    for g in &mut groups {
-        g.support = seen
-            .iter()
-            .filter(|(b, tri, n)| {
-                *b == g.boundary
+    if !groups.is_empty() {
+        for &c in cands {
+            let (b, t) = mc.locate(c);
+            let mesh = &w.boundaries[b];
+            let n = poses[b].rotation * mesh.normals[t];
+            let tri = mesh.world_triangle(t, &poses[b]);
+            for g in groups.iter_mut().filter(|g| {
+                g.boundary == b as u32
                     && n.dot(g.normal).abs() >= 1.0 - 1e-6
                     && (g.normal.dot(tri[0]) - g.offset).abs() <= 1e-5 * size
-            })
-            .map(|(_, tri, _)| *tri)
-            .collect();
+            }) {
+                g.support.push(tri);
+            }
+        }
     }
     let mut found: Vec<Found> = Vec::with_capacity(groups.len() + features.len());
     for g in &groups {
