@@ -663,3 +663,48 @@ fn mesh_floor_example_is_bitwise_the_same_for_any_thread_count() {
         );
     }
 }
+
+#[test]
+fn a_fast_drum_is_not_taken_for_a_blow_up() {
+    // A drum turning at 30 rad/s (3 m/s at its wall) flings balls far faster than gravity
+    // alone could: the health checks count the energy moving meshes feed in.
+    let (v, t) = tube(0.1, 0.1, 64);
+    let mut bodies = Vec::new();
+    for k in 0..8 {
+        // Around the bottom, 0.3 rad (25 mm) apart.
+        let a = -1.05 + 0.3 * k as f32;
+        bodies.push(body(
+            Vec3::new(0.085 * a.sin(), 0.0, -0.085 * a.cos()),
+            Vec3::ZERO,
+            Vec3::ZERO,
+        ));
+    }
+    let desc = WorldDesc {
+        shapes: vec![sphere()],
+        materials: vec![material(0.5, 0.5)],
+        walls: vec![],
+        bodies,
+        gravity: Vec3::new(0.0, 0.0, -G),
+        dt: Some(2e-5),
+        skin: None,
+        periodic: None,
+    };
+    let motion = BoundaryMotion::Rotate {
+        angular_velocity: Vec3::new(0.0, 30.0, 0.0),
+        center: Vec3::ZERO,
+    };
+    let mut w = World::with_boundaries(desc, vec![boundary(&v, &t, motion, f64::INFINITY)]);
+    let health = clatter::Health::new(&w);
+    let mut fastest = 0.0f32;
+    for _ in 0..150 {
+        run(&mut w, 100);
+        health.check(&w, true).unwrap_or_else(|e| panic!("{e}"));
+        fastest = w
+            .state
+            .velocity
+            .iter()
+            .map(|v| v.length())
+            .fold(fastest, f32::max);
+    }
+    assert!(fastest > 1.0, "the drum flings the balls ({fastest} m/s)");
+}
