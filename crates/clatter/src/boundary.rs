@@ -567,10 +567,15 @@ pub struct MeshContacts {
     /// (boundary `b`'s triangle `t` is `first[b] + t`), ascending.
     pub start: Vec<u32>,
     pub candidates: Vec<u32>,
+    /// The bodies that have candidates, ascending: the only ones the contacts stage visits.
+    pub active: Vec<u32>,
     /// The first global triangle id of each boundary (and the total at the end).
     pub first: Vec<u32>,
     /// [`MESH_SLOTS`] per body.
     pub slots: Vec<MeshSlot>,
+    /// Per body, the force and torque of its mesh contacts summed in slot order (zero for
+    /// bodies without): what the integrate stage adds.
+    pub total: Vec<[Vec3; 2]>,
     /// The time of the last rebuild (the mesh poses the candidates were found at).
     pub rebuild_time: f64,
 }
@@ -583,17 +588,23 @@ impl MeshContacts {
         (b, (g - self.first[b]) as usize)
     }
 
-    /// Adds body `i`'s mesh forces and torques to `(f, t)`, in slot order.
+    /// Body `i`'s mesh force and torque added to `(f, t)`.
     #[inline]
     pub fn gather(&self, i: usize, f: Vec3, t: Vec3) -> (Vec3, Vec3) {
-        let (mut f, mut t) = (f, t);
-        for s in &self.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS] {
+        let [mf, mt] = self.total[i];
+        (f + mf, t + mt)
+    }
+
+    /// Sums the slots of body `i` into its total, in slot order.
+    pub fn sum_slots(slots: &[MeshSlot]) -> [Vec3; 2] {
+        let (mut f, mut t) = (Vec3::ZERO, Vec3::ZERO);
+        for s in slots {
             if s.touching {
                 f += s.force.force_b;
                 t += s.force.torque_b;
             }
         }
-        (f, t)
+        [f, t]
     }
 }
 

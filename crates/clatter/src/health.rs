@@ -8,8 +8,10 @@
 //! - **Energy growth**: the kinetic energy exceeds [`ENERGY_FACTOR`] times the energy the run
 //!   can have: the initial kinetic energy, plus the potential energy released since the start,
 //!   plus the elastic energy of initial overlaps, plus a floor (every body lifted by its own
-//!   size and moving one size per second). Contacts only dissipate, so a physical run stays
-//!   below 1x; an unstable integration grows exponentially past any factor.
+//!   size and moving one size per second; with moving boundary meshes, also every body at
+//!   twice their fastest surface speed and lifted by their extent and travel). Contacts only
+//!   dissipate, so a physical run stays below 1x; an unstable integration grows exponentially
+//!   past any factor.
 //! - **Deep overlap**: a contact deeper than [`OVERLAP_LIMIT`] of the smaller body's size
 //!   (its volume-equivalent radius: a sphere's radius; for a polyhedron the radius of the
 //!   sphere of the same volume, which, unlike the inradius, does not make a vertex of a
@@ -653,13 +655,38 @@ impl Health {
             .sum()
     }
 
-    /// Every body lifted by its own size, and moving its own size per second.
+    /// Every body lifted by its own size, and moving its own size per second; with moving
+    /// boundary meshes (which feed energy in: a drum lifts its bed, a plate bats), also every
+    /// body at twice their fastest surface speed and lifted by their size.
     fn floor(&self, world: &World) -> f64 {
         let g = world.gravity.length() as f64;
+        let (mut speed, mut lift) = (0.0f64, 0.0f64);
+        for b in world.boundaries.iter().filter(|b| b.moves()) {
+            let (lo, hi) = b.vertices.iter().fold(
+                (
+                    glam::Vec3::splat(f32::INFINITY),
+                    glam::Vec3::splat(f32::NEG_INFINITY),
+                ),
+                |(lo, hi), v| (lo.min(*v), hi.max(*v)),
+            );
+            let size = (hi - lo).length() as f64;
+            let (v, travel) = match b.motion {
+                crate::boundary::BoundaryMotion::Translate { velocity } => {
+                    let v = velocity.length() as f64;
+                    (v, v * (b.end - b.start).min(1e3))
+                }
+                crate::boundary::BoundaryMotion::Rotate {
+                    angular_velocity, ..
+                } => (angular_velocity.length() as f64 * b.reach as f64, 0.0),
+                crate::boundary::BoundaryMotion::Fixed => (0.0, 0.0),
+            };
+            speed = speed.max(v);
+            lift = lift.max(size + travel);
+        }
         (0..world.len())
             .map(|i| {
                 let (m, s) = (world.consts.mass[i] as f64, self.body_size(world, i) as f64);
-                m * g * s + 0.5 * m * s * s
+                m * g * (s + lift) + 0.5 * m * (s * s + 4.0 * speed * speed)
             })
             .sum()
     }

@@ -194,6 +194,7 @@ impl World {
             }
             w.mesh.first = first;
             w.mesh.slots = vec![MeshSlot::default(); n * MESH_SLOTS];
+            w.mesh.total = vec![[Vec3::ZERO; 2]; n];
         }
         w.dt = desc.dt.unwrap_or_else(|| w.auto_dt());
         w
@@ -212,6 +213,9 @@ impl World {
                 slots.len(),
                 self.mesh.slots.len()
             ));
+        }
+        for (i, t) in self.mesh.total.iter_mut().enumerate() {
+            *t = MeshContacts::sum_slots(&slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS]);
         }
         self.mesh.slots = slots;
         Ok(())

@@ -212,6 +212,87 @@ fn cube_rests_on_a_mesh_floor_as_on_the_plane() {
     );
 }
 
+#[test]
+fn cube_slides_across_a_mesh_floor_exactly_as_on_the_plane() {
+    // A cube sliding (and spinning) over many internal edges, straight and diagonally,
+    // until friction stops it: the same trajectory as on the plane, bit for bit.
+    let half = 0.015f32;
+    for (dir, spin) in [
+        (Vec3::X, 0.0f32),
+        (Vec3::new(1.0, 0.7, 0.0).normalize(), 4.0),
+    ] {
+        let mk = |mesh: bool| {
+            let mut b = body(
+                Vec3::new(-0.3 * dir.x, -0.3 * dir.y, half - 1e-4),
+                dir * 1.5,
+                Vec3::new(0.0, 0.0, spin),
+            );
+            b.orientation = Quat::from_rotation_z(0.4);
+            on_floor(cube(half as f64), b, mesh, 0.3)
+        };
+        let (mut plane, mut mesh) = (mk(false), mk(true));
+        for _ in 0..20 {
+            run(&mut plane, 1000);
+            run(&mut mesh, 1000);
+            assert_eq!(
+                plane.state.position[0], mesh.state.position[0],
+                "along {dir}"
+            );
+            assert_eq!(
+                plane.state.velocity[0], mesh.state.velocity[0],
+                "along {dir}"
+            );
+        }
+        let moved = (mesh.state.position[0] - Vec3::new(-0.3 * dir.x, -0.3 * dir.y, 0.0))
+            .truncate()
+            .length();
+        assert!(moved > 0.3, "slid {moved} m");
+    }
+}
+
+#[test]
+fn a_ball_hitting_a_plate_rim_bounces_off_along_the_rim_normal() {
+    // Frictionless, no gravity: a ball falls past the border edge x = 0.1 of a plate (and
+    // past its corner) and touches only the edge (the corner): it leaves with
+    // v - (1 + e)(v . n) n, n from the edge (corner) point to its centre at impact.
+    let e = 0.5f32;
+    let (v, t) = floor_mesh(4, 0.1);
+    for (start, n) in [
+        (Vec3::new(0.106, 0.0, 0.02), Vec3::new(0.6, 0.0, 0.8)),
+        (
+            Vec3::new(0.1 + 0.006 / 2f32.sqrt(), 0.1 + 0.006 / 2f32.sqrt(), 0.02),
+            Vec3::new(0.6 / 2f32.sqrt(), 0.6 / 2f32.sqrt(), 0.8),
+        ),
+    ] {
+        // Stiff, so that the ball barely moves while in contact (0.1 ms) and the normal
+        // stays the one at impact.
+        let mut m = material(0.0, e);
+        m.law = ContactLaw::Linear { stiffness: 1e7 };
+        let desc = WorldDesc {
+            shapes: vec![sphere()],
+            materials: vec![m],
+            walls: vec![],
+            bodies: vec![body(start, Vec3::new(0.0, 0.0, -1.0), Vec3::ZERO)],
+            gravity: Vec3::ZERO,
+            dt: Some(1e-6),
+            skin: None,
+            periodic: None,
+        };
+        let mut w = World::with_boundaries(
+            desc,
+            vec![boundary(&v, &t, BoundaryMotion::Fixed, f64::INFINITY)],
+        );
+        run(&mut w, 30_000);
+        let v0 = Vec3::new(0.0, 0.0, -1.0);
+        let want = v0 - (1.0 + e) * v0.dot(n) * n;
+        let got = w.state.velocity[0];
+        assert!(
+            (got - want).length() < 0.01 * want.length(),
+            "from {start}: {got}, expected {want}"
+        );
+    }
+}
+
 /// A closed cube `[0, s]^3` (12 triangles, wound outward).
 fn box_mesh(s: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     let mut v = Vec::new();
@@ -549,4 +630,81 @@ fn bad_boundary_meshes_are_refused_naming_file_and_field() {
         assert_eq!(e.field.as_deref(), Some(field), "{e}");
         assert!(e.line.is_some(), "{e}");
     }
+}
+
+#[test]
+fn mesh_floor_example_is_bitwise_the_same_for_any_thread_count() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
+    let scene = Scene::load(&path).unwrap();
+    let run_with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut w = scene.world();
+            // Through the plate's start (t = 0.4 s) with the bodies settling in the bowl.
+            let steps = (0.45 / w.dt as f64) as usize;
+            run(&mut w, steps);
+            assert!(w.contact_count() > 20);
+            (
+                w.state.position.clone(),
+                w.state.velocity.clone(),
+                w.mesh_slots().to_vec(),
+            )
+        })
+    };
+    let one = run_with(1);
+    for threads in [2, 3] {
+        assert!(
+            run_with(threads) == one,
+            "{threads} threads differ from one"
+        );
+    }
+}
+
+#[test]
+fn a_fast_drum_is_not_taken_for_a_blow_up() {
+    // A drum turning at 30 rad/s (3 m/s at its wall) flings balls far faster than gravity
+    // alone could: the health checks count the energy moving meshes feed in.
+    let (v, t) = tube(0.1, 0.1, 64);
+    let mut bodies = Vec::new();
+    for k in 0..8 {
+        // Around the bottom, 0.3 rad (25 mm) apart.
+        let a = -1.05 + 0.3 * k as f32;
+        bodies.push(body(
+            Vec3::new(0.085 * a.sin(), 0.0, -0.085 * a.cos()),
+            Vec3::ZERO,
+            Vec3::ZERO,
+        ));
+    }
+    let desc = WorldDesc {
+        shapes: vec![sphere()],
+        materials: vec![material(0.5, 0.5)],
+        walls: vec![],
+        bodies,
+        gravity: Vec3::new(0.0, 0.0, -G),
+        dt: Some(2e-5),
+        skin: None,
+        periodic: None,
+    };
+    let motion = BoundaryMotion::Rotate {
+        angular_velocity: Vec3::new(0.0, 30.0, 0.0),
+        center: Vec3::ZERO,
+    };
+    let mut w = World::with_boundaries(desc, vec![boundary(&v, &t, motion, f64::INFINITY)]);
+    let health = clatter::Health::new(&w);
+    let mut fastest = 0.0f32;
+    for _ in 0..150 {
+        run(&mut w, 100);
+        health.check(&w, true).unwrap_or_else(|e| panic!("{e}"));
+        fastest = w
+            .state
+            .velocity
+            .iter()
+            .map(|v| v.length())
+            .fold(fastest, f32::max);
+    }
+    assert!(fastest > 1.0, "the drum flings the balls ({fastest} m/s)");
 }

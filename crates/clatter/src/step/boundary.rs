@@ -7,7 +7,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::boundary::{Boundary, MESH_SLOTS, MeshPose, MeshSlot, SLOT_MATCH_COS};
+use crate::boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS};
 use crate::law::{self, BodyMotion};
 use crate::world::World;
 use clatter_geom::narrow::{self, Manifold, Plane};
@@ -58,9 +58,21 @@ pub(crate) fn rebuild(world: &mut World) {
     mc.start.clear();
     mc.candidates.clear();
     mc.start.push(0);
-    for list in per_body {
+    let old_active = std::mem::take(&mut mc.active);
+    for (i, list) in per_body.into_iter().enumerate() {
+        if !list.is_empty() {
+            mc.active.push(i as u32);
+        }
         mc.candidates.extend(list);
         mc.start.push(mc.candidates.len() as u32);
+    }
+    // Bodies that lost every candidate lose their contacts (the others keep their springs).
+    for i in old_active {
+        if mc.active.binary_search(&i).is_err() {
+            let i = i as usize;
+            mc.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS].fill(MeshSlot::default());
+            mc.total[i] = [Vec3::ZERO; 2];
+        }
     }
     mc.rebuild_time = t;
 }
@@ -83,15 +95,28 @@ pub(crate) fn run(world: &mut World) -> usize {
     let t = world.time;
     let poses: Vec<MeshPose> = world.boundaries.iter().map(|b| b.pose(t)).collect();
     let motions: Vec<BodyMotion> = world.boundaries.iter().map(|b| b.motion_at(t)).collect();
-    let mut slots = std::mem::take(&mut world.mesh.slots);
     let w = &*world;
-    let touching = slots
-        .par_chunks_mut(MESH_SLOTS)
-        .enumerate()
-        .with_min_len(64)
-        .map(|(i, s)| body_slots(w, i, &poses, &motions, s))
-        .sum();
-    world.mesh.slots = slots;
+    let updated: Vec<([MeshSlot; MESH_SLOTS], usize)> = w
+        .mesh
+        .active
+        .par_iter()
+        .with_min_len(16)
+        .map(|&i| {
+            let i = i as usize;
+            let mut s: [MeshSlot; MESH_SLOTS] =
+                std::array::from_fn(|k| w.mesh.slots[i * MESH_SLOTS + k]);
+            let n = body_slots(w, i, &poses, &motions, &mut s);
+            (s, n)
+        })
+        .collect();
+    let mc = &mut world.mesh;
+    let mut touching = 0;
+    for (&i, (s, n)) in mc.active.iter().zip(updated) {
+        let i = i as usize;
+        mc.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS].copy_from_slice(&s);
+        mc.total[i] = MeshContacts::sum_slots(&s);
+        touching += n;
+    }
     touching
 }
 
@@ -128,7 +153,9 @@ struct FaceGroup {
     boundary: u32,
     normal: Vec3,
     offset: f32,
-    tris: Vec<[Vec3; 3]>,
+    /// Every candidate triangle on the plane (those the piece touches on their faces and the
+    /// others).
+    support: Vec<[Vec3; 3]>,
 }
 
 /// The contacts of one convex piece (`shape` at `pose`) with candidate triangles `cands`
@@ -160,12 +187,12 @@ fn piece_contacts(
                         && (f.offset - offset).abs() <= 1e-5 * size
                 });
                 match same {
-                    Some(f) => f.tris.push(tri),
+                    Some(_) => {}
                     None => groups.push(FaceGroup {
                         boundary: b as u32,
                         normal,
                         offset,
-                        tris: vec![tri],
+                        support: Vec::new(),
                     }),
                 }
             }
@@ -208,6 +235,23 @@ fn piece_contacts(
             }
         }
     }
+    // Every candidate triangle on a group's plane supports it (also those whose own test
+    // found an edge contact, dropped as a ghost): the plane's manifold stands on them all.
+    if !groups.is_empty() {
+        for &c in cands {
+            let (b, t) = mc.locate(c);
+            let mesh = &w.boundaries[b];
+            let n = poses[b].rotation * mesh.normals[t];
+            let tri = mesh.world_triangle(t, &poses[b]);
+            for g in groups.iter_mut().filter(|g| {
+                g.boundary == b as u32
+                    && n.dot(g.normal).abs() >= 1.0 - 1e-6
+                    && (g.normal.dot(tri[0]) - g.offset).abs() <= 1e-5 * size
+            }) {
+                g.support.push(tri);
+            }
+        }
+    }
     let mut found: Vec<Found> = Vec::with_capacity(groups.len() + features.len());
     for g in &groups {
         if let Some(m) = plane_manifold(shape, pose, g) {
@@ -236,7 +280,11 @@ fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold>
     };
     let m = narrow::collide_plane(&plane, shape, pose)?;
     const TOL: f32 = 1e-6;
-    let on_mesh = |x: Vec3| g.tris.iter().any(|t| triangle::projects_inside(x, t, TOL));
+    let on_mesh = |x: Vec3| {
+        g.support
+            .iter()
+            .any(|t| triangle::projects_inside(x, t, TOL))
+    };
     if m.points().iter().all(|p| on_mesh(p.point)) {
         return Some(m);
     }
@@ -254,7 +302,7 @@ fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold>
         }
     }
     let n_local = pose.rotation.conjugate() * n;
-    for t in &g.tris {
+    for t in &g.support {
         for &x in t {
             let local = pose.inverse_transform_point(x);
             if let Some(depth) = triangle::depth_inside(p, local, n_local)
