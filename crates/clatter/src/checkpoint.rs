@@ -28,6 +28,10 @@
 //!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
+//! - `PIEC` (worlds with composite bodies; optional): the orientations the Verlet list was
+//!   built at (piece pairs are found at them) and one piece code per contact
+//!   (`contacts::piece_code`). Restore rebuilds at the `RBLD` positions and these
+//!   orientations and checks that the same piece pairs come out.
 //! - `APP `: opaque bytes of the program that wrote the file (the CLI stores its run options).
 //!
 //! Files are written under `NAME.tmp`, synced and renamed ([`write_atomic`]), so a file with
@@ -123,6 +127,8 @@ struct State {
     pairs: Vec<[u32; 2]>,
     wall_pairs: Vec<[u32; 2]>,
     springs: ContactSprings,
+    rebuild_orientation: Vec<Quat>,
+    pieces: Vec<u32>,
 }
 
 impl Checkpoint {
@@ -189,6 +195,7 @@ impl Checkpoint {
             what: "section table",
         };
         let mut found: Vec<[u8; 4]> = Vec::new();
+        let mut piec = None;
         let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) =
             (None, None, None, None, None, None);
         for _ in 0..sections {
@@ -214,6 +221,7 @@ impl Checkpoint {
                 b"RBLD" => rbld = Some(reader),
                 b"CONT" => cont = Some(reader),
                 b"APP " => app = Some(payload.to_vec()),
+                b"PIEC" => piec = Some(reader),
                 _ => {} // optional section of a later version
             }
         }
@@ -242,6 +250,24 @@ impl Checkpoint {
         st.rebuild_position = rb.vec3s(nr)?;
         rb.finish()?;
         read_contacts(&mut need(cont, "CONT")?, &mut st)?;
+        if let Some(mut r) = piec {
+            let nq = r.count(16)?;
+            if nq != 0 && nq != st.bodies as usize {
+                return Err(CheckpointError::Malformed(format!(
+                    "{nq} rebuild orientations for {} bodies",
+                    st.bodies
+                )));
+            }
+            for _ in 0..nq {
+                let (x, y, z, w) = (r.f32()?, r.f32()?, r.f32()?, r.f32()?);
+                st.rebuild_orientation.push(Quat::from_xyzw(x, y, z, w));
+            }
+            let np = r.count(4)?;
+            for _ in 0..np {
+                st.pieces.push(r.u32()?);
+            }
+            r.finish()?;
+        }
         Ok(Checkpoint {
             producer,
             scene_source,
@@ -317,11 +343,23 @@ impl Checkpoint {
                 ));
             }
         } else {
-            // Rebuild the derived gather ranges exactly as the run did, from the same positions.
+            // Rebuild the derived gather ranges exactly as the run did, from the same positions
+            // (and, for composites, orientations).
             w.state.position.clone_from(&st.rebuild_position);
+            if w.has_composites() {
+                if st.rebuild_orientation.len() != w.len() {
+                    return Err(CheckpointError::Malformed(
+                        "a world with composite bodies needs the orientations its contact list was built at (section PIEC)".into(),
+                    ));
+                }
+                w.state.orientation.clone_from(&st.rebuild_orientation);
+            }
             w.rebuild_contacts();
             let c = &w.contacts;
-            if c.pairs() != st.pairs.as_slice() || c.wall_pairs() != st.wall_pairs.as_slice() {
+            if c.pairs() != st.pairs.as_slice()
+                || c.wall_pairs() != st.wall_pairs.as_slice()
+                || c.pieces() != st.pieces.as_slice()
+            {
                 return Err(CheckpointError::Mismatch(format!(
                     "the broad phase finds {} body pairs and {} wall pairs at the stored positions, the checkpoint lists {} and {}",
                     c.pairs().len(),
@@ -366,7 +404,7 @@ impl World {
         w.buf.extend_from_slice(&MAGIC);
         w.u32(FORMAT_VERSION);
         w.u64(0); // length, patched below
-        w.u32(6);
+        w.u32(if self.has_composites() { 7 } else { 6 });
         w.section(b"SCEN", |w| {
             w.string(concat!("clatter ", env!("CARGO_PKG_VERSION")));
             w.string(scene_source);
@@ -432,6 +470,20 @@ impl World {
                 w.f32(b);
             }
         });
+        if self.has_composites() {
+            w.section(b"PIEC", |w| {
+                w.u64(self.rebuild_orientation().len() as u64);
+                for q in self.rebuild_orientation() {
+                    for v in [q.x, q.y, q.z, q.w] {
+                        w.f32(v);
+                    }
+                }
+                w.u64(c.pieces().len() as u64);
+                for &p in c.pieces() {
+                    w.u32(p);
+                }
+            });
+        }
         w.section(b"APP ", |w| w.buf.extend_from_slice(app));
         let total = (w.buf.len() + TRAILER_LEN) as u64;
         w.buf[12..20].copy_from_slice(&total.to_le_bytes());
@@ -683,6 +735,7 @@ fn tag_str(tag: &[u8; 4]) -> &'static str {
         b"BODY" => "BODY section",
         b"RBLD" => "RBLD section",
         b"CONT" => "CONT section",
+        b"PIEC" => "PIEC section",
         _ => "section",
     }
 }
