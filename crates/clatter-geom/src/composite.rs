@@ -546,8 +546,6 @@ pub fn prepare_composite(pieces: &[PieceSpec]) -> Result<PreparedShape, GeomErro
             orientation,
         });
     }
-    // A little slack so that rounding in the pieces' placement never pokes out.
-    let radius = radius * (1.0 + 4.0 * f32::EPSILON);
     Ok(PreparedShape {
         shape: Shape::Composite(Arc::new(Composite {
             pieces: placed_pieces,
