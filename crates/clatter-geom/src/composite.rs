@@ -74,13 +74,14 @@ pub struct Composite {
     pub uncertainty: f64,
 }
 
-/// A piece as authored: a prepared convex shape, where its authored origin sits in the
-/// composite's authored frame and how it is turned.
+/// A piece as authored: a prepared convex shape, where its centre of mass sits in the
+/// composite's authored frame and how it is turned (as a body is placed: `offset` is the
+/// piece's centre of mass, `orientation` turns the shape as authored).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PieceSpec {
     /// The piece's prepared shape (not itself a composite).
     pub shape: PreparedShape,
-    /// Where the piece's authored origin is, in the composite's authored frame.
+    /// Where the piece's centre of mass is, in the composite's authored frame.
     pub offset: DVec3,
     /// The piece's rotation (from its authored frame to the composite's authored frame).
     pub orientation: DQuat,
@@ -453,7 +454,7 @@ fn integrate_cell(
 /// `orientation`, in the composite's authored frame.
 fn placed(p: &PieceSpec) -> (Region, MassProperties) {
     let q = p.orientation * p.shape.frame.as_dquat();
-    let centre = p.offset + p.orientation * p.shape.com.as_dvec3();
+    let centre = p.offset;
     let r = glam::DMat3::from_quat(q);
     let m = MassProperties {
         volume: p.shape.volume as f64,
@@ -533,7 +534,7 @@ pub fn prepare_composite(pieces: &[PieceSpec]) -> Result<PreparedShape, GeomErro
     let (mut radius, mut reach) = (0.0f32, 0.0f32);
     for p in pieces {
         let q = p.orientation * p.shape.frame.as_dquat();
-        let centre = p.offset + p.orientation * p.shape.com.as_dvec3();
+        let centre = p.offset;
         let position = (inv * (centre - com)).as_vec3();
         let orientation = (inv * q).normalize().as_quat();
         let shape = p.shape.shape.clone();

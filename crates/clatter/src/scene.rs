@@ -543,8 +543,8 @@ pub fn decomposed(
         };
         if let Ok(shape) = kind.prepare() {
             pieces.push(clatter_geom::PieceSpec {
+                offset: shape.com.as_dvec3(),
                 shape,
-                offset: glam::DVec3::ZERO,
                 orientation: glam::DQuat::IDENTITY,
             });
         }
