@@ -99,7 +99,7 @@ pub fn collide_with_hint(
         (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
             polyhedron_polyhedron(p, pa, q, pb, hint, separation)
         }
-        _ => deepest_piece_contact(a, pa, b, pb, |sa, qa, sb, qb| collide(sa, qa, sb, qb)),
+        _ => deepest_piece_contact(a, pa, b, pb),
     }
 }
 
@@ -115,13 +115,7 @@ pub fn piece_pose(pose: &Pose, local: &Pose) -> Pose {
 /// Composites in the single-manifold queries: every piece pair is collided and the manifold
 /// with the deepest point is returned. (The simulator does not use this: it keeps one contact,
 /// with its own springs, per piece pair.)
-fn deepest_piece_contact(
-    a: &Shape,
-    pa: &Pose,
-    b: &Shape,
-    pb: &Pose,
-    collide: impl Fn(&Shape, &Pose, &Shape, &Pose) -> Option<Manifold>,
-) -> Option<Manifold> {
+fn deepest_piece_contact(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
     let mut best: Option<(f32, Manifold)> = None;
     for (sa, la) in a.pieces() {
         for (sb, lb) in b.pieces() {
