@@ -973,16 +973,21 @@ fn mesh_bad_scale() {
 }
 
 #[test]
-fn mesh_decompose_not_supported() {
+fn mesh_decompose_errors() {
     check_mesh(
-        "mesh-decompose",
-        r#"file = "cube.obj", mode = "decompose""#,
-        &[("cube.obj", CUBE_OBJ.as_bytes())],
-        &[
-            "shape[0].mesh.mode",
-            "cube.obj",
-            "mode = \"decompose\" needs composite bodies, not yet supported",
-        ],
+        "mesh-decompose-flat",
+        r#"file = "flat.obj", mode = "decompose""#,
+        &[(
+            "flat.obj",
+            b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
+        )],
+        &["shape[0].mesh.file", "flat.obj", "convex decomposition"],
+    );
+    check_mesh(
+        "mesh-decompose-bad-index",
+        r#"file = "bad.obj", mode = "decompose""#,
+        &[("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")],
+        &["shape[0].mesh.file", "bad.obj"],
     );
     check_mesh(
         "mesh-mode-unknown",
@@ -1004,5 +1009,84 @@ fn mesh_and_sphere_together() {
         line_of(&text, "[[shape]]"),
         &["shape[0]", "exactly one of"],
         &[("cube.obj", CUBE_OBJ.as_bytes())],
+    );
+}
+
+/// `BASE` with a composite shape `clump` (pieces given by `pieces`) used by the body.
+fn composite_scene(pieces: &str) -> String {
+    edit(
+        "[[body]]\nshape = \"ball\"",
+        &format!(
+            "[[shape]]\nname = \"clump\"\ncomposite = {pieces}\n\n[[body]]\nshape = \"clump\""
+        ),
+    )
+}
+
+#[test]
+fn composite_without_pieces() {
+    let text = composite_scene("[]");
+    check(
+        "composite-empty",
+        &text,
+        "composite = []",
+        &["shape[1].composite", "at least one piece"],
+    );
+}
+
+#[test]
+fn composite_unknown_piece() {
+    let text =
+        composite_scene(r#"[ { shape = "ball" }, { shape = "rock", offset = [0.01, 0.0, 0.0] } ]"#);
+    check(
+        "composite-unknown",
+        &text,
+        "composite = ",
+        &["shape[1].composite[1].shape", "unknown shape `rock`"],
+    );
+}
+
+#[test]
+fn composite_of_a_composite() {
+    let text = composite_scene(r#"[ { shape = "ball" } ]"#).replace(
+        "[[body]]",
+        "[[shape]]\nname = \"outer\"\ncomposite = [ { shape = \"clump\" } ]\n\n[[body]]",
+    );
+    check(
+        "composite-nested",
+        &text,
+        "{ shape = \"clump\" }",
+        &["shape[2].composite[0].shape", "itself a composite"],
+    );
+}
+
+#[test]
+fn composite_nan_offset_and_bad_orientation() {
+    let text = composite_scene(r#"[ { shape = "ball", offset = [nan, 0.0, 0.0] } ]"#);
+    check(
+        "composite-nan",
+        &text,
+        "composite = ",
+        &["shape[1].composite[0].offset", "finite"],
+    );
+    let text = composite_scene(r#"[ { shape = "ball", orientation = [0.0, 0.0, 0.0, 0.0] } ]"#);
+    check(
+        "composite-quat",
+        &text,
+        "composite = ",
+        &["shape[1].composite[0].orientation", "non-zero quaternion"],
+    );
+}
+
+#[test]
+fn composite_and_sphere_together() {
+    let text = edit(
+        "sphere = { radius = 0.01 }",
+        "sphere = { radius = 0.01 }\ncomposite = [ { shape = \"ball\" } ]",
+    );
+    check_line(
+        "composite-and-sphere",
+        &text,
+        line_of(&text, "[[shape]]"),
+        &["shape[0]", "got `composite` and another"],
     );
 }

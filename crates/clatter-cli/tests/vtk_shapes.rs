@@ -125,6 +125,32 @@ fn check_scene(scene: &Path, steps: u64) {
                 let c = h.vertices.iter().sum::<glam::Vec3>() / h.vertices.len() as f32;
                 (prepared.volume as f64, c.length() as f64, h.faces.len())
             }
+            // Drawn as its pieces: the faces enclose the sum of the pieces' volumes (overlaps
+            // twice); the vertex centroid is that of all the pieces' vertices.
+            Shape::Composite(c) => {
+                let (mut volume, mut faces, mut sum, mut count) = (0.0, 0, glam::DVec3::ZERO, 0);
+                for p in &c.pieces {
+                    match &p.shape {
+                        Shape::Sphere { radius } => {
+                            volume +=
+                                clatter_geom::MassProperties::of_sphere(*radius as f64).volume;
+                            faces += 80;
+                            sum += p.position.as_dvec3() * 42.0;
+                            count += 42;
+                        }
+                        Shape::Polyhedron(h) => {
+                            volume += clatter_geom::MassProperties::of_polyhedron(h).volume;
+                            faces += h.faces.len();
+                            for v in &h.vertices {
+                                sum += (p.position + p.orientation * *v).as_dvec3();
+                            }
+                            count += h.vertices.len();
+                        }
+                        Shape::Composite(_) => unreachable!("pieces are convex"),
+                    }
+                }
+                (volume, (sum / count as f64).length(), faces)
+            }
         };
         assert!(
             (volume - expected_volume).abs() < 1e-4 * expected_volume,
@@ -166,4 +192,6 @@ fn shapes_frame_reads_back_with_meshio() {
     check_scene(&scenes.join("rocks.toml"), 40);
     check_scene(&scenes.join("dice-box.toml"), 40);
     check_scene(&scenes.join("default.toml"), 20);
+    // Composites, drawn as their pieces.
+    check_scene(&scenes.join("clumps.toml"), 20);
 }

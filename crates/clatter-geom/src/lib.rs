@@ -6,6 +6,7 @@
 //! inertia tensor diagonal, so a body's state needs only a position, a quaternion and three
 //! principal moments.
 
+pub mod composite;
 pub mod hull;
 pub mod mass;
 pub mod narrow;
@@ -15,6 +16,7 @@ mod reduce;
 pub mod shape;
 pub mod triangle;
 
+pub use composite::{Composite, Piece, PieceSpec, prepare_composite};
 pub use hull::convex_hull;
 pub use mass::MassProperties;
 pub use polyhedron::{BoxFrame, ConvexPolyhedron, Face};
@@ -36,6 +38,21 @@ pub enum GeomError {
         "degenerate hull: the {count} points {why}; a convex hull needs at least 4 points that are not all coplanar"
     )]
     DegenerateHull { count: usize, why: &'static str },
+    /// A composite shape without pieces.
+    #[error("a composite needs at least one piece")]
+    EmptyComposite,
+    /// A composite with more pieces than contacts can address.
+    #[error(
+        "a composite has {count} pieces, more than the {} allowed",
+        composite::MAX_PIECES
+    )]
+    TooManyPieces { count: usize },
+    /// A composite piece that is itself a composite.
+    #[error("piece {index} is itself a composite (pieces must be spheres or convex shapes)")]
+    NestedComposite { index: usize },
+    /// A composite piece with a non-finite offset or orientation (or a union without volume).
+    #[error("piece {index} has a non-finite offset or orientation")]
+    NonFinitePiece { index: usize },
 }
 
 /// Where a shape is: the world position of its local origin (the centre of mass for prepared

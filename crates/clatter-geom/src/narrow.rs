@@ -99,7 +99,35 @@ pub fn collide_with_hint(
         (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
             polyhedron_polyhedron(p, pa, q, pb, hint, separation)
         }
+        _ => deepest_piece_contact(a, pa, b, pb),
     }
+}
+
+/// A piece's world pose, for a piece at `local` in a shape at `pose`.
+#[inline]
+pub fn piece_pose(pose: &Pose, local: &Pose) -> Pose {
+    Pose::new(
+        pose.transform_point(local.position),
+        pose.rotation * local.rotation,
+    )
+}
+
+/// Composites in the single-manifold queries: every piece pair is collided and the manifold
+/// with the deepest point is returned. (The simulator does not use this: it keeps one contact,
+/// with its own springs, per piece pair.)
+fn deepest_piece_contact(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
+    let mut best: Option<(f32, Manifold)> = None;
+    for (sa, la) in a.pieces() {
+        for (sb, lb) in b.pieces() {
+            if let Some(m) = collide(sa, &piece_pose(pa, &la), sb, &piece_pose(pb, &lb)) {
+                let depth = m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max);
+                if best.as_ref().is_none_or(|(d, _)| depth > *d) {
+                    best = Some((depth, m));
+                }
+            }
+        }
+    }
+    best.map(|(_, m)| m)
 }
 
 /// Two spheres by centre and radius.
@@ -237,6 +265,19 @@ pub struct Plane {
 
 /// A shape against a wall plane; the normal points from the wall into the body (the plane's normal).
 pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> {
+    if let Shape::Composite(_) = s {
+        // The deepest piece (see `deepest_piece_contact`); the simulator collides each piece.
+        let mut best: Option<(f32, Manifold)> = None;
+        for (sp, local) in s.pieces() {
+            if let Some(m) = collide_plane(plane, sp, &piece_pose(pose, &local)) {
+                let depth = m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max);
+                if best.as_ref().is_none_or(|(d, _)| depth > *d) {
+                    best = Some((depth, m));
+                }
+            }
+        }
+        return best.map(|(_, m)| m);
+    }
     let n = plane.normal;
     let centre_height = n.dot(pose.position) - plane.offset;
     match s {
@@ -282,6 +323,7 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
                 Some(reduce(&all, n))
             }
         }
+        Shape::Composite(_) => None,
     }
 }
 

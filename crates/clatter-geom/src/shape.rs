@@ -129,6 +129,9 @@ pub enum Shape {
     Sphere { radius: f32 },
     /// Convex polyhedron with its centre of mass at the origin and principal axes along x, y, z.
     Polyhedron(Arc<ConvexPolyhedron>),
+    /// A rigid union of spheres and convex polyhedra ("clump"), in its principal frame
+    /// (see [`crate::composite`]). Contacts are found piece by piece.
+    Composite(Arc<crate::Composite>),
 }
 
 impl Shape {
@@ -138,6 +141,29 @@ impl Shape {
         match self {
             Shape::Sphere { radius } => *radius,
             Shape::Polyhedron(p) => p.radius,
+            Shape::Composite(c) => c.radius,
+        }
+    }
+
+    /// The convex pieces with their poses relative to the shape's principal frame: the
+    /// shape itself at the identity for a sphere or polyhedron, every piece for a composite.
+    pub fn pieces(&self) -> Vec<(&Shape, crate::Pose)> {
+        match self {
+            Shape::Composite(c) => c
+                .pieces
+                .iter()
+                .map(|p| (&p.shape, crate::Pose::new(p.position, p.orientation)))
+                .collect(),
+            s => vec![(s, crate::Pose::new(Vec3::ZERO, Quat::IDENTITY))],
+        }
+    }
+
+    /// The number of convex pieces (1 unless a composite).
+    #[inline]
+    pub fn piece_count(&self) -> usize {
+        match self {
+            Shape::Composite(c) => c.pieces.len(),
+            _ => 1,
         }
     }
 }

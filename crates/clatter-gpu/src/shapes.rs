@@ -70,6 +70,14 @@ fn pack(shapes: &[PreparedShape]) -> Result<Packed, GpuError> {
     for (i, prepared) in shapes.iter().enumerate() {
         let h = i * SHAPE_HEADER_WORDS;
         match &prepared.shape {
+            // Composite bodies (clumps) run on the CPU only for now: the GPU contact stages
+            // keep one contact per body pair.
+            Shape::Composite(c) => {
+                return Err(GpuError::Unsupported(format!(
+                    "shape {i} is a composite of {} pieces, which the GPU backend does not support yet (the CPU backend does)",
+                    c.pieces.len()
+                )));
+            }
             Shape::Sphere { radius } => {
                 words[h] = KIND_SPHERE;
                 words[h + 1] = radius.to_bits();

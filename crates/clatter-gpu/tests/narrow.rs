@@ -407,6 +407,7 @@ fn support_height(shape: &Shape, q: Quat, dir: Vec3) -> f32 {
             .iter()
             .map(|v| (q * *v).dot(dir))
             .fold(f32::MIN, f32::max),
+        Shape::Composite(c) => c.radius, // not generated here (the GPU has no composites)
     }
 }
 
@@ -486,7 +487,7 @@ fn gpu_collide_plane_matches_cpu() {
                         Quat::from_axis_angle(random_unit(&mut rng), rng.random_range(0.0..0.01));
                     (tilt * Quat::from_rotation_arc(f.normal, -normal)).normalize()
                 }
-                Shape::Sphere { .. } => random_quat(&mut rng),
+                Shape::Sphere { .. } | Shape::Composite(_) => random_quat(&mut rng),
             }
         } else {
             random_quat(&mut rng)

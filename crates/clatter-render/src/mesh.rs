@@ -33,9 +33,27 @@ pub const SPHERE_SUBDIVISIONS: u32 = 2;
 
 impl Mesh {
     /// The mesh of a shape: a polyhedron with one flat normal per face (faceted look), a
-    /// sphere as an icosphere with smooth normals.
+    /// sphere as an icosphere with smooth normals, a composite as its pieces' meshes placed
+    /// in its principal frame.
     pub fn of_shape(shape: &Shape) -> Mesh {
         match shape {
+            Shape::Composite(c) => {
+                let mut m = Mesh::default();
+                for piece in &c.pieces {
+                    let part = Mesh::of_shape(&piece.shape);
+                    let base = m.vertices.len() as u32;
+                    m.vertices.extend(part.vertices.iter().map(|v| {
+                        Vertex {
+                            position: (piece.orientation * Vec3::from_array(v.position)
+                                + piece.position)
+                                .to_array(),
+                            normal: (piece.orientation * Vec3::from_array(v.normal)).to_array(),
+                        }
+                    }));
+                    m.indices.extend(part.indices.iter().map(|i| i + base));
+                }
+                m
+            }
             Shape::Sphere { radius } => Mesh::icosphere(*radius, SPHERE_SUBDIVISIONS),
             Shape::Polyhedron(p) => {
                 let mut m = Mesh::default();

@@ -34,6 +34,10 @@
 //!   were found at, then per body its `MESH_SLOTS` mesh contact slots (boundary, touching,
 //!   normal, tangential spring, twist, last force). The candidates are found again by the
 //!   broad phase at the `RBLD` positions and that time.
+//! - `PIEC` (worlds with composite bodies; optional): the orientations the Verlet list was
+//!   built at (piece pairs are found at them) and one piece code per contact
+//!   (`contacts::piece_code`). Restore rebuilds at the `RBLD` positions and these
+//!   orientations and checks that the same piece pairs come out.
 //! - `APP `: opaque bytes of the program that wrote the file (the CLI stores its run options).
 //!
 //! Files are written under `NAME.tmp`, synced and renamed ([`write_atomic`]), so a file with
@@ -132,6 +136,8 @@ struct State {
     springs: ContactSprings,
     mesh_rebuild_time: f64,
     mesh_slots: Vec<MeshSlot>,
+    rebuild_orientation: Vec<Quat>,
+    pieces: Vec<u32>,
 }
 
 impl Checkpoint {
@@ -198,6 +204,7 @@ impl Checkpoint {
             what: "section table",
         };
         let mut found: Vec<[u8; 4]> = Vec::new();
+        let mut piec = None;
         let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) =
             (None, None, None, None, None, None);
         let mut sink = None;
@@ -227,6 +234,7 @@ impl Checkpoint {
                 b"CONT" => cont = Some(reader),
                 b"APP " => app = Some(payload.to_vec()),
                 b"MESH" => mesh = Some(reader),
+                b"PIEC" => piec = Some(reader),
                 _ => {} // optional section of a later version
             }
         }
@@ -261,6 +269,24 @@ impl Checkpoint {
         read_contacts(&mut need(cont, "CONT")?, &mut st)?;
         if let Some(mut m) = mesh {
             read_mesh_slots(&mut m, &mut st)?;
+        }
+        if let Some(mut r) = piec {
+            let nq = r.count(16)?;
+            if nq != 0 && nq != st.bodies as usize {
+                return Err(CheckpointError::Malformed(format!(
+                    "{nq} rebuild orientations for {} bodies",
+                    st.bodies
+                )));
+            }
+            for _ in 0..nq {
+                let (x, y, z, w) = (r.f32()?, r.f32()?, r.f32()?, r.f32()?);
+                st.rebuild_orientation.push(Quat::from_xyzw(x, y, z, w));
+            }
+            let np = r.count(4)?;
+            for _ in 0..np {
+                st.pieces.push(r.u32()?);
+            }
+            r.finish()?;
         }
         Ok(Checkpoint {
             producer,
@@ -338,16 +364,28 @@ impl Checkpoint {
             }
         } else {
             // Rebuild the derived gather ranges exactly as the run did, from the same positions
-            // (and the meshes where they were then). A body removed by a sink after the list
-            // was built is still in the stored list (the next step rebuilds without it): its
-            // contacts are dropped first, which changes nothing the next rebuild carries over.
+            // (and the meshes where they were then; for composites, the orientations).
+            // A body removed by a sink after the list was built is still in the stored
+            // list (the next step rebuilds without it): its contacts are dropped first,
+            // which changes nothing the next rebuild carries over.
             w.state.removed.clone_from(&st.body.removed);
             w.state.position.clone_from(&st.rebuild_position);
             w.time = st.mesh_rebuild_time;
+            if w.has_composites() {
+                if st.rebuild_orientation.len() != w.len() {
+                    return Err(CheckpointError::Malformed(
+                        "a world with composite bodies needs the orientations its contact list was built at (section PIEC)".into(),
+                    ));
+                }
+                w.state.orientation.clone_from(&st.rebuild_orientation);
+            }
             w.rebuild_contacts();
-            let (pairs, wall_pairs, springs) = without_removed(st, &st.body.removed);
+            let (pairs, wall_pairs, springs, pieces) = without_removed(st, &st.body.removed);
             let c = &w.contacts;
-            if c.pairs() != pairs.as_slice() || c.wall_pairs() != wall_pairs.as_slice() {
+            if c.pairs() != pairs.as_slice()
+                || c.wall_pairs() != wall_pairs.as_slice()
+                || c.pieces() != pieces.as_slice()
+            {
                 return Err(CheckpointError::Mismatch(format!(
                     "the broad phase finds {} body pairs and {} wall pairs at the stored positions, the checkpoint lists {} and {}",
                     c.pairs().len(),
@@ -397,7 +435,7 @@ impl World {
         w.u32(FORMAT_VERSION);
         w.u64(0); // length, patched below
         let mesh = !self.boundaries.is_empty();
-        w.u32(7 + mesh as u32);
+        w.u32(7 + mesh as u32 + self.has_composites() as u32);
         w.section(b"SCEN", |w| {
             w.string(concat!("clatter ", env!("CARGO_PKG_VERSION")));
             w.string(scene_source);
@@ -485,6 +523,20 @@ impl World {
                     w.vec3(s.force.torque_a);
                     w.vec3(s.force.torque_b);
                     w.f32(s.force.normal_force);
+                }
+            });
+        }
+        if self.has_composites() {
+            w.section(b"PIEC", |w| {
+                w.u64(self.rebuild_orientation().len() as u64);
+                for q in self.rebuild_orientation() {
+                    for v in [q.x, q.y, q.z, q.w] {
+                        w.f32(v);
+                    }
+                }
+                w.u64(c.pieces().len() as u64);
+                for &p in c.pieces() {
+                    w.u32(p);
                 }
             });
         }
@@ -589,8 +641,12 @@ fn read_removed(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErro
     r.finish()
 }
 
-/// The stored contact list without the contacts of removed bodies.
-fn without_removed(st: &State, removed: &[bool]) -> (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings) {
+/// The stored contact list without the contacts of bodies removed by a sink: body pairs,
+/// wall pairs, springs and piece codes (empty without composites).
+type Kept = (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings, Vec<u32>);
+
+/// The stored contact list without the contacts of removed bodies ([`Kept`]).
+fn without_removed(st: &State, removed: &[bool]) -> Kept {
     let np = st.pairs.len();
     let keep: Vec<bool> = st
         .pairs
@@ -618,6 +674,11 @@ fn without_removed(st: &State, removed: &[bool]) -> (Vec<[u32; 2]>, Vec<[u32; 2]
         select(&st.pairs, &keep[..np]),
         select(&st.wall_pairs, &keep[np..]),
         springs,
+        if st.pieces.len() == keep.len() {
+            select(&st.pieces, &keep)
+        } else {
+            st.pieces.clone()
+        },
     )
 }
 
@@ -829,6 +890,7 @@ fn tag_str(tag: &[u8; 4]) -> &'static str {
         b"RBLD" => "RBLD section",
         b"CONT" => "CONT section",
         b"MESH" => "MESH section",
+        b"PIEC" => "PIEC section",
         _ => "section",
     }
 }

@@ -63,6 +63,26 @@ pub struct Contacts {
     pub(crate) b_pairs: Vec<u32>,
     /// Body `i`'s wall contacts are `wall_contacts_of[i]..wall_contacts_of[i+1]`.
     pub(crate) wall_contacts_of: Vec<u32>,
+    /// Worlds with composite bodies only (empty otherwise): per contact, which pieces touch,
+    /// [`piece_code`]`(a, b)` for a body pair (the same body pair then appears once per piece
+    /// pair, sorted by code), the piece of the body for a wall pair.
+    pub(crate) pieces: Vec<u32>,
+}
+
+/// Bits per piece id in a contact's piece code (composites have at most 64 pieces).
+pub const PIECE_BITS: u32 = 8;
+
+/// The piece code of a body-pair contact between piece `a` of the first body and piece `b`
+/// of the second: sorting codes sorts by `a`, then `b`.
+#[inline]
+pub fn piece_code(a: u32, b: u32) -> u32 {
+    (a << PIECE_BITS) | b
+}
+
+/// The two piece ids of a body-pair contact's code.
+#[inline]
+pub fn piece_ids(code: u32) -> (u32, u32) {
+    (code >> PIECE_BITS, code & ((1 << PIECE_BITS) - 1))
 }
 
 impl Contacts {
@@ -114,7 +134,30 @@ impl Contacts {
             b_pair_start,
             b_pairs,
             wall_contacts_of,
+            pieces: Vec::new(),
         }
+    }
+
+    /// [`Contacts::new`] for worlds with composite bodies: `pieces` holds one piece code per
+    /// contact (body pairs, then wall pairs; see [`Contacts::pieces`]).
+    pub fn with_pieces(
+        bodies: usize,
+        pairs: Vec<[u32; 2]>,
+        wall_pairs: Vec<[u32; 2]>,
+        pieces: Vec<u32>,
+        history: Vec<Vec3>,
+        twist: Vec<f32>,
+    ) -> Contacts {
+        debug_assert_eq!(pieces.len(), pairs.len() + wall_pairs.len());
+        let mut c = Contacts::new(bodies, pairs, wall_pairs, history, twist);
+        c.pieces = pieces;
+        c
+    }
+
+    /// Per contact, the pieces that touch (empty unless the world has composite bodies):
+    /// [`piece_ids`] of the code for a body pair, the body's piece for a wall pair.
+    pub fn pieces(&self) -> &[u32] {
+        &self.pieces
     }
 
     /// Candidate body pairs `(i, j)`, `i < j`, sorted.
@@ -243,12 +286,13 @@ pub struct ContactState {
 }
 
 /// Tangential and twisting springs for `new` pairs: the old values where the pair persists,
-/// zero otherwise. Both pair lists are sorted.
-pub(crate) fn carry_springs(
-    old: &[[u32; 2]],
+/// zero otherwise. Both pair lists are sorted (keys: body pairs, or body pairs with piece
+/// codes).
+pub(crate) fn carry_springs<K: Ord>(
+    old: &[K],
     old_hist: &[Vec3],
     old_twist: &[f32],
-    new: &[[u32; 2]],
+    new: &[K],
 ) -> (Vec<Vec3>, Vec<f32>) {
     let mut hist = Vec::with_capacity(new.len());
     let mut twist = Vec::with_capacity(new.len());

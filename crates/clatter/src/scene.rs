@@ -334,6 +334,16 @@ struct RawShape {
     polyhedron: Option<Spanned<PolyhedronSpec>>,
     convex: Option<Spanned<ConvexSpec>>,
     mesh: Option<Spanned<RawMesh>>,
+    composite: Option<Spanned<Vec<Spanned<RawPiece>>>>,
+}
+
+/// One piece of `composite = [ { shape = "ball", offset = [..], orientation = [w, x, y, z] } ]`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPiece {
+    shape: Spanned<String>,
+    offset: Option<Spanned<[f64; 3]>>,
+    orientation: Option<Spanned<[f64; 4]>>,
 }
 
 /// `mesh = { file = "rock.obj", scale = 0.01, mode = "hull" }`
@@ -472,27 +482,34 @@ fn mesh_shape(
     let file = r.file.get_ref();
     let path = cx.dir.join(file);
     let shown = path.display();
-    match r.mode.as_ref().map(|v| (v.get_ref().as_str(), v.span())) {
-        None | Some(("hull", _)) => {}
-        Some(("decompose", span)) => {
-            return cx.err(
-                span,
-                format!("shape[{k}].mesh.mode"),
-                format!(
-                    "shape `{name}` (mesh file `{shown}`): mode = \"decompose\" needs composite bodies, not yet supported (use mode = \"hull\")"
-                ),
-            );
-        }
+    let decompose = match r.mode.as_ref().map(|v| (v.get_ref().as_str(), v.span())) {
+        None | Some(("hull", _)) => false,
+        Some(("decompose", _)) => true,
         Some((other, span)) => {
             return cx.err(
                 span,
                 format!("shape[{k}].mesh.mode"),
-                format!("unknown mesh mode `{other}` (expected \"hull\"; \"decompose\" is not yet supported)"),
+                format!("unknown mesh mode `{other}` (expected \"hull\" or \"decompose\")"),
             );
         }
-    }
+    };
     let scale = mesh_scale(cx, &r.scale, &format!("shape[{k}].mesh.scale"))?;
     let field = format!("shape[{k}].mesh.file");
+    if decompose {
+        let mesh = crate::mesh::read_triangles(&path).map_err(|e| SceneError {
+            file: cx.file.to_string(),
+            line: Some(cx.line_col(r.file.span().start)),
+            field: Some(field.clone()),
+            message: format!("shape `{name}`: mesh file `{shown}`: {e}"),
+        })?;
+        return decomposed(&mesh, scale).or_else(|e| {
+            cx.err(
+                r.file.span(),
+                field,
+                format!("shape `{name}`: mesh file `{shown}`: convex decomposition: {e}"),
+            )
+        });
+    }
     let mesh = crate::mesh::read_mesh(&path).map_err(|e| SceneError {
         file: cx.file.to_string(),
         line: Some(cx.line_col(r.file.span().start)),
@@ -626,6 +643,112 @@ fn boundary(
         end,
     )
     .map_err(fail)
+}
+
+/// A composite of convex pieces approximating a (possibly non-convex) triangle mesh, scaled
+/// by `scale`: parry3d's VHACD (voxel resolution 64, concavity 0.01, at most
+/// [`clatter_geom::composite::MAX_PIECES`] parts), each part the exact convex hull of the
+/// mesh triangles it holds. Parts too flat to have a hull are dropped.
+pub fn decomposed(
+    mesh: &crate::mesh::MeshTriangles,
+    scale: [f64; 3],
+) -> Result<PreparedShape, String> {
+    use parry3d::math::Vector as PVec;
+    use parry3d::transformation::vhacd::{VHACD, VHACDParameters};
+    let points: Vec<PVec> = mesh
+        .vertices
+        .iter()
+        .map(|v| {
+            PVec::new(
+                (v[0] * scale[0]) as f32,
+                (v[1] * scale[1]) as f32,
+                (v[2] * scale[2]) as f32,
+            )
+        })
+        .collect();
+    let params = VHACDParameters {
+        max_convex_hulls: clatter_geom::composite::MAX_PIECES as u32,
+        ..VHACDParameters::default()
+    };
+    let parts = VHACD::decompose(&params, &points, &mesh.triangles, true)
+        .compute_exact_convex_hulls(&points, &mesh.triangles);
+    let mut pieces = Vec::new();
+    for (vertices, _) in parts {
+        let kind = clatter_geom::ShapeKind::Convex {
+            points: vertices
+                .iter()
+                .map(|p| [p.x as f64, p.y as f64, p.z as f64])
+                .collect(),
+        };
+        if let Ok(shape) = kind.prepare() {
+            pieces.push(clatter_geom::PieceSpec {
+                offset: shape.com.as_dvec3(),
+                shape,
+                orientation: glam::DQuat::IDENTITY,
+            });
+        }
+    }
+    if pieces.is_empty() {
+        return Err("no part of the mesh has a volume (is it closed?)".into());
+    }
+    clatter_geom::prepare_composite(&pieces).map_err(|e| e.to_string())
+}
+
+/// The composite `[[shape]]` number `k` (named `name`): its pieces looked up among the
+/// scene's other (non-composite) shapes, placed and turned, and the union prepared.
+fn composite_shape(
+    cx: &SourceFile,
+    k: usize,
+    name: &str,
+    list: &Spanned<Vec<Spanned<RawPiece>>>,
+    names: &HashMap<String, u32>,
+    shapes: &[PreparedShape],
+    is_composite: &[bool],
+) -> Result<PreparedShape, SceneError> {
+    let field = format!("shape[{k}].composite");
+    if list.get_ref().is_empty() {
+        return cx.err(
+            list.span(),
+            field,
+            format!("shape `{name}`: a composite needs at least one piece"),
+        );
+    }
+    let max = clatter_geom::composite::MAX_PIECES;
+    if list.get_ref().len() > max {
+        return cx.err(
+            list.span(),
+            field,
+            format!(
+                "shape `{name}`: {} pieces, more than the {max} a composite may have",
+                list.get_ref().len()
+            ),
+        );
+    }
+    let mut pieces = Vec::new();
+    for (p, piece) in list.get_ref().iter().enumerate() {
+        let r = piece.get_ref();
+        let f = |x: &str| format!("shape[{k}].composite[{p}].{x}");
+        let s = cx.lookup(names, &r.shape, &f("shape"), "shape")?;
+        if is_composite[s as usize] {
+            return cx.err(
+                r.shape.span(),
+                f("shape"),
+                format!(
+                    "shape `{name}`: piece `{}` is itself a composite (pieces must be spheres or convex shapes)",
+                    r.shape.get_ref()
+                ),
+            );
+        }
+        let offset = cx.opt_vec3(&r.offset, &f("offset"))?;
+        let orientation = cx.quat(&r.orientation, &f("orientation"))?;
+        pieces.push(clatter_geom::PieceSpec {
+            shape: shapes[s as usize].clone(),
+            offset: offset.as_dvec3(),
+            orientation: orientation.as_dquat(),
+        });
+    }
+    clatter_geom::prepare_composite(&pieces)
+        .or_else(|e| cx.err(list.span(), field, format!("shape `{name}`: {e}")))
 }
 
 fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
@@ -856,6 +979,8 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     // [[shape]]
     let mut shapes: Vec<PreparedShape> = Vec::new();
     let mut shape_names = HashMap::new();
+    // Composites refer to other shapes by name: they are built once every other shape is.
+    let mut is_composite = vec![false; raw.shape.len()];
     for (k, s) in raw.shape.iter().enumerate() {
         let r = s.get_ref();
         if shape_names
@@ -867,6 +992,30 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                 format!("shape[{k}].name"),
                 format!("duplicate shape name `{}`", r.name.get_ref()),
             );
+        }
+        if r.composite.is_some() {
+            let others = [
+                r.sphere.is_some(),
+                r.box_.is_some(),
+                r.polyhedron.is_some(),
+                r.convex.is_some(),
+                r.mesh.is_some(),
+            ];
+            if others.iter().any(|b| *b) {
+                return cx.err(
+                    s.span(),
+                    format!("shape[{k}]"),
+                    "a shape needs exactly one of `sphere`, `box`, `polyhedron`, `convex`, `mesh`, `composite` (got `composite` and another)",
+                );
+            }
+            is_composite[k] = true;
+            // A placeholder until the second pass below.
+            shapes.push(
+                clatter_geom::ShapeKind::Sphere { radius: 1.0 }
+                    .prepare()
+                    .expect("a unit sphere is valid"),
+            );
+            continue;
         }
         if let Some(m) = &r.mesh {
             let others = [
@@ -906,7 +1055,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                     (_, 0) => cx.err(
                         s.span(),
                         format!("shape[{k}]"),
-                        "a shape needs exactly one of `sphere`, `box`, `polyhedron`, `convex`, `mesh` (got 0)",
+                        "a shape needs exactly one of `sphere`, `box`, `polyhedron`, `convex`, `mesh`, `composite` (got 0)",
                     ),
                     _ => cx.err(s.span(), format!("shape[{k}]"), msg),
                 };
@@ -929,9 +1078,26 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                         format!("shape[{k}].convex.points")
                     }
                     GeomError::DegenerateHull { .. } => format!("shape[{k}].{variant}"),
+                    // Composite errors come from `composite_shape`, not from here.
+                    _ => format!("shape[{k}].{variant}"),
                 };
                 return cx.err(span, field, format!("shape `{}`: {e}", r.name.get_ref()));
             }
+        }
+    }
+
+    for (k, s) in raw.shape.iter().enumerate() {
+        let r = s.get_ref();
+        if let Some(list) = &r.composite {
+            shapes[k] = composite_shape(
+                cx,
+                k,
+                r.name.get_ref(),
+                list,
+                &shape_names,
+                &shapes,
+                &is_composite,
+            )?;
         }
     }
 

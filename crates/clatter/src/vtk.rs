@@ -313,9 +313,18 @@ fn sphere_mesh() -> &'static (Vec<Vec3>, Vec<[u32; 3]>) {
 pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
     let n = world.len();
     let sphere = sphere_mesh();
-    let faces_of = |i: usize| match &world.shapes[world.consts.shape[i] as usize].shape {
-        Shape::Sphere { .. } => sphere.1.len(),
-        Shape::Polyhedron(h) => h.faces.len(),
+    // Composites are drawn as their pieces (a body's cells are all its pieces' faces).
+    let faces_of = |i: usize| {
+        world.shapes[world.consts.shape[i] as usize]
+            .shape
+            .pieces()
+            .iter()
+            .map(|(s, _)| match s {
+                Shape::Sphere { .. } => sphere.1.len(),
+                Shape::Polyhedron(h) => h.faces.len(),
+                Shape::Composite(_) => 0,
+            })
+            .sum::<usize>()
     };
     let mut points: Vec<f32> = Vec::new();
     let mut cells = Cells {
@@ -324,29 +333,32 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
         types: Vec::new(),
     };
     for i in (0..n).filter(|&i| !world.is_removed(i)) {
-        let pose = world.pose(i);
-        let base = (points.len() / 3) as i32;
-        let face = |loop_: &mut dyn Iterator<Item = u32>, cells: &mut Cells| {
-            cells.connectivity.extend(loop_.map(|k| base + k as i32));
-            cells.offsets.push(cells.connectivity.len() as i32);
-            cells.types.push(VTK_POLYGON);
-        };
-        match &world.shapes[world.consts.shape[i] as usize].shape {
-            Shape::Sphere { radius } => {
-                for v in &sphere.0 {
-                    points.extend(pose.transform_point(*v * *radius).to_array());
+        for (shape, local) in world.shapes[world.consts.shape[i] as usize].shape.pieces() {
+            let pose = clatter_geom::narrow::piece_pose(&world.pose(i), &local);
+            let base = (points.len() / 3) as i32;
+            let face = |loop_: &mut dyn Iterator<Item = u32>, cells: &mut Cells| {
+                cells.connectivity.extend(loop_.map(|k| base + k as i32));
+                cells.offsets.push(cells.connectivity.len() as i32);
+                cells.types.push(VTK_POLYGON);
+            };
+            match shape {
+                Shape::Sphere { radius } => {
+                    for v in &sphere.0 {
+                        points.extend(pose.transform_point(*v * *radius).to_array());
+                    }
+                    for t in &sphere.1 {
+                        face(&mut t.iter().copied(), &mut cells);
+                    }
                 }
-                for t in &sphere.1 {
-                    face(&mut t.iter().copied(), &mut cells);
+                Shape::Polyhedron(h) => {
+                    for v in &h.vertices {
+                        points.extend(pose.transform_point(*v).to_array());
+                    }
+                    for f in 0..h.faces.len() {
+                        face(&mut h.face_loop(f).iter().copied(), &mut cells);
+                    }
                 }
-            }
-            Shape::Polyhedron(h) => {
-                for v in &h.vertices {
-                    points.extend(pose.transform_point(*v).to_array());
-                }
-                for f in 0..h.faces.len() {
-                    face(&mut h.face_loop(f).iter().copied(), &mut cells);
-                }
+                Shape::Composite(_) => {}
             }
         }
     }

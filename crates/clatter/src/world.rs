@@ -114,6 +114,14 @@ pub struct World {
     pub contacts: Contacts,
     /// Every body is a sphere: the contact stage takes the sphere-sphere fast path.
     spheres_only: bool,
+    /// Some body is a composite: contacts are kept per piece pair.
+    has_composites: bool,
+    /// Per body, how far a rotation can carry a piece (0 unless a composite; empty when no
+    /// body is a composite).
+    pub(crate) reach: Vec<f32>,
+    /// Orientations at the last broad-phase rebuild (composite worlds only; empty otherwise):
+    /// the pieces' pairs were found at these.
+    pub(crate) rebuild_orientation: Vec<Quat>,
     /// Positions at the last broad-phase rebuild.
     pub(crate) rebuild_position: Vec<Vec3>,
     needs_rebuild: bool,
@@ -163,6 +171,20 @@ impl World {
         state.orientation_residual = vec![Quat::from_xyzw(0.0, 0.0, 0.0, 0.0); n];
         state.removed = vec![false; n];
         let spheres_only = consts.is_sphere.iter().all(|&s| s);
+        let reach_of = |s: u32| match &desc.shapes[s as usize].shape {
+            Shape::Composite(c) => Some(c.reach),
+            _ => None,
+        };
+        let has_composites = consts.shape.iter().any(|&s| reach_of(s).is_some());
+        let reach = if has_composites {
+            consts
+                .shape
+                .iter()
+                .map(|&s| reach_of(s).unwrap_or(0.0))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let skin = desc.skin.unwrap_or(0.2 * consts.max_radius());
         let mut w = World {
             shapes: desc.shapes,
@@ -182,6 +204,9 @@ impl World {
             consts,
             contacts: Contacts::default(),
             spheres_only,
+            has_composites,
+            reach,
+            rebuild_orientation: Vec::new(),
             rebuild_position: Vec::new(),
             needs_rebuild: true,
         };
@@ -256,6 +281,46 @@ impl World {
     /// Whether every body is a sphere.
     pub fn spheres_only(&self) -> bool {
         self.spheres_only
+    }
+
+    /// Whether some body is a composite (contacts are then kept per piece pair).
+    pub fn has_composites(&self) -> bool {
+        self.has_composites
+    }
+
+    /// Orientations at the last broad-phase rebuild (empty unless the world has composites).
+    pub fn rebuild_orientation(&self) -> &[Quat] {
+        &self.rebuild_orientation
+    }
+
+    /// Piece `k` of body `i` (the body itself, `k = 0`, unless a composite): its shape and
+    /// world pose, with body `i` placed at `origin` (its position, or a periodic image).
+    #[inline]
+    pub fn piece_at(&self, i: usize, k: u32, origin: Vec3) -> (&Shape, Pose) {
+        let q = self.state.orientation[i];
+        match self.shape(i) {
+            Shape::Composite(c) => {
+                let p = &c.pieces[k as usize];
+                (
+                    &p.shape,
+                    Pose::new(origin + q * p.position, q * p.orientation),
+                )
+            }
+            s => (s, Pose::new(origin, q)),
+        }
+    }
+
+    /// Piece `k` of body `i`'s volume-equivalent radius and whether it is a sphere (the
+    /// contact law's radius and point share for that piece's contacts).
+    #[inline]
+    pub fn piece_law(&self, i: usize, k: u32) -> (f32, bool) {
+        match self.shape(i) {
+            Shape::Composite(c) => {
+                let p = &c.pieces[k as usize];
+                (p.equivalent_radius, matches!(p.shape, Shape::Sphere { .. }))
+            }
+            _ => (self.consts.equivalent_radius[i], self.consts.is_sphere[i]),
+        }
     }
 
     /// The shortest contact duration over the material pairs present, for the lightest body:
@@ -447,13 +512,17 @@ impl World {
 
     /// Body pairs currently in contact, sorted (for tests and output).
     pub fn touching_pairs(&self) -> Vec<[u32; 2]> {
-        self.contacts
+        let mut out: Vec<[u32; 2]> = self
+            .contacts
             .pairs
             .iter()
             .zip(&self.contacts.springs.touching)
             .filter(|(_, t)| **t)
             .map(|(p, _)| *p)
-            .collect()
+            .collect();
+        // Composites: one entry per body pair, however many of their pieces touch.
+        out.dedup();
+        out
     }
 
     /// The current broad-phase candidate pairs (bounding spheres within the skin).
@@ -522,7 +591,8 @@ impl World {
     /// their springs taken from the per-(body, wall) slots. An empty `rebuild_position` means
     /// "no list yet": the next step rebuilds.
     pub fn set_contact_state(&mut self, state: ContactState) {
-        if state.rebuild_position.len() != self.len() {
+        // The neutral form has no piece ids: a composite world rebuilds its list instead.
+        if state.rebuild_position.len() != self.len() || self.has_composites {
             self.contacts = Contacts::default();
             self.needs_rebuild = true;
             return;
@@ -565,6 +635,9 @@ impl World {
     pub(crate) fn install_contacts(&mut self, contacts: Contacts) {
         self.contacts = contacts;
         self.rebuild_position.clone_from(&self.state.position);
+        if self.has_composites {
+            self.rebuild_orientation.clone_from(&self.state.orientation);
+        }
         self.needs_rebuild = false;
         self.rebuilds += 1;
     }

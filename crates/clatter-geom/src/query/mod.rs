@@ -177,6 +177,30 @@ impl<'a> Pair<'a> {
                 frame: *pa,
                 rel: pa.inv_mul(pb),
             },
+            // The queries are for convex shapes (`clatter query` builds no composites): a
+            // composite is answered as its bounding sphere.
+            (Shape::Polyhedron(p), Shape::Composite(c)) => Pair::SpherePoly {
+                poly: p,
+                obb: as_box(p),
+                frame: *pa,
+                c: pa.inverse_vector(pb.pos - pa.pos),
+                r: c.radius as f64,
+                swapped: false,
+            },
+            (Shape::Composite(c), Shape::Polyhedron(p)) => Pair::SpherePoly {
+                poly: p,
+                obb: as_box(p),
+                frame: *pb,
+                c: pb.inverse_vector(pa.pos - pb.pos),
+                r: c.radius as f64,
+                swapped: true,
+            },
+            (Shape::Composite(_) | Shape::Sphere { .. }, _) => Pair::Spheres {
+                ca: pa.pos,
+                ra: a.bounding_radius() as f64,
+                cb: pb.pos,
+                rb: b.bounding_radius() as f64,
+            },
         }
     }
 }

@@ -84,6 +84,7 @@ pub fn time_of_impact(
     let core_radius = |s: &Shape| match s {
         Shape::Sphere { .. } => 0.0,
         Shape::Polyhedron(p) => p.radius as f64,
+        Shape::Composite(c) => c.radius as f64,
     };
     let (ra, rb) = (core_radius(a), core_radius(b));
     let size = (a.bounding_radius() + b.bounding_radius()) as f64;

@@ -205,6 +205,12 @@ pub(crate) fn rebuild(world: &mut World) {
         pairs.retain(|&[i, j]| !(removed[i as usize] || removed[j as usize]));
     }
     let wall_pairs = wall_candidates(world, positions);
+    if world.has_composites() {
+        let contacts = piece_contacts(world, pairs, wall_pairs);
+        world.install_contacts(contacts);
+        super::boundary::rebuild(world);
+        return;
+    }
     let old = &world.contacts;
     let np_old = old.pairs.len();
     let springs = &old.springs;
@@ -225,6 +231,110 @@ pub(crate) fn rebuild(world: &mut World) {
     let contacts = Contacts::new(world.len(), pairs, wall_pairs, history, twist);
     world.install_contacts(contacts);
     super::boundary::rebuild(world);
+}
+
+/// The contact list of a world with composite bodies: each body pair (and body-wall pair)
+/// expanded into the piece pairs whose bounding spheres, grown by the skin, overlap at the
+/// current poses, each a contact with its own springs (carried over by body pair and piece
+/// pair). Contacts stay sorted by body pair, then piece code, so the per-body gather order
+/// is fixed.
+fn piece_contacts(world: &World, pairs: Vec<[u32; 2]>, wall_pairs: Vec<[u32; 2]>) -> Contacts {
+    use crate::contacts::piece_code;
+    let skin = world.skin;
+    let per_pair: Vec<Vec<u32>> = pairs
+        .par_iter()
+        .with_min_len(64)
+        .map(|&[i, j]| {
+            let (i, j) = (i as usize, j as usize);
+            let (si, sj) = (world.shape(i), world.shape(j));
+            let (xi, xj) = (world.state.position[i], world.image_of(i, j));
+            let mut codes = Vec::new();
+            for a in 0..si.piece_count() as u32 {
+                let (pa, posea) = world.piece_at(i, a, xi);
+                for b in 0..sj.piece_count() as u32 {
+                    let (pb, poseb) = world.piece_at(j, b, xj);
+                    let reach = pa.bounding_radius() + pb.bounding_radius() + skin;
+                    if (poseb.position - posea.position).length_squared() < reach * reach {
+                        codes.push(piece_code(a, b));
+                    }
+                }
+            }
+            codes
+        })
+        .collect();
+    let mut body_pairs = Vec::new();
+    let mut pieces = Vec::new();
+    for (p, codes) in pairs.iter().zip(per_pair) {
+        for c in codes {
+            body_pairs.push(*p);
+            pieces.push(c);
+        }
+    }
+    let mut walls = Vec::new();
+    let mut wall_pieces = Vec::new();
+    for &[i, w] in &wall_pairs {
+        let plane = &world.walls[w as usize].plane;
+        let x = world.state.position[i as usize];
+        for a in 0..world.shape(i as usize).piece_count() as u32 {
+            let (pa, pose) = world.piece_at(i as usize, a, x);
+            let h = plane.normal.dot(pose.position) - plane.offset;
+            if h < pa.bounding_radius() + skin {
+                walls.push([i, w]);
+                wall_pieces.push(a);
+            }
+        }
+    }
+    // Springs carried over by (body pair, piece code).
+    let old = &world.contacts;
+    let np_old = old.pairs.len();
+    let sp = &old.springs;
+    let keyed = |pairs: &[[u32; 2]], codes: &[u32]| -> Vec<([u32; 2], u32)> {
+        pairs.iter().copied().zip(codes.iter().copied()).collect()
+    };
+    let old_codes = if old.pieces.len() == old.len() {
+        old.pieces.clone()
+    } else {
+        vec![0; old.len()]
+    };
+    let np_hist = np_old.min(sp.history.len());
+    let (mut history, mut twist) = carry_springs(
+        &keyed(&old.pairs, &old_codes[..np_old]),
+        &sp.history[..np_hist],
+        &sp.twist[..np_old.min(sp.twist.len())],
+        &keyed(&body_pairs, &pieces),
+    );
+    let (wall_history, wall_twist) = carry_springs(
+        &keyed(&old.wall_pairs, &old_codes[np_old..]),
+        &sp.history[np_hist..],
+        &sp.twist[np_old.min(sp.twist.len())..],
+        &keyed(&walls, &wall_pieces),
+    );
+    history.extend(wall_history);
+    twist.extend(wall_twist);
+    pieces.extend(wall_pieces);
+    Contacts::with_pieces(world.len(), body_pairs, walls, pieces, history, twist)
+}
+
+/// The largest squared distance any piece of a composite body can have moved since the last
+/// rebuild: `|dx| + 2 reach |q - q0|` (a rotation by `theta` moves a point at distance `r`
+/// by `2 r sin(theta/2) <= 2 r |q - q0|`, taking the closer of `q0` and `-q0`). 0 without
+/// composites.
+pub(crate) fn composite_moved(world: &World) -> f32 {
+    if !world.has_composites() || world.rebuild_orientation.len() != world.len() {
+        return 0.0;
+    }
+    let s = &world.state;
+    (0..world.len())
+        .filter(|&i| world.reach[i] > 0.0)
+        .map(|i| {
+            let dx = s.position[i] - world.rebuild_position[i];
+            let dx = world.periodic.as_ref().map_or(dx, |p| p.nearest(dx));
+            let (q, q0) = (s.orientation[i], world.rebuild_orientation[i]);
+            let dq = (q - q0).length().min((q + q0).length());
+            let d = dx.length() + 2.0 * world.reach[i] * dq;
+            if d.is_finite() { d * d } else { f32::INFINITY }
+        })
+        .fold(0.0, f32::max)
 }
 
 /// Wall candidates: `(body, wall)` for the bodies (not removed by a sink) whose bounding

@@ -6,7 +6,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::CHUNK;
-use crate::contacts::ContactSprings;
+use crate::contacts::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce};
 use crate::world::World;
 use clatter_geom::Shape;
@@ -29,9 +29,29 @@ pub(crate) fn run(world: &mut World) -> usize {
     let (twist_pairs, twist_walls) = twist.split_at_mut(np);
     let (force_pairs, force_walls) = forces.split_at_mut(np);
     let (touch_pairs, touch_walls) = touching.split_at_mut(np);
+    let (piece_pairs, piece_walls) = w.contacts.pieces.split_at(w.contacts.pieces.len().min(np));
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
     let (pairs_touching, walls_touching) = rayon::join(
         || {
+            if w.has_composites() {
+                // Contacts per piece pair (the same per-contact work, on the pieces).
+                return w
+                    .contacts
+                    .pairs
+                    .par_iter()
+                    .zip(piece_pairs.par_iter())
+                    .zip(hist_pairs.par_iter_mut())
+                    .zip(force_pairs.par_iter_mut())
+                    .zip(touch_pairs.par_iter_mut())
+                    .zip(hints.par_iter_mut())
+                    .zip(twist_pairs.par_iter_mut())
+                    .zip(separation_bound.par_iter_mut())
+                    .with_min_len(CHUNK)
+                    .map(|(((((((p, pc), h), f), t), hn), tw), b)| {
+                        body_pair(w, *p, *pc, h, f, t, hn, tw, b) as usize
+                    })
+                    .sum::<usize>();
+            }
             if w.spheres_only() {
                 // Chunks of plain slices: the sphere law is cheap, so the per-item cost of
                 // a deep parallel zip would show.
@@ -66,11 +86,25 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(separation_bound.par_iter_mut())
                 .with_min_len(CHUNK)
                 .map(|((((((p, h), f), t), hn), tw), b)| {
-                    body_pair(w, *p, h, f, t, hn, tw, b) as usize
+                    body_pair(w, *p, 0, h, f, t, hn, tw, b) as usize
                 })
                 .sum::<usize>()
         },
         || {
+            if w.has_composites() {
+                return w
+                    .contacts
+                    .wall_pairs
+                    .par_iter()
+                    .zip(piece_walls.par_iter())
+                    .zip(hist_walls.par_iter_mut())
+                    .zip(force_walls.par_iter_mut())
+                    .zip(touch_walls.par_iter_mut())
+                    .zip(twist_walls.par_iter_mut())
+                    .with_min_len(CHUNK)
+                    .map(|(((((p, pc), h), f), t), tw)| wall_pair(w, *p, *pc, h, f, t, tw) as usize)
+                    .sum::<usize>();
+            }
             w.contacts
                 .wall_pairs
                 .par_iter()
@@ -79,7 +113,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(touch_walls.par_iter_mut())
                 .zip(twist_walls.par_iter_mut())
                 .with_min_len(CHUNK)
-                .map(|((((p, h), f), t), tw)| wall_pair(w, *p, h, f, t, tw) as usize)
+                .map(|((((p, h), f), t), tw)| wall_pair(w, *p, 0, h, f, t, tw) as usize)
                 .sum::<usize>()
         },
     );
@@ -129,12 +163,16 @@ fn sphere_pair(
     *touching
 }
 
-/// Two bodies of any shapes: the separation bound first, then the narrow phase and the law.
+/// Two bodies of any shapes (pieces `piece_ids(pieces)` of them when composites are
+/// present, else 0): the separation bound first, then the narrow phase and the law. The
+/// law sees the bodies' masses and motions (so torques are about each body's centre of
+/// mass) and the pieces' radii and point shares.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn body_pair(
     w: &World,
     [i, j]: [u32; 2],
+    pieces: u32,
     hist: &mut Vec3,
     force: &mut ContactForce,
     touching: &mut bool,
@@ -151,18 +189,19 @@ fn body_pair(
         }
     }
     let mut separation = 0.0;
-    let found = narrow_pair(w, i, j, hint, &mut separation);
+    let (pa, pb) = piece_ids(pieces);
+    let found = narrow_pair(w, i, j, pa, pb, hint, &mut separation);
     *bound = separation;
     match found {
         Some(m) => {
             let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
             let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
-            let (ri, rj) = (w.consts.equivalent_radius[i], w.consts.equivalent_radius[j]);
+            let ((ri, si), (rj, sj)) = (w.piece_law(i, pa), w.piece_law(j, pb));
             *force = law::contact_force(
                 params,
                 mi * mj / (mi + mj),
                 ri * rj / (ri + rj),
-                law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[j]),
+                law::point_share(si, sj),
                 &m,
                 &w.motion(i),
                 &w.motion_from(i, j),
@@ -178,25 +217,29 @@ fn body_pair(
     *touching
 }
 
-/// A body against a wall (the wall is side a, at rest).
+/// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
+/// rest). The per-piece form is what other static boundaries can reuse.
 #[inline]
 fn wall_pair(
     w: &World,
     [i, wall]: [u32; 2],
+    piece: u32,
     hist: &mut Vec3,
     force: &mut ContactForce,
     touching: &mut bool,
     twist: &mut f32,
 ) -> bool {
     let (i, wall) = (i as usize, &w.walls[wall as usize]);
-    match narrow::collide_plane(&wall.plane, w.shape(i), &w.pose(i)) {
+    let (shape, pose) = w.piece_at(i, piece, w.state.position[i]);
+    match narrow::collide_plane(&wall.plane, shape, &pose) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
+            let (r, sphere) = w.piece_law(i, piece);
             *force = law::contact_force(
                 params,
                 w.consts.mass[i],
-                w.consts.equivalent_radius[i],
-                law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[i]),
+                r,
+                law::point_share(sphere, sphere),
                 &m,
                 &BodyMotion::default(),
                 &w.motion(i),
@@ -228,22 +271,25 @@ fn release(
     *touching = false;
 }
 
-/// The narrow phase for one body pair: the contact manifold, if any.
+/// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`): the contact
+/// manifold, if any.
 #[inline]
 fn narrow_pair(
     w: &World,
     i: usize,
     j: usize,
+    pa: u32,
+    pb: u32,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<Manifold> {
-    match (w.shape(i), w.shape(j)) {
+    let (sa, posea) = w.piece_at(i, pa, w.state.position[i]);
+    let (sb, poseb) = w.piece_at(j, pb, w.image_of(i, j));
+    match (sa, sb) {
         (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
-            narrow::sphere_sphere(w.state.position[i], *ri, w.image_of(i, j), *rj)
+            narrow::sphere_sphere(posea.position, *ri, poseb.position, *rj)
         }
-        (si, sj) => {
-            narrow::collide_with_hint(si, &w.pose(i), sj, &w.pose_from(i, j), hint, separation)
-        }
+        (si, sj) => narrow::collide_with_hint(si, &posea, sj, &poseb, hint, separation),
     }
 }
 

@@ -34,6 +34,8 @@ impl World {
         match moved {
             integrate::Moved::NonFinite => Err(self.non_finite_error()),
             integrate::Moved::Farthest(d2) => {
+                // Composites: a rotation moves pieces as well as the centre.
+                let d2 = d2.max(broad::composite_moved(self));
                 if d2 > 0.25 * self.skin * self.skin {
                     self.set_needs_rebuild(true);
                 } else if !self.boundaries.is_empty()
