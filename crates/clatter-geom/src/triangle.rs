@@ -97,7 +97,8 @@ fn facing(tri: &[Vec3; 3], normal: Vec3, centre: Vec3) -> (Vec3, f32) {
 }
 
 /// One convex piece (`shape` at `pose`) against triangle `tri` (world vertices, unit normal
-/// `normal`): `None` when apart.
+/// `normal`): `None` when apart. A composite is not one convex piece: its caller collides
+/// each of its pieces (`Shape::pieces`), so a composite here gives `None`.
 pub fn collide_triangle(
     shape: &Shape,
     pose: &Pose,
@@ -107,6 +108,7 @@ pub fn collide_triangle(
     match shape {
         Shape::Sphere { radius } => sphere_triangle(pose.position, *radius, tri, normal),
         Shape::Polyhedron(p) => polyhedron_triangle(p, pose, tri, normal),
+        Shape::Composite(_) => None,
     }
 }
 

@@ -548,6 +548,9 @@ const REGION_TOLERANCE: f32 = 1e-5;
 pub struct MeshSlot {
     /// The boundary touched.
     pub boundary: u32,
+    /// The body's piece that touches it (0 unless the body is a composite): a slot's springs
+    /// pass only to a contact of the same piece.
+    pub piece: u32,
     /// Whether the slot held a contact in the last step.
     pub touching: bool,
     /// The contact's normal in the last step (from the boundary to the body).

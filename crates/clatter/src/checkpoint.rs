@@ -31,7 +31,7 @@
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
 //! - `MESH` (only when the scene has `[[boundary]]` meshes): the time the mesh candidates
-//!   were found at, then per body its `MESH_SLOTS` mesh contact slots (boundary, touching,
+//!   were found at, then per body its `MESH_SLOTS` mesh contact slots (boundary, piece, touching,
 //!   normal, tangential spring, twist, last force). The candidates are found again by the
 //!   broad phase at the `RBLD` positions and that time.
 //! - `PIEC` (worlds with composite bodies; optional): the orientations the Verlet list was
@@ -515,6 +515,7 @@ impl World {
                 w.u64(slots.len() as u64);
                 for s in slots {
                     w.u32(s.boundary);
+                    w.u32(s.piece);
                     w.buf.push(s.touching as u8);
                     w.vec3(s.normal);
                     w.vec3(s.history);
@@ -740,7 +741,7 @@ fn read_mesh_slots(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointE
             "non-finite mesh rebuild time".into(),
         ));
     }
-    let n = r.count(73)?;
+    let n = r.count(77)?;
     if n as u64 != st.bodies * MESH_SLOTS as u64 {
         return Err(CheckpointError::Malformed(format!(
             "{n} mesh slots for {} bodies",
@@ -748,7 +749,7 @@ fn read_mesh_slots(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointE
         )));
     }
     for _ in 0..n {
-        let boundary = r.u32()?;
+        let (boundary, piece) = (r.u32()?, r.u32()?);
         let touching = match r.bytes(1)?[0] {
             0 => false,
             1 => true,
@@ -763,6 +764,7 @@ fn read_mesh_slots(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointE
         let force = ContactForce::new(force_b, torque_a, torque_b, r.f32()?);
         st.mesh_slots.push(MeshSlot {
             boundary,
+            piece,
             touching,
             normal,
             history,

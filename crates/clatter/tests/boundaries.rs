@@ -708,3 +708,49 @@ fn a_fast_drum_is_not_taken_for_a_blow_up() {
     }
     assert!(fastest > 1.0, "the drum flings the balls ({fastest} m/s)");
 }
+
+#[test]
+fn a_clump_lands_and_rests_on_a_mesh_floor_as_on_the_plane() {
+    // A composite of two spheres and a cube (each piece against the triangles, each with its
+    // own mesh slot), dropped tilted so that its pieces land one after the other: the same
+    // motion as on the plane wall, to rounding (the forces are the plane's; only the order
+    // of summing the pieces' forces on the body differs).
+    use clatter::geom::composite::PieceSpec;
+    use glam::{DQuat, DVec3};
+    let piece = |shape, x: f64, y: f64| PieceSpec {
+        shape,
+        offset: DVec3::new(x, y, 0.0),
+        orientation: DQuat::from_rotation_z(0.2),
+    };
+    let clump = clatter::geom::prepare_composite(&[
+        piece(sphere(), -0.008, 0.0),
+        piece(sphere(), 0.008, 0.0),
+        piece(cube(0.006), 0.0, 0.012),
+    ])
+    .unwrap();
+    let mut b = body(
+        Vec3::new(0.013, -0.021, 0.04),
+        Vec3::new(0.2, 0.1, 0.0),
+        Vec3::ZERO,
+    );
+    b.orientation = Quat::from_rotation_y(0.35) * Quat::from_rotation_x(0.2);
+    let (mut plane, mut mesh) = (
+        on_floor(clump.clone(), b, false, 0.5),
+        on_floor(clump, b, true, 0.5),
+    );
+    let mut touched = 0;
+    for _ in 0..30 {
+        run(&mut plane, 1000);
+        run(&mut mesh, 1000);
+        let (xp, xm) = (plane.state.position[0], mesh.state.position[0]);
+        assert!((xp - xm).length() < 1e-6, "{xp} vs {xm}");
+        let (qp, qm) = (plane.state.orientation[0], mesh.state.orientation[0]);
+        assert!(qp.dot(qm).abs() > 1.0 - 1e-6, "{qp} vs {qm}");
+        touched = touched.max(mesh.contact_count());
+    }
+    // All three pieces came to rest on the floor, sunk by about their share of the weight.
+    assert_eq!(mesh.contact_count(), 3, "{:?}", mesh.mesh_slots());
+    assert_eq!(touched, 3);
+    assert!(mesh.state.velocity[0].length() < 1e-3);
+    assert!(mesh.state.position[0].z < 0.012 && mesh.state.position[0].z > 0.005);
+}

@@ -124,6 +124,8 @@ pub(crate) fn run(world: &mut World) -> usize {
 #[derive(Clone, Copy)]
 struct Found {
     boundary: u32,
+    /// The body's piece (0 unless a composite).
+    piece: u32,
     manifold: Manifold,
 }
 
@@ -143,7 +145,22 @@ fn body_slots(
         }
         return 0;
     }
-    let found = piece_contacts(w, w.shape(i), &w.pose(i), cands, poses);
+    // Each convex piece of the body (one unless a composite) against the triangles; a
+    // composite keeps its deepest MESH_SLOTS contacts.
+    let x = w.state.position[i];
+    let mut found = Vec::new();
+    for k in 0..w.shape(i).piece_count() as u32 {
+        let (shape, pose) = w.piece_at(i, k, x);
+        let start = found.len();
+        found.extend(piece_contacts(w, shape, &pose, cands, poses));
+        for f in &mut found[start..] {
+            f.piece = k;
+        }
+    }
+    if found.len() > MESH_SLOTS {
+        found.sort_by(|a, b| b.manifold.max_depth().total_cmp(&a.manifold.max_depth()));
+        found.truncate(MESH_SLOTS);
+    }
     assign(w, i, &found, motions, slots)
 }
 
@@ -227,6 +244,7 @@ fn piece_contacts(
                 features.push((
                     Found {
                         boundary: b as u32,
+                        piece: 0,
                         manifold,
                     },
                     b as u32,
@@ -257,6 +275,7 @@ fn piece_contacts(
         if let Some(m) = plane_manifold(shape, pose, g) {
             found.push(Found {
                 boundary: g.boundary,
+                piece: 0,
                 manifold: m,
             });
         }
@@ -333,7 +352,7 @@ fn assign(
     for (c, f) in found.iter().enumerate() {
         let mut best = (SLOT_MATCH_COS, usize::MAX);
         for (k, s) in old.iter().enumerate() {
-            if s.touching && !taken[k] && s.boundary == f.boundary {
+            if s.touching && !taken[k] && s.boundary == f.boundary && s.piece == f.piece {
                 let cos = s.normal.dot(f.manifold.normal);
                 if cos >= best.0 {
                     best = (cos, k);
@@ -362,9 +381,10 @@ fn assign(
         }
     }
     let body = w.motion(i);
-    let (mass, r_eff) = (w.consts.mass[i], w.consts.equivalent_radius[i]);
-    let share = law::point_share(w.consts.is_sphere[i], w.consts.is_sphere[i]);
+    let mass = w.consts.mass[i];
     for (c, f) in found.iter().enumerate() {
+        let (r_eff, sphere) = w.piece_law(i, f.piece);
+        let share = law::point_share(sphere, sphere);
         let s = &mut slots[place[c]];
         let b = f.boundary as usize;
         let params = w.pair_params(w.boundaries[b].material, w.consts.material[i]);
@@ -381,6 +401,7 @@ fn assign(
             w.dt,
         );
         s.boundary = f.boundary;
+        s.piece = f.piece;
         s.normal = f.manifold.normal;
         s.touching = true;
     }
