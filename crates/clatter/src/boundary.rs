@@ -420,7 +420,8 @@ impl Boundary {
         (t.clamp(self.start, self.end.max(self.start)) - self.start) as f32
     }
 
-    /// The boundary's pose at time `t`.
+    /// The boundary's pose at time `t` (a rotation's angle is reduced to one turn in f64
+    /// before it is rounded to f32).
     pub fn pose(&self, t: f64) -> MeshPose {
         let tau = self.elapsed(t);
         match self.motion {
@@ -436,7 +437,16 @@ impl Boundary {
                 angular_velocity,
                 center,
             } => {
-                let q = Quat::from_scaled_axis(angular_velocity * tau);
+                // The angle reduced to one turn in f64, so that long runs keep their precision.
+                let rate = angular_velocity.length();
+                let angle = (rate as f64
+                    * (t.clamp(self.start, self.end.max(self.start)) - self.start))
+                    .rem_euclid(std::f64::consts::TAU) as f32;
+                let q = if rate > 0.0 {
+                    Quat::from_axis_angle(angular_velocity / rate, angle)
+                } else {
+                    Quat::IDENTITY
+                };
                 MeshPose {
                     rotation: q,
                     translation: center - q * center,
