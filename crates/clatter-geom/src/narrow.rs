@@ -103,6 +103,26 @@ pub fn collide_with_hint(
     }
 }
 
+/// Two convex shapes (spheres or polyhedra); `None` for a composite. Kept apart from
+/// [`collide_with_hint`] so that the composite path does not make it recursive.
+fn collide_convex(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
+    match (a, b) {
+        (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
+            sphere_sphere(pa.position, *ra, pb.position, *rb)
+        }
+        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+            sphere_polyhedron(pa.position, *radius, p, pb)
+        }
+        (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+            sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
+        }
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
+            polyhedron_polyhedron(p, pa, q, pb, &mut NO_HINT.clone(), &mut 0.0)
+        }
+        _ => None,
+    }
+}
+
 /// A piece's world pose, for a piece at `local` in a shape at `pose`.
 #[inline]
 pub fn piece_pose(pose: &Pose, local: &Pose) -> Pose {
@@ -119,7 +139,7 @@ fn deepest_piece_contact(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<M
     let mut best: Option<(f32, Manifold)> = None;
     for (sa, la) in a.pieces() {
         for (sb, lb) in b.pieces() {
-            if let Some(m) = collide(sa, &piece_pose(pa, &la), sb, &piece_pose(pb, &lb)) {
+            if let Some(m) = collide_convex(sa, &piece_pose(pa, &la), sb, &piece_pose(pb, &lb)) {
                 let depth = m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max);
                 if best.as_ref().is_none_or(|(d, _)| depth > *d) {
                     best = Some((depth, m));
@@ -269,7 +289,7 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
         // The deepest piece (see `deepest_piece_contact`); the simulator collides each piece.
         let mut best: Option<(f32, Manifold)> = None;
         for (sp, local) in s.pieces() {
-            if let Some(m) = collide_plane(plane, sp, &piece_pose(pose, &local)) {
+            if let Some(m) = collide_plane_convex(plane, sp, &piece_pose(pose, &local)) {
                 let depth = m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max);
                 if best.as_ref().is_none_or(|(d, _)| depth > *d) {
                     best = Some((depth, m));
@@ -278,6 +298,12 @@ pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> 
         }
         return best.map(|(_, m)| m);
     }
+    collide_plane_convex(plane, s, pose)
+}
+
+/// [`collide_plane`] for a sphere or polyhedron (`None` for a composite).
+#[inline]
+fn collide_plane_convex(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> {
     let n = plane.normal;
     let centre_height = n.dot(pose.position) - plane.offset;
     match s {

@@ -48,7 +48,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(separation_bound.par_iter_mut())
                     .with_min_len(CHUNK)
                     .map(|(((((((p, pc), h), f), t), hn), tw), b)| {
-                        body_pair(w, *p, *pc, h, f, t, hn, tw, b) as usize
+                        body_pair::<true>(w, *p, *pc, h, f, t, hn, tw, b) as usize
                     })
                     .sum::<usize>();
             }
@@ -86,7 +86,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(separation_bound.par_iter_mut())
                 .with_min_len(CHUNK)
                 .map(|((((((p, h), f), t), hn), tw), b)| {
-                    body_pair(w, *p, 0, h, f, t, hn, tw, b) as usize
+                    body_pair::<false>(w, *p, 0, h, f, t, hn, tw, b) as usize
                 })
                 .sum::<usize>()
         },
@@ -102,7 +102,9 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(touch_walls.par_iter_mut())
                     .zip(twist_walls.par_iter_mut())
                     .with_min_len(CHUNK)
-                    .map(|(((((p, pc), h), f), t), tw)| wall_pair(w, *p, *pc, h, f, t, tw) as usize)
+                    .map(|(((((p, pc), h), f), t), tw)| {
+                        wall_pair::<true>(w, *p, *pc, h, f, t, tw) as usize
+                    })
                     .sum::<usize>();
             }
             w.contacts
@@ -113,7 +115,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(touch_walls.par_iter_mut())
                 .zip(twist_walls.par_iter_mut())
                 .with_min_len(CHUNK)
-                .map(|((((p, h), f), t), tw)| wall_pair(w, *p, 0, h, f, t, tw) as usize)
+                .map(|((((p, h), f), t), tw)| wall_pair::<false>(w, *p, 0, h, f, t, tw) as usize)
                 .sum::<usize>()
         },
     );
@@ -166,10 +168,11 @@ fn sphere_pair(
 /// Two bodies of any shapes (pieces `piece_ids(pieces)` of them when composites are
 /// present, else 0): the separation bound first, then the narrow phase and the law. The
 /// law sees the bodies' masses and motions (so torques are about each body's centre of
-/// mass) and the pieces' radii and point shares.
+/// mass) and the pieces' radii and point shares. `PIECES` is false in worlds without
+/// composites: the code is then the plain body-pair path, compiled without the piece lookups.
 #[inline]
 #[allow(clippy::too_many_arguments)]
-fn body_pair(
+fn body_pair<const PIECES: bool>(
     w: &World,
     [i, j]: [u32; 2],
     pieces: u32,
@@ -190,13 +193,20 @@ fn body_pair(
     }
     let mut separation = 0.0;
     let (pa, pb) = piece_ids(pieces);
-    let found = narrow_pair(w, i, j, pa, pb, hint, &mut separation);
+    let found = narrow_pair::<PIECES>(w, i, j, pa, pb, hint, &mut separation);
     *bound = separation;
     match found {
         Some(m) => {
             let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
             let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
-            let ((ri, si), (rj, sj)) = (w.piece_law(i, pa), w.piece_law(j, pb));
+            let ((ri, si), (rj, sj)) = if PIECES {
+                (w.piece_law(i, pa), w.piece_law(j, pb))
+            } else {
+                (
+                    (w.consts.equivalent_radius[i], w.consts.is_sphere[i]),
+                    (w.consts.equivalent_radius[j], w.consts.is_sphere[j]),
+                )
+            };
             *force = law::contact_force(
                 params,
                 mi * mj / (mi + mj),
@@ -220,7 +230,7 @@ fn body_pair(
 /// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
 /// rest). The per-piece form is what other static boundaries can reuse.
 #[inline]
-fn wall_pair(
+fn wall_pair<const PIECES: bool>(
     w: &World,
     [i, wall]: [u32; 2],
     piece: u32,
@@ -230,11 +240,19 @@ fn wall_pair(
     twist: &mut f32,
 ) -> bool {
     let (i, wall) = (i as usize, &w.walls[wall as usize]);
-    let (shape, pose) = w.piece_at(i, piece, w.state.position[i]);
+    let (shape, pose) = if PIECES {
+        w.piece_at(i, piece, w.state.position[i])
+    } else {
+        (w.shape(i), w.pose(i))
+    };
     match narrow::collide_plane(&wall.plane, shape, &pose) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
-            let (r, sphere) = w.piece_law(i, piece);
+            let (r, sphere) = if PIECES {
+                w.piece_law(i, piece)
+            } else {
+                (w.consts.equivalent_radius[i], w.consts.is_sphere[i])
+            };
             *force = law::contact_force(
                 params,
                 w.consts.mass[i],
@@ -274,7 +292,7 @@ fn release(
 /// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`): the contact
 /// manifold, if any.
 #[inline]
-fn narrow_pair(
+fn narrow_pair<const PIECES: bool>(
     w: &World,
     i: usize,
     j: usize,
@@ -283,6 +301,17 @@ fn narrow_pair(
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<Manifold> {
+    if !PIECES {
+        // The plain path (no composites in the world).
+        return match (w.shape(i), w.shape(j)) {
+            (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
+                narrow::sphere_sphere(w.state.position[i], *ri, w.image_of(i, j), *rj)
+            }
+            (si, sj) => {
+                narrow::collide_with_hint(si, &w.pose(i), sj, &w.pose_from(i, j), hint, separation)
+            }
+        };
+    }
     let (sa, posea) = w.piece_at(i, pa, w.state.position[i]);
     let (sb, poseb) = w.piece_at(j, pb, w.image_of(i, j));
     match (sa, sb) {
