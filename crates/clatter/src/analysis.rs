@@ -23,7 +23,7 @@ pub fn fit_line(points: &[(f64, f64)]) -> Option<Line> {
     let my = points.iter().map(|p| p.1).sum::<f64>() / n;
     let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    if !(sxx > 0.0) {
+    if sxx <= 0.0 || sxx.is_nan() {
         return None;
     }
     let slope = sxy / sxx;
@@ -67,7 +67,7 @@ pub struct Beverloo {
 pub fn fit_beverloo(points: &[(f64, f64)], rho_b: f64, g: f64, d: f64) -> Option<Beverloo> {
     let lin: Vec<(f64, f64)> = points.iter().map(|&(dd, w)| (dd, w.powf(0.4))).collect();
     let l = fit_line(&lin)?;
-    if !(l.slope > 0.0) {
+    if l.slope <= 0.0 || l.slope.is_nan() {
         return None;
     }
     Some(Beverloo {

@@ -174,7 +174,7 @@ position = [0.0, 0.0, {za}]
 fn a_body_resting_on_a_removed_one_falls_freely() {
     // Without the sink, A stays where it is.
     let mut still = stack(false);
-    let (za, _) = (still.state.position[1].z, ());
+    let za = still.state.position[1].z;
     step_n(&mut still, 200).expect("steps");
     assert!(
         (still.state.position[1].z - za).abs() < 1e-5,
