@@ -231,6 +231,31 @@ mod tests {
     }
 
     #[test]
+    fn composite_is_drawn_as_its_pieces() {
+        use clatter::geom::{PieceSpec, ShapeKind, prepare_composite};
+        let ball = ShapeKind::Sphere { radius: 1.0 }.prepare().unwrap();
+        let piece = |x: f64| PieceSpec {
+            shape: ball.clone(),
+            offset: glam::DVec3::new(x, 0.0, 0.0),
+            orientation: glam::DQuat::IDENTITY,
+        };
+        let c = prepare_composite(&[piece(-3.0), piece(3.0)]).unwrap();
+        let one = Mesh::of_shape(&ball.shape);
+        let m = Mesh::of_shape(&c.shape);
+        assert_eq!(m.vertices.len(), 2 * one.vertices.len());
+        assert_eq!(m.indices.len(), 2 * one.indices.len());
+        // Every vertex lies on one of the two unit spheres, centred at +-3 along the
+        // composite's principal axis of least inertia (x here).
+        for v in &m.vertices {
+            let p = Vec3::from_array(v.position);
+            let d = (p - Vec3::X * 3.0)
+                .length()
+                .min((p + Vec3::X * 3.0).length());
+            assert!((d - 1.0).abs() < 1e-5, "{p}");
+        }
+    }
+
+    #[test]
     fn grid_spacing_is_round() {
         assert_eq!(grid_spacing(12.0), 1.0);
         assert!((grid_spacing(0.36) - 0.02).abs() < 1e-7);
