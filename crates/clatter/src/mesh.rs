@@ -241,101 +241,17 @@ pub struct MeshTriangles {
 /// Reads the mesh file at `path` with its triangles (the checks of [`read_mesh`], and every
 /// index must name a vertex).
 pub fn read_triangles(path: &Path) -> Result<MeshTriangles, String> {
-    let format = MeshFormat::from_path(path)?;
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the mesh file: {e}"))?;
-    let vertices = parse_mesh(&bytes, format)?;
-    let mut triangles = Vec::new();
-    let mut fan = |lp: &[u32]| {
-        for k in 1..lp.len().saturating_sub(1) {
-            triangles.push([lp[0], lp[k], lp[k + 1]]);
-        }
-    };
-    match format {
-        MeshFormat::Obj => {
-            let options = tobj::LoadOptions {
-                single_index: true,
-                triangulate: false,
-                ignore_points: true,
-                ignore_lines: true,
-            };
-            let (models, _) = tobj::load_obj_buf(&mut Cursor::new(&bytes), &options, |_| {
-                Err(tobj::LoadError::OpenFileFailed)
-            })
-            .map_err(|e| format!("cannot parse the OBJ file: {e}"))?;
-            let mut all = Vec::new();
-            for m in &models {
-                let base = (all.len() / 3) as u32;
-                all.extend(m.mesh.positions.iter().map(|&x| x as f64));
-                let idx: Vec<u32> = m.mesh.indices.iter().map(|&i| i + base).collect();
-                if m.mesh.face_arities.is_empty() {
-                    idx.chunks_exact(3).for_each(&mut fan);
-                } else {
-                    let mut at = 0;
-                    for &n in &m.mesh.face_arities {
-                        let n = n as usize;
-                        fan(idx
-                            .get(at..at + n)
-                            .ok_or("an OBJ face runs past its indices")?);
-                        at += n;
-                    }
-                }
-            }
-            let vertices = all.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
-            return check_triangles(MeshTriangles {
-                vertices,
-                triangles,
-            });
-        }
-        MeshFormat::Stl => {
-            let mesh = stl_io::read_stl(&mut Cursor::new(&bytes))
-                .map_err(|e| format!("cannot parse the STL file (ASCII or binary): {e}"))?;
-            for f in &mesh.faces {
-                fan(&f.vertices.map(|v| v as u32));
-            }
-        }
-        MeshFormat::Ply => {
-            use ply_rs_bw::parser::Parser;
-            use ply_rs_bw::ply::{DefaultElement, Property};
-            let ply = Parser::<DefaultElement>::new()
-                .read_ply(&mut Cursor::new(&bytes))
-                .map_err(|e| format!("cannot parse the PLY file: {e}"))?;
-            for (i, face) in ply.payload.get("face").into_iter().flatten().enumerate() {
-                let list = face
-                    .get("vertex_indices")
-                    .or_else(|| face.get("vertex_index"));
-                let lp: Vec<u32> = match list {
-                    Some(Property::ListInt(v)) => v.iter().map(|&x| x as u32).collect(),
-                    Some(Property::ListUInt(v)) => v.clone(),
-                    Some(Property::ListShort(v)) => v.iter().map(|&x| x as u32).collect(),
-                    Some(Property::ListUShort(v)) => v.iter().map(|&x| x as u32).collect(),
-                    Some(Property::ListChar(v)) => v.iter().map(|&x| x as u32).collect(),
-                    Some(Property::ListUChar(v)) => v.iter().map(|&x| x as u32).collect(),
-                    _ => return Err(format!("PLY face {i} has no `vertex_indices` list")),
-                };
-                fan(&lp);
-            }
-        }
-    }
+    let mesh = read_mesh(path)?;
     check_triangles(MeshTriangles {
-        vertices: vertices.vertices,
-        triangles,
+        vertices: mesh.vertices,
+        triangles: mesh.triangles,
     })
 }
 
+/// [`read_mesh`]'s checks plus: at least one triangle, every index names a vertex.
 fn check_triangles(m: MeshTriangles) -> Result<MeshTriangles, String> {
     if m.triangles.is_empty() {
         return Err("empty mesh: no faces (a solid needs faces)".into());
-    }
-    if let Some((i, v)) = m
-        .vertices
-        .iter()
-        .enumerate()
-        .find(|(_, v)| !v.iter().all(|c| c.is_finite()))
-    {
-        return Err(format!(
-            "vertex {i} has a non-finite coordinate: [{}, {}, {}]",
-            v[0], v[1], v[2]
-        ));
     }
     let n = m.vertices.len() as u32;
     if let Some(t) = m.triangles.iter().find(|t| t.iter().any(|&i| i >= n)) {
