@@ -595,8 +595,8 @@ fn without_removed(st: &State, removed: &[bool]) -> (Vec<[u32; 2]>, Vec<[u32; 2]
     let keep: Vec<bool> = st
         .pairs
         .iter()
-        .map(|&[i, j]| !(removed[i as usize] || removed[j as usize]))
-        .chain(st.wall_pairs.iter().map(|&[i, _]| !removed[i as usize]))
+        .map(|&[i, j]| !(is_removed(removed, i) || is_removed(removed, j)))
+        .chain(st.wall_pairs.iter().map(|&[i, _]| !is_removed(removed, i)))
         .collect();
     fn select<T: Clone>(v: &[T], keep: &[bool]) -> Vec<T> {
         v.iter()
@@ -999,4 +999,10 @@ mod tests {
             }
         }
     }
+}
+
+/// Whether body `i` is flagged removed; an index out of range (a damaged file's) is not, and
+/// is then refused by the checks that follow.
+fn is_removed(removed: &[bool], i: u32) -> bool {
+    removed.get(i as usize).copied().unwrap_or(false)
 }
