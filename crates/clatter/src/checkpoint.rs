@@ -589,6 +589,12 @@ fn read_removed(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErro
     r.finish()
 }
 
+/// Whether body `i` is flagged removed; an index out of range (a damaged file's) is not, and
+/// is then refused by the checks that follow.
+fn is_removed(removed: &[bool], i: u32) -> bool {
+    removed.get(i as usize).copied().unwrap_or(false)
+}
+
 /// The stored contact list without the contacts of removed bodies.
 fn without_removed(st: &State, removed: &[bool]) -> (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings) {
     let np = st.pairs.len();
@@ -999,10 +1005,4 @@ mod tests {
             }
         }
     }
-}
-
-/// Whether body `i` is flagged removed; an index out of range (a damaged file's) is not, and
-/// is then refused by the checks that follow.
-fn is_removed(removed: &[bool], i: u32) -> bool {
-    removed.get(i as usize).copied().unwrap_or(false)
 }
