@@ -642,6 +642,12 @@ fn read_removed(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointErro
     r.finish()
 }
 
+/// Whether body `i` is flagged removed; an index out of range (a damaged file's) is not, and
+/// is then refused by the checks that follow.
+fn is_removed(removed: &[bool], i: u32) -> bool {
+    removed.get(i as usize).copied().unwrap_or(false)
+}
+
 /// The stored contact list without the contacts of bodies removed by a sink: body pairs,
 /// wall pairs, springs and piece codes (empty without composites).
 type Kept = (Vec<[u32; 2]>, Vec<[u32; 2]>, ContactSprings, Vec<u32>);
@@ -652,8 +658,8 @@ fn without_removed(st: &State, removed: &[bool]) -> Kept {
     let keep: Vec<bool> = st
         .pairs
         .iter()
-        .map(|&[i, j]| !(removed[i as usize] || removed[j as usize]))
-        .chain(st.wall_pairs.iter().map(|&[i, _]| !removed[i as usize]))
+        .map(|&[i, j]| !(is_removed(removed, i) || is_removed(removed, j)))
+        .chain(st.wall_pairs.iter().map(|&[i, _]| !is_removed(removed, i)))
         .collect();
     fn select<T: Clone>(v: &[T], keep: &[bool]) -> Vec<T> {
         v.iter()

@@ -658,7 +658,7 @@ fn drop_removed_pairs(mut state: ContactState, removed: &[bool]) -> ContactState
     let keep: Vec<bool> = state
         .pairs
         .iter()
-        .map(|&[i, j]| !(removed[i as usize] || removed[j as usize]))
+        .map(|&[i, j]| !(is_removed(removed, i) || is_removed(removed, j)))
         .collect();
     fn select<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
         v.iter()
@@ -673,4 +673,10 @@ fn drop_removed_pairs(mut state: ContactState, removed: &[bool]) -> ContactState
     state.touching = select(&state.touching, &keep);
     state.forces = select(&state.forces, &keep);
     state
+}
+
+/// Whether body `i` is flagged removed; an index out of range (a damaged file's) is not, and
+/// is then refused by the checks that follow.
+fn is_removed(removed: &[bool], i: u32) -> bool {
+    removed.get(i as usize).copied().unwrap_or(false)
 }
