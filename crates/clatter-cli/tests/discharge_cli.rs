@@ -8,38 +8,7 @@ mod common;
 use common::{assert_ok, clatter, test_dir, text};
 
 /// A lattice of spheres falling onto a floor whose left half is a sink.
-const SCENE: &str = r#"
-[simulation]
-steps = 4000
-dt = 5.0e-5
-gravity = [0.0, 0.0, -9.81]
-
-[[material]]
-name = "m"
-density = 1000.0
-stiffness = 2.0e3
-restitution = 0.5
-friction = 0.5
-
-[container]
-min = [0.0, 0.0, 0.0]
-max = [0.1, 0.1, 0.2]
-material = "m"
-
-[[shape]]
-name = "ball"
-sphere = { radius = 0.005 }
-
-[[group]]
-shape = "ball"
-material = "m"
-lattice = { min = [0.01, 0.01, 0.02], max = [0.09, 0.09, 0.04], spacing = 0.02 }
-velocity = [0.0, 0.0, -0.3]
-
-[[sink]]
-min = [0.0, 0.0, 0.0]
-max = [0.06, 0.1, 0.012]
-"#;
+const SCENE: &str = include_str!("../../../scenes/sink-floor.toml");
 
 fn run(dir: &std::path::Path, out: &str, extra: &[&str]) -> std::path::PathBuf {
     let scene = dir.join("sink.toml");
