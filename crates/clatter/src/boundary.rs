@@ -580,7 +580,7 @@ pub struct MeshContacts {
     /// (boundary `b`'s triangle `t` is `first[b] + t`), ascending.
     pub start: Vec<u32>,
     pub candidates: Vec<u32>,
-    /// The bodies that have candidates, ascending: the only ones the contacts stage visits.
+    /// The bodies that have candidates, ascending (the others' slots are clear).
     pub active: Vec<u32>,
     /// The first global triangle id of each boundary (and the total at the end).
     pub first: Vec<u32>,
@@ -599,6 +599,14 @@ impl MeshContacts {
     pub fn locate(&self, g: u32) -> (usize, usize) {
         let b = self.first.partition_point(|&f| f <= g) - 1;
         (b, (g - self.first[b]) as usize)
+    }
+
+    /// Body `i`'s [`MESH_SLOTS`] slots (none in a world without boundaries).
+    #[inline]
+    pub fn body_slots(&self, i: usize) -> &[MeshSlot] {
+        self.slots
+            .get(i * MESH_SLOTS..(i + 1) * MESH_SLOTS)
+            .unwrap_or(&[])
     }
 
     /// Body `i`'s mesh force and torque added to `(f, t)`.

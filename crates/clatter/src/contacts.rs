@@ -17,6 +17,10 @@ pub enum Partner {
     Body(u32),
     /// A wall, by index (scene `[[wall]]`s first, then the container's faces).
     Wall(u32),
+    /// A triangle-mesh boundary, by index (the scene's `[[boundary]]`s in order). Its
+    /// contacts are not in the contact list: each body keeps them in its mesh slots
+    /// (`crate::boundary::MeshContacts`).
+    Boundary(u32),
 }
 
 impl fmt::Display for Partner {
@@ -24,6 +28,7 @@ impl fmt::Display for Partner {
         match self {
             Partner::Body(j) => write!(f, "body {j}"),
             Partner::Wall(w) => write!(f, "wall {w}"),
+            Partner::Boundary(b) => write!(f, "boundary {b}"),
         }
     }
 }

@@ -66,10 +66,48 @@ pub struct ContactReport {
 /// positions (those that no longer overlap are left out) and the last step's forces, in
 /// contact-list order.
 pub fn touching_contacts(world: &World) -> Vec<ContactReport> {
-    (0..world.contacts.len())
+    let mut out: Vec<ContactReport> = (0..world.contacts.len())
         .into_par_iter()
         .with_min_len(256)
         .filter_map(|k| contact_report(world, k))
+        .collect();
+    // Then the mesh contacts, by body (bodies with a touching mesh slot).
+    out.extend(mesh_reports(world, |i| {
+        world.mesh.body_slots(i).iter().any(|s| s.touching)
+    }));
+    out
+}
+
+/// The mesh-boundary contacts of the bodies `pick` selects, at the current positions, with
+/// the last step's force of the matching slot (same boundary and piece, closest normal; zero
+/// when none matches), by body and then as the contacts stage orders them.
+fn mesh_reports(world: &World, pick: impl Fn(usize) -> bool + Sync) -> Vec<ContactReport> {
+    if world.boundaries.is_empty() {
+        return Vec::new();
+    }
+    (0..world.len())
+        .into_par_iter()
+        .with_min_len(256)
+        .filter(|&i| pick(i))
+        .flat_map_iter(|i| {
+            let slots = world.mesh.body_slots(i);
+            crate::step::boundary::manifolds(world, i, false)
+                .into_iter()
+                .map(move |(b, piece, manifold)| ContactReport {
+                    body: i as u32,
+                    other: Partner::Boundary(b),
+                    manifold,
+                    force: slots
+                        .iter()
+                        .filter(|s| s.touching && s.boundary == b && s.piece == piece)
+                        .max_by(|x, y| {
+                            x.normal
+                                .dot(manifold.normal)
+                                .total_cmp(&y.normal.dot(manifold.normal))
+                        })
+                        .map_or(ContactForce::default(), |s| s.force),
+                })
+        })
         .collect()
 }
 
@@ -111,6 +149,11 @@ fn law_of(world: &World, body: u32, other: Partner) -> (crate::PairParams, f32, 
         }
         Partner::Wall(w) => (
             *world.pair_params(world.walls[w as usize].material, ci),
+            ri,
+            law::point_share(si, si),
+        ),
+        Partner::Boundary(b) => (
+            *world.pair_params(world.boundaries[b as usize].material, ci),
             ri,
             law::point_share(si, si),
         ),
@@ -161,6 +204,24 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
     for i in 0..world.len() as u32 {
         out.extend((0..world.walls.len() as u32).filter_map(|w| report(i, Partner::Wall(w))));
     }
+    // Mesh boundaries: each body against the triangles it touches now.
+    if !world.boundaries.is_empty() {
+        let meshes: Vec<ContactReport> = (0..world.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .flat_map_iter(|i| {
+                crate::step::boundary::manifolds(world, i, true)
+                    .into_iter()
+                    .map(move |(b, _, manifold)| ContactReport {
+                        body: i as u32,
+                        other: Partner::Boundary(b),
+                        manifold,
+                        force: ContactForce::default(),
+                    })
+            })
+            .collect();
+        out.extend(meshes);
+    }
     out
 }
 
@@ -179,6 +240,8 @@ fn collide(world: &World, body: u32, other: Partner) -> Option<Manifold> {
             world.shape(i),
             &world.pose(i),
         ),
+        // Mesh contacts are found per body (`mesh_reports`), never through the contact list.
+        Partner::Boundary(_) => None,
     }
 }
 
@@ -416,11 +479,12 @@ impl Health {
         {
             let size = self.body_size(world, body as usize).min(match other {
                 Partner::Body(j) => self.body_size(world, j as usize),
-                Partner::Wall(_) => f32::INFINITY,
+                Partner::Wall(_) | Partner::Boundary(_) => f32::INFINITY,
             });
             let cause = match other {
                 Partner::Body(_) => "overlapping initial placement: place the bodies apart (a lattice's spacing at least the bodies' bounding diameter, random groups clear of `[[body]]` entries)".to_string(),
                 Partner::Wall(_) => "initial placement across a wall: a body starts (partly) on the solid side of a wall or outside the container; move it inside".to_string(),
+                Partner::Boundary(b) => format!("initial placement across a mesh boundary: a body starts (partly) through the triangles of boundary {b} (`{}`); move it clear of the mesh", world.boundaries[b as usize].file),
             };
             return Err(BlowUp {
                 kind: BlowUpKind::DeepOverlap {
@@ -525,6 +589,7 @@ impl Health {
                         && estimated_depth(world, k) > OVERLAP_LIMIT * self.smallest_size(world, k)
                 })
                 .filter_map(|k| contact_report(world, k))
+                .chain(mesh_reports(world, |i| self.deep_mesh_slot(world, i)))
                 .collect()
         };
         {
@@ -623,6 +688,18 @@ impl Health {
         causes.join("; or ")
     }
 
+    /// Whether a mesh slot of body `i` has a normal force that implies a deep overlap (the
+    /// cheap check's suspects, as `estimated_depth` picks them from the contact list).
+    fn deep_mesh_slot(&self, world: &World, i: usize) -> bool {
+        let limit = OVERLAP_LIMIT * self.body_size(world, i);
+        world.mesh.body_slots(i).iter().any(|s| {
+            s.touching && s.force.normal_force.abs() > self.force_floor && {
+                let (params, r_eff, share) = law_of(world, i as u32, Partner::Boundary(s.boundary));
+                law::depth_at_force(&params, r_eff, s.force.normal_force, share) > limit
+            }
+        })
+    }
+
     fn body_size(&self, world: &World, i: usize) -> f32 {
         self.size[world.consts.shape[i] as usize]
     }
@@ -633,7 +710,7 @@ impl Health {
         let a = self.body_size(world, i as usize);
         match other {
             Partner::Body(j) => a.min(self.body_size(world, j as usize)),
-            Partner::Wall(_) => a,
+            Partner::Wall(_) | Partner::Boundary(_) => a,
         }
     }
 
@@ -641,7 +718,7 @@ impl Health {
         let a = self.body_size(world, c.body as usize);
         match c.other {
             Partner::Body(j) => a.min(self.body_size(world, j as usize)),
-            Partner::Wall(_) => a,
+            Partner::Wall(_) | Partner::Boundary(_) => a,
         }
     }
 

@@ -441,13 +441,15 @@ pub fn write_contacts(path: &Path, world: &World) -> std::io::Result<()> {
             contacts.iter().map(|c| match c.other {
                 Partner::Body(_) => c.body as i32,
                 Partner::Wall(w) => -1 - w as i32,
+                // Boundaries are numbered after the walls.
+                Partner::Boundary(m) => -1 - (world.walls.len() as i32 + m as i32),
             }),
         ),
         Array::i32(
             "body_b",
             contacts.iter().map(|c| match c.other {
                 Partner::Body(j) => j as i32,
-                Partner::Wall(_) => c.body as i32,
+                Partner::Wall(_) | Partner::Boundary(_) => c.body as i32,
             }),
         ),
         Array::f32(

@@ -754,3 +754,127 @@ fn a_clump_lands_and_rests_on_a_mesh_floor_as_on_the_plane() {
     assert!(mesh.state.velocity[0].length() < 1e-3);
     assert!(mesh.state.position[0].z < 0.012 && mesh.state.position[0].z > 0.005);
 }
+
+/// The contact reports (`contacts_NNNNNN.vtu`, the blow-up checks, the initial elastic
+/// energy) of a cube resting on the mesh floor: the same contact as on the plane, with the
+/// mesh as the other side.
+#[test]
+fn mesh_contacts_are_reported_like_wall_contacts() {
+    use clatter::contacts::Partner;
+    use clatter::health::{Health, touching_contacts};
+    let half = 0.02;
+    let mk = |mesh: bool| {
+        let mut b = body(
+            Vec3::new(0.01, -0.02, half as f32 + 0.001),
+            Vec3::ZERO,
+            Vec3::ZERO,
+        );
+        b.orientation = Quat::from_rotation_z(0.4);
+        on_floor(cube(half), b, mesh, 0.5)
+    };
+    let (mut plane, mut mesh) = (mk(false), mk(true));
+    run(&mut plane, 15_000);
+    run(&mut mesh, 15_000);
+    let (p, m) = (touching_contacts(&plane), touching_contacts(&mesh));
+    assert_eq!(p.len(), 1, "{p:?}");
+    assert_eq!(m.len(), 1, "{m:?}");
+    assert_eq!(p[0].other, Partner::Wall(0));
+    assert_eq!(m[0].other, Partner::Boundary(0));
+    assert_eq!(m[0].body, 0);
+    // The same manifold (four corners at the same depth) and the same force, which carries
+    // the cube's weight.
+    assert_eq!(m[0].manifold.count, 4);
+    assert_eq!(p[0].manifold.normal, m[0].manifold.normal);
+    assert_eq!(p[0].manifold.max_depth(), m[0].manifold.max_depth());
+    assert_eq!(p[0].force.normal_force, m[0].force.normal_force);
+    let weight = DENSITY * cube(half).volume * G;
+    assert!(
+        (m[0].force.normal_force - weight).abs() < 1e-3 * weight,
+        "normal force {} against the weight {weight}",
+        m[0].force.normal_force
+    );
+    // The checks see the mesh contact: the full check passes at rest.
+    Health::new(&mesh).check(&mesh, true).unwrap();
+}
+
+/// A body placed halfway through a mesh floor is refused before the first step, naming the
+/// boundary, at the depth the plane gives; a shallow initial overlap is accepted and its
+/// elastic energy counted as for the plane.
+#[test]
+fn a_body_placed_through_a_mesh_is_refused_at_the_start() {
+    use clatter::contacts::Partner;
+    use clatter::health::{BlowUpKind, Health};
+    for (z, refused) in [(0.4 * R, true), (0.9 * R, false)] {
+        let b = body(Vec3::new(0.013, 0.021, z), Vec3::ZERO, Vec3::ZERO);
+        let (plane, mesh) = (
+            on_floor(sphere(), b, false, 0.3),
+            on_floor(sphere(), b, true, 0.3),
+        );
+        let (hp, hm) = (Health::new(&plane), Health::new(&mesh));
+        assert_eq!(hp.baseline(), hm.baseline(), "elastic energy at z = {z}");
+        match hm.check_initial(&mesh) {
+            Err(e) if refused => {
+                let BlowUpKind::DeepOverlap { other, depth, .. } = e.kind else {
+                    panic!("{e}");
+                };
+                assert_eq!(other, Partner::Boundary(0));
+                assert!((depth - (R - z)).abs() < 1e-6, "depth {depth}");
+                assert!(e.to_string().contains("boundary 0"), "{e}");
+                assert!(hp.check_initial(&plane).is_err());
+            }
+            Ok(()) if !refused => {}
+            other => panic!("z = {z}: {other:?}"),
+        }
+    }
+}
+
+/// A ball thrown too fast onto soft contacts sinks deeper than half its radius into the mesh
+/// floor: the cheap check every 10 steps stops the run at the same step as on the plane,
+/// naming the boundary.
+#[test]
+fn a_deep_overlap_with_a_mesh_stops_the_run_as_with_a_wall() {
+    use clatter::contacts::Partner;
+    use clatter::health::{BlowUpKind, Health};
+    // Peak depth v sqrt(m / k) = 10 m/s x 7.2e-4 s = 0.72 R (the law's damping makes it a
+    // little less, still above the limit of 0.5 R).
+    let b = body(
+        Vec3::new(0.013, 0.021, 1.05 * R),
+        Vec3::new(0.0, 0.0, -10.0),
+        Vec3::ZERO,
+    );
+    let stop = |mesh: bool| {
+        let mut w = on_floor(sphere(), b, mesh, 0.3);
+        let h = Health::new(&w);
+        h.check_initial(&w).unwrap();
+        for _ in 0..200 {
+            for _ in 0..10 {
+                w.step().unwrap();
+            }
+            if let Err(e) = h.check(&w, false) {
+                return (w.step_count, e);
+            }
+        }
+        panic!("no blow-up (mesh: {mesh})");
+    };
+    let ((sp, ep), (sm, em)) = (stop(false), stop(true));
+    assert_eq!(sp, sm, "{ep} / {em}");
+    let (
+        BlowUpKind::DeepOverlap {
+            other: op,
+            depth: dp,
+            ..
+        },
+        BlowUpKind::DeepOverlap {
+            other: om,
+            depth: dm,
+            ..
+        },
+    ) = (ep.kind.clone(), em.kind.clone())
+    else {
+        panic!("{ep} / {em}");
+    };
+    assert_eq!(op, Partner::Wall(0));
+    assert_eq!(om, Partner::Boundary(0));
+    assert_eq!(dp, dm);
+    assert!(dm > 0.5 * R, "depth {dm}");
+}

@@ -6,9 +6,11 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
+use smallvec::SmallVec;
 
 use crate::boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS};
 use crate::law::{self, BodyMotion};
+use crate::step::CHUNK;
 use crate::world::World;
 use clatter_geom::narrow::{self, Manifold, Plane};
 use clatter_geom::triangle::{self, TriContact, TriFeature};
@@ -23,35 +25,13 @@ pub(crate) fn rebuild(world: &mut World) {
     }
     let t = world.time;
     let poses: Vec<MeshPose> = world.boundaries.iter().map(|b| b.pose(t)).collect();
-    let first = world.mesh.first.clone();
     let w = &*world;
     let per_body: Vec<Vec<u32>> = (0..w.len())
         .into_par_iter()
         .with_min_len(256)
-        .map(|i| {
-            // A body removed by a sink touches no mesh.
-            if w.state.removed[i] {
-                return Vec::new();
-            }
-            let reach = w.consts.radius[i] + w.skin;
-            let x = w.state.position[i];
-            let mut out = Vec::new();
-            let mut cells = Vec::new();
-            for (b, (mesh, pose)) in w.boundaries.iter().zip(&poses).enumerate() {
-                let local = pose.inverse(x);
-                cells.clear();
-                mesh.grid.query(local, reach, &mut cells);
-                cells.sort_unstable();
-                cells.dedup();
-                for &tri in &cells {
-                    let p = mesh.triangles[tri as usize].map(|k| mesh.vertices[k as usize]);
-                    let (q, _) = triangle::closest_on_triangle(local, p[0], p[1], p[2]);
-                    if (q - local).length_squared() < reach * reach {
-                        out.push(first[b] + tri);
-                    }
-                }
-            }
-            out
+        // One cell buffer per task, not per body.
+        .map_init(Vec::new, |cells, i| {
+            candidates_of(w, i, &poses, w.skin, cells)
         })
         .collect();
     let mc = &mut world.mesh;
@@ -77,6 +57,66 @@ pub(crate) fn rebuild(world: &mut World) {
     mc.rebuild_time = t;
 }
 
+/// Body `i`'s candidate triangles (global ids, ascending): those within its bounding radius
+/// plus `skin` of its current position, with the meshes at `poses`. None for a removed body.
+fn candidates_of(
+    w: &World,
+    i: usize,
+    poses: &[MeshPose],
+    skin: f32,
+    cells: &mut Vec<u32>,
+) -> Vec<u32> {
+    // A body removed by a sink touches no mesh.
+    if w.state.removed[i] {
+        return Vec::new();
+    }
+    let reach = w.consts.radius[i] + skin;
+    let x = w.state.position[i];
+    let mut out = Vec::new();
+    for (b, (mesh, pose)) in w.boundaries.iter().zip(poses).enumerate() {
+        let local = pose.inverse(x);
+        cells.clear();
+        mesh.grid.query(local, reach, cells);
+        cells.sort_unstable();
+        cells.dedup();
+        for &tri in cells.iter() {
+            let p = mesh.triangles[tri as usize].map(|k| mesh.vertices[k as usize]);
+            let (q, _) = triangle::closest_on_triangle(local, p[0], p[1], p[2]);
+            if (q - local).length_squared() < reach * reach {
+                out.push(w.mesh.first[b] + tri);
+            }
+        }
+    }
+    out
+}
+
+/// Every contact of body `i` with the meshes at the current positions and time, as the
+/// contacts stage finds them but without the law: `(boundary, piece, manifold)`, the normal
+/// from the mesh towards the body. With `scratch` the candidate triangles are searched now
+/// (no skin: the blow-up checks before the first step, when there has been no rebuild);
+/// otherwise they are those of the last rebuild.
+pub(crate) fn manifolds(w: &World, i: usize, scratch: bool) -> Vec<(u32, u32, Manifold)> {
+    if w.boundaries.is_empty() || w.state.removed[i] {
+        return Vec::new();
+    }
+    let poses: Vec<MeshPose> = w.boundaries.iter().map(|b| b.pose(w.time)).collect();
+    let owned;
+    let cands = if scratch {
+        owned = candidates_of(w, i, &poses, 0.0, &mut Vec::new());
+        &owned[..]
+    } else {
+        let mc = &w.mesh;
+        match (mc.start.get(i), mc.start.get(i + 1)) {
+            (Some(&a), Some(&b)) => &mc.candidates[a as usize..b as usize],
+            _ => return Vec::new(),
+        }
+    };
+    found_contacts(w, i, &poses, cands)
+        .into_iter()
+        .map(|f| (f.boundary, f.piece, f.manifold))
+        .collect()
+}
+
 /// How far the meshes may have moved since the last rebuild, at the current time.
 pub(crate) fn moved_since_rebuild(world: &World) -> f32 {
     world
@@ -95,28 +135,29 @@ pub(crate) fn run(world: &mut World) -> usize {
     let t = world.time;
     let poses: Vec<MeshPose> = world.boundaries.iter().map(|b| b.pose(t)).collect();
     let motions: Vec<BodyMotion> = world.boundaries.iter().map(|b| b.motion_at(t)).collect();
+    // Each body writes its own slots and total in place (no gathering pass afterwards).
+    // Bodies without candidates were cleared at the rebuild and are skipped.
+    let mut slots = std::mem::take(&mut world.mesh.slots);
+    let mut total = std::mem::take(&mut world.mesh.total);
     let w = &*world;
-    let updated: Vec<([MeshSlot; MESH_SLOTS], usize)> = w
-        .mesh
-        .active
-        .par_iter()
-        .with_min_len(16)
-        .map(|&i| {
-            let i = i as usize;
-            let mut s: [MeshSlot; MESH_SLOTS] =
-                std::array::from_fn(|k| w.mesh.slots[i * MESH_SLOTS + k]);
-            let n = body_slots(w, i, &poses, &motions, &mut s);
-            (s, n)
+    let start = &w.mesh.start;
+    let touching = slots
+        .par_chunks_mut(MESH_SLOTS)
+        .zip(total.par_iter_mut())
+        .enumerate()
+        .with_min_len(CHUNK)
+        .map(|(i, (s, tot))| {
+            match (start.get(i), start.get(i + 1)) {
+                (Some(a), Some(b)) if a != b => {}
+                _ => return 0,
+            }
+            let n = body_slots(w, i, &poses, &motions, s);
+            *tot = MeshContacts::sum_slots(s);
+            n
         })
-        .collect();
-    let mc = &mut world.mesh;
-    let mut touching = 0;
-    for (&i, (s, n)) in mc.active.iter().zip(updated) {
-        let i = i as usize;
-        mc.slots[i * MESH_SLOTS..(i + 1) * MESH_SLOTS].copy_from_slice(&s);
-        mc.total[i] = MeshContacts::sum_slots(&s);
-        touching += n;
-    }
+        .sum();
+    world.mesh.slots = slots;
+    world.mesh.total = total;
     touching
 }
 
@@ -145,24 +186,31 @@ fn body_slots(
         }
         return 0;
     }
-    // Each convex piece of the body (one unless a composite) against the triangles; a
-    // composite keeps its deepest MESH_SLOTS contacts.
+    let found = found_contacts(w, i, poses, cands);
+    assign(w, i, &found, motions, slots)
+}
+
+/// Body `i`'s contacts with the triangles `cands` (global ids, ascending): each convex piece
+/// of the body (one unless a composite) against the triangles, at most [`MESH_SLOTS`] (a
+/// composite keeps its deepest).
+fn found_contacts(w: &World, i: usize, poses: &[MeshPose], cands: &[u32]) -> Found8 {
     let x = w.state.position[i];
-    let mut found = Vec::new();
+    let mut found = Found8::new();
     for k in 0..w.shape(i).piece_count() as u32 {
         let (shape, pose) = w.piece_at(i, k, x);
         let start = found.len();
-        found.extend(piece_contacts(w, shape, &pose, cands, poses));
-        for f in &mut found[start..] {
-            f.piece = k;
-        }
+        piece_contacts(w, shape, &pose, k, cands, poses, &mut found);
+        debug_assert!(found.len() - start <= MESH_SLOTS);
     }
     if found.len() > MESH_SLOTS {
         found.sort_by(|a, b| b.manifold.max_depth().total_cmp(&a.manifold.max_depth()));
         found.truncate(MESH_SLOTS);
     }
-    assign(w, i, &found, motions, slots)
+    found
 }
+
+/// The contacts of a body's pieces, inline up to two pieces' worth.
+type Found8 = SmallVec<[Found; 2 * MESH_SLOTS]>;
 
 /// A face contact group: one plane of one boundary and the triangles on it that the piece
 /// touches.
@@ -172,7 +220,7 @@ struct FaceGroup {
     offset: f32,
     /// Every candidate triangle on the plane (those the piece touches on their faces and the
     /// others).
-    support: Vec<[Vec3; 3]>,
+    support: SmallVec<[[Vec3; 3]; 4]>,
 }
 
 /// The contacts of one convex piece (`shape` at `pose`) with candidate triangles `cands`
@@ -182,13 +230,16 @@ fn piece_contacts(
     w: &World,
     shape: &Shape,
     pose: &Pose,
+    piece: u32,
     cands: &[u32],
     poses: &[MeshPose],
-) -> Vec<Found> {
+    out: &mut Found8,
+) {
     let mc = &w.mesh;
     let size = shape.bounding_radius();
-    let mut groups: Vec<FaceGroup> = Vec::new();
-    let mut features: Vec<(Found, u32, [u32; 2])> = Vec::new(); // (contact, boundary, key)
+    // Small inline buffers: this runs per body and step, so no heap allocation.
+    let mut groups: SmallVec<[FaceGroup; 2]> = SmallVec::new();
+    let mut features: SmallVec<[(Found, u32, [u32; 2]); 4]> = SmallVec::new(); // (contact, boundary, key)
     for &g in cands {
         let (b, t) = mc.locate(g);
         let mesh: &Boundary = &w.boundaries[b];
@@ -209,7 +260,7 @@ fn piece_contacts(
                         boundary: b as u32,
                         normal,
                         offset,
-                        support: Vec::new(),
+                        support: SmallVec::new(),
                     }),
                 }
             }
@@ -255,7 +306,9 @@ fn piece_contacts(
     }
     // Every candidate triangle on a group's plane supports it (also those whose own test
     // found an edge contact, dropped as a ghost): the plane's manifold stands on them all.
-    if !groups.is_empty() {
+    // A sphere's face contact point is over its triangle by construction, so its manifold
+    // needs no support (see `plane_manifold`).
+    if !groups.is_empty() && !matches!(shape, Shape::Sphere { .. }) {
         for &c in cands {
             let (b, t) = mc.locate(c);
             let mesh = &w.boundaries[b];
@@ -270,23 +323,22 @@ fn piece_contacts(
             }
         }
     }
-    let mut found: Vec<Found> = Vec::with_capacity(groups.len() + features.len());
+    let start = out.len();
     for g in &groups {
         if let Some(m) = plane_manifold(shape, pose, g) {
-            found.push(Found {
+            out.push(Found {
                 boundary: g.boundary,
-                piece: 0,
+                piece,
                 manifold: m,
             });
         }
     }
-    found.extend(features.into_iter().map(|(f, _, _)| f));
-    if found.len() > MESH_SLOTS {
+    out.extend(features.into_iter().map(|(f, _, _)| Found { piece, ..f }));
+    if out.len() - start > MESH_SLOTS {
         // Keep the deepest (a stable sort: ties keep their order).
-        found.sort_by(|a, b| b.manifold.max_depth().total_cmp(&a.manifold.max_depth()));
-        found.truncate(MESH_SLOTS);
+        out[start..].sort_by(|a, b| b.manifold.max_depth().total_cmp(&a.manifold.max_depth()));
+        out.truncate(start + MESH_SLOTS);
     }
-    found
 }
 
 /// The manifold of a piece against one plane of coplanar triangles: the plane's own manifold
@@ -298,6 +350,10 @@ fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold>
         offset: g.offset,
     };
     let m = narrow::collide_plane(&plane, shape, pose)?;
+    let Shape::Polyhedron(p) = shape else {
+        // A sphere's face contact point is over its triangle by construction.
+        return Some(m);
+    };
     const TOL: f32 = 1e-6;
     let on_mesh = |x: Vec3| {
         g.support
@@ -307,12 +363,8 @@ fn plane_manifold(shape: &Shape, pose: &Pose, g: &FaceGroup) -> Option<Manifold>
     if m.points().iter().all(|p| on_mesh(p.point)) {
         return Some(m);
     }
-    let Shape::Polyhedron(p) = shape else {
-        // A sphere's face contact point is over its triangle by construction.
-        return Some(m);
-    };
     let n = g.normal;
-    let mut pts: Vec<(Vec3, f32)> = Vec::new();
+    let mut pts: SmallVec<[(Vec3, f32); 16]> = SmallVec::new();
     for &v in &p.vertices {
         let x = pose.transform_point(v);
         let h = n.dot(x) - g.offset;
