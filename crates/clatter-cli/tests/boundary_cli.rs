@@ -151,3 +151,53 @@ fn gpu_backend_refuses_boundaries_and_a_bad_mesh_stops_the_run() {
     );
     assert!(!t.contains("panicked"), "{t}");
 }
+
+/// `--contacts` lists the ball's contact with the mesh like a wall contact: `body_a` is
+/// `-1 - (walls + boundary)` (here -1: no walls, boundary 0), `body_b` the ball, the normal
+/// up, the normal force the ball's weight.
+#[test]
+fn mesh_contacts_are_in_the_contact_series() {
+    let dir = test_dir("boundary", "contacts");
+    std::fs::write(dir.join("plate.obj"), PLATE).unwrap();
+    std::fs::write(dir.join("plate.toml"), SCENE).unwrap();
+    let out = dir.join("out");
+    let o = clatter(&[
+        &"run",
+        &dir.join("plate.toml"),
+        &"--out",
+        &out,
+        &"--format",
+        &"vtk",
+        &"--contacts",
+        &"--output-every",
+        &"1000",
+    ]);
+    assert_ok(&o, "run");
+    if !meshio_available() {
+        return;
+    }
+    let read = r#"
+import sys, json, meshio
+m = meshio.read(sys.argv[1])
+d = m.point_data
+print(json.dumps({"a": [int(x) for x in d["body_a"]], "b": [int(x) for x in d["body_b"]],
+                  "nz": [float(n[2]) for n in d["normal"]],
+                  "f": [float(x) for x in d["normal_force"]]}))
+"#;
+    let r = Command::new("python3")
+        .args(["-c", read])
+        .arg(out.join("contacts_001000.vtu"))
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&r.stdout).unwrap();
+    assert_eq!(v["a"], serde_json::json!([-1]), "{v}");
+    assert_eq!(v["b"], serde_json::json!([0]), "{v}");
+    assert!(v["nz"][0].as_f64().unwrap() > 0.999, "{v}");
+    let weight = 7800.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.01f64.powi(3) * 9.81;
+    let f = v["f"][0].as_f64().unwrap();
+    assert!(
+        (f / weight - 1.0).abs() < 0.5,
+        "normal force {f} N, weight {weight} N"
+    );
+}
