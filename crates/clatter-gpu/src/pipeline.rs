@@ -20,6 +20,9 @@ pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts.wgsl");
 pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts_split.wgsl");
 pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
 pub(crate) const HEALTH: &str = include_str!("../shaders/health.wgsl");
+pub(crate) const PIECES: &str = include_str!("../shaders/pieces.wgsl");
+/// Bind group 1 (src/shapes.rs) for modules without a narrow phase (which declares it).
+pub(crate) const SHAPES_DECL: &str = "@group(1) @binding(0) var<storage, read> shape_f: array<vec4<f32>>;\n@group(1) @binding(1) var<storage, read> shape_u: array<u32>;\n";
 
 /// Every simulation shader file, for the test that no file retypes a generated declaration.
 #[cfg(test)]
@@ -38,6 +41,7 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("contacts_split.wgsl", CONTACTS_SPLIT),
     ("integrate.wgsl", INTEGRATE),
     ("health.wgsl", HEALTH),
+    ("pieces.wgsl", PIECES),
 ];
 
 /// A kernel's source: the generated prelude, the shared helpers, then `parts`.

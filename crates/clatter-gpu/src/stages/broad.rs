@@ -34,12 +34,12 @@ pub(crate) const KERNELS: &[KernelSpec] = &[
 
 /// The broad phase's shader modules.
 pub(crate) fn modules() -> Vec<(&'static str, String)> {
-    use pipeline::{ARGS, BIN, PAIRS, SCAN, SORT};
+    use pipeline::{ARGS, BIN, PAIRS, PIECES, SCAN, SHAPES_DECL, SORT};
     vec![
         ("bin", pipeline::source(&[ARGS, BIN])),
         ("scan", pipeline::source(&[SCAN])),
         ("sort", pipeline::source(&[SORT])),
-        ("pairs", pipeline::source(&[ARGS, BIN, PAIRS])),
+        ("pairs", pipeline::source(&[ARGS, BIN, SHAPES_DECL, PIECES, PAIRS])),
     ]
 }
 

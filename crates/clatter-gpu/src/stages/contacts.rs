@@ -10,15 +10,17 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 /// The contact kernels' source (with integrate.wgsl, which computes the wall contacts) and
 /// entry points.
 pub(crate) fn kernels(spheres_only: bool) -> (String, Vec<KernelSpec>) {
-    use pipeline::{ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES};
+    use pipeline::{
+        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES, PIECES,
+    };
     if spheres_only {
         (
-            pipeline::source(&[NARROW_SPHERES, LAW, CONTACTS, INTEGRATE]),
+            pipeline::source(&[NARROW_SPHERES, PIECES, LAW, CONTACTS, INTEGRATE]),
             vec![("contacts", "contacts", Group2::None)],
         )
     } else {
         (
-            pipeline::source(&[ARGS, NARROW, LAW, CONTACTS, CONTACTS_SPLIT, INTEGRATE]),
+            pipeline::source(&[ARGS, NARROW, PIECES, LAW, CONTACTS, CONTACTS_SPLIT, INTEGRATE]),
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),
