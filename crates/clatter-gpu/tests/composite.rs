@@ -22,10 +22,15 @@ use clatter::scene::Scene;
 use clatter_gpu::GpuWorld;
 use glam::Vec3;
 
-fn parse(text: &str) -> Scene {
-    // Relative paths (the L-block mesh) resolve from the scenes folder.
+/// Where the test scenes say they are: relative paths (the L-block mesh) resolve from the
+/// scenes folder.
+fn scene_path() -> String {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/test.toml");
-    Scene::parse(text, &file.display().to_string()).unwrap_or_else(|e| panic!("{e}"))
+    file.display().to_string()
+}
+
+fn parse(text: &str) -> Scene {
+    Scene::parse(text, &scene_path()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 const MATERIAL: &str = r#"
@@ -350,7 +355,7 @@ fn gpu_clump_runs_are_bitwise_reproducible() {
         let mut gpu = GpuWorld::new(ctx.clone(), &host).unwrap();
         gpu.step(300).unwrap();
         gpu.read_into(&mut host).unwrap();
-        host.checkpoint_bytes("pile.toml", PILE, b"")
+        host.checkpoint_bytes(&scene_path(), PILE, b"")
     };
     let first = run();
     assert!(first == run(), "two GPU runs differ");
@@ -377,7 +382,7 @@ fn gpu_checkpoint_resumes_on_the_cpu_with_its_springs() {
     assert!(sprung > 0, "no spring came back");
     let touching_before = touching(&host);
     // Checkpoint, restore, and continue on the CPU; the GPU continues on its own.
-    let bytes = host.checkpoint_bytes("pile.toml", PILE, b"");
+    let bytes = host.checkpoint_bytes(&scene_path(), PILE, b"");
     let (_, mut resumed) = Checkpoint::from_bytes(&bytes)
         .expect("parses")
         .world()
@@ -392,6 +397,7 @@ fn gpu_checkpoint_resumes_on_the_cpu_with_its_springs() {
         gpu.step(50).unwrap();
         gpu.read_into(&mut gpu_host).unwrap();
         let (dx, dq) = distance(&resumed, &gpu_host);
+        eprintln!("continuation: {dx} m, {dq}");
         assert!(dx < 1e-5 && dq < 1e-3, "resumed run differs: {dx} m, {dq}");
         assert_eq!(touching(&resumed), touching(&gpu_host));
     }
@@ -407,6 +413,38 @@ fn gpu_checkpoint_resumes_on_the_cpu_with_its_springs() {
         kept.step().unwrap();
     }
     assert!(distance(&fresh, &kept).0 > 0.0, "springs made no difference");
+}
+
+#[test]
+fn cpu_contacts_continue_on_the_gpu() {
+    // A CPU run handed to the GPU mid-pile (springs keyed by body pair and piece pair in the
+    // upload) continues as the CPU does.
+    let ctx = clatter_gpu::test_context().expect("a GPU adapter");
+    let scene = parse(PILE);
+    let mut cpu = scene.world();
+    for _ in 0..1800 {
+        cpu.step().unwrap();
+    }
+    let sprung = cpu.contact_state().history.iter().filter(|h| h.length() > 0.0).count()
+        + cpu.contact_state().wall_history.iter().filter(|h| h.length() > 0.0).count();
+    assert!(sprung > 0, "the CPU state has springs to hand over");
+    let mut host = Checkpoint::from_bytes(&cpu.checkpoint_bytes(&scene_path(), PILE, b""))
+        .unwrap()
+        .world()
+        .unwrap()
+        .1;
+    let mut gpu = GpuWorld::new(ctx, &host).unwrap();
+    for _ in 0..3 {
+        for _ in 0..50 {
+            cpu.step().unwrap();
+        }
+        gpu.step(50).unwrap();
+        gpu.read_into(&mut host).unwrap();
+        let (dx, dq) = distance(&cpu, &host);
+        eprintln!("continuation: {dx} m, {dq}");
+        assert!(dx < 1e-5 && dq < 1e-3, "GPU continuation differs: {dx} m, {dq}");
+        assert_eq!(touching(&cpu), touching(&host));
+    }
 }
 
 #[test]
