@@ -57,9 +57,11 @@ const KIND_COMPOSITE: u32 = 2;
 
 /// Most pieces of one composite on the GPU: piece ids are kept in the top 6 bits of the
 /// pair list's words (`PIECE_SHIFT` in pieces.wgsl), above a 26-bit body index.
-pub const MAX_GPU_PIECES: usize = 64;
+pub const MAX_GPU_PIECES: usize = 1 << (32 - PIECE_SHIFT);
 /// Bits of the body index in a pair-list word of a scene with composites.
 pub const PIECE_SHIFT: u32 = 26;
+// Every composite the geometry crate builds fits the piece ids.
+const _: () = assert!(clatter_geom::composite::MAX_PIECES <= MAX_GPU_PIECES);
 /// Most bodies of a scene with composites on the GPU (`2^PIECE_SHIFT`).
 pub const MAX_COMPOSITE_BODIES: u64 = 1 << PIECE_SHIFT;
 
@@ -304,6 +306,12 @@ mod tests {
         assert!(wgsl.contains(&format!("const NRW_MAX_CLIP: u32 = {MAX_CLIP_POINTS}u;")));
         assert!(wgsl.contains(&format!("array<vec4<f32>, {MAX_CLIP_POINTS}>")));
         assert!(wgsl.contains(&format!("const NRW_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
+        let pieces = include_str!("../shaders/pieces.wgsl");
+        assert!(pieces.contains(&format!("const PIECE_SHIFT: u32 = {PIECE_SHIFT}u;")));
+        let mask = (1u32 << PIECE_SHIFT) - 1;
+        assert!(pieces.contains(&format!("const BODY_MASK: u32 = {mask:#x}u;")));
+        assert!(pieces.contains(&format!("const PC_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
+        assert!(pieces.contains(&format!("const KIND_COMPOSITE: u32 = {KIND_COMPOSITE}u;")));
     }
 
     #[test]
@@ -338,5 +346,54 @@ mod tests {
         let vb = packed.words[h + 6] as usize;
         let nv = p.vertices.len();
         assert_eq!(packed.floats[vb + nv + 2][3], p.faces[2].offset);
+    }
+
+    #[test]
+    fn composite_header_points_at_its_pieces() {
+        use clatter_geom::{PieceSpec, prepare_composite};
+        use glam::{DQuat, DVec3};
+        let sphere = ShapeKind::Sphere { radius: 0.5 }.prepare().unwrap();
+        let cube = ShapeKind::Regular {
+            kind: RegularKind::Cube,
+            radius: 1.0,
+        }
+        .prepare()
+        .unwrap();
+        let clump = prepare_composite(&[
+            PieceSpec {
+                shape: sphere.clone(),
+                offset: DVec3::new(-1.0, 0.0, 0.0),
+                orientation: DQuat::IDENTITY,
+            },
+            PieceSpec {
+                shape: cube.clone(),
+                offset: DVec3::new(1.0, 0.0, 0.0),
+                orientation: DQuat::from_rotation_x(0.5),
+            },
+        ])
+        .unwrap();
+        let Shape::Composite(c) = &clump.shape else {
+            unreachable!()
+        };
+        let packed = pack(&[sphere, clump.clone()]).unwrap();
+        let h = SHAPE_HEADER_WORDS;
+        assert_eq!(packed.words[h], KIND_COMPOSITE);
+        assert_eq!(f32::from_bits(packed.words[h + 1]), c.radius);
+        assert_eq!(packed.words[h + 2], 2);
+        assert_eq!(f32::from_bits(packed.words[h + 5]), c.reach);
+        let (u, f) = (packed.words[h + 3] as usize, packed.words[h + 4] as usize);
+        for (k, piece) in c.pieces.iter().enumerate() {
+            // The piece's shape follows the scene's two shapes, with its own header.
+            let s = packed.words[u + 3 * k] as usize;
+            assert_eq!(s, 2 + k);
+            let kind = if k == 0 { KIND_SPHERE } else { KIND_POLYHEDRON };
+            assert_eq!(packed.words[s * h], kind);
+            assert_eq!(f32::from_bits(packed.words[u + 3 * k + 1]), piece.equivalent_radius);
+            assert_eq!(packed.words[u + 3 * k + 2], (k == 0) as u32);
+            let p = piece.position;
+            assert_eq!(packed.floats[f + 2 * k], [p.x, p.y, p.z, piece.radius()]);
+            let q = piece.orientation;
+            assert_eq!(packed.floats[f + 2 * k + 1], [q.x, q.y, q.z, q.w]);
+        }
     }
 }

@@ -397,8 +397,8 @@ fn gpu_checkpoint_resumes_on_the_cpu_with_its_springs() {
         gpu.step(50).unwrap();
         gpu.read_into(&mut gpu_host).unwrap();
         let (dx, dq) = distance(&resumed, &gpu_host);
-        eprintln!("continuation: {dx} m, {dq}");
-        assert!(dx < 1e-5 && dq < 1e-3, "resumed run differs: {dx} m, {dq}");
+        // Measured on lavapipe: at most 2e-8 m and 1e-6 (f32 rounding over 150 steps).
+        assert!(dx < 1e-6 && dq < 1e-4, "resumed run differs: {dx} m, {dq}");
         assert_eq!(touching(&resumed), touching(&gpu_host));
     }
     // Dropping the springs changes the continuation: the comparison above saw them.
@@ -441,8 +441,9 @@ fn cpu_contacts_continue_on_the_gpu() {
         gpu.step(50).unwrap();
         gpu.read_into(&mut host).unwrap();
         let (dx, dq) = distance(&cpu, &host);
-        eprintln!("continuation: {dx} m, {dq}");
-        assert!(dx < 1e-5 && dq < 1e-3, "GPU continuation differs: {dx} m, {dq}");
+        // Measured on lavapipe: at most 2e-8 m and 1e-6; without the handed-over springs
+        // 1.1e-5 m and 6e-4 (checked by zeroing them).
+        assert!(dx < 1e-6 && dq < 1e-4, "GPU continuation differs: {dx} m, {dq}");
         assert_eq!(touching(&cpu), touching(&host));
     }
 }
