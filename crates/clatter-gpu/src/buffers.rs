@@ -102,7 +102,9 @@ impl Binding {
             Count::HealthSlots => {
                 crate::layout::HEALTH_LOG as u64 + d.bodies.div_ceil(crate::layout::WG as u64)
             }
-            Count::SnapshotWords => crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.pairs),
+            Count::SnapshotWords => {
+                crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.pairs)
+            }
         };
         (n * self.element).max(64)
     }

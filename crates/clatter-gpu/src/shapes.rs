@@ -388,7 +388,10 @@ mod tests {
             assert_eq!(s, 2 + k);
             let kind = if k == 0 { KIND_SPHERE } else { KIND_POLYHEDRON };
             assert_eq!(packed.words[s * h], kind);
-            assert_eq!(f32::from_bits(packed.words[u + 3 * k + 1]), piece.equivalent_radius);
+            assert_eq!(
+                f32::from_bits(packed.words[u + 3 * k + 1]),
+                piece.equivalent_radius
+            );
             assert_eq!(packed.words[u + 3 * k + 2], (k == 0) as u32);
             let p = piece.position;
             assert_eq!(packed.floats[f + 2 * k], [p.x, p.y, p.z, piece.radius()]);

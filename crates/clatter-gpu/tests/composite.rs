@@ -112,10 +112,9 @@ fn compare(scene: &Scene, steps: u64, every: u64, tol_x: f32, tol_q: f32) -> (Wo
             "step {}: positions differ by {dx} m (bound {bx}), orientations by {dq} (bound {bq})",
             cpu.step_count
         );
-    let (tc, tg) = (touching(&cpu), touching(&host));
+        let (tc, tg) = (touching(&cpu), touching(&host));
         assert_eq!(
-            tc,
-            tg,
+            tc, tg,
             "touching contacts differ at step {}",
             cpu.step_count
         );
@@ -166,7 +165,11 @@ orientation = [0.9848078, 0.0, 0.1736482, 0.0]   # 20 degrees about y: lands on 
     let (cpu, gpu) = compare(&scene, 3000, 100, 1e-5, 1e-4);
     // Both spheres on the floor at the end, on both backends.
     assert_eq!(touching(&cpu).len(), 2, "{:?}", touching(&cpu));
-    assert!(gpu.state.velocity[0].length() < 0.05, "{}", gpu.state.velocity[0]);
+    assert!(
+        gpu.state.velocity[0].length() < 0.05,
+        "{}",
+        gpu.state.velocity[0]
+    );
 }
 
 #[test]
@@ -212,7 +215,10 @@ velocity = [-0.5, 0.0, 0.0]
         .map(|i| gpu.consts.mass[i] * 0.5)
         .sum::<f32>();
     let drift = (momentum(&gpu) - start).length();
-    assert!(drift < 1e-5 * scale, "GPU momentum drift {drift} (scale {scale})");
+    assert!(
+        drift < 1e-5 * scale,
+        "GPU momentum drift {drift} (scale {scale})"
+    );
     // They did collide: both changed direction along x.
     assert!(cpu.state.velocity[0].x < 0.4 && gpu.state.velocity[0].x < 0.4);
 }
@@ -337,7 +343,11 @@ velocity = [0.2, -0.1, -0.5]
         a.read_into(&mut ha).unwrap();
         b.step(100).unwrap();
         b.read_into(&mut hb).unwrap();
-        assert_eq!(ha.state.position, hb.state.position, "step {}", ha.step_count);
+        assert_eq!(
+            ha.state.position, hb.state.position,
+            "step {}",
+            ha.step_count
+        );
         assert_eq!(ha.state.orientation, hb.state.orientation);
         assert_eq!(ha.state.velocity, hb.state.velocity);
         assert_eq!(ha.contact_count(), hb.contact_count());
@@ -412,7 +422,10 @@ fn gpu_checkpoint_resumes_on_the_cpu_with_its_springs() {
         fresh.step().unwrap();
         kept.step().unwrap();
     }
-    assert!(distance(&fresh, &kept).0 > 0.0, "springs made no difference");
+    assert!(
+        distance(&fresh, &kept).0 > 0.0,
+        "springs made no difference"
+    );
 }
 
 #[test]
@@ -425,8 +438,18 @@ fn cpu_contacts_continue_on_the_gpu() {
     for _ in 0..1800 {
         cpu.step().unwrap();
     }
-    let sprung = cpu.contact_state().history.iter().filter(|h| h.length() > 0.0).count()
-        + cpu.contact_state().wall_history.iter().filter(|h| h.length() > 0.0).count();
+    let sprung = cpu
+        .contact_state()
+        .history
+        .iter()
+        .filter(|h| h.length() > 0.0)
+        .count()
+        + cpu
+            .contact_state()
+            .wall_history
+            .iter()
+            .filter(|h| h.length() > 0.0)
+            .count();
     assert!(sprung > 0, "the CPU state has springs to hand over");
     let mut host = Checkpoint::from_bytes(&cpu.checkpoint_bytes(&scene_path(), PILE, b""))
         .unwrap()
@@ -443,7 +466,10 @@ fn cpu_contacts_continue_on_the_gpu() {
         let (dx, dq) = distance(&cpu, &host);
         // Measured on lavapipe: at most 2e-8 m and 1e-6; without the handed-over springs
         // 1.1e-5 m and 6e-4 (checked by zeroing them).
-        assert!(dx < 1e-6 && dq < 1e-4, "GPU continuation differs: {dx} m, {dq}");
+        assert!(
+            dx < 1e-6 && dq < 1e-4,
+            "GPU continuation differs: {dx} m, {dq}"
+        );
         assert_eq!(touching(&cpu), touching(&host));
     }
 }

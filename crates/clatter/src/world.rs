@@ -655,9 +655,8 @@ impl World {
         } else {
             state
         };
-        let slot_of = |&[i, w]: &[u32; 2], piece: u32| {
-            (i as usize * nw + w as usize) * mp + piece as usize
-        };
+        let slot_of =
+            |&[i, w]: &[u32; 2], piece: u32| (i as usize * nw + w as usize) * mp + piece as usize;
         let mut history = state.history;
         let mut twist = state.twist;
         for (p, &a) in wall_pairs.iter().zip(&wall_pieces) {

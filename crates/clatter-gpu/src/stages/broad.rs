@@ -39,7 +39,10 @@ pub(crate) fn modules() -> Vec<(&'static str, String)> {
         ("bin", pipeline::source(&[ARGS, BIN])),
         ("scan", pipeline::source(&[SCAN])),
         ("sort", pipeline::source(&[SORT])),
-        ("pairs", pipeline::source(&[ARGS, BIN, SHAPES_DECL, PIECES, PAIRS])),
+        (
+            "pairs",
+            pipeline::source(&[ARGS, BIN, SHAPES_DECL, PIECES, PAIRS]),
+        ),
     ]
 }
 

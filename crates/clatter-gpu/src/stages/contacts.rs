@@ -20,7 +20,15 @@ pub(crate) fn kernels(spheres_only: bool) -> (String, Vec<KernelSpec>) {
         )
     } else {
         (
-            pipeline::source(&[ARGS, NARROW, PIECES, LAW, CONTACTS, CONTACTS_SPLIT, INTEGRATE]),
+            pipeline::source(&[
+                ARGS,
+                NARROW,
+                PIECES,
+                LAW,
+                CONTACTS,
+                CONTACTS_SPLIT,
+                INTEGRATE,
+            ]),
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),
