@@ -89,13 +89,25 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
     let wall = walls[w];
     let si = statics[i];
     let bi = bodies[i];
-    let pc = piece_at(si, k, bi.position.xyz, bi.orientation);
-    let m = collide_plane(wall.plane.xyz, wall.plane.w, pc.shape, pc.x, pc.q);
+    var shape = si.shape;
+    var x = bi.position.xyz;
+    var q = bi.orientation;
+    var radius = si.equivalent_radius;
+    var sphere = si.is_sphere != 0u;
+    if COMPOSITES {
+        let pc = piece_at(si, k, x, q);
+        shape = pc.shape;
+        x = pc.x;
+        q = pc.q;
+        radius = pc.law_radius;
+        sphere = pc.is_sphere;
+    }
+    let m = collide_plane(wall.plane.xyz, wall.plane.w, shape, x, q);
     if m.count > 0u {
         let params_w = pair_table[wall.material * params.num_materials + si.material];
-        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, pc.is_sphere);
+        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);
         let fixed = BodyMotion(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-        let r = contact_force(params_w, si.mass, pc.law_radius, share, m, fixed, motion_of(i),
+        let r = contact_force(params_w, si.mass, radius, share, m, fixed, motion_of(i),
                             wall_hist[t], params.dt);
         wall_forces[t] = r.force;
         wall_hist[t] = r.hist;

@@ -56,16 +56,27 @@ fn integrate_body(i: u32) -> u32 {
             t += forces[c].torque_b;
         }
     }
-    // Walls in the CPU's order: by wall, then piece.
+    // Walls in the CPU's order: by wall, then piece (COMPOSITES: see pieces.wgsl).
     let st = statics[i];
-    let np = select(1u, piece_count(st.shape), params.composites != 0u);
-    for (var w = 0u; w < params.num_walls; w++) {
-        for (var k = 0u; k < np; k++) {
-            let r = wall_contact(i, w, k);
+    if !COMPOSITES {
+        for (var w = 0u; w < params.num_walls; w++) {
+            let r = wall_contact(i, w, 0u);
             if r.touching {
                 f += r.force.force_b;
                 t += r.force.torque_b;
                 touched += 1u;
+            }
+        }
+    } else {
+        let np = piece_count(st.shape);
+        for (var w = 0u; w < params.num_walls; w++) {
+            for (var k = 0u; k < np; k++) {
+                let r = wall_contact(i, w, k);
+                if r.touching {
+                    f += r.force.force_b;
+                    t += r.force.torque_b;
+                    touched += 1u;
+                }
             }
         }
     }
@@ -106,7 +117,7 @@ fn integrate_body(i: u32) -> u32 {
     bodies[i] = b;
     let d = periodic_nearest(xw - rebuild_pos[i].xyz);
     var d2 = dot(d, d);
-    if params.composites != 0u {
+    if COMPOSITES {
         // A rotation moves the pieces too: |dx| + 2 reach |q - q0| (the CPU's
         // `composite_moved`, with the closer of q0 and -q0).
         let reach = shape_reach(st.shape);

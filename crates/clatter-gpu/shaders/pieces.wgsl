@@ -5,7 +5,10 @@
 //
 // In a scene with composites (`params.composites`), each word of a pair-list entry holds a
 // body index in its low PIECE_SHIFT bits and that body's piece id above them; in other scenes
-// the piece ids are 0 and the words are plain body indices.
+// the piece ids are 0 and the words are plain body indices. Every module that includes this
+// file declares `const COMPOSITES: bool` first (src/pipeline.rs `composites_const`): the
+// contact kernels are compiled once with it false (scenes without composites, which then run
+// exactly the code they ran before composites came to the GPU) and once with it true.
 
 const PIECE_SHIFT: u32 = 26u;
 const BODY_MASK: u32 = 0x3ffffffu;
@@ -64,7 +67,9 @@ struct Piece {
 // composite (then `x + q * offset`, `q * orientation`, as the CPU's `piece_at`).
 fn piece_at(st: BodyConsts, k: u32, x: vec3<f32>, q: vec4<f32>) -> Piece {
     let h = st.shape * PC_HDR;
-    if shape_u[h] != KIND_COMPOSITE {
+    // The contact kernels of scenes without composites are compiled with COMPOSITES false:
+    // this is then the plain body, and the composite code is compiled out.
+    if !COMPOSITES || shape_u[h] != KIND_COMPOSITE {
         return Piece(st.shape, x, q, st.radius, st.equivalent_radius, st.is_sphere != 0u);
     }
     let u = shape_u[h + 3u] + 3u * k;

@@ -925,6 +925,7 @@ struct Plan {
 #[derive(Clone, Copy)]
 struct KernelChoice {
     spheres_only: bool,
+    composites: bool,
 }
 
 impl Plan {
@@ -940,7 +941,8 @@ impl Plan {
         let device = &ctx.device;
         let layouts = &compiled.layouts;
         let spheres_only = params.spheres_only != 0;
-        let contacts = compiled.contacts(ctx, spheres_only)?;
+        let composites = params.composites != 0;
+        let contacts = compiled.contacts(ctx, spheres_only, composites)?;
         let scans = Scans::new(
             device,
             &layouts[2],
@@ -982,7 +984,10 @@ impl Plan {
         let health_ops = stages::health::record(&compiled.base, params.n as u64);
         Ok(Plan {
             compiled: compiled.clone(),
-            contacts: KernelChoice { spheres_only },
+            contacts: KernelChoice {
+                spheres_only,
+                composites,
+            },
             group0: bufs.bind_group(device, &layouts[0]),
             group1: device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("shapes"),
@@ -1003,11 +1008,9 @@ impl Plan {
         match op.set {
             KernelSet::Base => &self.compiled.base,
             KernelSet::Contacts => {
-                let cell = if self.contacts.spheres_only {
-                    &self.compiled.spheres
-                } else {
-                    &self.compiled.general
-                };
+                let cell = self
+                    .compiled
+                    .contact_cell(self.contacts.spheres_only, self.contacts.composites);
                 // Compiled in `Plan::new`, which failed otherwise.
                 match cell.get() {
                     Some(Ok(k)) => k,

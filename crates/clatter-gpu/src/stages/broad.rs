@@ -41,7 +41,15 @@ pub(crate) fn modules() -> Vec<(&'static str, String)> {
         ("sort", pipeline::source(&[SORT])),
         (
             "pairs",
-            pipeline::source(&[ARGS, BIN, SHAPES_DECL, PIECES, PAIRS]),
+            // Piece pairs are found only when `params.composites` says so.
+            pipeline::source(&[
+                ARGS,
+                BIN,
+                SHAPES_DECL,
+                pipeline::composites_const(true),
+                PIECES,
+                PAIRS,
+            ]),
         ),
     ]
 }
