@@ -1,7 +1,7 @@
 // Composite bodies (clumps), the twin of crates/clatter/src/world.rs `piece_at` / `piece_law`:
 // the piece records of a composite shape in shape_u / shape_f (src/shapes.rs,
 // KIND_COMPOSITE), the pair-list words' piece ids, and the wall slots. Included after the
-// bind group 1 declarations (narrow.wgsl, narrow_spheres.wgsl or shapes_decl.wgsl).
+// bind group 1 declarations (narrow.wgsl, narrow_spheres.wgsl or src/pipeline.rs SHAPES_DECL).
 //
 // In a scene with composites (`params.composites`), each word of a pair-list entry holds a
 // body index in its low PIECE_SHIFT bits and that body's piece id above them; in other scenes

@@ -625,7 +625,10 @@ position = [0.0, 0.0, 0.5]
 "#
     );
     let world = parse(&text).world();
-    assert!(GpuWorld::new(ctx.clone(), &world).is_err());
+    let e = GpuWorld::new(ctx.clone(), &world)
+        .err()
+        .expect("the GPU refuses mesh boundaries");
+    assert!(e.to_string().contains("boundaries"), "{e}");
     let auto = choose(BackendChoice::Auto, &world, Device::Shared(ctx)).expect("auto");
     assert!(matches!(auto.stepper, Stepper::Cpu));
 }
