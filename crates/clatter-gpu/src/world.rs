@@ -831,12 +831,12 @@ impl GpuWorld {
         let (pairs, pieces) = decode_pairs(bytemuck::pod_collect_to_vec(&pairs_bytes), composites);
         Ok(ContactState {
             rebuild_position: if rebuilt {
-                rb[..n as usize].iter().map(|&p| v3(p)).collect()
+                rb.iter().take(n as usize).map(|&p| v3(p)).collect()
             } else {
                 Vec::new()
             },
             rebuild_orientation: if rebuilt && composites {
-                rb[n as usize..].iter().map(|&q| quat_of(q)).collect()
+                rb.iter().skip(n as usize).map(|&q| quat_of(q)).collect()
             } else {
                 Vec::new()
             },
