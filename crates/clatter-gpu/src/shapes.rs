@@ -399,4 +399,42 @@ mod tests {
             assert_eq!(packed.floats[f + 2 * k + 1], [q.x, q.y, q.z, q.w]);
         }
     }
+
+    #[test]
+    fn a_piece_over_the_vertex_limit_is_named() {
+        use clatter_geom::{PieceSpec, prepare_composite};
+        use glam::{DQuat, DVec3};
+        // 100 points on a Fibonacci sphere: a hull of more than MAX_SHAPE_VERTICES vertices.
+        let points: Vec<[f64; 3]> = (0..100)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / 100.0;
+                let r = (1.0 - z * z).sqrt();
+                let a = k as f64 * 2.399_963_229_728_653;
+                [r * a.cos(), r * a.sin(), z]
+            })
+            .collect();
+        let ball = ShapeKind::Convex { points }.prepare().unwrap();
+        let sphere = ShapeKind::Sphere { radius: 0.5 }.prepare().unwrap();
+        let clump = prepare_composite(&[
+            PieceSpec {
+                shape: sphere,
+                offset: DVec3::new(-1.0, 0.0, 0.0),
+                orientation: DQuat::IDENTITY,
+            },
+            PieceSpec {
+                shape: ball,
+                offset: DVec3::new(1.0, 0.0, 0.0),
+                orientation: DQuat::IDENTITY,
+            },
+        ])
+        .unwrap();
+        let err = pack(&[clump]).err().expect("the piece is over the limit");
+        let GpuError::Unsupported(msg) = &err else {
+            panic!("wrong error {err}")
+        };
+        assert!(
+            msg.contains("piece 1 of shape 0") && msg.contains("64"),
+            "{msg}"
+        );
+    }
 }
