@@ -538,7 +538,11 @@ min = [0.0, 0.0, 0.0]
 max = [0.05, 0.1, 0.012]
 "#
     ));
-    let (cpu, _gpu) = compare(&scene, 3000, 100, 1e-6, 1e-4);
+    let (cpu, gpu) = compare(&scene, 3000, 100, 1e-6, 1e-4);
+    // Here the 16-ulp nudge changes a bounce (its run ends millimetres away), so its bound is
+    // loose; the GPU's own difference stays small (measured on lavapipe: 2.3e-5 m at the end).
+    let (dx, _) = distance(&cpu, &gpu);
+    assert!(dx < 1e-4, "final positions differ by {dx} m");
     let removed = cpu.state.removed.iter().filter(|&&r| r).count();
     assert!(
         removed > 0 && removed < cpu.len(),
