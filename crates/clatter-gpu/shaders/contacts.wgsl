@@ -27,8 +27,8 @@ fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg:
 // just tried it).
 fn pair_contact(c: u32, use_hint: bool) -> bool {
     let p = pairs[c];
-    let i = p.x;
-    let j = p.y;
+    let i = body_of(p.x);
+    let j = body_of(p.y);
     let si = statics[i];
     let sj = statics[j];
     let bi = bodies[i];
@@ -37,14 +37,17 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     let was = touching[c];
     nrw_hint_in = select(0u, was - 1u, was >= 2u && use_hint);
     let xj = image_of(i, j);
-    let m = collide(si.shape, bi.position.xyz, bi.orientation, sj.shape, xj, bj.orientation);
+    // The pieces in touch (the bodies themselves without composites).
+    let pa = piece_at(si, piece_of(p.x), bi.position.xyz, bi.orientation);
+    let pb = piece_at(sj, piece_of(p.y), xj, bj.orientation);
+    let m = collide(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
     if m.count > 0u {
         let params_ij = pair_table[si.material * params.num_materials + sj.material];
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE,
-                           si.is_sphere != 0u || sj.is_sphere != 0u);
+                           pa.is_sphere || pb.is_sphere);
         let only = params.spheres_only != 0u;
-        let ri = select(si.equivalent_radius, si.radius, only);
-        let rj = select(sj.equivalent_radius, sj.radius, only);
+        let ri = select(pa.law_radius, si.radius, only);
+        let rj = select(pb.law_radius, sj.radius, only);
         let r_eff = ri * rj / (ri + rj);
         let r = contact_force(params_ij, si.mass * sj.mass / (si.mass + sj.mass), r_eff, share, m,
                             motion_of(i), BodyMotion(xj, bj.velocity.xyz, bj.omega.xyz),
@@ -77,20 +80,34 @@ struct WallResult {
     force: ContactForce,
 }
 
-// Body-wall slot t = body * num_walls + wall: manifold, contact law, spring (stored with
-// the force for the host's read-back); the force when the body touches the wall. Called by
-// integrate (integrate.wgsl).
-fn wall_contact(t: u32) -> WallResult {
-    let i = t / params.num_walls;
-    let wall = walls[t % params.num_walls];
+// Body i's piece k (the body itself, k = 0, unless a composite) against wall w, in slot
+// `wall_slot(i, w, k)` (pieces.wgsl): manifold, contact law, spring (stored with the force for
+// the host's read-back); the force when the piece touches the wall. Called by integrate
+// (integrate.wgsl).
+fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
+    let t = wall_slot(i, w, k);
+    let wall = walls[w];
     let si = statics[i];
     let bi = bodies[i];
-    let m = collide_plane(wall.plane.xyz, wall.plane.w, si.shape, bi.position.xyz, bi.orientation);
+    var shape = si.shape;
+    var x = bi.position.xyz;
+    var q = bi.orientation;
+    var radius = si.equivalent_radius;
+    var sphere = si.is_sphere != 0u;
+    if COMPOSITES {
+        let pc = piece_at(si, k, x, q);
+        shape = pc.shape;
+        x = pc.x;
+        q = pc.q;
+        radius = pc.law_radius;
+        sphere = pc.is_sphere;
+    }
+    let m = collide_plane(wall.plane.xyz, wall.plane.w, shape, x, q);
     if m.count > 0u {
         let params_w = pair_table[wall.material * params.num_materials + si.material];
-        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, si.is_sphere != 0u);
+        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);
         let fixed = BodyMotion(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-        let r = contact_force(params_w, si.mass, si.equivalent_radius, share, m, fixed, motion_of(i),
+        let r = contact_force(params_w, si.mass, radius, share, m, fixed, motion_of(i),
                             wall_hist[t], params.dt);
         wall_forces[t] = r.force;
         wall_hist[t] = r.hist;

@@ -42,10 +42,13 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
 // spring if it was touching) and keeps its separating axis as the next step's hint.
 fn pair_apart(c: u32) -> bool {
     let p = pairs[c];
+    let i = body_of(p.x);
+    let j = body_of(p.y);
     let was = touching[c];
     nrw_hint_in = select(0u, was - 1u, was >= 2u);
-    if !separated(statics[p.x].shape, bodies[p.x].position.xyz, bodies[p.x].orientation,
-                  statics[p.y].shape, image_of(p.x, p.y), bodies[p.y].orientation) {
+    let pa = piece_at(statics[i], piece_of(p.x), bodies[i].position.xyz, bodies[i].orientation);
+    let pb = piece_at(statics[j], piece_of(p.y), image_of(i, j), bodies[j].orientation);
+    if !separated(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q) {
         return false;
     }
     release_pair(c, was);

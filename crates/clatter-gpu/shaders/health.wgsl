@@ -94,8 +94,8 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
                 suspect = true;
             }
         }
-        for (var w = 0u; w < params.num_walls; w++) {
-            let t = i * params.num_walls + w;
+        let slots = params.num_walls * params.max_pieces;
+        for (var t = i * slots; t < (i + 1u) * slots; t++) {
             if wall_touching[t] != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
                 suspect = true;
             }
@@ -191,7 +191,7 @@ fn snapshot_state(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
         return;
     }
     let n = params.n;
-    let slots = n * params.num_walls;
+    let slots = n * params.num_walls * params.max_pieces;
     let stride = nwg.x * WG;
     let end = max(max(n, slots), max(params.pair_capacity, ST_LEN));
     for (var i = thread_index(wid, nwg, lid); i < end; i += stride) {

@@ -56,15 +56,30 @@ fn integrate_body(i: u32) -> u32 {
             t += forces[c].torque_b;
         }
     }
-    for (var w = 0u; w < params.num_walls; w++) {
-        let r = wall_contact(i * params.num_walls + w);
-        if r.touching {
-            f += r.force.force_b;
-            t += r.force.torque_b;
-            touched += 1u;
+    // Walls in the CPU's order: by wall, then piece (COMPOSITES: see pieces.wgsl).
+    let st = statics[i];
+    if !COMPOSITES {
+        for (var w = 0u; w < params.num_walls; w++) {
+            let r = wall_contact(i, w, 0u);
+            if r.touching {
+                f += r.force.force_b;
+                t += r.force.torque_b;
+                touched += 1u;
+            }
+        }
+    } else {
+        let np = piece_count(st.shape);
+        for (var w = 0u; w < params.num_walls; w++) {
+            for (var k = 0u; k < np; k++) {
+                let r = wall_contact(i, w, k);
+                if r.touching {
+                    f += r.force.force_b;
+                    t += r.force.torque_b;
+                    touched += 1u;
+                }
+            }
         }
     }
-    let st = statics[i];
     var b = bodies[i];
     let dt = params.dt;
     let v = b.velocity.xyz + (f * st.inv_inertia.w + params.gravity.xyz) * dt;
@@ -101,7 +116,18 @@ fn integrate_body(i: u32) -> u32 {
     b.residual = residual;
     bodies[i] = b;
     let d = periodic_nearest(xw - rebuild_pos[i].xyz);
-    let d2 = dot(d, d);
+    var d2 = dot(d, d);
+    if COMPOSITES {
+        // A rotation moves the pieces too: |dx| + 2 reach |q - q0| (the CPU's
+        // `composite_moved`, with the closer of q0 and -q0).
+        let reach = shape_reach(st.shape);
+        if reach > 0.0 {
+            let q0 = rebuild_pos[params.n + i];
+            let dq = min(length(qn - q0), length(qn + q0));
+            let dc = sqrt(d2) + 2.0 * reach * dq;
+            d2 = max(d2, dc * dc);
+        }
+    }
     // NaN or infinity anywhere in the state shows up in d2 or in the quaternion.
     let finite = d2 <= 3.0e38 && abs(qn.w) <= 3.0e38 && all(abs(v) <= vec3<f32>(3.0e38));
     if !finite {

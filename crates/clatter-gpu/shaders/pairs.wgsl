@@ -3,6 +3,7 @@
 // (`count_pairs`), scanned into offsets, then written sorted by (i, j) (`fill_pairs`).
 // `carry` keeps the springs of persisting pairs, `commit` swaps in the new list, and
 // `count_b` .. `sort_b` build each body's b-side pair list so forces gather in a fixed order.
+// With composites a body pair becomes one entry per piece pair (`piece_pairs`, pieces.wgsl).
 
 // Body i's partners j > i in the 27 cells around it (and, in a periodic box, around its
 // images across nearby periodic faces: crates/clatter/src/periodic.rs `images_near`), in
@@ -66,7 +67,9 @@ fn scan_cells(i: u32, pi: vec3<f32>, ri: f32, write: bool, first: u32) -> u32 {
                 if j > i && bodies[j].position.w == 0.0 {
                     let reach = ri + statics[j].radius + params.skin;
                     let d = bodies[j].position.xyz - pi;
-                    if dot(d, d) < reach * reach {
+                    if dot(d, d) < reach * reach && params.composites != 0u {
+                        count += piece_pairs(i, j, write, s0, first + count);
+                    } else if dot(d, d) < reach * reach {
                         if write {
                             var b = first + count;
                             while b > s0 && new_pairs[b - 1u].y > j {
@@ -78,6 +81,41 @@ fn scan_cells(i: u32, pi: vec3<f32>, ri: f32, write: bool, first: u32) -> u32 {
                         count++;
                     }
                 }
+            }
+        }
+    }
+    return count;
+}
+
+// Scenes with composites: the piece pairs of bodies i and j whose bounding spheres, grown by
+// the skin, overlap at the current poses (the CPU's `piece_contacts`), one entry each, in
+// piece-code order; counts them, and with `write` inserts them, sorted by j (then code, as
+// they come), from `first` on.
+fn piece_pairs(i: u32, j: u32, write: bool, s0: u32, first: u32) -> u32 {
+    let si = statics[i];
+    let sj = statics[j];
+    let xi = bodies[i].position.xyz;
+    let qi = bodies[i].orientation;
+    let xj = image_of(i, j);
+    let qj = bodies[j].orientation;
+    let nb = piece_count(sj.shape);
+    var count = 0u;
+    for (var a = 0u; a < piece_count(si.shape); a++) {
+        let pa = piece_at(si, a, xi, qi);
+        for (var k = 0u; k < nb; k++) {
+            let pb = piece_at(sj, k, xj, qj);
+            let reach = pa.radius + pb.radius + params.skin;
+            let d = pb.x - pa.x;
+            if dot(d, d) < reach * reach {
+                if write {
+                    var b = first + count;
+                    while b > s0 && body_of(new_pairs[b - 1u].y) > j {
+                        new_pairs[b] = new_pairs[b - 1u];
+                        b--;
+                    }
+                    new_pairs[b] = vec2<u32>(pair_word(i, a), pair_word(j, k));
+                }
+                count++;
             }
         }
     }
@@ -136,18 +174,23 @@ fn carry(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: ve
     if c >= new_a_start[params.n] || halted() {
         return;
     }
+    // Keyed by (body pair, piece code), as the CPU's `carry_springs` (the codes are 0
+    // without composites).
     let p = new_pairs[c];
-    var lo = a_start[p.x];
-    var hi = a_start[p.x + 1u];
+    let i = body_of(p.x);
+    let key = vec2<u32>(body_of(p.y), pair_code(p));
+    var lo = a_start[i];
+    var hi = a_start[i + 1u];
     var h = vec4<f32>(0.0);
     while lo < hi {
         let mid = (lo + hi) / 2u;
-        let j = pairs[mid].y;
-        if j == p.y {
+        let m = pairs[mid];
+        let at = vec2<u32>(body_of(m.y), pair_code(m));
+        if all(at == key) {
             h = hist[mid];
             break;
         }
-        if j < p.y {
+        if at.x < key.x || (at.x == key.x && at.y < key.y) {
             lo = mid + 1u;
         } else {
             hi = mid;
@@ -175,6 +218,9 @@ fn commit(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: v
     }
     if t < params.n {
         rebuild_pos[t] = bodies[t].position;
+        if params.composites != 0u {
+            rebuild_pos[params.n + t] = bodies[t].orientation;
+        }
     }
 }
 
@@ -185,7 +231,7 @@ fn count_b(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: 
     if c >= a_start[params.n] || halted() {
         return;
     }
-    atomicAdd(&b_count[pairs[c].y], 1u);
+    atomicAdd(&b_count[body_of(pairs[c].y)], 1u);
 }
 
 @compute @workgroup_size(256)
@@ -204,7 +250,7 @@ fn fill_b(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: v
     if c >= a_start[params.n] || halted() {
         return;
     }
-    let j = pairs[c].y;
+    let j = body_of(pairs[c].y);
     let slot = b_start[j] + atomicSub(&b_count[j], 1u) - 1u;
     b_adj[slot] = c;
 }

@@ -37,8 +37,10 @@ pub enum Count {
     MaterialPairs,
     /// Walls plus two per sink (its corners, see `Params::num_sinks`).
     WallsAndSinks,
-    /// Bodies times walls.
+    /// Bodies times walls times the most pieces of a body (`Dims::pieces`).
     WallSlots,
+    /// Bodies, twice with composites (their rebuild orientations follow the positions).
+    RebuildSlots,
     /// The energy log's slots plus one per workgroup of bodies.
     HealthSlots,
     /// The snapshot's words (`layout::snapshot::words`).
@@ -77,6 +79,10 @@ pub struct Dims {
     pub walls: u64,
     /// Sink boxes.
     pub sinks: u64,
+    /// Wall slots per body and wall: the most pieces of a body (1 without composites).
+    pub pieces: u64,
+    /// Whether some body is a composite.
+    pub composites: bool,
 }
 
 impl Binding {
@@ -91,11 +97,14 @@ impl Binding {
             Count::Pairs => d.pairs,
             Count::MaterialPairs => d.materials * d.materials,
             Count::WallsAndSinks => d.walls + 2 * d.sinks,
-            Count::WallSlots => d.bodies * d.walls,
+            Count::WallSlots => d.bodies * d.walls * d.pieces,
+            Count::RebuildSlots => d.bodies * (1 + d.composites as u64),
             Count::HealthSlots => {
                 crate::layout::HEALTH_LOG as u64 + d.bodies.div_ceil(crate::layout::WG as u64)
             }
-            Count::SnapshotWords => crate::layout::snapshot::words(d.bodies, d.walls, d.pairs),
+            Count::SnapshotWords => {
+                crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.pairs)
+            }
         };
         (n * self.element).max(64)
     }
@@ -154,8 +163,9 @@ buffers! {
     CellCount = "cell_count", ReadWrite, "array<atomic<u32>>", 4, CellsPlusOne;
     /// First body of each cell in `sorted`.
     CellStart = "cell_start", ReadWrite, "array<u32>", 4, CellsPlusOne;
-    /// Positions at the last rebuild.
-    RebuildPos = "rebuild_pos", ReadWrite, "array<vec4<f32>>", 16, Bodies;
+    /// Positions at the last rebuild; with composites, then their orientations (body `i`'s
+    /// at `n + i`).
+    RebuildPos = "rebuild_pos", ReadWrite, "array<vec4<f32>>", 16, RebuildSlots;
     /// The new pair list's per-body offsets (during a rebuild).
     NewAStart = "new_a_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
     /// Body `i` is side a of pairs `a_start[i]..a_start[i + 1]`.

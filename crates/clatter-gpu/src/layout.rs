@@ -49,10 +49,13 @@ clatter::gpu_record! {
         /// (`walls[num_walls + 2k].plane.xyz` = min, `walls[num_walls + 2k + 1].plane.xyz` =
         /// max), so they need no buffer of their own.
         pub num_sinks: u32,
-        /// Unused.
-        pub pad0: u32,
-        /// Unused.
-        pub pad1: u32,
+        /// Wall slots per body and wall: the most pieces of a composite, 1 without
+        /// composites (slot `(body * num_walls + wall) * max_pieces + piece`, `wall_slot` in
+        /// pieces.wgsl).
+        pub max_pieces: u32,
+        /// 1 when some body is a composite: pair-list words then carry piece ids above the
+        /// body index (pieces.wgsl), and the rebuild test counts rotation.
+        pub composites: u32,
         /// Unused.
         pub pad2: u32,
     }

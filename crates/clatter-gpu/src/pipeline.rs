@@ -20,6 +20,19 @@ pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts.wgsl");
 pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts_split.wgsl");
 pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
 pub(crate) const HEALTH: &str = include_str!("../shaders/health.wgsl");
+pub(crate) const PIECES: &str = include_str!("../shaders/pieces.wgsl");
+/// `const COMPOSITES` for a module that includes pieces.wgsl: whether its kernels handle
+/// composite bodies (the contact kernels are compiled both ways; see pieces.wgsl).
+pub(crate) fn composites_const(composites: bool) -> &'static str {
+    if composites {
+        "const COMPOSITES: bool = true;\n"
+    } else {
+        "const COMPOSITES: bool = false;\n"
+    }
+}
+
+/// Bind group 1 (src/shapes.rs) for modules without a narrow phase (which declares it).
+pub(crate) const SHAPES_DECL: &str = "@group(1) @binding(0) var<storage, read> shape_f: array<vec4<f32>>;\n@group(1) @binding(1) var<storage, read> shape_u: array<u32>;\n";
 
 /// Every simulation shader file, for the test that no file retypes a generated declaration.
 #[cfg(test)]
@@ -38,6 +51,7 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("contacts_split.wgsl", CONTACTS_SPLIT),
     ("integrate.wgsl", INTEGRATE),
     ("health.wgsl", HEALTH),
+    ("pieces.wgsl", PIECES),
 ];
 
 /// A kernel's source: the generated prelude, the shared helpers, then `parts`.
@@ -118,6 +132,8 @@ pub(crate) struct Compiled {
     pub base: Kernels,
     pub spheres: std::sync::OnceLock<Result<Kernels, GpuError>>,
     pub general: std::sync::OnceLock<Result<Kernels, GpuError>>,
+    /// The general contact kernels with composite bodies.
+    pub composites: std::sync::OnceLock<Result<Kernels, GpuError>>,
 }
 
 impl Compiled {
@@ -166,24 +182,42 @@ impl Compiled {
             base,
             spheres: std::sync::OnceLock::new(),
             general: std::sync::OnceLock::new(),
+            composites: std::sync::OnceLock::new(),
         });
         *slot = Some(c.clone());
         Ok(c)
     }
 
-    /// The contact kernels for sphere-only scenes or for any scene, compiled on first use.
-    pub fn contacts(&self, ctx: &GpuContext, spheres_only: bool) -> Result<&Kernels, GpuError> {
-        let cell = if spheres_only {
-            &self.spheres
-        } else {
-            &self.general
-        };
+    /// The contact kernels for sphere-only scenes, for any scene without composites, or for
+    /// scenes with composites, compiled on first use.
+    pub fn contacts(
+        &self,
+        ctx: &GpuContext,
+        spheres_only: bool,
+        composites: bool,
+    ) -> Result<&Kernels, GpuError> {
+        let cell = self.contact_cell(spheres_only, composites);
         cell.get_or_init(|| {
-            let (modules, kernels) = crate::stages::contact_kernels(spheres_only);
+            let (modules, kernels) = crate::stages::contact_kernels(spheres_only, composites);
             compile(ctx, &self.layouts, &modules, &kernels)
         })
         .as_ref()
         .map_err(|e| e.clone())
+    }
+
+    /// Where the contact kernels of that kind are kept.
+    pub fn contact_cell(
+        &self,
+        spheres_only: bool,
+        composites: bool,
+    ) -> &std::sync::OnceLock<Result<Kernels, GpuError>> {
+        if composites {
+            &self.composites
+        } else if spheres_only {
+            &self.spheres
+        } else {
+            &self.general
+        }
     }
 }
 

@@ -11,6 +11,9 @@
 //!   loops (`first`, `count` per face, absolute indices into `shape_u`), the concatenated
 //!   face vertex loops, the edges (`v0, v1, f0, f1` per edge) and each edge's direction index.
 //!
+//! Composite shapes (clumps) have a header of kind 2 pointing at their piece records; each
+//! piece's own shape is packed as one more shape after the scene's (see `KIND_COMPOSITE`).
+//!
 //! Two buffers rather than one per table keep the kernels that call `collide` within the
 //! default limit of 8 storage buffers per stage, next to the simulation's own buffers.
 
@@ -45,6 +48,22 @@ pub const SHAPE_HEADER_WORDS: usize = 12;
 const KIND_SPHERE: u32 = 0;
 /// Header `kind` of a convex polyhedron.
 const KIND_POLYHEDRON: u32 = 1;
+/// Header `kind` of a composite (clump): `[h + 2]` its piece count, `[h + 3]` the first of
+/// its piece records in `shape_u` (3 words each: the piece's shape index, its equivalent
+/// radius's bits, 1 for a sphere), `[h + 4]` the first in `shape_f` (2 each: the piece's
+/// centre in the composite's frame with its bounding radius in `w`, its orientation),
+/// `[h + 5]` the reach's bits. The pieces' shapes follow the scene's shapes in the table.
+const KIND_COMPOSITE: u32 = 2;
+
+/// Most pieces of one composite on the GPU: piece ids are kept in the top 6 bits of the
+/// pair list's words (`PIECE_SHIFT` in pieces.wgsl), above a 26-bit body index.
+pub const MAX_GPU_PIECES: usize = 1 << (32 - PIECE_SHIFT);
+/// Bits of the body index in a pair-list word of a scene with composites.
+pub const PIECE_SHIFT: u32 = 26;
+// Every composite the geometry crate builds fits the piece ids.
+const _: () = assert!(clatter_geom::composite::MAX_PIECES <= MAX_GPU_PIECES);
+/// Most bodies of a scene with composites on the GPU (`2^PIECE_SHIFT`).
+pub const MAX_COMPOSITE_BODIES: u64 = 1 << PIECE_SHIFT;
 
 /// The shapes of a scene on the GPU (bind group 1 of every kernel that calls the WGSL
 /// `collide` / `collide_plane`).
@@ -65,18 +84,56 @@ struct Packed {
 
 fn pack(shapes: &[PreparedShape]) -> Result<Packed, GpuError> {
     let n = shapes.len();
+    // Composite pieces are shapes of their own, after the scene's: (label, shape).
+    let mut all: Vec<(String, &Shape)> = shapes
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (format!("shape {i}"), &p.shape))
+        .collect();
+    for (i, p) in shapes.iter().enumerate() {
+        if let Shape::Composite(c) = &p.shape {
+            for (k, piece) in c.pieces.iter().enumerate() {
+                all.push((format!("piece {k} of shape {i}"), &piece.shape));
+            }
+        }
+    }
     let mut floats: Vec<[f32; 4]> = Vec::new();
-    let mut words: Vec<u32> = vec![0; n * SHAPE_HEADER_WORDS];
-    for (i, prepared) in shapes.iter().enumerate() {
+    let mut words: Vec<u32> = vec![0; all.len() * SHAPE_HEADER_WORDS];
+    let to_u32 = |v: usize, what: &str| {
+        u32::try_from(v)
+            .map_err(|_| GpuError::Unsupported(format!("shape data too large ({what} = {v})")))
+    };
+    let mut next_piece = n;
+    for (i, (label, shape)) in all.iter().enumerate() {
         let h = i * SHAPE_HEADER_WORDS;
-        match &prepared.shape {
-            // Composite bodies (clumps) run on the CPU only for now: the GPU contact stages
-            // keep one contact per body pair.
+        match shape {
             Shape::Composite(c) => {
-                return Err(GpuError::Unsupported(format!(
-                    "shape {i} is a composite of {} pieces, which the GPU backend does not support yet (the CPU backend does)",
-                    c.pieces.len()
-                )));
+                if i >= n {
+                    return Err(GpuError::Unsupported(format!(
+                        "{label} is itself a composite, which the GPU backend does not support"
+                    )));
+                }
+                if c.pieces.is_empty() || c.pieces.len() > MAX_GPU_PIECES {
+                    return Err(GpuError::Unsupported(format!(
+                        "{label} is a composite of {} pieces; the GPU backend takes 1 to {MAX_GPU_PIECES}",
+                        c.pieces.len()
+                    )));
+                }
+                words[h] = KIND_COMPOSITE;
+                words[h + 1] = c.radius.to_bits();
+                words[h + 2] = c.pieces.len() as u32;
+                words[h + 3] = to_u32(words.len(), "word offset")?;
+                words[h + 4] = to_u32(floats.len(), "float offset")?;
+                words[h + 5] = c.reach.to_bits();
+                for piece in &c.pieces {
+                    words.push(to_u32(next_piece, "piece shape index")?);
+                    words.push(piece.equivalent_radius.to_bits());
+                    words.push(matches!(piece.shape, Shape::Sphere { .. }) as u32);
+                    next_piece += 1;
+                    let (x, q) = (piece.position, piece.orientation);
+                    floats.push([x.x, x.y, x.z, piece.radius()]);
+                    floats.push([q.x, q.y, q.z, q.w]);
+                }
             }
             Shape::Sphere { radius } => {
                 words[h] = KIND_SPHERE;
@@ -85,21 +142,16 @@ fn pack(shapes: &[PreparedShape]) -> Result<Packed, GpuError> {
             Shape::Polyhedron(p) => {
                 if p.vertices.len() > MAX_SHAPE_VERTICES {
                     return Err(GpuError::Unsupported(format!(
-                        "shape {i} has {} vertices, more than the GPU narrow phase's limit of {MAX_SHAPE_VERTICES} (MAX_SHAPE_VERTICES)",
+                        "{label} has {} vertices, more than the GPU narrow phase's limit of {MAX_SHAPE_VERTICES} (MAX_SHAPE_VERTICES)",
                         p.vertices.len()
                     )));
                 }
                 let longest = p.faces.iter().map(|f| f.count as usize).max().unwrap_or(0);
                 if longest > MAX_FACE_VERTICES {
                     return Err(GpuError::Unsupported(format!(
-                        "shape {i} has a face with {longest} vertices, more than the GPU narrow phase's limit of {MAX_FACE_VERTICES} (MAX_FACE_VERTICES)"
+                        "{label} has a face with {longest} vertices, more than the GPU narrow phase's limit of {MAX_FACE_VERTICES} (MAX_FACE_VERTICES)"
                     )));
                 }
-                let to_u32 = |v: usize, what: &str| {
-                    u32::try_from(v).map_err(|_| {
-                        GpuError::Unsupported(format!("shape data too large ({what} = {v})"))
-                    })
-                };
                 words[h] = KIND_POLYHEDRON;
                 words[h + 1] = p.radius.to_bits();
                 words[h + 2] = p.vertices.len() as u32;
@@ -254,6 +306,12 @@ mod tests {
         assert!(wgsl.contains(&format!("const NRW_MAX_CLIP: u32 = {MAX_CLIP_POINTS}u;")));
         assert!(wgsl.contains(&format!("array<vec4<f32>, {MAX_CLIP_POINTS}>")));
         assert!(wgsl.contains(&format!("const NRW_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
+        let pieces = include_str!("../shaders/pieces.wgsl");
+        assert!(pieces.contains(&format!("const PIECE_SHIFT: u32 = {PIECE_SHIFT}u;")));
+        let mask = (1u32 << PIECE_SHIFT) - 1;
+        assert!(pieces.contains(&format!("const BODY_MASK: u32 = {mask:#x}u;")));
+        assert!(pieces.contains(&format!("const PC_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
+        assert!(pieces.contains(&format!("const KIND_COMPOSITE: u32 = {KIND_COMPOSITE}u;")));
     }
 
     #[test]
@@ -288,5 +346,95 @@ mod tests {
         let vb = packed.words[h + 6] as usize;
         let nv = p.vertices.len();
         assert_eq!(packed.floats[vb + nv + 2][3], p.faces[2].offset);
+    }
+
+    #[test]
+    fn composite_header_points_at_its_pieces() {
+        use clatter_geom::{PieceSpec, prepare_composite};
+        use glam::{DQuat, DVec3};
+        let sphere = ShapeKind::Sphere { radius: 0.5 }.prepare().unwrap();
+        let cube = ShapeKind::Regular {
+            kind: RegularKind::Cube,
+            radius: 1.0,
+        }
+        .prepare()
+        .unwrap();
+        let clump = prepare_composite(&[
+            PieceSpec {
+                shape: sphere.clone(),
+                offset: DVec3::new(-1.0, 0.0, 0.0),
+                orientation: DQuat::IDENTITY,
+            },
+            PieceSpec {
+                shape: cube.clone(),
+                offset: DVec3::new(1.0, 0.0, 0.0),
+                orientation: DQuat::from_rotation_x(0.5),
+            },
+        ])
+        .unwrap();
+        let Shape::Composite(c) = &clump.shape else {
+            unreachable!()
+        };
+        let packed = pack(&[sphere, clump.clone()]).unwrap();
+        let h = SHAPE_HEADER_WORDS;
+        assert_eq!(packed.words[h], KIND_COMPOSITE);
+        assert_eq!(f32::from_bits(packed.words[h + 1]), c.radius);
+        assert_eq!(packed.words[h + 2], 2);
+        assert_eq!(f32::from_bits(packed.words[h + 5]), c.reach);
+        let (u, f) = (packed.words[h + 3] as usize, packed.words[h + 4] as usize);
+        for (k, piece) in c.pieces.iter().enumerate() {
+            // The piece's shape follows the scene's two shapes, with its own header.
+            let s = packed.words[u + 3 * k] as usize;
+            assert_eq!(s, 2 + k);
+            let kind = if k == 0 { KIND_SPHERE } else { KIND_POLYHEDRON };
+            assert_eq!(packed.words[s * h], kind);
+            assert_eq!(
+                f32::from_bits(packed.words[u + 3 * k + 1]),
+                piece.equivalent_radius
+            );
+            assert_eq!(packed.words[u + 3 * k + 2], (k == 0) as u32);
+            let p = piece.position;
+            assert_eq!(packed.floats[f + 2 * k], [p.x, p.y, p.z, piece.radius()]);
+            let q = piece.orientation;
+            assert_eq!(packed.floats[f + 2 * k + 1], [q.x, q.y, q.z, q.w]);
+        }
+    }
+
+    #[test]
+    fn a_piece_over_the_vertex_limit_is_named() {
+        use clatter_geom::{PieceSpec, prepare_composite};
+        use glam::{DQuat, DVec3};
+        // 100 points on a Fibonacci sphere: a hull of more than MAX_SHAPE_VERTICES vertices.
+        let points: Vec<[f64; 3]> = (0..100)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / 100.0;
+                let r = (1.0 - z * z).sqrt();
+                let a = k as f64 * 2.399_963_229_728_653;
+                [r * a.cos(), r * a.sin(), z]
+            })
+            .collect();
+        let ball = ShapeKind::Convex { points }.prepare().unwrap();
+        let sphere = ShapeKind::Sphere { radius: 0.5 }.prepare().unwrap();
+        let clump = prepare_composite(&[
+            PieceSpec {
+                shape: sphere,
+                offset: DVec3::new(-1.0, 0.0, 0.0),
+                orientation: DQuat::IDENTITY,
+            },
+            PieceSpec {
+                shape: ball,
+                offset: DVec3::new(1.0, 0.0, 0.0),
+                orientation: DQuat::IDENTITY,
+            },
+        ])
+        .unwrap();
+        let err = pack(&[clump]).err().expect("the piece is over the limit");
+        let GpuError::Unsupported(msg) = &err else {
+            panic!("wrong error {err}")
+        };
+        assert!(
+            msg.contains("piece 1 of shape 0") && msg.contains("64"),
+            "{msg}"
+        );
     }
 }

@@ -11,6 +11,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use clatter::contract::quat_of;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
 
@@ -38,7 +39,8 @@ const PAIRS_PER_BODY: u64 = 8;
 pub struct GpuWorld {
     ctx: Arc<GpuContext>,
     n: u32,
-    num_walls: u32,
+    /// Wall slots per body: walls times the most pieces of a body (`Params::max_pieces`).
+    wall_slots: u32,
     params: Params,
     shapes: GpuShapes,
     /// The group-0 buffers (`buffers::BUFFERS`).
@@ -129,12 +131,24 @@ impl GpuWorld {
         }
         let n = world.len() as u32;
         let num_walls = world.walls.len() as u32;
+        let composites = world.has_composites();
+        if composites && world.len() as u64 > crate::shapes::MAX_COMPOSITE_BODIES {
+            return Err(GpuError::TooLarge {
+                adapter: ctx.adapter_name(),
+                what: "bodies of a scene with composites (pair entries keep a piece id in the top 6 bits of a 32-bit body index)".into(),
+                need: format!("{} bodies", world.len()),
+                limit: format!("{} bodies", crate::shapes::MAX_COMPOSITE_BODIES),
+                advice: "use fewer bodies, or --backend cpu".into(),
+            });
+        }
+        let max_pieces = world.max_pieces() as u32;
+        let wall_slots = num_walls * max_pieces;
         let shapes = GpuShapes::upload(&ctx, &world.shapes)?;
         let state = world.contact_state();
         let capacity = (world.len() as u64 * PAIRS_PER_BODY)
             .max(state.pairs.len() as u64 + world.len() as u64)
             .max(1024);
-        Self::check_fits(&ctx, world.len() as u64, capacity, num_walls as u64)?;
+        Self::check_fits(&ctx, world.len() as u64, capacity, wall_slots as u64)?;
         let rmax = world.consts.max_radius();
         let params = Params {
             gravity: [world.gravity.x, world.gravity.y, world.gravity.z, 0.0],
@@ -158,6 +172,8 @@ impl GpuWorld {
                 [l.x, l.y, l.z, 0.0]
             }),
             num_sinks: world.sinks.len() as u32,
+            max_pieces,
+            composites: composites as u32,
             ..Default::default()
         };
         let device = &ctx.device;
@@ -193,10 +209,21 @@ impl GpuWorld {
                 [h.x, h.y, h.z, state.twist[k]]
             })
             .collect();
-        let mut pairs: Vec<[u32; 2]> = state.pairs.clone();
+        // With composites each word carries its body's piece id above the body index.
+        let mut pairs: Vec<[u32; 2]> = if state.pieces.len() == np && composites {
+            let shift = crate::shapes::PIECE_SHIFT;
+            (state.pairs.iter().zip(&state.pieces))
+                .map(|(&[i, j], &code)| {
+                    let (a, b) = clatter::contacts::piece_ids(code);
+                    [i | (a << shift), j | (b << shift)]
+                })
+                .collect()
+        } else {
+            state.pairs.clone()
+        };
         hist.resize(capacity as usize, [0.0; 4]);
         pairs.resize(capacity as usize, [0, 0]);
-        let nslots = (nb * num_walls as u64) as usize;
+        let nslots = (nb * wall_slots as u64) as usize;
         let wall_hist: Vec<[f32; 4]> = (0..nslots)
             .map(|k| {
                 let h = state.wall_history[k];
@@ -219,6 +246,8 @@ impl GpuWorld {
             materials: world.materials.len() as u64,
             walls: num_walls as u64,
             sinks: world.sinks.len() as u64,
+            pieces: max_pieces as u64,
+            composites,
         };
         let bytes = |b: &[u8]| Some(b.to_vec());
         let bufs = Buffers::new(device, &dims, |b| match b {
@@ -251,7 +280,7 @@ impl GpuWorld {
             time_sum: std::sync::Mutex::new((0, world.time)),
             ctx,
             n,
-            num_walls,
+            wall_slots,
             params,
             shapes,
             gpu_steps: 0,
@@ -642,7 +671,7 @@ impl GpuWorld {
     /// list and springs, and lets the stopped step run again.
     fn grow(&mut self, needed: u64) -> Result<(), GpuError> {
         let capacity = (needed + needed / 2).max(self.params.pair_capacity as u64 * 2);
-        Self::check_fits(&self.ctx, self.n as u64, capacity, self.num_walls as u64)?;
+        Self::check_fits(&self.ctx, self.n as u64, capacity, self.wall_slots as u64)?;
         let device = &self.ctx.device;
         self.dims.pairs = capacity;
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -772,8 +801,10 @@ impl GpuWorld {
         let n = self.n as usize;
         let np = st[status::PAIRS] as usize;
         let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-        let ns = (n * self.num_walls as usize) as u64;
+        let ns = (n * self.wall_slots as usize) as u64;
         let (np, n) = (np as u64, n as u64);
+        let composites = self.params.composites != 0;
+        let rebuild_slots = if composites { 2 * n } else { n };
         let mut parts = read_buffers(
             &self.ctx,
             &[
@@ -784,7 +815,7 @@ impl GpuWorld {
                 (b(Buf::WallHist), 0, 16 * ns),
                 (b(Buf::WallTouching), 0, 4 * ns),
                 (b(Buf::WallForces), 0, 48 * ns),
-                (b(Buf::RebuildPos), 0, 16 * n),
+                (b(Buf::RebuildPos), 0, 16 * rebuild_slots),
             ],
         )?
         .into_iter();
@@ -796,16 +827,21 @@ impl GpuWorld {
         let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
         let wall_forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&wf);
         let rebuilt = st[status::REBUILDS] > 0;
+        let rb: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&rb);
+        let (pairs, pieces) = decode_pairs(bytemuck::pod_collect_to_vec(&pairs_bytes), composites);
         Ok(ContactState {
             rebuild_position: if rebuilt {
-                bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(&rb)
-                    .iter()
-                    .map(|&p| v3(p))
-                    .collect()
+                rb.iter().take(n as usize).map(|&p| v3(p)).collect()
             } else {
                 Vec::new()
             },
-            pairs: bytemuck::pod_collect_to_vec(&pairs_bytes),
+            rebuild_orientation: if rebuilt && composites {
+                rb.iter().skip(n as usize).map(|&q| quat_of(q)).collect()
+            } else {
+                Vec::new()
+            },
+            pairs,
+            pieces,
             history: hist.iter().map(|&h| v3(h)).collect(),
             twist: hist.iter().map(|h| h[3]).collect(),
             // 1 = touching; 0 and larger values (separating-axis hints) = not.
@@ -889,6 +925,7 @@ struct Plan {
 #[derive(Clone, Copy)]
 struct KernelChoice {
     spheres_only: bool,
+    composites: bool,
 }
 
 impl Plan {
@@ -904,7 +941,8 @@ impl Plan {
         let device = &ctx.device;
         let layouts = &compiled.layouts;
         let spheres_only = params.spheres_only != 0;
-        let contacts = compiled.contacts(ctx, spheres_only)?;
+        let composites = params.composites != 0;
+        let contacts = compiled.contacts(ctx, spheres_only, composites)?;
         let scans = Scans::new(
             device,
             &layouts[2],
@@ -946,7 +984,10 @@ impl Plan {
         let health_ops = stages::health::record(&compiled.base, params.n as u64);
         Ok(Plan {
             compiled: compiled.clone(),
-            contacts: KernelChoice { spheres_only },
+            contacts: KernelChoice {
+                spheres_only,
+                composites,
+            },
             group0: bufs.bind_group(device, &layouts[0]),
             group1: device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("shapes"),
@@ -967,11 +1008,9 @@ impl Plan {
         match op.set {
             KernelSet::Base => &self.compiled.base,
             KernelSet::Contacts => {
-                let cell = if self.contacts.spheres_only {
-                    &self.compiled.spheres
-                } else {
-                    &self.compiled.general
-                };
+                let cell = self
+                    .compiled
+                    .contact_cell(self.contacts.spheres_only, self.contacts.composites);
                 // Compiled in `Plan::new`, which failed otherwise.
                 match cell.get() {
                     Some(Ok(k)) => k,
@@ -1125,7 +1164,7 @@ impl GpuWorld {
         if st[status::HEALTH] != 0 {
             return Ok(false);
         }
-        let (n, walls) = (self.n as u64, self.num_walls as u64);
+        let (n, walls) = (self.n as u64, self.wall_slots as u64);
         let np = (st[status::PAIRS] as u64).min(self.params.pair_capacity as u64);
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read_buffer(
             buf,
@@ -1163,15 +1202,23 @@ impl GpuWorld {
         let slots = n * walls;
         let hist: Vec<[f32; 4]> = (0..np).map(|k| f4(pair_at(k) + 2)).collect();
         let wall_hist: Vec<[f32; 4]> = (0..slots).map(|k| f4(slot_at(k))).collect();
+        let (pairs, pieces) = decode_pairs(
+            (0..np)
+                .map(|k| [words[pair_at(k)], words[pair_at(k) + 1]])
+                .collect(),
+            self.params.composites != 0,
+        );
         let state = ContactState {
             rebuild_position: if st[status::REBUILDS] > 0 {
                 (0..n).map(|i| v3(f4(body_at(i) + 24))).collect()
             } else {
                 Vec::new()
             },
-            pairs: (0..np)
-                .map(|k| [words[pair_at(k)], words[pair_at(k) + 1]])
-                .collect(),
+            // Without the rebuild orientations (not in the snapshot) a composite world
+            // rebuilds its list at the next step.
+            rebuild_orientation: Vec::new(),
+            pairs,
+            pieces,
             history: hist.iter().map(|&h| v3(h)).collect(),
             twist: hist.iter().map(|h| h[3]).collect(),
             touching: (0..np).map(|k| words[pair_at(k) + 6] == 1).collect(),
@@ -1192,4 +1239,22 @@ impl GpuWorld {
         world.set_contact_state(state);
         Ok(true)
     }
+}
+
+/// Pair-list entries read back from the GPU as body pairs and, with composites, the CPU's
+/// piece codes (the GPU keeps each body's piece id above its index, see pieces.wgsl).
+fn decode_pairs(raw: Vec<[u32; 2]>, composites: bool) -> (Vec<[u32; 2]>, Vec<u32>) {
+    if !composites {
+        return (raw, Vec::new());
+    }
+    let shift = crate::shapes::PIECE_SHIFT;
+    let mask = (1u32 << shift) - 1;
+    raw.iter()
+        .map(|&[x, y]| {
+            (
+                [x & mask, y & mask],
+                clatter::contacts::piece_code(x >> shift, y >> shift),
+            )
+        })
+        .unzip()
 }

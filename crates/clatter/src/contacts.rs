@@ -5,7 +5,7 @@
 
 use std::fmt;
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 use crate::contract::ContactForce;
 use clatter_geom::narrow::{NO_HINT, SatHint};
@@ -270,8 +270,15 @@ impl Contacts {
 pub struct ContactState {
     /// Positions at the last broad-phase rebuild (empty: no list, rebuild at the next step).
     pub rebuild_position: Vec<Vec3>,
-    /// Candidate body pairs `(i, j)`, `i < j`, sorted.
+    /// Candidate body pairs `(i, j)`, `i < j`, sorted (with composites: the same body pair
+    /// once per piece pair, sorted by [`piece_code`]).
     pub pairs: Vec<[u32; 2]>,
+    /// Worlds with composite bodies only (empty otherwise): the [`piece_code`] of each pair.
+    pub pieces: Vec<u32>,
+    /// Worlds with composite bodies only (empty otherwise): orientations at the last
+    /// broad-phase rebuild (the rebuild test counts rotation, and the per-piece wall
+    /// candidates are found at these poses).
+    pub rebuild_orientation: Vec<Quat>,
     /// Tangential spring per pair.
     pub history: Vec<Vec3>,
     /// Twisting spring per pair (rad).
@@ -280,7 +287,9 @@ pub struct ContactState {
     pub touching: Vec<bool>,
     /// The last step's force per pair.
     pub forces: Vec<ContactForce>,
-    /// Tangential spring per body and wall (`body * walls + wall`).
+    /// Tangential spring per body, wall and piece: slot `(body * walls + wall) * pieces +
+    /// piece`, with `pieces` = [`crate::World::max_pieces`] (1 without composites, so then
+    /// `body * walls + wall`).
     pub wall_history: Vec<Vec3>,
     /// Twisting spring per body and wall.
     pub wall_twist: Vec<f32>,

@@ -552,14 +552,33 @@ impl World {
         self.needs_rebuild = rebuild;
     }
 
+    /// The most pieces of any body's shape (1 without composites): the number of wall slots
+    /// per body and wall in [`ContactState`].
+    pub fn max_pieces(&self) -> usize {
+        if !self.has_composites {
+            return 1;
+        }
+        self.consts
+            .shape
+            .iter()
+            .map(|&s| self.shapes[s as usize].shape.piece_count())
+            .max()
+            .unwrap_or(1)
+            .max(1)
+    }
+
     /// The contact list in a backend-neutral form: what another backend (the GPU) needs to
-    /// continue this world's contacts. Wall contacts are given per body and wall
-    /// (`body * walls.len() + wall`), zero where the body is no wall candidate.
+    /// continue this world's contacts. Wall contacts are given per body, wall and piece
+    /// (`(body * walls.len() + wall) * max_pieces + piece`, see [`World::max_pieces`]), zero
+    /// where the piece is no wall candidate.
     pub fn contact_state(&self) -> ContactState {
         let c = &self.contacts;
         let sp = &c.springs;
         let np = c.pairs.len();
         let nw = self.walls.len();
+        let mp = self.max_pieces();
+        let slots = self.len() * nw * mp;
+        let composite = self.has_composites && c.pieces.len() == c.len();
         let mut s = ContactState {
             rebuild_position: if self.needs_rebuild {
                 Vec::new()
@@ -567,17 +586,28 @@ impl World {
                 self.rebuild_position.clone()
             },
             pairs: c.pairs.clone(),
+            pieces: if composite {
+                c.pieces[..np].to_vec()
+            } else {
+                Vec::new()
+            },
+            rebuild_orientation: if composite && !self.needs_rebuild {
+                self.rebuild_orientation.clone()
+            } else {
+                Vec::new()
+            },
             history: sp.history[..np].to_vec(),
             twist: sp.twist[..np].to_vec(),
             touching: sp.touching[..np].to_vec(),
             forces: sp.forces[..np].to_vec(),
-            wall_history: vec![Vec3::ZERO; self.len() * nw],
-            wall_twist: vec![0.0; self.len() * nw],
-            wall_touching: vec![false; self.len() * nw],
-            wall_forces: vec![ContactForce::default(); self.len() * nw],
+            wall_history: vec![Vec3::ZERO; slots],
+            wall_twist: vec![0.0; slots],
+            wall_touching: vec![false; slots],
+            wall_forces: vec![ContactForce::default(); slots],
         };
         for (k, &[i, w]) in c.wall_pairs.iter().enumerate() {
-            let slot = i as usize * nw + w as usize;
+            let piece = if composite { c.pieces[np + k] } else { 0 };
+            let slot = (i as usize * nw + w as usize) * mp + piece as usize;
             s.wall_history[slot] = sp.history[np + k];
             s.wall_twist[slot] = sp.twist[np + k];
             s.wall_touching[slot] = sp.touching[np + k];
@@ -587,18 +617,36 @@ impl World {
     }
 
     /// Replaces the contact list with `state` (from another backend): body pairs as given
-    /// (sorted by `(i, j)`), wall candidates recomputed from `state.rebuild_position` with
-    /// their springs taken from the per-(body, wall) slots. An empty `rebuild_position` means
-    /// "no list yet": the next step rebuilds.
+    /// (sorted by `(i, j)`, then piece code), wall candidates recomputed from
+    /// `state.rebuild_position` (and, with composites, per piece at
+    /// `state.rebuild_orientation`) with their springs taken from the per-(body, wall, piece)
+    /// slots. An empty `rebuild_position` means "no list yet": the next step rebuilds; so does
+    /// a composite world's state without piece codes or rebuild orientations.
     pub fn set_contact_state(&mut self, state: ContactState) {
-        // The neutral form has no piece ids: a composite world rebuilds its list instead.
-        if state.rebuild_position.len() != self.len() || self.has_composites {
+        let n = self.len();
+        let incomplete = state.rebuild_position.len() != n
+            || (self.has_composites
+                && (state.rebuild_orientation.len() != n
+                    || state.pieces.len() != state.pairs.len()));
+        if incomplete {
             self.contacts = Contacts::default();
             self.needs_rebuild = true;
             return;
         }
         let nw = self.walls.len();
+        let mp = self.max_pieces();
         let wall_pairs = step::broad::wall_candidates(self, &state.rebuild_position);
+        let (wall_pairs, wall_pieces) = if self.has_composites {
+            step::broad::wall_piece_candidates(
+                self,
+                &wall_pairs,
+                &state.rebuild_position,
+                &state.rebuild_orientation,
+            )
+        } else {
+            let zeros = vec![0; wall_pairs.len()];
+            (wall_pairs, zeros)
+        };
         // Pairs of a body removed since the list was built (the next step rebuilds without
         // them) are dropped now: the list then is what the broad phase finds at
         // `rebuild_position` for the bodies still in, as after a checkpoint restore.
@@ -607,10 +655,12 @@ impl World {
         } else {
             state
         };
+        let slot_of =
+            |&[i, w]: &[u32; 2], piece: u32| (i as usize * nw + w as usize) * mp + piece as usize;
         let mut history = state.history;
         let mut twist = state.twist;
-        for &[i, w] in &wall_pairs {
-            let slot = i as usize * nw + w as usize;
+        for (p, &a) in wall_pairs.iter().zip(&wall_pieces) {
+            let slot = slot_of(p, a);
             history.push(state.wall_history.get(slot).copied().unwrap_or(Vec3::ZERO));
             twist.push(state.wall_twist.get(slot).copied().unwrap_or(0.0));
         }
@@ -619,15 +669,24 @@ impl World {
         let mut forces = state.forces;
         touching.resize(np, false);
         forces.resize(np, ContactForce::default());
-        for &[i, w] in &wall_pairs {
-            let slot = i as usize * nw + w as usize;
+        for (p, &a) in wall_pairs.iter().zip(&wall_pieces) {
+            let slot = slot_of(p, a);
             touching.push(state.wall_touching.get(slot).copied().unwrap_or(false));
             forces.push(state.wall_forces.get(slot).copied().unwrap_or_default());
         }
-        self.contacts = Contacts::new(self.len(), state.pairs, wall_pairs, history, twist);
+        self.contacts = if self.has_composites {
+            let mut pieces = state.pieces;
+            pieces.extend(wall_pieces);
+            Contacts::with_pieces(n, state.pairs, wall_pairs, pieces, history, twist)
+        } else {
+            Contacts::new(n, state.pairs, wall_pairs, history, twist)
+        };
         self.contacts.springs.touching = touching;
         self.contacts.springs.forces = forces;
         self.rebuild_position = state.rebuild_position;
+        if self.has_composites {
+            self.rebuild_orientation = state.rebuild_orientation;
+        }
         self.needs_rebuild = false;
     }
 
@@ -668,6 +727,9 @@ fn drop_removed_pairs(mut state: ContactState, removed: &[bool]) -> ContactState
             .collect()
     }
     state.pairs = select(&state.pairs, &keep);
+    if state.pieces.len() == keep.len() {
+        state.pieces = select(&state.pieces, &keep);
+    }
     state.history = select(&state.history, &keep);
     state.twist = select(&state.twist, &keep);
     state.touching = select(&state.touching, &keep);

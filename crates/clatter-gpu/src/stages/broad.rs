@@ -34,12 +34,23 @@ pub(crate) const KERNELS: &[KernelSpec] = &[
 
 /// The broad phase's shader modules.
 pub(crate) fn modules() -> Vec<(&'static str, String)> {
-    use pipeline::{ARGS, BIN, PAIRS, SCAN, SORT};
+    use pipeline::{ARGS, BIN, PAIRS, PIECES, SCAN, SHAPES_DECL, SORT};
     vec![
         ("bin", pipeline::source(&[ARGS, BIN])),
         ("scan", pipeline::source(&[SCAN])),
         ("sort", pipeline::source(&[SORT])),
-        ("pairs", pipeline::source(&[ARGS, BIN, PAIRS])),
+        (
+            "pairs",
+            // Piece pairs are found only when `params.composites` says so.
+            pipeline::source(&[
+                ARGS,
+                BIN,
+                SHAPES_DECL,
+                pipeline::composites_const(true),
+                PIECES,
+                PAIRS,
+            ]),
+        ),
     ]
 }
 

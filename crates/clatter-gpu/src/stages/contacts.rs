@@ -9,16 +9,28 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 
 /// The contact kernels' source (with integrate.wgsl, which computes the wall contacts) and
 /// entry points.
-pub(crate) fn kernels(spheres_only: bool) -> (String, Vec<KernelSpec>) {
-    use pipeline::{ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES};
+pub(crate) fn kernels(spheres_only: bool, composites: bool) -> (String, Vec<KernelSpec>) {
+    use pipeline::{
+        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES, PIECES,
+    };
+    let with = pipeline::composites_const(composites);
     if spheres_only {
         (
-            pipeline::source(&[NARROW_SPHERES, LAW, CONTACTS, INTEGRATE]),
+            pipeline::source(&[with, NARROW_SPHERES, PIECES, LAW, CONTACTS, INTEGRATE]),
             vec![("contacts", "contacts", Group2::None)],
         )
     } else {
         (
-            pipeline::source(&[ARGS, NARROW, LAW, CONTACTS, CONTACTS_SPLIT, INTEGRATE]),
+            pipeline::source(&[
+                with,
+                ARGS,
+                NARROW,
+                PIECES,
+                LAW,
+                CONTACTS,
+                CONTACTS_SPLIT,
+                INTEGRATE,
+            ]),
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),

@@ -84,11 +84,13 @@ pub(crate) fn base_kernels() -> (Vec<(&'static str, String)>, Vec<KernelSpec>) {
     (modules, kernels)
 }
 
-/// Sources and kernels of the contact set: sphere-only scenes, or any scene.
+/// Sources and kernels of the contact set: sphere-only scenes, or any scene, with or without
+/// composites.
 pub(crate) fn contact_kernels(
     spheres_only: bool,
+    composites: bool,
 ) -> (Vec<(&'static str, String)>, Vec<KernelSpec>) {
-    let (source, mut kernels) = contacts::kernels(spheres_only);
+    let (source, mut kernels) = contacts::kernels(spheres_only, composites);
     kernels.extend_from_slice(integrate::CONTACT_KERNELS);
     (vec![("contacts", source)], kernels)
 }

@@ -6,6 +6,7 @@
 //! looks only at bodies with a larger index in the neighbouring cells, so each pair is found
 //! once. Output is sorted by `(i, j)`, independent of the thread count.
 
+use clatter_geom::Shape;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -270,20 +271,12 @@ fn piece_contacts(world: &World, pairs: Vec<[u32; 2]>, wall_pairs: Vec<[u32; 2]>
             pieces.push(c);
         }
     }
-    let mut walls = Vec::new();
-    let mut wall_pieces = Vec::new();
-    for &[i, w] in &wall_pairs {
-        let plane = &world.walls[w as usize].plane;
-        let x = world.state.position[i as usize];
-        for a in 0..world.shape(i as usize).piece_count() as u32 {
-            let (pa, pose) = world.piece_at(i as usize, a, x);
-            let h = plane.normal.dot(pose.position) - plane.offset;
-            if h < pa.bounding_radius() + skin {
-                walls.push([i, w]);
-                wall_pieces.push(a);
-            }
-        }
-    }
+    let (walls, wall_pieces) = wall_piece_candidates(
+        world,
+        &wall_pairs,
+        &world.state.position,
+        &world.state.orientation,
+    );
     // Springs carried over by (body pair, piece code).
     let old = &world.contacts;
     let np_old = old.pairs.len();
@@ -313,6 +306,40 @@ fn piece_contacts(world: &World, pairs: Vec<[u32; 2]>, wall_pairs: Vec<[u32; 2]>
     twist.extend(wall_twist);
     pieces.extend(wall_pieces);
     Contacts::with_pieces(world.len(), body_pairs, walls, pieces, history, twist)
+}
+
+/// The body-wall candidates of a world with composites expanded per piece: `(body, wall)`
+/// once per piece whose bounding sphere, at the body pose `positions[i]`,
+/// `orientations[i]`, comes within the skin of the wall, and the pieces. The broad phase
+/// calls it with the current poses; [`World::set_contact_state`] with the rebuild's.
+pub(crate) fn wall_piece_candidates(
+    world: &World,
+    wall_pairs: &[[u32; 2]],
+    positions: &[Vec3],
+    orientations: &[glam::Quat],
+) -> (Vec<[u32; 2]>, Vec<u32>) {
+    let mut walls = Vec::new();
+    let mut wall_pieces = Vec::new();
+    for &[i, w] in wall_pairs {
+        let plane = &world.walls[w as usize].plane;
+        let (x, q) = (positions[i as usize], orientations[i as usize]);
+        let shape = world.shape(i as usize);
+        for a in 0..shape.piece_count() as u32 {
+            let (r, centre) = match shape {
+                Shape::Composite(c) => {
+                    let p = &c.pieces[a as usize];
+                    (p.shape.bounding_radius(), x + q * p.position)
+                }
+                s => (s.bounding_radius(), x),
+            };
+            let h = plane.normal.dot(centre) - plane.offset;
+            if h < r + world.skin {
+                walls.push([i, w]);
+                wall_pieces.push(a);
+            }
+        }
+    }
+    (walls, wall_pieces)
 }
 
 /// The largest squared distance any piece of a composite body can have moved since the last
