@@ -8,6 +8,10 @@ use crate::{GpuContext, GpuError};
 
 pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
 pub(crate) const STATUS: &str = include_str!("../shaders/status.wgsl");
+pub(crate) const MESH_TIME: &str = include_str!("../shaders/mesh_time.wgsl");
+pub(crate) const MESH: &str = include_str!("../shaders/mesh.wgsl");
+pub(crate) const MESH_POLY: &str = include_str!("../shaders/mesh_poly.wgsl");
+pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/mesh_spheres.wgsl");
 pub(crate) const ARGS: &str = include_str!("../shaders/args.wgsl");
 pub(crate) const NARROW: &str = include_str!("../shaders/narrow.wgsl");
 pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/narrow_spheres.wgsl");
@@ -27,6 +31,10 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("common.wgsl", COMMON),
     ("status.wgsl", STATUS),
     ("args.wgsl", ARGS),
+    ("mesh_time.wgsl", MESH_TIME),
+    ("mesh.wgsl", MESH),
+    ("mesh_poly.wgsl", MESH_POLY),
+    ("mesh_spheres.wgsl", MESH_SPHERES),
     ("narrow.wgsl", NARROW),
     ("narrow_spheres.wgsl", NARROW_SPHERES),
     ("bin.wgsl", BIN),
@@ -45,6 +53,7 @@ pub(crate) fn source(parts: &[&str]) -> String {
     let mut s = wgsl_prelude();
     s.push_str(COMMON);
     s.push_str(STATUS);
+    s.push_str(MESH_TIME);
     for p in parts {
         s.push_str(p);
     }

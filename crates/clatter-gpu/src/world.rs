@@ -120,16 +120,11 @@ impl GpuWorld {
     /// Uploads `world` (bodies, shapes, materials, walls and its contact springs) and builds
     /// the pipeline. Fails with a clear error when the scene does not fit the adapter.
     pub fn new(ctx: Arc<GpuContext>, world: &World) -> Result<GpuWorld, GpuError> {
-        if !world.boundaries.is_empty() {
-            // Not yet twinned in WGSL: `--backend auto` falls back to the CPU on this error.
-            return Err(GpuError::Unsupported(format!(
-                "the scene has {} triangle-mesh boundaries ([[boundary]]), which only the CPU backend supports so far",
-                world.boundaries.len()
-            )));
-        }
         let n = world.len() as u32;
         let num_walls = world.walls.len() as u32;
-        let shapes = GpuShapes::upload(&ctx, &world.shapes)?;
+        let (shapes, mesh_base) =
+            GpuShapes::upload_with_meshes(&ctx, &world.shapes, &world.boundaries)?;
+        let num_boundaries = world.boundaries.len() as u32;
         let state = world.contact_state();
         let capacity = (world.len() as u64 * PAIRS_PER_BODY)
             .max(state.pairs.len() as u64 + world.len() as u64)
@@ -158,6 +153,8 @@ impl GpuWorld {
                 [l.x, l.y, l.z, 0.0]
             }),
             num_sinks: world.sinks.len() as u32,
+            num_boundaries,
+            mesh_base,
             ..Default::default()
         };
         let device = &ctx.device;
@@ -203,8 +200,16 @@ impl GpuWorld {
                 [h.x, h.y, h.z, state.wall_twist[k]]
             })
             .collect();
-        let wall_touching: Vec<u32> = state.wall_touching.iter().map(|&t| t as u32).collect();
-        let wall_forces = &state.wall_forces;
+        // A wall slot's touching flag travels in its force record's unused `pad0` word.
+        let wall_forces: Vec<ContactForce> = state
+            .wall_forces
+            .iter()
+            .zip(&state.wall_touching)
+            .map(|(f, &t)| ContactForce {
+                pad0: f32::from_bits(t as u32),
+                ..*f
+            })
+            .collect();
         let mut st = [0u32; status::LEN];
         st[status::REBUILD] = 1;
         st[status::BAD_BODY] = u32::MAX;
@@ -219,7 +224,9 @@ impl GpuWorld {
             materials: world.materials.len() as u64,
             walls: num_walls as u64,
             sinks: world.sinks.len() as u64,
+            boundaries: num_boundaries as u64,
         };
+        let mesh_state = crate::mesh::initial_state(world);
         let bytes = |b: &[u8]| Some(b.to_vec());
         let bufs = Buffers::new(device, &dims, |b| match b {
             Buf::Params => bytes(bytemuck::bytes_of(&params)),
@@ -232,9 +239,9 @@ impl GpuWorld {
             Buf::Pairs => bytes(bytemuck::cast_slice(&pairs)),
             Buf::Hist => bytes(bytemuck::cast_slice(&hist)),
             Buf::WallHist => bytes(bytemuck::cast_slice(&wall_hist)),
-            Buf::WallForces => bytes(bytemuck::cast_slice(wall_forces)),
-            Buf::WallTouching => bytes(bytemuck::cast_slice(&wall_touching)),
+            Buf::WallForces => bytes(bytemuck::cast_slice(&wall_forces)),
             Buf::Snapshot => bytes(bytemuck::cast_slice(&snap_st)),
+            Buf::Mesh => bytes(bytemuck::cast_slice(&mesh_state)),
             _ => None,
         });
         let mut params = params;
@@ -577,6 +584,18 @@ impl GpuWorld {
             if new_samples > 0 && !parts[2].is_empty() {
                 self.collect_samples(&parts[2], st[status::SAMPLES], new_samples);
             }
+            if st[status::MESH_FULL] != 0 {
+                for (p, _, _) in in_flight.drain(..) {
+                    p.wait(&self.ctx)?;
+                }
+                return Err(GpuError::Unsupported(format!(
+                    "body {} meets more mesh triangles or contacts than the GPU keeps per body ({} triangles within its reach, {} contacts before the deepest {} are kept); run this scene with --backend cpu",
+                    st[status::MESH_FULL] - 1,
+                    crate::mesh::MAX_CANDIDATES,
+                    crate::mesh::MAX_FOUND,
+                    clatter::boundary::MESH_SLOTS
+                )));
+            }
             let alarm = st[status::HEALTH] != 0;
             let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0 || alarm;
             if stopped {
@@ -739,7 +758,25 @@ impl GpuWorld {
         let states = self.read_states()?;
         self.apply_states(&states, world);
         world.set_contact_state(self.contact_state()?);
-        Ok(())
+        self.read_mesh_into(world)
+    }
+
+    /// The mesh contact slots and the time of the last rebuild into `world` (which then
+    /// finds its mesh candidates as the CPU's rebuild did then).
+    fn read_mesh_into(&self, world: &mut World) -> Result<(), GpuError> {
+        let nb = world.boundaries.len();
+        if nb == 0 {
+            return Ok(());
+        }
+        let buf = &self.bufs[Buf::Mesh];
+        let words: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&self.read_buffer(buf, 0, buf.size())?);
+        let (slots, rebuild_step) = crate::mesh::read_slots(&words, self.n as usize, nb);
+        let back = (self.gpu_steps as u32).wrapping_sub(rebuild_step) as u64;
+        let rebuild_time = self.time_after(self.gpu_steps.saturating_sub(back));
+        world
+            .restore_mesh(slots, rebuild_time)
+            .map_err(GpuError::Unsupported)
     }
 
     /// Body state, step count and time into `world`.
@@ -782,7 +819,6 @@ impl GpuWorld {
                 (b(Buf::Touching), 0, 4 * np),
                 (b(Buf::Forces), 0, 48 * np),
                 (b(Buf::WallHist), 0, 16 * ns),
-                (b(Buf::WallTouching), 0, 4 * ns),
                 (b(Buf::WallForces), 0, 48 * ns),
                 (b(Buf::RebuildPos), 0, 16 * n),
             ],
@@ -790,11 +826,11 @@ impl GpuWorld {
         .into_iter();
         let mut next = || parts.next().unwrap_or_default();
         let (pairs_bytes, hist_bytes, touch_bytes, force_bytes) = (next(), next(), next(), next());
-        let (wh, wt, wf, rb) = (next(), next(), next(), next());
+        let (wh, wf, rb) = (next(), next(), next());
         let hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&hist_bytes);
         let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
         let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
-        let wall_forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&wf);
+        let (wall_forces, wall_touching) = split_wall_forces(bytemuck::pod_collect_to_vec(&wf));
         let rebuilt = st[status::REBUILDS] > 0;
         Ok(ContactState {
             rebuild_position: if rebuilt {
@@ -816,16 +852,14 @@ impl GpuWorld {
             forces,
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
-            wall_touching: bytemuck::pod_collect_to_vec::<u8, u32>(&wt)
-                .iter()
-                .map(|&t| t != 0)
-                .collect(),
+            wall_touching,
             wall_forces,
         })
     }
 
     /// Reads a named stage buffer (for the stage-by-stage tests): `keys`, `sorted`,
-    /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`.
+    /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`,
+    /// `mesh`.
     pub fn debug_buffer(&self, name: &str) -> Result<Vec<u8>, GpuError> {
         const STAGE_BUFFERS: &[&str] = &[
             "keys",
@@ -839,6 +873,7 @@ impl GpuWorld {
             "wall_forces",
             "grid",
             "status",
+            "mesh",
         ];
         let Some(b) = STAGE_BUFFERS
             .contains(&name)
@@ -851,6 +886,21 @@ impl GpuWorld {
         };
         self.read_buffer(b, 0, b.size())
     }
+}
+
+/// Wall force records as the GPU keeps them (the touching flag in `pad0`, see
+/// `wall_contact` in contacts.wgsl) split into the forces (`pad0` zero, as the CPU's) and
+/// the flags.
+fn split_wall_forces(mut forces: Vec<ContactForce>) -> (Vec<ContactForce>, Vec<bool>) {
+    let touching = forces
+        .iter_mut()
+        .map(|f| {
+            let t = f.pad0.to_bits() != 0;
+            f.pad0 = 0.0;
+            t
+        })
+        .collect();
+    (forces, touching)
 }
 
 /// What [`GpuWorld::step`] found.
@@ -1179,7 +1229,12 @@ impl GpuWorld {
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
             wall_touching: (0..slots).map(|k| words[slot_at(k) + 16] != 0).collect(),
-            wall_forces: (0..slots).map(|k| force(slot_at(k) + 4)).collect(),
+            wall_forces: (0..slots)
+                .map(|k| ContactForce {
+                    pad0: 0.0,
+                    ..force(slot_at(k) + 4)
+                })
+                .collect(),
         };
         let back = (self.gpu_steps as u32).wrapping_sub(st[status::STEPS]) as u64;
         let g = self.gpu_steps.saturating_sub(back);

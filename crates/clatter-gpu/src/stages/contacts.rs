@@ -10,15 +10,27 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 /// The contact kernels' source (with integrate.wgsl, which computes the wall contacts) and
 /// entry points.
 pub(crate) fn kernels(spheres_only: bool) -> (String, Vec<KernelSpec>) {
-    use pipeline::{ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES};
+    use pipeline::{
+        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_POLY, MESH_SPHERES, NARROW,
+        NARROW_SPHERES,
+    };
     if spheres_only {
         (
-            pipeline::source(&[NARROW_SPHERES, LAW, CONTACTS, INTEGRATE]),
+            pipeline::source(&[NARROW_SPHERES, LAW, CONTACTS, MESH, MESH_SPHERES, INTEGRATE]),
             vec![("contacts", "contacts", Group2::None)],
         )
     } else {
         (
-            pipeline::source(&[ARGS, NARROW, LAW, CONTACTS, CONTACTS_SPLIT, INTEGRATE]),
+            pipeline::source(&[
+                ARGS,
+                NARROW,
+                LAW,
+                CONTACTS,
+                CONTACTS_SPLIT,
+                MESH,
+                MESH_POLY,
+                INTEGRATE,
+            ]),
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),
