@@ -105,11 +105,10 @@ clatter::gpu_record! {
         pub alarm_factor: f32,
         /// A touching contact with a normal force above this may be deep: the alarm.
         pub force_floor: f32,
-        /// Number of triangle-mesh boundaries (`[[boundary]]`, see `crate::mesh`).
-        pub num_boundaries: u32,
-        /// Where the boundaries' headers start in `shape_u` (`crate::mesh::HEADER_WORDS`
-        /// words each).
-        pub mesh_base: u32,
+        /// Unused.
+        pub pad0: u32,
+        /// Unused.
+        pub pad1: u32,
         /// Unused.
         pub pad2: u32,
     }
