@@ -12,6 +12,7 @@ pub(crate) const MESH_TIME: &str = include_str!("../shaders/mesh_time.wgsl");
 pub(crate) const MESH: &str = include_str!("../shaders/mesh.wgsl");
 pub(crate) const MESH_POLY: &str = include_str!("../shaders/mesh_poly.wgsl");
 pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/mesh_spheres.wgsl");
+pub(crate) const MESH_NONE: &str = include_str!("../shaders/mesh_none.wgsl");
 pub(crate) const ARGS: &str = include_str!("../shaders/args.wgsl");
 pub(crate) const NARROW: &str = include_str!("../shaders/narrow.wgsl");
 pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/narrow_spheres.wgsl");
@@ -35,6 +36,7 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("mesh.wgsl", MESH),
     ("mesh_poly.wgsl", MESH_POLY),
     ("mesh_spheres.wgsl", MESH_SPHERES),
+    ("mesh_none.wgsl", MESH_NONE),
     ("narrow.wgsl", NARROW),
     ("narrow_spheres.wgsl", NARROW_SPHERES),
     ("bin.wgsl", BIN),
@@ -121,12 +123,29 @@ impl Kernels {
 }
 
 /// The layouts and the base kernels, shared by every world on a device; the contact kernels
-/// are compiled on first use (sphere-only scenes skip the large polyhedron narrow phase).
+/// are compiled on first use, in four variants (sphere-only scenes skip the large polyhedron
+/// narrow phase, scenes without mesh boundaries the mesh contacts): see [`ContactVariant`].
 pub(crate) struct Compiled {
     pub layouts: [wgpu::BindGroupLayout; 3],
     pub base: Kernels,
-    pub spheres: std::sync::OnceLock<Result<Kernels, GpuError>>,
-    pub general: std::sync::OnceLock<Result<Kernels, GpuError>>,
+    /// By [`ContactVariant::index`].
+    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 4],
+}
+
+/// Which contact kernel set a world uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct ContactVariant {
+    /// Every body is a sphere.
+    pub spheres_only: bool,
+    /// The scene has triangle-mesh boundaries.
+    pub meshes: bool,
+}
+
+impl ContactVariant {
+    /// Its slot in [`Compiled::contact_sets`].
+    pub fn index(self) -> usize {
+        self.spheres_only as usize + 2 * self.meshes as usize
+    }
 }
 
 impl Compiled {
@@ -173,26 +192,25 @@ impl Compiled {
         let c = std::sync::Arc::new(Compiled {
             layouts,
             base,
-            spheres: std::sync::OnceLock::new(),
-            general: std::sync::OnceLock::new(),
+            contact_sets: Default::default(),
         });
         *slot = Some(c.clone());
         Ok(c)
     }
 
-    /// The contact kernels for sphere-only scenes or for any scene, compiled on first use.
-    pub fn contacts(&self, ctx: &GpuContext, spheres_only: bool) -> Result<&Kernels, GpuError> {
-        let cell = if spheres_only {
-            &self.spheres
-        } else {
-            &self.general
-        };
-        cell.get_or_init(|| {
-            let (modules, kernels) = crate::stages::contact_kernels(spheres_only);
-            compile(ctx, &self.layouts, &modules, &kernels)
-        })
-        .as_ref()
-        .map_err(|e| e.clone())
+    /// The contact kernels of `variant`, compiled on first use.
+    pub fn contacts(
+        &self,
+        ctx: &GpuContext,
+        variant: ContactVariant,
+    ) -> Result<&Kernels, GpuError> {
+        self.contact_sets[variant.index()]
+            .get_or_init(|| {
+                let (modules, kernels) = crate::stages::contact_kernels(variant);
+                compile(ctx, &self.layouts, &modules, &kernels)
+            })
+            .as_ref()
+            .map_err(|e| e.clone())
     }
 }
 

@@ -16,7 +16,7 @@ use wgpu::util::DeviceExt;
 
 use crate::buffers::{Buf, Buffers, Dims};
 use crate::layout::{HEALTH_LOG, HealthParams, HealthRecord, Params, status};
-use crate::pipeline::{Compiled, Dispatch, Group2, KernelSet, Kernels, Size};
+use crate::pipeline::{Compiled, ContactVariant, Dispatch, Group2, KernelSet, Kernels, Size};
 use crate::readback::{Pending, read_buffer, read_buffers, read_buffers_after, submit_read};
 use crate::shapes::GpuShapes;
 use crate::stages::{self, Scans};
@@ -922,7 +922,7 @@ pub struct StepReport {
 struct Plan {
     compiled: Arc<Compiled>,
     /// This world's contact kernels.
-    contacts: KernelChoice,
+    contacts: ContactVariant,
     scans: Scans,
     /// Indirect dispatch arguments.
     args: wgpu::Buffer,
@@ -933,12 +933,6 @@ struct Plan {
     lean_ops: Vec<Dispatch>,
     /// The checks and the snapshot after every step, when on (stages::health).
     health_ops: Vec<Dispatch>,
-}
-
-/// Which contact kernel set a world uses.
-#[derive(Clone, Copy)]
-struct KernelChoice {
-    spheres_only: bool,
 }
 
 impl Plan {
@@ -954,7 +948,11 @@ impl Plan {
         let device = &ctx.device;
         let layouts = &compiled.layouts;
         let spheres_only = params.spheres_only != 0;
-        let contacts = compiled.contacts(ctx, spheres_only)?;
+        let variant = ContactVariant {
+            spheres_only,
+            meshes: params.num_boundaries > 0,
+        };
+        let contacts = compiled.contacts(ctx, variant)?;
         let scans = Scans::new(
             device,
             &layouts[2],
@@ -996,7 +994,7 @@ impl Plan {
         let health_ops = stages::health::record(&compiled.base, params.n as u64);
         Ok(Plan {
             compiled: compiled.clone(),
-            contacts: KernelChoice { spheres_only },
+            contacts: variant,
             group0: bufs.bind_group(device, &layouts[0]),
             group1: device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("shapes"),
@@ -1017,13 +1015,8 @@ impl Plan {
         match op.set {
             KernelSet::Base => &self.compiled.base,
             KernelSet::Contacts => {
-                let cell = if self.contacts.spheres_only {
-                    &self.compiled.spheres
-                } else {
-                    &self.compiled.general
-                };
                 // Compiled in `Plan::new`, which failed otherwise.
-                match cell.get() {
+                match self.compiled.contact_sets[self.contacts.index()].get() {
                     Some(Ok(k)) => k,
                     _ => unreachable!("contact kernels compiled before the plan"),
                 }

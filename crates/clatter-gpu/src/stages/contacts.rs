@@ -9,28 +9,31 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 
 /// The contact kernels' source (with integrate.wgsl, which computes the wall contacts) and
 /// entry points.
-pub(crate) fn kernels(spheres_only: bool) -> (String, Vec<KernelSpec>) {
+pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelSpec>) {
     use pipeline::{
-        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_POLY, MESH_SPHERES, NARROW,
-        NARROW_SPHERES,
+        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE, MESH_POLY, MESH_SPHERES,
+        NARROW, NARROW_SPHERES,
     };
-    if spheres_only {
+    // The mesh contacts (called by integrate) only in scenes with meshes.
+    let mesh: &[&str] = match (variant.meshes, variant.spheres_only) {
+        (false, _) => &[MESH_NONE],
+        (true, true) => &[MESH, MESH_SPHERES],
+        (true, false) => &[MESH, MESH_POLY],
+    };
+    if variant.spheres_only {
+        let mut parts = vec![NARROW_SPHERES, LAW, CONTACTS];
+        parts.extend_from_slice(mesh);
+        parts.push(INTEGRATE);
         (
-            pipeline::source(&[NARROW_SPHERES, LAW, CONTACTS, MESH, MESH_SPHERES, INTEGRATE]),
+            pipeline::source(&parts),
             vec![("contacts", "contacts", Group2::None)],
         )
     } else {
+        let mut parts = vec![ARGS, NARROW, LAW, CONTACTS, CONTACTS_SPLIT];
+        parts.extend_from_slice(mesh);
+        parts.push(INTEGRATE);
         (
-            pipeline::source(&[
-                ARGS,
-                NARROW,
-                LAW,
-                CONTACTS,
-                CONTACTS_SPLIT,
-                MESH,
-                MESH_POLY,
-                INTEGRATE,
-            ]),
+            pipeline::source(&parts),
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),
