@@ -130,6 +130,20 @@ impl GpuWorld {
             .max(state.pairs.len() as u64 + world.len() as u64)
             .max(1024);
         Self::check_fits(&ctx, world.len() as u64, capacity, num_walls as u64)?;
+        let mesh_bytes = 4 * crate::mesh::state_words(world.len() as u64, num_boundaries as u64);
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        if mesh_bytes > limit {
+            return Err(GpuError::TooLarge {
+                adapter: ctx.adapter_name(),
+                what: "largest storage buffer, for the mesh contact slots".into(),
+                need: format!("{mesh_bytes} bytes"),
+                limit: format!("{limit} bytes"),
+                advice: "use fewer bodies, or --backend cpu".into(),
+            });
+        }
         let rmax = world.consts.max_radius();
         let params = Params {
             gravity: [world.gravity.x, world.gravity.y, world.gravity.z, 0.0],
