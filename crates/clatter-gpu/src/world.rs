@@ -1252,6 +1252,15 @@ impl GpuWorld {
         }
         world.time = t;
         world.set_contact_state(state);
+        if !world.boundaries.is_empty() {
+            // The snapshot holds no mesh slots: the mesh contacts restart without springs,
+            // and the next step rebuilds (finding the mesh candidates afresh).
+            world.set_needs_rebuild(true);
+            let empty = vec![clatter::boundary::MeshSlot::default(); world.mesh_slots().len()];
+            world
+                .restore_mesh(empty, t)
+                .map_err(GpuError::Unsupported)?;
+        }
         Ok(true)
     }
 }
