@@ -42,7 +42,7 @@ pub const SLOT_WORDS: usize = 24;
 /// Most candidate triangles (within a body's bounding radius plus half the skin) the GPU
 /// holds per body and step (a private array in mesh.wgsl); beyond it the pipeline stops and
 /// the run fails with a clear error (status word `MESH_FULL`).
-pub const MAX_CANDIDATES: usize = 32;
+pub const MAX_CANDIDATES: usize = 64;
 /// Most mesh contacts (merged planes plus edge and vertex contacts) found per body and step
 /// before the deepest [`MESH_SLOTS`] are kept; beyond it, as for [`MAX_CANDIDATES`].
 pub const MAX_FOUND: usize = 8;

@@ -373,6 +373,33 @@ fn a_translating_plate_hits_a_sphere_as_on_the_cpu() {
     eprintln!("plate: {d:?}");
 }
 
+#[test]
+fn a_body_meeting_too_many_triangles_stops_the_gpu_with_a_clear_error() {
+    // A floor of 20,000 triangles 1 mm across under a 10 mm ball: about 120 triangles lie
+    // within its reach (its radius plus half the skin), beyond the GPU's per-body capacity
+    // of 64 (the CPU has none).
+    let (v, t) = floor_mesh(100, 0.05);
+    let w = world(
+        sphere(),
+        vec![body(Vec3::new(0.0, 0.0, R + 1e-4), Vec3::ZERO, Vec3::ZERO)],
+        material(0.3, 0.5),
+        Vec3::new(0.0, 0.0, -9.81),
+        2e-5,
+        vec![boundary(&v, &t, BoundaryMotion::Fixed, 0.0)],
+    );
+    let mut cpu = w.clone();
+    for _ in 0..100 {
+        cpu.step().expect("the CPU has no such limit");
+    }
+    let ctx = clatter_gpu::test_context().expect("a GPU adapter (lavapipe)");
+    let mut gpu = GpuWorld::new(ctx, &w).expect("uploads");
+    let err = gpu.step(100).expect_err("the GPU stops").to_string();
+    assert!(
+        err.contains("body 0") && err.contains("mesh triangles") && err.contains("--backend cpu"),
+        "{err}"
+    );
+}
+
 fn small_hopper() -> (Scene, String, String) {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/hopper.toml");
     let text = std::fs::read_to_string(path)
