@@ -131,11 +131,14 @@ struct Diff {
     position: f32,
     velocity: f32,
     touching_steps: usize,
+    /// Broad-phase rebuilds on the CPU (the GPU must rebuild at the same steps: as many).
+    rebuilds: u64,
 }
 
 /// Steps `cpu` and the GPU copy of it side by side, `chunks` times `chunk` steps: equal
 /// touching contact counts after every chunk, positions within `tol_x` and velocities
-/// within `tol_v`; at the end the mesh slots' touching flags equal and their forces close.
+/// within `tol_v`; at the end as many rebuilds, the mesh slots' touching flags equal and
+/// their forces within `force_rel` of the CPU's.
 fn compare(
     cpu: World,
     chunk: u64,
@@ -152,7 +155,9 @@ fn compare(
     for c in 0..chunks {
         let mut stats = None;
         for _ in 0..chunk {
-            stats = Some(cpu.step().expect("CPU step"));
+            let st = cpu.step().expect("CPU step");
+            d.rebuilds += st.rebuilt as u64;
+            stats = Some(st);
         }
         let rep = gpu.step_into(chunk, &mut host).expect("GPU steps");
         assert_eq!(rep.bad_body, None);
@@ -182,6 +187,8 @@ fn compare(
             );
         }
     }
+    // The Verlet check includes the meshes' motion on both backends: the same rebuilds.
+    assert_eq!(gpu.rebuilds(), d.rebuilds, "rebuilds");
     gpu.read_into(&mut host).expect("read back");
     let (a, b) = (cpu.mesh_slots(), host.mesh_slots());
     assert_eq!(a.len(), b.len());
@@ -443,7 +450,9 @@ fn gpu_runs_are_bitwise_the_same_and_resume_on_the_cpu() {
         gpu.read_into(&mut host).unwrap();
         host
     };
-    let (a, b) = (run(60), run(60));
+    let (a, b) = (run(300), run(300));
+    let touching = a.mesh_slots().iter().filter(|s| s.touching).count();
+    assert!(touching > 0, "mesh contacts at the checkpoint");
     assert_eq!(a.state.position, b.state.position);
     assert_eq!(a.state.velocity, b.state.velocity);
     assert_eq!(a.state.angular_momentum, b.state.angular_momentum);
@@ -453,10 +462,10 @@ fn gpu_runs_are_bitwise_the_same_and_resume_on_the_cpu() {
     let (_, mut resumed) = Checkpoint::from_bytes(&bytes).unwrap().world().unwrap();
     assert_eq!(resumed.mesh_slots(), a.mesh_slots());
     let mut cpu = s.world();
-    for _ in 0..100 {
+    for _ in 0..400 {
         cpu.step().unwrap();
     }
-    for _ in 0..40 {
+    for _ in 0..100 {
         resumed.step().unwrap();
     }
     assert_eq!(resumed.step_count, cpu.step_count);
@@ -464,7 +473,8 @@ fn gpu_runs_are_bitwise_the_same_and_resume_on_the_cpu() {
     for i in 0..cpu.len() {
         worst = worst.max((cpu.state.position[i] - resumed.state.position[i]).length());
     }
-    assert!(worst < 2e-3 * 0.002, "resumed run drifts by {worst}");
+    // The loose pile agrees to rounding on both backends (see the hopper test above).
+    assert!(worst < 1e-3 * 0.002, "resumed run drifts by {worst}");
     eprintln!("GPU checkpoint resumed on the CPU: largest position difference {worst}");
 }
 
