@@ -554,6 +554,12 @@ fn mesh_clear(i: u32) {
     }
 }
 
+// Whether body i had a triangle within its reach at the last rebuild (the CPU's active
+// list), after the slots.
+fn mesh_active_at(i: u32) -> u32 {
+    return mesh_slot_at(params.n, 0u) + i;
+}
+
 // Body i's mesh contacts this step (boundary.rs `body_slots`, `piece_contacts`, `assign`):
 // the slots written, the force and torque summed in slot order.
 fn mesh_contacts(i: u32) -> MeshSum {
@@ -565,9 +571,24 @@ fn mesh_contacts(i: u32) -> MeshSum {
     let s = st.shape;
     let size = shape_radius(s);
     mesh_overflow = false;
-    if !mesh_gather(x, st.radius + 0.5 * params.skin) {
+    // At a rebuild the CPU's candidates (within the radius plus the skin), and whether the
+    // body has any; between rebuilds only bodies that had some, within the radius plus half
+    // the skin (see src/mesh.rs).
+    let rebuilding = atomicLoad(&status[ST_REBUILDING]) != 0u;
+    if !rebuilding && mesh[mesh_active_at(i)] == 0u {
+        mesh_clear(i);
+        return out;
+    }
+    var reach = st.radius + 0.5 * params.skin;
+    if rebuilding {
+        reach = st.radius + params.skin;
+    }
+    if !mesh_gather(x, reach) {
         out.ok = false;
         return out;
+    }
+    if rebuilding {
+        mesh[mesh_active_at(i)] = select(0u, 1u, mesh_ncands > 0u);
     }
     if mesh_ncands == 0u {
         mesh_clear(i);

@@ -16,12 +16,16 @@
 //!   start` and the rotation phase `rate (t - start) mod 2 pi`, both as unevaluated sums of
 //!   two f32 (about 48 bits: the CPU computes them in f64) advanced by `end_step` every step,
 //!   the elapsed motion time at the last rebuild (for the Verlet check), and the increments.
-//! - per body, [`MESH_SLOTS`] slots of [`SLOT_WORDS`] words: the CPU's `MeshSlot`.
+//! - per body, [`MESH_SLOTS`] slots of [`SLOT_WORDS`] words: the CPU's `MeshSlot`;
+//! - then one word per body: whether it had a triangle within its bounding radius plus the
+//!   skin at the last rebuild (the CPU's active list): bodies without skip the meshes until
+//!   the next rebuild.
 //!
-//! The GPU finds a body's candidate triangles every step (the triangles within its bounding
-//! radius plus half the skin, from the grid) instead of keeping the CPU's list from the last
-//! rebuild: between rebuilds, bodies and meshes together move less than half the skin, so
-//! this set lies inside the CPU's list and holds every triangle a contact can involve.
+//! The GPU finds an active body's candidate triangles every step from the grid instead of
+//! keeping the CPU's list from the last rebuild: at a rebuild, the triangles within its
+//! bounding radius plus the skin (the CPU's list); between rebuilds, within its radius plus
+//! half the skin: bodies and meshes together move less than half the skin between rebuilds,
+//! so this set lies inside the CPU's list and holds every triangle a contact can involve.
 
 use clatter::boundary::{Boundary, BoundaryMotion, MESH_SLOTS, MeshSlot};
 use clatter::{ContactForce, World};
@@ -39,8 +43,8 @@ pub const BOUNDARY_STATE_WORDS: usize = 16;
 /// xyz, 0, then the force record (`ContactForce`, 12 words).
 pub const SLOT_WORDS: usize = 24;
 
-/// Most candidate triangles (within a body's bounding radius plus half the skin) the GPU
-/// holds per body and step (a private array in mesh.wgsl); beyond it the pipeline stops and
+/// Most candidate triangles (within a body's bounding radius plus the skin at a rebuild,
+/// plus half the skin between rebuilds) the GPU holds per body and step (a private array in mesh.wgsl); beyond it the pipeline stops and
 /// the run fails with a clear error (status word `MESH_FULL`).
 pub const MAX_CANDIDATES: usize = 64;
 /// Most mesh contacts (merged planes plus edge and vertex contacts) found per body and step
@@ -54,7 +58,7 @@ pub fn state_words(bodies: u64, boundaries: u64) -> u64 {
     }
     GLOBAL_WORDS as u64
         + BOUNDARY_STATE_WORDS as u64 * boundaries
-        + (MESH_SLOTS * SLOT_WORDS) as u64 * bodies
+        + (MESH_SLOTS * SLOT_WORDS + 1) as u64 * bodies
 }
 
 /// The first word of the slots.

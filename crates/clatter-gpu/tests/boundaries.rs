@@ -383,7 +383,7 @@ fn a_translating_plate_hits_a_sphere_as_on_the_cpu() {
 #[test]
 fn a_body_meeting_too_many_triangles_stops_the_gpu_with_a_clear_error() {
     // A floor of 20,000 triangles 1 mm across under a 10 mm ball: about 120 triangles lie
-    // within its reach (its radius plus half the skin), beyond the GPU's per-body capacity
+    // within its reach (its radius plus the skin at a rebuild), beyond the GPU's per-body capacity
     // of 64 (the CPU has none).
     let (v, t) = floor_mesh(100, 0.05);
     let w = world(
