@@ -48,6 +48,7 @@ fn prepare() {
     }
     if rebuild != 0u {
         atomicAdd(&status[ST_REBUILDS], 1u);
+        mesh_note_rebuild();
         for (var k = 0u; k < 3u; k++) {
             atomicStore(&status[ST_BBOX + k], 0xffffffffu);
             atomicStore(&status[ST_BBOX + 3u + k], 0u);
@@ -80,6 +81,7 @@ fn prepare_lean() {
 fn end_step() {
     if !halted() {
         atomicAdd(&status[ST_STEPS], 1u);
+        mesh_advance();
     }
 }
 

@@ -80,6 +80,12 @@ struct WallResult {
     force: ContactForce,
 }
 
+// Whether body-wall slot t touched in the last step: the flag is kept in the unused `pad0`
+// word of its force record (1 as bits; a released slot's record is all zero).
+fn wall_touched(t: u32) -> bool {
+    return bitcast<u32>(wall_forces[t].pad0) != 0u;
+}
+
 // Body i's piece k (the body itself, k = 0, unless a composite) against wall w, in slot
 // `wall_slot(i, w, k)` (pieces.wgsl): manifold, contact law, spring (stored with the force for
 // the host's read-back); the force when the piece touches the wall. Called by integrate
@@ -109,14 +115,14 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
         let fixed = BodyMotion(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
         let r = contact_force(params_w, si.mass, radius, share, m, fixed, motion_of(i),
                             wall_hist[t], params.dt);
-        wall_forces[t] = r.force;
+        var stored = r.force;
+        stored.pad0 = bitcast<f32>(1u); // touching (wall_touched)
+        wall_forces[t] = stored;
         wall_hist[t] = r.hist;
-        wall_touching[t] = 1u;
         return WallResult(true, r.force);
-    } else if wall_touching[t] != 0u {
+    } else if wall_touched(t) {
         wall_forces[t] = ContactForce();
         wall_hist[t] = vec4<f32>(0.0);
-        wall_touching[t] = 0u;
     }
     return WallResult(false, ContactForce());
 }

@@ -1,8 +1,9 @@
 // Stage **integrate** (src/stages/integrate.rs), twin of crates/clatter/src/step/integrate.rs:
 // each body gathers its contact forces in the CPU's fixed order (pairs as body a, as body b,
-// then walls; no float atomics), then semi-implicit Euler and the compensated quaternion
-// update. Wall contacts (contacts.wgsl `wall_contact`) are computed here, where they are
-// summed, saving a second read of every body. Flags a rebuild once a body has moved half the
+// then walls, then the mesh contacts' sum in slot order; no float atomics), then
+// semi-implicit Euler and the compensated quaternion update. Wall contacts (contacts.wgsl
+// `wall_contact`) and mesh contacts (mesh.wgsl `mesh_contacts`) are computed here, where
+// they are summed, saving a second read of every body. Flags a rebuild once a body has moved half the
 // skin; a non-finite state stops the pipeline. Then the sink test (crates/clatter/src/sink.rs):
 // a body whose centre is inside a sink's closed box is removed (`position.w` = 1) and asks
 // for a rebuild, which drops its pairs; removed bodies are skipped.
@@ -36,7 +37,11 @@ fn in_sink(x: vec3<f32>) -> bool {
 // Body i: wall contacts, gather, update. Returns the number of walls it touches.
 fn integrate_body(i: u32) -> u32 {
     if bodies[i].position.w != 0.0 {
-        return 0u; // removed by a sink
+        // Removed by a sink: no mesh contacts (the CPU's next rebuild clears its slots).
+        if params.num_boundaries > 0u {
+            mesh_clear(i);
+        }
+        return 0u;
     }
     var touched = 0u;
     var f = vec3<f32>(0.0);
@@ -79,6 +84,15 @@ fn integrate_body(i: u32) -> u32 {
                 }
             }
         }
+    }
+    if params.num_boundaries > 0u {
+        let ms = mesh_contacts(i);
+        if !ms.ok {
+            atomicMax(&status[ST_MESH_FULL], i + 1u);
+        }
+        f += ms.f;
+        t += ms.t;
+        touched += ms.touched;
     }
     var b = bodies[i];
     let dt = params.dt;
@@ -132,7 +146,9 @@ fn integrate_body(i: u32) -> u32 {
     let finite = d2 <= 3.0e38 && abs(qn.w) <= 3.0e38 && all(abs(v) <= vec3<f32>(3.0e38));
     if !finite {
         atomicMin(&status[ST_BAD_BODY], i);
-    } else if d2 > params.half_skin2 || removed {
+    } else if d2 > params.half_skin2 || removed
+        || (params.num_boundaries > 0u && sqrt(d2) + mesh_moved() > 0.5 * params.skin) {
+        // Bodies and meshes together may have closed half the skin (the CPU's check).
         atomicStore(&status[ST_REBUILD], 1u);
     }
     return touched;

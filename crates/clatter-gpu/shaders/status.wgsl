@@ -12,7 +12,8 @@ fn thread_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
 // that could not be done. A health alarm (health.wgsl) stops it after the step it checked.
 fn halted() -> bool {
     return atomicLoad(&status[ST_OVERFLOW]) != 0u || atomicLoad(&status[ST_BAD_BODY]) != NONE
-        || atomicLoad(&status[ST_STALL]) != 0u || atomicLoad(&status[ST_HEALTH]) != 0u;
+        || atomicLoad(&status[ST_STALL]) != 0u || atomicLoad(&status[ST_HEALTH]) != 0u
+        || atomicLoad(&status[ST_MESH_FULL]) != 0u;
 }
 
 var<workgroup> wg_flag: u32;

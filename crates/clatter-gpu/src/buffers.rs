@@ -45,6 +45,8 @@ pub enum Count {
     HealthSlots,
     /// The snapshot's words (`layout::snapshot::words`).
     SnapshotWords,
+    /// The mesh boundaries' state words (`crate::mesh::state_words`).
+    MeshWords,
 }
 
 /// One group-0 binding.
@@ -83,6 +85,8 @@ pub struct Dims {
     pub pieces: u64,
     /// Whether some body is a composite.
     pub composites: bool,
+    /// Triangle-mesh boundaries.
+    pub boundaries: u64,
 }
 
 impl Binding {
@@ -105,6 +109,7 @@ impl Binding {
             Count::SnapshotWords => {
                 crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.pairs)
             }
+            Count::MeshWords => crate::mesh::state_words(d.bodies, d.boundaries),
         };
         (n * self.element).max(64)
     }
@@ -190,10 +195,12 @@ buffers! {
     BAdj = "b_adj", ReadWrite, "array<u32>", 4, Pairs;
     /// Springs per body and wall (`body * walls + wall`).
     WallHist = "wall_hist", ReadWrite, "array<vec4<f32>>", 16, WallSlots;
-    /// The last step's force per body and wall.
+    /// The last step's force per body and wall; `pad0` holds (as bits) whether the body
+    /// touched the wall (1) or not (0).
     WallForces = "wall_forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), WallSlots;
-    /// Whether each body touched each wall in the last step.
-    WallTouching = "wall_touching", ReadWrite, "array<u32>", 4, WallSlots;
+    /// The triangle-mesh boundaries' state (`crate::mesh`): their time and the pose at the
+    /// last rebuild, then each body's mesh contact slots (springs, normal, force).
+    Mesh = "mesh", ReadWrite, "array<u32>", 4, MeshWords;
     /// What the blow-up checks compare against.
     HealthParams = "health_params", Uniform, "HealthParams", size_of::<crate::layout::HealthParams>(), One;
     /// The energy log (a ring of `HEALTH_LOG` samples, status word `SAMPLES` counts them),

@@ -56,6 +56,15 @@ clatter::gpu_record! {
         /// 1 when some body is a composite: pair-list words then carry piece ids above the
         /// body index (pieces.wgsl), and the rebuild test counts rotation.
         pub composites: u32,
+        /// Number of triangle-mesh boundaries (`[[boundary]]`, see `crate::mesh`).
+        pub num_boundaries: u32,
+        /// Where the boundaries' headers start in `shape_u` (`crate::mesh::HEADER_WORDS`
+        /// words each).
+        pub mesh_base: u32,
+        /// Unused.
+        pub pad0: u32,
+        /// Unused.
+        pub pad1: u32,
         /// Unused.
         pub pad2: u32,
     }
@@ -197,8 +206,12 @@ pub mod status {
     pub const CHECKED: usize = 18;
     /// Energy samples written to `health_log` so far.
     pub const SAMPLES: usize = 19;
+    /// Set (to the body index plus one) when a body met more mesh triangles or contacts
+    /// than the GPU's fixed per-body capacity (`crate::mesh`): the pipeline stops and the
+    /// host reports it.
+    pub const MESH_FULL: usize = 20;
     /// Number of status words.
-    pub const LEN: usize = 20;
+    pub const LEN: usize = 21;
 }
 
 /// Indirect-dispatch slots (`ARG_*` in WGSL); the scan levels' slots follow.
@@ -246,7 +259,16 @@ fn constants() -> Vec<Constant> {
         st("ST_HEALTH", status::HEALTH),
         st("ST_CHECKED", status::CHECKED),
         st("ST_SAMPLES", status::SAMPLES),
+        st("ST_MESH_FULL", status::MESH_FULL),
         st("ST_LEN", status::LEN),
+        U32("MESH_SLOTS", clatter::boundary::MESH_SLOTS as u32),
+        U32("MESH_HDR", crate::mesh::HEADER_WORDS as u32),
+        U32("MESH_GLOBAL", crate::mesh::GLOBAL_WORDS as u32),
+        U32("MESH_BSTATE", crate::mesh::BOUNDARY_STATE_WORDS as u32),
+        U32("MESH_SLOT", crate::mesh::SLOT_WORDS as u32),
+        U32("MESH_MAX_CANDS", crate::mesh::MAX_CANDIDATES as u32),
+        U32("MESH_MAX_FOUND", crate::mesh::MAX_FOUND as u32),
+        Constant::F32("SLOT_MATCH_COS", clatter::boundary::SLOT_MATCH_COS),
         U32("SNAP_STATUS", snapshot::STATUS as u32),
         U32("SNAP_BODY", snapshot::BODY as u32),
         U32("SNAP_SLOT", snapshot::SLOT as u32),

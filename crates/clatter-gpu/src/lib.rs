@@ -11,6 +11,7 @@ pub mod buffers;
 pub mod context;
 pub mod law;
 pub mod layout;
+pub mod mesh;
 pub mod narrow;
 pub(crate) mod pipeline;
 pub mod readback;

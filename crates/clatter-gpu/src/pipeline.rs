@@ -8,6 +8,11 @@ use crate::{GpuContext, GpuError};
 
 pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
 pub(crate) const STATUS: &str = include_str!("../shaders/status.wgsl");
+pub(crate) const MESH_TIME: &str = include_str!("../shaders/mesh_time.wgsl");
+pub(crate) const MESH: &str = include_str!("../shaders/mesh.wgsl");
+pub(crate) const MESH_POLY: &str = include_str!("../shaders/mesh_poly.wgsl");
+pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/mesh_spheres.wgsl");
+pub(crate) const MESH_NONE: &str = include_str!("../shaders/mesh_none.wgsl");
 pub(crate) const ARGS: &str = include_str!("../shaders/args.wgsl");
 pub(crate) const NARROW: &str = include_str!("../shaders/narrow.wgsl");
 pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/narrow_spheres.wgsl");
@@ -40,6 +45,11 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("common.wgsl", COMMON),
     ("status.wgsl", STATUS),
     ("args.wgsl", ARGS),
+    ("mesh_time.wgsl", MESH_TIME),
+    ("mesh.wgsl", MESH),
+    ("mesh_poly.wgsl", MESH_POLY),
+    ("mesh_spheres.wgsl", MESH_SPHERES),
+    ("mesh_none.wgsl", MESH_NONE),
     ("narrow.wgsl", NARROW),
     ("narrow_spheres.wgsl", NARROW_SPHERES),
     ("bin.wgsl", BIN),
@@ -59,6 +69,7 @@ pub(crate) fn source(parts: &[&str]) -> String {
     let mut s = wgsl_prelude();
     s.push_str(COMMON);
     s.push_str(STATUS);
+    s.push_str(MESH_TIME);
     for p in parts {
         s.push_str(p);
     }
@@ -126,14 +137,35 @@ impl Kernels {
 }
 
 /// The layouts and the base kernels, shared by every world on a device; the contact kernels
-/// are compiled on first use (sphere-only scenes skip the large polyhedron narrow phase).
+/// are compiled on first use, in four variants (sphere-only scenes skip the large polyhedron
+/// narrow phase, scenes without mesh boundaries the mesh contacts): see [`ContactVariant`].
 pub(crate) struct Compiled {
     pub layouts: [wgpu::BindGroupLayout; 3],
     pub base: Kernels,
-    pub spheres: std::sync::OnceLock<Result<Kernels, GpuError>>,
-    pub general: std::sync::OnceLock<Result<Kernels, GpuError>>,
-    /// The general contact kernels with composite bodies.
-    pub composites: std::sync::OnceLock<Result<Kernels, GpuError>>,
+    /// By [`ContactVariant::index`].
+    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 5],
+}
+
+/// Which contact kernel set a world uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct ContactVariant {
+    /// Every body is a sphere.
+    pub spheres_only: bool,
+    /// The scene has triangle-mesh boundaries.
+    pub meshes: bool,
+    /// Some body is a composite (never together with meshes: the GPU refuses that).
+    pub composites: bool,
+}
+
+impl ContactVariant {
+    /// Its slot in [`Compiled::contact_sets`].
+    pub fn index(self) -> usize {
+        if self.composites {
+            4
+        } else {
+            self.spheres_only as usize + 2 * self.meshes as usize
+        }
+    }
 }
 
 impl Compiled {
@@ -180,44 +212,33 @@ impl Compiled {
         let c = std::sync::Arc::new(Compiled {
             layouts,
             base,
-            spheres: std::sync::OnceLock::new(),
-            general: std::sync::OnceLock::new(),
-            composites: std::sync::OnceLock::new(),
+            contact_sets: Default::default(),
         });
         *slot = Some(c.clone());
         Ok(c)
     }
 
-    /// The contact kernels for sphere-only scenes, for any scene without composites, or for
-    /// scenes with composites, compiled on first use.
+    /// The contact kernels of `variant`, compiled on first use.
     pub fn contacts(
         &self,
         ctx: &GpuContext,
-        spheres_only: bool,
-        composites: bool,
+        variant: ContactVariant,
     ) -> Result<&Kernels, GpuError> {
-        let cell = self.contact_cell(spheres_only, composites);
-        cell.get_or_init(|| {
-            let (modules, kernels) = crate::stages::contact_kernels(spheres_only, composites);
-            compile(ctx, &self.layouts, &modules, &kernels)
-        })
-        .as_ref()
-        .map_err(|e| e.clone())
+        self.contact_cell(variant)
+            .get_or_init(|| {
+                let (modules, kernels) = crate::stages::contact_kernels(variant);
+                compile(ctx, &self.layouts, &modules, &kernels)
+            })
+            .as_ref()
+            .map_err(|e| e.clone())
     }
 
-    /// Where the contact kernels of that kind are kept.
+    /// Where the contact kernels of `variant` are kept.
     pub fn contact_cell(
         &self,
-        spheres_only: bool,
-        composites: bool,
+        variant: ContactVariant,
     ) -> &std::sync::OnceLock<Result<Kernels, GpuError>> {
-        if composites {
-            &self.composites
-        } else if spheres_only {
-            &self.spheres
-        } else {
-            &self.general
-        }
+        &self.contact_sets[variant.index()]
     }
 }
 

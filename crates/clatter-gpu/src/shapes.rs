@@ -185,14 +185,19 @@ fn pack(shapes: &[PreparedShape]) -> Result<Packed, GpuError> {
             }
         }
     }
-    // Zero-sized bindings are invalid: keep at least one element in each buffer.
+    Ok(Packed { floats, words })
+}
+
+/// Keeps at least one element in each buffer (zero-sized bindings are invalid).
+fn finish(mut p: Packed) -> Packed {
+    let Packed { floats, words } = &mut p;
     if floats.is_empty() {
         floats.push([0.0; 4]);
     }
     if words.is_empty() {
         words.push(0);
     }
-    Ok(Packed { floats, words })
+    p
 }
 
 impl GpuShapes {
@@ -203,8 +208,31 @@ impl GpuShapes {
     /// [`MAX_FACE_VERTICES`] vertices (the WGSL uses fixed-size private arrays), and with
     /// [`GpuError::TooLarge`] when a buffer exceeds the adapter's limits.
     pub fn upload(ctx: &GpuContext, shapes: &[PreparedShape]) -> Result<GpuShapes, GpuError> {
+        Ok(Self::upload_with_meshes(ctx, shapes, &[])?.0)
+    }
+
+    /// [`GpuShapes::upload`], with the triangle-mesh boundaries' static data appended
+    /// (`crate::mesh`); also returns where their headers start in `shape_u`
+    /// (`Params::mesh_base`).
+    pub fn upload_with_meshes(
+        ctx: &GpuContext,
+        shapes: &[PreparedShape],
+        boundaries: &[clatter::boundary::Boundary],
+    ) -> Result<(GpuShapes, u32), GpuError> {
         use wgpu::util::DeviceExt;
-        let packed = pack(shapes)?;
+        let mut packed = pack(shapes)?;
+        let mut first = vec![0u32];
+        for b in boundaries {
+            let next = first.last().copied().unwrap_or(0) as u64 + b.triangles.len() as u64;
+            first.push(
+                u32::try_from(next).map_err(|_| {
+                    GpuError::Unsupported("more than 2^32 boundary triangles".into())
+                })?,
+            );
+        }
+        let mesh_base =
+            crate::mesh::pack(boundaries, &first, &mut packed.floats, &mut packed.words)?;
+        let packed = finish(packed);
         let limit = ctx
             .limits
             .max_storage_buffer_binding_size
@@ -238,11 +266,14 @@ impl GpuShapes {
                 usage: wgpu::BufferUsages::STORAGE,
             });
         ctx.take_error()?;
-        Ok(GpuShapes {
-            floats,
-            words,
-            count: shapes.len(),
-        })
+        Ok((
+            GpuShapes {
+                floats,
+                words,
+                count: shapes.len(),
+            },
+            mesh_base,
+        ))
     }
 
     /// The layout entries of bind group 1 (bindings 0 and 1, read-only storage), visible to

@@ -17,7 +17,7 @@ use wgpu::util::DeviceExt;
 
 use crate::buffers::{Buf, Buffers, Dims};
 use crate::layout::{HEALTH_LOG, HealthParams, HealthRecord, Params, status};
-use crate::pipeline::{Compiled, Dispatch, Group2, KernelSet, Kernels, Size};
+use crate::pipeline::{Compiled, ContactVariant, Dispatch, Group2, KernelSet, Kernels, Size};
 use crate::readback::{Pending, read_buffer, read_buffers, read_buffers_after, submit_read};
 use crate::shapes::GpuShapes;
 use crate::stages::{self, Scans};
@@ -122,16 +122,15 @@ impl GpuWorld {
     /// Uploads `world` (bodies, shapes, materials, walls and its contact springs) and builds
     /// the pipeline. Fails with a clear error when the scene does not fit the adapter.
     pub fn new(ctx: Arc<GpuContext>, world: &World) -> Result<GpuWorld, GpuError> {
-        if !world.boundaries.is_empty() {
-            // Not yet twinned in WGSL: `--backend auto` falls back to the CPU on this error.
-            return Err(GpuError::Unsupported(format!(
-                "the scene has {} triangle-mesh boundaries ([[boundary]]), which only the CPU backend supports so far",
-                world.boundaries.len()
-            )));
-        }
         let n = world.len() as u32;
         let num_walls = world.walls.len() as u32;
         let composites = world.has_composites();
+        if composites && !world.boundaries.is_empty() {
+            return Err(GpuError::Unsupported(format!(
+                "the scene has composite bodies together with {} triangle-mesh boundaries ([[boundary]]), which only the CPU backend supports so far (each works on the GPU alone)",
+                world.boundaries.len()
+            )));
+        }
         if composites && world.len() as u64 > crate::shapes::MAX_COMPOSITE_BODIES {
             return Err(GpuError::TooLarge {
                 adapter: ctx.adapter_name(),
@@ -143,12 +142,28 @@ impl GpuWorld {
         }
         let max_pieces = world.max_pieces() as u32;
         let wall_slots = num_walls * max_pieces;
-        let shapes = GpuShapes::upload(&ctx, &world.shapes)?;
+        let (shapes, mesh_base) =
+            GpuShapes::upload_with_meshes(&ctx, &world.shapes, &world.boundaries)?;
+        let num_boundaries = world.boundaries.len() as u32;
         let state = world.contact_state();
         let capacity = (world.len() as u64 * PAIRS_PER_BODY)
             .max(state.pairs.len() as u64 + world.len() as u64)
             .max(1024);
         Self::check_fits(&ctx, world.len() as u64, capacity, wall_slots as u64)?;
+        let mesh_bytes = 4 * crate::mesh::state_words(world.len() as u64, num_boundaries as u64);
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        if mesh_bytes > limit {
+            return Err(GpuError::TooLarge {
+                adapter: ctx.adapter_name(),
+                what: "largest storage buffer, for the mesh contact slots".into(),
+                need: format!("{mesh_bytes} bytes"),
+                limit: format!("{limit} bytes"),
+                advice: "use fewer bodies, or --backend cpu".into(),
+            });
+        }
         let rmax = world.consts.max_radius();
         let params = Params {
             gravity: [world.gravity.x, world.gravity.y, world.gravity.z, 0.0],
@@ -174,6 +189,8 @@ impl GpuWorld {
             num_sinks: world.sinks.len() as u32,
             max_pieces,
             composites: composites as u32,
+            num_boundaries,
+            mesh_base,
             ..Default::default()
         };
         let device = &ctx.device;
@@ -230,8 +247,16 @@ impl GpuWorld {
                 [h.x, h.y, h.z, state.wall_twist[k]]
             })
             .collect();
-        let wall_touching: Vec<u32> = state.wall_touching.iter().map(|&t| t as u32).collect();
-        let wall_forces = &state.wall_forces;
+        // A wall slot's touching flag travels in its force record's unused `pad0` word.
+        let wall_forces: Vec<ContactForce> = state
+            .wall_forces
+            .iter()
+            .zip(&state.wall_touching)
+            .map(|(f, &t)| ContactForce {
+                pad0: f32::from_bits(t as u32),
+                ..*f
+            })
+            .collect();
         let mut st = [0u32; status::LEN];
         st[status::REBUILD] = 1;
         st[status::BAD_BODY] = u32::MAX;
@@ -248,7 +273,9 @@ impl GpuWorld {
             sinks: world.sinks.len() as u64,
             pieces: max_pieces as u64,
             composites,
+            boundaries: num_boundaries as u64,
         };
+        let mesh_state = crate::mesh::initial_state(world);
         let bytes = |b: &[u8]| Some(b.to_vec());
         let bufs = Buffers::new(device, &dims, |b| match b {
             Buf::Params => bytes(bytemuck::bytes_of(&params)),
@@ -261,9 +288,9 @@ impl GpuWorld {
             Buf::Pairs => bytes(bytemuck::cast_slice(&pairs)),
             Buf::Hist => bytes(bytemuck::cast_slice(&hist)),
             Buf::WallHist => bytes(bytemuck::cast_slice(&wall_hist)),
-            Buf::WallForces => bytes(bytemuck::cast_slice(wall_forces)),
-            Buf::WallTouching => bytes(bytemuck::cast_slice(&wall_touching)),
+            Buf::WallForces => bytes(bytemuck::cast_slice(&wall_forces)),
             Buf::Snapshot => bytes(bytemuck::cast_slice(&snap_st)),
+            Buf::Mesh => bytes(bytemuck::cast_slice(&mesh_state)),
             _ => None,
         });
         let mut params = params;
@@ -606,6 +633,18 @@ impl GpuWorld {
             if new_samples > 0 && !parts[2].is_empty() {
                 self.collect_samples(&parts[2], st[status::SAMPLES], new_samples);
             }
+            if st[status::MESH_FULL] != 0 {
+                for (p, _, _) in in_flight.drain(..) {
+                    p.wait(&self.ctx)?;
+                }
+                return Err(GpuError::Unsupported(format!(
+                    "body {} meets more mesh triangles or contacts than the GPU keeps per body ({} triangles within its reach, {} contacts before the deepest {} are kept); run this scene with --backend cpu",
+                    st[status::MESH_FULL] - 1,
+                    crate::mesh::MAX_CANDIDATES,
+                    crate::mesh::MAX_FOUND,
+                    clatter::boundary::MESH_SLOTS
+                )));
+            }
             let alarm = st[status::HEALTH] != 0;
             let stopped = st[status::BAD_BODY] != u32::MAX || st[status::OVERFLOW] != 0 || alarm;
             if stopped {
@@ -768,7 +807,25 @@ impl GpuWorld {
         let states = self.read_states()?;
         self.apply_states(&states, world);
         world.set_contact_state(self.contact_state()?);
-        Ok(())
+        self.read_mesh_into(world)
+    }
+
+    /// The mesh contact slots and the time of the last rebuild into `world` (which then
+    /// finds its mesh candidates as the CPU's rebuild did then).
+    fn read_mesh_into(&self, world: &mut World) -> Result<(), GpuError> {
+        let nb = world.boundaries.len();
+        if nb == 0 {
+            return Ok(());
+        }
+        let buf = &self.bufs[Buf::Mesh];
+        let words: Vec<u32> =
+            bytemuck::pod_collect_to_vec(&self.read_buffer(buf, 0, buf.size())?);
+        let (slots, rebuild_step) = crate::mesh::read_slots(&words, self.n as usize, nb);
+        let back = (self.gpu_steps as u32).wrapping_sub(rebuild_step) as u64;
+        let rebuild_time = self.time_after(self.gpu_steps.saturating_sub(back));
+        world
+            .restore_mesh(slots, rebuild_time)
+            .map_err(GpuError::Unsupported)
     }
 
     /// Body state, step count and time into `world`.
@@ -813,7 +870,6 @@ impl GpuWorld {
                 (b(Buf::Touching), 0, 4 * np),
                 (b(Buf::Forces), 0, 48 * np),
                 (b(Buf::WallHist), 0, 16 * ns),
-                (b(Buf::WallTouching), 0, 4 * ns),
                 (b(Buf::WallForces), 0, 48 * ns),
                 (b(Buf::RebuildPos), 0, 16 * rebuild_slots),
             ],
@@ -821,11 +877,11 @@ impl GpuWorld {
         .into_iter();
         let mut next = || parts.next().unwrap_or_default();
         let (pairs_bytes, hist_bytes, touch_bytes, force_bytes) = (next(), next(), next(), next());
-        let (wh, wt, wf, rb) = (next(), next(), next(), next());
+        let (wh, wf, rb) = (next(), next(), next());
         let hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&hist_bytes);
         let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
         let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
-        let wall_forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&wf);
+        let (wall_forces, wall_touching) = split_wall_forces(bytemuck::pod_collect_to_vec(&wf));
         let rebuilt = st[status::REBUILDS] > 0;
         let rb: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&rb);
         let (pairs, pieces) = decode_pairs(bytemuck::pod_collect_to_vec(&pairs_bytes), composites);
@@ -852,16 +908,14 @@ impl GpuWorld {
             forces,
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
-            wall_touching: bytemuck::pod_collect_to_vec::<u8, u32>(&wt)
-                .iter()
-                .map(|&t| t != 0)
-                .collect(),
+            wall_touching,
             wall_forces,
         })
     }
 
     /// Reads a named stage buffer (for the stage-by-stage tests): `keys`, `sorted`,
-    /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`.
+    /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`,
+    /// `mesh`.
     pub fn debug_buffer(&self, name: &str) -> Result<Vec<u8>, GpuError> {
         const STAGE_BUFFERS: &[&str] = &[
             "keys",
@@ -875,6 +929,7 @@ impl GpuWorld {
             "wall_forces",
             "grid",
             "status",
+            "mesh",
         ];
         let Some(b) = STAGE_BUFFERS
             .contains(&name)
@@ -887,6 +942,21 @@ impl GpuWorld {
         };
         self.read_buffer(b, 0, b.size())
     }
+}
+
+/// Wall force records as the GPU keeps them (the touching flag in `pad0`, see
+/// `wall_contact` in contacts.wgsl) split into the forces (`pad0` zero, as the CPU's) and
+/// the flags.
+fn split_wall_forces(mut forces: Vec<ContactForce>) -> (Vec<ContactForce>, Vec<bool>) {
+    let touching = forces
+        .iter_mut()
+        .map(|f| {
+            let t = f.pad0.to_bits() != 0;
+            f.pad0 = 0.0;
+            t
+        })
+        .collect();
+    (forces, touching)
 }
 
 /// What [`GpuWorld::step`] found.
@@ -908,7 +978,7 @@ pub struct StepReport {
 struct Plan {
     compiled: Arc<Compiled>,
     /// This world's contact kernels.
-    contacts: KernelChoice,
+    contacts: ContactVariant,
     scans: Scans,
     /// Indirect dispatch arguments.
     args: wgpu::Buffer,
@@ -919,13 +989,6 @@ struct Plan {
     lean_ops: Vec<Dispatch>,
     /// The checks and the snapshot after every step, when on (stages::health).
     health_ops: Vec<Dispatch>,
-}
-
-/// Which contact kernel set a world uses.
-#[derive(Clone, Copy)]
-struct KernelChoice {
-    spheres_only: bool,
-    composites: bool,
 }
 
 impl Plan {
@@ -941,8 +1004,12 @@ impl Plan {
         let device = &ctx.device;
         let layouts = &compiled.layouts;
         let spheres_only = params.spheres_only != 0;
-        let composites = params.composites != 0;
-        let contacts = compiled.contacts(ctx, spheres_only, composites)?;
+        let variant = ContactVariant {
+            spheres_only,
+            meshes: params.num_boundaries > 0,
+            composites: params.composites != 0,
+        };
+        let contacts = compiled.contacts(ctx, variant)?;
         let scans = Scans::new(
             device,
             &layouts[2],
@@ -984,10 +1051,7 @@ impl Plan {
         let health_ops = stages::health::record(&compiled.base, params.n as u64);
         Ok(Plan {
             compiled: compiled.clone(),
-            contacts: KernelChoice {
-                spheres_only,
-                composites,
-            },
+            contacts: variant,
             group0: bufs.bind_group(device, &layouts[0]),
             group1: device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("shapes"),
@@ -1008,11 +1072,8 @@ impl Plan {
         match op.set {
             KernelSet::Base => &self.compiled.base,
             KernelSet::Contacts => {
-                let cell = self
-                    .compiled
-                    .contact_cell(self.contacts.spheres_only, self.contacts.composites);
                 // Compiled in `Plan::new`, which failed otherwise.
-                match cell.get() {
+                match self.compiled.contact_sets[self.contacts.index()].get() {
                     Some(Ok(k)) => k,
                     _ => unreachable!("contact kernels compiled before the plan"),
                 }
@@ -1226,7 +1287,12 @@ impl GpuWorld {
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
             wall_touching: (0..slots).map(|k| words[slot_at(k) + 16] != 0).collect(),
-            wall_forces: (0..slots).map(|k| force(slot_at(k) + 4)).collect(),
+            wall_forces: (0..slots)
+                .map(|k| ContactForce {
+                    pad0: 0.0,
+                    ..force(slot_at(k) + 4)
+                })
+                .collect(),
         };
         let back = (self.gpu_steps as u32).wrapping_sub(st[status::STEPS]) as u64;
         let g = self.gpu_steps.saturating_sub(back);
@@ -1237,6 +1303,15 @@ impl GpuWorld {
         }
         world.time = t;
         world.set_contact_state(state);
+        if !world.boundaries.is_empty() {
+            // The snapshot holds no mesh slots: the mesh contacts restart without springs,
+            // and the next step rebuilds (finding the mesh candidates afresh).
+            world.set_needs_rebuild(true);
+            let empty = vec![clatter::boundary::MeshSlot::default(); world.mesh_slots().len()];
+            world
+                .restore_mesh(empty, t)
+                .map_err(GpuError::Unsupported)?;
+        }
         Ok(true)
     }
 }

@@ -246,6 +246,26 @@ impl World {
         Ok(())
     }
 
+    /// Restores the mesh contacts another backend (the GPU) computed: the slots, and the
+    /// candidate triangles found as the last rebuild found them (at the rebuild positions
+    /// of the current contact list and the meshes at `rebuild_time`), so that the next CPU
+    /// steps and checkpoints continue exactly. Fails when the slot count does not match.
+    pub fn restore_mesh(&mut self, slots: Vec<MeshSlot>, rebuild_time: f64) -> Result<(), String> {
+        if self.boundaries.is_empty() {
+            return Ok(());
+        }
+        if !self.needs_rebuild && self.rebuild_position.len() == self.len() {
+            let position =
+                std::mem::replace(&mut self.state.position, self.rebuild_position.clone());
+            let time = std::mem::replace(&mut self.time, rebuild_time);
+            step::boundary::rebuild(self);
+            self.state.position = position;
+            self.time = time;
+        }
+        self.mesh.rebuild_time = rebuild_time;
+        self.set_mesh_slots(slots)
+    }
+
     /// The time the boundaries' candidate triangles were last found at.
     pub fn mesh_rebuild_time(&self) -> f64 {
         self.mesh.rebuild_time

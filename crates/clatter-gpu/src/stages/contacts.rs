@@ -9,28 +9,32 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 
 /// The contact kernels' source (with integrate.wgsl, which computes the wall contacts) and
 /// entry points.
-pub(crate) fn kernels(spheres_only: bool, composites: bool) -> (String, Vec<KernelSpec>) {
+pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelSpec>) {
     use pipeline::{
-        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, NARROW, NARROW_SPHERES, PIECES,
+        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE, MESH_POLY, MESH_SPHERES,
+        NARROW, NARROW_SPHERES, PIECES,
     };
-    let with = pipeline::composites_const(composites);
-    if spheres_only {
+    let with = pipeline::composites_const(variant.composites);
+    // The mesh contacts (called by integrate) only in scenes with meshes.
+    let mesh: &[&str] = match (variant.meshes, variant.spheres_only) {
+        (false, _) => &[MESH_NONE],
+        (true, true) => &[MESH, MESH_SPHERES],
+        (true, false) => &[MESH, MESH_POLY],
+    };
+    if variant.spheres_only {
+        let mut parts = vec![with, NARROW_SPHERES, PIECES, LAW, CONTACTS];
+        parts.extend_from_slice(mesh);
+        parts.push(INTEGRATE);
         (
-            pipeline::source(&[with, NARROW_SPHERES, PIECES, LAW, CONTACTS, INTEGRATE]),
+            pipeline::source(&parts),
             vec![("contacts", "contacts", Group2::None)],
         )
     } else {
+        let mut parts = vec![with, ARGS, NARROW, PIECES, LAW, CONTACTS, CONTACTS_SPLIT];
+        parts.extend_from_slice(mesh);
+        parts.push(INTEGRATE);
         (
-            pipeline::source(&[
-                with,
-                ARGS,
-                NARROW,
-                PIECES,
-                LAW,
-                CONTACTS,
-                CONTACTS_SPLIT,
-                INTEGRATE,
-            ]),
+            pipeline::source(&parts),
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),

@@ -87,10 +87,9 @@ pub(crate) fn base_kernels() -> (Vec<(&'static str, String)>, Vec<KernelSpec>) {
 /// Sources and kernels of the contact set: sphere-only scenes, or any scene, with or without
 /// composites.
 pub(crate) fn contact_kernels(
-    spheres_only: bool,
-    composites: bool,
+    variant: crate::pipeline::ContactVariant,
 ) -> (Vec<(&'static str, String)>, Vec<KernelSpec>) {
-    let (source, mut kernels) = contacts::kernels(spheres_only, composites);
+    let (source, mut kernels) = contacts::kernels(variant);
     kernels.extend_from_slice(integrate::CONTACT_KERNELS);
     (vec![("contacts", source)], kernels)
 }
