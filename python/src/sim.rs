@@ -315,7 +315,8 @@ impl Simulation {
     fn contacts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let reports = py.detach(|| touching_contacts(&self.world));
         let m = reports.len();
-        let (mut body, mut other, mut wall, mut count) = (
+        let (mut body, mut other, mut wall, mut boundary, mut count) = (
+            Vec::with_capacity(m),
             Vec::with_capacity(m),
             Vec::with_capacity(m),
             Vec::with_capacity(m),
@@ -334,17 +335,25 @@ impl Simulation {
             point.extend(centroid.to_array());
             count.push(pts.len() as i64);
             // The manifold's normal points from the body towards the other body for a pair,
-            // from the wall towards the body for a wall; `force_b` acts on the other body for
-            // a pair, on the body for a wall.
+            // from the wall or mesh towards the body for a wall or mesh boundary; `force_b`
+            // acts on the other body for a pair, on the body for a wall or mesh.
             let (n, f) = match c.other {
                 Partner::Body(j) => {
                     other.push(j as i64);
                     wall.push(-1);
+                    boundary.push(-1);
                     (c.manifold.normal, -c.force.force_b)
                 }
                 Partner::Wall(w) => {
                     other.push(-1);
                     wall.push(w as i64);
+                    boundary.push(-1);
+                    (-c.manifold.normal, c.force.force_b)
+                }
+                Partner::Boundary(k) => {
+                    other.push(-1);
+                    wall.push(-1);
+                    boundary.push(k as i64);
                     (-c.manifold.normal, c.force.force_b)
                 }
             };
@@ -357,6 +366,7 @@ impl Simulation {
         d.set_item("body", Array1::from(body).into_pyarray(py))?;
         d.set_item("other", Array1::from(other).into_pyarray(py))?;
         d.set_item("wall", Array1::from(wall).into_pyarray(py))?;
+        d.set_item("boundary", Array1::from(boundary).into_pyarray(py))?;
         d.set_item("point", array2(py, point, 3))?;
         d.set_item("point_count", Array1::from(count).into_pyarray(py))?;
         d.set_item("normal", array2(py, normal, 3))?;

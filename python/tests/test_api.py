@@ -41,11 +41,14 @@ def test_contacts_dict_of_arrays(pile):
     c = pile.contacts()
     m = len(c["body"])
     assert m > 5
-    expect = {"body": (m,), "other": (m,), "wall": (m,), "point": (m, 3), "point_count": (m,),
+    expect = {"body": (m,), "other": (m,), "wall": (m,), "boundary": (m,), "point": (m, 3),
+              "point_count": (m,),
               "normal": (m, 3), "depth": (m,), "force": (m, 3), "normal_force": (m,)}
     assert {k: v.shape for k, v in c.items()} == expect
-    for k in ["body", "other", "wall", "point_count"]:
+    for k in ["body", "other", "wall", "boundary", "point_count"]:
         assert c[k].dtype == np.int64
+    # No mesh boundaries in this scene.
+    assert np.all(c["boundary"] == -1)
     for k in ["point", "normal", "depth", "force", "normal_force"]:
         assert c[k].dtype == np.float32
     walls = c["wall"] >= 0
