@@ -1090,3 +1090,38 @@ fn composite_and_sphere_together() {
         &["shape[0]", "got `composite` and another"],
     );
 }
+
+#[test]
+fn group_shapes_unknown_name() {
+    let text = format!(
+        "{BASE}\n[[group]]\nshapes = [\"ball\", \"pebble\"]\nmaterial = \"steel\"\nlattice = {{ min = [0.0, 0.0, 1.0], max = [0.1, 0.0, 1.0], spacing = 0.05 }}\n"
+    );
+    check(
+        "group-shapes-unknown",
+        &text,
+        "shapes = [",
+        &["group[0].shapes[1]", "pebble"],
+    );
+}
+
+#[test]
+fn group_shapes_empty_or_with_shape() {
+    let text = format!(
+        "{BASE}\n[[group]]\nshapes = []\nmaterial = \"steel\"\nlattice = {{ min = [0.0, 0.0, 1.0], max = [0.1, 0.0, 1.0], spacing = 0.05 }}\n"
+    );
+    check(
+        "group-shapes-empty",
+        &text,
+        "shapes = [",
+        &["group[0].shapes"],
+    );
+    let text = format!(
+        "{BASE}\n[[group]]\nshape = \"ball\" # both\nshapes = [\"ball\"]\nmaterial = \"steel\"\nlattice = {{ min = [0.0, 0.0, 1.0], max = [0.1, 0.0, 1.0], spacing = 0.05 }}\n"
+    );
+    check(
+        "group-shape-and-shapes",
+        &text,
+        "# both",
+        &["group[0].shape", "not both"],
+    );
+}

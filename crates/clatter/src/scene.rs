@@ -433,7 +433,8 @@ struct RawBody {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawGroup {
-    shape: Spanned<String>,
+    shape: Option<Spanned<String>>,
+    shapes: Option<Spanned<Vec<Spanned<String>>>>,
     material: Spanned<String>,
     lattice: Option<Spanned<RawLattice>>,
     random: Option<Spanned<RawRandom>>,
@@ -1213,11 +1214,52 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     for (k, g) in raw.group.iter().enumerate() {
         let r = g.get_ref();
         let f = |name: &str| format!("group[{k}].{name}");
-        let shape = cx.lookup(&shape_names, &r.shape, &f("shape"), "shape")?;
+        // The group's shapes, taken in turn by its bodies (`shape`, or a `shapes` list).
+        let group_shapes: Vec<u32> = match (&r.shape, &r.shapes) {
+            (Some(one), None) => vec![cx.lookup(&shape_names, one, &f("shape"), "shape")?],
+            (None, Some(list)) => {
+                if list.get_ref().is_empty() {
+                    return cx.err(list.span(), f("shapes"), "must name at least one shape");
+                }
+                let mut out = Vec::with_capacity(list.get_ref().len());
+                for (j, name) in list.get_ref().iter().enumerate() {
+                    out.push(cx.lookup(
+                        &shape_names,
+                        name,
+                        &f(&format!("shapes[{j}]")),
+                        "shape",
+                    )?);
+                }
+                out
+            }
+            (Some(one), Some(_)) => {
+                return cx.err(
+                    one.span(),
+                    f("shape"),
+                    "give either `shape` or `shapes`, not both",
+                );
+            }
+            (None, None) => {
+                return cx.err(
+                    g.span(),
+                    format!("group[{k}]"),
+                    "needs `shape = \"name\"` or `shapes = [\"a\", \"b\", ..]`",
+                );
+            }
+        };
         let material = cx.lookup(&material_names, &r.material, &f("material"), "material")?;
         let velocity = cx.opt_vec3(&r.velocity, &f("velocity"))?;
         let angular_velocity = cx.opt_vec3(&r.angular_velocity, &f("angular_velocity"))?;
-        let radius = shapes[shape as usize].shape.bounding_radius();
+        let radii: Vec<f32> = group_shapes
+            .iter()
+            .map(|&sh| shapes[sh as usize].shape.bounding_radius())
+            .collect();
+        // The largest shape of the group sets the lattice warning.
+        let (widest, radius) =
+            radii.iter().enumerate().fold(
+                (0, 0.0f32),
+                |(wi, wr), (i, &r)| if r > wr { (i, r) } else { (wi, wr) },
+            );
         let positions = match (&r.lattice, &r.random) {
             (Some(l), None) => {
                 let l = l.get_ref();
@@ -1247,7 +1289,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                     warnings.push(format!(
                         "group[{k}]: lattice spacing {spacing} is below the bounding diameter {} of shape `{}`: bodies may start overlapping",
                         2.0 * radius,
-                        r.shape.get_ref()
+                        shape_name(&shape_names, group_shapes[widest])
                     ));
                 }
                 let mut out = Vec::with_capacity(total as usize);
@@ -1280,7 +1322,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
                     );
                 }
                 let seed = rr.seed.or(r.seed).unwrap_or(1);
-                match occupancy.place_random(lo, hi, radius, count as usize, seed) {
+                match occupancy.place_random(lo, hi, &radii, count as usize, seed) {
                     Ok(p) => p,
                     Err(placed) => {
                         return cx.err(
@@ -1308,11 +1350,12 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         };
         let mut rng = ChaCha8Rng::seed_from_u64(r.seed.unwrap_or(7) ^ 0x5eed_0000 ^ k as u64);
         if r.lattice.is_some() {
-            for &p in &positions {
-                occupancy.insert(p, radius);
+            for (j, &p) in positions.iter().enumerate() {
+                occupancy.insert(p, radii[j % radii.len()]);
             }
         }
-        for p in positions {
+        for (j, p) in positions.into_iter().enumerate() {
+            let shape = group_shapes[j % group_shapes.len()];
             let orientation = if r.random_orientation {
                 random_rotation(&mut rng)
             } else {
@@ -1549,6 +1592,14 @@ pub fn random_rotation(rng: &mut impl Rng) -> Quat {
     .normalize()
 }
 
+/// The name a shape index was declared with (for messages).
+fn shape_name(names: &HashMap<String, u32>, index: u32) -> &str {
+    names
+        .iter()
+        .find(|(_, i)| **i == index)
+        .map_or("?", |(n, _)| n.as_str())
+}
+
 /// Bounding spheres placed so far, on a hash grid, so random groups avoid every earlier body.
 struct Occupancy {
     cell: f32,
@@ -1598,13 +1649,13 @@ impl Occupancy {
         true
     }
 
-    /// Places `count` bounding spheres of `radius` uniformly in `[lo, hi]`, clear of everything
+    /// Places `count` bounding spheres (radii taken in turn from `radii`) uniformly in `[lo, hi]`, clear of everything
     /// placed before (rejection sampling); `Err(placed)` after 10,000 misses in a row.
     fn place_random(
         &mut self,
         lo: Vec3,
         hi: Vec3,
-        radius: f32,
+        radii: &[f32],
         count: usize,
         seed: u64,
     ) -> Result<Vec<Vec3>, usize> {
@@ -1613,6 +1664,7 @@ impl Occupancy {
         let mut failures = 0usize;
         while out.len() < count {
             let p = lo + (hi - lo) * Vec3::new(rng.random(), rng.random(), rng.random());
+            let radius = radii[out.len() % radii.len()];
             if self.free(p, radius) {
                 self.insert(p, radius);
                 out.push(p);
