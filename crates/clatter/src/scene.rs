@@ -1389,6 +1389,11 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         check_periodic(cx, p, span.clone(), &walls, &bodies, &shapes, skin)?;
     }
     let sinks = sinks(cx, &raw.sink, &walls, periodic.as_ref().map(|(p, _)| p))?;
+    if periodic.is_some() && !boundaries.is_empty() {
+        warnings.push(
+            "triangle-mesh boundaries are not repeated across the periodic seams: a body meets a mesh's triangles only at its wrapped position, so a mesh should span the periodic box along its periodic axes (a chute floor) or stay clear of the seams".to_string(),
+        );
+    }
     if let Some((lo, hi)) = container_bounds {
         let outside = bodies
             .iter()
