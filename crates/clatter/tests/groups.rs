@@ -1,6 +1,7 @@
 //! `[[group]] shapes = [..]`: a group of several shapes (a size distribution) takes them in
 //! turn, on a lattice and at random, and random placement keeps each body's own bounding
-//! sphere clear of every other (checked by brute force over all pairs).
+//! sphere clear of every other (checked by brute force over all pairs). Also: a periodic
+//! scene with a mesh boundary is warned that meshes are not repeated across the seams.
 
 use clatter::scene::Scene;
 
@@ -84,4 +85,29 @@ fn random_group_keeps_each_body_clear_by_its_own_radius() {
         .map(|(i, j)| bodies[i].position.distance(bodies[j].position))
         .fold(f32::INFINITY, f32::min);
     assert!(small_gap < 2.0 * 0.003, "closest small pair {small_gap}");
+}
+
+#[test]
+fn periodic_scene_with_a_mesh_boundary_is_warned() {
+    let bowl =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/meshes/bowl.obj");
+    let body = "\n[[body]]\nshape = \"small\"\nmaterial = \"glass\"\nposition = [0.0, 0.0, 0.1]\n";
+    let boundary = format!(
+        "\n[[boundary]]\nmesh = {{ file = {:?} }}\nmaterial = \"glass\"\n",
+        bowl.display().to_string()
+    );
+    let periodic = HEAD.replace(
+        "steps = 10",
+        "steps = 10\nperiodic = { min = [-0.2, -0.2, -1.0], max = [0.2, 0.2, 1.0], axes = \"xy\" }",
+    );
+    let warned = |text: &str| {
+        let scene = Scene::parse(text, "periodic.toml").expect("valid scene");
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("not repeated across the periodic seams"))
+    };
+    assert!(warned(&format!("{periodic}{body}{boundary}")));
+    assert!(!warned(&format!("{periodic}{body}")));
+    assert!(!warned(&format!("{HEAD}{body}{boundary}")));
 }
