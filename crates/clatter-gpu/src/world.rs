@@ -125,12 +125,6 @@ impl GpuWorld {
         let n = world.len() as u32;
         let num_walls = world.walls.len() as u32;
         let composites = world.has_composites();
-        if composites && !world.boundaries.is_empty() {
-            return Err(GpuError::Unsupported(format!(
-                "the scene has composite bodies together with {} triangle-mesh boundaries ([[boundary]]), which only the CPU backend supports so far (each works on the GPU alone)",
-                world.boundaries.len()
-            )));
-        }
         if composites && world.len() as u64 > crate::shapes::MAX_COMPOSITE_BODIES {
             return Err(GpuError::TooLarge {
                 adapter: ctx.adapter_name(),

@@ -1,0 +1,358 @@
+//! Composite bodies (clumps) against triangle-mesh boundaries on the GPU, against the CPU
+//! pipeline (crates/clatter/src/step/boundary.rs: each piece against its body's candidate
+//! triangles, the contacts matched to the body's mesh slots by boundary, piece and normal):
+//! - a two-sphere clump and a sphere-and-cube clump landing, resting and sliding on a
+//!   200-triangle mesh floor follow the CPU's trajectories with the same touching contacts
+//!   and the same mesh slots (boundary, piece, touching flag);
+//! - a few dozen clumps tumbling in a turning drum (scenes/meshes/drum.stl) do too;
+//! - GPU runs are bitwise reproducible;
+//! - a GPU run read back and written to a checkpoint resumes on the CPU with its per-piece
+//!   mesh springs, and goes on as the CPU run;
+//! - `--backend auto` now runs such scenes on the GPU.
+//!
+//! The tolerances follow tests/composite.rs: positions and orientations within `max(tol,
+//! 2 d)` where `d` is how far a second CPU run whose orientations start 16 ulps off departs
+//! from the CPU run (how far f32 rounding alone carries the scene); touching counts and
+//! mesh slots exactly equal.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+use clatter::World;
+use clatter::checkpoint::Checkpoint;
+use clatter::scene::Scene;
+use clatter_gpu::GpuWorld;
+
+const MATERIAL: &str = r#"
+[[material]]
+name = "m"
+density = 2500.0
+stiffness = 2.0e4
+restitution = 0.3
+friction = 0.4
+"#;
+
+/// The two clump shapes: two spheres of 10 mm, and a sphere of 10 mm with a cube of 8 mm
+/// half-edge beside it (turned, so its faces are not along the clump's axes).
+const CLUMPS: &str = r#"
+[[shape]]
+name = "ball"
+sphere = { radius = 0.01 }
+[[shape]]
+name = "block"
+box = { half_extents = [0.008, 0.008, 0.008] }
+[[shape]]
+name = "pair"
+composite = [ { shape = "ball", offset = [-0.008, 0.0, 0.0] },
+              { shape = "ball", offset = [0.008, 0.0, 0.0] } ]
+[[shape]]
+name = "hammer"
+composite = [ { shape = "ball", offset = [-0.01, 0.0, 0.0] },
+              { shape = "block", offset = [0.009, 0.0, 0.0], orientation = [0.9950042, 0.0, 0.0, 0.0998334] } ]
+"#;
+
+/// A flat square floor `z = 0` over `[-h, h]^2` of `n x n` squares, two triangles each,
+/// alternating the diagonal, written as an OBJ file; returns its path.
+fn floor_obj(n: usize, h: f64) -> PathBuf {
+    let mut s = String::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let x = -h + 2.0 * h * i as f64 / n as f64;
+            let y = -h + 2.0 * h * j as f64 / n as f64;
+            s.push_str(&format!("v {x} {y} 0\n"));
+        }
+    }
+    let id = |i: usize, j: usize| j * (n + 1) + i + 1;
+    for j in 0..n {
+        for i in 0..n {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            if (i + j) % 2 == 0 {
+                s.push_str(&format!("f {a} {b} {c}\nf {a} {c} {d}\n"));
+            } else {
+                s.push_str(&format!("f {a} {b} {d}\nf {b} {c} {d}\n"));
+            }
+        }
+    }
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("composite_mesh_floor.obj");
+    std::fs::write(&path, s).expect("write the floor mesh");
+    path
+}
+
+/// Where the test scenes say they are: relative mesh paths resolve from the scenes folder.
+fn scene_path() -> String {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/test.toml");
+    file.display().to_string()
+}
+
+fn parse(text: &str) -> Scene {
+    Scene::parse(text, &scene_path()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A floor scene: the 200-triangle floor and the given bodies.
+fn floor_scene(bodies: &str) -> String {
+    let floor = floor_obj(10, 0.5);
+    assert_eq!(
+        std::fs::read_to_string(&floor)
+            .unwrap()
+            .lines()
+            .filter(|l| l.starts_with("f "))
+            .count(),
+        200
+    );
+    format!(
+        r#"[simulation]
+steps = 10
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+{MATERIAL}{CLUMPS}
+[[boundary]]
+mesh = {{ file = "{}" }}
+material = "m"
+{bodies}"#,
+        floor.display()
+    )
+}
+
+/// A closed drum (radius 50 mm, 30 mm long, axis y, 192 triangles) turning at 3 rad/s with
+/// `count` clumps of each kind dropped in its lower half.
+fn drum_scene(count: usize) -> String {
+    format!(
+        r#"[simulation]
+steps = 10
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+{MATERIAL}{CLUMPS}
+[[boundary]]
+mesh = {{ file = "meshes/drum.stl", scale = 1.6 }}
+material = "m"
+motion = {{ angular_velocity = [0.0, 3.0, 0.0], center = [0.0, 0.0, 0.0] }}
+
+[[group]]
+shape = "pair"
+material = "m"
+random = {{ min = [-0.045, -0.004, -0.05], max = [0.045, 0.004, -0.005], count = {count}, seed = 4 }}
+random_orientation = true
+
+[[group]]
+shape = "hammer"
+material = "m"
+random = {{ min = [-0.045, -0.004, -0.05], max = [0.045, 0.004, 0.02], count = {count}, seed = 5 }}
+random_orientation = true
+"#
+    )
+}
+
+/// The touching mesh slots of a world: (body, slot, boundary, piece).
+fn mesh_touching(w: &World) -> BTreeSet<(usize, usize, u32, u32)> {
+    let slots = w.mesh_slots();
+    let per = clatter::boundary::MESH_SLOTS;
+    (0..slots.len())
+        .filter(|&k| slots[k].touching)
+        .map(|k| (k / per, k % per, slots[k].boundary, slots[k].piece))
+        .collect()
+}
+
+/// Largest distance between the two worlds' body positions, and between the bodies'
+/// orientations (quaternion distance, sign-free).
+fn distance(a: &World, b: &World) -> (f32, f32) {
+    let mut dx = 0.0f32;
+    let mut dq = 0.0f32;
+    for i in 0..a.len() {
+        dx = dx.max((a.state.position[i] - b.state.position[i]).length());
+        let (qa, qb) = (a.state.orientation[i], b.state.orientation[i]);
+        dq = dq.max((qa - qb).length().min((qa + qb).length()));
+    }
+    (dx, dq)
+}
+
+/// What a comparison saw.
+#[derive(Debug, Default)]
+struct Seen {
+    /// Largest GPU-CPU position and orientation differences.
+    worst: (f32, f32),
+    /// Largest differences of the 16-ulp nudged CPU run.
+    rounding: (f32, f32),
+    /// Touching mesh slots summed over the comparisons, and how many held a composite's
+    /// second piece.
+    mesh_touching: usize,
+    second_piece: usize,
+}
+
+/// Runs `scene` on the CPU and on the GPU side by side for `steps`, comparing every `every`
+/// steps: equal touching counts (every step's count in the chunk's last report), equal
+/// touching mesh slots (body, slot, boundary, piece), positions and orientations within
+/// `max(tol_x, 2 d_x)` and `max(tol_q, 2 d_q)` (see the file's comment), and as many
+/// rebuilds. Returns the CPU's world and the GPU's read back.
+fn compare(scene: &Scene, steps: u64, every: u64, tol_x: f32, tol_q: f32) -> (World, World, Seen) {
+    let ctx = clatter_gpu::test_context().expect("a GPU adapter (lavapipe)");
+    let mut cpu = scene.world();
+    let mut host = scene.world();
+    let mut nudged = scene.world();
+    for q in nudged.state.orientation.iter_mut() {
+        q.x = f32::from_bits(q.x.to_bits() + 16);
+    }
+    let mut gpu = GpuWorld::new(ctx, &host).expect("the GPU takes composites with meshes");
+    let mut seen = Seen::default();
+    let mut rebuilds = 0u64;
+    for _ in 0..steps / every {
+        let mut count = 0;
+        for _ in 0..every {
+            let st = cpu.step().expect("CPU step");
+            rebuilds += st.rebuilt as u64;
+            count = st.contacts;
+            nudged.step().expect("CPU step");
+        }
+        let rep = gpu.step_into(every, &mut host).expect("GPU steps");
+        assert_eq!(rep.bad_body, None);
+        assert_eq!(host.step_count, cpu.step_count);
+        assert_eq!(
+            rep.touching, count,
+            "touching contacts differ at step {}",
+            cpu.step_count
+        );
+        let (dx, dq) = distance(&cpu, &host);
+        let (rx, rq) = distance(&cpu, &nudged);
+        seen.rounding = (seen.rounding.0.max(rx), seen.rounding.1.max(rq));
+        seen.worst = (seen.worst.0.max(dx), seen.worst.1.max(dq));
+        let (bx, bq) = (tol_x.max(2.0 * seen.rounding.0), tol_q.max(2.0 * seen.rounding.1));
+        assert!(
+            dx <= bx && dq <= bq,
+            "step {}: positions differ by {dx} m (bound {bx}), orientations by {dq} (bound {bq})",
+            cpu.step_count
+        );
+        gpu.read_into(&mut host).expect("read-back");
+        let (a, b) = (mesh_touching(&cpu), mesh_touching(&host));
+        assert_eq!(a, b, "mesh slots differ at step {}", cpu.step_count);
+        seen.mesh_touching += a.len();
+        seen.second_piece += a.iter().filter(|s| s.3 > 0).count();
+    }
+    assert_eq!(gpu.rebuilds(), rebuilds, "rebuilds");
+    eprintln!("{steps} steps: {seen:?}, {rebuilds} rebuilds");
+    (cpu, host, seen)
+}
+
+#[test]
+fn clumps_land_rest_and_slide_on_a_mesh_floor_as_on_the_cpu() {
+    // A pair landing tilted (one end first, then both), a hammer resting turned, a pair and
+    // a hammer sliding across the diagonals.
+    let text = floor_scene(
+        r#"
+[[body]]
+shape = "pair"
+material = "m"
+position = [0.1, 0.12, 0.0125]
+orientation = [0.9848078, 0.0, 0.1736482, 0.0]
+[[body]]
+shape = "hammer"
+material = "m"
+position = [-0.2, 0.25, 0.00998]
+orientation = [0.9887711, 0.0, 0.0, 0.1494381]
+[[body]]
+shape = "pair"
+material = "m"
+position = [-0.3, -0.2, 0.00999]
+velocity = [0.8, 0.3, 0.0]
+[[body]]
+shape = "hammer"
+material = "m"
+position = [-0.3, 0.0, 0.00998]
+orientation = [0.9887711, 0.0, 0.0, 0.1494381]
+velocity = [0.7, -0.25, 0.0]
+"#,
+    );
+    let scene = parse(&text);
+    let (cpu, _, seen) = compare(&scene, 8000, 500, 2e-7, 2e-5);
+    // Every piece ends on the floor (the pair's two spheres, the hammer's ball and cube) and
+    // the sliders moved.
+    let touching = mesh_touching(&cpu);
+    for body in 0..4 {
+        let pieces: BTreeSet<u32> = touching
+            .iter()
+            .filter(|s| s.0 == body)
+            .map(|s| s.3)
+            .collect();
+        assert_eq!(pieces, BTreeSet::from([0, 1]), "body {body}: {touching:?}");
+    }
+    assert!(cpu.state.position[2].x > -0.25, "{}", cpu.state.position[2]);
+    assert!(cpu.state.position[3].x > -0.25, "{}", cpu.state.position[3]);
+    assert!(seen.second_piece > 0);
+}
+
+#[test]
+fn clumps_tumble_in_a_turning_drum_as_on_the_cpu() {
+    let scene = parse(&drum_scene(15));
+    assert_eq!(scene.world().len(), 30);
+    let (cpu, _, seen) = compare(&scene, 6000, 500, 1e-6, 1e-4);
+    assert!(seen.mesh_touching > 100, "{seen:?}");
+    assert!(seen.second_piece > 0, "{seen:?}");
+    // The drum carried clumps along (they move about its axis).
+    let moving = cpu
+        .state
+        .velocity
+        .iter()
+        .filter(|v| v.length() > 0.01)
+        .count();
+    assert!(moving > 5, "{moving} clumps moving");
+}
+
+#[test]
+fn gpu_runs_are_bitwise_the_same_and_resume_on_the_cpu() {
+    let text = drum_scene(10);
+    let scene = parse(&text);
+    let ctx = clatter_gpu::test_context().expect("a GPU adapter (lavapipe)");
+    let run = |steps: u64| {
+        let mut host = scene.world();
+        let mut gpu = GpuWorld::new(ctx.clone(), &host).unwrap();
+        gpu.step(steps).unwrap();
+        gpu.read_into(&mut host).unwrap();
+        host
+    };
+    let (a, b) = (run(3000), run(3000));
+    assert_eq!(a.state.position, b.state.position);
+    assert_eq!(a.state.velocity, b.state.velocity);
+    assert_eq!(a.state.orientation, b.state.orientation);
+    assert_eq!(a.state.angular_momentum, b.state.angular_momentum);
+    assert_eq!(a.mesh_slots(), b.mesh_slots());
+    let springs = a
+        .mesh_slots()
+        .iter()
+        .filter(|s| s.touching && s.history.length() > 0.0)
+        .count();
+    assert!(springs > 0, "mesh springs at the checkpoint");
+    assert!(
+        a.mesh_slots().iter().any(|s| s.touching && s.piece > 0),
+        "a second piece touches the drum at the checkpoint"
+    );
+    // A checkpoint of the GPU run resumed on the CPU: the same slots, and it goes on as the
+    // CPU run from the start (to the same bound as the side-by-side comparison).
+    let bytes = a.checkpoint_bytes(&scene_path(), &text, &[]);
+    let (_, mut resumed) = Checkpoint::from_bytes(&bytes).unwrap().world().unwrap();
+    assert_eq!(resumed.mesh_slots(), a.mesh_slots());
+    let mut cpu = scene.world();
+    let mut nudged = scene.world();
+    for q in nudged.state.orientation.iter_mut() {
+        q.x = f32::from_bits(q.x.to_bits() + 16);
+    }
+    for _ in 0..4000 {
+        cpu.step().unwrap();
+        nudged.step().unwrap();
+    }
+    for _ in 0..1000 {
+        resumed.step().unwrap();
+    }
+    assert_eq!(resumed.step_count, cpu.step_count);
+    let (dx, dq) = distance(&cpu, &resumed);
+    let (rx, rq) = distance(&cpu, &nudged);
+    eprintln!("resumed on the CPU: {dx} m, {dq}; 16-ulp nudge {rx} m, {rq}");
+    assert!(dx <= 1e-6f32.max(2.0 * rx), "{dx} vs {rx}");
+    assert!(dq <= 1e-4f32.max(2.0 * rq), "{dq} vs {rq}");
+}
+
+#[test]
+fn auto_runs_composites_with_meshes_on_the_gpu() {
+    use clatter_gpu::{BackendChoice, Device, Stepper, choose};
+    let ctx = clatter_gpu::test_context().expect("a GPU adapter");
+    let world = parse(&drum_scene(2)).world();
+    let auto = choose(BackendChoice::Auto, &world, Device::Shared(ctx)).expect("auto");
+    assert!(matches!(auto.stepper, Stepper::Gpu(_)));
+}
