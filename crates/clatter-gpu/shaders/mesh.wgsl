@@ -529,16 +529,16 @@ fn mesh_max_depth(m: Manifold) -> f32 {
     return d;
 }
 
-// Keeps the deepest MESH_SLOTS of mesh_found[from..mesh_nfound), deepest first, by a stable
+// Keeps the deepest MESH_SLOTS of mesh_found[first..mesh_nfound), deepest first, by a stable
 // sort (ties keep their order): the CPU's `sort_by(max_depth)` then `truncate`.
-fn mesh_keep_deepest(from: u32) {
-    for (var k = from + 1u; k < mesh_nfound; k++) {
+fn mesh_keep_deepest(first: u32) {
+    for (var k = first + 1u; k < mesh_nfound; k++) {
         let m = mesh_found[k];
         let b = mesh_found_b[k];
         let p = mesh_found_p[k];
         let key = mesh_key(mesh_max_depth(m));
         var j = k;
-        while j > from && mesh_key(mesh_max_depth(mesh_found[j - 1u])) < key {
+        while j > first && mesh_key(mesh_max_depth(mesh_found[j - 1u])) < key {
             mesh_found[j] = mesh_found[j - 1u];
             mesh_found_b[j] = mesh_found_b[j - 1u];
             mesh_found_p[j] = mesh_found_p[j - 1u];
@@ -548,7 +548,7 @@ fn mesh_keep_deepest(from: u32) {
         mesh_found_b[j] = b;
         mesh_found_p[j] = p;
     }
-    mesh_nfound = min(mesh_nfound, from + MESH_SLOTS);
+    mesh_nfound = min(mesh_nfound, first + MESH_SLOTS);
 }
 
 // The first word of body i's slot k in `mesh`.
