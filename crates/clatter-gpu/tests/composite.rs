@@ -12,7 +12,8 @@
 //! - clumps in a periodic box meet across the seams as on the CPU;
 //! - a GPU run read back and written to a checkpoint resumes on the CPU with its per-piece
 //!   springs (the CPU continuation follows the GPU's own);
-//! (composites against triangle-mesh boundaries: tests/composite_mesh.rs).
+//!
+//! Composites against triangle-mesh boundaries: tests/composite_mesh.rs.
 
 use std::collections::BTreeSet;
 use std::path::Path;
