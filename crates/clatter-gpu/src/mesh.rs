@@ -47,8 +47,8 @@ pub const SLOT_WORDS: usize = 24;
 /// plus half the skin between rebuilds) the GPU holds per body and step (a private array in mesh.wgsl); beyond it the pipeline stops and
 /// the run fails with a clear error (status word `MESH_FULL`).
 pub const MAX_CANDIDATES: usize = 64;
-/// Most mesh contacts (merged planes plus edge and vertex contacts) found per body and step
-/// before the deepest [`MESH_SLOTS`] are kept; beyond it, as for [`MAX_CANDIDATES`].
+/// Most mesh contacts (merged planes plus edge and vertex contacts) found per body (per piece
+/// of a composite) and step before the deepest [`MESH_SLOTS`] are kept; beyond it, as for [`MAX_CANDIDATES`].
 pub const MAX_FOUND: usize = 8;
 
 /// Words of the state buffer for `bodies` bodies and `boundaries` boundaries.

@@ -632,7 +632,7 @@ impl GpuWorld {
                     p.wait(&self.ctx)?;
                 }
                 return Err(GpuError::Unsupported(format!(
-                    "body {} meets more mesh triangles or contacts than the GPU keeps per body ({} triangles within its reach, {} contacts before the deepest {} are kept); run this scene with --backend cpu",
+                    "body {} meets more mesh triangles or contacts than the GPU keeps per body ({} triangles within its reach, {} contacts per piece before the deepest {} are kept); run this scene with --backend cpu",
                     st[status::MESH_FULL] - 1,
                     crate::mesh::MAX_CANDIDATES,
                     crate::mesh::MAX_FOUND,
