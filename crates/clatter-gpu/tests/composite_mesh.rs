@@ -106,8 +106,8 @@ fn parse(text: &str) -> Scene {
     Scene::parse(text, &scene_path()).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// A floor scene: the 200-triangle floor and the given bodies.
-fn floor_scene(bodies: &str) -> String {
+/// A floor scene: the 200-triangle floor and the given bodies, of `material`.
+fn floor_scene(bodies: &str, material: &str) -> String {
     let floor = floor_obj(10, 0.5);
     assert_eq!(
         std::fs::read_to_string(&floor)
@@ -122,7 +122,7 @@ fn floor_scene(bodies: &str) -> String {
 steps = 10
 dt = 2.0e-5
 gravity = [0.0, 0.0, -9.81]
-{MATERIAL}{CLUMPS}
+{material}{CLUMPS}
 [[boundary]]
 mesh = {{ file = "{}" }}
 material = "m"
@@ -253,12 +253,9 @@ fn compare(scene: &Scene, steps: u64, every: u64, tol_x: f32, tol_q: f32) -> (Wo
     (cpu, host, seen)
 }
 
-#[test]
-fn clumps_land_rest_and_slide_on_a_mesh_floor_as_on_the_cpu() {
-    // A pair landing tilted (one end first, then both), a hammer resting turned, a pair and
-    // a hammer sliding across the diagonals.
-    let text = floor_scene(
-        r#"
+/// The floor test's bodies: a pair landing tilted (one end first, then both), a hammer
+/// resting turned, a pair and a hammer sliding across the diagonals.
+const FLOOR_BODIES: &str = r#"
 [[body]]
 shape = "pair"
 material = "m"
@@ -280,8 +277,11 @@ material = "m"
 position = [-0.3, 0.0, 0.00998]
 orientation = [0.9887711, 0.0, 0.0, 0.1494381]
 velocity = [0.7, -0.25, 0.0]
-"#,
-    );
+"#;
+
+#[test]
+fn clumps_land_rest_and_slide_on_a_mesh_floor_as_on_the_cpu() {
+    let text = floor_scene(FLOOR_BODIES, MATERIAL);
     let scene = parse(&text);
     let (cpu, _, seen) = compare(&scene, 8000, 500, 1e-6, 2e-5);
     // Every piece ends on the floor (the pair's two spheres, the hammer's ball and cube) and
@@ -298,6 +298,26 @@ velocity = [0.7, -0.25, 0.0]
     assert!(cpu.state.position[2].x > -0.25, "{}", cpu.state.position[2]);
     assert!(cpu.state.position[3].x > -0.25, "{}", cpu.state.position[3]);
     assert!(seen.second_piece > 0);
+}
+
+#[test]
+fn clumps_on_a_mesh_floor_with_the_hertz_law_as_on_the_cpu() {
+    // Hertz's stiffness depends on the contact's radius: each piece's own (a ball's 10 mm,
+    // the cube's equivalent radius), not the clump's.
+    let hertz = r#"
+[[material]]
+name = "m"
+density = 2500.0
+model = "hertz"
+youngs_modulus = 5.0e6
+poisson_ratio = 0.3
+restitution = 0.3
+friction = 0.4
+"#;
+    let scene = parse(&floor_scene(FLOOR_BODIES, hertz));
+    let (cpu, _, seen) = compare(&scene, 4000, 500, 1e-6, 2e-5);
+    assert!(seen.second_piece > 0, "{seen:?}");
+    assert!(mesh_touching(&cpu).len() >= 6, "{:?}", mesh_touching(&cpu));
 }
 
 #[test]
