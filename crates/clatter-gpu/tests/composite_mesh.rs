@@ -487,3 +487,67 @@ fn a_dense_drum_load_steps_as_on_the_cpu() {
     assert!(touching >= 30, "{touching} mesh contacts over the steps");
     assert!(second > 0);
 }
+
+/// The device's last good state (`GpuWorld::read_last_good`, the `last_good.ckpt` of a GPU
+/// blow-up report) keeps the mesh slots with their pieces and the composites' rebuild
+/// orientations: read back, it is the state of a plain GPU run at that step, slots included,
+/// and its checkpoint resumed on the CPU goes on bitwise as the plain run's does.
+#[test]
+fn the_last_good_state_keeps_the_mesh_slots_and_resumes_on_the_cpu() {
+    use clatter::health::{ENERGY_FACTOR, Health};
+    use clatter_gpu::HealthSetup;
+    let text = drum_scene(10, 3.0);
+    let scene = parse(&text);
+    let ctx = clatter_gpu::test_context().expect("a GPU adapter (lavapipe)");
+    let start = scene.world();
+    let mut gpu = GpuWorld::new(ctx.clone(), &start).unwrap();
+    let h = Health::new(&start);
+    gpu.set_health(
+        &start,
+        HealthSetup {
+            check_every: 10,
+            energy_every: 0,
+            snapshot_every: 500,
+            budget: h.baseline(),
+            alarm_factor: 0.5 * ENERGY_FACTOR,
+            force_floor: h.force_floor(),
+        },
+    );
+    let report = gpu.step(4600).unwrap();
+    assert!(!report.alarm && report.bad_body.is_none());
+    let mut snap = start.clone();
+    assert!(gpu.read_last_good(&mut snap).unwrap());
+    assert_eq!(snap.step_count, 4500);
+    let mut plain = start.clone();
+    let mut other = GpuWorld::new(ctx, &start).unwrap();
+    other.step(4500).unwrap();
+    other.read_into(&mut plain).unwrap();
+    assert_eq!(snap.time, plain.time);
+    assert_eq!(snap.state.position, plain.state.position);
+    assert_eq!(snap.state.orientation, plain.state.orientation);
+    assert_eq!(snap.mesh_slots(), plain.mesh_slots());
+    assert_eq!(snap.mesh_rebuild_time(), plain.mesh_rebuild_time());
+    assert_eq!(snap.rebuild_orientation(), plain.rebuild_orientation());
+    assert_eq!(snap.rebuild_orientation().len(), snap.len());
+    let springs = snap
+        .mesh_slots()
+        .iter()
+        .filter(|s| s.touching && s.history.length() > 0.0)
+        .count();
+    assert!(springs > 0, "mesh springs in the last good state");
+    assert!(snap.mesh_slots().iter().any(|s| s.touching && s.piece > 0));
+    // Both checkpoints resumed on the CPU: the same run, bit for bit.
+    let resume = |w: &World| {
+        let bytes = w.checkpoint_bytes(&scene_path(), &text, &[]);
+        let (_, mut r) = Checkpoint::from_bytes(&bytes).unwrap().world().unwrap();
+        assert_eq!(r.mesh_slots(), w.mesh_slots());
+        for _ in 0..300 {
+            r.step().unwrap();
+        }
+        r
+    };
+    let (a, b) = (resume(&snap), resume(&plain));
+    assert_eq!(a.state.position, b.state.position);
+    assert_eq!(a.state.velocity, b.state.velocity);
+    assert_eq!(a.mesh_slots(), b.mesh_slots());
+}
