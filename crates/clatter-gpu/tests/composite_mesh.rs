@@ -3,11 +3,15 @@
 //! triangles, the contacts matched to the body's mesh slots by boundary, piece and normal):
 //! - a two-sphere clump and a sphere-and-cube clump landing, resting and sliding on a
 //!   200-triangle mesh floor follow the CPU's trajectories with the same touching contacts
-//!   and the same mesh slots (boundary, piece, touching flag);
-//! - a few dozen clumps tumbling in a turning drum (scenes/meshes/drum.stl) do too;
+//!   and the same mesh slots (boundary, piece, touching flag), with the linear law and with
+//!   Hertz's (whose stiffness takes each piece's own radius);
+//! - 30 clumps tumbling in a drum (scenes/meshes/drum.stl), fixed and turning, do too;
+//! - a denser load in the drum, compared step by step: the same slots and forces;
 //! - GPU runs are bitwise reproducible;
 //! - a GPU run read back and written to a checkpoint resumes on the CPU with its per-piece
 //!   mesh springs, and goes on as the CPU run;
+//! - the device's last good state (a blow-up report's `last_good.ckpt`) holds the mesh
+//!   slots and the rebuild orientations, and resumes as the full read-back does;
 //! - `--backend gpu` takes such scenes.
 //!
 //! The tolerances follow tests/composite.rs: positions and orientations within `max(tol,
