@@ -26,6 +26,11 @@
 //! bounding radius plus the skin (the CPU's list); between rebuilds, within its radius plus
 //! half the skin: bodies and meshes together move less than half the skin between rebuilds,
 //! so this set lies inside the CPU's list and holds every triangle a contact can involve.
+//!
+//! A composite body gathers with its own bounding radius (which holds every piece whatever
+//! the orientation, as the CPU's list does), then each piece meets the triangles in turn
+//! (`mesh_piece` in mesh.wgsl); its slots keep their piece (word 1 of a slot), which the
+//! read-back and the upload carry, as the last good state's copy of this buffer does.
 
 use clatter::boundary::{Boundary, BoundaryMotion, MESH_SLOTS, MeshSlot};
 use clatter::{ContactForce, World};
