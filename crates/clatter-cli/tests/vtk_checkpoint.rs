@@ -645,6 +645,18 @@ fn blow_up_on(
     needles: &[&str],
     last_good_step: Option<u64>,
 ) -> String {
+    blow_up_world(backend, name, simulation, bodies, needles, last_good_step).0
+}
+
+/// [`blow_up_on`], also returning the world of `last_good.ckpt`.
+fn blow_up_world(
+    backend: &str,
+    name: &str,
+    simulation: &str,
+    bodies: &str,
+    needles: &[&str],
+    last_good_step: Option<u64>,
+) -> (String, clatter::World) {
     let dir = test_dir(&format!("blowup-{name}"));
     let scene = dir.join(format!("{name}.toml"));
     std::fs::write(
@@ -724,13 +736,18 @@ fn blow_up_on(
                     .trim_end()
                     .ends_with("</svg>")
             ),
-            "bodies.pvd" | "shapes.pvd" | "last_good.ckpt" => {}
-            f if f.starts_with("bodies_") || f.starts_with("shapes_") => check_vtu(&path),
+            "bodies.pvd" | "shapes.pvd" | "boundaries.pvd" | "last_good.ckpt" => {}
+            f if f.starts_with("bodies_")
+                || f.starts_with("shapes_")
+                || f.starts_with("boundaries_") =>
+            {
+                check_vtu(&path)
+            }
             other => panic!("{name}: unexpected file {other}"),
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
-    err
+    (err, world)
 }
 
 #[test]
@@ -1112,4 +1129,88 @@ fn sigkill_leaves_only_complete_files() {
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A GPU blow-up in a scene with a mesh boundary and a composite: the `last_good.ckpt`
+/// (from the device's snapshot) holds the clump's mesh slots, one per piece, with their
+/// springs, so that resumed on the CPU its mesh contacts go on instead of restarting.
+#[test]
+fn gpu_blow_up_last_good_keeps_the_mesh_slots() {
+    if clatter_gpu::test_context().is_none() {
+        return;
+    }
+    let mesh_dir = test_dir("mesh-plate");
+    let plate = mesh_dir.join("plate.obj");
+    // A horizontal plate at z = 0.05 over most of the box.
+    std::fs::write(
+        &plate,
+        "v 0.02 0.02 0.05\nv 0.18 0.02 0.05\nv 0.18 0.18 0.05\nv 0.02 0.18 0.05\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    // A two-ball clump sliding on the plate (sunk by its weight), and a ball thrown at the floor (60 m/s from
+    // 0.15 m up, 0.6 mm a step): it reaches the floor after some 200 steps and overlaps it
+    // far beyond the checks' bound, after the snapshot of step 200.
+    let bodies = format!(
+        r#"
+[[shape]]
+name = "pair"
+composite = [ {{ shape = "ball", offset = [-0.008, 0.0, 0.0] }},
+              {{ shape = "ball", offset = [0.008, 0.0, 0.0] }} ]
+
+[[boundary]]
+mesh = {{ file = "{}" }}
+material = "m"
+
+[[body]]
+shape = "pair"
+material = "m"
+position = [0.1, 0.1, 0.059996]
+velocity = [0.2, 0.1, 0.0]
+
+[[body]]
+shape = "ball"
+material = "m"
+position = [0.03, 0.03, 0.15]
+velocity = [0.0, 0.0, -60.0]
+"#,
+        plate.display()
+    );
+    let (err, mut world) = blow_up_world(
+        "gpu",
+        "mesh-gpu",
+        "steps = 2000\ndt = 1.0e-5",
+        &bodies,
+        &[],
+        None,
+    );
+    assert!(world.step_count >= 100, "step {}: {err}", world.step_count);
+    let touching: Vec<_> = world
+        .mesh_slots()
+        .iter()
+        .filter(|s| s.touching)
+        .copied()
+        .collect();
+    let pieces: std::collections::BTreeSet<u32> = touching.iter().map(|s| s.piece).collect();
+    assert_eq!(
+        pieces,
+        [0, 1].into(),
+        "{touching:?} step {} pos {:?} {err}",
+        world.step_count,
+        world.state.position
+    );
+    assert!(
+        touching.iter().all(|s| s.history.length() > 0.0),
+        "{touching:?}"
+    );
+    // Resumed on the CPU, the clump's mesh contacts carry on.
+    let before = world.mesh_slots().to_vec();
+    world.step().unwrap();
+    let after = world.mesh_slots();
+    for (a, b) in before.iter().zip(after) {
+        if a.touching {
+            assert!(b.touching && b.piece == a.piece);
+            assert!((b.history - a.history).length() < 0.5 * a.history.length());
+        }
+    }
+    let _ = std::fs::remove_dir_all(&mesh_dir);
 }

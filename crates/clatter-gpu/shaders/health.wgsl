@@ -193,10 +193,18 @@ fn snapshot_state(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
     let n = params.n;
     let slots = n * params.num_walls * params.max_pieces;
     let stride = nwg.x * WG;
-    let end = max(max(n, slots), max(params.pair_capacity, ST_LEN));
+    let end = max(max(max(n, slots), snap_mesh_words(n)), max(params.pair_capacity, ST_LEN));
     for (var i = thread_index(wid, nwg, lid); i < end; i += stride) {
         snapshot_one(i, n, slots);
     }
+}
+
+// Words of the copy of the `mesh` buffer (src/layout.rs `snapshot::mesh_words`).
+fn snap_mesh_words(n: u32) -> u32 {
+    if params.num_boundaries == 0u {
+        return 0u;
+    }
+    return MESH_GLOBAL + MESH_BSTATE * params.num_boundaries + (MESH_SLOTS * MESH_SLOT + 1u) * n;
 }
 
 // Copies element `i` of every state buffer that has one.
@@ -217,6 +225,14 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
         snap4(at + 16u, s.angular_momentum);
         snap4(at + 20u, s.omega);
         snap4(at + 24u, rebuild_pos[i]);
+        if params.composites != 0u {
+            snap4(at + 28u, rebuild_pos[n + i]);
+        }
+    }
+    let mesh_at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * slots;
+    let mesh_words = snap_mesh_words(n);
+    if i < mesh_words {
+        snapshot[mesh_at + i] = mesh[i];
     }
     if i < slots {
         let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * i;
@@ -225,7 +241,7 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
         snapshot[at + 16u] = bitcast<u32>(wall_forces[i].pad0);
     }
     if i < params.pair_capacity {
-        let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * slots + SNAP_PAIR * i;
+        let at = mesh_at + mesh_words + SNAP_PAIR * i;
         snapshot[at] = pairs[i].x;
         snapshot[at + 1u] = pairs[i].y;
         snap4(at + 2u, hist[i]);

@@ -488,9 +488,12 @@ fn mesh_plane_manifold(s: u32, x: vec3<f32>, q: vec4<f32>, gb: u32, pose: MeshPo
 
 // ---------------------------------------------------------------- per body
 
-// This step's contacts before the law: manifolds and boundaries.
-var<private> mesh_found: array<Manifold, MESH_MAX_FOUND>;
-var<private> mesh_found_b: array<u32, MESH_MAX_FOUND>;
+// This step's contacts before the law: manifolds, boundaries and pieces, in the CPU's order
+// (piece by piece; MESH_ACC: src/pipeline.rs `composites_const`, room for the MESH_SLOTS kept
+// of the earlier pieces and one piece's MESH_MAX_FOUND).
+var<private> mesh_found: array<Manifold, MESH_ACC>;
+var<private> mesh_found_b: array<u32, MESH_ACC>;
+var<private> mesh_found_p: array<u32, MESH_ACC>;
 var<private> mesh_nfound: u32;
 
 // Face groups (normal, offset) and their boundaries; edge and vertex contacts.
@@ -524,6 +527,28 @@ fn mesh_max_depth(m: Manifold) -> f32 {
         d = max(d, m.points[k].w);
     }
     return d;
+}
+
+// Keeps the deepest MESH_SLOTS of mesh_found[first..mesh_nfound), deepest first, by a stable
+// sort (ties keep their order): the CPU's `sort_by(max_depth)` then `truncate`.
+fn mesh_keep_deepest(first: u32) {
+    for (var k = first + 1u; k < mesh_nfound; k++) {
+        let m = mesh_found[k];
+        let b = mesh_found_b[k];
+        let p = mesh_found_p[k];
+        let key = mesh_key(mesh_max_depth(m));
+        var j = k;
+        while j > first && mesh_key(mesh_max_depth(mesh_found[j - 1u])) < key {
+            mesh_found[j] = mesh_found[j - 1u];
+            mesh_found_b[j] = mesh_found_b[j - 1u];
+            mesh_found_p[j] = mesh_found_p[j - 1u];
+            j--;
+        }
+        mesh_found[j] = m;
+        mesh_found_b[j] = b;
+        mesh_found_p[j] = p;
+    }
+    mesh_nfound = min(mesh_nfound, first + MESH_SLOTS);
 }
 
 // The first word of body i's slot k in `mesh`.
@@ -560,40 +585,12 @@ fn mesh_active_at(i: u32) -> u32 {
     return mesh_slot_at(params.n, 0u) + i;
 }
 
-// Body i's mesh contacts this step (boundary.rs `body_slots`, `piece_contacts`, `assign`):
-// the slots written, the force and torque summed in slot order.
-fn mesh_contacts(i: u32) -> MeshSum {
-    var out = MeshSum(vec3<f32>(0.0), vec3<f32>(0.0), 0u, true);
-    let st = statics[i];
-    let bd = bodies[i];
-    let x = bd.position.xyz;
-    let q = bd.orientation;
-    let s = st.shape;
+// The contacts of one convex piece (shape s at (x, q); the body itself unless a composite)
+// with the candidate triangles, appended to mesh_found as piece `piece`: boundary.rs
+// `piece_contacts` (face contacts merged per plane first, then the edge and vertex contacts
+// that are not ghosts; the deepest MESH_SLOTS of them). False when a capacity is exceeded.
+fn mesh_piece(s: u32, x: vec3<f32>, q: vec4<f32>, piece: u32) -> bool {
     let size = shape_radius(s);
-    mesh_overflow = false;
-    // At a rebuild the CPU's candidates (within the radius plus the skin), and whether the
-    // body has any; between rebuilds only bodies that had some, within the radius plus half
-    // the skin (see src/mesh.rs).
-    let rebuilding = atomicLoad(&status[ST_REBUILDING]) != 0u;
-    if !rebuilding && mesh[mesh_active_at(i)] == 0u {
-        mesh_clear(i);
-        return out;
-    }
-    var reach = st.radius + 0.5 * params.skin;
-    if rebuilding {
-        reach = st.radius + params.skin;
-    }
-    if !mesh_gather(x, reach) {
-        out.ok = false;
-        return out;
-    }
-    if rebuilding {
-        mesh[mesh_active_at(i)] = select(0u, 1u, mesh_ncands > 0u);
-    }
-    if mesh_ncands == 0u {
-        mesh_clear(i);
-        return out;
-    }
     let sphere = shape_is_sphere(s);
     var ngroups = 0u;
     var nfeat = 0u;
@@ -624,8 +621,7 @@ fn mesh_contacts(i: u32) -> MeshSum {
             }
             if !same {
                 if ngroups == MESH_MAX_FOUND {
-                    out.ok = false;
-                    return out;
+                    return false;
                 }
                 mesh_groups[ngroups] = vec4<f32>(hit.normal, hit.offset);
                 mesh_groups_b[ngroups] = b;
@@ -659,8 +655,7 @@ fn mesh_contacts(i: u32) -> MeshSum {
                 continue;
             }
             if nfeat == MESH_MAX_FOUND {
-                out.ok = false;
-                return out;
+                return false;
             }
             mesh_feat_n[nfeat] = vec4<f32>(hit.normal, hit.depth);
             mesh_feat_p[nfeat] = vec4<f32>(hit.point, bitcast<f32>(b));
@@ -669,28 +664,26 @@ fn mesh_contacts(i: u32) -> MeshSum {
         }
     }
     // The plane manifolds first, then the edge and vertex contacts (the CPU's order).
-    mesh_nfound = 0u;
+    let start = mesh_nfound;
     for (var k = 0u; k < ngroups; k++) {
         let b = mesh_groups_b[k];
         let m = mesh_plane_manifold(s, x, q, b, mesh_pose(b), mesh_groups[k].xyz, mesh_groups[k].w, size);
         if m.count > 0u {
-            if mesh_nfound == MESH_MAX_FOUND {
-                out.ok = false;
-                return out;
+            if mesh_nfound - start == MESH_MAX_FOUND {
+                return false;
             }
             mesh_found[mesh_nfound] = m;
             mesh_found_b[mesh_nfound] = b;
+            mesh_found_p[mesh_nfound] = piece;
             mesh_nfound++;
         }
     }
     if mesh_overflow {
-        out.ok = false;
-        return out;
+        return false;
     }
     for (var k = 0u; k < nfeat; k++) {
-        if mesh_nfound == MESH_MAX_FOUND {
-            out.ok = false;
-            return out;
+        if mesh_nfound - start == MESH_MAX_FOUND {
+            return false;
         }
         var m = Manifold();
         m.normal = mesh_feat_n[k].xyz;
@@ -698,37 +691,86 @@ fn mesh_contacts(i: u32) -> MeshSum {
         m.points[0] = vec4<f32>(mesh_feat_p[k].xyz, mesh_feat_n[k].w);
         mesh_found[mesh_nfound] = m;
         mesh_found_b[mesh_nfound] = bitcast<u32>(mesh_feat_p[k].w);
+        mesh_found_p[mesh_nfound] = piece;
         mesh_nfound++;
     }
-    // The deepest MESH_SLOTS, by a stable sort (ties keep their order).
-    var order: array<u32, MESH_MAX_FOUND>;
-    for (var k = 0u; k < mesh_nfound; k++) {
-        order[k] = k;
+    if mesh_nfound - start > MESH_SLOTS {
+        mesh_keep_deepest(start);
     }
-    if mesh_nfound > MESH_SLOTS {
-        for (var k = 1u; k < mesh_nfound; k++) {
-            let o = order[k];
-            let key = mesh_key(mesh_max_depth(mesh_found[o]));
-            var j = k;
-            while j > 0u && mesh_key(mesh_max_depth(mesh_found[order[j - 1u]])) < key {
-                order[j] = order[j - 1u];
-                j--;
-            }
-            order[j] = o;
+    return true;
+}
+
+// Body i's mesh contacts this step (boundary.rs `body_slots`, `found_contacts`, `assign`):
+// the slots written, the force and torque summed in slot order.
+fn mesh_contacts(i: u32) -> MeshSum {
+    var out = MeshSum(vec3<f32>(0.0), vec3<f32>(0.0), 0u, true);
+    let st = statics[i];
+    let bd = bodies[i];
+    let x = bd.position.xyz;
+    let q = bd.orientation;
+    mesh_overflow = false;
+    // At a rebuild the CPU's candidates (within the radius plus the skin), and whether the
+    // body has any; between rebuilds only bodies that had some, within the radius plus half
+    // the skin (see src/mesh.rs). A composite's radius bounds all its pieces.
+    let rebuilding = atomicLoad(&status[ST_REBUILDING]) != 0u;
+    if !rebuilding && mesh[mesh_active_at(i)] == 0u {
+        mesh_clear(i);
+        return out;
+    }
+    var reach = st.radius + 0.5 * params.skin;
+    if rebuilding {
+        reach = st.radius + params.skin;
+    }
+    if !mesh_gather(x, reach) {
+        out.ok = false;
+        return out;
+    }
+    if rebuilding {
+        mesh[mesh_active_at(i)] = select(0u, 1u, mesh_ncands > 0u);
+    }
+    if mesh_ncands == 0u {
+        mesh_clear(i);
+        return out;
+    }
+    // Piece by piece (one unless a composite: pieces.wgsl), each keeping its deepest
+    // MESH_SLOTS; over MESH_SLOTS in all, the deepest MESH_SLOTS of them all (the CPU's
+    // stable sort of the whole list). Keeping only the deepest MESH_SLOTS of the earlier
+    // pieces before the next one gives the same: a contact dropped there has MESH_SLOTS
+    // deeper (or as deep and earlier) ones ahead of it, which stay.
+    mesh_nfound = 0u;
+    var total = 0u;
+    var np = 1u;
+    if COMPOSITES {
+        np = piece_count(st.shape);
+    }
+    for (var k = 0u; k < np; k++) {
+        if mesh_nfound > MESH_SLOTS {
+            mesh_keep_deepest(0u);
         }
+        let before = mesh_nfound;
+        let pc = piece_at(st, k, x, q);
+        if !mesh_piece(pc.shape, pc.x, pc.q, k) {
+            out.ok = false;
+            return out;
+        }
+        total += mesh_nfound - before;
     }
-    let nf = min(mesh_nfound, MESH_SLOTS);
-    // Match each contact to the old slot of its boundary with the closest normal.
+    if total > MESH_SLOTS {
+        mesh_keep_deepest(0u);
+    }
+    let nf = mesh_nfound;
+    // Match each contact to the old slot of its boundary and piece with the closest normal.
     var taken = array<bool, 4>(false, false, false, false);
     var place = array<u32, 4>(NONE, NONE, NONE, NONE);
     for (var c = 0u; c < nf; c++) {
-        let m = mesh_found[order[c]];
-        let b = mesh_found_b[order[c]];
+        let m = mesh_found[c];
+        let b = mesh_found_b[c];
+        let p = mesh_found_p[c];
         var best = SLOT_MATCH_COS;
         var best_k = NONE;
         for (var k = 0u; k < MESH_SLOTS; k++) {
             let at = mesh_slot_at(i, k);
-            if mesh[at + 2u] != 0u && !taken[k] && mesh[at] == b && mesh[at + 1u] == 0u {
+            if mesh[at + 2u] != 0u && !taken[k] && mesh[at] == b && mesh[at + 1u] == p {
                 let cosv = dot(mesh_v3(at + 4u), m.normal);
                 if cosv >= best {
                     best = cosv;
@@ -757,20 +799,29 @@ fn mesh_contacts(i: u32) -> MeshSum {
             springs[c] = vec4<f32>(mesh_v3(at + 8u), mesh_word_f(at + 7u));
         }
     }
-    // The law per contact, into the slots; the other slots released.
+    // The law per contact (with its piece's radius and sphere flag), into the slots; the
+    // other slots released.
     var forces: array<ContactForce, 4>;
     var used = array<bool, 4>(false, false, false, false);
-    let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, st.is_sphere != 0u);
     for (var c = 0u; c < nf; c++) {
-        let m = mesh_found[order[c]];
-        let b = mesh_found_b[order[c]];
+        let m = mesh_found[c];
+        let b = mesh_found_b[c];
+        let p = mesh_found_p[c];
+        var radius = st.equivalent_radius;
+        var sphere = st.is_sphere != 0u;
+        if COMPOSITES {
+            let pc = piece_at(st, p, x, q);
+            radius = pc.law_radius;
+            sphere = pc.is_sphere;
+        }
+        let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);
         let pp = pair_table[mesh_h(b, 1u) * params.num_materials + st.material];
-        let r = contact_force(pp, st.mass, st.equivalent_radius, share, m, mesh_motion(b), motion_of(i),
+        let r = contact_force(pp, st.mass, radius, share, m, mesh_motion(b), motion_of(i),
                               springs[c], params.dt);
         let k = place[c];
         let at = mesh_slot_at(i, k);
         mesh[at] = b;
-        mesh[at + 1u] = 0u;
+        mesh[at + 1u] = p;
         mesh[at + 2u] = 1u;
         mesh[at + 3u] = 0u;
         mesh_set_v3(at + 4u, m.normal);

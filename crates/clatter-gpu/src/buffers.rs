@@ -107,7 +107,7 @@ impl Binding {
                 crate::layout::HEALTH_LOG as u64 + d.bodies.div_ceil(crate::layout::WG as u64)
             }
             Count::SnapshotWords => {
-                crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.pairs)
+                crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.boundaries, d.pairs)
             }
             Count::MeshWords => crate::mesh::state_words(d.bodies, d.boundaries),
         };

@@ -149,26 +149,44 @@ clatter::gpu_record! {
 pub const HEALTH_LOG: u32 = 128;
 
 /// The last good state in the `snapshot` buffer, as 32-bit words: the status words, then per
-/// body its state, rebuild position and wall slots, then per pair its entry (`pair`, springs,
-/// touching flag, force), so that a larger pair capacity only extends the buffer.
+/// body its state, rebuild position and orientation, then the body-wall slots, then a copy of
+/// the `mesh` buffer (the mesh slots and clocks, in scenes with mesh boundaries), then per
+/// pair its entry (`pair`, springs, touching flag, force), so that a larger pair capacity
+/// only extends the buffer.
 pub mod snapshot {
     /// Words of the status block.
     pub const STATUS: u64 = 32;
-    /// Words per body: state (24), rebuild position (4).
-    pub const BODY: u64 = 28;
+    /// Words per body: state (24), rebuild position (4), rebuild orientation (4: with
+    /// composites only, see `RebuildSlots`).
+    pub const BODY: u64 = 32;
     /// Words per body-wall slot: springs (4), force (12), touching (1).
     pub const SLOT: u64 = 17;
     /// Words per pair: bodies (2), springs (4), touching (1), force (12).
     pub const PAIR: u64 = 19;
 
-    /// The first word of the pair entries.
-    pub fn pairs_at(bodies: u64, walls: u64) -> u64 {
+    /// Words of the copy of the `mesh` buffer for `bodies` and `boundaries` (none without
+    /// boundaries).
+    pub fn mesh_words(bodies: u64, boundaries: u64) -> u64 {
+        if boundaries == 0 {
+            0
+        } else {
+            crate::mesh::state_words(bodies, boundaries)
+        }
+    }
+
+    /// The first word of the copy of the `mesh` buffer.
+    pub fn mesh_at(bodies: u64, walls: u64) -> u64 {
         STATUS + BODY * bodies + SLOT * bodies * walls
     }
 
+    /// The first word of the pair entries.
+    pub fn pairs_at(bodies: u64, walls: u64, boundaries: u64) -> u64 {
+        mesh_at(bodies, walls) + mesh_words(bodies, boundaries)
+    }
+
     /// Words of the whole snapshot.
-    pub fn words(bodies: u64, walls: u64, pairs: u64) -> u64 {
-        pairs_at(bodies, walls) + PAIR * pairs
+    pub fn words(bodies: u64, walls: u64, boundaries: u64, pairs: u64) -> u64 {
+        pairs_at(bodies, walls, boundaries) + PAIR * pairs
     }
 }
 

@@ -26,6 +26,11 @@
 //! bounding radius plus the skin (the CPU's list); between rebuilds, within its radius plus
 //! half the skin: bodies and meshes together move less than half the skin between rebuilds,
 //! so this set lies inside the CPU's list and holds every triangle a contact can involve.
+//!
+//! A composite body gathers with its own bounding radius (which holds every piece whatever
+//! the orientation, as the CPU's list does), then each piece meets the triangles in turn
+//! (`mesh_piece` in mesh.wgsl); its slots keep their piece (word 1 of a slot), which the
+//! read-back and the upload carry, as the last good state's copy of this buffer does.
 
 use clatter::boundary::{Boundary, BoundaryMotion, MESH_SLOTS, MeshSlot};
 use clatter::{ContactForce, World};
@@ -47,8 +52,8 @@ pub const SLOT_WORDS: usize = 24;
 /// plus half the skin between rebuilds) the GPU holds per body and step (a private array in mesh.wgsl); beyond it the pipeline stops and
 /// the run fails with a clear error (status word `MESH_FULL`).
 pub const MAX_CANDIDATES: usize = 64;
-/// Most mesh contacts (merged planes plus edge and vertex contacts) found per body and step
-/// before the deepest [`MESH_SLOTS`] are kept; beyond it, as for [`MAX_CANDIDATES`].
+/// Most mesh contacts (merged planes plus edge and vertex contacts) found per body (per piece
+/// of a composite) and step before the deepest [`MESH_SLOTS`] are kept; beyond it, as for [`MAX_CANDIDATES`].
 pub const MAX_FOUND: usize = 8;
 
 /// Words of the state buffer for `bodies` bodies and `boundaries` boundaries.

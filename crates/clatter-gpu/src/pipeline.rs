@@ -27,12 +27,15 @@ pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
 pub(crate) const HEALTH: &str = include_str!("../shaders/health.wgsl");
 pub(crate) const PIECES: &str = include_str!("../shaders/pieces.wgsl");
 /// `const COMPOSITES` for a module that includes pieces.wgsl: whether its kernels handle
-/// composite bodies (the contact kernels are compiled both ways; see pieces.wgsl).
+/// composite bodies (the contact kernels are compiled both ways; see pieces.wgsl). With it
+/// `const MESH_ACC`, the room mesh.wgsl keeps for a body's mesh contacts before the deepest
+/// `MESH_SLOTS` are chosen: one piece's `MESH_MAX_FOUND`, plus the `MESH_SLOTS` kept of the
+/// earlier pieces of a composite.
 pub(crate) fn composites_const(composites: bool) -> &'static str {
     if composites {
-        "const COMPOSITES: bool = true;\n"
+        "const COMPOSITES: bool = true;\nconst MESH_ACC: u32 = MESH_SLOTS + MESH_MAX_FOUND;\n"
     } else {
-        "const COMPOSITES: bool = false;\n"
+        "const COMPOSITES: bool = false;\nconst MESH_ACC: u32 = MESH_MAX_FOUND;\n"
     }
 }
 
@@ -137,13 +140,14 @@ impl Kernels {
 }
 
 /// The layouts and the base kernels, shared by every world on a device; the contact kernels
-/// are compiled on first use, in four variants (sphere-only scenes skip the large polyhedron
-/// narrow phase, scenes without mesh boundaries the mesh contacts): see [`ContactVariant`].
+/// are compiled on first use, in six variants (sphere-only scenes skip the large polyhedron
+/// narrow phase, scenes without mesh boundaries the mesh contacts, scenes without composites
+/// the piece code): see [`ContactVariant`].
 pub(crate) struct Compiled {
     pub layouts: [wgpu::BindGroupLayout; 3],
     pub base: Kernels,
     /// By [`ContactVariant::index`].
-    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 5],
+    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 6],
 }
 
 /// Which contact kernel set a world uses.
@@ -153,7 +157,7 @@ pub(crate) struct ContactVariant {
     pub spheres_only: bool,
     /// The scene has triangle-mesh boundaries.
     pub meshes: bool,
-    /// Some body is a composite (never together with meshes: the GPU refuses that).
+    /// Some body is a composite (never a sphere-only scene: a composite is not a sphere).
     pub composites: bool,
 }
 
@@ -161,7 +165,7 @@ impl ContactVariant {
     /// Its slot in [`Compiled::contact_sets`].
     pub fn index(self) -> usize {
         if self.composites {
-            4
+            4 + self.meshes as usize
         } else {
             self.spheres_only as usize + 2 * self.meshes as usize
         }

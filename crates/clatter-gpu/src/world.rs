@@ -125,12 +125,6 @@ impl GpuWorld {
         let n = world.len() as u32;
         let num_walls = world.walls.len() as u32;
         let composites = world.has_composites();
-        if composites && !world.boundaries.is_empty() {
-            return Err(GpuError::Unsupported(format!(
-                "the scene has composite bodies together with {} triangle-mesh boundaries ([[boundary]]), which only the CPU backend supports so far (each works on the GPU alone)",
-                world.boundaries.len()
-            )));
-        }
         if composites && world.len() as u64 > crate::shapes::MAX_COMPOSITE_BODIES {
             return Err(GpuError::TooLarge {
                 adapter: ctx.adapter_name(),
@@ -638,7 +632,7 @@ impl GpuWorld {
                     p.wait(&self.ctx)?;
                 }
                 return Err(GpuError::Unsupported(format!(
-                    "body {} meets more mesh triangles or contacts than the GPU keeps per body ({} triangles within its reach, {} contacts before the deepest {} are kept); run this scene with --backend cpu",
+                    "body {} meets more mesh triangles or contacts than the GPU keeps per body ({} triangles within its reach, {} contacts per piece before the deepest {} are kept); run this scene with --backend cpu",
                     st[status::MESH_FULL] - 1,
                     crate::mesh::MAX_CANDIDATES,
                     crate::mesh::MAX_FOUND,
@@ -1226,11 +1220,12 @@ impl GpuWorld {
             return Ok(false);
         }
         let (n, walls) = (self.n as u64, self.wall_slots as u64);
+        let nb = self.params.num_boundaries as u64;
         let np = (st[status::PAIRS] as u64).min(self.params.pair_capacity as u64);
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read_buffer(
             buf,
             0,
-            4 * snap::words(n, walls, np),
+            4 * snap::words(n, walls, nb, np),
         )?);
         let f4 = |at: usize| -> [f32; 4] { std::array::from_fn(|k| f32::from_bits(words[at + k])) };
         let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
@@ -1259,7 +1254,7 @@ impl GpuWorld {
             world.state.set_record(i as usize, &s);
         }
         let slot_at = |k: u64| (snap::STATUS + snap::BODY * n + snap::SLOT * k) as usize;
-        let pair_at = |k: u64| (snap::pairs_at(n, walls) + snap::PAIR * k) as usize;
+        let pair_at = |k: u64| (snap::pairs_at(n, walls, nb) + snap::PAIR * k) as usize;
         let slots = n * walls;
         let hist: Vec<[f32; 4]> = (0..np).map(|k| f4(pair_at(k) + 2)).collect();
         let wall_hist: Vec<[f32; 4]> = (0..slots).map(|k| f4(slot_at(k))).collect();
@@ -1275,9 +1270,11 @@ impl GpuWorld {
             } else {
                 Vec::new()
             },
-            // Without the rebuild orientations (not in the snapshot) a composite world
-            // rebuilds its list at the next step.
-            rebuild_orientation: Vec::new(),
+            rebuild_orientation: if st[status::REBUILDS] > 0 && self.params.composites != 0 {
+                (0..n).map(|i| quat_of(f4(body_at(i) + 28))).collect()
+            } else {
+                Vec::new()
+            },
             pairs,
             pieces,
             history: hist.iter().map(|&h| v3(h)).collect(),
@@ -1303,13 +1300,15 @@ impl GpuWorld {
         }
         world.time = t;
         world.set_contact_state(state);
-        if !world.boundaries.is_empty() {
-            // The snapshot holds no mesh slots: the mesh contacts restart without springs,
-            // and the next step rebuilds (finding the mesh candidates afresh).
-            world.set_needs_rebuild(true);
-            let empty = vec![clatter::boundary::MeshSlot::default(); world.mesh_slots().len()];
+        if nb > 0 {
+            // The mesh slots and the step of their last rebuild, as `read_mesh_into`.
+            let at = snap::mesh_at(n, walls) as usize;
+            let mesh = &words[at..at + snap::mesh_words(n, nb) as usize];
+            let (slots, rebuild_step) = crate::mesh::read_slots(mesh, n as usize, nb as usize);
+            let back = st[status::STEPS].wrapping_sub(rebuild_step) as u64;
+            let rebuild_time = self.time_after(g.saturating_sub(back));
             world
-                .restore_mesh(empty, t)
+                .restore_mesh(slots, rebuild_time)
                 .map_err(GpuError::Unsupported)?;
         }
         Ok(true)

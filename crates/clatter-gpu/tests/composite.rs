@@ -12,8 +12,8 @@
 //! - clumps in a periodic box meet across the seams as on the CPU;
 //! - a GPU run read back and written to a checkpoint resumes on the CPU with its per-piece
 //!   springs (the CPU continuation follows the GPU's own);
-//! - composites with a mesh boundary are still refused, and `--backend auto` runs them on
-//!   the CPU.
+//!
+//! Composites against triangle-mesh boundaries: tests/composite_mesh.rs.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -602,37 +602,4 @@ velocity = [-1.2, 0.5, -0.3]
         .filter(|&i| (cpu.state.position[i].x - start.state.position[i].x).abs() > 0.03)
         .count();
     assert!(crossed > 0);
-}
-
-#[test]
-fn composites_with_a_mesh_boundary_stay_on_the_cpu() {
-    use clatter_gpu::{BackendChoice, Device, Stepper, choose};
-    let ctx = clatter_gpu::test_context().expect("a GPU adapter");
-    let text = format!(
-        r#"[simulation]
-steps = 10
-{MATERIAL}
-[[shape]]
-name = "ball"
-sphere = {{ radius = 0.01 }}
-[[shape]]
-name = "pair"
-composite = [ {{ shape = "ball", offset = [-0.008, 0.0, 0.0] }},
-              {{ shape = "ball", offset = [0.008, 0.0, 0.0] }} ]
-[[boundary]]
-mesh = {{ file = "meshes/l-block.obj", scale = 0.1 }}
-material = "m"
-[[body]]
-shape = "pair"
-material = "m"
-position = [0.0, 0.0, 0.5]
-"#
-    );
-    let world = parse(&text).world();
-    let e = GpuWorld::new(ctx.clone(), &world)
-        .err()
-        .expect("the GPU refuses mesh boundaries");
-    assert!(e.to_string().contains("boundaries"), "{e}");
-    let auto = choose(BackendChoice::Auto, &world, Device::Shared(ctx)).expect("auto");
-    assert!(matches!(auto.stepper, Stepper::Cpu));
 }
