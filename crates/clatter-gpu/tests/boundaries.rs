@@ -14,6 +14,10 @@ use clatter::{BodyInit, Checkpoint, ContactLaw, Material, World, WorldDesc};
 use clatter_gpu::GpuWorld;
 use glam::{Quat, Vec3};
 
+#[path = "../../clatter/tests/common/meshes.rs"]
+mod meshes;
+use meshes::floor_mesh;
+
 const R: f32 = 0.01;
 
 fn material(friction: f32, restitution: f32) -> Material {
@@ -50,36 +54,6 @@ fn body(position: Vec3, velocity: Vec3, omega: Vec3) -> BodyInit {
         velocity,
         angular_velocity: omega,
     }
-}
-
-/// A flat square floor `z = 0` over `[-h, h]^2` of `n x n` squares, two triangles each,
-/// alternating the diagonal.
-fn floor_mesh(n: usize, h: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let mut v = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            v.push([
-                -h + 2.0 * h * i as f64 / n as f64,
-                -h + 2.0 * h * j as f64 / n as f64,
-                0.0,
-            ]);
-        }
-    }
-    let mut t = Vec::new();
-    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    for j in 0..n {
-        for i in 0..n {
-            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                t.push([a, b, c]);
-                t.push([a, c, d]);
-            } else {
-                t.push([a, b, d]);
-                t.push([b, c, d]);
-            }
-        }
-    }
-    (v, t)
 }
 
 /// An open tube of radius `rd` about the y axis, `y` in `[-l/2, l/2]`, `n` facets, wound

@@ -30,6 +30,9 @@ use clatter::checkpoint::Checkpoint;
 use clatter::scene::Scene;
 use clatter_gpu::GpuWorld;
 
+#[path = "../../clatter/tests/common/meshes.rs"]
+mod meshes;
+
 const MATERIAL: &str = r#"
 [[material]]
 name = "m"
@@ -79,25 +82,8 @@ composite = [ { shape = "ball", offset = [-0.004, 0.0, 0.0] },
 /// A flat square floor `z = 0` over `[-h, h]^2` of `n x n` squares, two triangles each,
 /// alternating the diagonal, written as an OBJ file; returns its path.
 fn floor_obj(n: usize, h: f64) -> PathBuf {
-    let mut s = String::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            let x = -h + 2.0 * h * i as f64 / n as f64;
-            let y = -h + 2.0 * h * j as f64 / n as f64;
-            s.push_str(&format!("v {x} {y} 0\n"));
-        }
-    }
-    let id = |i: usize, j: usize| j * (n + 1) + i + 1;
-    for j in 0..n {
-        for i in 0..n {
-            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                s.push_str(&format!("f {a} {b} {c}\nf {a} {c} {d}\n"));
-            } else {
-                s.push_str(&format!("f {a} {b} {d}\nf {b} {c} {d}\n"));
-            }
-        }
-    }
+    let (v, t) = meshes::floor_mesh(n, h);
+    let s = meshes::obj_text(&v, &t);
     // Written under a name of its own and renamed into place, so that tests running at once
     // never read a half-written file.
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));

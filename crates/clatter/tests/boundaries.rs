@@ -15,6 +15,10 @@ use clatter::scene::Scene;
 use clatter::{BodyInit, Checkpoint, ContactLaw, Material, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
 
+#[path = "common/meshes.rs"]
+mod meshes;
+use meshes::floor_mesh;
+
 const R: f32 = 0.01;
 const DENSITY: f32 = 2500.0;
 const K: f32 = 2.0e4;
@@ -53,36 +57,6 @@ fn floor_wall() -> Wall {
         },
         material: 0,
     }
-}
-
-/// A flat square floor `z = 0` over `[-h, h]^2` of `n x n` squares, two triangles each,
-/// alternating the diagonal (so edges run along x, y and both diagonals).
-fn floor_mesh(n: usize, h: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
-    let mut v = Vec::new();
-    for j in 0..=n {
-        for i in 0..=n {
-            v.push([
-                -h + 2.0 * h * i as f64 / n as f64,
-                -h + 2.0 * h * j as f64 / n as f64,
-                0.0,
-            ]);
-        }
-    }
-    let mut t = Vec::new();
-    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    for j in 0..n {
-        for i in 0..n {
-            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-            if (i + j) % 2 == 0 {
-                t.push([a, b, c]);
-                t.push([a, c, d]);
-            } else {
-                t.push([a, b, d]);
-                t.push([b, c, d]);
-            }
-        }
-    }
-    (v, t)
 }
 
 fn boundary(v: &[[f64; 3]], t: &[[u32; 3]], motion: BoundaryMotion, end: f64) -> Boundary {
