@@ -8,42 +8,14 @@
 //! the GPU run to run, and a GPU checkpoint resumed on the CPU goes on as the CPU run.
 
 use clatter::boundary::{Boundary, BoundaryMotion};
-use clatter::geom::ShapeKind;
 use clatter::scene::Scene;
-use clatter::{BodyInit, Checkpoint, ContactLaw, Material, World, WorldDesc};
+use clatter::{BodyInit, Checkpoint, Material, World, WorldDesc};
 use clatter_gpu::GpuWorld;
 use glam::{Quat, Vec3};
 
 #[path = "../../clatter/tests/common/meshes.rs"]
 mod meshes;
-use meshes::floor_mesh;
-
-const R: f32 = 0.01;
-
-fn material(friction: f32, restitution: f32) -> Material {
-    Material {
-        name: "m".into(),
-        density: 2500.0,
-        law: ContactLaw::Linear { stiffness: 2.0e4 },
-        restitution,
-        friction,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
-}
-
-fn sphere() -> clatter::geom::PreparedShape {
-    ShapeKind::Sphere { radius: R as f64 }.prepare().unwrap()
-}
-
-fn cube(half: f64) -> clatter::geom::PreparedShape {
-    ShapeKind::Box {
-        half_extents: [half; 3],
-    }
-    .prepare()
-    .unwrap()
-}
+use meshes::{R, cube, floor_mesh, material, sphere};
 
 fn body(position: Vec3, velocity: Vec3, omega: Vec3) -> BodyInit {
     BodyInit {

@@ -9,45 +9,16 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use clatter::boundary::{Boundary, BoundaryMotion};
-use clatter::geom::ShapeKind;
 use clatter::geom::narrow::Plane;
 use clatter::scene::Scene;
-use clatter::{BodyInit, Checkpoint, ContactLaw, Material, Wall, World, WorldDesc};
+use clatter::{BodyInit, Checkpoint, ContactLaw, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
 
 #[path = "common/meshes.rs"]
 mod meshes;
-use meshes::floor_mesh;
+use meshes::{DENSITY, K, R, cube, floor_mesh, material, sphere};
 
-const R: f32 = 0.01;
-const DENSITY: f32 = 2500.0;
-const K: f32 = 2.0e4;
 const G: f32 = 9.81;
-
-fn material(friction: f32, restitution: f32) -> Material {
-    Material {
-        name: "m".into(),
-        density: DENSITY,
-        law: ContactLaw::Linear { stiffness: K },
-        restitution,
-        friction,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
-}
-
-fn sphere() -> clatter::geom::PreparedShape {
-    ShapeKind::Sphere { radius: R as f64 }.prepare().unwrap()
-}
-
-fn cube(half: f64) -> clatter::geom::PreparedShape {
-    ShapeKind::Box {
-        half_extents: [half; 3],
-    }
-    .prepare()
-    .unwrap()
-}
 
 fn floor_wall() -> Wall {
     Wall {

@@ -1,4 +1,49 @@
-//! Test meshes shared by the CPU and GPU mesh-boundary tests (included by `#[path]`).
+//! What the CPU and GPU mesh-boundary tests share (included by `#[path]`): their floor mesh,
+//! its OBJ text, and the material and shapes of their bodies.
+
+use clatter::geom::{PreparedShape, ShapeKind};
+use clatter::{ContactLaw, Material};
+
+/// The bodies' sphere radius, m.
+#[allow(dead_code)]
+pub const R: f32 = 0.01;
+/// The bodies' density, kg/m^3.
+#[allow(dead_code)]
+pub const DENSITY: f32 = 2500.0;
+/// The linear contact stiffness, N/m.
+#[allow(dead_code)]
+pub const K: f32 = 2.0e4;
+
+/// The one material of the tests (linear law), with the given friction and restitution.
+#[allow(dead_code)]
+pub fn material(friction: f32, restitution: f32) -> Material {
+    Material {
+        name: "m".into(),
+        density: DENSITY,
+        law: ContactLaw::Linear { stiffness: K },
+        restitution,
+        friction,
+        rolling_friction: 0.0,
+        spinning_friction: 0.0,
+        cohesion: None,
+    }
+}
+
+/// A sphere of radius [`R`].
+#[allow(dead_code)]
+pub fn sphere() -> PreparedShape {
+    ShapeKind::Sphere { radius: R as f64 }.prepare().unwrap()
+}
+
+/// A cube of half-edge `half`.
+#[allow(dead_code)]
+pub fn cube(half: f64) -> PreparedShape {
+    ShapeKind::Box {
+        half_extents: [half; 3],
+    }
+    .prepare()
+    .unwrap()
+}
 
 /// A flat square floor `z = 0` over `[-h, h]^2` of `n x n` squares, two triangles each,
 /// alternating the diagonal (so edges run along x, y and both diagonals), wound so that the
