@@ -70,6 +70,12 @@ impl ParsedScene {
         self.scene.warnings.clone()
     }
 
+    /// Informational lines that change nothing (a boundary mesh wound inwards, mixed windings).
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.scene.notes.clone()
+    }
+
     /// `[simulation].duration` in seconds, or None when the scene gives `steps`.
     #[getter]
     fn duration(&self) -> Option<f64> {

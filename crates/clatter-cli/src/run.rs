@@ -448,6 +448,9 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         for w in &plan.scene.warnings {
             eprintln!("warning: {w}");
         }
+        for n in &plan.scene.notes {
+            eprintln!("note: {n}");
+        }
     }
     for w in plan.health.warnings(&world) {
         eprintln!("warning: {w}");

@@ -231,9 +231,10 @@ pub struct Boundary {
     pub start: f64,
     /// When it stops (s; infinite: never).
     pub end: f64,
-    /// Vertices, mesh frame (duplicates welded).
+    /// Vertices, mesh frame (welded within the tolerance, see [`crate::mesh_repair`]).
     pub vertices: Vec<Vec3>,
-    /// Triangles (vertex indices, the file's winding).
+    /// Triangles (vertex indices; cleaned: each connected part wound consistently, closed
+    /// parts outwards).
     pub triangles: Vec<[u32; 3]>,
     /// Unit normal per triangle (right-handed with the winding).
     pub normals: Vec<Vec3>,
@@ -248,15 +249,16 @@ pub struct Boundary {
     pub reach: f32,
     /// The triangles binned in the mesh frame (built by the world, with its cell size).
     pub grid: MeshGrid,
+    /// What cleaning the file's mesh changed ([`crate::mesh_repair`]).
+    pub repairs: crate::mesh_repair::MeshRepairs,
 }
 
 impl Boundary {
     /// Builds a boundary from a mesh's vertices (file coordinates, scaled by `scale`) and
-    /// triangles; checks it and derives normals and adjacency. The error says what is wrong
-    /// with the mesh (the caller names the file and field): no triangles, an index out of
-    /// range, a non-finite coordinate, a degenerate triangle, an edge shared by more than two
-    /// triangles (non-manifold), neighbours wound in opposite directions, or a closed mesh
-    /// wound inside out (negative volume).
+    /// triangles, cleaned by [`crate::mesh_repair::repair`] with the default weld tolerance;
+    /// see [`Boundary::from_repaired`]. The error says what cannot be a surface (the caller
+    /// names the file and field): no triangles, an index out of range, a non-finite
+    /// coordinate, or no triangle with an area.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         file: &str,
@@ -268,113 +270,62 @@ impl Boundary {
         start: f64,
         end: f64,
     ) -> Result<Boundary, String> {
-        if triangles.is_empty() {
-            return Err(format!(
-                "empty mesh: {} vertices and no triangles (a boundary needs triangles)",
-                vertices.len()
-            ));
-        }
-        // Weld vertices with equal (scaled) coordinates: OBJ objects and STL files repeat them.
-        let mut weld: std::collections::HashMap<[u64; 3], u32> = Default::default();
-        let mut pos: Vec<DVec3> = Vec::new();
-        let mut remap = Vec::with_capacity(vertices.len());
-        for (i, v) in vertices.iter().enumerate() {
-            let s = DVec3::new(v[0] * scale[0], v[1] * scale[1], v[2] * scale[2]);
-            if !s.is_finite() {
-                return Err(format!(
-                    "vertex {i} has a non-finite coordinate: [{}, {}, {}]",
-                    v[0], v[1], v[2]
-                ));
-            }
-            let s = s + DVec3::ZERO; // -0.0 and 0.0 weld together
-            let key = [s.x.to_bits(), s.y.to_bits(), s.z.to_bits()];
-            let id = *weld.entry(key).or_insert_with(|| {
-                pos.push(s);
-                (pos.len() - 1) as u32
-            });
-            remap.push(id);
-        }
-        let mut tris = Vec::with_capacity(triangles.len());
-        let mut normals = Vec::with_capacity(triangles.len());
-        let mut volume = 0.0f64;
-        for (t, tri) in triangles.iter().enumerate() {
-            let mut w = [0u32; 3];
-            for k in 0..3 {
-                let i = tri[k] as usize;
-                w[k] = *remap.get(i).ok_or_else(|| {
-                    format!(
-                        "triangle {t} uses vertex {i}, but the mesh has {} vertices",
-                        vertices.len()
-                    )
-                })?;
-            }
-            let [a, b, c] = w.map(|i| pos[i as usize]);
-            let n = (b - a).cross(c - a);
-            let longest = (b - a)
-                .length_squared()
-                .max((c - b).length_squared())
-                .max((a - c).length_squared());
-            if w[0] == w[1] || w[1] == w[2] || w[0] == w[2] || n.length() <= 1e-9 * longest {
-                return Err(format!(
-                    "triangle {t} is degenerate (its vertices [{a}], [{b}], [{c}] are on one line)"
-                ));
-            }
-            volume += a.dot(b.cross(c));
-            normals.push(n.normalize().as_vec3());
-            tris.push(w);
-        }
-        // Edges: each shared by at most two triangles, which run along it in opposite
-        // directions (consistent winding).
-        let mut edges: std::collections::HashMap<(u32, u32), Vec<(u32, u8)>> = Default::default();
-        for (t, w) in tris.iter().enumerate() {
-            for k in 0..3u8 {
-                let (a, b) = (w[k as usize], w[(k as usize + 1) % 3]);
-                edges
-                    .entry((a.min(b), a.max(b)))
-                    .or_default()
-                    .push((t as u32, k));
-            }
-        }
+        let mesh = crate::mesh_repair::repair(vertices, triangles, scale, None)?;
+        Ok(Boundary::from_repaired(
+            file, mesh, material, motion, start, end,
+        ))
+    }
+
+    /// Builds a boundary from a cleaned mesh: per-triangle normals (right-handed with the
+    /// cleaned winding) and adjacency. At an edge shared by more than two triangles the
+    /// triangles are paired by [`crate::mesh_repair::pair_edge_users`] (the flattest
+    /// continuations); a triangle left without a partner treats the edge as a border.
+    pub fn from_repaired(
+        file: &str,
+        mesh: crate::mesh_repair::Repaired,
+        material: u32,
+        motion: BoundaryMotion,
+        start: f64,
+        end: f64,
+    ) -> Boundary {
+        let crate::mesh_repair::Repaired {
+            vertices: pos,
+            triangles: tris,
+            repairs,
+        } = mesh;
+        let normals: Vec<Vec3> = tris
+            .iter()
+            .map(|w| {
+                let [a, b, c] = w.map(|i| pos[i as usize]);
+                (b - a).cross(c - a).normalize().as_vec3()
+            })
+            .collect();
         let mut neighbours = vec![[NO_NEIGHBOUR; 3]; tris.len()];
-        let mut border = false;
-        let mut sorted: Vec<_> = edges.into_iter().collect();
+        let mut sorted: Vec<_> = crate::mesh_repair::edge_users(&tris).into_iter().collect();
         sorted.sort_unstable();
         let mut link_pairs = Vec::with_capacity(2 * sorted.len());
         for ((a, b), users) in &sorted {
             link_pairs.push((*a, *b));
             link_pairs.push((*b, *a));
-            match users.as_slice() {
-                [_] => border = true,
-                [(t0, k0), (t1, k1)] => {
-                    if tris[*t0 as usize][*k0 as usize] == tris[*t1 as usize][*k1 as usize] {
-                        return Err(format!(
-                            "triangles {t0} and {t1} are wound in opposite directions (flipped normals): they run along their shared edge the same way"
-                        ));
-                    }
-                    neighbours[*t0 as usize][*k0 as usize] = *t1;
-                    neighbours[*t1 as usize][*k1 as usize] = *t0;
+            let pairs = match users.len() {
+                2 => vec![(0, 1)],
+                n if n > 2 => {
+                    let dirs: Vec<DVec3> = users
+                        .iter()
+                        .map(|&(t, _)| into_triangle(&pos, &tris[t as usize], *a, *b))
+                        .collect();
+                    crate::mesh_repair::pair_edge_users(&dirs)
                 }
-                many => {
-                    return Err(format!(
-                        "non-manifold mesh: the edge from [{}] to [{}] is shared by {} triangles ({}), at most two may share an edge",
-                        pos[*a as usize],
-                        pos[*b as usize],
-                        many.len(),
-                        many.iter()
-                            .map(|(t, _)| t.to_string())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ));
-                }
+                _ => Vec::new(),
+            };
+            for (i, j) in pairs {
+                let ((t0, k0), (t1, k1)) = (users[i], users[j]);
+                neighbours[t0 as usize][k0 as usize] = t1;
+                neighbours[t1 as usize][k1 as usize] = t0;
             }
         }
-        if !border && volume < 0.0 {
-            return Err(format!(
-                "the mesh is closed but inside out (its triangles are wound clockwise seen from outside: signed volume {:.6e} m^3); flip the winding",
-                volume / 6.0
-            ));
-        }
         link_pairs.sort_unstable();
+        link_pairs.dedup();
         let mut link_start = vec![0u32; pos.len() + 1];
         for &(a, _) in &link_pairs {
             link_start[a as usize + 1] += 1;
@@ -391,7 +342,7 @@ impl Boundary {
                 .fold(0.0, f32::max),
             _ => 0.0,
         };
-        Ok(Boundary {
+        Boundary {
             file: file.to_string(),
             material,
             motion,
@@ -405,7 +356,8 @@ impl Boundary {
             links,
             reach,
             grid: MeshGrid::default(),
-        })
+            repairs,
+        }
     }
 
     /// Bins the triangles with cells of `cell` (the world does this once it knows its cell
@@ -546,6 +498,15 @@ impl Boundary {
                 d.dot(e) <= REGION_TOLERANCE * e.length()
             })
     }
+}
+
+/// The unit direction from the edge `a b` into triangle `tri`, in its plane: towards its
+/// third corner.
+fn into_triangle(pos: &[DVec3], tri: &[u32; 3], a: u32, b: u32) -> DVec3 {
+    let apex = tri.iter().copied().find(|&i| i != a && i != b).unwrap_or(a);
+    let (pa, e) = (pos[a as usize], pos[b as usize] - pos[a as usize]);
+    let d = pos[apex as usize] - pa;
+    (d - e * (d.dot(e) / e.length_squared())).normalize_or_zero()
 }
 
 /// How far (cosine) a feature contact's normal may lean into a neighbouring region and still

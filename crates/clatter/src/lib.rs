@@ -22,6 +22,7 @@ pub mod health;
 pub mod law;
 pub mod material;
 pub mod mesh;
+pub mod mesh_repair;
 pub mod periodic;
 pub mod pile;
 pub mod scene;

@@ -72,6 +72,9 @@ pub struct Scene {
     pub length: RunLength,
     /// Things that are legal but probably not meant (overlapping lattice, large dt...).
     pub warnings: Vec<String>,
+    /// Things worth knowing that change nothing (a mesh wound inwards...), printed as
+    /// `note:` lines.
+    pub notes: Vec<String>,
     /// `[[sink]]` boxes ([`crate::sink`]).
     pub sinks: Vec<Sink>,
 }
@@ -387,6 +390,7 @@ struct RawBoundary {
 struct RawBoundaryMesh {
     file: Spanned<String>,
     scale: Option<Spanned<RawScale>>,
+    weld: Option<Spanned<f64>>,
 }
 
 /// `motion = { velocity = [..] }` or `{ angular_velocity = [..], center = [..] }`
@@ -632,18 +636,16 @@ fn boundary(
         field: Some(format!("boundary[{k}].mesh.file")),
         message: format!("mesh file `{shown}`: {e}"),
     };
+    let weld = match &m.weld {
+        None => None,
+        Some(w) => Some(cx.non_negative(w, &format!("boundary[{k}].mesh.weld"))?),
+    };
     let mesh = crate::mesh::read_mesh(&path).map_err(fail)?;
-    Boundary::new(
-        file,
-        &mesh.vertices,
-        &mesh.triangles,
-        scale,
-        material,
-        motion,
-        start,
-        end,
-    )
-    .map_err(fail)
+    let cleaned =
+        crate::mesh_repair::repair(&mesh.vertices, &mesh.triangles, scale, weld).map_err(fail)?;
+    Ok(Boundary::from_repaired(
+        file, cleaned, material, motion, start, end,
+    ))
 }
 
 /// A composite of convex pieces approximating a (possibly non-convex) triangle mesh, scaled
@@ -1140,6 +1142,15 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         .enumerate()
         .map(|(k, b)| boundary(cx, k, b, &material_names))
         .collect::<Result<Vec<_>, _>>()?;
+    let mut notes = Vec::new();
+    for (k, b) in boundaries.iter().enumerate() {
+        if let Some(w) = b.repairs.warning() {
+            warnings.push(format!("boundary[{k}] mesh `{}`: {w}", b.file));
+        }
+        if let Some(n) = b.repairs.note() {
+            notes.push(format!("boundary[{k}] mesh `{}`: {n}", b.file));
+        }
+    }
     let mut container_bounds = None;
     if let Some(c) = &raw.container {
         let r = c.get_ref();
@@ -1418,6 +1429,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         boundaries,
         length,
         warnings,
+        notes,
         sinks,
     })
 }
