@@ -627,24 +627,34 @@ mod tests {
     }
 
     #[test]
-    fn bad_meshes() {
+    fn bad_meshes_refused_awkward_ones_cleaned() {
         let (v, t) = square();
         let motion = BoundaryMotion::Fixed;
-        let err = |v: &[[f64; 3]], t: &[[u32; 3]]| {
-            Boundary::new("m", v, t, [1.0; 3], 0, motion, 0.0, 1.0).unwrap_err()
+        let make = |v: &[[f64; 3]], t: &[[u32; 3]]| {
+            Boundary::new("m", v, t, [1.0; 3], 0, motion, 0.0, 1.0)
         };
+        let err = |v: &[[f64; 3]], t: &[[u32; 3]]| make(v, t).unwrap_err();
         assert!(err(&v, &[]).contains("empty"));
         assert!(err(&v, &[[0, 1, 7]]).contains("vertex 7"));
         assert!(err(&v, &[[0, 1, 1]]).contains("degenerate"));
         let mut nan = v.clone();
         nan[2][1] = f64::NAN;
         assert!(err(&nan, &t).contains("non-finite"));
-        assert!(err(&v, &[[0, 1, 2], [0, 3, 2]]).contains("opposite directions"));
+        // Neighbours wound against each other: re-wound like the first, same adjacency.
+        let mixed = make(&v, &[[0, 1, 2], [0, 3, 2]]).unwrap();
+        assert_eq!(mixed.triangles, t);
+        assert_eq!(mixed.repairs.rewound, 1);
+        assert_eq!(mixed.neighbours[0], [NO_NEIGHBOUR, NO_NEIGHBOUR, 1]);
+        // A fin on an edge shared by three triangles: the two flat ones are each other's
+        // neighbours, the fin's base is a border.
         let mut fin = v.clone();
         fin.push([0.5, 0.5, 1.0]);
-        fin.push([0.5, 0.5, -1.0]);
-        assert!(err(&fin, &[[0, 2, 4], [2, 0, 5], [0, 2, 3]]).contains("non-manifold"));
-        // A tetrahedron wound outward is fine; inside out is refused.
+        let b = make(&fin, &[[0, 1, 2], [0, 2, 3], [0, 2, 4]]).unwrap();
+        assert_eq!(b.repairs.non_manifold, 1);
+        assert_eq!(b.neighbours[0][2], 1);
+        assert_eq!(b.neighbours[1][0], 0);
+        assert_eq!(b.neighbours[2], [NO_NEIGHBOUR; 3]);
+        // A tetrahedron wound inside out is turned outwards, as the outward one.
         let tv = vec![
             [0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0],
@@ -652,9 +662,14 @@ mod tests {
             [0.0, 0.0, 1.0],
         ];
         let out = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
-        assert!(Boundary::new("t", &tv, &out, [1.0; 3], 0, motion, 0.0, 1.0).is_ok());
+        let good = make(&tv, &out).unwrap();
         let inside: Vec<[u32; 3]> = out.iter().map(|t| [t[0], t[2], t[1]]).collect();
-        assert!(err(&tv, &inside).contains("inside out"));
+        let turned = make(&tv, &inside).unwrap();
+        assert_eq!(turned.repairs.inward_parts, 1);
+        assert_eq!(
+            (turned.triangles, turned.normals, turned.neighbours),
+            (good.triangles, good.normals, good.neighbours)
+        );
     }
 
     #[test]

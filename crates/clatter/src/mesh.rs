@@ -153,47 +153,64 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshVertices, String> {
 /// 80-byte header says: many CAD exporters start it with `solid`), else ASCII when it starts
 /// with `solid`, else binary with the face count the size gives (a wrong count field).
 fn parse_stl(bytes: &[u8]) -> Result<MeshVertices, String> {
-    let faces_by_size = (bytes.len() >= 84 && (bytes.len() - 84) % 50 == 0)
-        .then(|| (bytes.len() - 84) / 50);
+    let faces_by_size =
+        (bytes.len() >= 84 && (bytes.len() - 84) % 50 == 0).then(|| (bytes.len() - 84) / 50);
     let count = bytes
         .get(80..84)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as usize);
-    if faces_by_size.is_some() && faces_by_size == count {
-        return Ok(binary_stl(bytes, faces_by_size.unwrap_or(0)));
+    if let Some(n) = faces_by_size
+        && count == Some(n)
+    {
+        return Ok(binary_stl(bytes, n));
     }
     let ascii = bytes.trim_ascii_start().starts_with(b"solid");
-    if ascii || faces_by_size.is_none() {
-        let mesh = stl_io::read_stl(&mut Cursor::new(bytes)).map_err(|e| {
-            match (ascii, count) {
-                (false, Some(n)) => format!(
-                    "cannot parse the STL file: not ASCII (it does not start with `solid`) and not binary ({} bytes, but a binary STL with {n} faces has {})",
-                    bytes.len(),
-                    84 + 50 * n as u64
-                ),
-                _ => format!("cannot parse the STL file (ASCII or binary): {e}"),
-            }
-        })?;
-        return Ok(MeshVertices {
-            vertices: mesh
-                .vertices
-                .iter()
-                .map(|v| [v.0[0] as f64, v.0[1] as f64, v.0[2] as f64])
-                .collect(),
-            faces: mesh.faces.len(),
-            triangles: mesh
-                .faces
-                .iter()
-                .map(|f| f.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX)))
-                .collect(),
-        });
+    let parsed = if ascii {
+        ascii_stl(bytes)
+    } else {
+        Err(match count {
+            Some(n) => format!(
+                "cannot parse the STL file: not ASCII (it does not start with `solid`) and not binary ({} bytes, but a binary STL with {n} faces has {})",
+                bytes.len(),
+                84 + 50 * n as u64
+            ),
+            None => format!(
+                "cannot parse the STL file: not ASCII (it does not start with `solid`) and too short for binary ({} bytes)",
+                bytes.len()
+            ),
+        })
+    };
+    match (parsed, faces_by_size) {
+        (Ok(m), _) if m.faces > 0 => Ok(m),
+        // A binary file with a wrong face count (0 is common), or a header starting `solid`.
+        (_, Some(n)) => Ok(binary_stl(bytes, n)),
+        (r, None) => r,
     }
-    Ok(binary_stl(bytes, faces_by_size.unwrap_or(0)))
+}
+
+/// An ASCII STL, by `stl_io`.
+fn ascii_stl(bytes: &[u8]) -> Result<MeshVertices, String> {
+    let mesh = stl_io::read_stl(&mut Cursor::new(bytes))
+        .map_err(|e| format!("cannot parse the STL file (ASCII or binary): {e}"))?;
+    Ok(MeshVertices {
+        vertices: mesh
+            .vertices
+            .iter()
+            .map(|v| [v.0[0] as f64, v.0[1] as f64, v.0[2] as f64])
+            .collect(),
+        faces: mesh.faces.len(),
+        triangles: mesh
+            .faces
+            .iter()
+            .map(|f| f.vertices.map(|i| u32::try_from(i).unwrap_or(u32::MAX)))
+            .collect(),
+    })
 }
 
 /// A binary STL's `faces` facets (the caller checked the size): three vertices each, in
 /// order (the welding happens later), the facet normals ignored.
 fn binary_stl(bytes: &[u8], faces: usize) -> MeshVertices {
-    let f32_at = |o: usize| f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+    let f32_at =
+        |o: usize| f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
     let mut vertices = Vec::with_capacity(3 * faces);
     for f in 0..faces {
         let base = 84 + 50 * f + 12;

@@ -423,10 +423,7 @@ fn vertices_on_segment(
         if s <= 0.0 || s >= 1.0 {
             continue;
         }
-        if (pa + d * s).distance(p) <= tol
-            && p.distance(pa) > tol
-            && p.distance(pb) > tol
-        {
+        if (pa + d * s).distance(p) <= tol && p.distance(pa) > tol && p.distance(pb) > tol {
             on.push((s, i));
         }
     }
@@ -462,7 +459,9 @@ fn orient(pos: &[DVec3], tris: &mut [[u32; 3]]) -> Oriented {
                 let users = &edges[&(e.0.min(e.1), e.0.max(e.1))];
                 users.len() == 2
                     && users.iter().all(|&(u, j)| {
-                        u as usize == t || edge_of(&tris[u as usize], j as usize, flip[u as usize]) == (e.1, e.0)
+                        u as usize == t
+                            || edge_of(&tris[u as usize], j as usize, flip[u as usize])
+                                == (e.1, e.0)
                     })
             })
         });
@@ -631,7 +630,10 @@ mod tests {
         assert_eq!(r.repairs.degenerate, 2);
         assert_eq!(r.repairs.welded, 1);
         let w = r.repairs.warning().unwrap();
-        assert!(w.contains("1 duplicate") && w.contains("2 degenerate"), "{w}");
+        assert!(
+            w.contains("1 duplicate") && w.contains("2 degenerate"),
+            "{w}"
+        );
     }
 
     #[test]
@@ -666,7 +668,11 @@ mod tests {
     #[test]
     fn refusals_name_the_culprit() {
         let (v, t) = tetra();
-        assert!(repair(&v, &[], [1.0; 3], None).unwrap_err().contains("empty"));
+        assert!(
+            repair(&v, &[], [1.0; 3], None)
+                .unwrap_err()
+                .contains("empty")
+        );
         assert!(
             repair(&v, &[[0, 1, 9]], [1.0; 3], None)
                 .unwrap_err()
@@ -674,7 +680,11 @@ mod tests {
         );
         let mut nan = v.clone();
         nan[2][0] = f64::NAN;
-        assert!(repair(&nan, &t, [1.0; 3], None).unwrap_err().contains("vertex 2"));
+        assert!(
+            repair(&nan, &t, [1.0; 3], None)
+                .unwrap_err()
+                .contains("vertex 2")
+        );
         assert!(
             repair(&v, &[[0, 1, 1], [2, 2, 3]], [1.0; 3], None)
                 .unwrap_err()

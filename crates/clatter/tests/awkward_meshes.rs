@@ -79,13 +79,25 @@ fn awkward_meshes_run_as_their_clean_twins() {
             None => assert!(a.notes.is_empty(), "{}: {:?}", case.name, a.notes),
         }
         let ((ta, touch_a), (tc, touch_c)) = (trajectory(&a), trajectory(&c));
-        assert!(touch_c > 0 && touch_a == touch_c, "{}: mesh contacts {touch_a} vs {touch_c}", case.name);
+        assert!(
+            touch_c > 0 && touch_a == touch_c,
+            "{}: mesh contacts {touch_a} vs {touch_c}",
+            case.name
+        );
         let mut worst = 0.0f32;
         for (k, (x, y)) in ta.iter().zip(&tc).enumerate() {
             match case.expect {
                 Expect::Bitwise => {
-                    assert_eq!(x.state.position, y.state.position, "{} chunk {k}", case.name);
-                    assert_eq!(x.state.velocity, y.state.velocity, "{} chunk {k}", case.name);
+                    assert_eq!(
+                        x.state.position, y.state.position,
+                        "{} chunk {k}",
+                        case.name
+                    );
+                    assert_eq!(
+                        x.state.velocity, y.state.velocity,
+                        "{} chunk {k}",
+                        case.name
+                    );
                     assert_eq!(
                         x.state.angular_momentum, y.state.angular_momentum,
                         "{} chunk {k}",
@@ -96,7 +108,11 @@ fn awkward_meshes_run_as_their_clean_twins() {
                     for i in 0..x.len() {
                         let dx = (x.state.position[i] - y.state.position[i]).length();
                         worst = worst.max(dx);
-                        assert!(dx <= tol, "{} chunk {k} body {i}: {dx:e} m apart", case.name);
+                        assert!(
+                            dx <= tol,
+                            "{} chunk {k} body {i}: {dx:e} m apart",
+                            case.name
+                        );
                     }
                 }
             }
@@ -116,7 +132,10 @@ fn meshes_that_cannot_be_surfaces_are_refused_naming_the_triangle() {
         let e = Scene::load(&scene).expect_err("refused");
         let msg = e.to_string();
         assert!(msg.contains(phrase), "{msg}");
-        assert!(e.field.as_deref().is_some_and(|f| f.ends_with("mesh.file")), "{msg}");
+        assert!(
+            e.field.as_deref().is_some_and(|f| f.ends_with("mesh.file")),
+            "{msg}"
+        );
     }
 }
 
@@ -137,7 +156,14 @@ fn the_weld_tolerance_is_the_scene_s_to_set() {
     assert_eq!(plain.boundaries[0].vertices.len(), 6);
     let welded = Scene::parse(&scene(", weld = 2e-3"), &path).unwrap();
     assert_eq!(welded.boundaries[0].vertices.len(), 4);
-    assert!(welded.warnings.iter().any(|w| w.contains("welded 2 vertices")), "{:?}", welded.warnings);
+    assert!(
+        welded
+            .warnings
+            .iter()
+            .any(|w| w.contains("welded 2 vertices")),
+        "{:?}",
+        welded.warnings
+    );
     let bad = Scene::parse(&scene(", weld = -1.0"), &path).unwrap_err();
     assert_eq!(bad.field.as_deref(), Some("boundary[0].mesh.weld"));
 }

@@ -538,11 +538,8 @@ fn bad_boundary_meshes_are_refused_naming_file_and_field() {
     assert!(mesh_error("empty", "obj", Some("# nothing\n")).contains("empty"));
     let nan = "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n";
     assert!(mesh_error("nan", "obj", Some(nan)).contains("non-finite"));
-    let fin = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nf 1 2 3\nf 2 1 4\nf 1 2 5\n";
-    assert!(mesh_error("nonmanifold", "obj", Some(fin)).contains("non-manifold"));
+    // (Non-manifold edges, mixed and inward windings are accepted: tests/awkward_meshes.rs.)
     let (v, t) = box_mesh(1.0);
-    let flipped: Vec<[u32; 3]> = t.iter().map(|f| [f[0], f[2], f[1]]).collect();
-    assert!(mesh_error("inside-out", "obj", Some(&obj(&v, &flipped))).contains("inside out"));
     let degenerate = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
     assert!(mesh_error("degenerate", "obj", Some(degenerate)).contains("degenerate"));
     // And the motion's fields.
