@@ -199,11 +199,16 @@ impl Thermo {
         let left = self.total.saturating_sub(x.step) as f64;
         let eta = if left == 0.0 { 0.0 } else { left / rate };
         format!(
-            "{:>w$}/{:>w$}  {:>11.4e}  {:>9.1}  {:>11.4e}  {:>9}  {:>9}  {:>9}",
+            "{:>w$}/{:>w$}  {:>11.4e}  {:>9}  {:>11.4e}  {:>9}  {:>9}  {:>9}",
             x.step,
             self.total,
             x.time,
-            rate,
+            // Within the column also on a first line right after the start.
+            if rate < 1e6 {
+                format!("{rate:.1}")
+            } else {
+                format!("{rate:.3e}")
+            },
             x.kinetic,
             x.contacts,
             clock(now.duration_since(self.started).as_secs_f64()),
@@ -314,7 +319,9 @@ mod tests {
             parse_log_every(" 1h "),
             Ok(LogEvery::Wall(Duration::from_secs(3600)))
         );
-        for bad in ["", "0", "-5", "0s", "-1s", "10x", "s", "1.5", "nans", "infs", "1e30h"] {
+        for bad in [
+            "", "0", "-5", "0s", "-1s", "10x", "s", "1.5", "nans", "infs", "1e30h",
+        ] {
             assert!(parse_log_every(bad).is_err(), "{bad}");
         }
     }
@@ -322,17 +329,21 @@ mod tests {
     #[test]
     fn columns_line_up() {
         let t = Thermo::new(LogEvery::Steps(100), 0, 40000);
-        let line = t.format(
-            Sample {
-                step: 1200,
-                time: 0.12,
-                kinetic: 3.4567e-2,
-                contacts: 1834,
-            },
-            Instant::now(),
+        let x = Sample {
+            step: 1200,
+            time: 0.12,
+            kinetic: 3.4567e-2,
+            contacts: 1834,
+        };
+        let line = t.format(x, t.started + Duration::from_secs(2));
+        assert_eq!(
+            line,
+            " 1200/40000    1.2000e-1      600.0    3.4567e-2       1834      2.0 s     64.7 s"
         );
         assert_eq!(line.len(), t.header().len(), "{}\n{line}", t.header());
-        assert!(line.starts_with(" 1200/40000  "), "{line}");
+        // A first line right after the start: a huge rate still fits its column.
+        let fast = t.format(x, t.started + Duration::from_nanos(10));
+        assert_eq!(fast.len(), t.header().len(), "{fast}");
         assert_eq!(clock(3.44), "3.4 s");
         assert_eq!(clock(600.0), "10.0 min");
         assert_eq!(clock(9000.0), "2.50 h");

@@ -185,7 +185,9 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         // Up to the next frame (a multiple of --every, or the last step), or the next
         // progress line.
         let frame = ((k / args.every + 1) * args.every).min(end);
-        let next = thermo.as_ref().map_or(frame, |l| l.stop_before(k).min(frame));
+        let next = thermo
+            .as_ref()
+            .map_or(frame, |l| l.stop_before(k).min(frame));
         let stats = watch
             .step(&mut stepper, &mut world, next - k, Readback::Nothing)
             .map_err(watch_error)?;

@@ -593,13 +593,17 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     };
     let mut k = 0;
     let mut last_bar = 0;
-    let mut thermo = plan.log.map(|every| Thermo::new(every, start, plan.end_step));
+    let mut thermo = plan
+        .log
+        .map(|every| Thermo::new(every, start, plan.end_step));
     // Stepping stops at every step whose state is needed here. The CPU goes one step at a
     // time anyway; the GPU runs up to that step in one go and hands the state back.
     while k < steps {
         let mut m = 1;
         let mut t = world.time + world.dt as f64;
-        let stop = thermo.as_ref().map_or(u64::MAX, |l| l.stop_before(world.step_count));
+        let stop = thermo
+            .as_ref()
+            .map_or(u64::MAX, |l| l.stop_before(world.step_count));
         while k + m < steps
             && world.step_count + m < stop
             && !due(world.step_count + m, t, next_checkpoint)

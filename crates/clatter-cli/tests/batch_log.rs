@@ -85,7 +85,11 @@ fn progress(o: &Output) -> (usize, Vec<Line>) {
                 f[k].parse()
                     .unwrap_or_else(|e| panic!("column {k} of {l:?}: {e}"))
             };
-            assert_eq!(f.len(), 9, "{l:?}: 5 numbers, then elapsed and ETA with units");
+            assert_eq!(
+                f.len(),
+                9,
+                "{l:?}: 5 numbers, then elapsed and ETA with units"
+            );
             Some(Line {
                 step,
                 total: num(0) as u64,
@@ -108,7 +112,12 @@ fn check_lines(o: &Output, steps: &[u64], total: u64) {
     for l in &lines {
         assert_eq!(l.total, total, "{l:?}");
         let t = l.step as f64 * DT;
-        assert!((l.time - t).abs() <= 1e-4 * t, "time {} at step {}", l.time, l.step);
+        assert!(
+            (l.time - t).abs() <= 1e-4 * t,
+            "time {} at step {}",
+            l.time,
+            l.step
+        );
         assert!(l.rate > 0.0 && l.kinetic > 0.0, "{l:?}");
     }
 }
@@ -133,7 +142,15 @@ fn run_prints_a_line_every_n_steps_and_at_the_end() {
     let (_, lines) = progress(&o);
     assert!(lines.iter().all(|l| l.contacts >= 2), "{lines:?}");
     // The lines read the state only: the results are those of a run without them.
-    let o = clatter(&[&"run", &scene, &"--backend", &"cpu", &"--quiet", &"--out", &b]);
+    let o = clatter(&[
+        &"run",
+        &scene,
+        &"--backend",
+        &"cpu",
+        &"--quiet",
+        &"--out",
+        &b,
+    ]);
     assert_ok(&o, "run --quiet");
     assert!(o.stderr.is_empty(), "--quiet prints nothing:\n{}", text(&o));
     for f in ["final.csv", "energy.csv"] {
@@ -147,6 +164,48 @@ fn run_prints_a_line_every_n_steps_and_at_the_end() {
     let o = clatter(&[&"run", &scene, &"--quiet", &"--log-every", &"5"]);
     assert_ok(&o, "run --quiet --log-every 5");
     assert!(o.stderr.is_empty(), "--quiet prints nothing:\n{}", text(&o));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// On the GPU the run stops at the lines' steps and reads the state back there: the same
+/// lines, and the results of a run without them.
+#[test]
+fn gpu_run_logs_without_changing_its_results() {
+    if clatter_gpu::test_context().is_none() {
+        return;
+    }
+    let dir = scratch("gpu");
+    let scene = write_scene(&dir);
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let o = clatter(&[
+        &"run",
+        &scene,
+        &"--backend",
+        &"gpu",
+        &"--log-every",
+        &"5",
+        &"--out",
+        &a,
+    ]);
+    assert_ok(&o, "run --backend gpu --log-every 5");
+    check_lines(&o, &[5, 10, 15, 20, 23], 23);
+    let o = clatter(&[
+        &"run",
+        &scene,
+        &"--backend",
+        &"gpu",
+        &"--quiet",
+        &"--out",
+        &b,
+    ]);
+    assert_ok(&o, "run --backend gpu --quiet");
+    for f in ["final.csv", "energy.csv"] {
+        assert_eq!(
+            std::fs::read(a.join(f)).expect("read"),
+            std::fs::read(b.join(f)).expect("read"),
+            "{f} differs with the progress lines"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -261,7 +320,12 @@ fn validate_logs_a_line_per_check() {
             (f[0], f[1])
         })
         .collect();
-    assert_eq!(done, [("mfix-dem01", "1/2"), ("mfix-dem02", "2/2")], "{}", text(&o));
+    assert_eq!(
+        done,
+        [("mfix-dem01", "1/2"), ("mfix-dem02", "2/2")],
+        "{}",
+        text(&o)
+    );
     let o = clatter(&[
         &"validate",
         &"--backend",

@@ -371,13 +371,17 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         );
     }
     let names: Vec<&str> = checks().iter().map(|(n, _)| *n).collect();
-    let chosen = |name: &str| args.only.is_empty() || args.only.iter().any(|o| name.contains(o.as_str()));
+    let chosen =
+        |name: &str| args.only.is_empty() || args.only.iter().any(|o| name.contains(o.as_str()));
     let ctx = Ctx {
         quick: args.quick,
         gpu,
         quiet: args.quiet,
         log: args.log.map(|every| {
-            Arc::new(SuiteLog::new(every, names.iter().filter(|&&n| chosen(n)).count()))
+            Arc::new(SuiteLog::new(
+                every,
+                names.iter().filter(|&&n| chosen(n)).count(),
+            ))
         }),
     };
     if let Some(o) = args
