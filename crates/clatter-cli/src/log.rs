@@ -281,13 +281,13 @@ impl SuiteLog {
     fn print(&self, st: &mut SuiteState, status: &str, rows: &str) {
         if !st.printed {
             eprintln!(
-                "{:<20}  {:>7}  {:<7}  {:>9}  {:>9}  {:>6}  {:>6}",
-                "check", "done", "status", "check", "elapsed", "rows", "failed"
+                "{:<20}  {:>4}/{:<4}  {:<7}  {:>9}  {:>9}  {:>6}  {:>6}",
+                "check", "done", "all", "status", "check", "elapsed", "rows", "failed"
             );
             st.printed = true;
         }
         let line = format!(
-            "{:<20}  {:>3}/{:<3}  {:<7}  {:>9}  {:>9}  {rows}",
+            "{:<20}  {:>4}/{:<4}  {:<7}  {:>9}  {:>9}  {rows}",
             st.check,
             st.done,
             self.total,
