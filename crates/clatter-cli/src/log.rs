@@ -112,6 +112,8 @@ pub struct Thermo {
     started: Instant,
     last_at: Instant,
     last_step: u64,
+    /// Steps per second between the last two lines (none before the first line).
+    rate: Option<f64>,
     printed: bool,
 }
 
@@ -126,6 +128,7 @@ impl Thermo {
             started: now,
             last_at: now,
             last_step: start,
+            rate: None,
             printed: false,
         }
     }
@@ -154,11 +157,16 @@ impl Thermo {
             LogEvery::Wall(d) => {
                 let since = self.last_at.elapsed().as_secs_f64();
                 let done = s.saturating_sub(self.last_step);
-                if done == 0 || since <= 0.0 {
-                    return s + FIRST_CHUNK;
-                }
+                let rate = if done > 0 && since > 0.0 {
+                    done as f64 / since
+                } else {
+                    match self.rate {
+                        Some(r) => r,
+                        None => return s + FIRST_CHUNK,
+                    }
+                };
                 let left = (d.as_secs_f64() - since).max(0.0);
-                s + ((done as f64 / since * left) as u64).max(1)
+                s + ((rate * left) as u64).max(1)
             }
         }
     }
@@ -181,6 +189,10 @@ impl Thermo {
         let now = Instant::now();
         let text = self.format(x, now);
         eprintln!("{text}");
+        let secs = now.duration_since(self.last_at).as_secs_f64();
+        if x.step > self.last_step && secs > 0.0 {
+            self.rate = Some((x.step - self.last_step) as f64 / secs);
+        }
         self.last_at = now;
         self.last_step = x.step;
     }
