@@ -4,6 +4,7 @@
 mod backend;
 mod bench;
 mod energy;
+mod log;
 mod output;
 mod plot;
 mod query;
@@ -61,9 +62,11 @@ enum Command {
         /// Override the scene's run length with a number of steps.
         #[arg(long, value_name = "N")]
         steps: Option<u64>,
-        /// Print nothing but errors.
+        /// Print nothing but errors (no progress bar or lines).
         #[arg(long, short)]
         quiet: bool,
+        #[command(flatten)]
+        log: log::LogArgs,
         /// Which pipeline steps the world: gpu, cpu, or auto (the GPU when a hardware
         /// adapter is found and the scene fits it, else the CPU, saying which and why).
         #[arg(long, value_enum, default_value = "auto")]
@@ -82,9 +85,11 @@ enum Command {
         /// Run N more steps instead of going on to the end of the original run.
         #[arg(long, value_name = "N")]
         steps: Option<u64>,
-        /// Print nothing but errors.
+        /// Print nothing but errors (no progress bar or lines).
         #[arg(long, short)]
         quiet: bool,
+        #[command(flatten)]
+        log: log::LogArgs,
         /// Which pipeline steps the world: gpu, cpu, or auto (the GPU when a hardware
         /// adapter is found and the scene fits it, else the CPU, saying which and why).
         #[arg(long, value_enum, default_value = "auto")]
@@ -124,6 +129,8 @@ enum Command {
         /// Print nothing but errors (and whether the MP4 was skipped).
         #[arg(long, short)]
         quiet: bool,
+        #[command(flatten)]
+        log: log::LogArgs,
     },
     /// Open a window with the scene running live: orbit (left drag), pan (right or middle
     /// drag), zoom (wheel); pause, step, reset, speed, colour modes.
@@ -231,6 +238,11 @@ enum Command {
         /// Worker threads (default: all cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
+        /// Print only the table, the verdict and errors (no progress on stderr).
+        #[arg(long, short)]
+        quiet: bool,
+        #[command(flatten)]
+        log: log::LogArgs,
     },
     /// Answer collision queries: JSON lines in (FILE or - for stdin), JSON lines out.
     Query {
@@ -260,6 +272,7 @@ fn main() -> ExitCode {
             threads,
             steps,
             quiet,
+            log,
             backend,
         } => init_threads(threads).and_then(|_| {
             run::run(run::RunArgs {
@@ -268,6 +281,7 @@ fn main() -> ExitCode {
                 output,
                 steps,
                 quiet,
+                log: log.lines(quiet),
             })
         }),
         Command::Resume {
@@ -276,6 +290,7 @@ fn main() -> ExitCode {
             threads,
             steps,
             quiet,
+            log,
             backend,
         } => init_threads(threads).and_then(|_| {
             run::resume(run::ResumeArgs {
@@ -284,6 +299,7 @@ fn main() -> ExitCode {
                 output,
                 steps,
                 quiet,
+                log: log.lines(quiet),
             })
         }),
         Command::Bench {
@@ -329,6 +345,7 @@ fn main() -> ExitCode {
             threads,
             backend,
             quiet,
+            log,
         } => init_threads(threads).and_then(|_| {
             render::render(render::RenderArgs {
                 scene,
@@ -340,6 +357,7 @@ fn main() -> ExitCode {
                 picture,
                 backend,
                 quiet,
+                log: log.lines(quiet),
             })
         }),
         Command::View {
@@ -369,12 +387,16 @@ fn main() -> ExitCode {
             quick,
             only,
             threads,
+            quiet,
+            log,
         } => init_threads(threads).and_then(|_| {
             validate::validate(validate::ValidateArgs {
                 backend,
                 out,
                 quick,
                 only,
+                quiet,
+                log: log.lines(quiet),
             })
             .and_then(|passed| {
                 if passed {

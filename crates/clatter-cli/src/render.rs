@@ -15,6 +15,7 @@ use clatter_gpu::{Device, GpuContext, Readback, Stepper, Watch, WatchError};
 use clatter_render::{CAMERA_SYNTAX, CameraSpec, ColorMode, Offscreen, Poses, Style, save_png};
 
 use crate::backend::{Backend, choose};
+use crate::log::{LogEvery, Sample, Thermo};
 use crate::run::{BlownUp, load_scene};
 
 /// Colour mode of bodies.
@@ -101,6 +102,8 @@ pub struct RenderArgs {
     pub picture: PictureArgs,
     pub backend: Backend,
     pub quiet: bool,
+    /// The progress lines' interval (`None`: none; see [`crate::log`]).
+    pub log: Option<LogEvery>,
 }
 
 /// Runs `clatter render`.
@@ -177,14 +180,34 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let watch = start_watch(&mut stepper, &world)?;
     shoot(&mut world, &stepper, &mut off)?;
     let mut k = 0u64;
+    let mut thermo = args.log.map(|every| Thermo::new(every, 0, end));
     while k < end {
-        // Up to the next frame (a multiple of --every, or the last step).
-        let next = ((k / args.every + 1) * args.every).min(end);
-        watch
+        // Up to the next frame (a multiple of --every, or the last step), or the next
+        // progress line.
+        let frame = ((k / args.every + 1) * args.every).min(end);
+        let next = thermo
+            .as_ref()
+            .map_or(frame, |l| l.stop_before(k).min(frame));
+        let stats = watch
             .step(&mut stepper, &mut world, next - k, Readback::Nothing)
             .map_err(watch_error)?;
         k = next;
-        shoot(&mut world, &stepper, &mut off)?;
+        if next == frame {
+            shoot(&mut world, &stepper, &mut off)?;
+        }
+        if let Some(l) = &mut thermo
+            && (l.due(k) || k == end)
+        {
+            // On the GPU the host's world stays behind: read it back for the line only.
+            stepper.sync(&mut world)?;
+            let x = Sample {
+                step: k,
+                time: world.time,
+                kinetic: world.kinetic_energy(),
+                contacts: stats.contacts,
+            };
+            if k == end { l.finish(x) } else { l.line(x) }
+        }
     }
     ctx.take_error()?;
     if !args.quiet {

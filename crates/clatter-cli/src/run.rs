@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
+use crate::log::{LogEvery, Sample, Thermo};
 use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, carry_rows, write_state_rows};
 use crate::vtk;
 
@@ -93,6 +94,8 @@ pub struct RunArgs {
     pub output: OutputArgs,
     pub steps: Option<u64>,
     pub quiet: bool,
+    /// The progress lines' interval (`None`: none; see [`crate::log`]).
+    pub log: Option<LogEvery>,
 }
 
 /// Arguments of `clatter resume`.
@@ -102,6 +105,8 @@ pub struct ResumeArgs {
     pub output: OutputArgs,
     pub steps: Option<u64>,
     pub quiet: bool,
+    /// The progress lines' interval (`None`: none; see [`crate::log`]).
+    pub log: Option<LogEvery>,
 }
 
 /// A run stopped by a blow-up; `main` exits with [`BLOW_UP_EXIT`].
@@ -146,6 +151,7 @@ struct Plan {
     health: Health,
     resumed: bool,
     quiet: bool,
+    log: Option<LogEvery>,
     backend: Backend,
     /// Also render the last step into `out/final.png` (the default scene's first run).
     picture: bool,
@@ -324,6 +330,7 @@ pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
             health,
             resumed: false,
             quiet: args.quiet,
+            log: args.log,
             backend: args.backend,
             picture,
             scene,
@@ -385,6 +392,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
             health,
             resumed: true,
             quiet: args.quiet,
+            log: args.log,
             backend: args.backend,
             picture: false,
             scene_text: ckpt.scene_text.clone(),
@@ -535,7 +543,7 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     let half_dt = 0.5 * world.dt as f64;
     let mut next_checkpoint = period.map(|t| ((world.time + half_dt) / t).floor() + 1.0);
 
-    let bar = if plan.quiet {
+    let bar = if plan.quiet || plan.log.is_some() {
         ProgressBar::hidden()
     } else {
         ProgressBar::new(steps)
@@ -588,12 +596,21 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     };
     let mut k = 0;
     let mut last_bar = 0;
+    let mut thermo = plan
+        .log
+        .map(|every| Thermo::new(every, start, plan.end_step));
     // Stepping stops at every step whose state is needed here. The CPU goes one step at a
     // time anyway; the GPU runs up to that step in one go and hands the state back.
     while k < steps {
         let mut m = 1;
         let mut t = world.time + world.dt as f64;
-        while k + m < steps && !due(world.step_count + m, t, next_checkpoint) {
+        let stop = thermo
+            .as_ref()
+            .map_or(u64::MAX, |l| l.stop_before(world.step_count));
+        while k + m < steps
+            && world.step_count + m < stop
+            && !due(world.step_count + m, t, next_checkpoint)
+        {
             m += 1;
             t += world.dt as f64;
         }
@@ -658,8 +675,16 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             let rate = bar.per_sec();
             bar.set_message(format!("{rate:.0} steps/s, {} contacts", stats.contacts));
         }
+        if let Some(l) = &mut thermo
+            && l.due(s)
+        {
+            l.line(sample(&world, stats.contacts));
+        }
     }
     bar.finish_and_clear();
+    if let Some(l) = &mut thermo {
+        l.finish(sample(&world, world.contact_count()));
+    }
     let elapsed = started.elapsed().as_secs_f64();
     let ke = world.kinetic_energy();
     let steps_per_s = steps as f64 / elapsed.max(1e-9);
@@ -750,6 +775,17 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         println!("results in {}/: {written}", dir.display());
     }
     Ok(())
+}
+
+/// What a progress line reports about `world` (which is up to date on the host: the GPU
+/// reads it back at every step the loop stops at).
+fn sample(world: &World, contacts: usize) -> Sample {
+    Sample {
+        step: world.step_count,
+        time: world.time,
+        kinetic: world.kinetic_energy(),
+        contacts,
+    }
 }
 
 /// On the GPU, the last good state kept on the device, when it is newer than `last_good`.

@@ -26,6 +26,7 @@ use clatter::World;
 use clatter_gpu::{Device, GpuContext, Readback, Stepper};
 
 use crate::backend::Backend;
+use crate::log::{LogEvery, SuiteLog};
 use crate::output::AtomicFile;
 
 /// The exit status of `clatter validate` when some row fails (1: an error stopped the suite;
@@ -221,6 +222,10 @@ pub struct ValidateArgs {
     pub quick: bool,
     /// Only the checks whose name contains one of these.
     pub only: Vec<String>,
+    /// Nothing on stderr but errors.
+    pub quiet: bool,
+    /// The progress lines' interval (`None`: the plain per-check lines; see [`crate::log`]).
+    pub log: Option<LogEvery>,
 }
 
 /// What every check needs: the suite's size and the backend that steps its worlds.
@@ -228,6 +233,8 @@ pub struct Ctx {
     /// Fewer cases, shorter runs, fewer bodies.
     pub quick: bool,
     gpu: Option<Arc<GpuContext>>,
+    quiet: bool,
+    log: Option<Arc<SuiteLog>>,
 }
 
 /// A world and the pipeline that steps it.
@@ -235,6 +242,7 @@ pub struct Sim {
     /// The world, up to date after every [`Sim::step`].
     pub world: World,
     stepper: Stepper,
+    log: Option<Arc<SuiteLog>>,
 }
 
 impl Sim {
@@ -243,6 +251,9 @@ impl Sim {
         self.stepper
             .step(&mut self.world, n, Readback::Bodies)
             .context("stepping a validation world")?;
+        if let Some(l) = &self.log {
+            l.tick();
+        }
         Ok(())
     }
 
@@ -281,12 +292,18 @@ impl Ctx {
                 .stepper
             }
         };
-        Ok(Sim { world, stepper })
+        Ok(Sim {
+            world,
+            stepper,
+            log: self.log.clone(),
+        })
     }
 
-    /// A progress line on stderr.
+    /// A progress line on stderr (none with `--quiet`).
     pub fn progress(&self, what: &str) {
-        eprintln!("  ... {what}");
+        if !self.quiet {
+            eprintln!("  ... {what}");
+        }
     }
 }
 
@@ -327,14 +344,18 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         Backend::Auto => match GpuContext::new() {
             Ok(ctx) if !ctx.is_software() => Some(Arc::new(ctx)),
             Ok(ctx) => {
-                eprintln!(
-                    "backend: cpu (auto: the only GPU adapter, {}, is a software rasteriser; --backend gpu uses it anyway)",
-                    ctx.adapter_name()
-                );
+                if !args.quiet {
+                    eprintln!(
+                        "backend: cpu (auto: the only GPU adapter, {}, is a software rasteriser; --backend gpu uses it anyway)",
+                        ctx.adapter_name()
+                    );
+                }
                 None
             }
             Err(e) => {
-                eprintln!("backend: cpu (auto: {e})");
+                if !args.quiet {
+                    eprintln!("backend: cpu (auto: {e})");
+                }
                 None
             }
         },
@@ -343,15 +364,26 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         Some(ctx) => format!("gpu ({})", ctx.adapter_name()),
         None => "cpu".to_string(),
     };
-    eprintln!(
-        "clatter validate: backend {backend}, {} suite",
-        if args.quick { "quick" } else { "full" }
-    );
+    if !args.quiet {
+        eprintln!(
+            "clatter validate: backend {backend}, {} suite",
+            if args.quick { "quick" } else { "full" }
+        );
+    }
+    let names: Vec<&str> = checks().iter().map(|(n, _)| *n).collect();
+    let chosen =
+        |name: &str| args.only.is_empty() || args.only.iter().any(|o| name.contains(o.as_str()));
     let ctx = Ctx {
         quick: args.quick,
         gpu,
+        quiet: args.quiet,
+        log: args.log.map(|every| {
+            Arc::new(SuiteLog::new(
+                every,
+                names.iter().filter(|&&n| chosen(n)).count(),
+            ))
+        }),
     };
-    let names: Vec<&str> = checks().iter().map(|(n, _)| *n).collect();
     if let Some(o) = args
         .only
         .iter()
@@ -368,19 +400,27 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
     let mut rows: Vec<Row> = Vec::new();
     let mut timings = Vec::new();
     for (name, check) in checks() {
-        if !args.only.is_empty() && !args.only.iter().any(|o| name.contains(o.as_str())) {
+        if !chosen(name) {
             continue;
         }
         let t0 = Instant::now();
-        eprintln!("{name} ...");
+        match &ctx.log {
+            Some(l) => l.begin(name),
+            None if !args.quiet => eprintln!("{name} ..."),
+            None => {}
+        }
         let outcome = check(&ctx).with_context(|| format!("check {name}"))?;
         let secs = t0.elapsed().as_secs_f64();
         let failed = outcome.rows.iter().filter(|r| !r.pass()).count();
-        eprintln!(
-            "{name}: {} rows, {} failed ({secs:.1} s)",
-            outcome.rows.len(),
-            failed
-        );
+        match &ctx.log {
+            Some(l) => l.end(outcome.rows.len(), failed),
+            None if !args.quiet => eprintln!(
+                "{name}: {} rows, {} failed ({secs:.1} s)",
+                outcome.rows.len(),
+                failed
+            ),
+            None => {}
+        }
         timings.push((name, secs));
         if let Some(dir) = &args.out {
             for (file, svg) in &outcome.plots {
