@@ -9,8 +9,12 @@ DIR/contact_forces.png (a histogram of the normal contact forces at the end), DI
 
 import argparse
 import os
+import sys
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:
+    sys.exit("pile.py needs matplotlib for its plots: python3 -m pip install './python[examples]' (or python3 -m pip install matplotlib)")
 
 matplotlib.use("Agg")  # files only, no window
 import matplotlib.pyplot as plt

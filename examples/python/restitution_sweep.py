@@ -11,8 +11,12 @@ DIR/restitution.csv.
 import argparse
 import math
 import os
+import sys
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:
+    sys.exit("restitution_sweep.py needs matplotlib for its plot: python3 -m pip install './python[examples]' (or python3 -m pip install matplotlib)")
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

@@ -16,7 +16,8 @@ arrays.
 (1, 3)
 
 - :class:`Scene`: a scene from a TOML file (:meth:`Scene.from_file`), from TOML text
-  (:meth:`Scene.from_toml`) or built in code with the scene file's tables and keys
+  (:meth:`Scene.from_toml`), one of the embedded example scenes (:meth:`Scene.example`) or
+  built in code with the scene file's tables and keys
   (``material``, ``shape``, ``wall``, ``container``, ``body``, ``group``; docs/scene-format.md).
 - :class:`Simulation`: steps a scene; positions, orientations, velocities and angular
   velocities as numpy arrays; contacts, energies, VTK frames and checkpoints.
@@ -41,6 +42,7 @@ import numpy as np
 from . import _clatter
 from ._clatter import (
     DEFAULT_SCENE,
+    EXAMPLE_SCENES,
     GPU_SUPPORT,
     BackendError,
     CheckpointError,
@@ -64,6 +66,7 @@ __all__ = [
     "ParsedScene",
     "GPU_SUPPORT",
     "DEFAULT_SCENE",
+    "EXAMPLE_SCENES",
     "__version__",
 ]
 
@@ -174,6 +177,13 @@ class Scene:
     def default(cls) -> "Scene":
         """The scene ``clatter run`` runs without a scene file (mixed polyhedra poured into a box)."""
         return cls.from_toml(DEFAULT_SCENE, "<default scene>")
+
+    @classmethod
+    def example(cls, name: str) -> "Scene":
+        """One of the repository's example scenes (``scenes/NAME.toml`` without mesh files),
+        embedded in the package so that it loads from any directory: ``Scene.example("dice-box")``.
+        :data:`EXAMPLE_SCENES` lists the names; an unknown name raises ``ValueError`` listing them."""
+        return cls._from_parsed(ParsedScene.example(name))
 
     @classmethod
     def _from_parsed(cls, parsed: ParsedScene) -> "Scene":

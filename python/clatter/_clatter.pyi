@@ -10,6 +10,7 @@ import numpy.typing as npt
 __version__: str
 GPU_SUPPORT: bool
 DEFAULT_SCENE: str
+EXAMPLE_SCENES: List[str]
 
 PathLike = Union[str, os.PathLike[str]]
 ArrayLike = npt.ArrayLike
@@ -35,6 +36,8 @@ class ParsedScene:
     def from_file(path: PathLike) -> ParsedScene: ...
     @staticmethod
     def from_toml(text: str, source: str = "<string>") -> ParsedScene: ...
+    @staticmethod
+    def example(name: str) -> ParsedScene: ...
     @property
     def text(self) -> str: ...
     @property

@@ -30,6 +30,7 @@ fn _clatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(query::query_arrays, m)?)?;
     m.add("GPU_SUPPORT", cfg!(feature = "gpu"))?;
     m.add("DEFAULT_SCENE", clatter_default_scene())?;
+    m.add("EXAMPLE_SCENES", scene::example_names())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

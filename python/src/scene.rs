@@ -1,10 +1,49 @@
 //! `ParsedScene`: a scene file read and validated by `clatter::scene`, with its text.
 
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 use clatter::scene::{RunLength, Scene};
 
 use crate::errors::scene_error;
+
+/// The example scenes of `scenes/` that need no mesh file, by file stem, embedded so that
+/// `clatter.Scene.example(name)` works from any directory (the mesh scenes read `.obj`/`.stl`
+/// files beside them and are left out).
+pub const EXAMPLE_SCENES: &[(&str, &str)] = &[
+    (
+        "bench-hopper-100k-planes",
+        include_str!("../../scenes/bench-hopper-100k-planes.toml"),
+    ),
+    (
+        "bench-mixed-20k",
+        include_str!("../../scenes/bench-mixed-20k.toml"),
+    ),
+    (
+        "bouncing-ball",
+        include_str!("../../scenes/bouncing-ball.toml"),
+    ),
+    (
+        "cube-on-floor",
+        include_str!("../../scenes/cube-on-floor.toml"),
+    ),
+    ("default", include_str!("../../scenes/default.toml")),
+    ("dice-box", include_str!("../../scenes/dice-box.toml")),
+    (
+        "hertz-spheres",
+        include_str!("../../scenes/hertz-spheres.toml"),
+    ),
+    (
+        "periodic-floor",
+        include_str!("../../scenes/periodic-floor.toml"),
+    ),
+    ("sink-floor", include_str!("../../scenes/sink-floor.toml")),
+];
+
+/// The names of [`EXAMPLE_SCENES`], in order.
+pub fn example_names() -> Vec<&'static str> {
+    EXAMPLE_SCENES.iter().map(|(n, _)| *n).collect()
+}
 
 /// A validated scene: what `clatter.Scene` hands to `Simulation`. Build it with
 /// `clatter.Scene` (from a file, from TOML text, or in code) rather than directly.
@@ -20,6 +59,21 @@ impl ParsedScene {
     #[staticmethod]
     fn from_file(py: Python<'_>, path: std::path::PathBuf) -> PyResult<ParsedScene> {
         Self::load(py, &path)
+    }
+
+    /// One of the example scenes of the repository's `scenes/` (those that need no mesh
+    /// file), embedded in the extension: `name` is the file name with or without `.toml`
+    /// (`"dice-box"`). An unknown name raises `ValueError` listing the names.
+    #[staticmethod]
+    fn example(py: Python<'_>, name: &str) -> PyResult<ParsedScene> {
+        let stem = name.strip_suffix(".toml").unwrap_or(name);
+        match EXAMPLE_SCENES.iter().find(|(n, _)| *n == stem) {
+            Some((n, text)) => Self::parse(py, text.to_string(), &format!("<example scene {n}>")),
+            None => Err(PyValueError::new_err(format!(
+                "no example scene `{name}`; the examples are: {}",
+                example_names().join(", ")
+            ))),
+        }
     }
 
     /// Parses and validates scene text; `source` names it in error messages.

@@ -8,7 +8,7 @@ import pytest
 
 import clatter
 
-from conftest import PILE, require
+from conftest import PILE, ROOT, require
 
 
 @pytest.fixture
@@ -125,6 +125,24 @@ def test_scene_from_file_can_be_extended(tmp_path):
     scene.body("b", "m", [0.1, 0, 0]).group("b", "m", lattice={"min": [1, 1, 1], "max": [1.04, 1, 1], "spacing": 0.02})
     assert scene.n_bodies == 1 + 1 + 3
     assert scene.source == str(path)
+
+
+def test_example_scenes_load_from_any_directory(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # far from the repository's scenes/
+    scene = clatter.Scene.example("dice-box")
+    on_disk = clatter.Scene.from_file(ROOT / "scenes" / "dice-box.toml")
+    assert scene.to_toml() == on_disk.to_toml() and scene.n_bodies == on_disk.n_bodies > 0
+    assert clatter.Scene.example("dice-box.toml").n_bodies == scene.n_bodies
+    sim = clatter.Simulation(scene, backend="cpu")
+    sim.step(5)
+    # Every scene of scenes/ that reads no mesh file is embedded, and the small ones load.
+    meshless = sorted(p.stem for p in (ROOT / "scenes").glob("*.toml") if "file =" not in p.read_text())
+    assert sorted(clatter.EXAMPLE_SCENES) == meshless
+    for name in clatter.EXAMPLE_SCENES:
+        if not name.startswith("bench-"):
+            assert clatter.Scene.example(name).n_bodies > 0, name
+    with pytest.raises(ValueError, match="no example scene `dice`; the examples are: .*dice-box"):
+        clatter.Scene.example("dice")
 
 
 def test_builder_errors_name_the_field():

@@ -168,7 +168,7 @@ fn answer_stream(mut reader: impl BufRead, mut out: impl Write) -> anyhow::Resul
             .par_iter()
             .map(|(n, text)| {
                 let result = match text {
-                    Ok(t) => answer_line(t, &cache),
+                    Ok(t) => answer_line(*n, t, &cache),
                     Err(e) => Err(e.clone()),
                 };
                 result.unwrap_or_else(|error| {
@@ -253,13 +253,45 @@ fn body(name: &str, b: &BodySpec, cache: &Cache) -> Result<Body, String> {
     })
 }
 
-fn arr(v: Vec3) -> [f32; 3] {
-    v.to_array()
+/// `x` with a negative zero made positive: answers never print `-0.0`.
+fn num(x: f32) -> f32 {
+    if x == 0.0 { 0.0 } else { x }
 }
 
-/// Answers one line (the JSON text of the answer) or says why it cannot.
-fn answer_line(text: &str, cache: &Cache) -> Result<String, String> {
-    let line: Line = serde_json::from_str(text).map_err(|e| e.to_string())?;
+fn arr(v: Vec3) -> [f32; 3] {
+    v.to_array().map(num)
+}
+
+/// What a query line looks like, for the message on a line that is not JSON.
+const LINE_SHAPE: &str = r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "position": [0, 0, 0]}, "b": {"shape": {"box": {"half_extents": [0.5, 0.5, 0.5]}}, "position": [3, 0, 0]}, "queries": ["distance"]}"#;
+
+/// The query on input line `n`, or why it is not one: not JSON at all or not an object (with
+/// an example of a query line), or an object with wrong keys or values; serde's detail comes
+/// last.
+fn parse_line(n: usize, text: &str) -> Result<Line, String> {
+    serde_json::from_str(text).map_err(|e| {
+        // Each query is one line, so serde's "line 1" says nothing: the column does.
+        let detail = e.to_string();
+        let detail = match detail.strip_suffix(&format!(" at line 1 column {}", e.column())) {
+            Some(d) if e.line() == 1 => format!("{d} at column {}", e.column()),
+            _ => detail,
+        };
+        let what = match e.classify() {
+            serde_json::error::Category::Syntax | serde_json::error::Category::Eof => {
+                "is not valid JSON"
+            }
+            _ if !text.trim_start().starts_with('{') => "is JSON but not an object",
+            _ => return format!("input line {n} is not a valid query: {detail}"),
+        };
+        format!(
+            "input line {n} {what}; a query line is one JSON object such as {LINE_SHAPE} (see docs/queries.md). Parser: {detail}"
+        )
+    })
+}
+
+/// Answers input line `n` (the JSON text of the answer) or says why it cannot.
+fn answer_line(n: usize, text: &str, cache: &Cache) -> Result<String, String> {
+    let line = parse_line(n, text)?;
     if !(line.toi_horizon.is_finite() && line.toi_horizon >= 0.0) {
         return Err("toi_horizon must be a finite number >= 0".into());
     }
@@ -273,7 +305,7 @@ fn answer_line(text: &str, cache: &Cache) -> Result<String, String> {
     }
     if wants(QueryKind::Distance) {
         let d = query::distance(sa, &a.pose, sb, &b.pose);
-        out.distance = Some(d.distance);
+        out.distance = Some(num(d.distance));
         out.points = Some([arr(d.points[0]), arr(d.points[1])]);
         out.normal = Some(arr(d.normal));
     }
@@ -282,7 +314,7 @@ fn answer_line(text: &str, cache: &Cache) -> Result<String, String> {
         // distance's for separated shapes, the witness points and the penetration normal
         // (instead of a common point and a zero normal) for overlapping ones.
         let c = query::contact(sa, &a.pose, sb, &b.pose);
-        out.depth = Some(c.depth);
+        out.depth = Some(num(c.depth));
         out.points = Some([arr(c.points[0]), arr(c.points[1])]);
         out.normal = Some(arr(c.normal));
         out.contacts = Some(c.manifold.points().iter().map(|&p| arr(p)).collect());
@@ -297,7 +329,7 @@ fn answer_line(text: &str, cache: &Cache) -> Result<String, String> {
             &b.motion,
             line.toi_horizon as f32,
         );
-        out.toi = Some(t.map(|t| t.time));
+        out.toi = Some(t.map(|t| num(t.time)));
         out.toi_points = Some(t.map(|t| [arr(t.points[0]), arr(t.points[1])]));
         out.toi_normal = Some(t.map(|t| arr(t.normal)));
     }

@@ -103,11 +103,17 @@ fn auto_says_which_backend_and_why() {
 /// Looking for an adapter on a machine without a display (a server, a container, CI) prints
 /// the choice and nothing that reads like a failure: Mesa's Vulkan device-selection layer
 /// used to make libwayland print `error: XDG_RUNTIME_DIR is invalid or not set in the
-/// environment.` twice before the run started.
+/// environment.` twice before the run started. The default scene's results go to
+/// `clatter-out/default/` under the working directory: a scratch directory here, never the
+/// source tree.
 #[test]
 fn auto_probe_without_a_display_prints_no_errors() {
+    let dir = test_dir("backend", "no-display");
+    let source_out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("clatter-out");
+    let source_out_before = source_out.exists();
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_clatter"))
         .args(["run", "--steps", "5"])
+        .current_dir(&dir)
         .env_remove("XDG_RUNTIME_DIR")
         .env_remove("WAYLAND_DISPLAY")
         .env_remove("DISPLAY")
@@ -126,6 +132,13 @@ fn auto_probe_without_a_display_prints_no_errors() {
     );
     let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
     assert!(errors.is_empty(), "{errors:?}\n{}", text(&o));
+    assert!(dir.join("clatter-out/default/final.csv").is_file());
+    assert!(
+        source_out_before || !source_out.exists(),
+        "the run wrote into the source tree: {}",
+        source_out.display()
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

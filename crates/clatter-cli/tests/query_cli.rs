@@ -122,3 +122,95 @@ fn missing_file_is_an_error() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("queries.jsonl"), "{err}");
 }
+
+/// Runs `clatter query -` on `input`; the answer lines as JSON.
+fn query_lines(input: &str) -> Vec<Value> {
+    let mut child = bin()
+        .args(["query", "-"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("runs");
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(input.as_bytes())
+        .expect("write the queries");
+    let out = child.wait_with_output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect()
+}
+
+/// A line that is not JSON names its input line, says it is not JSON, shows what a query line
+/// looks like and ends with the parser's detail; so does JSON that is not an object, and an
+/// object that is not a query says so.
+#[test]
+fn non_json_line_says_what_a_query_line_looks_like() {
+    let v = query_lines("\nhello\n[1, 2]\n{\"a\": 1}\n");
+    assert_eq!(v.len(), 3);
+    assert_eq!(v[0]["line"], 2);
+    let e = v[0]["error"].as_str().expect("an error");
+    assert!(
+        e.starts_with("input line 2 is not valid JSON; a query line is one JSON object such as {\"a\": {\"shape\": "),
+        "{e}"
+    );
+    assert!(e.contains("docs/queries.md"), "{e}");
+    assert!(e.ends_with("Parser: expected value at column 1"), "{e}");
+    assert_eq!(v[1]["line"], 3);
+    let e = v[1]["error"].as_str().expect("an error");
+    assert!(
+        e.starts_with(
+            "input line 3 is JSON but not an object; a query line is one JSON object such as {"
+        ),
+        "{e}"
+    );
+    assert_eq!(v[2]["line"], 4);
+    let e = v[2]["error"].as_str().expect("an error");
+    assert!(
+        e.starts_with("input line 4 is not a valid query: invalid type: integer `1`"),
+        "{e}"
+    );
+}
+
+/// Every number in `v` (recursively); `-0.0` would be negative zero.
+fn numbers(v: &Value, out: &mut Vec<f64>) {
+    match v {
+        Value::Number(n) => out.push(n.as_f64().expect("a number")),
+        Value::Array(a) => a.iter().for_each(|x| numbers(x, out)),
+        Value::Object(o) => o.values().for_each(|x| numbers(x, out)),
+        _ => {}
+    }
+}
+
+/// Answers never hold a negative zero (`-0.0`): spheres and boxes met head-on from the
+/// negative side, where normals and points have zero components computed from negatives.
+#[test]
+fn answers_have_no_negative_zero() {
+    let v = query_lines(NEGATIVE_ZERO_LINES);
+    assert!(v.iter().all(|a| a.get("error").is_none()), "{v:?}");
+    let mut all = Vec::new();
+    v.iter().for_each(|a| numbers(a, &mut all));
+    assert!(all.contains(&0.0), "the answers have zero components");
+    assert!(
+        all.iter().all(|&x| !(x == 0.0 && x.is_sign_negative())),
+        "{v:?}"
+    );
+}
+
+/// Two overlapping boxes, b on a's negative x side (the normal was `[-1.0, -0.0, -0.0]`),
+/// and two spheres apart along -x.
+const NEGATIVE_ZERO_LINES: &str = concat!(
+    r#"{"a": {"shape": {"box": {"half_extents": [0.5, 0.5, 0.5]}}, "position": [0, 0, 0]}, "b": {"shape": {"box": {"half_extents": [0.5, 0.5, 0.5]}}, "position": [-0.9, 0, 0]}}"#,
+    "\n",
+    r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "position": [0, 0, 0]}, "b": {"shape": {"sphere": {"radius": 0.5}}, "position": [-3, 0, 0]}}"#,
+    "\n",
+);

@@ -127,3 +127,53 @@ fn validate_quick_on_the_gpu() {
     validate("gpu", &dir);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// One check alone: the counts read "1 row" and "1 check", and the pile's progress lines
+/// never show a time past the total.
+#[test]
+fn one_check_alone_counts_in_the_singular_and_keeps_time_within_the_total() {
+    let o = clatter(&[
+        &"validate",
+        &"--quick",
+        &"--backend",
+        &"cpu",
+        &"--only",
+        &"poured-pile",
+    ]);
+    let all = text(&o);
+    assert!(o.status.success(), "{all}");
+    let (out, err) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(err.contains("poured-pile: 1 row, 0 failed ("), "{all}");
+    assert!(
+        out.lines()
+            .last()
+            .is_some_and(|l| l.starts_with("validation passed: 1 row in 1 check (")),
+        "{all}"
+    );
+    let mut shown = 0;
+    for line in err.lines().filter(|l| l.contains(": t = ")) {
+        // "  ... poured-pile: t = 0.42 s of 0.42, kinetic energy .."
+        let rest = line.split(": t = ").nth(1).unwrap_or_default();
+        let mut words = rest.split([' ', ',']);
+        let t: f64 = words.next().and_then(|w| w.parse().ok()).expect("a time");
+        let total: f64 = rest
+            .split(" s of ")
+            .nth(1)
+            .and_then(|w| w.split(',').next())
+            .and_then(|w| w.parse().ok())
+            .expect("a total");
+        assert!(t <= total, "{line}");
+        shown += 1;
+    }
+    assert!(shown > 1, "no progress lines:\n{all}");
+    let last = err
+        .lines()
+        .rfind(|l| l.contains(": t = "))
+        .unwrap_or_default();
+    let rest = last.split(": t = ").nth(1).unwrap_or_default();
+    let (t, total) = rest.split_once(" s of ").unwrap_or_default();
+    assert_eq!(t, total.split(',').next().unwrap_or_default(), "{last}");
+}

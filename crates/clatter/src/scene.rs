@@ -1218,7 +1218,7 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         .iter()
         .map(|s| s.shape.bounding_radius())
         .fold(0.0, f32::max);
-    let mut occupancy = Occupancy::new(2.0 * rmax);
+    let mut occupancy = Occupancy::new(2.0 * rmax, periodic.as_ref().map(|(p, _)| *p));
     for b in &bodies {
         occupancy.insert(b.position, shapes[b.shape as usize].shape.bounding_radius());
     }
@@ -1618,18 +1618,22 @@ fn shape_name(names: &HashMap<String, u32>, index: u32) -> &str {
 }
 
 /// Bounding spheres placed so far, on a hash grid, so random groups avoid every earlier body.
+/// In a periodic box the spheres are kept wrapped into it and a new one is tested against
+/// the images of its neighbours across the seams too (the nearest image, as the step sees it).
 struct Occupancy {
     cell: f32,
     grid: HashMap<(i64, i64, i64), Vec<u32>>,
     placed: Vec<(Vec3, f32)>,
+    periodic: Option<Periodic>,
 }
 
 impl Occupancy {
-    fn new(cell: f32) -> Self {
+    fn new(cell: f32, periodic: Option<Periodic>) -> Self {
         Self {
             cell: cell.max(1e-12),
             grid: HashMap::new(),
             placed: Vec::new(),
+            periodic,
         }
     }
 
@@ -1638,7 +1642,24 @@ impl Occupancy {
         (g.x as i64, g.y as i64, g.z as i64)
     }
 
+    /// `p` brought into the periodic box along its periodic axes, however far outside it lies
+    /// (a random region may be wider than the box); `p` itself without periodic axes.
+    fn wrapped(&self, p: Vec3) -> Vec3 {
+        let Some(b) = &self.periodic else {
+            return p;
+        };
+        let mut out = p;
+        for k in 0..3 {
+            let len = b.max[k] - b.min[k];
+            if b.axes[k] && len > 0.0 {
+                out[k] = b.min[k] + (p[k] - b.min[k]).rem_euclid(len);
+            }
+        }
+        out
+    }
+
     fn insert(&mut self, p: Vec3, r: f32) {
+        let p = self.wrapped(p);
         let k = self.key(p);
         self.grid
             .entry(k)
@@ -1647,7 +1668,20 @@ impl Occupancy {
         self.placed.push((p, r));
     }
 
+    /// Whether a sphere of radius `r` at `p` is clear of every sphere placed so far (of their
+    /// nearest images, in a periodic box).
     fn free(&self, p: Vec3, r: f32) -> bool {
+        let Some(b) = &self.periodic else {
+            return self.free_at(p, r);
+        };
+        // Neighbours within reach lie at most one cell beyond a face: images of `p` shifted
+        // across the faces it is near meet them in the grid.
+        let (images, count) = b.images_near(self.wrapped(p), self.cell);
+        images[..count].iter().all(|&q| self.free_at(q, r))
+    }
+
+    /// Whether a sphere of radius `r` at `p` is clear of the stored spheres (no images).
+    fn free_at(&self, p: Vec3, r: f32) -> bool {
         let (kx, ky, kz) = self.key(p);
         for dz in -1..=1 {
             for dy in -1..=1 {

@@ -415,9 +415,8 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         match &ctx.log {
             Some(l) => l.end(outcome.rows.len(), failed),
             None if !args.quiet => eprintln!(
-                "{name}: {} rows, {} failed ({secs:.1} s)",
-                outcome.rows.len(),
-                failed
+                "{name}: {}, {failed} failed ({secs:.1} s)",
+                counted(outcome.rows.len(), "row")
             ),
             None => {}
         }
@@ -464,21 +463,30 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
     }
     if failed.is_empty() {
         println!(
-            "validation passed: {} rows in {} checks ({total:.1} s)",
-            rows.len(),
-            timings.len()
+            "validation passed: {} in {} ({total:.1} s)",
+            counted(rows.len(), "row"),
+            counted(timings.len(), "check")
         );
     } else {
         let mut checks: Vec<&str> = failed.iter().map(|r| r.check.as_str()).collect();
         checks.dedup();
         println!(
-            "validation FAILED: {} of {} rows failed, in {} ({total:.1} s)",
+            "validation FAILED: {} of {} failed, in {} ({total:.1} s)",
             failed.len(),
-            rows.len(),
+            counted(rows.len(), "row"),
             checks.join(", ")
         );
     }
     Ok(failed.is_empty())
+}
+
+/// `n` and the noun, plural unless `n` is 1: "1 row", "3 rows".
+fn counted(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }
 
 /// The table: one line per row, columns aligned.
