@@ -230,3 +230,58 @@ print(json.dumps({"a": [int(x) for x in d["body_a"]], "b": [int(x) for x in d["b
         "normal force {f} N, weight {weight} N"
     );
 }
+
+#[path = "../../clatter/tests/common/awkward.rs"]
+mod awkward;
+#[path = "../../clatter/tests/common/meshes.rs"]
+mod meshes;
+
+/// A closed drum STL as LIGGGHTS users have it (576 triangles, normals towards the grains)
+/// runs unchanged: one `note:` line says so, no warning, and the results are the outward
+/// twin's byte for byte.
+#[test]
+fn an_inward_wound_drum_stl_runs_as_it_is() {
+    let dir = test_dir("boundary", "inward-drum");
+    let (v, t) = awkward::closed_drum(0.05, 0.04, 144);
+    let inward: Vec<[u32; 3]> = t.iter().map(|f| [f[0], f[2], f[1]]).collect();
+    let mut finals = Vec::new();
+    for (name, tris) in [("in", &inward), ("out", &t)] {
+        let stl = format!("drum-{name}.stl");
+        std::fs::write(
+            dir.join(&stl),
+            awkward::binary_stl(&v, tris, "solid drum", 576),
+        )
+        .unwrap();
+        let scene = dir.join(format!("drum-{name}.toml"));
+        std::fs::write(&scene, awkward::drum_scene(&stl)).unwrap();
+        let out = dir.join(format!("out-{name}"));
+        let o = clatter(&[
+            &"run",
+            &scene,
+            &"--backend",
+            &"cpu",
+            &"--out",
+            &out,
+            &"--steps",
+            &"1500",
+        ]);
+        assert_ok(&o, "run");
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        let notes: Vec<&str> = err.lines().filter(|l| l.starts_with("note:")).collect();
+        if name == "in" {
+            assert_eq!(notes.len(), 1, "{err}");
+            assert!(
+                notes[0].contains("wound inwards") && notes[0].contains(&stl),
+                "{err}"
+            );
+        } else {
+            assert!(notes.is_empty(), "{err}");
+        }
+        assert!(!err.contains("warning:"), "{err}");
+        finals.push(std::fs::read(out.join("final.csv")).unwrap());
+    }
+    assert!(
+        finals[0] == finals[1],
+        "the inward drum's final.csv differs from the outward one's"
+    );
+}

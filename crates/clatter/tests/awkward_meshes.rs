@@ -167,3 +167,45 @@ fn the_weld_tolerance_is_the_scene_s_to_set() {
     let bad = Scene::parse(&scene(", weld = -1.0"), &path).unwrap_err();
     assert_eq!(bad.field.as_deref(), Some("boundary[0].mesh.weld"));
 }
+
+#[test]
+fn mesh_shapes_read_awkward_files_like_their_clean_twins() {
+    // Bodies' `mesh = { file }` shapes take the hull of the vertices, which no winding,
+    // duplicate or header changes: a drum (scaled down to a grain) from a binary STL whose
+    // header starts with `solid` and whose face count field is 0, wound inwards, has the
+    // hull of the same drum from an OBJ; and the prism's volume, pi r^2 l sin(2 pi / n) n / (2 pi).
+    let d = awkward::dir("cpu-shapes");
+    let n = 144;
+    let (v, t) = awkward::closed_drum(0.05, 0.04, n);
+    let inward: Vec<[u32; 3]> = t.iter().map(|f| [f[0], f[2], f[1]]).collect();
+    std::fs::write(
+        d.join("bogus.stl"),
+        awkward::binary_stl(&v, &inward, "solid cad", 0),
+    )
+    .unwrap();
+    let mut obj = String::new();
+    for p in &v {
+        obj.push_str(&format!(
+            "v {} {} {}\n",
+            p[0] as f32, p[1] as f32, p[2] as f32
+        ));
+    }
+    for f in &t {
+        obj.push_str(&format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1));
+    }
+    std::fs::write(d.join("drum.obj"), obj).unwrap();
+    let volume = |file: &str| {
+        let text = format!(
+            "[simulation]\nsteps = 1\n[[material]]\nname = \"m\"\ndensity = 1000.0\nstiffness = 1e4\n[[shape]]\nname = \"s\"\nmesh = {{ file = \"{file}\", scale = 0.1 }}\n[[body]]\nshape = \"s\"\nmaterial = \"m\"\nposition = [0.0, 0.0, 0.0]\n"
+        );
+        let s = Scene::parse(&text, &d.join("s.toml").display().to_string())
+            .unwrap_or_else(|e| panic!("{e}"));
+        s.desc.shapes[0].volume as f64
+    };
+    let (a, b) = (volume("bogus.stl"), volume("drum.obj"));
+    let (r, l) = (0.005, 0.004);
+    let tau = std::f64::consts::TAU;
+    let prism = 0.5 * n as f64 * r * r * (tau / n as f64).sin() * l;
+    assert!((a - b).abs() <= 1e-6 * b, "{a} vs {b}");
+    assert!((a - prism).abs() <= 1e-5 * prism, "{a} vs {prism}");
+}

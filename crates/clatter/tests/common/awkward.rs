@@ -7,6 +7,8 @@
 //! a bogus header, an OBJ with quads and negative indices) and the same scene with a clean
 //! mesh of the same surface. The suites run both and compare the bodies' trajectories.
 
+#![allow(dead_code)] // each suite uses its part
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -23,7 +25,6 @@ pub enum Expect {
 }
 
 /// One awkward mesh and its twin.
-#[allow(dead_code)]
 pub struct Case {
     pub name: &'static str,
     /// The scene with the awkward mesh, and the one with the clean twin.
@@ -118,7 +119,7 @@ restitution = 0.6
 "#;
 
 /// The drum scene: spheres and cubes inside a closed drum turning about y.
-fn drum_scene(mesh: &str) -> String {
+pub fn drum_scene(mesh: &str) -> String {
     let mut s = format!(
         "[simulation]\nsteps = 6000\ndt = 2.0e-5\n{MATERIAL}[[shape]]\nname = \"ball\"\nsphere = {{ radius = 0.006 }}\n[[shape]]\nname = \"die\"\nbox = {{ half_extents = [0.005, 0.005, 0.005] }}\n"
     );
@@ -377,7 +378,6 @@ fn format_cases(d: &Path) -> Vec<Case> {
 
 /// Meshes that cannot be a surface, each refused naming what is wrong: (file name, file
 /// contents, a phrase of the message).
-#[allow(dead_code)]
 pub fn refused(d: &Path) -> Vec<(PathBuf, &'static str)> {
     let ply_out_of_range = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 99\n";
     let all_degenerate = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n";
