@@ -153,8 +153,8 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshVertices, String> {
 /// 80-byte header says: many CAD exporters start it with `solid`), else ASCII when it starts
 /// with `solid`, else binary with the face count the size gives (a wrong count field).
 fn parse_stl(bytes: &[u8]) -> Result<MeshVertices, String> {
-    let faces_by_size =
-        (bytes.len() >= 84 && (bytes.len() - 84) % 50 == 0).then(|| (bytes.len() - 84) / 50);
+    let faces_by_size = (bytes.len() >= 84 && (bytes.len() - 84).is_multiple_of(50))
+        .then(|| (bytes.len() - 84) / 50);
     let count = bytes
         .get(80..84)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as usize);
