@@ -320,13 +320,31 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
         ("chung-ooi-6", chung_ooi::published::test6),
         ("chung-ooi-7", chung_ooi::published::test7),
         ("chung-ooi-8", chung_ooi::published::test8),
-        ("hertz-plane-alumina-iron", chung_ooi::normal::hertz_plane_alumina_iron),
-        ("restitution-glass-10mm", chung_ooi::normal::restitution_glass_10mm),
-        ("oblique-alumina-on-alloy", chung_ooi::legacy::oblique_alumina_on_alloy),
-        ("oblique-alumina-vt-sweep", chung_ooi::legacy::oblique_alumina_vt_sweep),
-        ("spin-alumina-on-alloy", chung_ooi::legacy::spin_alumina_on_alloy),
+        (
+            "hertz-plane-alumina-iron",
+            chung_ooi::normal::hertz_plane_alumina_iron,
+        ),
+        (
+            "restitution-glass-10mm",
+            chung_ooi::normal::restitution_glass_10mm,
+        ),
+        (
+            "oblique-alumina-on-alloy",
+            chung_ooi::legacy::oblique_alumina_on_alloy,
+        ),
+        (
+            "oblique-alumina-vt-sweep",
+            chung_ooi::legacy::oblique_alumina_vt_sweep,
+        ),
+        (
+            "spin-alumina-on-alloy",
+            chung_ooi::legacy::spin_alumina_on_alloy,
+        ),
         ("spin-pair-sliding", chung_ooi::legacy::spin_pair_sliding),
-        ("oblique-unequal-spheres", chung_ooi::legacy::oblique_unequal_spheres),
+        (
+            "oblique-unequal-spheres",
+            chung_ooi::legacy::oblique_unequal_spheres,
+        ),
         (restitution::NAME, restitution::check),
         (mindlin::NAME, mindlin::check),
         ("mfix-dem01", mfix::dem01),

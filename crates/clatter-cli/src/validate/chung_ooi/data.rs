@@ -69,11 +69,26 @@ mod tests {
     #[test]
     fn every_table_parses_with_its_series() {
         let all = [
-            (table!("test4_tangential_restitution.csv"), &["oxide", "alloy", "kharaz"][..]),
-            (table!("test4_angular_velocity.csv"), &["oxide", "alloy", "kharaz"][..]),
-            (table!("test4_rebound_angle.csv"), &["oxide", "alloy", "kharaz"][..]),
-            (table!("test5_rebound_angle.csv"), &["steel", "polyethylene", "fem"][..]),
-            (table!("test5_angular_velocity.csv"), &["steel", "polyethylene", "fem"][..]),
+            (
+                table!("test4_tangential_restitution.csv"),
+                &["oxide", "alloy", "kharaz"][..],
+            ),
+            (
+                table!("test4_angular_velocity.csv"),
+                &["oxide", "alloy", "kharaz"][..],
+            ),
+            (
+                table!("test4_rebound_angle.csv"),
+                &["oxide", "alloy", "kharaz"][..],
+            ),
+            (
+                table!("test5_rebound_angle.csv"),
+                &["steel", "polyethylene", "fem"][..],
+            ),
+            (
+                table!("test5_angular_velocity.csv"),
+                &["steel", "polyethylene", "fem"][..],
+            ),
             (table!("test6_beta.csv"), &["alloy", "nylon"][..]),
             (table!("test6_recoil.csv"), &["alloy", "nylon"][..]),
             (table!("test8_beta.csv"), &["alloy", "nylon", "test6"][..]),
@@ -91,6 +106,11 @@ mod tests {
     fn malformed_rows_are_errors() {
         assert!(Table::parse("x.csv", "a,1\n").is_err());
         assert!(Table::parse("x.csv", "a,1,zz\n").is_err());
-        assert!(Table::parse("x.csv", "a,1,2\n").expect("ok").series("b").is_err());
+        assert!(
+            Table::parse("x.csv", "a,1,2\n")
+                .expect("ok")
+                .series("b")
+                .is_err()
+        );
     }
 }

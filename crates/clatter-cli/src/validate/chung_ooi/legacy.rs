@@ -10,7 +10,7 @@
 
 use glam::DVec3;
 
-use super::{ALUMINA, AL_ALLOY_OLD, Case, Solid, TOL, law, mass, material, run_cases};
+use super::{AL_ALLOY_OLD, ALUMINA, Case, Solid, TOL, law, mass, material, run_cases};
 use crate::plot::{Panel, Series, chart};
 use crate::validate::reference::{self, Ball, Law};
 use crate::validate::{Ctx, Outcome, Row};

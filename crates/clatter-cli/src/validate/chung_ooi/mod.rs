@@ -18,8 +18,8 @@ use clatter::geom::narrow::Plane;
 use clatter::{BodyInit, ContactLaw, Material, Wall, World, WorldDesc};
 use glam::{DVec3, Quat, Vec3};
 
-use super::reference::{self, Ball, Law};
 use super::Ctx;
+use super::reference::{self, Ball, Law};
 
 pub mod data;
 pub mod legacy;
@@ -219,49 +219,54 @@ fn build_world(
         .iter()
         .map(|c| 4.0 * (c.a.r + c.b.r))
         .fold(0.0, f64::max);
-        let mut shapes = Vec::new();
-        let mut shape_of = |r: f64| -> u32 {
-            shapes.push(ShapeKind::Sphere { radius: r }.prepare().expect("sphere"));
-            (shapes.len() - 1) as u32
-        };
-        let mut bodies = Vec::new();
-        for (k, c) in cases.iter().enumerate() {
-            let shift = DVec3::new(0.0, k as f64 * spacing, 0.0);
-            if c.a.m.is_infinite() {
-                let s = shape_of(c.b.r);
-                bodies.push(body(s, 0, &c.b, shift + DVec3::Z * gap[k]));
-            } else {
-                let sa = shape_of(c.a.r);
-                bodies.push(body(sa, if lower.is_some() { lower_index } else { 0 }, &c.a, shift - DVec3::Z * (0.5 * gap[k])));
-                let sb = shape_of(c.b.r);
-                bodies.push(body(sb, 0, &c.b, shift + DVec3::Z * (0.5 * gap[k])));
-            }
+    let mut shapes = Vec::new();
+    let mut shape_of = |r: f64| -> u32 {
+        shapes.push(ShapeKind::Sphere { radius: r }.prepare().expect("sphere"));
+        (shapes.len() - 1) as u32
+    };
+    let mut bodies = Vec::new();
+    for (k, c) in cases.iter().enumerate() {
+        let shift = DVec3::new(0.0, k as f64 * spacing, 0.0);
+        if c.a.m.is_infinite() {
+            let s = shape_of(c.b.r);
+            bodies.push(body(s, 0, &c.b, shift + DVec3::Z * gap[k]));
+        } else {
+            let sa = shape_of(c.a.r);
+            bodies.push(body(
+                sa,
+                if lower.is_some() { lower_index } else { 0 },
+                &c.a,
+                shift - DVec3::Z * (0.5 * gap[k]),
+            ));
+            let sb = shape_of(c.b.r);
+            bodies.push(body(sb, 0, &c.b, shift + DVec3::Z * (0.5 * gap[k])));
         }
-        let mut materials = vec![sphere.clone()];
-        let mut walls = Vec::new();
-        if let Some(m) = wall {
-            materials.push(m.clone());
-            walls.push(Wall {
-                plane: Plane {
-                    normal: Vec3::Z,
-                    offset: 0.0,
-                },
-                material: 1,
-            });
-        }
-        if let Some(m) = lower {
-            materials.push(m.clone());
-        }
-        World::new(WorldDesc {
-            shapes,
-            materials,
-            walls,
-            bodies,
-            gravity: Vec3::ZERO,
-            dt: dt.map(|d| d as f32),
-            skin: None,
-            periodic: None,
-        })
+    }
+    let mut materials = vec![sphere.clone()];
+    let mut walls = Vec::new();
+    if let Some(m) = wall {
+        materials.push(m.clone());
+        walls.push(Wall {
+            plane: Plane {
+                normal: Vec3::Z,
+                offset: 0.0,
+            },
+            material: 1,
+        });
+    }
+    if let Some(m) = lower {
+        materials.push(m.clone());
+    }
+    World::new(WorldDesc {
+        shapes,
+        materials,
+        walls,
+        bodies,
+        gravity: Vec3::ZERO,
+        dt: dt.map(|d| d as f32),
+        skin: None,
+        periodic: None,
+    })
 }
 
 /// Runs `cases` side by side in one world (spheres of `sphere` material; pairs, or spheres on
@@ -416,4 +421,3 @@ fn peaks(h: &[(f64, f64, f64)]) -> (f64, f64, f64, f64) {
     }
     (d_max, f_max, t_out - t_in, t_in)
 }
-

@@ -6,8 +6,8 @@
 use glam::DVec3;
 
 use super::{
-    ALUMINA, AL_ALLOY_2, CAST_IRON, Case, GLASS, LIMESTONE, MG_ALLOY, RIGID, Solid, TOL, law,
-    mass, material, peaks, run_cases,
+    AL_ALLOY_2, ALUMINA, CAST_IRON, Case, GLASS, LIMESTONE, MG_ALLOY, RIGID, Solid, TOL, law, mass,
+    material, peaks, run_cases,
 };
 use crate::plot::{Panel, Series, chart};
 use crate::validate::reference::{self, Ball};
@@ -148,7 +148,6 @@ pub fn head_on(
         plots: vec![(format!("{name}.svg"), svg)],
     })
 }
-
 
 /// Test 1: elastic normal impact of two identical spheres: glass and limestone, R = 0.010 m,
 /// each at 10 m/s toward the other (LIGGGHTS-PFM chung/test01, Yade Test1.py, Kratos

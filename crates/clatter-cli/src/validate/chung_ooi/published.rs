@@ -19,7 +19,7 @@ use glam::DVec3;
 
 use super::data::{Curve, Table, table};
 use super::{
-    ALUMINA, AL_ALLOY, COPPER, Case, NYLON, POLYETHYLENE, RIGID, Run, STEEL, Solid, TOL, denser,
+    AL_ALLOY, ALUMINA, COPPER, Case, NYLON, POLYETHYLENE, RIGID, Run, STEEL, Solid, TOL, denser,
     law, mass, material, run_cases, run_cases_with,
 };
 use crate::plot::{Panel, Series, chart};
@@ -122,7 +122,10 @@ fn figure(t: &Test, fig: &Figure, rows: &mut Vec<Row>) -> anyhow::Result<Lines> 
     for (solid, series) in t.solids {
         let curve = fig.table.series(series)?;
         let pick = picked(&curve, t.ctx.quick);
-        let cases: Vec<Case> = pick.iter().map(|&k| (fig.case)(solid, curve.x[k])).collect();
+        let cases: Vec<Case> = pick
+            .iter()
+            .map(|&k| (fig.case)(solid, curve.x[k]))
+            .collect();
         t.ctx.progress(&format!(
             "{}: {}, {}, {} impacts",
             t.name,
@@ -166,7 +169,12 @@ fn figure(t: &Test, fig: &Figure, rows: &mut Vec<Row>) -> anyhow::Result<Lines> 
         }
         let xs: Vec<f64> = pick.iter().map(|&k| curve.x[k]).collect();
         lines.push((format!("{} clatter", solid.name), xs.clone(), ys, false));
-        lines.push((format!("{} clatter's law, f64", solid.name), xs, odes, false));
+        lines.push((
+            format!("{} clatter's law, f64", solid.name),
+            xs,
+            odes,
+            false,
+        ));
         lines.push((format!("{} paper", solid.name), curve.x, curve.y, true));
     }
     for (series, legend) in fig.extra {
@@ -478,7 +486,13 @@ pub fn test8(ctx: &Ctx) -> anyhow::Result<Outcome> {
         slip_scale: SLIP_SCALE,
     };
     let extra = &[("test6", "sphere on a rigid plane, test 6 (paper)")];
-    let figs = spin_figures("test8_beta.csv", "test8_recoil.csv", extra, &by_beta, &by_tan)?;
+    let figs = spin_figures(
+        "test8_beta.csv",
+        "test8_recoil.csv",
+        extra,
+        &by_beta,
+        &by_tan,
+    )?;
     run_test(&t, &figs)
 }
 
@@ -593,4 +607,3 @@ pub fn test7(ctx: &Ctx) -> anyhow::Result<Outcome> {
         plots: vec![(format!("{name}.svg"), svg)],
     })
 }
-
