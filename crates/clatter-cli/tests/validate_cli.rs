@@ -8,7 +8,7 @@ use std::path::Path;
 use common::{clatter, test_dir, text};
 
 /// Every check of the suite (and so every SVG).
-const CHECKS: [&str; 17] = [
+const CHECKS: [&str; 24] = [
     "chung-ooi-1",
     "chung-ooi-2",
     "chung-ooi-3",
@@ -17,6 +17,13 @@ const CHECKS: [&str; 17] = [
     "chung-ooi-6",
     "chung-ooi-7",
     "chung-ooi-8",
+    "hertz-plane-alumina-iron",
+    "restitution-glass-10mm",
+    "oblique-alumina-on-alloy",
+    "oblique-alumina-vt-sweep",
+    "spin-alumina-on-alloy",
+    "spin-pair-sliding",
+    "oblique-unequal-spheres",
     "restitution-default-dt",
     "mfix-dem01",
     "mfix-dem02",

@@ -312,14 +312,39 @@ type CheckFn = fn(&Ctx) -> anyhow::Result<Outcome>;
 /// The suite, in the order it runs.
 fn checks() -> Vec<(&'static str, CheckFn)> {
     vec![
-        ("chung-ooi-1", chung_ooi::test1),
-        ("chung-ooi-2", chung_ooi::test2),
-        ("chung-ooi-3", chung_ooi::test3),
-        ("chung-ooi-4", chung_ooi::test4),
-        ("chung-ooi-5", chung_ooi::test5),
-        ("chung-ooi-6", chung_ooi::test6),
-        ("chung-ooi-7", chung_ooi::test7),
-        ("chung-ooi-8", chung_ooi::test8),
+        ("chung-ooi-1", chung_ooi::normal::test1),
+        ("chung-ooi-2", chung_ooi::normal::test2),
+        ("chung-ooi-3", chung_ooi::normal::test3),
+        ("chung-ooi-4", chung_ooi::published::test4),
+        ("chung-ooi-5", chung_ooi::published::test5),
+        ("chung-ooi-6", chung_ooi::published::test6),
+        ("chung-ooi-7", chung_ooi::published::test7),
+        ("chung-ooi-8", chung_ooi::published::test8),
+        (
+            "hertz-plane-alumina-iron",
+            chung_ooi::normal::hertz_plane_alumina_iron,
+        ),
+        (
+            "restitution-glass-10mm",
+            chung_ooi::normal::restitution_glass_10mm,
+        ),
+        (
+            "oblique-alumina-on-alloy",
+            chung_ooi::legacy::oblique_alumina_on_alloy,
+        ),
+        (
+            "oblique-alumina-vt-sweep",
+            chung_ooi::legacy::oblique_alumina_vt_sweep,
+        ),
+        (
+            "spin-alumina-on-alloy",
+            chung_ooi::legacy::spin_alumina_on_alloy,
+        ),
+        ("spin-pair-sliding", chung_ooi::legacy::spin_pair_sliding),
+        (
+            "oblique-unequal-spheres",
+            chung_ooi::legacy::oblique_unequal_spheres,
+        ),
         (restitution::NAME, restitution::check),
         (mindlin::NAME, mindlin::check),
         ("mfix-dem01", mfix::dem01),
