@@ -5,10 +5,11 @@ ASCII STL, with the standard library only.
     python3 scripts/make_meshes.py                  # the default set into scenes/meshes/
     python3 scripts/make_meshes.py silo --orifice 0.012 --out scenes/meshes/silo_D12.stl
 
-Meshes (units: m; z up). Triangles are two-sided in clatter, but a closed mesh must follow
-the STL convention, wound counter-clockwise seen from outside with its facet normals pointing
-out (clatter refuses an inside-out closed mesh): the drum does. The open silo and plate face
-the bodies (normals into the silo, the plate's up).
+Meshes (units: m; z up). Triangles are two-sided in clatter and any winding is accepted; these
+follow the STL convention anyway: the closed drum is wound counter-clockwise seen from outside
+(facet normals out), the open silo and plate face the bodies (normals into the silo, the
+plate's up). Neighbouring triangles meet vertex to vertex (no T-junctions, which clatter would
+split and warn about).
 
 - silo: a flat-bottomed square silo, side `width`, walls `height` high, standing on z = 0,
   centred on the z axis, with a central square orifice of side `orifice` in its floor.
@@ -39,22 +40,26 @@ def normal(t):
 
 
 def silo(width, height, orifice):
-    """Floor with a square hole (four quads around it) and four inward-facing walls."""
+    """Floor with a square hole (eight quads around it) and four inward-facing walls, each in
+    three columns: the floor's and the walls' edges meet vertex to vertex (no T-junctions)."""
     if not 0 < orifice < width:
         raise ValueError(f"the orifice ({orifice}) must be narrower than the silo ({width})")
     w, o = width / 2, orifice / 2
-    tris = []
-    # Floor at z = 0, facing up, as four strips around the orifice.
-    tris += quad((-w, -w, 0), (w, -w, 0), (w, -o, 0), (-w, -o, 0))
-    tris += quad((-w, o, 0), (w, o, 0), (w, w, 0), (-w, w, 0))
-    tris += quad((-w, -o, 0), (-o, -o, 0), (-o, o, 0), (-w, o, 0))
-    tris += quad((o, -o, 0), (w, -o, 0), (w, o, 0), (o, o, 0))
+    c = [-w, -o, o, w]
     h = height
-    # Walls facing inwards.
-    tris += quad((-w, -w, 0), (-w, w, 0), (-w, w, h), (-w, -w, h))  # x = -w, normal +x
-    tris += quad((w, w, 0), (w, -w, 0), (w, -w, h), (w, w, h))  # x = +w, normal -x
-    tris += quad((w, -w, 0), (-w, -w, 0), (-w, -w, h), (w, -w, h))  # y = -w, normal +y
-    tris += quad((-w, w, 0), (w, w, 0), (w, w, h), (-w, w, h))  # y = +w, normal -y
+    tris = []
+    # Floor at z = 0, facing up: the 3 x 3 grid of cells on c x c, less the middle one.
+    for j in range(3):
+        for i in range(3):
+            if (i, j) != (1, 1):
+                tris += quad((c[i], c[j], 0), (c[i + 1], c[j], 0), (c[i + 1], c[j + 1], 0), (c[i], c[j + 1], 0))
+    # Walls facing inwards, split at the orifice's lines like the floor's edges.
+    for k in range(3):
+        a, b = c[k], c[k + 1]
+        tris += quad((-w, a, 0), (-w, b, 0), (-w, b, h), (-w, a, h))  # x = -w, normal +x
+        tris += quad((w, b, 0), (w, a, 0), (w, a, h), (w, b, h))  # x = +w, normal -x
+        tris += quad((b, -w, 0), (a, -w, 0), (a, -w, h), (b, -w, h))  # y = -w, normal +y
+        tris += quad((a, w, 0), (b, w, 0), (b, w, h), (a, w, h))  # y = +w, normal -y
     return tris
 
 
@@ -98,6 +103,7 @@ def write_stl(path, name, tris):
 # The default set: the hopper's silo and plate, and the drum (docs/equipment.md).
 DEFAULTS = {
     "hopper_silo.stl": lambda: silo(width=0.05, height=0.12, orifice=0.02),
+    "bench_silo.stl": lambda: silo(width=0.2, height=0.25, orifice=0.03),
     "hopper_plate.stl": lambda: plate(size=0.03, z=-0.001),
     "drum.stl": lambda: drum(radius=0.05, length=0.03, segments=48),
 }
