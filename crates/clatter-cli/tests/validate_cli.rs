@@ -8,7 +8,7 @@ use std::path::Path;
 use common::{clatter, test_dir, text};
 
 /// Every check of the suite (and so every SVG).
-const CHECKS: [&str; 17] = [
+const CHECKS: [&str; 21] = [
     "chung-ooi-1",
     "chung-ooi-2",
     "chung-ooi-3",
@@ -22,6 +22,10 @@ const CHECKS: [&str; 17] = [
     "mfix-dem02",
     "mfix-dem03",
     "mfix-dem04",
+    "free-fall-kn1e6",
+    "bounce-heights-kn1e6",
+    "two-sphere-stack-kn1e6",
+    "slip-to-roll-kn1e6",
     "energy-gas",
     "momentum-periodic",
     "symmetric-top",
