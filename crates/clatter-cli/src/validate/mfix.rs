@@ -330,6 +330,10 @@ pub fn dem01(ctx: &Ctx) -> anyhow::Result<Outcome> {
             ey = ey.max((z - y).abs() / (h0 - r));
             ev = ev.max((v - u).abs() / vc);
         }
+        // Tolerances (1% of the drop, 1% of the impact speed): semi-implicit Euler started
+        // from rest falls behind by `g dt t / 2` (0.5% of the drop at kn = 1e4, dt = 2 ms)
+        // and its velocity is the last step's, half a step behind (`g dt / 2`, 0.35% of
+        // `v_impact`); the contact's onset and release are resolved within the step.
         let label = format!("kn={} e={e}", sci(kn));
         let why = "MFIX closed form (Garg et al. 2012, eqs. 54-63)";
         rows.push(Row::bound(
@@ -346,7 +350,7 @@ pub fn dem01(ctx: &Ctx) -> anyhow::Result<Outcome> {
             &label,
             "max |v - v_ref| / v_impact",
             ev,
-            0.02,
+            0.01,
             why,
             dt,
         ));
@@ -449,16 +453,20 @@ fn dem02_truth(
     out
 }
 
-/// The apex of each flight measured from the first sample after a contact (`z + v^2 / 2g`,
-/// exact for the ballistic flight).
-fn apexes(s: &[Sample], r: f64) -> Vec<f64> {
+/// The apex of each flight measured from the first sample after a contact: the top of the
+/// parabola through the flight's positions, `z + u^2 / 2g`. Semi-implicit Euler's positions
+/// lie on that parabola exactly, but its velocity is the one of the last step, half a step
+/// earlier than the position: the parabola's at the sample is `u = v - g dt / 2` (using `v`
+/// overstates `h - r` by `g dt / v` relative: 1.5% for the lowest flights at kn = 5e4).
+fn apexes(s: &[Sample], r: f64, dt: f64) -> Vec<f64> {
     let mut out = Vec::new();
     let mut touching = false;
     for &(_, z, v) in s {
         if z < r {
             touching = true;
         } else if touching && v > 0.0 {
-            out.push(z + v * v / (2.0 * G));
+            let u = v - 0.5 * G * dt;
+            out.push(z + u * u / (2.0 * G));
             touching = false;
         }
     }
@@ -493,7 +501,7 @@ pub fn dem02(ctx: &Ctx) -> anyhow::Result<Outcome> {
         let seconds = truth.last().map_or(0.0, |p| p.1);
         let samples = (seconds / (2e-3f64).min(tc / 5.0)).ceil() as usize;
         let (s, dt) = trace(ctx, &case, seconds, samples, |_| false)?;
-        let measured = apexes(&s[0], r);
+        let measured = apexes(&s[0], r, dt);
         let mut err = 0.0f64;
         for (k, (h, _)) in truth.iter().enumerate() {
             let m = measured.get(k).copied().unwrap_or(f64::NAN);
@@ -502,6 +510,8 @@ pub fn dem02(ctx: &Ctx) -> anyhow::Result<Outcome> {
                 err = f64::NAN;
             }
         }
+        // Tolerance 1%: restitution is promised within 0.5% at the default step
+        // (`restitution-default-dt`) and `h - r` goes as its square.
         let label = format!("kn={} e={e} k=1..{}", sci(kn), truth.len());
         rows.push(Row::bound(
             name,

@@ -102,6 +102,15 @@ impl Stack {
         self.min_overlap = self.min_overlap.min(o[0]).min(o[1]).min(o[2]);
     }
 
+    /// Adds the impulse `F(0) dt` of the contacts to the start (gravity left out): where
+    /// clatter's trajectory from rest at a compressed state comes from (see [`dem03`]).
+    fn kicked(mut self, dt: f64) -> Stack {
+        let a = self.rate(&self.s);
+        self.s[1] += (a[1] + G) * dt;
+        self.s[3] += (a[3] + G) * dt;
+        self
+    }
+
     /// Integrates on to time `t`.
     fn advance(&mut self, t: f64) {
         let n = ((t - self.t) / 1e-8).ceil();
@@ -114,10 +123,18 @@ impl Stack {
     }
 }
 
-/// One DEM03 run: `(t, y1, y2)` of clatter and of the truth, and `dt`.
-type Trace = (Vec<[f64; 3]>, Vec<[f64; 3]>, f64);
+/// One DEM03 run: `(t, y1, y2)` of clatter, of the truth and of the truth given clatter's
+/// start-up impulse, and `dt`.
+struct Run {
+    got: Vec<[f64; 3]>,
+    want: Vec<[f64; 3]>,
+    kicked: Vec<[f64; 3]>,
+    dt: f64,
+    /// The truth's smallest overlap, m.
+    min_overlap: f64,
+}
 
-fn dem03_run(ctx: &Ctx, e: f64) -> anyhow::Result<(Trace, f64)> {
+fn dem03_run(ctx: &Ctx, e: f64) -> anyhow::Result<Run> {
     let case = dem03_case(e);
     let tstop = 1e-3;
     let w = world(&case);
@@ -125,22 +142,52 @@ fn dem03_run(ctx: &Ctx, e: f64) -> anyhow::Result<(Trace, f64)> {
     let every = ((tstop / dt / 200.0).ceil() as u64).max(1);
     let mut sim = ctx.sim(w)?;
     let mut truth = Stack::new(&case);
-    let (mut got, mut want) = (Vec::new(), Vec::new());
+    let mut kicked = Stack::new(&case).kicked(dt);
+    let mut run = Run {
+        got: Vec::new(),
+        want: Vec::new(),
+        kicked: Vec::new(),
+        dt,
+        min_overlap: 0.0,
+    };
     loop {
         let w = &sim.world;
         let p = &w.state.position;
-        got.push([w.time, p[0].z as f64, p[1].z as f64]);
+        run.got.push([w.time, p[0].z as f64, p[1].z as f64]);
         truth.advance(w.time);
-        want.push([w.time, truth.s[0], truth.s[2]]);
+        run.want.push([w.time, truth.s[0], truth.s[2]]);
+        kicked.advance(w.time);
+        run.kicked.push([w.time, kicked.s[0], kicked.s[2]]);
         if w.time >= tstop {
             break;
         }
         sim.step(every)?;
     }
-    Ok(((got, want, dt), truth.min_overlap))
+    run.min_overlap = truth.min_overlap;
+    Ok(run)
+}
+
+/// `max |got - want| / range(want)` of coordinate `i`.
+fn curve_error(got: &[[f64; 3]], want: &[[f64; 3]], i: usize) -> f64 {
+    let (lo, hi) = want
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), w| (lo.min(w[i]), hi.max(w[i])));
+    got.iter()
+        .zip(want)
+        .map(|(g, w)| (g[i] - w[i]).abs())
+        .fold(0.0, f64::max)
+        / (hi - lo)
 }
 
 /// DEM03: y1(t), y2(t) of the two stacked spheres against the f64 RK4 truth.
+///
+/// Tolerance 2% of each sphere's range of motion: semi-implicit Euler started from rest in a
+/// compressed state applies the first step's force a half step early (its velocities are
+/// staggered half a step behind its positions), an impulse `F(0) dt / 2` that alone shifts
+/// the curves by 1.4-1.8% at the default step. clatter's resolved contact onset adds as much
+/// again (a contact's first step reaches back over the previous step, assumed force-free, as
+/// for a contact that began within it), so the trajectories follow the truth started with
+/// `F(0) dt` more momentum: the second row of each sphere compares with that (0.5%).
 pub fn dem03(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let name = "mfix-dem03";
     let es: &[f64] = if ctx.quick {
@@ -152,32 +199,33 @@ pub fn dem03(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let mut rows = Vec::new();
     let mut traces = Vec::new();
     for &e in es {
-        let ((got, want, dt), min_overlap) = dem03_run(ctx, e)?;
+        let run = dem03_run(ctx, e)?;
         anyhow::ensure!(
-            min_overlap > 0.0,
-            "{name}: a contact of the f64 truth opened (overlap {min_overlap:.3e} m)"
+            run.min_overlap > 0.0,
+            "{name}: a contact of the f64 truth opened (overlap {:.3e} m)",
+            run.min_overlap
         );
         for (i, which) in [(1, "y1 (2e4 kg/m^3, below)"), (2, "y2 (1e4 kg/m^3, above)")] {
-            let (lo, hi) = want.iter().fold((f64::MAX, f64::MIN), |(lo, hi), w| {
-                (lo.min(w[i]), hi.max(w[i]))
-            });
-            let err = got
-                .iter()
-                .zip(&want)
-                .map(|(g, w)| (g[i] - w[i]).abs())
-                .fold(0.0, f64::max)
-                / (hi - lo);
             rows.push(Row::bound(
                 name,
                 &format!("e={e}"),
                 &format!("max |{which} - ref| / its range"),
-                err,
+                curve_error(&run.got, &run.want, i),
                 0.02,
                 "f64 RK4 of the two-mass spring-dashpot system (MFIX write_usr1.f)",
-                dt,
+                run.dt,
+            ));
+            rows.push(Row::bound(
+                name,
+                &format!("e={e}"),
+                &format!("max |{} - ref + F(0) dt start| / range", &which[..2]),
+                curve_error(&run.got, &run.kicked, i),
+                0.005,
+                "f64 RK4 started with F(0) dt more momentum (diagnostic)",
+                run.dt,
             ));
         }
-        traces.push((e, got, want));
+        traces.push((e, run.got, run.want));
     }
     Ok(Outcome {
         rows,
@@ -276,6 +324,14 @@ fn dem04_run(ctx: &Ctx, mu: f64) -> anyhow::Result<(Roll, f64)> {
 }
 
 /// DEM04: the end of slip, `mu g t_s / u0 = 2/7`, `v / u0 = R w / u0 = 5/7`, over the mu sweep.
+///
+/// Tolerances: 1% on `t_s`: with e = 1 and no initial overlap the sphere bounces on its normal
+/// spring for the whole run (period 0.14 ms), the normal force swinging between 0 and `2 m g`,
+/// so the friction decelerates at `mu g` only on average over whole periods, within
+/// `1 / (w t_s)` (0.8% at mu = 1); 0.1% on the speeds: when the slip vanishes, `v = R w = 5/7
+/// u0` follows from the angular momentum about the contact point whatever the history, so
+/// only the interpolation between samples and f32 remain. clatter's linear tangential spring
+/// is `2/7 kn` (MFIX's deck: `KT_FAC = 1`); while sliding the force is Coulomb's either way.
 pub fn dem04(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let name = "mfix-dem04";
     let mus: &[f64] = if ctx.quick {
@@ -292,12 +348,12 @@ pub fn dem04(ctx: &Ctx) -> anyhow::Result<Outcome> {
         let [t, v, rw] = end.unwrap_or([f64::NAN; 3]);
         let case = format!("mu={mu}");
         let truth = "slip to roll of a sphere (Garg et al. 2012)";
-        for (q, want, got) in [
-            ("mu g t_s / u0 (end of slip)", 2.0 / 7.0, mu * G * t / u0),
-            ("v / u0 at t_s", 5.0 / 7.0, v / u0),
-            ("R w / u0 at t_s", 5.0 / 7.0, rw / u0),
+        for (q, want, got, tol) in [
+            ("mu g t_s / u0 (end of slip)", 2.0 / 7.0, mu * G * t / u0, 0.01),
+            ("v / u0 at t_s", 5.0 / 7.0, v / u0, 1e-3),
+            ("R w / u0 at t_s", 5.0 / 7.0, rw / u0, 1e-3),
         ] {
-            rows.push(Row::relative(name, &case, q, want, got, 0.01, truth, dt));
+            rows.push(Row::relative(name, &case, q, want, got, tol, truth, dt));
         }
         runs.push((mu, s, mu * G * t / u0));
     }
