@@ -116,7 +116,11 @@ pub fn world(c: &Case) -> World {
         shapes: c
             .balls
             .iter()
-            .map(|b| ShapeKind::Sphere { radius: b.r() }.prepare().expect("sphere"))
+            .map(|b| {
+                ShapeKind::Sphere { radius: b.r() }
+                    .prepare()
+                    .expect("sphere")
+            })
             .collect(),
         materials,
         walls,
@@ -310,7 +314,10 @@ pub fn dem01(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let (h0, r, m) = (ball.z, ball.r(), ball.mass());
     let tstop = 0.5;
     let cases = dem01_cases(ctx.quick);
-    ctx.progress(&format!("{name}: {} (kn, e) cases, 0.5 s each", cases.len()));
+    ctx.progress(&format!(
+        "{name}: {} (kn, e) cases, 0.5 s each",
+        cases.len()
+    ));
     let mut rows = Vec::new();
     let mut curves = Vec::new();
     for (kn, e) in cases {
@@ -370,7 +377,15 @@ fn dem01_plot(curves: &[(String, Vec<Sample>, Drop)]) -> String {
         .map(|(l, _, _)| l.split(' ').next().unwrap_or(""))
         .collect();
     kns.dedup();
-    type Lines = (String, String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+    type Lines = (
+        String,
+        String,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+    );
     let lines: Vec<Lines> = curves
         .iter()
         .map(|(l, s, d)| {
@@ -444,7 +459,8 @@ fn dem02_truth(
         let d = Drop::new(h, r, m, kn, e);
         let apex = d.apex();
         t += d.tr + d.vr / G;
-        if !(apex - r >= min_rise) || t > tstop {
+        let rises = apex - r >= min_rise;
+        if !rises || t > tstop {
             break;
         }
         h = apex;
@@ -533,9 +549,21 @@ pub fn dem02(ctx: &Ctx) -> anyhow::Result<Outcome> {
 
 /// DEM02's plot: apex heights per bounce, one panel per stiffness, and the hard-sphere
 /// heights MFIX compares with beside the soft-sphere truth at the softest stiffness.
-fn dem02_plot(curves: &[(f64, f64, Vec<f64>, Vec<(f64, f64)>)], ball: &Ball) -> String {
+/// `(kn, e, measured apexes, (apex, time) of the truth)` of a DEM02 run.
+type Bounces = (f64, f64, Vec<f64>, Vec<(f64, f64)>);
+
+fn dem02_plot(curves: &[Bounces], ball: &Ball) -> String {
     let r = ball.r();
-    type Lines = (f64, String, String, String, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
+    type Lines = (
+        f64,
+        String,
+        String,
+        String,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+        Vec<f64>,
+    );
     let lines: Vec<Lines> = curves
         .iter()
         .map(|(kn, e, m, t)| {
@@ -548,9 +576,7 @@ fn dem02_plot(curves: &[(f64, f64, Vec<f64>, Vec<(f64, f64)>)], ball: &Ball) -> 
                 k.clone(),
                 m.iter().take(t.len()).map(|h| h - r).collect(),
                 t.iter().map(|(h, _)| h - r).collect(),
-                k.iter()
-                    .map(|k| (ball.z - r) * e.powf(2.0 * k))
-                    .collect(),
+                k.iter().map(|k| (ball.z - r) * e.powf(2.0 * k)).collect(),
             )
         })
         .collect();

@@ -96,7 +96,8 @@ impl Stack {
         let k2 = self.rate(&add(&s, &k1, h / 2.0));
         let k3 = self.rate(&add(&s, &k2, h / 2.0));
         let k4 = self.rate(&add(&s, &k3, h));
-        self.s = std::array::from_fn(|i| s[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        self.s =
+            std::array::from_fn(|i| s[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
         self.t += h;
         let o = self.overlaps(&self.s);
         self.min_overlap = self.min_overlap.min(o[0]).min(o[1]).min(o[2]);
@@ -169,9 +170,9 @@ fn dem03_run(ctx: &Ctx, e: f64) -> anyhow::Result<Run> {
 
 /// `max |got - want| / range(want)` of coordinate `i`.
 fn curve_error(got: &[[f64; 3]], want: &[[f64; 3]], i: usize) -> f64 {
-    let (lo, hi) = want
-        .iter()
-        .fold((f64::MAX, f64::MIN), |(lo, hi), w| (lo.min(w[i]), hi.max(w[i])));
+    let (lo, hi) = want.iter().fold((f64::MAX, f64::MIN), |(lo, hi), w| {
+        (lo.min(w[i]), hi.max(w[i]))
+    });
     got.iter()
         .zip(want)
         .map(|(g, w)| (g[i] - w[i]).abs())
@@ -233,7 +234,10 @@ pub fn dem03(ctx: &Ctx) -> anyhow::Result<Outcome> {
     })
 }
 
-fn dem03_plot(traces: &[(f64, Vec<[f64; 3]>, Vec<[f64; 3]>)]) -> String {
+/// `(e, clatter's (t, y1, y2), the truth's)`.
+type Dem03Curves = (f64, Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+fn dem03_plot(traces: &[Dem03Curves]) -> String {
     type Lines = (String, String, Vec<f64>, [Vec<f64>; 2], [Vec<f64>; 2]);
     let mm = |v: &[[f64; 3]], i: usize| v.iter().map(|p| p[i] * 1e3).collect::<Vec<f64>>();
     let lines: Vec<Lines> = traces
@@ -349,7 +353,12 @@ pub fn dem04(ctx: &Ctx) -> anyhow::Result<Outcome> {
         let case = format!("mu={mu}");
         let truth = "slip to roll of a sphere (Garg et al. 2012)";
         for (q, want, got, tol) in [
-            ("mu g t_s / u0 (end of slip)", 2.0 / 7.0, mu * G * t / u0, 0.01),
+            (
+                "mu g t_s / u0 (end of slip)",
+                2.0 / 7.0,
+                mu * G * t / u0,
+                0.01,
+            ),
             ("v / u0 at t_s", 5.0 / 7.0, v / u0, 1e-3),
             ("R w / u0 at t_s", 5.0 / 7.0, rw / u0, 1e-3),
         ] {

@@ -330,7 +330,10 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
         ("mfix-dem04", mfix_stack_roll::dem04),
         (sphere_floor::FREE_FALL, sphere_floor::free_fall),
         (sphere_floor::BOUNCE_HEIGHTS, sphere_floor::bounce_heights),
-        (sphere_floor::TWO_SPHERE_STACK, sphere_floor::two_sphere_stack),
+        (
+            sphere_floor::TWO_SPHERE_STACK,
+            sphere_floor::two_sphere_stack,
+        ),
         (sphere_floor::SLIP_TO_ROLL, sphere_floor::slip_to_roll),
         ("energy-gas", conservation::energy_gas),
         ("momentum-periodic", conservation::momentum_periodic),
