@@ -730,10 +730,7 @@ mod tests {
             let p = params(law);
             let (m, r, share, x, dt) = (1.0e-3f32, 0.01f32, 1.0f32, 1.0e-4f32, 1.0e-6f32);
             for v in [0.0f32, 0.02, -0.02] {
-                let (fs, k, _) = {
-                    let (f, k) = spring(&p, r, x, share);
-                    (f, k, 0.0)
-                };
+                let (fs, k) = spring(&p, r, x, share);
                 let eta = damping(&p, m, k);
                 // Inside the contact, the last interval ended half a step back.
                 let mut inside = dashpot_primitive(&p, m, r, share, eta, x - 0.5 * dt * v);
