@@ -36,6 +36,9 @@ pub struct Series<'a> {
     pub y: &'a [f64],
     /// Line or markers.
     pub style: Style,
+    /// The palette entry (`None`: the series' place in its panel), so that a measured curve
+    /// and its reference can share a colour.
+    pub colour: Option<usize>,
 }
 
 impl<'a> Series<'a> {
@@ -46,6 +49,7 @@ impl<'a> Series<'a> {
             x,
             y,
             style: Style::Line,
+            colour: None,
         }
     }
 
@@ -56,6 +60,7 @@ impl<'a> Series<'a> {
             x,
             y,
             style: Style::Dashed,
+            colour: None,
         }
     }
 
@@ -66,6 +71,15 @@ impl<'a> Series<'a> {
             x,
             y,
             style: Style::Points,
+            colour: None,
+        }
+    }
+
+    /// The same series drawn in palette entry `c`.
+    pub fn colour(self, c: usize) -> Self {
+        Series {
+            colour: Some(c),
+            ..self
         }
     }
 }
@@ -189,7 +203,7 @@ fn panel(s: &mut String, k: usize, p: &Panel) {
         );
     }
     for (c, se) in p.series.iter().enumerate() {
-        let colour = COLOURS[c % COLOURS.len()];
+        let colour = COLOURS[se.colour.unwrap_or(c) % COLOURS.len()];
         let visible = |y: f64| y.is_finite() && !(log && y <= 0.0);
         if se.style == Style::Points {
             for (x, y) in se.x.iter().zip(se.y.iter()) {

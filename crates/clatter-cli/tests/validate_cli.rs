@@ -8,7 +8,7 @@ use std::path::Path;
 use common::{clatter, test_dir, text};
 
 /// Every check of the suite (and so every SVG).
-const CHECKS: [&str; 24] = [
+const CHECKS: [&str; 28] = [
     "chung-ooi-1",
     "chung-ooi-2",
     "chung-ooi-3",
@@ -29,6 +29,10 @@ const CHECKS: [&str; 24] = [
     "mfix-dem02",
     "mfix-dem03",
     "mfix-dem04",
+    "free-fall-kn1e6",
+    "bounce-heights-kn1e6",
+    "two-sphere-stack-kn1e6",
+    "slip-to-roll-kn1e6",
     "energy-gas",
     "momentum-periodic",
     "symmetric-top",

@@ -255,18 +255,24 @@ pub fn resolved_normal_force(
     }
     // A contact's first step (no coverage yet): the interval reaches back over the last
     // step, which had no force, to where the overlap was then (0 where it crossed zero
-    // within that step, as it does for every contact that starts between two steps; a
-    // contact found already overlapping, as a scene may start, gets no dashpot kick).
+    // within that step, as it does for every contact that starts between two steps). A
+    // contact found already overlapping (its overlap did not cross zero within the last
+    // step, as where a scene starts with overlaps) has no onset to resolve: it is stepped as
+    // inside the contact, the last interval taken to have ended half a step back (reaching
+    // back a whole step would add half a step of spring impulse, `k x dt / 2`).
     let first = *coverage == 0.0;
+    let found = first && x - dt * v > 0.0;
     let g_start = if *coverage > 0.0 {
         *coverage
+    } else if found {
+        dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v)
     } else if first {
         dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v)
     } else {
         0.0
     };
     let g_x = eta * x / dashpot_exponent(p);
-    if !first {
+    if !first || found {
         // Inside the contact: the spring at `x` over the step (midpoint rule), the dashpot
         // from the covered end to `x1 = x + dt v+ / 2`, its primitive linearised at `x`
         // (exact for the linear law); `v+ = v - dt F / m*` solved in closed form: the
@@ -707,6 +713,36 @@ mod tests {
             let (f, _) = spring(&p, r, depth, share);
             let d = depth_at_force(&p, r, f, share);
             assert!((d - depth).abs() < 1e-5 * depth, "{law:?}: {d} vs {depth}");
+        }
+    }
+
+    /// A contact found already overlapping (a scene that starts compressed) is stepped as
+    /// one that was there all along, not given half a step of spring impulse more.
+    #[test]
+    fn a_contact_found_overlapping_starts_as_an_ordinary_step() {
+        for law in [
+            ContactLaw::Linear { stiffness: 2.0e4 },
+            ContactLaw::Hertz {
+                youngs_modulus: 1.0e7,
+                poisson_ratio: 0.3,
+            },
+        ] {
+            let p = params(law);
+            let (m, r, share, x, dt) = (1.0e-3f32, 0.01f32, 1.0f32, 1.0e-4f32, 1.0e-6f32);
+            for v in [0.0f32, 0.02, -0.02] {
+                let (fs, k) = spring(&p, r, x, share);
+                let eta = damping(&p, m, k);
+                // Inside the contact, the last interval ended half a step back.
+                let mut inside = dashpot_primitive(&p, m, r, share, eta, x - 0.5 * dt * v);
+                let mut found = 0.0;
+                let a = resolved_normal_force(&p, m, r, share, x, v, (fs, k, eta), &mut inside, dt);
+                let b = resolved_normal_force(&p, m, r, share, x, v, (fs, k, eta), &mut found, dt);
+                assert!((a - b).abs() <= 1e-6 * a.abs(), "{law:?} v={v}: {a} vs {b}");
+                assert!(
+                    (a / fs - 1.0).abs() < 0.05,
+                    "{law:?} v={v}: {a} vs spring {fs}"
+                );
+            }
         }
     }
 }

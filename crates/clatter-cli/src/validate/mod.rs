@@ -10,10 +10,12 @@
 mod chung_ooi;
 mod conservation;
 mod mfix;
+mod mfix_stack_roll;
 mod mindlin;
 mod pile;
 mod reference;
 mod restitution;
+mod sphere_floor;
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -349,8 +351,15 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
         (mindlin::NAME, mindlin::check),
         ("mfix-dem01", mfix::dem01),
         ("mfix-dem02", mfix::dem02),
-        ("mfix-dem03", mfix::dem03),
-        ("mfix-dem04", mfix::dem04),
+        ("mfix-dem03", mfix_stack_roll::dem03),
+        ("mfix-dem04", mfix_stack_roll::dem04),
+        (sphere_floor::FREE_FALL, sphere_floor::free_fall),
+        (sphere_floor::BOUNCE_HEIGHTS, sphere_floor::bounce_heights),
+        (
+            sphere_floor::TWO_SPHERE_STACK,
+            sphere_floor::two_sphere_stack,
+        ),
+        (sphere_floor::SLIP_TO_ROLL, sphere_floor::slip_to_roll),
         ("energy-gas", conservation::energy_gas),
         ("momentum-periodic", conservation::momentum_periodic),
         ("symmetric-top", conservation::symmetric_top),
