@@ -68,7 +68,7 @@ fn validate(backend: &str, dir: &Path) {
     let table: Vec<&str> = out
         .lines()
         .skip(1)
-        .filter(|l| l.ends_with(" pass") || l.ends_with(" FAIL"))
+        .filter(|l| l.ends_with(" pass") || l.ends_with(" FAIL") || l.ends_with(" DIFFERS"))
         .collect();
     let summary = out.lines().last().unwrap_or_default();
     assert!(
@@ -114,10 +114,31 @@ fn validate(backend: &str, dir: &Path) {
             "{check}.svg"
         );
     }
-    // Every row passes (restitution at the default step included), and so the exit status
-    // is 0.
-    let failed: Vec<&serde_json::Value> = rows.iter().filter(|r| r["pass"] != true).collect();
+    // Every row passes (restitution at the default step included), but for the rows against
+    // the Chung & Ooi paper where clatter's tangential law is documented to differ
+    // (docs/validation.md, "Known differences"): those read DIFFERS, are marked in the JSON,
+    // and do not fail the suite. So the exit status is 0.
+    let failed: Vec<&serde_json::Value> = rows
+        .iter()
+        .filter(|r| r["pass"] != true && r["known_difference"].is_null())
+        .collect();
     assert!(failed.is_empty(), "rows failed: {failed:?}\n{all}");
+    for r in rows.iter().filter(|r| !r["known_difference"].is_null()) {
+        assert!(
+            ["chung-ooi-5", "chung-ooi-6", "chung-ooi-8"]
+                .contains(&r["check"].as_str().unwrap_or(""))
+                && r["truth"].as_str().is_some_and(|t| t.starts_with("paper")),
+            "only rows against the paper in tests 5, 6 and 8 may be known differences: {r}"
+        );
+    }
+    let differ = rows.iter().filter(|r| r["pass"] != true).count();
+    assert_eq!(json["rows_known_differences"].as_u64(), Some(differ as u64));
+    if differ > 0 {
+        assert!(
+            summary.contains("differ from the published data"),
+            "{summary}"
+        );
+    }
     assert!(o.status.success(), "{all}");
 }
 
