@@ -12,7 +12,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use super::meshes::floor_mesh;
+use super::meshes::{floor_mesh, obj_text as obj};
 
 /// How an awkward run must compare with its clean twin.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,17 +42,6 @@ pub fn dir(suite: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
-}
-
-fn obj(v: &[[f64; 3]], t: &[[u32; 3]]) -> String {
-    let mut s = String::new();
-    for p in v {
-        writeln!(s, "v {} {} {}", p[0], p[1], p[2]).unwrap();
-    }
-    for f in t {
-        writeln!(s, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1).unwrap();
-    }
-    s
 }
 
 /// A binary STL of the triangles (f32 coordinates, each facet's normal from its winding),
