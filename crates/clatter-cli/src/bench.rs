@@ -238,7 +238,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 anyhow::bail!("--emit-lammps writes the sphere pile: it does not go with --scene");
             }
             let path = (path.as_os_str() != "default").then_some(path.as_path());
-            Some(crate::run::load_scene(path)?.1.world())
+            Some(crate::scene_io::load_scene(path)?.1.world())
         }
         None => None,
     };

@@ -6,10 +6,13 @@ mod bench;
 mod energy;
 mod log;
 mod output;
+mod picture;
 mod plot;
 mod query;
 mod render;
+mod report;
 mod run;
+mod scene_io;
 mod validate;
 
 use clatter::vtk;
@@ -108,7 +111,7 @@ enum Command {
         #[arg(long, value_name = "N", default_value_t = 100)]
         every: u64,
         /// Image size in pixels.
-        #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = render::parse_size)]
+        #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = picture::parse_size)]
         size: (u32, u32),
         /// Override the scene's run length with a number of steps.
         #[arg(long, value_name = "N")]
@@ -117,7 +120,7 @@ enum Command {
         #[arg(long, value_name = "FPS", default_value_t = 30)]
         fps: u32,
         #[command(flatten)]
-        picture: render::PictureArgs,
+        picture: picture::PictureArgs,
         /// Worker threads of the simulation (default: all cores).
         #[arg(long, value_name = "N")]
         threads: Option<usize>,
@@ -138,13 +141,13 @@ enum Command {
         /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
         scene: Option<PathBuf>,
         /// Window size in pixels.
-        #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = render::parse_size)]
+        #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = picture::parse_size)]
         size: (u32, u32),
         /// Simulation steps per displayed frame (the speed slider's start value).
         #[arg(long, value_name = "N", default_value_t = 10)]
         steps_per_frame: u32,
         #[command(flatten)]
-        picture: render::PictureArgs,
+        picture: picture::PictureArgs,
         /// Save the window (scene and controls) to PATH as a PNG after --frames frames, and
         /// exit.
         #[arg(long, value_name = "PATH")]
@@ -409,9 +412,9 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) if e.is::<run::BlownUp>() => {
+        Err(e) if e.is::<report::BlownUp>() => {
             eprintln!("error: {e:#}");
-            ExitCode::from(run::BLOW_UP_EXIT)
+            ExitCode::from(report::BLOW_UP_EXIT)
         }
         Err(e) if e.is::<validate::Failed>() => ExitCode::from(validate::FAILED_EXIT),
         Err(e) => {
