@@ -14,25 +14,45 @@ use clatter_gpu::watch::CHECK_EVERY;
 use clatter_gpu::{Device, GpuContext, Readback, Stepper, Watch, WatchError};
 use clatter_render::{Offscreen, Poses, save_png};
 
-use crate::backend::{Backend, choose};
-use crate::log::{LogEvery, Sample, Thermo};
-use crate::picture::{ColorArg, PictureArgs};
+use crate::args::{Pipeline, Progress};
+use crate::backend::choose;
+use crate::log::{Sample, Thermo};
+use crate::picture::{ColorArg, PictureArgs, parse_size};
 use crate::report::BlownUp;
 use crate::scene_io::load_scene;
 
 /// Arguments of `clatter render`.
+#[derive(clap::Args, Debug)]
+#[command(
+    mut_arg("threads", |a| a.help("Worker threads of the simulation (default: all cores)")),
+    mut_arg("backend", |a| a.help("Which pipeline steps the world: gpu (frames drawn straight from its buffers), cpu, or auto (the GPU when a hardware adapter is found and the scene fits it, else the CPU, saying which and why)")),
+    mut_arg("quiet", |a| a.help("Print nothing but errors (and whether the MP4 was skipped)")),
+)]
 pub struct RenderArgs {
+    /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
     pub scene: Option<PathBuf>,
+    /// Directory for frame_000000.png, frame_000001.png, ... and frames.mp4 (created if
+    /// needed).
+    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Write a frame every N steps (and at the first and last step).
+    #[arg(long, value_name = "N", default_value_t = 100)]
     pub every: u64,
+    /// Image size in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
+    /// Override the scene's run length with a number of steps.
+    #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
+    /// Frames per second of frames.mp4.
+    #[arg(long, value_name = "FPS", default_value_t = 30)]
     pub fps: u32,
+    #[command(flatten)]
     pub picture: PictureArgs,
-    pub backend: Backend,
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: none; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    #[command(flatten)]
+    pub progress: Progress,
 }
 
 /// Runs `clatter render`.
@@ -54,12 +74,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let camera = off.camera(args.picture.camera);
     let style = args.picture.style();
     let mut stepper = choose(
-        args.backend,
+        args.pipeline.backend,
         &world,
         Device::Shared(ctx.clone()),
-        args.quiet,
+        args.progress.quiet,
     )?;
-    if !args.quiet {
+    if !args.progress.quiet {
         eprintln!(
             "rendering {} ({} bodies, {end} steps) every {} steps at {w}x{h} on {}",
             scene.source,
@@ -109,7 +129,10 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let watch = start_watch(&mut stepper, &world)?;
     shoot(&mut world, &stepper, &mut off)?;
     let mut k = 0u64;
-    let mut thermo = args.log.map(|every| Thermo::new(every, 0, end));
+    let mut thermo = args
+        .progress
+        .lines()
+        .map(|every| Thermo::new(every, 0, end));
     while k < end {
         // Up to the next frame (a multiple of --every, or the last step), or the next
         // progress line.
@@ -139,13 +162,13 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         }
     }
     ctx.take_error()?;
-    if !args.quiet {
+    if !args.progress.quiet {
         println!(
             "wrote {frames} frames to {}/frame_NNNNNN.png",
             args.out.display()
         );
     }
-    encode_mp4(&args.out, args.fps, args.quiet)
+    encode_mp4(&args.out, args.fps, args.progress.quiet)
 }
 
 /// The blow-up checks for a `render` or `view` of `world`: the warnings and the check before
@@ -170,14 +193,31 @@ pub fn watch_error(e: WatchError) -> anyhow::Error {
 }
 
 /// Arguments of `clatter view`.
+#[derive(clap::Args, Debug)]
+#[command(
+    mut_arg("threads", |a| a.help("Worker threads of the simulation (default: all cores)")),
+    mut_arg("backend", |a| a.help("Which pipeline steps the world: gpu (on the window's device, drawn straight from its buffers), cpu, or auto (the GPU when the window's adapter is hardware and the scene fits it, else the CPU)")),
+)]
 pub struct ViewArgs {
+    /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
     pub scene: Option<PathBuf>,
+    /// Window size in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
+    /// Simulation steps per displayed frame (the speed slider's start value).
+    #[arg(long, value_name = "N", default_value_t = 10)]
     pub steps_per_frame: u32,
+    #[command(flatten)]
     pub picture: PictureArgs,
+    /// Save the window (scene and controls) to PATH as a PNG after --frames frames, and
+    /// exit.
+    #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
+    /// Frames to show before the screenshot (with --screenshot).
+    #[arg(long, value_name = "N", default_value_t = 30)]
     pub frames: u64,
-    pub backend: Backend,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
 }
 
 /// Runs `clatter view`.
@@ -207,7 +247,7 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         style: args.picture.style(),
         screenshot: args.screenshot,
         frames: args.frames,
-        backend: args.backend.into(),
+        backend: args.pipeline.backend.into(),
     });
     match viewed {
         Err(clatter_render::ViewerError::BlowUp(report)) => {

@@ -15,6 +15,7 @@ use clatter_gpu::{Device, Readback, StepError, Stepper, Watch, WatchError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use crate::args::{Pipeline, Progress};
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
 use crate::log::{LogEvery, Sample, Thermo};
@@ -84,25 +85,35 @@ pub struct OutputArgs {
 }
 
 /// Arguments of `clatter run`.
+#[derive(clap::Args, Debug)]
 pub struct RunArgs {
+    /// Scene file (TOML, see docs/scene-format.md).
     pub scene: Option<PathBuf>,
-    pub backend: Backend,
+    #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    /// Override the scene's run length with a number of steps.
+    #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: none; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    #[command(flatten)]
+    pub progress: Progress,
 }
 
 /// Arguments of `clatter resume`.
+#[derive(clap::Args, Debug)]
 pub struct ResumeArgs {
+    /// Checkpoint file written by `clatter run --checkpoint-every`.
     pub checkpoint: PathBuf,
-    pub backend: Backend,
+    #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    /// Run N more steps instead of going on to the end of the original run.
+    #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: none; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    #[command(flatten)]
+    pub progress: Progress,
 }
 
 /// What a checkpoint written by the CLI carries besides the state: how the run was going to
@@ -293,9 +304,9 @@ pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
             check_every,
             health,
             resumed: false,
-            quiet: args.quiet,
-            log: args.log,
-            backend: args.backend,
+            quiet: args.progress.quiet,
+            log: args.progress.lines(),
+            backend: args.pipeline.backend,
             picture,
             scene,
             scene_text: text,
@@ -355,9 +366,9 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
             check_every,
             health,
             resumed: true,
-            quiet: args.quiet,
-            log: args.log,
-            backend: args.backend,
+            quiet: args.progress.quiet,
+            log: args.progress.lines(),
+            backend: args.pipeline.backend,
             picture: false,
             scene_text: ckpt.scene_text.clone(),
             scene,
