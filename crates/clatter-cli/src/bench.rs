@@ -341,45 +341,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     };
     let params = PileParams::default();
     if !args.json {
-        if let Some(ctx) = &gpu {
-            println!(
-                "# rendering: {}x{} offscreen on {}",
-                RENDER_SIZE.0,
-                RENDER_SIZE.1,
-                ctx.adapter_name()
-            );
-        }
-        let what = match &args.scene {
-            Some(p) if p.as_os_str() != "default" => format!("scene {}", p.display()),
-            Some(_) => "the default scene".to_string(),
-            None => format!(
-                "{name} pile ({})",
-                match args.pile {
-                    PileArg::Lattice => "lattice",
-                    PileArg::Poured => "poured",
-                }
-            ),
-        };
-        println!(
-            "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
-            rayon::current_num_threads(),
-            args.settle,
-            args.steps
-        );
-        print!(
-            "{:>10} {:>12} {:>16} {:>14} {:>11} {:>10} {:>9}",
-            "bodies",
-            "steps/s",
-            "body-steps/s",
-            "contacts/body",
-            "pairs/body",
-            "ms/step",
-            "rebuilds"
-        );
-        if gpu.is_some() {
-            print!(" {:>10}", "frames/s");
-        }
-        println!("  backend");
+        print_header(&args, gpu.as_deref(), name);
     }
     let mut rows = Vec::new();
     let mut bandwidth: Option<f64> = None;
@@ -469,38 +431,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             copy_bandwidth_gb_s: args.profiled_steps().and(bandwidth),
         };
         if !args.json {
-            print!(
-                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>11.2} {:>10.3} {:>9}",
-                row.bodies,
-                row.steps_per_s,
-                row.body_steps_per_s,
-                row.contacts_per_body,
-                row.pairs_per_body,
-                row.ms_per_step,
-                row.rebuilds,
-            );
-            if let Some(f) = row.frames_per_s {
-                print!(" {f:>10.2}");
-            }
-            println!("  {}", row.backend);
-            if let Some(p) = row.pairs {
-                println!(
-                    "#   {p} candidate pairs ({:.2} per body)",
-                    p as f64 / row.bodies as f64
-                );
-            }
-            if !row.kernels.is_empty() {
-                let total: f64 = row.kernels.iter().map(|(_, ms)| ms).sum();
-                let list: Vec<String> = row
-                    .kernels
-                    .iter()
-                    .map(|(k, ms)| format!("{k} {ms:.4}"))
-                    .collect();
-                println!(
-                    "#   kernels (ms/step, each timed alone; sum {total:.4}): {}",
-                    list.join(", ")
-                );
-            }
+            print_row(&row);
         }
         rows.push(row);
     }
@@ -508,6 +439,79 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
+}
+
+/// The table's header lines (not with `--json`): the renderer, what is timed, the columns.
+fn print_header(args: &BenchArgs, gpu: Option<&clatter_gpu::GpuContext>, name: &str) {
+    if let Some(ctx) = gpu {
+        println!(
+            "# rendering: {}x{} offscreen on {}",
+            RENDER_SIZE.0,
+            RENDER_SIZE.1,
+            ctx.adapter_name()
+        );
+    }
+    let what = match &args.scene {
+        Some(p) if p.as_os_str() != "default" => format!("scene {}", p.display()),
+        Some(_) => "the default scene".to_string(),
+        None => format!(
+            "{name} pile ({})",
+            match args.pile {
+                PileArg::Lattice => "lattice",
+                PileArg::Poured => "poured",
+            }
+        ),
+    };
+    println!(
+        "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
+        rayon::current_num_threads(),
+        args.settle,
+        args.steps
+    );
+    print!(
+        "{:>10} {:>12} {:>16} {:>14} {:>11} {:>10} {:>9}",
+        "bodies", "steps/s", "body-steps/s", "contacts/body", "pairs/body", "ms/step", "rebuilds"
+    );
+    if gpu.is_some() {
+        print!(" {:>10}", "frames/s");
+    }
+    println!("  backend");
+}
+
+/// One row of the table (not with `--json`), with the profile's lines under it.
+fn print_row(row: &Row) {
+    print!(
+        "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>11.2} {:>10.3} {:>9}",
+        row.bodies,
+        row.steps_per_s,
+        row.body_steps_per_s,
+        row.contacts_per_body,
+        row.pairs_per_body,
+        row.ms_per_step,
+        row.rebuilds,
+    );
+    if let Some(f) = row.frames_per_s {
+        print!(" {f:>10.2}");
+    }
+    println!("  {}", row.backend);
+    if let Some(p) = row.pairs {
+        println!(
+            "#   {p} candidate pairs ({:.2} per body)",
+            p as f64 / row.bodies as f64
+        );
+    }
+    if !row.kernels.is_empty() {
+        let total: f64 = row.kernels.iter().map(|(_, ms)| ms).sum();
+        let list: Vec<String> = row
+            .kernels
+            .iter()
+            .map(|(k, ms)| format!("{k} {ms:.4}"))
+            .collect();
+        println!(
+            "#   kernels (ms/step, each timed alone; sum {total:.4}): {}",
+            list.join(", ")
+        );
+    }
 }
 
 /// Frames per second of one step and an offscreen frame (waiting for the GPU to finish
