@@ -11,29 +11,104 @@ use clatter::World;
 use clatter::pile::{PileParams, PileShape, pile, poured};
 use clatter_gpu::{Device, Readback, StepError, Stepper};
 
+use clap::ValueEnum;
+
+use crate::args::Pipeline;
 use crate::backend::Backend;
-use crate::{BenchShape, PileArg};
+
+/// Shape of the benchmark pile.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BenchShape {
+    /// Spheres only.
+    Sphere,
+    /// Cubes only.
+    Cube,
+    /// Tetrahedra, cubes, octahedra, dodecahedra, icosahedra and spheres in turn.
+    Mixed,
+}
+
+/// How the benchmark pile is made.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PileArg {
+    /// Stacked on a cubic lattice, touching.
+    Lattice,
+    /// Rained into the box and settled until at rest; the settled pile is cached (see
+    /// `--pile-cache`), so the settle runs once per machine.
+    Poured,
+}
 
 /// Arguments of `clatter bench`.
+#[derive(clap::Args, Debug)]
+#[command(
+    mut_arg("threads", |a| a.help("Worker threads (default: all cores)")),
+    mut_arg("backend", |a| a
+        .default_value("cpu")
+        .help("Which pipeline to time: gpu, cpu, or auto (see `clatter run --help`). GPU times are wall clock around work that ends with a synchronising read, after the settle steps as warm-up")),
+)]
 pub struct BenchArgs {
+    /// Shape of the bodies.
+    #[arg(long, value_enum, default_value = "sphere")]
     pub shape: BenchShape,
+    /// Comma-separated body counts.
+    #[arg(long, value_delimiter = ',', default_value = "1024,4096,16384,65536")]
     pub bodies: Vec<usize>,
+    /// Timed steps per body count.
+    #[arg(long, default_value_t = 200)]
     pub steps: u64,
+    /// Untimed steps that let the pile settle first.
+    #[arg(long, default_value_t = 1000)]
     pub settle: u64,
+    /// Print JSON instead of a table.
+    #[arg(long)]
     pub json: bool,
+    /// `--threads` and `--backend` (default cpu here).
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    /// Also write the settled sphere pile as a LAMMPS data file and input script into DIR
+    /// (for scripts/bench-lammps.sh); only with --shape sphere and one body count.
+    #[arg(long, value_name = "DIR")]
     pub emit_lammps: Option<PathBuf>,
-    pub backend: Backend,
-    /// With `Some(frames)`: also time that many frames of one step plus an offscreen render.
-    pub render: Option<u64>,
-    /// With the GPU backend: also time each kernel with timestamp queries over this many
-    /// steps and print milliseconds per step per kernel.
-    pub profile: Option<u64>,
-    /// Time this scene file (`default`: the embedded default scene) instead of the piles.
+    /// Also time steps with an offscreen 1280x720 render after each (the "fps with
+    /// rendering" column; needs a GPU adapter, lavapipe/llvmpipe will do).
+    #[arg(long)]
+    pub render: bool,
+    /// Frames timed per body count with --render.
+    #[arg(long, value_name = "N", default_value_t = 20)]
+    pub render_frames: u64,
+    /// With --backend gpu: also time every kernel alone with timestamp queries and print
+    /// milliseconds per step per kernel (the steps/s column is measured before, without).
+    #[arg(long)]
+    pub profile: bool,
+    /// Steps timed per body count with --profile.
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    pub profile_steps: u64,
+    /// Time a scene file instead of the piles (`default`: the embedded default scene);
+    /// one row, the scene's bodies, after --settle steps. --shape and --bodies are
+    /// ignored.
+    #[arg(long, value_name = "FILE|default")]
     pub scene: Option<PathBuf>,
-    /// How the pile is made.
+    /// How the pile is made: poured (rained into the box and settled, cached) or lattice
+    /// (stacked, touching).
+    #[arg(long, value_enum, default_value = "poured")]
     pub pile: PileArg,
-    /// Where settled poured piles are cached (see [`pile_cache_dir`]).
+    /// Where settled poured piles are cached (default: $CLATTER_PILE_CACHE, else
+    /// $XDG_CACHE_HOME/clatter/piles, else ~/.cache/clatter/piles).
+    #[arg(long, value_name = "DIR")]
     pub pile_cache: Option<PathBuf>,
+}
+
+impl BenchArgs {
+    /// With `--render`: the frames to time per body count (one step plus an offscreen render
+    /// each).
+    fn timed_frames(&self) -> Option<u64> {
+        self.render.then_some(self.render_frames)
+    }
+
+    /// With `--profile`: the steps over which each GPU kernel is timed with timestamp
+    /// queries (milliseconds per step per kernel).
+    fn profiled_steps(&self) -> Option<u64> {
+        self.profile.then_some(self.profile_steps)
+    }
 }
 
 /// The environment variable that names the poured-pile cache directory.
@@ -117,7 +192,8 @@ fn poured_pile(
         }
     }
     let mut world = fresh;
-    let mut stepper = crate::backend::choose(args.backend, &world, Device::Headless, true)?;
+    let mut stepper =
+        crate::backend::choose(args.pipeline.backend, &world, Device::Headless, true)?;
     let g = world.gravity.length() as f64;
     let target = SETTLED_ENERGY
         * world
@@ -238,7 +314,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 anyhow::bail!("--emit-lammps writes the sphere pile: it does not go with --scene");
             }
             let path = (path.as_os_str() != "default").then_some(path.as_path());
-            Some(crate::run::load_scene(path)?.1.world())
+            Some(crate::scene_io::load_scene(path)?.1.world())
         }
         None => None,
     };
@@ -246,18 +322,18 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         Some(w) => ("scene", vec![w.len()]),
         None => (name, args.bodies.clone()),
     };
-    if args.render == Some(0) {
+    if args.timed_frames() == Some(0) {
         anyhow::bail!("--render-frames must be at least 1");
     }
-    if args.profile == Some(0) {
+    if args.profiled_steps() == Some(0) {
         anyhow::bail!("--profile-steps must be at least 1");
     }
-    if args.profile.is_some() && args.backend == Backend::Cpu {
+    if args.profiled_steps().is_some() && args.pipeline.backend == Backend::Cpu {
         anyhow::bail!("--profile times GPU kernels: use it with --backend gpu");
     }
     // One device for the simulation and the renderer, so that with the GPU backend the frames
     // are drawn straight from the simulation's body buffer.
-    let gpu = match args.render {
+    let gpu = match args.timed_frames() {
         Some(_) => Some(std::sync::Arc::new(
             clatter_gpu::GpuContext::new().context("bench --render")?,
         )),
@@ -265,45 +341,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     };
     let params = PileParams::default();
     if !args.json {
-        if let Some(ctx) = &gpu {
-            println!(
-                "# rendering: {}x{} offscreen on {}",
-                RENDER_SIZE.0,
-                RENDER_SIZE.1,
-                ctx.adapter_name()
-            );
-        }
-        let what = match &args.scene {
-            Some(p) if p.as_os_str() != "default" => format!("scene {}", p.display()),
-            Some(_) => "the default scene".to_string(),
-            None => format!(
-                "{name} pile ({})",
-                match args.pile {
-                    PileArg::Lattice => "lattice",
-                    PileArg::Poured => "poured",
-                }
-            ),
-        };
-        println!(
-            "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
-            rayon::current_num_threads(),
-            args.settle,
-            args.steps
-        );
-        print!(
-            "{:>10} {:>12} {:>16} {:>14} {:>11} {:>10} {:>9}",
-            "bodies",
-            "steps/s",
-            "body-steps/s",
-            "contacts/body",
-            "pairs/body",
-            "ms/step",
-            "rebuilds"
-        );
-        if gpu.is_some() {
-            print!(" {:>10}", "frames/s");
-        }
-        println!("  backend");
+        print_header(&args, gpu.as_deref(), name);
     }
     let mut rows = Vec::new();
     let mut bandwidth: Option<f64> = None;
@@ -318,8 +356,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             Some(ctx) => Device::Shared(ctx.clone()),
             None => Device::Headless,
         };
-        let mut stepper = crate::backend::choose(args.backend, &world, device, quiet)?;
-        if args.profile.is_some() && !stepper.is_gpu() {
+        let mut stepper = crate::backend::choose(args.pipeline.backend, &world, device, quiet)?;
+        if args.profiled_steps().is_some() && !stepper.is_gpu() {
             anyhow::bail!(
                 "--profile times GPU kernels, but the CPU pipeline was chosen: use --backend gpu"
             );
@@ -349,7 +387,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         };
         let mut kernels = Vec::new();
         let mut pairs = None;
-        if let (Some(steps), Some(gpu)) = (args.profile, stepper.as_gpu_mut()) {
+        if let (Some(steps), Some(gpu)) = (args.profiled_steps(), stepper.as_gpu_mut()) {
             kernels = gpu.profile(steps)?;
             pairs = Some(gpu.pairs());
             if bandwidth.is_none() {
@@ -365,7 +403,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         }
         let backend = stepper.name();
         let sps = args.steps as f64 / secs;
-        let frames_per_s = match (&gpu, args.render) {
+        let frames_per_s = match (&gpu, args.timed_frames()) {
             (Some(ctx), Some(frames)) => Some(time_frames(ctx, &mut world, &mut stepper, frames)?),
             _ => None,
         };
@@ -390,41 +428,10 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             frames_per_s,
             kernels,
             pairs,
-            copy_bandwidth_gb_s: args.profile.and(bandwidth),
+            copy_bandwidth_gb_s: args.profiled_steps().and(bandwidth),
         };
         if !args.json {
-            print!(
-                "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>11.2} {:>10.3} {:>9}",
-                row.bodies,
-                row.steps_per_s,
-                row.body_steps_per_s,
-                row.contacts_per_body,
-                row.pairs_per_body,
-                row.ms_per_step,
-                row.rebuilds,
-            );
-            if let Some(f) = row.frames_per_s {
-                print!(" {f:>10.2}");
-            }
-            println!("  {}", row.backend);
-            if let Some(p) = row.pairs {
-                println!(
-                    "#   {p} candidate pairs ({:.2} per body)",
-                    p as f64 / row.bodies as f64
-                );
-            }
-            if !row.kernels.is_empty() {
-                let total: f64 = row.kernels.iter().map(|(_, ms)| ms).sum();
-                let list: Vec<String> = row
-                    .kernels
-                    .iter()
-                    .map(|(k, ms)| format!("{k} {ms:.4}"))
-                    .collect();
-                println!(
-                    "#   kernels (ms/step, each timed alone; sum {total:.4}): {}",
-                    list.join(", ")
-                );
-            }
+            print_row(&row);
         }
         rows.push(row);
     }
@@ -432,6 +439,79 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
+}
+
+/// The table's header lines (not with `--json`): the renderer, what is timed, the columns.
+fn print_header(args: &BenchArgs, gpu: Option<&clatter_gpu::GpuContext>, name: &str) {
+    if let Some(ctx) = gpu {
+        println!(
+            "# rendering: {}x{} offscreen on {}",
+            RENDER_SIZE.0,
+            RENDER_SIZE.1,
+            ctx.adapter_name()
+        );
+    }
+    let what = match &args.scene {
+        Some(p) if p.as_os_str() != "default" => format!("scene {}", p.display()),
+        Some(_) => "the default scene".to_string(),
+        None => format!(
+            "{name} pile ({})",
+            match args.pile {
+                PileArg::Lattice => "lattice",
+                PileArg::Poured => "poured",
+            }
+        ),
+    };
+    println!(
+        "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
+        rayon::current_num_threads(),
+        args.settle,
+        args.steps
+    );
+    print!(
+        "{:>10} {:>12} {:>16} {:>14} {:>11} {:>10} {:>9}",
+        "bodies", "steps/s", "body-steps/s", "contacts/body", "pairs/body", "ms/step", "rebuilds"
+    );
+    if gpu.is_some() {
+        print!(" {:>10}", "frames/s");
+    }
+    println!("  backend");
+}
+
+/// One row of the table (not with `--json`), with the profile's lines under it.
+fn print_row(row: &Row) {
+    print!(
+        "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>11.2} {:>10.3} {:>9}",
+        row.bodies,
+        row.steps_per_s,
+        row.body_steps_per_s,
+        row.contacts_per_body,
+        row.pairs_per_body,
+        row.ms_per_step,
+        row.rebuilds,
+    );
+    if let Some(f) = row.frames_per_s {
+        print!(" {f:>10.2}");
+    }
+    println!("  {}", row.backend);
+    if let Some(p) = row.pairs {
+        println!(
+            "#   {p} candidate pairs ({:.2} per body)",
+            p as f64 / row.bodies as f64
+        );
+    }
+    if !row.kernels.is_empty() {
+        let total: f64 = row.kernels.iter().map(|(_, ms)| ms).sum();
+        let list: Vec<String> = row
+            .kernels
+            .iter()
+            .map(|(k, ms)| format!("{k} {ms:.4}"))
+            .collect();
+        println!(
+            "#   kernels (ms/step, each timed alone; sum {total:.4}): {}",
+            list.join(", ")
+        );
+    }
 }
 
 /// Frames per second of one step and an offscreen frame (waiting for the GPU to finish

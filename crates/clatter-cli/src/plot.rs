@@ -244,34 +244,40 @@ fn panel(s: &mut String, k: usize, p: &Panel) {
                 d.trim_end()
             );
         }
-        let ly = y0 + 20.0 + 18.0 * c as f64;
-        let lx = x1 + w + 15.0;
-        if se.style == Style::Points {
-            let _ = writeln!(
-                s,
-                "<circle cx=\"{}\" cy=\"{ly}\" r=\"3.5\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
-                lx + 12.0
-            );
-        } else {
-            let _ = writeln!(
-                s,
-                "<line x1=\"{lx}\" y1=\"{ly}\" x2=\"{}\" y2=\"{ly}\" stroke=\"{colour}\" stroke-width=\"2\"{}/>",
-                lx + 25.0,
-                if se.style == Style::Dashed {
-                    " stroke-dasharray=\"6 4\""
-                } else {
-                    ""
-                }
-            );
-        }
+        legend(s, se, colour, c, x1 + w, y0);
+    }
+}
+
+/// The legend entry of series number `c` (of a panel whose plot box ends at `right` and
+/// starts at `y0`): its marker or line, then its name.
+fn legend(s: &mut String, se: &Series, colour: &str, c: usize, right: f64, y0: f64) {
+    let ly = y0 + 20.0 + 18.0 * c as f64;
+    let lx = right + 15.0;
+    if se.style == Style::Points {
         let _ = writeln!(
             s,
-            "<text x=\"{}\" y=\"{}\">{}</text>",
-            lx + 32.0,
-            ly + 4.0,
-            xml_escape(se.name)
+            "<circle cx=\"{}\" cy=\"{ly}\" r=\"3.5\" fill=\"none\" stroke=\"{colour}\" stroke-width=\"1.5\"/>",
+            lx + 12.0
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "<line x1=\"{lx}\" y1=\"{ly}\" x2=\"{}\" y2=\"{ly}\" stroke=\"{colour}\" stroke-width=\"2\"{}/>",
+            lx + 25.0,
+            if se.style == Style::Dashed {
+                " stroke-dasharray=\"6 4\""
+            } else {
+                ""
+            }
         );
     }
+    let _ = writeln!(
+        s,
+        "<text x=\"{}\" y=\"{}\">{}</text>",
+        lx + 32.0,
+        ly + 4.0,
+        xml_escape(se.name)
+    );
 }
 
 /// `[lo, hi]` widened when empty or flat.

@@ -1,109 +1,58 @@
 //! `clatter render`: run a scene (on the CPU or the GPU) and write a PNG frame every N steps
 //! (offscreen, no window), then encode them into an MP4 when ffmpeg is on the PATH. With the
 //! GPU backend the frames are drawn straight from the simulation's body buffer. `clatter view`: the
-//! interactive window. Both take the same picture options ([`PictureArgs`]).
+//! interactive window. Both take the same picture options ([`PictureArgs`], in
+//! [`crate::picture`]).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::Arc;
 
 use anyhow::Context;
-use clap::ValueEnum;
 use clatter::health::Health;
 use clatter_gpu::watch::CHECK_EVERY;
 use clatter_gpu::{Device, GpuContext, Readback, Stepper, Watch, WatchError};
-use clatter_render::{CAMERA_SYNTAX, CameraSpec, ColorMode, Offscreen, Poses, Style, save_png};
+use clatter_render::{Offscreen, Poses, save_png};
 
-use crate::backend::{Backend, choose};
-use crate::log::{LogEvery, Sample, Thermo};
-use crate::run::{BlownUp, load_scene};
-
-/// Colour mode of bodies.
-#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ColorArg {
-    /// One colour per material.
-    Material,
-    /// Blue (at rest) to red (the fastest body).
-    Speed,
-    /// Orange if touching something now, grey if not.
-    Contact,
-}
-
-impl From<ColorArg> for ColorMode {
-    fn from(c: ColorArg) -> ColorMode {
-        match c {
-            ColorArg::Material => ColorMode::Material,
-            ColorArg::Speed => ColorMode::Speed,
-            ColorArg::Contact => ColorMode::Contact,
-        }
-    }
-}
-
-/// The largest image side `--size` accepts, pixels.
-pub const MAX_SIDE: u32 = 8192;
-
-/// Parses `WxH` (e.g. `1280x720`).
-pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("'{s}' is not a size: expected WIDTHxHEIGHT, e.g. 1280x720");
-    let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(bad)?;
-    let w: u32 = w.trim().parse().map_err(|_| bad())?;
-    let h: u32 = h.trim().parse().map_err(|_| bad())?;
-    // 8192 keeps a 4x multisampled frame with its depth buffer within about 2 GiB.
-    if w == 0 || h == 0 || w > MAX_SIDE || h > MAX_SIDE {
-        return Err(format!(
-            "size {w}x{h}: each side must be 1 to {MAX_SIDE} pixels"
-        ));
-    }
-    Ok((w, h))
-}
-
-/// Parses `--camera` (see [`CAMERA_SYNTAX`]).
-pub fn parse_camera(s: &str) -> Result<CameraSpec, String> {
-    s.parse::<CameraSpec>()
-        .map_err(|e| format!("{e}; expected {CAMERA_SYNTAX}"))
-}
-
-/// Picture options shared by `render` and `view`.
-#[derive(clap::Args, Clone, Debug)]
-pub struct PictureArgs {
-    /// Camera: iso (default; from the front, above and to the right), top, front, side, or
-    /// an eye point EX,EY,EZ with an optional target :TX,TY,TZ (m; default target: the
-    /// scene's centre), e.g. --camera 0.8,-0.6,0.5:0.15,0.15,0.05. Presets frame the bodies
-    /// and the walls next to them.
-    #[arg(long, value_name = "CAMERA", default_value = "iso", value_parser = parse_camera, allow_hyphen_values = true)]
-    pub camera: CameraSpec,
-    /// Colour bodies by material, speed, or contact (touching something now).
-    #[arg(long, value_enum, default_value = "material")]
-    pub color: ColorArg,
-    /// Show only the bodies that touch something now (another body or a wall).
-    #[arg(long)]
-    pub only_contacts: bool,
-}
-
-impl PictureArgs {
-    /// The renderer's style.
-    pub fn style(&self) -> Style {
-        Style {
-            color: self.color.into(),
-            only_contacts: self.only_contacts,
-            speed_max: None,
-        }
-    }
-}
+use crate::args::{Pipeline, Progress};
+use crate::backend::choose;
+use crate::log::{Sample, Thermo};
+use crate::picture::{ColorArg, PictureArgs, parse_size};
+use crate::report::BlownUp;
+use crate::scene_io::load_scene;
 
 /// Arguments of `clatter render`.
+#[derive(clap::Args, Debug)]
+#[command(
+    mut_arg("threads", |a| a.help("Worker threads of the simulation (default: all cores)")),
+    mut_arg("backend", |a| a.help("Which pipeline steps the world: gpu (frames drawn straight from its buffers), cpu, or auto (the GPU when a hardware adapter is found and the scene fits it, else the CPU, saying which and why)")),
+    mut_arg("quiet", |a| a.help("Print nothing but errors (and whether the MP4 was skipped)")),
+)]
 pub struct RenderArgs {
+    /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
     pub scene: Option<PathBuf>,
+    /// Directory for frame_000000.png, frame_000001.png, ... and frames.mp4 (created if
+    /// needed).
+    #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+    /// Write a frame every N steps (and at the first and last step).
+    #[arg(long, value_name = "N", default_value_t = 100)]
     pub every: u64,
+    /// Image size in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
+    /// Override the scene's run length with a number of steps.
+    #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
+    /// Frames per second of frames.mp4.
+    #[arg(long, value_name = "FPS", default_value_t = 30)]
     pub fps: u32,
+    #[command(flatten)]
     pub picture: PictureArgs,
-    pub backend: Backend,
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: none; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    #[command(flatten)]
+    pub progress: Progress,
 }
 
 /// Runs `clatter render`.
@@ -125,12 +74,12 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let camera = off.camera(args.picture.camera);
     let style = args.picture.style();
     let mut stepper = choose(
-        args.backend,
+        args.pipeline.backend,
         &world,
         Device::Shared(ctx.clone()),
-        args.quiet,
+        args.progress.quiet,
     )?;
-    if !args.quiet {
+    if !args.progress.quiet {
         eprintln!(
             "rendering {} ({} bodies, {end} steps) every {} steps at {w}x{h} on {}",
             scene.source,
@@ -180,7 +129,10 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let watch = start_watch(&mut stepper, &world)?;
     shoot(&mut world, &stepper, &mut off)?;
     let mut k = 0u64;
-    let mut thermo = args.log.map(|every| Thermo::new(every, 0, end));
+    let mut thermo = args
+        .progress
+        .lines()
+        .map(|every| Thermo::new(every, 0, end));
     while k < end {
         // Up to the next frame (a multiple of --every, or the last step), or the next
         // progress line.
@@ -210,13 +162,13 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
         }
     }
     ctx.take_error()?;
-    if !args.quiet {
+    if !args.progress.quiet {
         println!(
             "wrote {frames} frames to {}/frame_NNNNNN.png",
             args.out.display()
         );
     }
-    encode_mp4(&args.out, args.fps, args.quiet)
+    encode_mp4(&args.out, args.fps, args.progress.quiet)
 }
 
 /// The blow-up checks for a `render` or `view` of `world`: the warnings and the check before
@@ -232,7 +184,7 @@ pub fn start_watch(stepper: &mut Stepper, world: &clatter::World) -> anyhow::Res
     Ok(Watch::start(stepper, world, health, CHECK_EVERY, 0))
 }
 
-/// A [`WatchError`] as `main` reports it (a blow-up exits with `run::BLOW_UP_EXIT`).
+/// A [`WatchError`] as `main` reports it (a blow-up exits with `report::BLOW_UP_EXIT`).
 pub fn watch_error(e: WatchError) -> anyhow::Error {
     match e {
         WatchError::BlowUp(b) => anyhow::Error::new(BlownUp(b.to_string())),
@@ -241,14 +193,31 @@ pub fn watch_error(e: WatchError) -> anyhow::Error {
 }
 
 /// Arguments of `clatter view`.
+#[derive(clap::Args, Debug)]
+#[command(
+    mut_arg("threads", |a| a.help("Worker threads of the simulation (default: all cores)")),
+    mut_arg("backend", |a| a.help("Which pipeline steps the world: gpu (on the window's device, drawn straight from its buffers), cpu, or auto (the GPU when the window's adapter is hardware and the scene fits it, else the CPU)")),
+)]
 pub struct ViewArgs {
+    /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
     pub scene: Option<PathBuf>,
+    /// Window size in pixels.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
     pub size: (u32, u32),
+    /// Simulation steps per displayed frame (the speed slider's start value).
+    #[arg(long, value_name = "N", default_value_t = 10)]
     pub steps_per_frame: u32,
+    #[command(flatten)]
     pub picture: PictureArgs,
+    /// Save the window (scene and controls) to PATH as a PNG after --frames frames, and
+    /// exit.
+    #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
+    /// Frames to show before the screenshot (with --screenshot).
+    #[arg(long, value_name = "N", default_value_t = 30)]
     pub frames: u64,
-    pub backend: Backend,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
 }
 
 /// Runs `clatter view`.
@@ -278,7 +247,7 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         style: args.picture.style(),
         screenshot: args.screenshot,
         frames: args.frames,
-        backend: args.backend.into(),
+        backend: args.pipeline.backend.into(),
     });
     match viewed {
         Err(clatter_render::ViewerError::BlowUp(report)) => {
@@ -334,47 +303,5 @@ fn encode_mp4(dir: &Path, fps: u32, quiet: bool) -> anyhow::Result<()> {
             o.status,
             String::from_utf8_lossy(&o.stderr).trim()
         ),
-    }
-}
-
-/// Renders `world` as it is now into the PNG at `path` (1280x720, the iso camera, coloured by
-/// material): the picture `clatter run` leaves with the default scene's results. Fails when
-/// no GPU adapter (hardware or software) can be opened.
-pub fn final_picture(world: &clatter::World, path: &std::path::Path) -> anyhow::Result<()> {
-    let ctx = Arc::new(GpuContext::new()?);
-    let mut off = Offscreen::new(&ctx, world, 1280, 720)?;
-    let camera = off.camera(CameraSpec::Iso);
-    let style = Style {
-        color: ColorMode::Material,
-        only_contacts: false,
-        speed_max: None,
-    };
-    off.update(world);
-    let img = off.render(&camera, &style, Poses::Uploaded)?;
-    save_png(&img, path)?;
-    ctx.take_error()?;
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sizes() {
-        assert_eq!(parse_size("1280x720"), Ok((1280, 720)));
-        assert_eq!(parse_size(" 64X48 "), Ok((64, 48)));
-        for bad in [
-            "",
-            "1280",
-            "0x10",
-            "10x0",
-            "axb",
-            "-1x5",
-            "100000x10",
-            "12x12x12",
-        ] {
-            assert!(parse_size(bad).is_err(), "{bad}");
-        }
     }
 }

@@ -9,20 +9,20 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
-use clatter::scene::{Scene, SceneError};
+use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
 use clatter_gpu::{Device, Readback, StepError, Stepper, Watch, WatchError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
+use crate::args::{Pipeline, Progress};
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
 use crate::log::{LogEvery, Sample, Thermo};
 use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, carry_rows, write_state_rows};
+use crate::report::BlownUp;
+use crate::scene_io::load_scene;
 use crate::vtk;
-
-/// The embedded default scene: mixed polyhedra poured into a box.
-pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).
@@ -36,9 +36,6 @@ pub const DEFAULT_OUT: &str = "clatter-out/default";
 /// blow-up checks on the host as on the CPU, reading the state back every check step (the run
 /// loop before the device-side checks; for timing comparisons, see BENCHMARKS.md).
 pub const HOST_CHECKS_VAR: &str = "CLATTER_GPU_HOST_CHECKS";
-
-/// Exit status of a run stopped by a blow-up (1 is any other error, 2 a usage error).
-pub const BLOW_UP_EXIT: u8 = 3;
 
 /// Format of the series written every `--output-every` steps.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize, Deserialize)]
@@ -88,38 +85,36 @@ pub struct OutputArgs {
 }
 
 /// Arguments of `clatter run`.
+#[derive(clap::Args, Debug)]
 pub struct RunArgs {
+    /// Scene file (TOML, see docs/scene-format.md).
     pub scene: Option<PathBuf>,
-    pub backend: Backend,
+    #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    /// Override the scene's run length with a number of steps.
+    #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: none; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    #[command(flatten)]
+    pub progress: Progress,
 }
 
 /// Arguments of `clatter resume`.
+#[derive(clap::Args, Debug)]
 pub struct ResumeArgs {
+    /// Checkpoint file written by `clatter run --checkpoint-every`.
     pub checkpoint: PathBuf,
-    pub backend: Backend,
+    #[command(flatten)]
     pub output: OutputArgs,
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    /// Run N more steps instead of going on to the end of the original run.
+    #[arg(long, value_name = "N")]
     pub steps: Option<u64>,
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: none; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    #[command(flatten)]
+    pub progress: Progress,
 }
-
-/// A run stopped by a blow-up; `main` exits with [`BLOW_UP_EXIT`].
-#[derive(Debug)]
-pub struct BlownUp(pub String);
-
-impl std::fmt::Display for BlownUp {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for BlownUp {}
 
 /// What a checkpoint written by the CLI carries besides the state: how the run was going to
 /// go on, so that `clatter resume` continues it the same way.
@@ -275,26 +270,6 @@ fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved
     })
 }
 
-/// Reads and validates the scene at `path`, or the embedded default scene; returns the text
-/// with the scene.
-pub fn load_scene(path: Option<&Path>) -> anyhow::Result<(String, Scene)> {
-    let (text, name) = match path {
-        Some(path) => {
-            let name = path.display().to_string();
-            let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-                file: name.clone(),
-                line: None,
-                field: None,
-                message: format!("cannot read the scene file: {e}"),
-            })?;
-            (text, name)
-        }
-        None => (DEFAULT_SCENE.to_string(), "<default scene>".to_string()),
-    };
-    let scene = Scene::parse(&text, &name)?;
-    Ok((text, scene))
-}
-
 /// `clatter run`: a scene from the start.
 pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
     let (text, scene) = load_scene(args.scene.as_deref())?;
@@ -329,9 +304,9 @@ pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
             check_every,
             health,
             resumed: false,
-            quiet: args.quiet,
-            log: args.log,
-            backend: args.backend,
+            quiet: args.progress.quiet,
+            log: args.progress.lines(),
+            backend: args.pipeline.backend,
             picture,
             scene,
             scene_text: text,
@@ -391,9 +366,9 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
             check_every,
             health,
             resumed: true,
-            quiet: args.quiet,
-            log: args.log,
-            backend: args.backend,
+            quiet: args.progress.quiet,
+            log: args.progress.lines(),
+            backend: args.pipeline.backend,
             picture: false,
             scene_text: ckpt.scene_text.clone(),
             scene,
@@ -448,10 +423,87 @@ impl Series {
     }
 }
 
+/// Steps `world` as `plan` says: the header, the stepping loop with its outputs, then the
+/// summary and the final outputs (or the blow-up report).
 fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     let mut stepper = crate::backend::choose(plan.backend, &world, Device::Headless, plan.quiet)?;
     let start = world.step_count;
     let steps = plan.end_step - start;
+    print_header(&plan, &world, start, steps);
+    let mut last_good = world.clone();
+    if !plan.resumed
+        && let Err(b) = plan.health.check_initial(&world)
+    {
+        return Err(blown_up(&plan, b, &last_good, None));
+    }
+    let mut outputs = Outputs::create(&plan, &world, start)?;
+    let ran = step_loop(
+        &plan,
+        &mut stepper,
+        &mut world,
+        &mut outputs,
+        &mut last_good,
+        steps,
+    )?;
+    let elapsed = ran.elapsed;
+    let steps_per_s = steps as f64 / elapsed.max(1e-9);
+    if !plan.quiet {
+        print_summary(&world, &stepper, steps, elapsed, ran.max_contacts);
+    }
+    let Some(dir) = &plan.out else {
+        if !plan.quiet {
+            println!(
+                "no files written: --out DIR writes final.csv, summary.json and the energy plot energy.svg (--format vtk adds ParaView frames; `clatter render` draws pictures)"
+            );
+        }
+        return Ok(());
+    };
+    outputs.finish(&plan, dir, &world)?;
+    let summary = serde_json::json!({
+        "scene": plan.scene.source,
+        "bodies": world.len(),
+        "walls": world.walls.len(),
+        // Via the f32 shortest decimal, so a scene's dt = 2e-5 reads 2e-5, not 1.9999999494757503e-5.
+        "dt": world.dt.to_string().parse::<f64>().unwrap_or(world.dt as f64),
+        "steps": steps,
+        "step": world.step_count,
+        "resumed_from_step": plan.resumed.then_some(start),
+        "simulated_time": world.time,
+        "wall_time_s": elapsed,
+        "steps_per_s": steps_per_s,
+        "threads": rayon::current_num_threads(),
+        "backend": stepper.name(),
+        "contacts": world.contact_count(),
+        "max_contacts": ran.max_contacts,
+        "kinetic_energy": world.kinetic_energy(),
+        "potential_energy": world.potential_energy(),
+        "momentum": world.momentum(),
+        "broad_phase_rebuilds": world.rebuilds,
+        "removed": world.discharged().count,
+        "removed_mass": world.discharged().mass,
+    });
+    let mut f = AtomicFile::create(&dir.join("summary.json"))?;
+    serde_json::to_writer_pretty(f.writer(), &summary)?;
+    writeln!(f.writer())?;
+    f.commit()?;
+    let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
+    if !world.sinks.is_empty() {
+        written.push_str(", discharge.csv");
+    }
+    if plan.picture {
+        match crate::picture::final_picture(&world, &dir.join("final.png")) {
+            Ok(()) => written.push_str(", final.png"),
+            Err(e) => eprintln!("warning: no picture (final.png): {e:#}"),
+        }
+    }
+    if !plan.quiet {
+        println!("results in {}/: {written}", dir.display());
+    }
+    Ok(())
+}
+
+/// The scene's warnings and notes, the health warnings, and (unless quiet) the header line.
+fn print_header(plan: &Plan, world: &World, start: u64, steps: u64) {
     if !plan.resumed {
         for w in &plan.scene.warnings {
             eprintln!("warning: {w}");
@@ -460,89 +512,239 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             eprintln!("note: {n}");
         }
     }
-    for w in plan.health.warnings(&world) {
+    for w in plan.health.warnings(world) {
         eprintln!("warning: {w}");
     }
-    if !plan.quiet {
-        let from = if plan.resumed {
-            format!(" from step {start} (t = {:.6} s)", world.time)
-        } else {
-            String::new()
-        };
-        eprintln!(
-            "{}: {} bodies, {} walls, dt = {:.3e} s, {} steps{from} ({:.4} s simulated), {} threads",
-            plan.scene.source,
-            world.len(),
-            world.walls.len(),
-            world.dt,
-            steps,
-            steps as f64 * world.dt as f64,
-            rayon::current_num_threads()
-        );
-        if let Some(p) = &world.periodic {
-            let ranges: Vec<String> = (0..3)
-                .filter(|&k| p.axes[k])
-                .map(|k| format!("{} in [{}, {})", ["x", "y", "z"][k], p.min[k], p.max[k]))
-                .collect();
-            eprintln!(
-                "periodic: {}; output positions are wrapped into the box",
-                ranges.join(", ")
-            );
-        }
+    if plan.quiet {
+        return;
     }
-    let mut last_good = world.clone();
-    if !plan.resumed
-        && let Err(b) = plan.health.check_initial(&world)
-    {
-        return Err(blown_up(&plan, b, &last_good, None));
-    }
-
-    // Outputs: everything is created before the first step and committed (renamed into
-    // place) when complete.
-    let mut series = Series {
-        trace: None,
-        bodies: None,
-        shapes: None,
-        boundaries: None,
-        contacts: None,
-        last_frame: None,
+    let from = if plan.resumed {
+        format!(" from step {start} (t = {:.6} s)", world.time)
+    } else {
+        String::new()
     };
-    let mut energy = None;
-    let mut discharge: Option<DischargeSeries> = None;
-    if let Some(dir) = &plan.out {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create output directory {}", dir.display()))?;
-        if plan.csv && plan.output_every.is_some() {
-            let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
-            let header = format!("step,time,{STATE_HEADER}");
-            writeln!(f.writer(), "{header}")?;
-            carry_rows(&dir.join("trace.csv"), &header, start, f.writer())?;
-            series.trace = Some(f);
-        }
-        if plan.vtk {
-            series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
-            series.shapes = Some(vtk::Pvd::continuing(&dir.join("shapes.pvd"), start));
-            if !world.boundaries.is_empty() {
-                series.boundaries = Some(vtk::Pvd::continuing(&dir.join("boundaries.pvd"), start));
-            }
-            if plan.contacts {
-                series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
-            }
-        }
-        series.write(dir, &world)?;
-        let mut e = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
-        e.sample(&world)?;
-        energy = Some(e);
-        if !world.sinks.is_empty() {
-            let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
-            d.sample(&world)?;
-            discharge = Some(d);
-        }
+    eprintln!(
+        "{}: {} bodies, {} walls, dt = {:.3e} s, {} steps{from} ({:.4} s simulated), {} threads",
+        plan.scene.source,
+        world.len(),
+        world.walls.len(),
+        world.dt,
+        steps,
+        steps as f64 * world.dt as f64,
+        rayon::current_num_threads()
+    );
+    if let Some(p) = &world.periodic {
+        let ranges: Vec<String> = (0..3)
+            .filter(|&k| p.axes[k])
+            .map(|k| format!("{} in [{}, {})", ["x", "y", "z"][k], p.min[k], p.max[k]))
+            .collect();
+        eprintln!(
+            "periodic: {}; output positions are wrapped into the box",
+            ranges.join(", ")
+        );
     }
-    let period = plan.checkpoint_every;
-    let half_dt = 0.5 * world.dt as f64;
-    let mut next_checkpoint = period.map(|t| ((world.time + half_dt) / t).floor() + 1.0);
+}
 
+/// The summary printed at the end of a run (not with `--quiet`).
+fn print_summary(world: &World, stepper: &Stepper, steps: u64, elapsed: f64, max_contacts: usize) {
+    let steps_per_s = steps as f64 / elapsed.max(1e-9);
+    println!("simulated time   {:.6} s", world.time);
+    println!("steps            {steps}");
+    println!("wall time        {elapsed:.3} s");
+    println!("backend          {}", stepper.name());
+    println!("steps/s          {steps_per_s:.1}");
+    println!("body-steps/s     {:.3e}", steps_per_s * world.len() as f64);
+    println!(
+        "contacts         {} (max {max_contacts})",
+        world.contact_count()
+    );
+    println!("kinetic energy   {:.6e} J", world.kinetic_energy());
+}
+
+/// The files a run writes as it goes: the frame series, energy.csv, discharge.csv, and when
+/// the next checkpoint is due. Everything is created before the first step and committed
+/// (renamed into place) when complete.
+struct Outputs {
+    series: Series,
+    energy: Option<EnergySeries>,
+    discharge: Option<DischargeSeries>,
+    /// The next checkpoint is due at simulated time `next * checkpoint_every`.
+    next_checkpoint: Option<f64>,
+}
+
+impl Outputs {
+    /// Creates the outputs of `plan` (none without `--out`) and writes their first rows.
+    fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Outputs> {
+        let mut series = Series {
+            trace: None,
+            bodies: None,
+            shapes: None,
+            boundaries: None,
+            contacts: None,
+            last_frame: None,
+        };
+        let mut energy = None;
+        let mut discharge: Option<DischargeSeries> = None;
+        if let Some(dir) = &plan.out {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+            if plan.csv && plan.output_every.is_some() {
+                let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
+                let header = format!("step,time,{STATE_HEADER}");
+                writeln!(f.writer(), "{header}")?;
+                carry_rows(&dir.join("trace.csv"), &header, start, f.writer())?;
+                series.trace = Some(f);
+            }
+            if plan.vtk {
+                series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
+                series.shapes = Some(vtk::Pvd::continuing(&dir.join("shapes.pvd"), start));
+                if !world.boundaries.is_empty() {
+                    series.boundaries =
+                        Some(vtk::Pvd::continuing(&dir.join("boundaries.pvd"), start));
+                }
+                if plan.contacts {
+                    series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
+                }
+            }
+            series.write(dir, world)?;
+            let mut e = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
+            e.sample(world)?;
+            energy = Some(e);
+            if !world.sinks.is_empty() {
+                let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
+                d.sample(world)?;
+                discharge = Some(d);
+            }
+        }
+        let half_dt = 0.5 * world.dt as f64;
+        let next_checkpoint = plan
+            .checkpoint_every
+            .map(|t| ((world.time + half_dt) / t).floor() + 1.0);
+        Ok(Outputs {
+            series,
+            energy,
+            discharge,
+            next_checkpoint,
+        })
+    }
+
+    /// Writes what is due after step `s`: a frame, energy and discharge rows, a checkpoint.
+    fn after_step(&mut self, plan: &Plan, world: &World, output_step: bool) -> anyhow::Result<()> {
+        let Some(dir) = &plan.out else {
+            return Ok(());
+        };
+        let s = world.step_count;
+        let half_dt = 0.5 * world.dt as f64;
+        if output_step {
+            self.series.write(dir, world)?;
+        }
+        if let Some(e) = &mut self.energy
+            && s.is_multiple_of(plan.energy_every)
+        {
+            e.sample(world)?;
+        }
+        if let Some(d) = &mut self.discharge
+            && s.is_multiple_of(plan.energy_every)
+        {
+            d.sample(world)?;
+        }
+        if let (Some(t), Some(next)) = (plan.checkpoint_every, &mut self.next_checkpoint)
+            && world.time + half_dt >= *next * t
+        {
+            plan.checkpoint(world, &dir.join("checkpoint.ckpt"))?;
+            *next = ((world.time + half_dt) / t).floor() + 1.0;
+        }
+        Ok(())
+    }
+
+    /// The last step: a VTK frame, an energy sample and a checkpoint even off the period;
+    /// commits the series and writes final.csv.
+    fn finish(mut self, plan: &Plan, dir: &Path, world: &World) -> anyhow::Result<()> {
+        if plan.vtk && self.series.last_frame != Some(world.step_count) {
+            self.series.write_vtk(dir, world)?;
+        }
+        if let Some(f) = self.series.trace.take() {
+            f.commit()?;
+        }
+        if let Some(mut d) = self.discharge.take() {
+            d.sample(world)?;
+            d.commit()?;
+        }
+        if let Some(mut e) = self.energy.take() {
+            e.sample(world)?;
+            e.finish(
+                Some(&dir.join("energy.svg")),
+                &format!("{}: energy and momentum", plan.scene.source),
+            )?;
+        }
+        if plan.checkpoint_every.is_some() {
+            plan.checkpoint(world, &dir.join("checkpoint.ckpt"))?;
+        }
+        let mut f = AtomicFile::create(&dir.join("final.csv"))?;
+        writeln!(f.writer(), "{STATE_HEADER}")?;
+        write_state_rows(f.writer(), world, "")?;
+        f.commit()
+    }
+}
+
+/// Which steps the loop stops at, and which get the full blow-up check.
+struct Schedule {
+    output_every: Option<u64>,
+    end_step: u64,
+    check_every: u64,
+    energy_every: u64,
+    out: bool,
+    period: Option<f64>,
+    half_dt: f64,
+    /// The cheap checks run on the GPU (the host looks only at the steps they flag).
+    gpu_checks: bool,
+    /// discharge.csv is written (its rows need the removed flags at the energy sample steps).
+    discharge_rows: bool,
+}
+
+impl Schedule {
+    fn output_step(&self, s: u64) -> bool {
+        self.output_every.is_some_and(|n| s.is_multiple_of(n))
+    }
+
+    fn full_step(&self, s: u64) -> bool {
+        s.is_multiple_of(FULL_CHECK_EVERY) || self.output_step(s) || s == self.end_step
+    }
+
+    /// Whether step `s` (simulated time `t` after it) needs the state on the host.
+    fn due(&self, s: u64, t: f64, next_checkpoint: Option<f64>) -> bool {
+        let checkpoint = self
+            .period
+            .is_some_and(|p| next_checkpoint.is_some_and(|next| t + self.half_dt >= next * p));
+        if self.gpu_checks {
+            let discharge_row = self.discharge_rows && s.is_multiple_of(self.energy_every);
+            return self.output_step(s) || s == self.end_step || checkpoint || discharge_row;
+        }
+        self.full_step(s)
+            || s.is_multiple_of(self.check_every)
+            || (self.out && s.is_multiple_of(self.energy_every))
+            || checkpoint
+    }
+}
+
+/// What the stepping loop measured.
+struct Ran {
+    /// Wall-clock seconds of the loop.
+    elapsed: f64,
+    max_contacts: usize,
+}
+
+/// The stepping loop: steps `world` to the end of the run with the progress bar or lines,
+/// the blow-up checks and the outputs due on the way.
+fn step_loop(
+    plan: &Plan,
+    stepper: &mut Stepper,
+    world: &mut World,
+    outputs: &mut Outputs,
+    last_good: &mut World,
+    steps: u64,
+) -> anyhow::Result<Ran> {
+    let start = world.step_count;
     let bar = if plan.quiet || plan.log.is_some() {
         ProgressBar::hidden()
     } else {
@@ -568,31 +770,23 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         Watch::host_only(plan.health.clone(), plan.check_every)
     } else {
         Watch::start(
-            &mut stepper,
-            &world,
+            stepper,
+            world,
             plan.health.clone(),
             plan.check_every,
             energy_on_gpu,
         )
     };
-    let gpu_checks = stepper.is_gpu() && !host_checks;
-    let output_step = |s: u64| plan.output_every.is_some_and(|n| s.is_multiple_of(n));
-    let discharge_rows = discharge.is_some();
-    let full_step =
-        |s: u64| s.is_multiple_of(FULL_CHECK_EVERY) || output_step(s) || s == plan.end_step;
-    // Whether step `s` (simulated time `t` after it) needs the state on the host.
-    let due = |s: u64, t: f64, next_checkpoint: Option<f64>| {
-        let checkpoint =
-            period.is_some_and(|p| next_checkpoint.is_some_and(|next| t + half_dt >= next * p));
-        if gpu_checks {
-            // discharge.csv's rows need the removed flags at the energy sample steps.
-            let discharge_row = discharge_rows && s.is_multiple_of(plan.energy_every);
-            return output_step(s) || s == plan.end_step || checkpoint || discharge_row;
-        }
-        full_step(s)
-            || s.is_multiple_of(plan.check_every)
-            || (plan.out.is_some() && s.is_multiple_of(plan.energy_every))
-            || checkpoint
+    let schedule = Schedule {
+        output_every: plan.output_every,
+        end_step: plan.end_step,
+        check_every: plan.check_every,
+        energy_every: plan.energy_every,
+        out: plan.out.is_some(),
+        period: plan.checkpoint_every,
+        half_dt: 0.5 * world.dt as f64,
+        gpu_checks: stepper.is_gpu() && !host_checks,
+        discharge_rows: outputs.discharge.is_some(),
     };
     let mut k = 0;
     let mut last_bar = 0;
@@ -609,13 +803,13 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
             .map_or(u64::MAX, |l| l.stop_before(world.step_count));
         while k + m < steps
             && world.step_count + m < stop
-            && !due(world.step_count + m, t, next_checkpoint)
+            && !schedule.due(world.step_count + m, t, outputs.next_checkpoint)
         {
             m += 1;
             t += world.dt as f64;
         }
-        let result = stepper.step(&mut world, m, Readback::All);
-        if let (Some(g), Some(e)) = (stepper.as_gpu_mut(), &mut energy) {
+        let result = stepper.step(world, m, Readback::All);
+        if let (Some(g), Some(e)) = (stepper.as_gpu_mut(), &mut outputs.energy) {
             for x in g.take_samples() {
                 e.record(x.step, x.time, x.kinetic, x.potential, x.momentum)?;
             }
@@ -623,52 +817,30 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         let stats = match result {
             Ok(stats) => stats,
             Err(StepError::Sim(e)) => {
-                bar.finish_and_clear();
-                newer_last_good(&stepper, &mut last_good)?;
-                let b = plan.health.non_finite(&last_good, &e);
-                return Err(blown_up(&plan, b, &last_good, energy));
+                let energy = outputs.energy.take();
+                return Err(stopped(plan, stepper, &bar, last_good, energy, |good| {
+                    plan.health.non_finite(good, &e)
+                }));
             }
             Err(StepError::Gpu(e)) => return Err(e.into()),
         };
         k += stats.steps;
         max_contacts = max_contacts.max(stats.max_contacts);
         let s = world.step_count;
-        let output_step = output_step(s);
-        let full = full_step(s);
-        match watch.after(&mut stepper, &world, &stats, full) {
+        let full = schedule.full_step(s);
+        match watch.after(stepper, world, &stats, full) {
             Ok(checked) => {
                 if checked && full {
-                    last_good.clone_from(&world);
+                    last_good.clone_from(world);
                 }
             }
             Err(WatchError::BlowUp(b)) => {
-                bar.finish_and_clear();
-                newer_last_good(&stepper, &mut last_good)?;
-                return Err(blown_up(&plan, *b, &last_good, energy));
+                let energy = outputs.energy.take();
+                return Err(stopped(plan, stepper, &bar, last_good, energy, |_| *b));
             }
             Err(WatchError::Gpu(e)) => return Err(e.into()),
         }
-        if let Some(dir) = &plan.out {
-            if output_step {
-                series.write(dir, &world)?;
-            }
-            if let Some(e) = &mut energy
-                && s.is_multiple_of(plan.energy_every)
-            {
-                e.sample(&world)?;
-            }
-            if let Some(d) = &mut discharge
-                && s.is_multiple_of(plan.energy_every)
-            {
-                d.sample(&world)?;
-            }
-            if let (Some(t), Some(next)) = (period, &mut next_checkpoint)
-                && world.time + half_dt >= *next * t
-            {
-                plan.checkpoint(&world, &dir.join("checkpoint.ckpt"))?;
-                *next = ((world.time + half_dt) / t).floor() + 1.0;
-            }
-        }
+        outputs.after_step(plan, world, schedule.output_step(s))?;
         if k - last_bar >= 64 || stepper.is_gpu() {
             last_bar = k;
             bar.set_position(k);
@@ -678,103 +850,35 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
         if let Some(l) = &mut thermo
             && l.due(s)
         {
-            l.line(sample(&world, stats.contacts));
+            l.line(sample(world, stats.contacts));
         }
     }
     bar.finish_and_clear();
     if let Some(l) = &mut thermo {
-        l.finish(sample(&world, world.contact_count()));
+        l.finish(sample(world, world.contact_count()));
     }
-    let elapsed = started.elapsed().as_secs_f64();
-    let ke = world.kinetic_energy();
-    let steps_per_s = steps as f64 / elapsed.max(1e-9);
-    let contacts = world.contact_count();
-    if !plan.quiet {
-        println!("simulated time   {:.6} s", world.time);
-        println!("steps            {steps}");
-        println!("wall time        {elapsed:.3} s");
-        println!("backend          {}", stepper.name());
-        println!("steps/s          {steps_per_s:.1}");
-        println!("body-steps/s     {:.3e}", steps_per_s * world.len() as f64);
-        println!("contacts         {contacts} (max {max_contacts})");
-        println!("kinetic energy   {ke:.6e} J");
+    Ok(Ran {
+        elapsed: started.elapsed().as_secs_f64(),
+        max_contacts,
+    })
+}
+
+/// A run stopped by a blow-up in the loop: clears the bar, takes the GPU's last good state
+/// when it is newer, and writes the report of `blow_up(last good state)` (see [`blown_up`]).
+fn stopped(
+    plan: &Plan,
+    stepper: &Stepper,
+    bar: &ProgressBar,
+    last_good: &mut World,
+    energy: Option<EnergySeries>,
+    blow_up: impl FnOnce(&World) -> BlowUp,
+) -> anyhow::Error {
+    bar.finish_and_clear();
+    if let Err(e) = newer_last_good(stepper, last_good) {
+        return e;
     }
-    let Some(dir) = &plan.out else {
-        if !plan.quiet {
-            println!(
-                "no files written: --out DIR writes final.csv, summary.json and the energy plot energy.svg (--format vtk adds ParaView frames; `clatter render` draws pictures)"
-            );
-        }
-        return Ok(());
-    };
-    // The last step: a VTK frame, an energy sample and a checkpoint even off the period.
-    if plan.vtk && series.last_frame != Some(world.step_count) {
-        series.write_vtk(dir, &world)?;
-    }
-    if let Some(f) = series.trace.take() {
-        f.commit()?;
-    }
-    if let Some(mut d) = discharge.take() {
-        d.sample(&world)?;
-        d.commit()?;
-    }
-    if let Some(mut e) = energy.take() {
-        e.sample(&world)?;
-        e.finish(
-            Some(&dir.join("energy.svg")),
-            &format!("{}: energy and momentum", plan.scene.source),
-        )?;
-    }
-    if period.is_some() {
-        plan.checkpoint(&world, &dir.join("checkpoint.ckpt"))?;
-    }
-    let mut f = AtomicFile::create(&dir.join("final.csv"))?;
-    writeln!(f.writer(), "{STATE_HEADER}")?;
-    write_state_rows(f.writer(), &world, "")?;
-    f.commit()?;
-    let momentum = world.momentum();
-    let discharged = world.discharged();
-    let summary = serde_json::json!({
-        "scene": plan.scene.source,
-        "bodies": world.len(),
-        "walls": world.walls.len(),
-        // Via the f32 shortest decimal, so a scene's dt = 2e-5 reads 2e-5, not 1.9999999494757503e-5.
-        "dt": world.dt.to_string().parse::<f64>().unwrap_or(world.dt as f64),
-        "steps": steps,
-        "step": world.step_count,
-        "resumed_from_step": plan.resumed.then_some(start),
-        "simulated_time": world.time,
-        "wall_time_s": elapsed,
-        "steps_per_s": steps_per_s,
-        "threads": rayon::current_num_threads(),
-        "backend": stepper.name(),
-        "contacts": contacts,
-        "max_contacts": max_contacts,
-        "kinetic_energy": ke,
-        "potential_energy": world.potential_energy(),
-        "momentum": momentum,
-        "broad_phase_rebuilds": world.rebuilds,
-        "removed": discharged.count,
-        "removed_mass": discharged.mass,
-    });
-    let mut f = AtomicFile::create(&dir.join("summary.json"))?;
-    serde_json::to_writer_pretty(f.writer(), &summary)?;
-    writeln!(f.writer())?;
-    f.commit()?;
-    let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
-    if !world.sinks.is_empty() {
-        written.push_str(", discharge.csv");
-    }
-    if plan.picture {
-        match crate::render::final_picture(&world, &dir.join("final.png")) {
-            Ok(()) => written.push_str(", final.png"),
-            Err(e) => eprintln!("warning: no picture (final.png): {e:#}"),
-        }
-    }
-    if !plan.quiet {
-        println!("results in {}/: {written}", dir.display());
-    }
-    Ok(())
+    let b = blow_up(last_good);
+    blown_up(plan, b, last_good, energy)
 }
 
 /// What a progress line reports about `world` (which is up to date on the host: the GPU

@@ -27,8 +27,9 @@ use anyhow::Context as _;
 use clatter::World;
 use clatter_gpu::{Device, GpuContext, Readback, Stepper};
 
+use crate::args::{Pipeline, Progress};
 use crate::backend::Backend;
-use crate::log::{LogEvery, SuiteLog};
+use crate::log::SuiteLog;
 use crate::output::AtomicFile;
 
 /// The exit status of `clatter validate` when some row fails (1: an error stopped the suite;
@@ -241,19 +242,29 @@ pub struct Outcome {
 }
 
 /// The options of `clatter validate`.
+#[derive(clap::Args, Debug)]
+#[command(
+    mut_arg("threads", |a| a.help("Worker threads (default: all cores)")),
+    mut_arg("backend", |a| a.help("Which pipeline steps the worlds: gpu, cpu, or auto (the GPU when a hardware adapter is found, else the CPU, saying which and why)")),
+    mut_arg("quiet", |a| a.help("Print only the table, the verdict and errors (no progress on stderr)")),
+)]
 pub struct ValidateArgs {
-    /// Which pipeline steps the worlds.
-    pub backend: Backend,
-    /// Where validation.json and the plots go.
+    /// `--threads`, and which pipeline steps the worlds.
+    #[command(flatten)]
+    pub pipeline: Pipeline,
+    /// Write validation.json and one SVG plot per check into DIR (created if needed).
+    #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
-    /// Fewer cases, shorter runs, fewer bodies.
+    /// Fewer cases, shorter runs, fewer bodies (under a minute on two cores).
+    #[arg(long)]
     pub quick: bool,
-    /// Only the checks whose name contains one of these.
+    /// Run only the checks whose name contains one of these (comma-separated).
+    #[arg(long, value_delimiter = ',', value_name = "NAME")]
     pub only: Vec<String>,
-    /// Nothing on stderr but errors.
-    pub quiet: bool,
-    /// The progress lines' interval (`None`: the plain per-check lines; see [`crate::log`]).
-    pub log: Option<LogEvery>,
+    /// `--quiet` (nothing on stderr but errors) and the progress lines' interval (`None`:
+    /// the plain per-check lines; see [`crate::log`]).
+    #[command(flatten)]
+    pub progress: Progress,
 }
 
 /// What every check needs: the suite's size and the backend that steps its worlds.
@@ -396,7 +407,7 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
 /// Runs the suite; `Ok(true)` when every row passes.
 pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
     let started = Instant::now();
-    let gpu = match args.backend {
+    let gpu = match args.pipeline.backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Arc::new(
             GpuContext::new().context("--backend gpu: no GPU adapter")?,
@@ -404,7 +415,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         Backend::Auto => match GpuContext::new() {
             Ok(ctx) if !ctx.is_software() => Some(Arc::new(ctx)),
             Ok(ctx) => {
-                if !args.quiet {
+                if !args.progress.quiet {
                     eprintln!(
                         "backend: cpu (auto: the only GPU adapter, {}, is a software rasteriser; --backend gpu uses it anyway)",
                         ctx.adapter_name()
@@ -413,7 +424,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
                 None
             }
             Err(e) => {
-                if !args.quiet {
+                if !args.progress.quiet {
                     eprintln!("backend: cpu (auto: {e})");
                 }
                 None
@@ -424,7 +435,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         Some(ctx) => format!("gpu ({})", ctx.adapter_name()),
         None => "cpu".to_string(),
     };
-    if !args.quiet {
+    if !args.progress.quiet {
         eprintln!(
             "clatter validate: backend {backend}, {} suite",
             if args.quick { "quick" } else { "full" }
@@ -436,8 +447,8 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
     let ctx = Ctx {
         quick: args.quick,
         gpu,
-        quiet: args.quiet,
-        log: args.log.map(|every| {
+        quiet: args.progress.quiet,
+        log: args.progress.lines().map(|every| {
             Arc::new(SuiteLog::new(
                 every,
                 names.iter().filter(|&&n| chosen(n)).count(),
@@ -466,7 +477,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         let t0 = Instant::now();
         match &ctx.log {
             Some(l) => l.begin(name),
-            None if !args.quiet => eprintln!("{name} ..."),
+            None if !args.progress.quiet => eprintln!("{name} ..."),
             None => {}
         }
         let outcome = check(&ctx).with_context(|| format!("check {name}"))?;
@@ -475,7 +486,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         let differ = outcome.rows.iter().filter(|r| r.differs()).count();
         match &ctx.log {
             Some(l) => l.end(outcome.rows.len(), failed),
-            None if !args.quiet => eprintln!(
+            None if !args.progress.quiet => eprintln!(
                 "{name}: {}, {failed} failed{} ({secs:.1} s)",
                 counted(outcome.rows.len(), "row"),
                 if differ > 0 {

@@ -32,31 +32,7 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
         (14, 30)
     };
     let side = cells as f32 * d;
-    let pitch = side / cells as f32;
-    let mut rng = ChaCha8Rng::seed_from_u64(3);
-    let mut bodies = Vec::new();
-    for l in 0..layers {
-        for i in 0..cells * cells {
-            let (x, y) = ((i % cells) as f32 + 0.5, (i / cells) as f32 + 0.5);
-            let j = |rng: &mut ChaCha8Rng| rng.random_range(-0.08..0.08f32);
-            bodies.push(BodyInit {
-                shape: 0,
-                material: 0,
-                position: Vec3::new(
-                    (x + j(&mut rng)) * pitch,
-                    (y + j(&mut rng)) * pitch,
-                    R * 1.5 + l as f32 * 1.3 * d + j(&mut rng) * d,
-                ),
-                orientation: Quat::IDENTITY,
-                velocity: Vec3::new(
-                    rng.random_range(-0.05..0.05),
-                    rng.random_range(-0.05..0.05),
-                    0.0,
-                ),
-                angular_velocity: Vec3::ZERO,
-            });
-        }
-    }
+    let bodies = rain(cells, layers);
     let n = bodies.len();
     let material = Material::new(
         "grain",
@@ -122,6 +98,75 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
     heights.sort_by(f32::total_cmp);
     let surface = heights[(0.95 * (n - 1) as f64) as usize];
     let (z_lo, z_hi) = (2.0 * d, surface - 2.0 * d);
+    let phi = packing_fraction(&p, cells, surface, z_lo, z_hi);
+    let rows = vec![Row::range(
+        name,
+        &format!(
+            "{n} spheres, mu=0.3, z in [{:.1}, {:.1}] d",
+            z_lo / d,
+            z_hi / d
+        ),
+        "packing fraction",
+        0.58,
+        0.64,
+        phi,
+        "random loose..close packing",
+        dt,
+    )];
+    let svg = chart(
+        "Poured sphere pile: settling",
+        &[Panel {
+            y_label: "kinetic energy (J, log)",
+            x_label: "time (s)",
+            series: vec![Series::line("kinetic", &t, &ke)],
+            log: true,
+        }],
+    );
+    Ok(Outcome {
+        rows,
+        plots: vec![(format!("{name}.svg"), svg)],
+    })
+}
+
+/// The spheres of the pour: `layers` layers of `cells` x `cells` on a jittered lattice one
+/// diameter apart (1.3 diameters between layers), with small random sideways speeds.
+fn rain(cells: usize, layers: usize) -> Vec<BodyInit> {
+    let d = 2.0 * R;
+    let side = cells as f32 * d;
+    let pitch = side / cells as f32;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let mut bodies = Vec::new();
+    for l in 0..layers {
+        for i in 0..cells * cells {
+            let (x, y) = ((i % cells) as f32 + 0.5, (i / cells) as f32 + 0.5);
+            let j = |rng: &mut ChaCha8Rng| rng.random_range(-0.08..0.08f32);
+            bodies.push(BodyInit {
+                shape: 0,
+                material: 0,
+                position: Vec3::new(
+                    (x + j(&mut rng)) * pitch,
+                    (y + j(&mut rng)) * pitch,
+                    R * 1.5 + l as f32 * 1.3 * d + j(&mut rng) * d,
+                ),
+                orientation: Quat::IDENTITY,
+                velocity: Vec3::new(
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                    0.0,
+                ),
+                angular_velocity: Vec3::ZERO,
+            });
+        }
+    }
+    bodies
+}
+
+/// The share of a grid of points (4 per diameter along each axis) in `z_lo..z_hi` over the
+/// whole periodic width that lies inside some sphere centred at `p` (periodic in x and y,
+/// the box `cells` diameters wide; `surface` bounds the sphere centres' grid from above).
+fn packing_fraction(p: &[Vec3], cells: usize, surface: f32, z_lo: f32, z_hi: f32) -> f64 {
+    let d = 2.0 * R;
+    let side = cells as f32 * d;
     // Spheres binned by cell (one diameter) for the point test, periodic in x and y.
     let nz = (surface / d).ceil() as usize + 2;
     let mut grid: Vec<Vec<Vec3>> = vec![Vec::new(); cells * cells * nz];
@@ -133,7 +178,7 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
             ((q.z / d).floor().max(0.0) as usize).min(nz - 1),
         )
     };
-    for q in &p {
+    for q in p {
         let (x, y, z) = cell(*q);
         grid[(z * cells + y) * cells + x].push(*q);
     }
@@ -174,32 +219,5 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
         }
         zs += h;
     }
-    let phi = inside as f64 / total.max(1) as f64;
-    let rows = vec![Row::range(
-        name,
-        &format!(
-            "{n} spheres, mu=0.3, z in [{:.1}, {:.1}] d",
-            z_lo / d,
-            z_hi / d
-        ),
-        "packing fraction",
-        0.58,
-        0.64,
-        phi,
-        "random loose..close packing",
-        dt,
-    )];
-    let svg = chart(
-        "Poured sphere pile: settling",
-        &[Panel {
-            y_label: "kinetic energy (J, log)",
-            x_label: "time (s)",
-            series: vec![Series::line("kinetic", &t, &ke)],
-            log: true,
-        }],
-    );
-    Ok(Outcome {
-        rows,
-        plots: vec![(format!("{name}.svg"), svg)],
-    })
+    inside as f64 / total.max(1) as f64
 }
