@@ -793,7 +793,7 @@ fn blow_up_non_finite_on_the_gpu() {
         &["step 1 ", "body 0 has a non-finite position or velocity"],
         Some(0),
     );
-    // Past the first step of a batch (lean steps, see clatter-gpu's world.rs): a ball
+    // Past the first step of a batch (lean steps, see clatter-gpu's world/advance.rs): a ball
     // resting on the floor with a time step ten times the stability bound. The GPU's state
     // comes back for the checks every 10 steps, and at step 10 the energy has grown without
     // bound, as the CPU pipeline reports it (`blow_up_energy_growth`).

@@ -1,6 +1,6 @@
-//! The device's measured memory bandwidth, for the performance method of `GPU.md`: the bytes
-//! a step must move over this bandwidth is the floor the step's time is compared with
-//! (`clatter bench --profile` prints both).
+//! The device's measured memory bandwidth, for the bandwidth floor of the step (docs/gpu.md,
+//! "Benchmarks"): the bytes a step must move over this bandwidth is the floor the step's time
+//! is compared with (`clatter bench --profile` prints both).
 
 use crate::{GpuContext, GpuError};
 

@@ -248,6 +248,19 @@ pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
         .collect()
 }
 
+impl Buf {
+    /// This buffer's row of [`BUFFERS`].
+    pub fn binding(self) -> &'static Binding {
+        &BUFFERS[self as usize]
+    }
+
+    /// Bytes of `count` elements of this buffer (no minimum: what a copy or a read-back of
+    /// that many elements moves; [`Binding::size`] is the allocation).
+    pub fn bytes(self, count: u64) -> u64 {
+        count * self.binding().element
+    }
+}
+
 /// The group-0 buffers of one world.
 pub struct Buffers {
     list: Vec<wgpu::Buffer>,

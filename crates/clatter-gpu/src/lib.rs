@@ -1,9 +1,12 @@
 //! clatter's step pipeline on the GPU, in `wgpu` compute shaders.
 //!
-//! The stages carry the CPU pipeline's names (see `clatter::world`): **bin**, **sort**,
-//! **pairs**, **narrow**, **forces**, **integrate**; each is a WGSL file in `shaders/` beside
-//! the Rust module that dispatches it. Body state stays on the GPU between steps; the host
-//! reads it back only when output is due.
+//! The step's stages carry the CPU pipeline's names (`clatter::step`): the **broad** phase
+//! (**bin**, **sort**, **pairs**), **contacts** (the narrow phase and the contact law per
+//! candidate pair) and **integrate**, plus the optional **health** checks. Each is
+//! recorded by its module in [`stages`] (`stages/<stage>.rs`) from WGSL files in `shaders/`
+//! named after it (bin.wgsl, sort.wgsl, pairs.wgsl, contacts.wgsl, integrate.wgsl, ...).
+//! [`world`] holds a scene's state on the GPU and drives the step; body state stays on the
+//! GPU between steps, and the host reads it back only when output is due.
 
 pub mod backend;
 pub mod bandwidth;

@@ -1,0 +1,255 @@
+//! The GPU world: a [`clatter::World`]'s state resident on the GPU, and the host side of
+//! its step. The scene goes up once ([`GpuWorld::new`]): bodies, shapes, materials, walls
+//! and boundaries (planes, and triangle meshes with their contact slots), periodic boxes
+//! (in the step's parameters), sinks (their boxes after the walls), composites (a piece id
+//! kept in each pair entry) and the contact springs of a resumed run. Then the host records
+//! the step's dispatch list ([`crate::stages`]) many steps to a submission, grows the pair
+//! buffers when they overflow, and reads back what is asked for.
+//!
+//! The host reads a few status words back after each submission; body state comes back
+//! only when output is due ([`GpuWorld::read_into`]). If the pair list outgrows its buffer,
+//! the GPU stops at the start of that step; the host grows the buffers and runs the step
+//! again, so the result does not depend on the initial capacity.
+//!
+//! The parts, in the order the work happens:
+//! - `build`: the upload and the buffers ([`crate::buffers`]);
+//! - `plan`: bind groups and the recorded dispatch lists of the full and the lean step;
+//! - `advance`: batches of steps, the status after each, pair-buffer growth;
+//! - `profile`: every kernel timed with timestamp queries;
+//! - `health`: the blow-up checks, energy samples and the last good state on the GPU;
+//! - `readback`: body state and contacts back into a [`clatter::World`].
+
+mod advance;
+mod build;
+mod health;
+mod plan;
+mod profile;
+mod readback;
+
+use std::sync::Arc;
+
+use crate::buffers::{Buf, Buffers, Dims};
+use crate::layout::{Params, status};
+use crate::readback::read_buffer;
+use crate::shapes::GpuShapes;
+use crate::{GpuContext, GpuError};
+
+use plan::Plan;
+
+/// Steps recorded into one submission between status reads.
+const BATCH: u64 = 64;
+/// Batches recorded side by side on the CPU. wgpu spends a few microseconds of CPU time on
+/// each dispatch, about as long as the GPU needs for a step of 65,536 spheres, so one
+/// recording thread would hold the GPU back; up to `2 * ENCODERS` batches are in flight.
+const ENCODERS: usize = 4;
+/// Initial pair capacity per body (grown on demand).
+const PAIRS_PER_BODY: u64 = 8;
+
+/// A scene's state on the GPU and the compiled step pipeline. See the module docs.
+pub struct GpuWorld {
+    ctx: Arc<GpuContext>,
+    n: u32,
+    /// Wall slots per body: walls times the most pieces of a body (`Params::max_pieces`).
+    wall_slots: u32,
+    params: Params,
+    shapes: GpuShapes,
+    /// The group-0 buffers (`buffers::BUFFERS`).
+    bufs: Buffers,
+    /// The recorded step: bind groups and dispatch lists.
+    plan: Plan,
+    /// The sizes the buffers were allocated for.
+    dims: Dims,
+    /// Batches still to be recorded with the full step throughout, after a stall.
+    full_batches: u32,
+    /// Whether batches use lean steps at all (see [`GpuWorld::set_lean_steps`]).
+    lean_enabled: bool,
+    /// Lean steps that found a rebuild due and were run again in full.
+    stalls: u64,
+    /// The GPU step count at the last stall.
+    last_stall: u64,
+    /// `(steps, time)`: the simulated time after that many GPU steps, summed step by step
+    /// as the CPU does (kept so that each read-back continues the sum).
+    time_sum: std::sync::Mutex<(u64, f64)>,
+    /// Steps taken on the GPU since upload.
+    gpu_steps: u64,
+    /// The world's step count and time at upload.
+    base_step: u64,
+    base_time: f64,
+    dt: f32,
+    last_status: [u32; status::LEN],
+    /// The blow-up checks and energy samples, when a run turned them on.
+    health: Option<Health>,
+    /// Energy samples read back and not yet taken ([`GpuWorld::take_samples`]).
+    samples: Vec<EnergySample>,
+}
+
+/// What a run asks of the GPU's blow-up checks ([`GpuWorld::set_health`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HealthSetup {
+    /// Check every this many steps (the host's `--check-every`; 0: never).
+    pub check_every: u64,
+    /// Record an energy sample every this many steps (0: never).
+    pub energy_every: u64,
+    /// Keep the last good state every this many steps (rounded up to a multiple of
+    /// `check_every`).
+    pub snapshot_every: u64,
+    /// The energy available to the run plus its potential energy
+    /// (`clatter::health::Health::baseline`), J.
+    pub budget: f64,
+    /// The kinetic energy above this multiple of the available energy stops the pipeline
+    /// for the host's check (below `clatter::health::ENERGY_FACTOR`, so that f32 sums never
+    /// miss what the host would find).
+    pub alarm_factor: f64,
+    /// A touching contact whose normal force is above this stops the pipeline for the host's
+    /// check (`clatter::health::Health::force_floor`), N.
+    pub force_floor: f32,
+}
+
+/// The checks as set up on the GPU.
+#[derive(Debug, Clone, Copy)]
+struct Health {
+    setup: HealthSetup,
+    /// The potential energy of all the mass at `HealthParams::reference`, J.
+    reference_energy: f64,
+}
+
+/// One energy sample computed on the GPU (sums in f32, in a fixed order).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergySample {
+    /// The world's step count.
+    pub step: u64,
+    /// Simulated time, s (the CPU's sum of `dt`).
+    pub time: f64,
+    /// Kinetic energy, translational plus rotational, J.
+    pub kinetic: f64,
+    /// Gravitational potential energy relative to the origin, J.
+    pub potential: f64,
+    /// Linear momentum, kg m/s.
+    pub momentum: [f64; 3],
+}
+
+/// What [`GpuWorld::step`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepReport {
+    /// The first body whose state became non-finite (the GPU stopped at that step).
+    pub bad_body: Option<usize>,
+    /// Contacts touching in the last step.
+    pub touching: usize,
+    /// Steps taken on the GPU since upload.
+    pub steps_done: u64,
+    /// The GPU's blow-up checks ([`GpuWorld::set_health`]) stopped the pipeline after the
+    /// last step: the host must check that step itself, then [`GpuWorld::clear_alarm`].
+    pub alarm: bool,
+}
+
+/// The most grid cells for `n` bodies (`Params::max_cells`).
+fn max_cells(n: u64) -> u64 {
+    8 * n + 64
+}
+
+/// Whether a scene of `n` bodies, `walls` walls and a pair list of `capacity` fits an adapter
+/// with `limits`; else a [`GpuError::TooLarge`] naming the limit, the need and what to do.
+/// Checked before anything is allocated.
+pub fn check_fits(
+    limits: &wgpu::Limits,
+    adapter: &str,
+    n: u64,
+    capacity: u64,
+    walls: u64,
+) -> Result<(), GpuError> {
+    let limit = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    let biggest = [
+        ("body state", Buf::Bodies.bytes(n)),
+        ("cell counts", Buf::CellCount.bytes(max_cells(n) + 1)),
+        ("contact forces", Buf::Forces.bytes(capacity)),
+        ("wall contacts", Buf::WallForces.bytes(n * walls)),
+    ];
+    for (what, need) in biggest {
+        if need > limit {
+            return Err(GpuError::TooLarge {
+                adapter: adapter.to_string(),
+                what: format!("largest storage buffer, for the {what}"),
+                need: format!("{need} bytes"),
+                limit: format!("{limit} bytes"),
+                advice: "use fewer bodies, or --backend cpu".into(),
+            });
+        }
+    }
+    if n >= u32::MAX as u64 / 16 {
+        return Err(GpuError::TooLarge {
+            adapter: adapter.to_string(),
+            what: "bodies addressable with 32-bit indices".into(),
+            need: format!("{n} bodies"),
+            limit: format!("{} bodies", u32::MAX / 16),
+            advice: "use fewer bodies".into(),
+        });
+    }
+    Ok(())
+}
+
+impl GpuWorld {
+    /// Refuses scenes that do not fit the adapter, before allocating anything.
+    fn check_fits(ctx: &GpuContext, n: u64, capacity: u64, walls: u64) -> Result<(), GpuError> {
+        check_fits(&ctx.limits, &ctx.adapter_name(), n, capacity, walls)
+    }
+
+    /// Copies `size` bytes at `offset` of `buffer` back to the host (waits for the GPU).
+    pub fn read_buffer(
+        &self,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Result<Vec<u8>, GpuError> {
+        read_buffer(&self.ctx, buffer, offset, size)
+    }
+
+    /// Number of bodies.
+    pub fn len(&self) -> usize {
+        self.n as usize
+    }
+
+    /// True when there are no bodies.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// The device this world lives on.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// The body state buffer (`BodyState` records in body order), e.g. for the renderer to
+    /// draw from without a round trip through the host.
+    pub fn body_buffer(&self) -> &wgpu::Buffer {
+        &self.bufs[Buf::Bodies]
+    }
+
+    /// Whether to record steps without the rebuild's dispatches after the first step of each
+    /// batch (on by default; see `encode_steps`). Results do not depend on it, only speed:
+    /// the tests turn it off to check that.
+    pub fn set_lean_steps(&mut self, on: bool) {
+        self.lean_enabled = on;
+    }
+
+    /// How many times a lean step found a rebuild due and was run again in full.
+    pub fn stalls(&self) -> u64 {
+        self.stalls
+    }
+
+    /// Candidate pairs in the current pair list (as of the last status read).
+    pub fn pairs(&self) -> usize {
+        self.last_status[status::PAIRS] as usize
+    }
+
+    /// Steps taken on the GPU since upload.
+    pub fn steps_taken(&self) -> u64 {
+        self.gpu_steps
+    }
+
+    /// Broad-phase rebuilds so far on the GPU.
+    pub fn rebuilds(&self) -> u64 {
+        self.last_status[status::REBUILDS] as u64
+    }
+}
