@@ -124,8 +124,8 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
         return vec2<f32>(fs + eta * v, 0.0);
     }
     let first = coverage == 0.0;
-    // law.rs: a contact found already overlapping is stepped as inside the contact.
-    let found = first && x - dt * v > 0.0;
+    // law.rs: a contact found already overlapping at rest is stepped as inside the contact.
+    let found = first && v == 0.0;
     var g_start = 0.0;
     if coverage > 0.0 {
         g_start = coverage;

@@ -256,12 +256,16 @@ pub fn resolved_normal_force(
     // A contact's first step (no coverage yet): the interval reaches back over the last
     // step, which had no force, to where the overlap was then (0 where it crossed zero
     // within that step, as it does for every contact that starts between two steps). A
-    // contact found already overlapping (its overlap did not cross zero within the last
-    // step, as where a scene starts with overlaps) has no onset to resolve: it is stepped as
-    // inside the contact, the last interval taken to have ended half a step back (reaching
-    // back a whole step would add half a step of spring impulse, `k x dt / 2`).
+    // contact found already overlapping at rest (zero approach speed: a scene that starts
+    // compressed, as MFIX's DEM03 does) has no onset to resolve: it is stepped as inside the
+    // contact, the last interval taken to have ended half a step back (reaching back a whole
+    // step would add half a step of spring impulse, `k x dt / 2`). Only at rest: a moving
+    // contact cannot be told from one that began within the last step without a threshold,
+    // and one on the approach's overlap (`x - dt v > 0`) flips on rounding and parted the CPU
+    // and GPU runs of a colliding lattice of polyhedra and spheres (clatter-gpu's
+    // `stages.rs`), so those keep the onset treatment.
     let first = *coverage == 0.0;
-    let found = first && x - dt * v > 0.0;
+    let found = first && v == 0.0;
     let g_start = if *coverage > 0.0 {
         *coverage
     } else if found {
@@ -729,7 +733,7 @@ mod tests {
         ] {
             let p = params(law);
             let (m, r, share, x, dt) = (1.0e-3f32, 0.01f32, 1.0f32, 1.0e-4f32, 1.0e-6f32);
-            for v in [0.0f32, 0.02, -0.02] {
+            for v in [0.0f32] {
                 let (fs, k) = spring(&p, r, x, share);
                 let eta = damping(&p, m, k);
                 // Inside the contact, the last interval ended half a step back.
