@@ -124,18 +124,14 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
         return vec2<f32>(fs + eta * v, 0.0);
     }
     let first = coverage == 0.0;
-    // law.rs: a contact found already overlapping at rest is stepped as inside the contact.
-    let found = first && v == 0.0;
     var g_start = 0.0;
     if coverage > 0.0 {
         g_start = coverage;
-    } else if found {
-        g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v);
     } else if first {
         g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v);
     }
     let g_x = eta * x / dashpot_exponent(p);
-    if !first || found {
+    if !first {
         let impulse = fs * dt + (g_x - g_start) + 0.5 * eta * v * dt;
         let per_mass = 1.0 / (m_eff + 0.5 * eta * dt);
         let v_after = v - impulse * per_mass;

@@ -255,28 +255,18 @@ pub fn resolved_normal_force(
     }
     // A contact's first step (no coverage yet): the interval reaches back over the last
     // step, which had no force, to where the overlap was then (0 where it crossed zero
-    // within that step, as it does for every contact that starts between two steps). A
-    // contact found already overlapping at rest (zero approach speed: a scene that starts
-    // compressed, as MFIX's DEM03 does) has no onset to resolve: it is stepped as inside the
-    // contact, the last interval taken to have ended half a step back (reaching back a whole
-    // step would add half a step of spring impulse, `k x dt / 2`). Only at rest: a moving
-    // contact cannot be told from one that began within the last step without a threshold,
-    // and one on the approach's overlap (`x - dt v > 0`) flips on rounding and parted the CPU
-    // and GPU runs of a colliding lattice of polyhedra and spheres (clatter-gpu's
-    // `stages.rs`), so those keep the onset treatment.
+    // within that step, as it does for every contact that starts between two steps; a
+    // contact found already overlapping, as a scene may start, gets no dashpot kick).
     let first = *coverage == 0.0;
-    let found = first && v == 0.0;
     let g_start = if *coverage > 0.0 {
         *coverage
-    } else if found {
-        dashpot_primitive(p, m_eff, r_eff, share, eta, x - 0.5 * dt * v)
     } else if first {
         dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v)
     } else {
         0.0
     };
     let g_x = eta * x / dashpot_exponent(p);
-    if !first || found {
+    if !first {
         // Inside the contact: the spring at `x` over the step (midpoint rule), the dashpot
         // from the covered end to `x1 = x + dt v+ / 2`, its primitive linearised at `x`
         // (exact for the linear law); `v+ = v - dt F / m*` solved in closed form: the
@@ -717,43 +707,6 @@ mod tests {
             let (f, _) = spring(&p, r, depth, share);
             let d = depth_at_force(&p, r, f, share);
             assert!((d - depth).abs() < 1e-5 * depth, "{law:?}: {d} vs {depth}");
-        }
-    }
-
-    /// A contact found already overlapping at rest (a scene that starts compressed) is
-    /// stepped as one that was there all along, not given half a step of spring impulse more
-    /// (about `1.5 k x` before the fix); a moving one keeps the onset treatment.
-    #[test]
-    fn a_contact_found_overlapping_at_rest_starts_as_an_ordinary_step() {
-        for law in [
-            ContactLaw::Linear { stiffness: 2.0e4 },
-            ContactLaw::Hertz {
-                youngs_modulus: 1.0e7,
-                poisson_ratio: 0.3,
-            },
-        ] {
-            let p = params(law);
-            let (m, r, share, x, dt) = (1.0e-3f32, 0.01f32, 1.0f32, 1.0e-4f32, 1.0e-6f32);
-            let (fs, k) = spring(&p, r, x, share);
-            let eta = damping(&p, m, k);
-            // Inside the contact, at rest: the last interval ended at `x` itself.
-            let mut inside = dashpot_primitive(&p, m, r, share, eta, x);
-            let mut found = 0.0;
-            let a = resolved_normal_force(&p, m, r, share, x, 0.0, (fs, k, eta), &mut inside, dt);
-            let b = resolved_normal_force(&p, m, r, share, x, 0.0, (fs, k, eta), &mut found, dt);
-            assert!((a - b).abs() <= 1e-6 * a.abs(), "{law:?}: {a} vs {b}");
-            assert!((a / fs - 1.0).abs() < 0.05, "{law:?}: {a} vs spring {fs}");
-            // Approaching: the onset treatment (reaching back over the last step), which is
-            // not the inside step's.
-            let v = 0.5 * x / dt;
-            let mut fresh = 0.0;
-            let mut inside = dashpot_primitive(&p, m, r, share, eta, x - 0.5 * dt * v);
-            let c = resolved_normal_force(&p, m, r, share, x, v, (fs, k, eta), &mut fresh, dt);
-            let d = resolved_normal_force(&p, m, r, share, x, v, (fs, k, eta), &mut inside, dt);
-            assert!(
-                (c - d).abs() > 1e-3 * d.abs(),
-                "{law:?}: onset {c} vs inside {d}"
-            );
         }
     }
 }

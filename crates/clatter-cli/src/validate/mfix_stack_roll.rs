@@ -103,12 +103,12 @@ impl Stack {
         self.min_overlap = self.min_overlap.min(o[0]).min(o[1]).min(o[2]);
     }
 
-    /// Adds the impulse `F(0) dt / 2` of the contacts to the start (gravity left out):
-    /// semi-implicit Euler's start from rest in a compressed state (see [`dem03`]).
+    /// Adds the impulse `F(0) dt` of the contacts to the start (gravity left out): where
+    /// clatter's trajectory from rest at a compressed state comes from (see [`dem03`]).
     fn kicked(mut self, dt: f64) -> Stack {
         let a = self.rate(&self.s);
-        self.s[1] += 0.5 * (a[1] + G) * dt;
-        self.s[3] += 0.5 * (a[3] + G) * dt;
+        self.s[1] += (a[1] + G) * dt;
+        self.s[3] += (a[3] + G) * dt;
         self
     }
 
@@ -124,7 +124,7 @@ impl Stack {
     }
 }
 
-/// One DEM03 run: `(t, y1, y2)` of clatter, of the truth and of the truth given Euler's
+/// One DEM03 run: `(t, y1, y2)` of clatter, of the truth and of the truth given clatter's
 /// start-up impulse, and `dt`.
 struct Run {
     got: Vec<[f64; 3]>,
@@ -180,13 +180,22 @@ fn curve_error(got: &[[f64; 3]], want: &[[f64; 3]], i: usize) -> f64 {
         / (hi - lo)
 }
 
+/// Why DEM03's rows against MFIX's truth differ (docs/validation.md, "Known differences"):
+/// its contacts overlap when the run starts, and clatter's in-step law gives a contact's
+/// first step the onset treatment, reaching back a whole step: `1.5 k x` of spring impulse
+/// instead of `k x` in that step. The diagnostic rows (truth started with that impulse) pass.
+const ONSET_AT_START: &str =
+    "a contact overlapping at the start gets the onset treatment: 1.5 k x in its first step";
+
 /// DEM03: y1(t), y2(t) of the two stacked spheres against the f64 RK4 truth.
 ///
 /// Tolerance 2% of each sphere's range of motion: semi-implicit Euler started from rest in a
 /// compressed state applies the first step's force a half step early (its velocities are
-/// staggered half a step behind its positions), an impulse `F(0) dt / 2` that shifts the
-/// curves by 1.4-1.8% at the default step. The second row of each sphere compares with the
-/// truth started with that impulse (0.5%): what is left is clatter's own error.
+/// staggered half a step behind its positions), an impulse `F(0) dt / 2` that alone shifts
+/// the curves by 1.4-1.8% at the default step. clatter's resolved contact onset adds as much
+/// again (a contact's first step reaches back over the previous step, assumed force-free, as
+/// for a contact that began within it), so the trajectories follow the truth started with
+/// `F(0) dt` more momentum: the second row of each sphere compares with that (0.5%).
 pub fn dem03(ctx: &Ctx) -> anyhow::Result<Outcome> {
     let name = "mfix-dem03";
     let es: &[f64] = if ctx.quick {
@@ -205,22 +214,25 @@ pub fn dem03(ctx: &Ctx) -> anyhow::Result<Outcome> {
             run.min_overlap
         );
         for (i, which) in [(1, "y1 (2e4 kg/m^3, below)"), (2, "y2 (1e4 kg/m^3, above)")] {
+            rows.push(
+                Row::bound(
+                    name,
+                    &format!("e={e}"),
+                    &format!("max |{which} - ref| / its range"),
+                    curve_error(&run.got, &run.want, i),
+                    0.02,
+                    "f64 RK4 of the two-mass spring-dashpot system (MFIX write_usr1.f)",
+                    run.dt,
+                )
+                .known(ONSET_AT_START),
+            );
             rows.push(Row::bound(
                 name,
                 &format!("e={e}"),
-                &format!("max |{which} - ref| / its range"),
-                curve_error(&run.got, &run.want, i),
-                0.02,
-                "f64 RK4 of the two-mass spring-dashpot system (MFIX write_usr1.f)",
-                run.dt,
-            ));
-            rows.push(Row::bound(
-                name,
-                &format!("e={e}"),
-                &format!("max |{} - ref + F(0) dt/2 start| / range", &which[..2]),
+                &format!("max |{} - ref + F(0) dt start| / range", &which[..2]),
                 curve_error(&run.got, &run.kicked, i),
                 0.005,
-                "f64 RK4 started with Euler's start-up impulse F(0) dt / 2",
+                "f64 RK4 started with F(0) dt more momentum (diagnostic)",
                 run.dt,
             ));
         }
