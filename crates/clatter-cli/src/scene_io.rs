@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use clatter::scene::{Scene, SceneError};
+use clatter::scene::Scene;
 
 /// The embedded default scene: mixed polyhedra poured into a box.
 pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
@@ -11,19 +11,11 @@ pub const DEFAULT_SCENE: &str = include_str!("../../../scenes/default.toml");
 /// Reads and validates the scene at `path`, or the embedded default scene; returns the text
 /// with the scene.
 pub fn load_scene(path: Option<&Path>) -> anyhow::Result<(String, Scene)> {
-    let (text, name) = match path {
-        Some(path) => {
-            let name = path.display().to_string();
-            let text = std::fs::read_to_string(path).map_err(|e| SceneError {
-                file: name.clone(),
-                line: None,
-                field: None,
-                message: format!("cannot read the scene file: {e}"),
-            })?;
-            (text, name)
+    Ok(match path {
+        Some(path) => Scene::read(path)?,
+        None => {
+            let scene = Scene::parse(DEFAULT_SCENE, "<default scene>")?;
+            (DEFAULT_SCENE.to_string(), scene)
         }
-        None => (DEFAULT_SCENE.to_string(), "<default scene>".to_string()),
-    };
-    let scene = Scene::parse(&text, &name)?;
-    Ok((text, scene))
+    })
 }

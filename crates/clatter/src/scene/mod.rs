@@ -103,6 +103,11 @@ pub struct Scene {
 impl Scene {
     /// Reads and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::read(path).map(|(_, scene)| scene)
+    }
+
+    /// Reads and validates a scene file; returns its text (for checkpoints) with the scene.
+    pub fn read(path: &Path) -> Result<(String, Scene), SceneError> {
         let name = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| SceneError {
             file: name.clone(),
@@ -110,7 +115,8 @@ impl Scene {
             field: None,
             message: format!("cannot read the scene file: {e}"),
         })?;
-        Scene::parse(&text, &name)
+        let scene = Scene::parse(&text, &name)?;
+        Ok((text, scene))
     }
 
     /// Parses and validates scene text; `file` names it in errors, and mesh files
