@@ -240,7 +240,7 @@ pub fn quiet_device_select() {
 /// and barriers each time); the step records about 30 indirect dispatches, most of them
 /// sized zero, and on an H100 that check cost about 12 us a dispatch, more than the step's
 /// work for scenes under 100,000 bodies. clatter's kernels write every argument through
-/// `write_args` (`shaders/args.wgsl`), which keeps each dimension within 65,535, the limit
+/// `write_args` (`shaders/common/args.wgsl`), which keeps each dimension within 65,535, the limit
 /// the check enforces, so the check can go. On DX12 it also supplies `num_workgroups`, which
 /// the kernels use, so it stays on for Windows. `WGPU_VALIDATION_INDIRECT_CALL=1` turns it
 /// back on anywhere.

@@ -1,4 +1,4 @@
-//! The contact law on the GPU (`shaders/law.wgsl`) applied to a batch of contact states, so
+//! The contact law on the GPU (`shaders/contacts/law.wgsl`) applied to a batch of contact states, so
 //! that tests can hold it against its twin, `clatter::law`, on thousands of random contacts.
 
 use clatter::contract::{ContactForce, PairParams};
@@ -92,7 +92,7 @@ impl LawQuery {
     }
 }
 
-/// Runs `shaders/law.wgsl`'s `contact_force` on every query: the force, and the new
+/// Runs `shaders/contacts/law.wgsl`'s `contact_force` on every query: the force, and the new
 /// tangential spring (xyz) and twist (w).
 pub fn law_batch(
     ctx: &GpuContext,
@@ -105,9 +105,9 @@ pub fn law_batch(
         clatter::contract::wgsl_records(),
         // The manifold as narrow.wgsl declares it (no shape bindings needed here).
         "struct Manifold { normal: vec3<f32>, count: u32, points: array<vec4<f32>, 4> }\n".into(),
-        include_str!("../shaders/common.wgsl").into(),
-        include_str!("../shaders/law.wgsl").into(),
-        include_str!("../shaders/law_batch.wgsl").into(),
+        include_str!("../shaders/common/common.wgsl").into(),
+        include_str!("../shaders/contacts/law.wgsl").into(),
+        include_str!("../shaders/test/law_batch.wgsl").into(),
     ]
     .join("\n");
     let device = &ctx.device;

@@ -3,8 +3,9 @@
 //! The step's stages carry the CPU pipeline's names (`clatter::step`): the **broad** phase
 //! (**bin**, **sort**, **pairs**), **contacts** (the narrow phase and the contact law per
 //! candidate pair) and **integrate**, plus the optional **health** checks. Each is
-//! recorded by its module in [`stages`] (`stages/<stage>.rs`) from WGSL files in `shaders/`
-//! named after it (bin.wgsl, sort.wgsl, pairs.wgsl, contacts.wgsl, integrate.wgsl, ...).
+//! recorded by its module in [`stages`] (`stages/<stage>.rs`) from the WGSL files in the
+//! folder of the same name, `shaders/<stage>/` (`broad/bin.wgsl`, `contacts/narrow.wgsl`,
+//! `integrate/integrate.wgsl`, ...; `shaders/common/` holds what every kernel includes).
 //! [`world`] holds a scene's state on the GPU and drives the step; body state stays on the
 //! GPU between steps, and the host reads it back only when output is due.
 

@@ -1,5 +1,5 @@
 //! Triangle-mesh boundaries (`[[boundary]]`, `clatter::boundary`) on the GPU: the host side
-//! of `shaders/mesh*.wgsl`.
+//! of `shaders/contacts/mesh*.wgsl`.
 //!
 //! # Static data (bind group 1, no binding of its own)
 //! Each boundary's welded vertices and triangle normals are appended to `shape_f`, its
@@ -32,7 +32,7 @@
 //! (`mesh_piece` in mesh.wgsl); its slots keep their piece (word 1 of a slot), which the
 //! read-back and the upload carry, as the last good state's copy of this buffer does.
 
-use clatter::boundary::{Boundary, BoundaryMotion, MESH_SLOTS, MeshSlot};
+use clatter::mesh_boundary::{Boundary, BoundaryMotion, MESH_SLOTS, MeshSlot};
 use clatter::{ContactForce, World};
 use glam::Vec3;
 

@@ -1,4 +1,4 @@
-//! The narrow phase on the GPU: `shaders/narrow.wgsl` ports clatter-geom's
+//! The narrow phase on the GPU: `shaders/contacts/narrow.wgsl` ports clatter-geom's
 //! [`narrow::collide`](clatter_geom::narrow::collide) and
 //! [`narrow::collide_plane`](clatter_geom::narrow::collide_plane) to WGSL functions that the
 //! step pipeline's per-pair kernels call; this module also runs them on batches of queries
@@ -16,11 +16,11 @@ use crate::shapes::GpuShapes;
 use crate::{GpuContext, GpuError};
 
 /// Shared shader code (quaternions, body state).
-pub const COMMON_WGSL: &str = include_str!("../shaders/common.wgsl");
+pub const COMMON_WGSL: &str = include_str!("../shaders/common/common.wgsl");
 /// The narrow phase's WGSL: `collide`, `collide_plane`, `shape_is_sphere`, `shape_radius`,
 /// the `Manifold` struct and the group-1 shape bindings. Goes after [`COMMON_WGSL`].
-pub const NARROW_WGSL: &str = include_str!("../shaders/narrow.wgsl");
-const BATCH_WGSL: &str = include_str!("../shaders/narrow_batch.wgsl");
+pub const NARROW_WGSL: &str = include_str!("../shaders/contacts/narrow.wgsl");
+const BATCH_WGSL: &str = include_str!("../shaders/test/narrow_batch.wgsl");
 /// Invocations per workgroup of the batch kernel (`BATCH_WG` in `narrow_batch.wgsl`).
 const BATCH_WG: u32 = 64;
 

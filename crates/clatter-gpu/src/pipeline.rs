@@ -6,26 +6,26 @@ use crate::layout::wgsl_prelude;
 use crate::shapes::GpuShapes;
 use crate::{GpuContext, GpuError};
 
-pub(crate) const COMMON: &str = include_str!("../shaders/common.wgsl");
-pub(crate) const STATUS: &str = include_str!("../shaders/status.wgsl");
-pub(crate) const MESH_TIME: &str = include_str!("../shaders/mesh_time.wgsl");
-pub(crate) const MESH: &str = include_str!("../shaders/mesh.wgsl");
-pub(crate) const MESH_POLY: &str = include_str!("../shaders/mesh_poly.wgsl");
-pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/mesh_spheres.wgsl");
-pub(crate) const MESH_NONE: &str = include_str!("../shaders/mesh_none.wgsl");
-pub(crate) const ARGS: &str = include_str!("../shaders/args.wgsl");
-pub(crate) const NARROW: &str = include_str!("../shaders/narrow.wgsl");
-pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/narrow_spheres.wgsl");
-pub(crate) const BIN: &str = include_str!("../shaders/bin.wgsl");
-pub(crate) const SCAN: &str = include_str!("../shaders/scan.wgsl");
-pub(crate) const SORT: &str = include_str!("../shaders/sort.wgsl");
-pub(crate) const PAIRS: &str = include_str!("../shaders/pairs.wgsl");
-pub(crate) const LAW: &str = include_str!("../shaders/law.wgsl");
-pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts.wgsl");
-pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts_split.wgsl");
-pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate.wgsl");
-pub(crate) const HEALTH: &str = include_str!("../shaders/health.wgsl");
-pub(crate) const PIECES: &str = include_str!("../shaders/pieces.wgsl");
+pub(crate) const COMMON: &str = include_str!("../shaders/common/common.wgsl");
+pub(crate) const STATUS: &str = include_str!("../shaders/common/status.wgsl");
+pub(crate) const MESH_TIME: &str = include_str!("../shaders/common/mesh_time.wgsl");
+pub(crate) const MESH: &str = include_str!("../shaders/contacts/mesh.wgsl");
+pub(crate) const MESH_POLY: &str = include_str!("../shaders/contacts/mesh_poly.wgsl");
+pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/contacts/mesh_spheres.wgsl");
+pub(crate) const MESH_NONE: &str = include_str!("../shaders/contacts/mesh_none.wgsl");
+pub(crate) const ARGS: &str = include_str!("../shaders/common/args.wgsl");
+pub(crate) const NARROW: &str = include_str!("../shaders/contacts/narrow.wgsl");
+pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/contacts/narrow_spheres.wgsl");
+pub(crate) const BIN: &str = include_str!("../shaders/broad/bin.wgsl");
+pub(crate) const SCAN: &str = include_str!("../shaders/broad/scan.wgsl");
+pub(crate) const SORT: &str = include_str!("../shaders/broad/sort.wgsl");
+pub(crate) const PAIRS: &str = include_str!("../shaders/broad/pairs.wgsl");
+pub(crate) const LAW: &str = include_str!("../shaders/contacts/law.wgsl");
+pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts/contacts.wgsl");
+pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts/contacts_split.wgsl");
+pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate/integrate.wgsl");
+pub(crate) const HEALTH: &str = include_str!("../shaders/health/health.wgsl");
+pub(crate) const PIECES: &str = include_str!("../shaders/contacts/pieces.wgsl");
 /// `const COMPOSITES` for a module that includes pieces.wgsl: whether its kernels handle
 /// composite bodies (the contact kernels are compiled both ways; see pieces.wgsl). With it
 /// `const MESH_ACC`, the room mesh.wgsl keeps for a body's mesh contacts before the deepest

@@ -1,4 +1,4 @@
-//! Shape data on the GPU for the narrow phase (`shaders/narrow.wgsl`).
+//! Shape data on the GPU for the narrow phase (`shaders/contacts/narrow.wgsl`).
 //!
 //! Every [`PreparedShape`] of a scene is packed into two read-only storage buffers that the
 //! WGSL narrow phase reads (bind group 1):
@@ -217,7 +217,7 @@ impl GpuShapes {
     pub fn upload_with_meshes(
         ctx: &GpuContext,
         shapes: &[PreparedShape],
-        boundaries: &[clatter::boundary::Boundary],
+        boundaries: &[clatter::mesh_boundary::Boundary],
     ) -> Result<(GpuShapes, u32), GpuError> {
         use wgpu::util::DeviceExt;
         let mut packed = pack(shapes)?;
@@ -333,11 +333,11 @@ mod tests {
 
     #[test]
     fn wgsl_constants_match() {
-        let wgsl = include_str!("../shaders/narrow.wgsl");
+        let wgsl = include_str!("../shaders/contacts/narrow.wgsl");
         assert!(wgsl.contains(&format!("const NRW_MAX_CLIP: u32 = {MAX_CLIP_POINTS}u;")));
         assert!(wgsl.contains(&format!("array<vec4<f32>, {MAX_CLIP_POINTS}>")));
         assert!(wgsl.contains(&format!("const NRW_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
-        let pieces = include_str!("../shaders/pieces.wgsl");
+        let pieces = include_str!("../shaders/contacts/pieces.wgsl");
         assert!(pieces.contains(&format!("const PIECE_SHIFT: u32 = {PIECE_SHIFT}u;")));
         let mask = (1u32 << PIECE_SHIFT) - 1;
         assert!(pieces.contains(&format!("const BODY_MASK: u32 = {mask:#x}u;")));

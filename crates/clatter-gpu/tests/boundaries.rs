@@ -1,5 +1,5 @@
 //! Triangle-mesh boundaries (`[[boundary]]`) on the GPU against the CPU reference
-//! (crates/clatter/src/step/boundary.rs): a sphere rolling across a 200-triangle floor, a
+//! (crates/clatter/src/step/mesh_contacts.rs): a sphere rolling across a 200-triangle floor, a
 //! cube resting on and sliding across it, a turning drum with a few dozen spheres, a
 //! translating plate hitting a sphere, and a small hopper whose plate starts moving during
 //! the run. Per chunk of steps the touching contact counts must be equal and the bodies'
@@ -7,7 +7,7 @@
 //! slots read back must match the CPU's (touching flags exactly). Also: bitwise the same on
 //! the GPU run to run, and a GPU checkpoint resumed on the CPU goes on as the CPU run.
 
-use clatter::boundary::{Boundary, BoundaryMotion};
+use clatter::mesh_boundary::{Boundary, BoundaryMotion};
 use clatter::scene::Scene;
 use clatter::{BodyInit, Checkpoint, Material, World, WorldDesc};
 use clatter_gpu::GpuWorld;

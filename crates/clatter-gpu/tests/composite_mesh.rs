@@ -1,5 +1,5 @@
 //! Composite bodies (clumps) against triangle-mesh boundaries on the GPU, against the CPU
-//! pipeline (crates/clatter/src/step/boundary.rs: each piece against its body's candidate
+//! pipeline (crates/clatter/src/step/mesh_contacts.rs: each piece against its body's candidate
 //! triangles, the contacts matched to the body's mesh slots by boundary, piece and normal):
 //! - a two-sphere clump and a sphere-and-cube clump landing, resting and sliding on a
 //!   200-triangle mesh floor follow the CPU's trajectories with the same touching contacts
@@ -166,7 +166,7 @@ random_orientation = true
 /// The touching mesh slots of a world: (body, slot, boundary, piece).
 fn mesh_touching(w: &World) -> BTreeSet<(usize, usize, u32, u32)> {
     let slots = w.mesh_slots();
-    let per = clatter::boundary::MESH_SLOTS;
+    let per = clatter::mesh_boundary::MESH_SLOTS;
     (0..slots.len())
         .filter(|&k| slots[k].touching)
         .map(|k| (k / per, k % per, slots[k].boundary, slots[k].piece))

@@ -1,4 +1,4 @@
-//! The WGSL contact law (`shaders/law.wgsl`) against its Rust twin (`clatter::law`) on
+//! The WGSL contact law (`shaders/contacts/law.wgsl`) against its Rust twin (`clatter::law`) on
 //! thousands of random contact states: linear and Hertz, one to four points, sphere and
 //! polyhedron shares, springs inside and beyond the Coulomb cap, spinning patches, rolling
 //! friction and adhesion.

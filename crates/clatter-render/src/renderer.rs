@@ -25,7 +25,7 @@ fn shader() -> String {
     use clatter::contract::GpuRecord;
     [
         BodyState::wgsl().as_str(),
-        include_str!("../../clatter-gpu/shaders/common.wgsl"),
+        include_str!("../../clatter-gpu/shaders/common/common.wgsl"),
         include_str!("../shaders/scene.wgsl"),
     ]
     .join("\n")

@@ -34,7 +34,7 @@ use std::fmt;
 use rayon::prelude::*;
 
 use crate::broad::{self, Grid};
-use crate::contacts::Partner;
+use crate::contact_list::Partner;
 use crate::law::{self, ContactForce};
 use crate::world::{SimError, World};
 use clatter_geom::narrow::{self, Manifold};
@@ -91,7 +91,7 @@ fn mesh_reports(world: &World, pick: impl Fn(usize) -> bool + Sync) -> Vec<Conta
         .filter(|&i| pick(i))
         .flat_map_iter(|i| {
             let slots = world.mesh.body_slots(i);
-            crate::step::boundary::manifolds(world, i, false)
+            crate::step::mesh_contacts::manifolds(world, i, false)
                 .into_iter()
                 .map(move |(b, piece, manifold)| ContactReport {
                     body: i as u32,
@@ -210,7 +210,7 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
             .into_par_iter()
             .with_min_len(256)
             .flat_map_iter(|i| {
-                crate::step::boundary::manifolds(world, i, true)
+                crate::step::mesh_contacts::manifolds(world, i, true)
                     .into_iter()
                     .map(move |(b, _, manifold)| ContactReport {
                         body: i as u32,
@@ -748,14 +748,14 @@ impl Health {
             );
             let size = (hi - lo).length() as f64;
             let (v, travel) = match b.motion {
-                crate::boundary::BoundaryMotion::Translate { velocity } => {
+                crate::mesh_boundary::BoundaryMotion::Translate { velocity } => {
                     let v = velocity.length() as f64;
                     (v, v * (b.end - b.start).min(1e3))
                 }
-                crate::boundary::BoundaryMotion::Rotate {
+                crate::mesh_boundary::BoundaryMotion::Rotate {
                     angular_velocity, ..
                 } => (angular_velocity.length() as f64 * b.reach as f64, 0.0),
-                crate::boundary::BoundaryMotion::Fixed => (0.0, 0.0),
+                crate::mesh_boundary::BoundaryMotion::Fixed => (0.0, 0.0),
             };
             speed = speed.max(v);
             lift = lift.max(size + travel);

@@ -1,5 +1,5 @@
 //! The DEM contact law, applied to one contact manifold. Its GPU twin is
-//! `clatter-gpu/shaders/law.wgsl`: the same functions under the same names, checked against
+//! `clatter-gpu/shaders/contacts/law.wgsl`: the same functions under the same names, checked against
 //! each other on random contacts by `clatter-gpu/tests/law.rs`. Its parameters are one
 //! [`PairParams`] row per material pair (`contract.rs`).
 //!

@@ -5,10 +5,10 @@ use glam::{Quat, Vec3};
 use thiserror::Error;
 
 use crate::bodies::{BodyConstants, BodyStates};
-use crate::boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshSlot};
-use crate::contacts::{ContactState, Contacts};
+use crate::contact_list::{ContactState, Contacts};
 use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
+use crate::mesh_boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshSlot};
 use crate::periodic::Periodic;
 use crate::sink::{Discharged, Sink};
 use crate::step;
@@ -258,7 +258,7 @@ impl World {
             let position =
                 std::mem::replace(&mut self.state.position, self.rebuild_position.clone());
             let time = std::mem::replace(&mut self.time, rebuild_time);
-            step::boundary::rebuild(self);
+            step::mesh_contacts::rebuild(self);
             self.state.position = position;
             self.time = time;
         }

@@ -8,8 +8,8 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use clatter::boundary::{Boundary, BoundaryMotion};
 use clatter::geom::narrow::Plane;
+use clatter::mesh_boundary::{Boundary, BoundaryMotion};
 use clatter::scene::Scene;
 use clatter::{BodyInit, Checkpoint, ContactLaw, Wall, World, WorldDesc};
 use glam::{Quat, Vec3};
@@ -702,7 +702,7 @@ fn a_clump_lands_and_rests_on_a_mesh_floor_as_on_the_plane() {
 /// mesh as the other side.
 #[test]
 fn mesh_contacts_are_reported_like_wall_contacts() {
-    use clatter::contacts::Partner;
+    use clatter::contact_list::Partner;
     use clatter::health::{Health, touching_contacts};
     let half = 0.02;
     let mk = |mesh: bool| {
@@ -744,7 +744,7 @@ fn mesh_contacts_are_reported_like_wall_contacts() {
 /// elastic energy counted as for the plane.
 #[test]
 fn a_body_placed_through_a_mesh_is_refused_at_the_start() {
-    use clatter::contacts::Partner;
+    use clatter::contact_list::Partner;
     use clatter::health::{BlowUpKind, Health};
     for (z, refused) in [(0.4 * R, true), (0.9 * R, false)] {
         let b = body(Vec3::new(0.013, 0.021, z), Vec3::ZERO, Vec3::ZERO);
@@ -775,7 +775,7 @@ fn a_body_placed_through_a_mesh_is_refused_at_the_start() {
 /// naming the boundary.
 #[test]
 fn a_deep_overlap_with_a_mesh_stops_the_run_as_with_a_wall() {
-    use clatter::contacts::Partner;
+    use clatter::contact_list::Partner;
     use clatter::health::{BlowUpKind, Health};
     // Peak depth v sqrt(m / k) = 10 m/s x 7.2e-4 s = 0.72 R (the law's damping makes it a
     // little less, still above the limit of 0.5 R).

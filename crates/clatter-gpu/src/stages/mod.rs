@@ -1,5 +1,5 @@
 //! One step on the GPU: the same stages, under the same names, as the CPU's
-//! `clatter::step`, each recorded by its own module from its shaders in `shaders/`:
+//! `clatter::step`, each recorded by its own module from its shaders in `shaders/<stage>/` (`common/` holds what every kernel includes, `test/` the harness kernels):
 //!
 //! 1. [`broad`]: `prepare` (does this step rebuild?), then **bin**, **sort**, **pairs**
 //!    (bin.wgsl, scan.wgsl, sort.wgsl, pairs.wgsl), every dispatch sized on the GPU and zero

@@ -252,7 +252,7 @@ impl GpuWorld {
                 st[status::MESH_FULL] - 1,
                 crate::mesh::MAX_CANDIDATES,
                 crate::mesh::MAX_FOUND,
-                clatter::boundary::MESH_SLOTS
+                clatter::mesh_boundary::MESH_SLOTS
             )));
         }
         let bad = st[status::BAD_BODY] != u32::MAX;

@@ -284,7 +284,7 @@ fn encode_pairs(state: &ContactState, composites: bool) -> Vec<[u32; 2]> {
         let shift = crate::shapes::PIECE_SHIFT;
         (state.pairs.iter().zip(&state.pieces))
             .map(|(&[i, j], &code)| {
-                let (a, b) = clatter::contacts::piece_ids(code);
+                let (a, b) = clatter::contact_list::piece_ids(code);
                 [i | (a << shift), j | (b << shift)]
             })
             .collect()

@@ -198,7 +198,7 @@ pub(super) fn decode_pairs(raw: Vec<[u32; 2]>, composites: bool) -> (Vec<[u32; 2
         .map(|&[x, y]| {
             (
                 [x & mask, y & mask],
-                clatter::contacts::piece_code(x >> shift, y >> shift),
+                clatter::contact_list::piece_code(x >> shift, y >> shift),
             )
         })
         .unzip()

@@ -10,7 +10,7 @@ use clatter_geom::Shape;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::contacts::{Contacts, carry_springs};
+use crate::contact_list::{Contacts, carry_springs};
 use crate::periodic::Periodic;
 use crate::world::World;
 
@@ -209,7 +209,7 @@ pub(crate) fn rebuild(world: &mut World) {
     if world.has_composites() {
         let contacts = piece_contacts(world, pairs, wall_pairs);
         world.install_contacts(contacts);
-        super::boundary::rebuild(world);
+        super::mesh_contacts::rebuild(world);
         return;
     }
     let old = &world.contacts;
@@ -231,7 +231,7 @@ pub(crate) fn rebuild(world: &mut World) {
     twist.extend(wall_twist);
     let contacts = Contacts::new(world.len(), pairs, wall_pairs, history, twist);
     world.install_contacts(contacts);
-    super::boundary::rebuild(world);
+    super::mesh_contacts::rebuild(world);
 }
 
 /// The contact list of a world with composite bodies: each body pair (and body-wall pair)
@@ -240,7 +240,7 @@ pub(crate) fn rebuild(world: &mut World) {
 /// pair). Contacts stay sorted by body pair, then piece code, so the per-body gather order
 /// is fixed.
 fn piece_contacts(world: &World, pairs: Vec<[u32; 2]>, wall_pairs: Vec<[u32; 2]>) -> Contacts {
-    use crate::contacts::piece_code;
+    use crate::contact_list::piece_code;
     let skin = world.skin;
     let per_pair: Vec<Vec<u32>> = pairs
         .par_iter()

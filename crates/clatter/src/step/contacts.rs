@@ -6,7 +6,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::CHUNK;
-use crate::contacts::{ContactSprings, piece_ids};
+use crate::contact_list::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce};
 use crate::world::World;
 use clatter_geom::Shape;

@@ -4,16 +4,16 @@
 //! 1. [`broad`]: **bin**, **sort**, **pairs** (only when a body has moved half the Verlet
 //!    skin since the last rebuild), carrying the springs of pairs that persist;
 //! 2. [`contacts`]: **narrow** phase and contact **law** per candidate pair and wall pair,
-//!    and [`boundary`]: the same per body against its candidate mesh triangles;
+//!    and [`mesh_contacts`]: the same per body against its candidate mesh triangles;
 //! 3. [`integrate`]: forces gathered per body in a fixed order, semi-implicit Euler.
 //!
 //! Every stage is parallel (rayon) and sums in an order that does not depend on the thread
 //! count, so results are bitwise the same for any number of threads.
 
-pub mod boundary;
 pub mod broad;
 pub mod contacts;
 pub mod integrate;
+pub mod mesh_contacts;
 
 use crate::world::{SimError, StepStats, World};
 
@@ -27,7 +27,7 @@ impl World {
         if rebuilt {
             broad::rebuild(self);
         }
-        let contacts = contacts::run(self) + boundary::run(self);
+        let contacts = contacts::run(self) + mesh_contacts::run(self);
         let moved = integrate::run(self);
         self.step_count += 1;
         self.time += self.dt as f64;
@@ -39,7 +39,7 @@ impl World {
                 if d2 > 0.25 * self.skin * self.skin {
                     self.set_needs_rebuild(true);
                 } else if !self.boundaries.is_empty()
-                    && d2.sqrt() + boundary::moved_since_rebuild(self) > 0.5 * self.skin
+                    && d2.sqrt() + mesh_contacts::moved_since_rebuild(self) > 0.5 * self.skin
                 {
                     // Bodies and meshes together may have closed half the skin.
                     self.set_needs_rebuild(true);

@@ -1,4 +1,4 @@
-//! Boundary meshes as users have them: the cleaning that [`crate::boundary::Boundary::new`]
+//! Boundary meshes as users have them: the cleaning that [`crate::mesh_boundary::Boundary::new`]
 //! does before it derives normals and adjacency.
 //!
 //! Meshes from CAD exports, scanners and other DEM codes (LIGGGHTS wants its drums wound with

@@ -34,7 +34,7 @@ use std::path::Path;
 use glam::{Quat, Vec3};
 use toml::Spanned;
 
-use crate::boundary::Boundary;
+use crate::mesh_boundary::Boundary;
 use crate::sink::Sink;
 use crate::world::{World, WorldDesc};
 use raw::RawScene;

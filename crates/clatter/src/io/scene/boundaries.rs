@@ -9,7 +9,7 @@ use toml::Spanned;
 use super::raw::RawBoundary;
 use super::shapes::mesh_scale;
 use super::{SceneError, SourceFile};
-use crate::boundary::{Boundary, BoundaryMotion};
+use crate::mesh_boundary::{Boundary, BoundaryMotion};
 
 /// Validates every `[[boundary]]` in order, then reports their repairs: warnings go to
 /// `warnings`, and the notes are returned.

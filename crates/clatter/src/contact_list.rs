@@ -19,7 +19,7 @@ pub enum Partner {
     Wall(u32),
     /// A triangle-mesh boundary, by index (the scene's `[[boundary]]`s in order). Its
     /// contacts are not in the contact list: each body keeps them in its mesh slots
-    /// (`crate::boundary::MeshContacts`).
+    /// (`crate::mesh_boundary::MeshContacts`).
     Boundary(u32),
 }
 

@@ -8,8 +8,10 @@ use glam::Vec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
-use crate::boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS};
 use crate::law::{self, BodyMotion};
+use crate::mesh_boundary::{
+    Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS,
+};
 use crate::step::CHUNK;
 use crate::world::World;
 use clatter_geom::narrow::{self, Manifold, Plane};
