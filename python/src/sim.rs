@@ -186,16 +186,18 @@ impl Simulation {
         &self.text
     }
 
-    /// Centres of mass, m: (N, 3) float32 (a copy). Settable (the broad phase is rebuilt
-    /// before the next step).
+    /// Centres of mass, m: (N, 3) float64 (a copy; positions are kept in double precision,
+    /// so a step's displacement is kept anywhere in a large domain). Settable, at full
+    /// precision (the broad phase is rebuilt before the next step).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        vec3_array(py, &self.world.state.position)
+    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let p = &self.world.state.position;
+        array2(py, p.iter().flat_map(|v| v.to_array()).collect(), 3)
     }
 
     #[setter]
     fn set_positions(&mut self, value: PyArrayLike2<'_, f64, AllowTypeChange>) -> PyResult<()> {
-        let v = vec3_input(&value, self.world.len(), "positions")?;
+        let v = dvec3_input(&value, self.world.len(), "positions")?;
         self.world.state.position = v;
         self.world.set_needs_rebuild(true);
         self.gpu_stale = true;
@@ -332,7 +334,9 @@ impl Simulation {
             body.push(c.body as i64);
             let pts = c.manifold.points();
             let centroid = pts.iter().map(|p| p.point).sum::<Vec3>() / pts.len().max(1) as f32;
-            point.extend(centroid.to_array());
+            // Manifolds are relative to the body's position: back to the world, in f64.
+            let at = self.world.state.position[c.body as usize] + centroid.as_dvec3();
+            point.extend(at.to_array());
             count.push(pts.len() as i64);
             // The manifold's normal points from the body towards the other body for a pair,
             // from the wall or mesh towards the body for a wall or mesh boundary; `force_b`
@@ -604,6 +608,18 @@ fn vec3_input(
     n: usize,
     what: &str,
 ) -> PyResult<Vec<Vec3>> {
+    Ok(dvec3_input(value, n, what)?
+        .into_iter()
+        .map(|v| v.as_vec3())
+        .collect())
+}
+
+/// [`vec3_input`] at full precision (positions).
+fn dvec3_input(
+    value: &PyArrayLike2<'_, f64, AllowTypeChange>,
+    n: usize,
+    what: &str,
+) -> PyResult<Vec<glam::DVec3>> {
     let a = value.as_array();
     if a.shape() != [n, 3] {
         return Err(PyValueError::new_err(format!(
@@ -618,7 +634,7 @@ fn vec3_input(
                 "{what}[{i}] must be finite, got {row}"
             )));
         }
-        out.push(Vec3::new(row[0] as f32, row[1] as f32, row[2] as f32));
+        out.push(glam::DVec3::new(row[0], row[1], row[2]));
     }
     Ok(out)
 }

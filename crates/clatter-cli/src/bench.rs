@@ -568,9 +568,9 @@ fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut lo = glam::Vec3::splat(f32::INFINITY);
     let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
-    for x in &world.state.position {
-        lo = lo.min(*x);
-        hi = hi.max(*x);
+    for x in world.state.position.iter().map(|x| x.as_vec3()) {
+        lo = lo.min(x);
+        hi = hi.max(x);
     }
     let r = p.radius;
     let mut data = String::new();

@@ -157,8 +157,8 @@ pub mod snapshot {
     /// Words of the status block.
     pub const STATUS: u64 = 32;
     /// Words per body: state (24), rebuild position (4), rebuild orientation (4: with
-    /// composites only, see `RebuildSlots`).
-    pub const BODY: u64 = 32;
+    /// composites only, see `RebuildSlots`), the low part of the position (4).
+    pub const BODY: u64 = 36;
     /// Words per body-wall slot: springs (4), force (12), touching (1).
     pub const SLOT: u64 = 17;
     /// Words per pair: bodies (2), springs (4), touching (1), force (12).

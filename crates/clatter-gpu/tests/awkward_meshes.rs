@@ -59,7 +59,7 @@ fn awkward_meshes_run_as_their_clean_twins_on_the_gpu() {
         let mut worst = 0.0f32;
         for (k, (x, y)) in ta.iter().zip(&tc).enumerate() {
             for i in 0..x.len() {
-                let dx = (x.state.position[i] - y.state.position[i]).length();
+                let dx = (x.state.position[i] - y.state.position[i]).length() as f32;
                 worst = worst.max(dx);
                 match case.expect {
                     Expect::Bitwise => {

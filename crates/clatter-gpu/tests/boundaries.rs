@@ -21,7 +21,7 @@ fn body(position: Vec3, velocity: Vec3, omega: Vec3) -> BodyInit {
     BodyInit {
         shape: 0,
         material: 0,
-        position,
+        position: position.as_dvec3(),
         orientation: Quat::IDENTITY,
         velocity,
         angular_velocity: omega,
@@ -118,7 +118,7 @@ fn compare(
             d.touching_steps += 1;
         }
         for i in 0..cpu.len() {
-            let dx = (cpu.state.position[i] - host.state.position[i]).length();
+            let dx = (cpu.state.position[i] - host.state.position[i]).length() as f32;
             let dv = (cpu.state.velocity[i] - host.state.velocity[i]).length();
             d.position = d.position.max(dx);
             d.velocity = d.velocity.max(dv);
@@ -417,7 +417,7 @@ fn gpu_runs_are_bitwise_the_same_and_resume_on_the_cpu() {
     assert_eq!(resumed.step_count, cpu.step_count);
     let mut worst = 0.0f32;
     for i in 0..cpu.len() {
-        worst = worst.max((cpu.state.position[i] - resumed.state.position[i]).length());
+        worst = worst.max((cpu.state.position[i] - resumed.state.position[i]).length() as f32);
     }
     // The loose pile agrees to rounding on both backends (see the hopper test above).
     assert!(worst < 1e-3 * 0.002, "resumed run drifts by {worst}");
@@ -482,7 +482,7 @@ fn full_hopper_departs_from_the_cpu_no_more_than_a_one_ulp_nudge() {
     let mut cpu = s.world();
     let mut nudged = s.world();
     for x in &mut nudged.state.position {
-        *x = Vec3::new(f32::from_bits(x.x.to_bits() + 1), x.y, x.z);
+        x.x = f32::from_bits((x.x as f32).to_bits() + 1) as f64;
     }
     let mut host = s.world();
     let mut gpu = GpuWorld::new(ctx, &host).unwrap();
@@ -495,8 +495,8 @@ fn full_hopper_departs_from_the_cpu_no_more_than_a_one_ulp_nudge() {
         let g = gpu.step_into(250, &mut host).unwrap().touching;
         let (mut dx, mut dn) = (0.0f32, 0.0f32);
         for i in 0..cpu.len() {
-            dx = dx.max((cpu.state.position[i] - host.state.position[i]).length());
-            dn = dn.max((cpu.state.position[i] - nudged.state.position[i]).length());
+            dx = dx.max((cpu.state.position[i] - host.state.position[i]).length() as f32);
+            dn = dn.max((cpu.state.position[i] - nudged.state.position[i]).length() as f32);
         }
         eprintln!(
             "step {}: touching CPU {a}, nudged CPU {b}, GPU {g}; largest distance from the CPU: GPU {dx:.2e} m, nudged {dn:.2e} m",

@@ -70,7 +70,7 @@ fn distance(a: &World, b: &World) -> (f32, f32) {
     let mut dx = 0.0f32;
     let mut dq = 0.0f32;
     for i in 0..a.len() {
-        dx = dx.max((a.state.position[i] - b.state.position[i]).length());
+        dx = dx.max((a.state.position[i] - b.state.position[i]).length() as f32);
         let (qa, qb) = (a.state.orientation[i], b.state.orientation[i]);
         dq = dq.max((qa - qb).length().min((qa + qb).length()));
     }

@@ -179,7 +179,7 @@ fn distance(a: &World, b: &World) -> (f32, f32) {
     let mut dx = 0.0f32;
     let mut dq = 0.0f32;
     for i in 0..a.len() {
-        dx = dx.max((a.state.position[i] - b.state.position[i]).length());
+        dx = dx.max((a.state.position[i] - b.state.position[i]).length() as f32);
         let (qa, qb) = (a.state.orientation[i], b.state.orientation[i]);
         dq = dq.max((qa - qb).length().min((qa + qb).length()));
     }
@@ -213,7 +213,7 @@ fn compare(scene: &Scene, steps: u64, every: u64, tol_x: f32, tol_q: f32) -> (Wo
         q.x = f32::from_bits(q.x.to_bits() + 16);
     }
     for x in nudged.state.position.iter_mut() {
-        x.x = f32::from_bits(x.x.to_bits() + 1);
+        x.x = f32::from_bits((x.x as f32).to_bits() + 1) as f64;
     }
     let mut gpu = GpuWorld::new(ctx, &host).expect("the GPU takes composites with meshes");
     let mut seen = Seen::default();

@@ -20,7 +20,7 @@ mod gpu_step {
     /// notice a test changing the world between steps, which means uploading it again).
     struct Cached {
         gpu: GpuWorld,
-        seen: (Vec<glam::Vec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64),
+        seen: (Vec<glam::DVec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64),
     }
 
     thread_local! {
@@ -28,7 +28,7 @@ mod gpu_step {
         static WORLD: RefCell<Option<Cached>> = const { RefCell::new(None) };
     }
 
-    fn snapshot(w: &World) -> (Vec<glam::Vec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64) {
+    fn snapshot(w: &World) -> (Vec<glam::DVec3>, Vec<glam::Vec3>, Vec<glam::Quat>, u64) {
         (
             w.state.position.clone(),
             w.state.velocity.clone(),

@@ -48,7 +48,7 @@ fn scene_in(n: usize, seed: u64, shapes: Vec<ShapeKind>, hertz: bool, periodic_x
             BodyInit {
                 shape: rng.random_range(0..shapes.len()) as u32,
                 material: rng.random_range(0..2),
-                position,
+                position: position.as_dvec3(),
                 orientation: random_rotation(&mut rng),
                 velocity,
                 angular_velocity,
@@ -111,12 +111,13 @@ fn u32s(b: &[u8]) -> Vec<u32> {
 /// Stages 1-3 (bin, sort, pairs) and the b-side adjacency after the first step's rebuild.
 fn check_broad_phase(world: &World, gpu: &GpuWorld) {
     let rmax = world.consts.radius.iter().copied().fold(0.0, f32::max);
-    let grid = Grid::around(&world.state.position, 2.0 * rmax + world.skin);
-    let keys = broad::bin(&grid, &world.state.position);
+    let positions: Vec<glam::Vec3> = world.state.position.iter().map(|p| p.as_vec3()).collect();
+    let grid = Grid::around(&positions, 2.0 * rmax + world.skin);
+    let keys = broad::bin(&grid, &positions);
     let (sorted, start) = broad::sort(&keys, grid.cell_count());
     let pairs = broad::pairs_periodic(
         &grid,
-        &world.state.position,
+        &positions,
         &world.consts.radius,
         world.skin,
         world.periodic.as_ref(),
@@ -133,7 +134,7 @@ fn check_broad_phase(world: &World, gpu: &GpuWorld) {
     assert_eq!(&gpu_pairs[..pairs.len()], &pairs[..], "pair list");
     assert_eq!(
         pairs,
-        broad::pairs_brute_force(&world.state.position, &world.consts.radius, world.skin),
+        broad::pairs_brute_force(&positions, &world.consts.radius, world.skin),
         "the CPU's pairs are all pairs"
     );
     // b-side adjacency: for each body, the pairs where it is second, in pair order.
@@ -254,7 +255,7 @@ fn compare_run(mut cpu: World, steps: u64, tol: f32) {
         worst = 0.0;
         let mut worst_q = 0.0f32;
         for i in 0..cpu.len() {
-            worst = worst.max((back.state.position[i] - cpu.state.position[i]).length());
+            worst = worst.max((back.state.position[i] - cpu.state.position[i]).length() as f32);
             worst_q = worst_q.max(
                 (back.state.orientation[i]
                     .dot(cpu.state.orientation[i])
@@ -314,7 +315,7 @@ fn periodic_spheres_and_polyhedra_match_cpu_stage_by_stage() {
         .state
         .position
         .iter()
-        .filter(|p| p.x.abs() > 0.4 * w.periodic.unwrap().max.x)
+        .filter(|p| p.x.abs() > 0.4 * w.periodic.unwrap().max.x as f64)
         .count();
     assert!(seam > 20, "bodies near the seam: {seam}");
     compare_run(w, 200, SPHERE_TRAJECTORY_TOL);
@@ -361,7 +362,7 @@ fn lattice(n: usize, seed: u64, shapes: Vec<ShapeKind>) -> World {
             BodyInit {
                 shape: rng.random_range(0..shapes.len()) as u32,
                 material: rng.random_range(0..2),
-                position,
+                position: position.as_dvec3(),
                 orientation: random_rotation(&mut rng),
                 velocity,
                 angular_velocity,

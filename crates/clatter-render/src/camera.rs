@@ -53,10 +53,16 @@ impl Bounds {
     pub fn of_world(world: &World) -> Bounds {
         let mut min = Vec3::splat(f32::INFINITY);
         let mut max = Vec3::splat(f32::NEG_INFINITY);
-        for (x, r) in world.state.position.iter().zip(&world.consts.radius) {
+        for (x, r) in world
+            .state
+            .position
+            .iter()
+            .map(|p| p.as_vec3())
+            .zip(&world.consts.radius)
+        {
             if x.is_finite() && r.is_finite() {
-                min = min.min(*x - Vec3::splat(*r));
-                max = max.max(*x + Vec3::splat(*r));
+                min = min.min(x - Vec3::splat(*r));
+                max = max.max(x + Vec3::splat(*r));
             }
         }
         if !min.is_finite() || !max.is_finite() {

@@ -527,7 +527,7 @@ impl Renderer {
         let mut vmax = 0.0f32;
         for i in 0..n {
             let (x, v, q) = (
-                world.state.position[i],
+                world.state.position_f32(i),
                 world.state.velocity[i],
                 world.state.orientation[i],
             );

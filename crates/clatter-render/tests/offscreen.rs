@@ -132,8 +132,8 @@ fn bodies_appear_where_the_camera_sees_them() {
         is_background(img.get_pixel(0, 0).0),
         "corner is not background"
     );
-    let boxed = pixel(&img, &cam, w.state.position[0]);
-    let ball = pixel(&img, &cam, w.state.position[1]);
+    let boxed = pixel(&img, &cam, w.state.position_f32(0));
+    let ball = pixel(&img, &cam, w.state.position_f32(1));
     assert!(!is_background(boxed) && !is_background(ball));
     assert!(same_hue(boxed, PALETTE[0]) > 0.97, "box pixel {boxed:?}");
     assert!(same_hue(ball, PALETTE[1]) > 0.97, "ball pixel {ball:?}");
@@ -141,7 +141,7 @@ fn bodies_appear_where_the_camera_sees_them() {
     for spec in [CameraSpec::Iso, CameraSpec::Top, CameraSpec::Side] {
         let cam = off.camera(spec);
         let img = render(&mut off, &cam, Style::default());
-        let px = pixel(&img, &cam, w.state.position[1]);
+        let px = pixel(&img, &cam, w.state.position_f32(1));
         assert!(
             same_hue(px, PALETTE[1]) > 0.97,
             "{spec:?}: ball pixel {px:?}"
@@ -165,8 +165,8 @@ fn only_contacts_hides_the_body_that_touches_nothing() {
     };
     let img = render(&mut off, &cam, contact);
     let (boxed, ball) = (
-        pixel(&img, &cam, w.state.position[0]),
-        pixel(&img, &cam, w.state.position[1]),
+        pixel(&img, &cam, w.state.position_f32(0)),
+        pixel(&img, &cam, w.state.position_f32(1)),
     );
     assert!(
         boxed[0] > boxed[2] + 40,
@@ -179,8 +179,8 @@ fn only_contacts_hides_the_body_that_touches_nothing() {
     };
     let img = render(&mut off, &cam, only);
     let (boxed, ball) = (
-        pixel(&img, &cam, w.state.position[0]),
-        pixel(&img, &cam, w.state.position[1]),
+        pixel(&img, &cam, w.state.position_f32(0)),
+        pixel(&img, &cam, w.state.position_f32(1)),
     );
     assert!(
         is_background(ball),
@@ -207,8 +207,8 @@ fn speed_colours_the_fast_body_red() {
     };
     let img = render(&mut off, &cam, style);
     let (boxed, ball) = (
-        pixel(&img, &cam, w.state.position[0]),
-        pixel(&img, &cam, w.state.position[1]),
+        pixel(&img, &cam, w.state.position_f32(0)),
+        pixel(&img, &cam, w.state.position_f32(1)),
     );
     assert!(ball[0] > ball[2] + 40, "fast ball is not red: {ball:?}");
     assert!(
@@ -229,11 +229,11 @@ fn gpu_body_buffer_draws_like_the_cpu_upload() {
     // The same world moved and turned, once as a GPU buffer of BodyState records (what the
     // GPU simulation holds) and once uploaded from the CPU.
     let mut moved = w.clone();
-    moved.state.position[1] += Vec3::new(-0.1, 0.05, -0.08);
+    moved.state.position[1] += glam::DVec3::new(-0.1, 0.05, -0.08);
     moved.state.orientation[0] = glam::Quat::from_rotation_z(0.6) * moved.state.orientation[0];
     let records: Vec<BodyState> = (0..moved.len())
         .map(|i| BodyState {
-            position: moved.state.position[i].extend(0.0).to_array(),
+            position: moved.state.position_f32(i).extend(0.0).to_array(),
             velocity: moved.state.velocity[i].extend(0.0).to_array(),
             orientation: moved.state.orientation[i].to_array(),
             ..Default::default()

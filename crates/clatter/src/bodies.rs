@@ -3,15 +3,18 @@
 //! ([`BodyConstants`], the GPU's [`BodyConsts`]). A body is an index into every array.
 //! The conversions to and from the records live here, once.
 
-use glam::{Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 
 use crate::contract::{BodyConsts, BodyState, quat_of, vec3_of};
 
 /// The integrated state of every body.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BodyStates {
-    /// Centre of mass, m.
-    pub position: Vec<Vec3>,
+    /// Centre of mass, m, in double precision: a step's displacement is added in f64, so
+    /// it is kept anywhere in a large domain (the f32 spacing at 100 m is 7.6e-6 m). Relative
+    /// geometry (pair offsets, wall and mesh distances) is taken from differences of these
+    /// and rounded to f32 only after subtracting ([`crate::World::offset_of`]).
+    pub position: Vec<DVec3>,
     /// Linear velocity, m/s.
     pub velocity: Vec<Vec3>,
     /// Orientation of the principal frame (see [`crate::World::user_orientation`]).
@@ -41,10 +44,18 @@ impl BodyStates {
         self.position.is_empty()
     }
 
-    /// Body `i`'s state as a record.
+    /// Body `i`'s position rounded to f32 (for binning, drawing and other absolute uses).
+    #[inline]
+    pub fn position_f32(&self, i: usize) -> Vec3 {
+        self.position[i].as_vec3()
+    }
+
+    /// Body `i`'s state as a record (the position as a double-single pair: `position` the
+    /// f32 nearest, `position_lo` the f32 nearest the rest).
     pub fn record(&self, i: usize) -> BodyState {
+        let (hi, lo) = split_position(self.position[i]);
         let mut r = BodyState::new(
-            self.position[i],
+            hi,
             self.velocity[i],
             self.orientation[i],
             self.orientation_residual[i],
@@ -52,12 +63,13 @@ impl BodyStates {
             self.omega[i],
         );
         r.position[3] = if self.removed[i] { 1.0 } else { 0.0 };
+        r.position_lo = [lo.x, lo.y, lo.z, 0.0];
         r
     }
 
     /// Sets body `i`'s state from a record.
     pub fn set_record(&mut self, i: usize, s: &BodyState) {
-        self.position[i] = vec3_of(s.position);
+        self.position[i] = join_position(vec3_of(s.position), vec3_of(s.position_lo));
         self.velocity[i] = vec3_of(s.velocity);
         self.orientation[i] = quat_of(s.orientation);
         self.orientation_residual[i] = quat_of(s.residual);
@@ -74,6 +86,20 @@ impl BodyStates {
             && self.angular_momentum[i].is_finite()
             && self.omega[i].is_finite()
     }
+}
+
+/// A double-precision position as a double-single pair `(hi, lo)`: `hi` the nearest f32,
+/// `lo` the nearest f32 to the rest (what the GPU keeps; 48 bits of mantissa).
+#[inline]
+pub fn split_position(x: DVec3) -> (Vec3, Vec3) {
+    let hi = x.as_vec3();
+    (hi, (x - hi.as_dvec3()).as_vec3())
+}
+
+/// The inverse of [`split_position`]: `hi + lo` in f64.
+#[inline]
+pub fn join_position(hi: Vec3, lo: Vec3) -> DVec3 {
+    hi.as_dvec3() + lo.as_dvec3()
 }
 
 /// The constants of every body.

@@ -269,7 +269,7 @@ impl Contacts {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ContactState {
     /// Positions at the last broad-phase rebuild (empty: no list, rebuild at the next step).
-    pub rebuild_position: Vec<Vec3>,
+    pub rebuild_position: Vec<glam::DVec3>,
     /// Candidate body pairs `(i, j)`, `i < j`, sorted (with composites: the same body pair
     /// once per piece pair, sorted by [`piece_code`]).
     pub pairs: Vec<[u32; 2]>,

@@ -198,8 +198,10 @@ pub const LAW_CONSTANTS: &[Constant] = &[
 // The records.
 
 gpu_record! {
-    /// One body's integrated state, 96 bytes; the GPU stores one per body, the CPU the same
-    /// fields as arrays ([`crate::bodies::BodyStates`]). The `w` of `position` is 1.0 for a
+    /// One body's integrated state, 112 bytes; the GPU stores one per body, the CPU the same
+    /// fields as arrays ([`crate::bodies::BodyStates`], the position in f64). The centre of
+    /// mass is a double-single pair: `position` (the f32 nearest) plus `position_lo` (the
+    /// rest), see [`crate::bodies::split_position`]. The `w` of `position` is 1.0 for a
     /// body removed by a sink ([`crate::sink`]), else 0.0; the other `w`s are unused. The renderer reads `position` (byte 0) and `orientation` (byte 32) straight
     /// from the GPU's buffer.
     pub struct BodyState {
@@ -215,6 +217,8 @@ gpu_record! {
         pub angular_momentum: [f32; 4],
         /// Angular velocity (world frame), rad/s.
         pub omega: [f32; 4],
+        /// The low part of the centre of mass (double-single with `position`), m.
+        pub position_lo: [f32; 4],
     }
 }
 
@@ -244,6 +248,7 @@ impl BodyState {
             residual: q4(residual),
             angular_momentum: v4(angular_momentum),
             omega: v4(omega),
+            position_lo: [0.0; 4],
         }
     }
 }

@@ -55,7 +55,9 @@ pub struct ContactReport {
     pub body: u32,
     /// The other side.
     pub other: Partner,
-    /// The contact manifold recomputed at the current positions.
+    /// The contact manifold recomputed at the current positions, relative to `body`'s
+    /// position (points are offsets from `world.state.position[body]`: add it, in f64, for
+    /// world coordinates).
     pub manifold: Manifold,
     /// The force of the last step; for a body pair `force_b` acts on `other` and
     /// `-force_b` on `body`, for a wall `force_b` acts on `body`.
@@ -178,10 +180,10 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
     if world.is_empty() {
         return Vec::new();
     }
-    let positions = &world.state.position;
-    let grid = Grid::around(positions, 2.0 * world.consts.max_radius());
+    let positions: Vec<glam::Vec3> = world.state.position.iter().map(|p| p.as_vec3()).collect();
+    let grid = Grid::around(&positions, 2.0 * world.consts.max_radius());
     let radii = &world.consts.radius;
-    let pairs = broad::pairs_periodic(&grid, positions, radii, 0.0, world.periodic.as_ref());
+    let pairs = broad::pairs_periodic(&grid, &positions, radii, 0.0, world.periodic.as_ref());
     let report = |body: u32, other: Partner| {
         // Bodies removed by a sink touch nothing.
         if world.is_removed(body as usize)
@@ -225,20 +227,21 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
     out
 }
 
-/// The manifold of `body` and `other` at the current positions.
+/// The manifold of `body` and `other` at the current positions, relative to `body`'s
+/// position (as the contacts stage finds it: see [`World::offset_of`]).
 fn collide(world: &World, body: u32, other: Partner) -> Option<Manifold> {
     let i = body as usize;
     match other {
         Partner::Body(j) => narrow::collide(
             world.shape(i),
-            &world.pose(i),
+            &world.local_pose(i),
             world.shape(j as usize),
             &world.pose_from(i, j as usize),
         ),
         Partner::Wall(w) => narrow::collide_plane(
-            &world.walls[w as usize].plane,
+            &world.plane_from(i, &world.walls[w as usize].plane),
             world.shape(i),
-            &world.pose(i),
+            &world.local_pose(i),
         ),
         // Mesh contacts are found per body (`mesh_reports`), never through the contact list.
         Partner::Boundary(_) => None,
@@ -543,23 +546,18 @@ impl Health {
         let (x, r) = (&world.state.position, &world.consts.radius);
         let gone = &world.state.removed;
         let escaped = world.walls.iter().any(|w| {
-            let (n, o) = (w.plane.normal, w.plane.offset);
+            let (n, o) = (w.plane.normal.as_dvec3(), w.plane.offset as f64);
             x.iter()
                 .zip(r)
                 .zip(gone)
-                .map(|((x, r), g)| (!g & (n.dot(*x) - o < -r)) as u32)
+                .map(|((x, r), g)| (!g & (n.dot(*x) - o < -(*r as f64))) as u32)
                 .sum::<u32>()
                 > 0
         });
         let escaped = escaped
             .then(|| {
-                (0..world.len()).find(|&i| {
-                    !gone[i]
-                        && world
-                            .walls
-                            .iter()
-                            .any(|w| w.plane.normal.dot(x[i]) - w.plane.offset < -r[i])
-                })
+                (0..world.len())
+                    .find(|&i| !gone[i] && world.walls.iter().any(|w| wall_height(w, x[i]) < -r[i]))
             })
             .flatten();
         if let Some(i) = escaped {
@@ -567,12 +565,7 @@ impl Health {
                 .walls
                 .iter()
                 .enumerate()
-                .map(|(k, w)| {
-                    (
-                        k as u32,
-                        w.plane.normal.dot(world.state.position[i]) - w.plane.offset,
-                    )
-                })
+                .map(|(k, w)| (k as u32, wall_height(w, world.state.position[i])))
                 .fold((0, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
             return fail(BlowUpKind::Escaped { wall, distance: -h }, i);
         }
@@ -767,4 +760,9 @@ impl Health {
             })
             .sum()
     }
+}
+
+/// How far `x` is in front of wall `w` (`n . x - d`, in f64, then rounded).
+fn wall_height(w: &crate::world::Wall, x: glam::DVec3) -> f32 {
+    (w.plane.normal.as_dvec3().dot(x) - w.plane.offset as f64) as f32
 }

@@ -4,7 +4,7 @@
 //! its nearest image (the box is at least three broad-phase cells long along every periodic
 //! axis, so there is only ever one image within reach).
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A periodic box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,6 +53,41 @@ impl Periodic {
         for k in 0..3 {
             if self.axes[k] {
                 let len = self.max[k] - self.min[k];
+                if out[k] > 0.5 * len {
+                    out[k] -= len;
+                } else if out[k] < -0.5 * len {
+                    out[k] += len;
+                }
+            }
+        }
+        out
+    }
+
+    /// [`Periodic::wrap`] in f64 (the box length `max - min` taken in f64).
+    #[inline]
+    pub fn wrap_f64(&self, x: DVec3) -> DVec3 {
+        let mut out = x;
+        for k in 0..3 {
+            if self.axes[k] {
+                let (min, max) = (self.min[k] as f64, self.max[k] as f64);
+                let len = max - min;
+                if out[k] >= max {
+                    out[k] -= len;
+                } else if out[k] < min {
+                    out[k] += len;
+                }
+            }
+        }
+        out
+    }
+
+    /// [`Periodic::nearest`] in f64.
+    #[inline]
+    pub fn nearest_f64(&self, d: DVec3) -> DVec3 {
+        let mut out = d;
+        for k in 0..3 {
+            if self.axes[k] {
+                let len = self.max[k] as f64 - self.min[k] as f64;
                 if out[k] > 0.5 * len {
                     out[k] -= len;
                 } else if out[k] < -0.5 * len {

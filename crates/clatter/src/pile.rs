@@ -84,9 +84,10 @@ pub fn poured(shape: PileShape, n: usize, p: &PileParams, seed: u64) -> WorldDes
     let jitter = 0.05 * p.radius;
     let jit = |rng: &mut ChaCha8Rng| rng.random_range(-1.0f32..=1.0);
     for b in &mut desc.bodies {
-        let x = b.position * scale;
-        b.position = x + jitter * Vec3::new(jit(&mut rng), jit(&mut rng), jit(&mut rng));
-        b.position.z = b.position.z.max(p.radius * 1.05);
+        let x = b.position.as_vec3() * scale;
+        let mut y = x + jitter * Vec3::new(jit(&mut rng), jit(&mut rng), jit(&mut rng));
+        y.z = y.z.max(p.radius * 1.05);
+        b.position = y.as_dvec3();
         b.orientation = random_rotation(&mut rng);
         b.velocity = 0.1 * Vec3::new(jit(&mut rng), jit(&mut rng), jit(&mut rng));
     }
@@ -143,7 +144,8 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
                 half + x as f32 * gap,
                 half + y as f32 * gap,
                 half + z as f32 * spacing,
-            ),
+            )
+            .as_dvec3(),
             orientation: if shape == PileShape::Mixed {
                 random_rotation(&mut rng)
             } else {

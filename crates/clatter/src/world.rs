@@ -1,7 +1,7 @@
 //! The world: bodies (state and constants, structure of arrays), materials, walls and the
 //! contact list. The step that advances it is in [`crate::step`].
 
-use glam::{Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 use thiserror::Error;
 
 use crate::bodies::{BodyConstants, BodyStates};
@@ -16,12 +16,13 @@ use clatter_geom::narrow::Plane;
 use clatter_geom::{Pose, PreparedShape, Shape};
 
 /// A body as placed by a scene: which shape and material, and its initial state.
-/// `orientation` is in the frame the shape was authored in; `position` is the centre of mass.
+/// `orientation` is in the frame the shape was authored in; `position` is the centre of mass
+/// (f64, kept at full precision).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BodyInit {
     pub shape: u32,
     pub material: u32,
-    pub position: Vec3,
+    pub position: DVec3,
     pub orientation: Quat,
     pub velocity: Vec3,
     pub angular_velocity: Vec3,
@@ -123,7 +124,7 @@ pub struct World {
     /// the pieces' pairs were found at these.
     pub(crate) rebuild_orientation: Vec<Quat>,
     /// Positions at the last broad-phase rebuild.
-    pub(crate) rebuild_position: Vec<Vec3>,
+    pub(crate) rebuild_position: Vec<DVec3>,
     needs_rebuild: bool,
 }
 
@@ -148,7 +149,7 @@ impl World {
             let q = (b.orientation * shape.frame).normalize();
             state
                 .position
-                .push(desc.periodic.map_or(b.position, |p| p.wrap(b.position)));
+                .push(desc.periodic.map_or(b.position, |p| p.wrap_f64(b.position)));
             state.velocity.push(b.velocity);
             state.orientation.push(q);
             let body_w = q.conjugate() * b.angular_velocity;
@@ -369,15 +370,16 @@ impl World {
             .iter()
             .map(|v| v.length())
             .fold(0.0, f32::max) as f64;
+        let down = self.gravity.normalize_or_zero().as_dvec3();
         let (lo, hi) =
             self.state
                 .position
                 .iter()
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
-                    let h = p.dot(self.gravity.normalize_or_zero());
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                    let h = p.dot(down);
                     (lo.min(h), hi.max(h))
                 });
-        let height = ((hi - lo) as f64).max(0.0) + 2.0 * r_min;
+        let height = (hi - lo).max(0.0) + 2.0 * r_min;
         let speed = vmax
             .max((2.0 * self.gravity.length() as f64 * height).sqrt())
             .max(0.1);
@@ -421,35 +423,64 @@ impl World {
         (self.state.orientation[i] * frame.conjugate()).normalize()
     }
 
-    /// Body `i`'s pose (centre of mass, principal frame).
+    /// Body `i`'s pose in the world (centre of mass rounded to f32, principal frame): for
+    /// drawing and queries. The contact stages use [`World::local_pose`] and
+    /// [`World::pose_from`], which keep the precision of the positions.
     #[inline]
     pub fn pose(&self, i: usize) -> Pose {
-        Pose::new(self.state.position[i], self.state.orientation[i])
+        Pose::new(self.state.position_f32(i), self.state.orientation[i])
     }
 
-    /// Where body `j` is seen from body `i`: its position, or its nearest periodic image.
+    /// Body `i`'s pose in its own frame of reference: at the origin, in its orientation
+    /// (what the contact stages collide; see [`World::offset_of`]).
     #[inline]
-    pub fn image_of(&self, i: usize, j: usize) -> Vec3 {
-        let (xi, xj) = (self.state.position[i], self.state.position[j]);
+    pub fn local_pose(&self, i: usize) -> Pose {
+        Pose::new(Vec3::ZERO, self.state.orientation[i])
+    }
+
+    /// Where body `j` (or its nearest periodic image) is seen from body `i`: `x_j - x_i`,
+    /// subtracted in f64 and rounded to f32 after, so a contact is resolved to the float
+    /// precision of the offset, not of the coordinates.
+    #[inline]
+    pub fn offset_of(&self, i: usize, j: usize) -> Vec3 {
+        let d = self.state.position[j] - self.state.position[i];
         match &self.periodic {
-            Some(p) => xi + p.nearest(xj - xi),
-            None => xj,
+            Some(p) => p.nearest_f64(d).as_vec3(),
+            None => d.as_vec3(),
         }
     }
 
-    /// Body `j`'s pose as seen from body `i` (see [`World::image_of`]).
+    /// A world point `x` as seen from body `i` (`x - x_i` in f64, then rounded to f32).
     #[inline]
-    pub fn pose_from(&self, i: usize, j: usize) -> Pose {
-        Pose::new(self.image_of(i, j), self.state.orientation[j])
+    pub fn relative_to(&self, i: usize, x: Vec3) -> Vec3 {
+        (x.as_dvec3() - self.state.position[i]).as_vec3()
     }
 
-    /// Body `j`'s rigid motion as seen from body `i` (at its nearest image).
+    /// Body `j`'s pose as seen from body `i`: relative to `i`'s position (see
+    /// [`World::offset_of`]), in `j`'s orientation.
+    #[inline]
+    pub fn pose_from(&self, i: usize, j: usize) -> Pose {
+        Pose::new(self.offset_of(i, j), self.state.orientation[j])
+    }
+
+    /// Body `j`'s rigid motion as seen from body `i` (its position relative to `i`'s, at
+    /// its nearest image).
     #[inline]
     pub fn motion_from(&self, i: usize, j: usize) -> BodyMotion {
         BodyMotion {
-            position: self.image_of(i, j),
+            position: self.offset_of(i, j),
             velocity: self.state.velocity[j],
             omega: self.state.omega[j],
+        }
+    }
+
+    /// A wall's plane as seen from body `i` (its offset `d - n . x_i`, in f64).
+    #[inline]
+    pub fn plane_from(&self, i: usize, plane: &Plane) -> Plane {
+        Plane {
+            normal: plane.normal,
+            offset: (plane.offset as f64 - plane.normal.as_dvec3().dot(self.state.position[i]))
+                as f32,
         }
     }
 
@@ -499,7 +530,7 @@ impl World {
     pub fn potential_energy(&self) -> f64 {
         (0..self.len())
             .map(|i| {
-                -(self.consts.mass[i] as f64) * self.gravity.dot(self.state.position[i]) as f64
+                -(self.consts.mass[i] as f64) * self.gravity.as_dvec3().dot(self.state.position[i])
             })
             .sum()
     }
@@ -551,7 +582,7 @@ impl World {
     }
 
     /// Positions at the last broad-phase rebuild (empty before the first).
-    pub fn rebuild_position(&self) -> &[Vec3] {
+    pub fn rebuild_position(&self) -> &[DVec3] {
         &self.rebuild_position
     }
 
@@ -721,11 +752,12 @@ impl World {
         self.rebuilds += 1;
     }
 
-    /// Body `i`'s rigid motion, as the contact law sees it.
+    /// Body `i`'s rigid motion in its own frame of reference (at the origin; see
+    /// [`World::local_pose`]), as the contact law sees it.
     #[inline]
-    pub fn motion(&self, i: usize) -> BodyMotion {
+    pub fn local_motion(&self, i: usize) -> BodyMotion {
         BodyMotion {
-            position: self.state.position[i],
+            position: Vec3::ZERO,
             velocity: self.state.velocity[i],
             omega: self.state.omega[i],
         }

@@ -106,7 +106,7 @@ fn awkward_meshes_run_as_their_clean_twins() {
                 }
                 Expect::Within(tol) => {
                     for i in 0..x.len() {
-                        let dx = (x.state.position[i] - y.state.position[i]).length();
+                        let dx = (x.state.position[i] - y.state.position[i]).length() as f32;
                         worst = worst.max(dx);
                         assert!(
                             dx <= tol,

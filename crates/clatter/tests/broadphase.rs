@@ -181,7 +181,7 @@ fn mixed_cloud(n: usize, seed: u64) -> WorldDesc {
             BodyInit {
                 shape: rng.random_range(0..shapes.len()) as u32,
                 material: 0,
-                position,
+                position: position.as_dvec3(),
                 orientation: random_rotation(&mut rng),
                 velocity: -position / 0.05 + uniform(&mut rng, 1, 0.3)[0],
                 angular_velocity: uniform(&mut rng, 1, 50.0)[0],
@@ -219,7 +219,7 @@ fn compare_with_all_pairs(w: &mut World, steps: usize, every: usize) -> (usize, 
         let check = s % every == every - 1;
         let poses: Vec<Pose> = if check {
             (0..w.len())
-                .map(|i| Pose::new(w.state.position[i], w.state.orientation[i]))
+                .map(|i| Pose::new(w.state.position_f32(i), w.state.orientation[i]))
                 .collect()
         } else {
             Vec::new()

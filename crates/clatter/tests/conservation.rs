@@ -72,7 +72,7 @@ fn cloud(n: usize, seed: u64) -> WorldDesc {
         bodies.push(BodyInit {
             shape: rng.random_range(0..shapes.len()) as u32,
             material: 0,
-            position,
+            position: position.as_dvec3(),
             orientation: random_rotation(&mut rng),
             velocity: -position / 0.08 + rand_vec(&mut rng, 0.3),
             angular_velocity: rand_vec(&mut rng, 60.0),
@@ -112,7 +112,7 @@ fn angular_momentum(w: &World) -> (DVec3, f64) {
     let mut s = 0.0;
     for i in 0..w.len() {
         let m = w.consts.mass[i] as f64;
-        let orbital = dvec(w.state.position[i]).cross(dvec(w.state.velocity[i]) * m);
+        let orbital = dvec(w.state.position_f32(i)).cross(dvec(w.state.velocity[i]) * m);
         let spin = dvec(w.state.angular_momentum[i]);
         l += orbital + spin;
         s += orbital.length() + spin.length();
@@ -160,8 +160,8 @@ fn momentum_and_angular_momentum_of_colliding_polyhedra() {
         counter.update(&w);
         for (i, &x0) in x_prev.iter().enumerate() {
             let v = dvec(w.state.velocity[i]);
-            let ideal = dvec(x0) + v * w.dt as f64;
-            rounding += (dvec(w.state.position[i]) - ideal).cross(v * w.consts.mass[i] as f64);
+            let ideal = x0 + v * w.dt as f64;
+            rounding += (w.state.position[i] - ideal).cross(v * w.consts.mass[i] as f64);
         }
         if s % 100 == 99 {
             let (p, _) = momentum(&w);
@@ -200,16 +200,14 @@ fn spring_energy(w: &World, radius: &[f32]) -> f64 {
     for i in 0..w.len() {
         for j in i + 1..w.len() {
             let d = (radius[i] + radius[j]) as f64
-                - (w.state.position[j] - w.state.position[i])
-                    .as_dvec3()
-                    .length();
+                - (w.state.position[j] - w.state.position[i]).length();
             if d > 0.0 {
                 e += 0.5 * K as f64 * d * d;
             }
         }
         for wall in &w.walls {
             let d = radius[i] as f64
-                - (wall.plane.normal.dot(w.state.position[i]) - wall.plane.offset) as f64;
+                - (wall.plane.normal.dot(w.state.position_f32(i)) - wall.plane.offset) as f64;
             if d > 0.0 {
                 e += 0.5 * K as f64 * d * d;
             }
@@ -236,7 +234,7 @@ fn energy_of_elastic_spheres_in_a_box() {
         bodies.push(BodyInit {
             shape: rng.random_range(0..3),
             material: 0,
-            position: c + rand_vec(&mut rng, 0.1 * spacing),
+            position: (c + rand_vec(&mut rng, 0.1 * spacing)).as_dvec3(),
             orientation: Quat::IDENTITY,
             velocity: rand_vec(&mut rng, 0.6),
             angular_velocity: Vec3::ZERO,
@@ -281,7 +279,8 @@ fn energy_of_elastic_spheres_in_a_box() {
         counter.update(&w);
         for i in 0..w.len() {
             for (k, wall) in w.walls.iter().enumerate() {
-                let t = wall.plane.normal.dot(w.state.position[i]) - wall.plane.offset < radius[i];
+                let t =
+                    wall.plane.normal.dot(w.state.position_f32(i)) - wall.plane.offset < radius[i];
                 if t && !wall_touching[i * 6 + k] {
                     wall_hits += 1;
                 }
@@ -318,12 +317,9 @@ fn energy_of_elastic_spheres_in_a_box() {
         "frictionless spheres spin at {max_spin} rad/s"
     );
     // Nobody escaped the box.
-    assert!(
-        w.state
-            .position
-            .iter()
-            .all(|p| p.cmpge(Vec3::ZERO).all() && p.cmple(Vec3::splat(side)).all())
-    );
+    assert!(w.state.position.iter().all(
+        |p| p.cmpge(glam::DVec3::ZERO).all() && p.cmple(glam::DVec3::splat(side as f64)).all()
+    ));
 }
 
 /// A frictionless, perfectly elastic (`e = 1`, so no damping) polyhedron bouncing off a wall
@@ -358,7 +354,7 @@ fn elastic_frictionless_polyhedron_wall_bounce_keeps_its_energy() {
                 bodies: vec![BodyInit {
                     shape: 0,
                     material: 0,
-                    position: Vec3::ZERO,
+                    position: glam::DVec3::ZERO,
                     orientation,
                     velocity: Vec3::new(0.0, 0.0, -0.5),
                     angular_velocity,
@@ -377,7 +373,7 @@ fn elastic_frictionless_polyhedron_wall_bounce_keeps_its_energy() {
                 .iter()
                 .map(|&v| (w.state.orientation[0] * v).z)
                 .fold(f32::INFINITY, f32::min);
-            w.state.position[0].z = 3e-4 - lowest;
+            w.state.position_f32(0).z = 3e-4 - lowest;
             let e0 = w.kinetic_energy();
             // Until it is out of reach of the wall and moving away (possibly after several hits).
             while !(w.state.position[0].z > 0.011 && w.state.velocity[0].z > 0.0) {

@@ -10,7 +10,10 @@ use glam::Vec3;
 fn snapshot(w: &World) -> Vec<u32> {
     let mut out = Vec::with_capacity(w.len() * 16);
     for i in 0..w.len() {
-        out.extend(w.state.position[i].to_array().map(f32::to_bits));
+        out.extend(w.state.position[i].to_array().into_iter().flat_map(|v| {
+            let b = v.to_bits();
+            [b as u32, (b >> 32) as u32]
+        }));
         out.extend(w.state.velocity[i].to_array().map(f32::to_bits));
         out.extend(w.state.orientation[i].to_array().map(f32::to_bits));
         out.extend(w.state.angular_momentum[i].to_array().map(f32::to_bits));

@@ -52,7 +52,8 @@ fn lattice_group_takes_its_shapes_in_turn() {
     for (j, b) in bodies.iter().enumerate() {
         assert_eq!(b.shape, index(names[j % 4]), "body {j}");
         let (x, y) = ((j % 11) as f32 * 0.006, (j / 11) as f32 * 0.006);
-        assert!((b.position.x - x).abs() < 1e-6 && (b.position.y - y).abs() < 1e-6);
+        let p = b.position.as_vec3();
+        assert!((p.x - x).abs() < 1e-6 && (p.y - y).abs() < 1e-6);
     }
     // A repeated name weights the mix: half the bodies are small.
     let small = bodies.iter().filter(|b| b.shape == 0).count();
@@ -74,7 +75,7 @@ fn random_group_keeps_each_body_clear_by_its_own_radius() {
     let mut closest = f32::INFINITY;
     for i in 0..bodies.len() {
         for j in i + 1..bodies.len() {
-            let gap = bodies[i].position.distance(bodies[j].position)
+            let gap = bodies[i].position.distance(bodies[j].position) as f32
                 - radius(bodies[i].shape)
                 - radius(bodies[j].shape);
             closest = closest.min(gap);
@@ -88,7 +89,7 @@ fn random_group_keeps_each_body_clear_by_its_own_radius() {
     let small_gap = (0..bodies.len())
         .step_by(2)
         .flat_map(|i| (i + 2..bodies.len()).step_by(2).map(move |j| (i, j)))
-        .map(|(i, j)| bodies[i].position.distance(bodies[j].position))
+        .map(|(i, j)| bodies[i].position.distance(bodies[j].position) as f32)
         .fold(f32::INFINITY, f32::min);
     assert!(small_gap < 2.0 * 0.003, "closest small pair {small_gap}");
 }
@@ -157,7 +158,7 @@ fn random_group_in_a_periodic_box_is_clear_across_the_seams() {
     let (mut closest, mut across) = (f32::INFINITY, 0);
     for i in 0..bodies.len() {
         for j in i + 1..bodies.len() {
-            let raw = bodies[j].position - bodies[i].position;
+            let raw = (bodies[j].position - bodies[i].position).as_vec3();
             let d = nearest_image(raw);
             let reach = radius(bodies[i].shape) + radius(bodies[j].shape);
             closest = closest.min(d.length() - reach);
@@ -202,7 +203,12 @@ fn random_group_without_periodic_axes_is_plain_rejection_sampling() {
             kept.push((p, r));
         }
     }
-    let placed: Vec<Vec3> = scene.desc.bodies.iter().map(|b| b.position).collect();
+    let placed: Vec<Vec3> = scene
+        .desc
+        .bodies
+        .iter()
+        .map(|b| b.position.as_vec3())
+        .collect();
     let expected: Vec<Vec3> = kept.iter().map(|&(p, _)| p).collect();
     assert!(placed == expected, "the open-space placement changed");
     // Periodic images of this placement do overlap: the open case really differs.

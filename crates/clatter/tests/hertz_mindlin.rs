@@ -70,7 +70,7 @@ fn tangential_oscillation_follows_hertz_mindlin() {
         bodies: vec![BodyInit {
             shape: 0,
             material: 0,
-            position: Vec3::new(0.0, 0.0, (R - d) as f32),
+            position: Vec3::new(0.0, 0.0, (R - d) as f32).as_dvec3(),
             orientation: Quat::IDENTITY,
             velocity: Vec3::ZERO,
             angular_velocity: Vec3::ZERO,

@@ -193,7 +193,7 @@ fn linear_contact_duration_uses_the_effective_mass() {
                 BodyInit {
                     shape: 0,
                     material: 0,
-                    position: Vec3::new(-(ra as f32) - 1e-4, 0.0, 0.0),
+                    position: Vec3::new(-(ra as f32) - 1e-4, 0.0, 0.0).as_dvec3(),
                     orientation: Quat::IDENTITY,
                     velocity: Vec3::new(0.4, 0.0, 0.0),
                     angular_velocity: Vec3::ZERO,
@@ -201,7 +201,7 @@ fn linear_contact_duration_uses_the_effective_mass() {
                 BodyInit {
                     shape: 1,
                     material: 0,
-                    position: Vec3::new(rb as f32 + 1e-4, 0.0, 0.0),
+                    position: Vec3::new(rb as f32 + 1e-4, 0.0, 0.0).as_dvec3(),
                     orientation: Quat::IDENTITY,
                     velocity: Vec3::new(-0.2, 0.0, 0.0),
                     angular_velocity: Vec3::ZERO,
@@ -325,7 +325,7 @@ fn hertz_static_overlap_under_load() {
                 bodies: vec![BodyInit {
                     shape: 0,
                     material: 0,
-                    position: Vec3::new(0.0, 0.0, r as f32 + 1e-4),
+                    position: Vec3::new(0.0, 0.0, r as f32 + 1e-4).as_dvec3(),
                     orientation: Quat::IDENTITY,
                     velocity: Vec3::ZERO,
                     angular_velocity: Vec3::ZERO,

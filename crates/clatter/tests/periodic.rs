@@ -43,7 +43,7 @@ fn body(position: Vec3, velocity: Vec3, omega: Vec3) -> BodyInit {
     BodyInit {
         shape: 0,
         material: 0,
-        position,
+        position: position.as_dvec3(),
         orientation: Quat::from_rotation_z(0.3) * Quat::from_rotation_x(0.2),
         velocity,
         angular_velocity: omega,
@@ -91,7 +91,7 @@ fn seam_collision(shape: ShapeKind, axis: usize) {
     );
     for i in 0..2 {
         let (s, o) = (&seam.state, &open.state);
-        let image = periodic.wrap(o.position[i]);
+        let image = periodic.wrap_f64(o.position[i]);
         assert!(
             s.velocity[i] == o.velocity[i]
                 && s.omega[i] == o.omega[i]
@@ -106,7 +106,7 @@ fn seam_collision(shape: ShapeKind, axis: usize) {
             image
         );
         // The periodic run keeps its bodies in the box.
-        let x = s.position[i][axis];
+        let x = s.position[i][axis] as f32;
         assert!((LO..LO + L).contains(&x), "body {i} left the box: {x}");
     }
 }
@@ -189,7 +189,7 @@ fn a_periodic_gas_conserves_momentum() {
     assert_eq!(wrapped, n);
     assert!(drift < 1e-5, "momentum drift {drift:.3e}");
     let inside = (0..n).all(|i| {
-        let x = w.state.position[i];
+        let x = w.state.position_f32(i);
         x.cmpge(Vec3::ZERO).all() && x.cmplt(Vec3::splat(side)).all()
     });
     assert!(inside, "every body stays in the periodic box");

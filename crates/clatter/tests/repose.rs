@@ -36,9 +36,10 @@ fn column(mu_r: f32) -> World {
         bodies.push(BodyInit {
             shape: 0,
             material: 0,
-            position: (Vec3::new(x as f32 - 2.0, y as f32 - 2.0, z as f32 + 0.5) + jitter)
+            position: ((Vec3::new(x as f32 - 2.0, y as f32 - 2.0, z as f32 + 0.5) + jitter)
                 * spacing
-                + Vec3::new(0.0, 0.0, R),
+                + Vec3::new(0.0, 0.0, R))
+            .as_dvec3(),
             orientation: Quat::IDENTITY,
             velocity: Vec3::ZERO,
             angular_velocity: Vec3::ZERO,
@@ -66,10 +67,15 @@ fn column(mu_r: f32) -> World {
 /// from the pile's axis, fitted by a line over the rings between the summit and the foot.
 fn repose_angle(w: &World) -> f64 {
     let n = w.len();
-    let centre = w.state.position.iter().fold(Vec3::ZERO, |a, &p| a + p) / n as f32;
+    let centre = w
+        .state
+        .position
+        .iter()
+        .fold(Vec3::ZERO, |a, &p| a + p.as_vec3())
+        / n as f32;
     let ring = 2.0 * R;
     let mut top = vec![0.0f32; 64];
-    for p in &w.state.position {
+    for p in w.state.position.iter().map(|p| p.as_vec3()) {
         let rho = ((p.x - centre.x).powi(2) + (p.y - centre.y).powi(2)).sqrt();
         let k = ((rho / ring) as usize).min(top.len() - 1);
         top[k] = top[k].max(p.z + R);

@@ -31,7 +31,7 @@ fn body(position: Vec3, orientation: Quat) -> BodyInit {
     BodyInit {
         shape: 0,
         material: 0,
-        position,
+        position: position.as_dvec3(),
         orientation,
         velocity: Vec3::ZERO,
         angular_velocity: Vec3::ZERO,
@@ -88,7 +88,7 @@ fn lowest_vertex(w: &World, i: usize) -> f32 {
     };
     p.vertices
         .iter()
-        .map(|&v| (w.state.orientation[i] * v + w.state.position[i]).z)
+        .map(|&v| (w.state.orientation[i] * v + w.state.position_f32(i)).z)
         .fold(f32::INFINITY, f32::min)
 }
 
@@ -199,7 +199,7 @@ fn cube_on_edge(deg: f32) -> World {
     let q = Quat::from_rotation_x(deg.to_radians());
     let mut w = world(cube(), vec![body(Vec3::ZERO, q)]);
     let lift = 0.002 - lowest_vertex(&w, 0);
-    w.state.position[0].z += lift;
+    w.state.position[0].z += (lift) as f64;
     w
 }
 
@@ -244,10 +244,10 @@ fn cube_on_edge_rests_with_precise_orientation_update() {
             .normalize();
         w.state.orientation[0] = q64.as_quat();
         if s == (1.5 / w.dt as f64) as usize {
-            x_mid = w.state.position[0];
+            x_mid = w.state.position_f32(0);
         }
     }
-    let drift = (w.state.position[0] - x_mid).length();
+    let drift = (w.state.position_f32(0) - x_mid).length();
     eprintln!(
         "precise orientation: moved {drift:.2e} m in the last second, v {:?}, omega {:?}",
         w.state.velocity[0], w.state.omega[0]
@@ -266,7 +266,7 @@ fn regular_rests_on_a_face(kind: RegularKind, inradius_over_circumradius: f64) {
         let shape = ShapeKind::Regular { kind, radius: r }.prepare().unwrap();
         let mut w = world(shape, vec![body(Vec3::ZERO, q)]);
         let lift = 0.004 - lowest_vertex(&w, 0);
-        w.state.position[0].z += lift;
+        w.state.position[0].z += (lift) as f64;
         run_for(&mut w, 2.0);
         assert_rests_on_face(
             &mut w,
@@ -308,7 +308,7 @@ fn three_cubes_stay_stacked() {
     // Static overlaps: the floor carries 3 weights, the lower interface 2, the upper 1.
     let expected = [h - 3.0 * mg_k, 3.0 * h - 5.0 * mg_k, 5.0 * h - 6.0 * mg_k];
     let snapshot: Vec<(Vec3, Quat)> = (0..3)
-        .map(|i| (w.state.position[i], w.state.orientation[i]))
+        .map(|i| (w.state.position_f32(i), w.state.orientation[i]))
         .collect();
     for (i, &expected) in expected.iter().enumerate() {
         eprintln!(
@@ -318,7 +318,7 @@ fn three_cubes_stay_stacked() {
             w.state.velocity[i].length()
         );
         assert!(
-            (w.state.position[i].z - expected).abs() < 0.05 * mg_k,
+            (w.state.position_f32(i).z - expected).abs() < 0.05 * mg_k,
             "cube {i} at {}, expected {}",
             w.state.position[i].z,
             expected
@@ -341,7 +341,10 @@ fn three_cubes_stay_stacked() {
     assert_eq!(w.touching_pairs(), vec![[0, 1], [1, 2]]);
     run_for(&mut w, 1.0);
     for (i, &(x0, q0)) in snapshot.iter().enumerate() {
-        assert!((w.state.position[i] - x0).length() < 1e-6, "cube {i} crept");
+        assert!(
+            (w.state.position_f32(i) - x0).length() < 1e-6,
+            "cube {i} crept"
+        );
         assert!(
             angle_between(q0, w.state.orientation[i]) < 1e-3,
             "cube {i} turned"

@@ -33,7 +33,7 @@ fn body(shape: u32, position: Vec3, velocity: Vec3) -> BodyInit {
     BodyInit {
         shape,
         material: 0,
-        position,
+        position: position.as_dvec3(),
         orientation: Quat::IDENTITY,
         velocity,
         angular_velocity: Vec3::ZERO,
@@ -315,7 +315,7 @@ fn restitution_error(
     }
     if pair.is_some() {
         // Shift sphere 1 by the phase's fraction of a step's travel.
-        w.state.position[1].x += (2.0 * V0 as f64 * w.dt as f64 * phase) as f32;
+        w.state.position_f32(1).x += (2.0 * V0 as f64 * w.dt as f64 * phase) as f32;
         w.rebuild_contacts();
     }
     let rel = |w: &World| match pair {

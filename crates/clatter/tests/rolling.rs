@@ -48,7 +48,7 @@ fn world(velocity: Vec3, omega: Vec3) -> World {
         bodies: vec![BodyInit {
             shape: 0,
             material: 0,
-            position: Vec3::new(0.0, 0.0, R - mass * G / K),
+            position: Vec3::new(0.0, 0.0, R - mass * G / K).as_dvec3(),
             orientation: Quat::IDENTITY,
             velocity,
             angular_velocity: omega,
@@ -145,7 +145,7 @@ fn sliding_sphere_ends_rolling_at_five_sevenths() {
             "rolling speed {before} -> {after}"
         );
         // Still on the floor at its static overlap.
-        let sink = (R - w.state.position[0].z) as f64;
+        let sink = (R - w.state.position_f32(0).z) as f64;
         let static_overlap = (w.consts.mass[0] * G / K) as f64;
         assert!(
             (sink - static_overlap).abs() < 0.05 * static_overlap,

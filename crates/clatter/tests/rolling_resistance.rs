@@ -41,7 +41,7 @@ fn sphere_world(
         bodies: vec![BodyInit {
             shape: 0,
             material: 0,
-            position,
+            position: position.as_dvec3(),
             orientation: Quat::IDENTITY,
             velocity,
             angular_velocity: omega,
@@ -129,7 +129,7 @@ fn stays_attached(weight_ratio: f32) -> bool {
     );
     let steps = (0.1 / w.dt as f64).ceil() as u64;
     step_n(&mut w, steps).unwrap();
-    let gap = -w.state.position[0].z - R;
+    let gap = -w.state.position_f32(0).z - R;
     gap < 0.01 * R
 }
 

@@ -63,7 +63,10 @@ fn bits(w: &World) -> Vec<u32> {
     let s = &w.state;
     let mut out = Vec::new();
     for i in 0..w.len() {
-        out.extend(s.position[i].to_array().map(f32::to_bits));
+        out.extend(s.position[i].to_array().into_iter().flat_map(|v| {
+            let b = v.to_bits();
+            [b as u32, (b >> 32) as u32]
+        }));
         out.extend(s.velocity[i].to_array().map(f32::to_bits));
         out.extend(s.orientation[i].to_array().map(f32::to_bits));
         out.extend(s.orientation_residual[i].to_array().map(f32::to_bits));

@@ -47,7 +47,7 @@ fn lattice(n: usize, pitch: f32, speed: f32, seed: u64) -> Vec<BodyInit> {
         bodies.push(BodyInit {
             shape: 0,
             material: 0,
-            position: (c + jitter) * pitch,
+            position: ((c + jitter) * pitch).as_dvec3(),
             orientation: Quat::IDENTITY,
             velocity: rand_vec(&mut rng) * speed,
             angular_velocity: Vec3::ZERO,
@@ -63,13 +63,13 @@ fn energy(w: &World) -> f64 {
     let k = K as f64;
     for i in 0..p.len() {
         for j in i + 1..p.len() {
-            let d = 2.0 * R as f64 - (p[i] - p[j]).as_dvec3().length();
+            let d = 2.0 * R as f64 - (p[i] - p[j]).length();
             if d > 0.0 {
                 e += 0.5 * k * d * d;
             }
         }
         for wall in &w.walls {
-            let d = R as f64 - (wall.plane.normal.dot(p[i]) - wall.plane.offset) as f64;
+            let d = R as f64 - (wall.plane.normal.as_dvec3().dot(p[i]) - wall.plane.offset as f64);
             if d > 0.0 {
                 e += 0.5 * k * d * d;
             }
@@ -276,7 +276,7 @@ pub fn symmetric_top(ctx: &Ctx) -> anyhow::Result<Outcome> {
         bodies: vec![BodyInit {
             shape: 0,
             material: 0,
-            position: Vec3::ZERO,
+            position: glam::DVec3::ZERO,
             orientation: Quat::IDENTITY,
             velocity: Vec3::ZERO,
             angular_velocity: omega,

@@ -131,7 +131,7 @@ pub fn world(c: &Case) -> World {
             .map(|(i, b)| BodyInit {
                 shape: i as u32,
                 material: i as u32,
-                position: Vec3::new(0.0, 0.0, b.z as f32),
+                position: Vec3::new(0.0, 0.0, b.z as f32).as_dvec3(),
                 orientation: Quat::IDENTITY,
                 velocity: Vec3::new(b.u as f32, 0.0, 0.0),
                 angular_velocity: Vec3::ZERO,

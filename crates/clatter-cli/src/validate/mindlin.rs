@@ -83,7 +83,7 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
             bodies: vec![BodyInit {
                 shape: 0,
                 material: 0,
-                position: Vec3::new(0.0, 0.0, (R - d) as f32),
+                position: Vec3::new(0.0, 0.0, (R - d) as f32).as_dvec3(),
                 orientation: Quat::IDENTITY,
                 velocity: Vec3::ZERO,
                 angular_velocity: Vec3::ZERO,

@@ -93,7 +93,13 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
         ));
     }
     // The measurement volume.
-    let p: Vec<Vec3> = sim.world.state.position.clone();
+    let p: Vec<Vec3> = sim
+        .world
+        .state
+        .position
+        .iter()
+        .map(|x| x.as_vec3())
+        .collect();
     let mut heights: Vec<f32> = p.iter().map(|q| q.z).collect();
     heights.sort_by(f32::total_cmp);
     let surface = heights[(0.95 * (n - 1) as f64) as usize];
@@ -147,7 +153,8 @@ fn rain(cells: usize, layers: usize) -> Vec<BodyInit> {
                     (x + j(&mut rng)) * pitch,
                     (y + j(&mut rng)) * pitch,
                     R * 1.5 + l as f32 * 1.3 * d + j(&mut rng) * d,
-                ),
+                )
+                .as_dvec3(),
                 orientation: Quat::IDENTITY,
                 velocity: Vec3::new(
                     rng.random_range(-0.05..0.05),

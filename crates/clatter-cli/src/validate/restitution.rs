@@ -40,7 +40,7 @@ fn body(shape: u32, position: Vec3, velocity: Vec3) -> BodyInit {
     BodyInit {
         shape,
         material: 0,
-        position,
+        position: position.as_dvec3(),
         orientation: Quat::IDENTITY,
         velocity,
         angular_velocity: Vec3::ZERO,

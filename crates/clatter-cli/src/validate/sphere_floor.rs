@@ -64,7 +64,7 @@ fn world(radii: &[f64], z: &[f64], v: Vec3, e: f64, mu: f64) -> World {
             .map(|(i, z)| BodyInit {
                 shape: i as u32,
                 material: 0,
-                position: Vec3::new(0.0, 0.0, *z as f32),
+                position: Vec3::new(0.0, 0.0, *z as f32).as_dvec3(),
                 orientation: Quat::IDENTITY,
                 velocity: if i == 0 { v } else { Vec3::ZERO },
                 angular_velocity: Vec3::ZERO,

@@ -228,6 +228,7 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
         if params.composites != 0u {
             snap4(at + 28u, rebuild_pos[n + i]);
         }
+        snap4(at + 32u, s.position_lo);
     }
     let mesh_at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * slots;
     let mesh_words = snap_mesh_words(n);

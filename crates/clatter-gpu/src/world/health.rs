@@ -148,6 +148,7 @@ impl GpuWorld {
                 residual: f4(at + 12),
                 angular_momentum: f4(at + 16),
                 omega: f4(at + 20),
+                position_lo: f4(at + 32),
             };
             world.state.set_record(i as usize, &s);
         }
@@ -164,7 +165,7 @@ impl GpuWorld {
         );
         let state = ContactState {
             rebuild_position: if st[status::REBUILDS] > 0 {
-                (0..n).map(|i| v3(f4(body_at(i) + 24))).collect()
+                (0..n).map(|i| v3(f4(body_at(i) + 24)).as_dvec3()).collect()
             } else {
                 Vec::new()
             },

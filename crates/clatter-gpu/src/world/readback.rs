@@ -95,7 +95,10 @@ impl GpuWorld {
         let (pairs, pieces) = decode_pairs(bytemuck::pod_collect_to_vec(&pairs_bytes), composites);
         Ok(ContactState {
             rebuild_position: if rebuilt {
-                rb.iter().take(n as usize).map(|&p| v3(p)).collect()
+                rb.iter()
+                    .take(n as usize)
+                    .map(|&p| v3(p).as_dvec3())
+                    .collect()
             } else {
                 Vec::new()
             },

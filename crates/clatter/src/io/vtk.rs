@@ -1,5 +1,6 @@
 //! VTK output for ParaView: one XML UnstructuredGrid file (`.vtu`) per output step, and a
-//! `.pvd` collection that indexes them by time.
+//! `.pvd` collection that indexes them by time. Points are Float64: body centres at the full
+//! precision of the positions, shape vertices and contact points as offsets from them.
 //!
 //! Used by `clatter run --format vtk` and the Python module's `Simulation.write_vtk`.
 //!
@@ -75,7 +76,7 @@ fn write_vtu(
     path: &Path,
     step: u64,
     time: f64,
-    points: &[f32],
+    points: &[f64],
     arrays: &[Array],
     vectors: &str,
 ) -> std::io::Result<()> {
@@ -106,7 +107,7 @@ fn write_grid(
     path: &Path,
     step: u64,
     time: f64,
-    points: &[f32],
+    points: &[f64],
     cells: &Cells,
     arrays: &[Array],
     cell_arrays: &[Array],
@@ -155,7 +156,7 @@ fn write_grid(
         w,
         &Array {
             name: "Points",
-            ty: "Float32",
+            ty: "Float64",
             components: 3,
             bytes: points.iter().flat_map(|v| v.to_le_bytes()).collect(),
         },
@@ -277,7 +278,7 @@ fn body_arrays(world: &World, repeat: impl Fn(usize) -> usize) -> Vec<Array> {
 /// Writes the bodies of `world` at its current step (not those removed by a sink; the `id`
 /// array keeps every body's index).
 pub fn write_bodies(path: &Path, world: &World) -> std::io::Result<()> {
-    let points: Vec<f32> = (0..world.len())
+    let points: Vec<f64> = (0..world.len())
         .filter(|&i| !world.is_removed(i))
         .flat_map(|i| world.state.position[i].to_array())
         .collect();
@@ -326,15 +327,18 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
             })
             .sum::<usize>()
     };
-    let mut points: Vec<f32> = Vec::new();
+    let mut points: Vec<f64> = Vec::new();
     let mut cells = Cells {
         connectivity: Vec::new(),
         offsets: Vec::new(),
         types: Vec::new(),
     };
     for i in (0..n).filter(|&i| !world.is_removed(i)) {
+        // Vertices about the body's centre, placed at its f64 position.
+        let x = world.state.position[i];
+        let at = |p: Vec3| (x + p.as_dvec3()).to_array();
         for (shape, local) in world.shapes[world.consts.shape[i] as usize].shape.pieces() {
-            let pose = clatter_geom::narrow::piece_pose(&world.pose(i), &local);
+            let pose = clatter_geom::narrow::piece_pose(&world.local_pose(i), &local);
             let base = (points.len() / 3) as i32;
             let face = |loop_: &mut dyn Iterator<Item = u32>, cells: &mut Cells| {
                 cells.connectivity.extend(loop_.map(|k| base + k as i32));
@@ -344,7 +348,7 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
             match shape {
                 Shape::Sphere { radius } => {
                     for v in &sphere.0 {
-                        points.extend(pose.transform_point(*v * *radius).to_array());
+                        points.extend(at(pose.transform_point(*v * *radius)));
                     }
                     for t in &sphere.1 {
                         face(&mut t.iter().copied(), &mut cells);
@@ -352,7 +356,7 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
                 }
                 Shape::Polyhedron(h) => {
                     for v in &h.vertices {
-                        points.extend(pose.transform_point(*v).to_array());
+                        points.extend(at(pose.transform_point(*v)));
                     }
                     for f in 0..h.faces.len() {
                         face(&mut h.face_loop(f).iter().copied(), &mut cells);
@@ -378,7 +382,7 @@ pub fn write_shapes(path: &Path, world: &World) -> std::io::Result<()> {
 /// Writes every triangle-mesh boundary of `world` in world coordinates at its current time
 /// (see the module documentation).
 pub fn write_boundaries(path: &Path, world: &World) -> std::io::Result<()> {
-    let mut points: Vec<f32> = Vec::new();
+    let mut points: Vec<f64> = Vec::new();
     let mut cells = Cells {
         connectivity: Vec::new(),
         offsets: Vec::new(),
@@ -390,7 +394,7 @@ pub fn write_boundaries(path: &Path, world: &World) -> std::io::Result<()> {
         let motion = mesh.motion_at(world.time);
         let base = (points.len() / 3) as i32;
         for v in &mesh.vertices {
-            points.extend(pose.apply(*v).to_array());
+            points.extend(pose.apply(*v).as_dvec3().to_array());
         }
         for t in &mesh.triangles {
             cells
@@ -433,7 +437,8 @@ pub fn write_contacts(path: &Path, world: &World) -> std::io::Result<()> {
     for c in &contacts {
         let pts = c.manifold.points();
         let centroid = pts.iter().map(|p| p.point).sum::<glam::Vec3>() / pts.len().max(1) as f32;
-        points.extend(centroid.to_array());
+        // Manifolds are relative to `c.body`'s position.
+        points.extend((world.state.position[c.body as usize] + centroid.as_dvec3()).to_array());
     }
     let arrays = [
         Array::i32(

@@ -7,7 +7,7 @@
 //! once. Output is sorted by `(i, j)`, independent of the thread count.
 
 use clatter_geom::Shape;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::contact_list::{Contacts, carry_springs};
@@ -195,17 +195,25 @@ pub fn pairs_brute_force_periodic(
 /// The broad phase of a step: pairs and wall candidates at the current positions, springs
 /// carried over from the old list where a pair persists.
 pub(crate) fn rebuild(world: &mut World) {
-    let positions = &world.state.position;
+    // Bins and bounding-sphere tests at the positions rounded to f32 (as the GPU does, from
+    // the high part of its double-single positions): the skin absorbs the rounding.
+    let positions: Vec<Vec3> = world.state.position.iter().map(|p| p.as_vec3()).collect();
     let radii = &world.consts.radius;
-    let grid = Grid::around(positions, 2.0 * world.consts.max_radius() + world.skin);
-    let mut pairs = pairs_periodic(&grid, positions, radii, world.skin, world.periodic.as_ref());
+    let grid = Grid::around(&positions, 2.0 * world.consts.max_radius() + world.skin);
+    let mut pairs = pairs_periodic(
+        &grid,
+        &positions,
+        radii,
+        world.skin,
+        world.periodic.as_ref(),
+    );
     // Bodies removed by a sink are binned as any other (the grid does not depend on them
     // being in) but take part in no pair.
     let removed = &world.state.removed;
     if removed.iter().any(|&r| r) {
         pairs.retain(|&[i, j]| !(removed[i as usize] || removed[j as usize]));
     }
-    let wall_pairs = wall_candidates(world, positions);
+    let wall_pairs = wall_candidates(world, &world.state.position);
     if world.has_composites() {
         let contacts = piece_contacts(world, pairs, wall_pairs);
         world.install_contacts(contacts);
@@ -248,7 +256,8 @@ fn piece_contacts(world: &World, pairs: Vec<[u32; 2]>, wall_pairs: Vec<[u32; 2]>
         .map(|&[i, j]| {
             let (i, j) = (i as usize, j as usize);
             let (si, sj) = (world.shape(i), world.shape(j));
-            let (xi, xj) = (world.state.position[i], world.image_of(i, j));
+            // Relative to body i (see `World::offset_of`).
+            let (xi, xj) = (Vec3::ZERO, world.offset_of(i, j));
             let mut codes = Vec::new();
             for a in 0..si.piece_count() as u32 {
                 let (pa, posea) = world.piece_at(i, a, xi);
@@ -315,7 +324,7 @@ fn piece_contacts(world: &World, pairs: Vec<[u32; 2]>, wall_pairs: Vec<[u32; 2]>
 pub(crate) fn wall_piece_candidates(
     world: &World,
     wall_pairs: &[[u32; 2]],
-    positions: &[Vec3],
+    positions: &[DVec3],
     orientations: &[glam::Quat],
 ) -> (Vec<[u32; 2]>, Vec<u32>) {
     let mut walls = Vec::new();
@@ -328,11 +337,11 @@ pub(crate) fn wall_piece_candidates(
             let (r, centre) = match shape {
                 Shape::Composite(c) => {
                     let p = &c.pieces[a as usize];
-                    (p.shape.bounding_radius(), x + q * p.position)
+                    (p.shape.bounding_radius(), x + (q * p.position).as_dvec3())
                 }
                 s => (s.bounding_radius(), x),
             };
-            let h = plane.normal.dot(centre) - plane.offset;
+            let h = (plane.normal.as_dvec3().dot(centre) - plane.offset as f64) as f32;
             if h < r + world.skin {
                 walls.push([i, w]);
                 wall_pieces.push(a);
@@ -355,7 +364,11 @@ pub(crate) fn composite_moved(world: &World) -> f32 {
         .filter(|&i| world.reach[i] > 0.0)
         .map(|i| {
             let dx = s.position[i] - world.rebuild_position[i];
-            let dx = world.periodic.as_ref().map_or(dx, |p| p.nearest(dx));
+            let dx = world
+                .periodic
+                .as_ref()
+                .map_or(dx, |p| p.nearest_f64(dx))
+                .as_vec3();
             let (q, q0) = (s.orientation[i], world.rebuild_orientation[i]);
             let dq = (q - q0).length().min((q + q0).length());
             let d = dx.length() + 2.0 * world.reach[i] * dq;
@@ -366,14 +379,14 @@ pub(crate) fn composite_moved(world: &World) -> f32 {
 
 /// Wall candidates: `(body, wall)` for the bodies (not removed by a sink) whose bounding
 /// sphere at `positions` comes within the skin of a wall, sorted.
-pub(crate) fn wall_candidates(world: &World, positions: &[Vec3]) -> Vec<[u32; 2]> {
+pub(crate) fn wall_candidates(world: &World, positions: &[DVec3]) -> Vec<[u32; 2]> {
     let mut wall_pairs = Vec::new();
     for (i, p) in positions.iter().enumerate() {
         if world.state.removed[i] {
             continue;
         }
         for (w, wall) in world.walls.iter().enumerate() {
-            let h = wall.plane.normal.dot(*p) - wall.plane.offset;
+            let h = (wall.plane.normal.as_dvec3().dot(*p) - wall.plane.offset as f64) as f32;
             if h < world.consts.radius[i] + world.skin {
                 wall_pairs.push([i as u32, w as u32]);
             }

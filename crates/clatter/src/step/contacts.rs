@@ -134,9 +134,9 @@ fn sphere_pair(
     touching: &mut bool,
 ) -> bool {
     let (i, j) = (i as usize, j as usize);
-    let (xi, xj) = (w.state.position[i], w.image_of(i, j));
+    // Relative to body i: the offset is subtracted in f64, then rounded.
+    let d = w.offset_of(i, j);
     let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
-    let d = xj - xi;
     let dist2 = d.length_squared();
     if dist2 < (ri + rj) * (ri + rj) {
         let dist = dist2.sqrt();
@@ -150,9 +150,9 @@ fn sphere_pair(
             ri * rj / (ri + rj),
             1.0,
             n,
-            xi + n * (ri - 0.5 * depth),
+            n * (ri - 0.5 * depth),
             depth,
-            &w.motion(i),
+            &w.local_motion(i),
             &w.motion_from(i, j),
             hist,
             coverage,
@@ -213,7 +213,7 @@ fn body_pair<const PIECES: bool>(
                 ri * rj / (ri + rj),
                 law::point_share(si, sj),
                 &m,
-                &w.motion(i),
+                &w.local_motion(i),
                 &w.motion_from(i, j),
                 hist,
                 twist,
@@ -240,12 +240,13 @@ fn wall_pair<const PIECES: bool>(
     twist: &mut f32,
 ) -> bool {
     let (i, wall) = (i as usize, &w.walls[wall as usize]);
+    // Body i at the origin, the plane shifted by its position (in f64).
     let (shape, pose) = if PIECES {
-        w.piece_at(i, piece, w.state.position[i])
+        w.piece_at(i, piece, Vec3::ZERO)
     } else {
-        (w.shape(i), w.pose(i))
+        (w.shape(i), w.local_pose(i))
     };
-    match narrow::collide_plane(&wall.plane, shape, &pose) {
+    match narrow::collide_plane(&w.plane_from(i, &wall.plane), shape, &pose) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
             let (r, sphere) = if PIECES {
@@ -260,7 +261,7 @@ fn wall_pair<const PIECES: bool>(
                 law::point_share(sphere, sphere),
                 &m,
                 &BodyMotion::default(),
-                &w.motion(i),
+                &w.local_motion(i),
                 hist,
                 twist,
                 w.dt,
@@ -305,15 +306,21 @@ fn narrow_pair<const PIECES: bool>(
         // The plain path (no composites in the world).
         return match (w.shape(i), w.shape(j)) {
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
-                narrow::sphere_sphere(w.state.position[i], *ri, w.image_of(i, j), *rj)
+                narrow::sphere_sphere(Vec3::ZERO, *ri, w.offset_of(i, j), *rj)
             }
-            (si, sj) => {
-                narrow::collide_with_hint(si, &w.pose(i), sj, &w.pose_from(i, j), hint, separation)
-            }
+            (si, sj) => narrow::collide_with_hint(
+                si,
+                &w.local_pose(i),
+                sj,
+                &w.pose_from(i, j),
+                hint,
+                separation,
+            ),
         };
     }
-    let (sa, posea) = w.piece_at(i, pa, w.state.position[i]);
-    let (sb, poseb) = w.piece_at(j, pb, w.image_of(i, j));
+    // Body i at the origin, j at its offset (see `World::offset_of`).
+    let (sa, posea) = w.piece_at(i, pa, Vec3::ZERO);
+    let (sb, poseb) = w.piece_at(j, pb, w.offset_of(i, j));
     match (sa, sb) {
         (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
             narrow::sphere_sphere(posea.position, *ri, poseb.position, *rj)

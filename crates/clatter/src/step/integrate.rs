@@ -56,17 +56,19 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 let v = &mut vs[k];
                 let x = &mut xs[k];
                 *v += (f * consts.inv_mass[i] + gravity) * dt;
-                *x += *v * dt;
+                // The displacement rounded once to f32, added in f64: kept at any coordinate.
+                *x += (*v * dt).as_dvec3();
                 ls[k] += t * dt;
                 ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
                 qs[k] = rotate(qs[k], ws[k], &mut rs[k], dt);
                 let moved = match &periodic {
                     Some(p) => {
-                        *x = p.wrap(*x);
-                        p.nearest(*x - rebuild_position[i])
+                        *x = p.wrap_f64(*x);
+                        p.nearest_f64(*x - rebuild_position[i])
                     }
                     None => *x - rebuild_position[i],
-                };
+                }
+                .as_vec3();
                 let d2 = moved.length_squared();
                 // NaN or infinity anywhere in the state shows up in d2 or in q.
                 let d2 = if d2.is_finite() && qs[k].w.is_finite() {
@@ -76,7 +78,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 };
                 // A removed body asks for a rebuild (which drops its pairs) with the
                 // largest finite distance.
-                let d2 = if d2.is_finite() && in_any(sinks, *x) {
+                let d2 = if d2.is_finite() && in_any(sinks, x.as_vec3()) {
                     gone[k] = true;
                     f32::MAX
                 } else {

@@ -4,7 +4,7 @@
 //! matched to the body's mesh slots and run through the contact law. Each body writes only
 //! its own slots, so the result does not depend on the thread count.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
@@ -73,7 +73,8 @@ fn candidates_of(
         return Vec::new();
     }
     let reach = w.consts.radius[i] + skin;
-    let x = w.state.position[i];
+    // Rounded to f32: a search within the skin.
+    let x = w.state.position_f32(i);
     let mut out = Vec::new();
     for (b, (mesh, pose)) in w.boundaries.iter().zip(poses).enumerate() {
         let local = pose.inverse(x);
@@ -195,13 +196,17 @@ fn body_slots(
 /// Body `i`'s contacts with the triangles `cands` (global ids, ascending): each convex piece
 /// of the body (one unless a composite) against the triangles, at most [`MESH_SLOTS`] (a
 /// composite keeps its deepest).
+///
+/// Everything is relative to the body's position: the body at the origin, the triangles
+/// shifted by `-x_i` in f64 before rounding, so the manifold (points relative to the body)
+/// keeps the precision of the overlap at any coordinate.
 fn found_contacts(w: &World, i: usize, poses: &[MeshPose], cands: &[u32]) -> Found8 {
     let x = w.state.position[i];
     let mut found = Found8::new();
     for k in 0..w.shape(i).piece_count() as u32 {
-        let (shape, pose) = w.piece_at(i, k, x);
+        let (shape, pose) = w.piece_at(i, k, Vec3::ZERO);
         let start = found.len();
-        piece_contacts(w, shape, &pose, k, cands, poses, &mut found);
+        piece_contacts(w, shape, &pose, k, cands, poses, x, &mut found);
         debug_assert!(found.len() - start <= MESH_SLOTS);
     }
     if found.len() > MESH_SLOTS {
@@ -227,7 +232,9 @@ struct FaceGroup {
 
 /// The contacts of one convex piece (`shape` at `pose`) with candidate triangles `cands`
 /// (global ids, ascending): face contacts merged per plane, edge and vertex contacts that are
-/// not ghosts, at most [`MESH_SLOTS`] (the deepest), in a deterministic order.
+/// not ghosts, at most [`MESH_SLOTS`] (the deepest), in a deterministic order. `pose` and
+/// the contacts are relative to `origin` (the body's position).
+#[allow(clippy::too_many_arguments)]
 fn piece_contacts(
     w: &World,
     shape: &Shape,
@@ -235,6 +242,7 @@ fn piece_contacts(
     piece: u32,
     cands: &[u32],
     poses: &[MeshPose],
+    origin: DVec3,
     out: &mut Found8,
 ) {
     let mc = &w.mesh;
@@ -246,7 +254,7 @@ fn piece_contacts(
         let (b, t) = mc.locate(g);
         let mesh: &Boundary = &w.boundaries[b];
         let mp = &poses[b];
-        let tri = mesh.world_triangle(t, mp);
+        let tri = local_triangle(mesh, t, mp, origin);
         let normal = mp.rotation * mesh.normals[t];
         match triangle::collide_triangle(shape, pose, &tri, normal) {
             None => {}
@@ -315,7 +323,7 @@ fn piece_contacts(
             let (b, t) = mc.locate(c);
             let mesh = &w.boundaries[b];
             let n = poses[b].rotation * mesh.normals[t];
-            let tri = mesh.world_triangle(t, &poses[b]);
+            let tri = local_triangle(mesh, t, &poses[b], origin);
             for g in groups.iter_mut().filter(|g| {
                 g.boundary == b as u32
                     && n.dot(g.normal).abs() >= 1.0 - 1e-6
@@ -341,6 +349,13 @@ fn piece_contacts(
         out[start..].sort_by(|a, b| b.manifold.max_depth().total_cmp(&a.manifold.max_depth()));
         out.truncate(start + MESH_SLOTS);
     }
+}
+
+/// Triangle `t` of `mesh` at `pose`, relative to `origin` (subtracted in f64).
+#[inline]
+fn local_triangle(mesh: &Boundary, t: usize, pose: &MeshPose, origin: DVec3) -> [Vec3; 3] {
+    mesh.world_triangle(t, pose)
+        .map(|v| (v.as_dvec3() - origin).as_vec3())
 }
 
 /// The manifold of a piece against one plane of coplanar triangles: the plane's own manifold
@@ -434,7 +449,8 @@ fn assign(
             slots[*slot].twist = o.twist;
         }
     }
-    let body = w.motion(i);
+    // In the body's frame of reference (see `found_contacts`).
+    let body = w.local_motion(i);
     let mass = w.consts.mass[i];
     for (c, f) in found.iter().enumerate() {
         let (r_eff, sphere) = w.piece_law(i, f.piece);
@@ -448,7 +464,10 @@ fn assign(
             r_eff,
             share,
             &f.manifold,
-            &motions[b],
+            &BodyMotion {
+                position: w.relative_to(i, motions[b].position),
+                ..motions[b]
+            },
             &body,
             &mut s.history,
             &mut s.twist,

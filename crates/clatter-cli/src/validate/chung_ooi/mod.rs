@@ -187,7 +187,7 @@ fn ball_of(w: &World, i: usize, m: f64, r: f64) -> Ball {
     Ball {
         m,
         r,
-        x: d(w.state.position[i]),
+        x: w.state.position[i],
         v: d(w.state.velocity[i]),
         w: d(w.state.omega[i]),
     }
@@ -197,7 +197,7 @@ fn body(shape: u32, material: u32, b: &Ball, offset: DVec3) -> BodyInit {
     BodyInit {
         shape,
         material,
-        position: (b.x + offset).as_vec3(),
+        position: b.x + offset,
         orientation: Quat::IDENTITY,
         velocity: b.v.as_vec3(),
         angular_velocity: b.w.as_vec3(),
@@ -354,12 +354,10 @@ pub fn run_cases_with(
         // (computed from that overlap): `m dv / dt` of b along the normal.
         let depth_of = |w: &World, k: usize| -> f64 {
             let (ia, ib) = index(k);
-            let xb = w.state.position[ib].as_dvec3();
+            let xb = w.state.position[ib];
             match ia {
                 None => cases[k].b.r - xb.z,
-                Some(ia) => {
-                    cases[k].a.r + cases[k].b.r - (xb - w.state.position[ia].as_dvec3()).length()
-                }
+                Some(ia) => cases[k].a.r + cases[k].b.r - (xb - w.state.position[ia]).length(),
             }
         };
         for _ in 0..steps {

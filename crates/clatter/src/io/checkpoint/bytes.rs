@@ -147,6 +147,11 @@ impl Writer {
     pub(super) fn f64(&mut self, v: f64) {
         self.u64(v.to_bits());
     }
+    pub(super) fn dvec3(&mut self, v: glam::DVec3) {
+        self.f64(v.x);
+        self.f64(v.y);
+        self.f64(v.z);
+    }
     pub(super) fn vec3(&mut self, v: Vec3) {
         self.f32(v.x);
         self.f32(v.y);
@@ -212,6 +217,12 @@ impl<'a> Reader<'a> {
     pub(super) fn f64(&mut self) -> Result<f64, CheckpointError> {
         Ok(f64::from_bits(self.u64()?))
     }
+    pub(super) fn dvec3(&mut self) -> Result<glam::DVec3, CheckpointError> {
+        Ok(glam::DVec3::new(self.f64()?, self.f64()?, self.f64()?))
+    }
+    pub(super) fn dvec3s(&mut self, n: usize) -> Result<Vec<glam::DVec3>, CheckpointError> {
+        (0..n).map(|_| self.dvec3()).collect()
+    }
     pub(super) fn vec3(&mut self) -> Result<Vec3, CheckpointError> {
         Ok(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
     }
@@ -226,9 +237,6 @@ impl<'a> Reader<'a> {
             )));
         }
         Ok(n as usize)
-    }
-    pub(super) fn vec3s(&mut self, n: usize) -> Result<Vec<Vec3>, CheckpointError> {
-        (0..n).map(|_| self.vec3()).collect()
     }
     pub(super) fn string(&mut self) -> Result<String, CheckpointError> {
         let n = self.count(1)?;

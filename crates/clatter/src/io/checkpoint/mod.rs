@@ -21,11 +21,12 @@
 //! - `META`: body and wall counts, `dt`, `time`, `step_count`, broad-phase rebuilds, skin,
 //!   gravity, the pending-rebuild flag, and a fingerprint of the bodies' mass properties (a
 //!   scene that builds different bodies than when the checkpoint was written is refused).
-//! - `BODY`: per body position, velocity, orientation, the rounding residual of the
+//! - `BODY`: per body position (3 f64), velocity, orientation, the rounding residual of the
 //!   compensated orientation update, angular momentum, angular velocity.
 //! - `SINK` (optional; none = no body removed): the bodies removed by sinks, as a count and
 //!   their indices in increasing order (u32).
-//! - `RBLD`: the positions the Verlet list was built at (empty before the first step).
+//! - `RBLD`: the positions the Verlet list was built at (3 f64 each; empty before the first
+//!   step).
 //! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
 //!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
@@ -69,11 +70,12 @@ use read::*;
 /// The first eight bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"CLATCKPT";
 /// The format version this build writes and reads.
-pub const FORMAT_VERSION: u32 = 3;
+/// Version 4: positions (`BODY`, `RBLD`) in f64.
+pub const FORMAT_VERSION: u32 = 4;
 const HEADER_LEN: usize = 8 + 4 + 8 + 4;
 const TRAILER_LEN: usize = 4;
 /// Bodies further than this from the origin are refused (the broad phase needs finite extents).
-const MAX_COORDINATE: f32 = 1e30;
+const MAX_COORDINATE: f64 = 1e30;
 
 /// Why a checkpoint could not be read or restored.
 #[derive(Debug, Error)]
@@ -136,7 +138,7 @@ struct State {
     gravity: Vec3,
     needs_rebuild: bool,
     body: BodyStates,
-    rebuild_position: Vec<Vec3>,
+    rebuild_position: Vec<glam::DVec3>,
     pairs: Vec<[u32; 2]>,
     wall_pairs: Vec<[u32; 2]>,
     springs: ContactSprings,
@@ -263,14 +265,14 @@ impl Checkpoint {
             read_removed(&mut r, &mut st)?;
         }
         let mut rb = need(rbld, "RBLD")?;
-        let nr = rb.count(12)?;
+        let nr = rb.count(24)?;
         if nr != 0 && nr != st.bodies as usize {
             return Err(CheckpointError::Malformed(format!(
                 "{nr} rebuild positions for {} bodies",
                 st.bodies
             )));
         }
-        st.rebuild_position = rb.vec3s(nr)?;
+        st.rebuild_position = rb.dvec3s(nr)?;
         rb.finish()?;
         read_contacts(&mut need(cont, "CONT")?, &mut st)?;
         if let Some(mut m) = mesh {
@@ -462,7 +464,7 @@ impl World {
         w.section(b"BODY", |w| {
             w.u64(n as u64);
             for i in 0..n {
-                w.vec3(st.position[i]);
+                w.dvec3(st.position[i]);
                 w.vec3(st.velocity[i]);
                 for q in [st.orientation[i], st.orientation_residual[i]] {
                     for v in [q.x, q.y, q.z, q.w] {
@@ -483,7 +485,7 @@ impl World {
         w.section(b"RBLD", |w| {
             w.u64(self.rebuild_position().len() as u64);
             for &p in self.rebuild_position() {
-                w.vec3(p);
+                w.dvec3(p);
             }
         });
         w.section(b"CONT", |w| {

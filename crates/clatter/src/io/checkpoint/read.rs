@@ -38,7 +38,7 @@ pub(super) fn read_meta(r: &mut Reader<'_>, st: &mut State) -> Result<(), Checkp
 }
 
 pub(super) fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), CheckpointError> {
-    let n = r.count(20 * 4)?;
+    let n = r.count(3 * 8 + 17 * 4)?;
     if n as u64 != st.bodies {
         return Err(CheckpointError::Malformed(format!(
             "{n} body states for {} bodies",
@@ -46,7 +46,7 @@ pub(super) fn read_bodies(r: &mut Reader<'_>, st: &mut State) -> Result<(), Chec
         )));
     }
     for i in 0..n {
-        let x = r.vec3()?;
+        let x = r.dvec3()?;
         let v = r.vec3()?;
         let q = Quat::from_xyzw(r.f32()?, r.f32()?, r.f32()?, r.f32()?);
         let residual = Quat::from_xyzw(r.f32()?, r.f32()?, r.f32()?, r.f32()?);

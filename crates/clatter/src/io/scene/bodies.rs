@@ -25,7 +25,7 @@ pub(super) fn bodies(
         bodies.push(BodyInit {
             shape,
             material,
-            position: cx.vec3(&r.position, &f("position"))?,
+            position: cx.dvec3(&r.position, &f("position"))?,
             orientation: cx.quat(&r.orientation, &f("orientation"))?,
             velocity: cx.opt_vec3(&r.velocity, &f("velocity"))?,
             angular_velocity: cx.opt_vec3(&r.angular_velocity, &f("angular_velocity"))?,

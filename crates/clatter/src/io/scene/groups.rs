@@ -34,7 +34,10 @@ pub(super) fn groups(
         .fold(0.0, f32::max);
     let mut occupancy = Occupancy::new(2.0 * rmax, periodic);
     for b in bodies.iter() {
-        occupancy.insert(b.position, shapes[b.shape as usize].shape.bounding_radius());
+        occupancy.insert(
+            b.position.as_vec3(),
+            shapes[b.shape as usize].shape.bounding_radius(),
+        );
     }
     for (k, g) in raw.iter().enumerate() {
         let r = g.get_ref();
@@ -94,7 +97,7 @@ pub(super) fn groups(
             bodies.push(BodyInit {
                 shape,
                 material,
-                position: p,
+                position: p.as_dvec3(),
                 orientation,
                 velocity,
                 angular_velocity,

@@ -238,6 +238,12 @@ impl SourceFile<'_> {
         }
     }
 
+    /// `v` as a double-precision vector (body positions, kept at full precision).
+    fn dvec3(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<glam::DVec3, SceneError> {
+        self.vec3(v, field)?;
+        Ok(glam::DVec3::from_array(*v.get_ref()))
+    }
+
     /// `v` as a vector, zero when absent.
     fn opt_vec3(&self, v: &Option<Spanned<[f64; 3]>>, field: &str) -> Result<Vec3, SceneError> {
         v.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, field))
@@ -368,7 +374,10 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
     if let Some((lo, hi)) = container_bounds {
         let outside = bodies
             .iter()
-            .filter(|b| !(b.position.cmpge(lo).all() && b.position.cmple(hi).all()))
+            .filter(|b| {
+                let p = b.position.as_vec3();
+                !(p.cmpge(lo).all() && p.cmple(hi).all())
+            })
             .count();
         if outside > 0 {
             warnings.push(format!("{outside} bodies start outside the container"));
