@@ -1,6 +1,6 @@
 //! The foundation's physics tests (restitution and contact duration, sliding into rolling,
 //! resting polyhedra, momentum and angular momentum of a colliding cloud, rolling resistance
-//! and adhesion, periodic boundaries) on the GPU backend:
+//! and adhesion, periodic boundaries, precise positions far from the origin) on the GPU backend:
 //! the very same test files as the CPU's, included here with the `gpu-step` feature on, so
 //! their `step` runs GPU steps and reads the state back (see
 //! crates/clatter/tests/common/step.rs).
@@ -123,3 +123,6 @@ mod hertz_mindlin;
 
 #[path = "../../clatter/tests/sinks.rs"]
 mod sinks;
+
+#[path = "../../clatter/tests/precision.rs"]
+mod precision;

@@ -424,7 +424,7 @@ mod tests {
         ] {
             assert_eq!(m, None);
         }
-        assert_eq!(BODY_STATE_SIZE, 96);
+        assert_eq!(BODY_STATE_SIZE, 112);
         assert_eq!(std::mem::size_of::<ContactForce>(), 48);
     }
 

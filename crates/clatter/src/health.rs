@@ -346,6 +346,35 @@ impl fmt::Display for BlowUp {
 
 impl std::error::Error for BlowUp {}
 
+/// Relative spacing of the stored positions: 2^-48, the double-single pair the GPU keeps
+/// (the CPU's f64 is finer, 2^-52); a contact whose overlap is a few of these at the body's
+/// coordinate cannot be resolved.
+pub const POSITION_EPSILON: f64 = 3.552713678800501e-15;
+
+/// How many position spacings an overlap must span to be resolved.
+pub const SPACINGS_PER_OVERLAP: f64 = 4.0;
+
+/// Float spacing as the likely cause: body `body`'s resting overlap under its own weight on a
+/// contact of its own material (`m g` on one point) is below [`SPACINGS_PER_OVERLAP`] spacings
+/// of the stored positions at its coordinate, so the contact force jumps between zero and
+/// many times the weight. Rare with double-precision positions (it needs coordinates of
+/// about 1e6 m for a millimetre grain), but the message then says so.
+fn float_spacing_cause(world: &World, body: usize) -> Option<String> {
+    let x = *world.state.position.get(body)?;
+    let weight = world.consts.mass[body] * world.gravity.length();
+    if !(weight > 0.0) || !x.is_finite() {
+        return None;
+    }
+    let (params, r_eff, share) = law_of(world, body as u32, Partner::Body(body as u32));
+    let depth = law::depth_at_force(&params, r_eff, weight, share) as f64;
+    let spacing = x.abs().max_element() * POSITION_EPSILON;
+    (depth < SPACINGS_PER_OVERLAP * spacing).then(|| {
+        format!(
+            "float spacing: body {body}'s resting overlap under its weight ({depth:.3e} m) is below {SPACINGS_PER_OVERLAP} spacings ({spacing:.3e} m each) of the positions at its coordinate {x} m, so its contact force cannot be resolved: move the scene nearer the origin (coordinates are kept to {POSITION_EPSILON:.1e} relative), or use larger or heavier bodies or softer contacts"
+        )
+    })
+}
+
 /// The blow-up checks of one run, with the baseline they compare against.
 #[derive(Debug, Clone)]
 pub struct Health {
@@ -638,6 +667,9 @@ impl Health {
     fn cause(&self, world: &World, body: usize, overlap: bool) -> String {
         let dt = world.dt as f64;
         let mut causes = Vec::new();
+        if let Some(c) = float_spacing_cause(world, body) {
+            causes.push(c);
+        }
         if self.t_c.is_finite() && dt > self.stable_dt {
             causes.push(format!(
                 "the time step dt = {dt:.3e} s is above the stability bound {:.3e} s of the stiffest contact (shortest contact duration t_c = {:.3e} s): lower dt (omit it for t_c/50) or the stiffness",

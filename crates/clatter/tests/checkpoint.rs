@@ -302,7 +302,7 @@ fn resealed_damage_is_a_clear_error() {
     // A NaN velocity, sealed with a valid checksum.
     let body_at = good.windows(4).position(|s| s == b"BODY").unwrap() + 4 + 8 + 8;
     let mut b = good.clone();
-    b[body_at + 12..body_at + 16].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
+    b[body_at + 24..body_at + 28].copy_from_slice(&f32::NAN.to_bits().to_le_bytes());
     let msg = Checkpoint::from_bytes(&reseal(b)).unwrap_err().to_string();
     assert!(msg.contains("body 0 has a non-finite state"), "{msg}");
     // A cut inside a section, resealed.

@@ -112,7 +112,7 @@ fn angular_momentum(w: &World) -> (DVec3, f64) {
     let mut s = 0.0;
     for i in 0..w.len() {
         let m = w.consts.mass[i] as f64;
-        let orbital = dvec(w.state.position_f32(i)).cross(dvec(w.state.velocity[i]) * m);
+        let orbital = w.state.position[i].cross(dvec(w.state.velocity[i]) * m);
         let spin = dvec(w.state.angular_momentum[i]);
         l += orbital + spin;
         s += orbital.length() + spin.length();
@@ -373,7 +373,7 @@ fn elastic_frictionless_polyhedron_wall_bounce_keeps_its_energy() {
                 .iter()
                 .map(|&v| (w.state.orientation[0] * v).z)
                 .fold(f32::INFINITY, f32::min);
-            w.state.position_f32(0).z = 3e-4 - lowest;
+            w.state.position[0].z = (3e-4 - lowest) as f64;
             let e0 = w.kinetic_energy();
             // Until it is out of reach of the wall and moving away (possibly after several hits).
             while !(w.state.position[0].z > 0.011 && w.state.velocity[0].z > 0.0) {

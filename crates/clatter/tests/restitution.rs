@@ -315,7 +315,7 @@ fn restitution_error(
     }
     if pair.is_some() {
         // Shift sphere 1 by the phase's fraction of a step's travel.
-        w.state.position_f32(1).x += (2.0 * V0 as f64 * w.dt as f64 * phase) as f32;
+        w.state.position[1].x += 2.0 * V0 as f64 * w.dt as f64 * phase;
         w.rebuild_contacts();
     }
     let rel = |w: &World| match pair {

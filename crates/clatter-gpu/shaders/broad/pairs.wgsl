@@ -94,9 +94,10 @@ fn scan_cells(i: u32, pi: vec3<f32>, ri: f32, write: bool, first: u32) -> u32 {
 fn piece_pairs(i: u32, j: u32, write: bool, s0: u32, first: u32) -> u32 {
     let si = statics[i];
     let sj = statics[j];
-    let xi = bodies[i].position.xyz;
+    // Relative to body i (the CPU's `piece_contacts`).
+    let xi = vec3<f32>(0.0);
     let qi = bodies[i].orientation;
-    let xj = image_of(i, j);
+    let xj = offset_of(i, j);
     let qj = bodies[j].orientation;
     let nb = piece_count(sj.shape);
     var count = 0u;

@@ -65,6 +65,26 @@ fn periodic_wrap(x: vec3<f32>) -> vec3<f32> {
     return out;
 }
 
+// `x` (a pair) wrapped into the box (the CPU's `Periodic::wrap_f64`).
+fn periodic_wrap_ds(x: Ds3) -> Ds3 {
+    var shift = vec3<f32>(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        let len = params.periodic_len[k];
+        if len > 0.0 {
+            let lo = params.periodic_min[k];
+            if x.hi[k] >= lo + len {
+                shift[k] = -len;
+            } else if x.hi[k] < lo {
+                shift[k] = len;
+            }
+        }
+    }
+    if all(shift == vec3<f32>(0.0)) {
+        return x;
+    }
+    return ds3_add(x, Ds3(shift, vec3<f32>(0.0)));
+}
+
 // The shortest periodic image of the difference `d` of two wrapped positions.
 fn periodic_nearest(d: vec3<f32>) -> vec3<f32> {
     var out = d;
@@ -81,8 +101,94 @@ fn periodic_nearest(d: vec3<f32>) -> vec3<f32> {
     return out;
 }
 
-// Where body j is seen from body i: its nearest image.
+// Where body j is seen from body i: its nearest image, at the high parts of the positions
+// (the broad phase's rounded positions; the contact stages use `offset_of`).
 fn image_of(i: u32, j: u32) -> vec3<f32> {
     let xi = bodies[i].position.xyz;
     return xi + periodic_nearest(bodies[j].position.xyz - xi);
+}
+
+// Precise positions (crates/clatter/src/bodies.rs): a body's centre is the double-single
+// pair `position.xyz + position_lo.xyz` (hi the nearest f32, lo the rest), which the CPU
+// keeps in f64. Relative geometry is taken from differences of the pairs, rounded to f32
+// only after subtracting.
+struct Ds3 {
+    hi: vec3<f32>,
+    lo: vec3<f32>,
+}
+
+// `a + b` to about 2^-48 per component (mesh_time.wgsl's `ds_add` on vectors).
+fn ds3_add(a: Ds3, b: Ds3) -> Ds3 {
+    let s = (a.hi + b.hi) * params.one;
+    let v = (s - a.hi) * params.one;
+    let e = ((a.hi - (s - v) * params.one) + (b.hi - v)) + (a.lo + b.lo);
+    let hi = (s + e) * params.one;
+    let lo = e - (hi - s) * params.one;
+    return Ds3(hi, lo);
+}
+
+fn ds3_neg(a: Ds3) -> Ds3 {
+    return Ds3(-a.hi, -a.lo);
+}
+
+// Body i's centre as a pair.
+fn body_ds(i: u32) -> Ds3 {
+    return Ds3(bodies[i].position.xyz, bodies[i].position_lo.xyz);
+}
+
+// `d` moved to its shortest periodic image (the CPU's `Periodic::nearest_f64`).
+fn periodic_nearest_ds(d: Ds3) -> Ds3 {
+    var shift = vec3<f32>(0.0);
+    for (var k = 0u; k < 3u; k++) {
+        let len = params.periodic_len[k];
+        if len > 0.0 {
+            if d.hi[k] > 0.5 * len {
+                shift[k] = -len;
+            } else if d.hi[k] < -0.5 * len {
+                shift[k] = len;
+            }
+        }
+    }
+    if all(shift == vec3<f32>(0.0)) {
+        return d;
+    }
+    return ds3_add(d, Ds3(shift, vec3<f32>(0.0)));
+}
+
+// Where body j (its nearest image) is seen from body i: `x_j - x_i` of the pairs, then
+// rounded to f32 (the CPU's `World::offset_of`).
+fn offset_of(i: u32, j: u32) -> vec3<f32> {
+    return periodic_nearest_ds(ds3_add(body_ds(j), ds3_neg(body_ds(i)))).hi;
+}
+
+// A world point `x` seen from body i (`x - x_i`; the CPU's `World::relative_to`).
+fn relative_to(i: u32, x: vec3<f32>) -> vec3<f32> {
+    return ds3_add(Ds3(x, vec3<f32>(0.0)), ds3_neg(body_ds(i))).hi;
+}
+
+// `a b` as an unevaluated sum (product, error), exactly: Dekker's product with Veltkamp's
+// split (no fused multiply-add needed; `params.one` keeps the split from being simplified).
+fn two_prod(a: f32, b: f32) -> vec2<f32> {
+    let p = a * b;
+    let ca = 4097.0 * a;
+    let ah = ca - (ca - a) * params.one;
+    let al = a - ah;
+    let cb = 4097.0 * b;
+    let bh = cb - (cb - b) * params.one;
+    let bl = b - bh;
+    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    return vec2<f32>(p, e);
+}
+
+// The offset of the plane `n . x = d` as seen from body i: `d - n . x_i`, with `n . hi`
+// summed exactly (the CPU's `World::plane_from`, in f64 there).
+fn plane_offset_from(i: u32, n: vec3<f32>, d: f32) -> f32 {
+    let b = bodies[i];
+    var s = vec2<f32>(d, 0.0);
+    for (var k = 0u; k < 3u; k++) {
+        let p = two_prod(n[k], b.position[k]);
+        s = ds_add(s, -p);
+    }
+    s = ds_add(s, vec2<f32>(-dot(n, b.position_lo.xyz), 0.0));
+    return s.x;
 }

@@ -3,9 +3,11 @@
 // integrate.wgsl), the manifold (narrow.wgsl) and the contact law (law.wgsl). Springs
 // persist per pair in `hist` (xyz tangential, w twist).
 
+// Body i's motion in its own frame of reference (at the origin): every contact is computed
+// relative to body i's position (the CPU's `World::local_motion`).
 fn motion_of(i: u32) -> BodyMotion {
     let b = bodies[i];
-    return BodyMotion(b.position.xyz, b.velocity.xyz, b.omega.xyz);
+    return BodyMotion(vec3<f32>(0.0), b.velocity.xyz, b.omega.xyz);
 }
 
 @compute @workgroup_size(256)
@@ -36,9 +38,10 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     // touching[c]: 1 = touching, 0 = not, 1 + hint = not, separated by the hinted axis.
     let was = touching[c];
     nrw_hint_in = select(0u, was - 1u, was >= 2u && use_hint);
-    let xj = image_of(i, j);
+    // Body i at the origin, j at its offset (status.wgsl `offset_of`).
+    let xj = offset_of(i, j);
     // The pieces in touch (the bodies themselves without composites).
-    let pa = piece_at(si, piece_of(p.x), bi.position.xyz, bi.orientation);
+    let pa = piece_at(si, piece_of(p.x), vec3<f32>(0.0), bi.orientation);
     let pb = piece_at(sj, piece_of(p.y), xj, bj.orientation);
     let m = collide(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
     if m.count > 0u {
@@ -96,7 +99,8 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
     let si = statics[i];
     let bi = bodies[i];
     var shape = si.shape;
-    var x = bi.position.xyz;
+    // Body i at the origin, the plane shifted by its position.
+    var x = vec3<f32>(0.0);
     var q = bi.orientation;
     var radius = si.equivalent_radius;
     var sphere = si.is_sphere != 0u;
@@ -108,7 +112,8 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
         radius = pc.law_radius;
         sphere = pc.is_sphere;
     }
-    let m = collide_plane(wall.plane.xyz, wall.plane.w, shape, x, q);
+    let m = collide_plane(wall.plane.xyz, plane_offset_from(i, wall.plane.xyz, wall.plane.w),
+                          shape, x, q);
     if m.count > 0u {
         let params_w = pair_table[wall.material * params.num_materials + si.material];
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);

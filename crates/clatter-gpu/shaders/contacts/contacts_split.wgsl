@@ -46,8 +46,8 @@ fn pair_apart(c: u32) -> bool {
     let j = body_of(p.y);
     let was = touching[c];
     nrw_hint_in = select(0u, was - 1u, was >= 2u);
-    let pa = piece_at(statics[i], piece_of(p.x), bodies[i].position.xyz, bodies[i].orientation);
-    let pb = piece_at(statics[j], piece_of(p.y), image_of(i, j), bodies[j].orientation);
+    let pa = piece_at(statics[i], piece_of(p.x), vec3<f32>(0.0), bodies[i].orientation);
+    let pb = piece_at(statics[j], piece_of(p.y), offset_of(i, j), bodies[j].orientation);
     if !separated(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q) {
         return false;
     }

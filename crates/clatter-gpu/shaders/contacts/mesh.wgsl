@@ -435,9 +435,9 @@ struct MeshTri {
 }
 
 fn mesh_world_tri(b: u32, t: u32, pose: MeshPose) -> MeshTri {
-    let a = quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t;
-    let bb = quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 1u))) + pose.t;
-    let c = quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 2u))) + pose.t;
+    let a = mesh_local(quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t);
+    let bb = mesh_local(quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 1u))) + pose.t);
+    let c = mesh_local(quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 2u))) + pose.t);
     let n = quat_rotate(pose.q, shape_f[mesh_h(b, 5u) + t].xyz);
     return MeshTri(a, bb, c, n);
 }
@@ -700,13 +700,26 @@ fn mesh_piece(s: u32, x: vec3<f32>, q: vec4<f32>, piece: u32) -> bool {
     return true;
 }
 
+// The body whose mesh contacts are being found: its centre as a pair. Triangles are taken
+// relative to it (`mesh_local`) and the body sits at the origin, so a contact keeps the
+// precision of its overlap at any coordinate (the CPU's `found_contacts`).
+var<private> mesh_origin: Ds3;
+
+// World point `p` relative to `mesh_origin` (subtracted as a pair, then rounded).
+fn mesh_local(p: vec3<f32>) -> vec3<f32> {
+    return ds3_add(Ds3(p, vec3<f32>(0.0)), ds3_neg(mesh_origin)).hi;
+}
+
 // Body i's mesh contacts this step (boundary.rs `body_slots`, `found_contacts`, `assign`):
 // the slots written, the force and torque summed in slot order.
 fn mesh_contacts(i: u32) -> MeshSum {
     var out = MeshSum(vec3<f32>(0.0), vec3<f32>(0.0), 0u, true);
     let st = statics[i];
     let bd = bodies[i];
-    let x = bd.position.xyz;
+    // The candidate search at the rounded position; the contacts relative to it.
+    let x_world = bd.position.xyz;
+    mesh_origin = body_ds(i);
+    let x = vec3<f32>(0.0);
     let q = bd.orientation;
     mesh_overflow = false;
     // At a rebuild the CPU's candidates (within the radius plus the skin), and whether the
@@ -721,7 +734,7 @@ fn mesh_contacts(i: u32) -> MeshSum {
     if rebuilding {
         reach = st.radius + params.skin;
     }
-    if !mesh_gather(x, reach) {
+    if !mesh_gather(x_world, reach) {
         out.ok = false;
         return out;
     }
@@ -816,7 +829,9 @@ fn mesh_contacts(i: u32) -> MeshSum {
         }
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);
         let pp = pair_table[mesh_h(b, 1u) * params.num_materials + st.material];
-        let r = contact_force(pp, st.mass, radius, share, m, mesh_motion(b), motion_of(i),
+        var side_a = mesh_motion(b);
+        side_a.position = mesh_local(side_a.position);
+        let r = contact_force(pp, st.mass, radius, share, m, side_a, motion_of(i),
                               springs[c], params.dt);
         let k = place[c];
         let at = mesh_slot_at(i, k);

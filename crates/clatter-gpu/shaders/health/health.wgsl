@@ -67,14 +67,15 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         // Removed by a sink: only its (constant) potential energy counts, as on the CPU.
         let s = bodies[i];
         let m = statics[i].mass;
-        a = vec4<f32>(0.0, -m * dot(params.gravity.xyz, s.position.xyz - health_params.reference.xyz),
-                      0.0, 0.0);
+        let h = (s.position.xyz - health_params.reference.xyz) + s.position_lo.xyz;
+        a = vec4<f32>(0.0, -m * dot(params.gravity.xyz, h), 0.0, 0.0);
     } else if i < params.n {
         let s = bodies[i];
         let m = statics[i].mass;
         let v = s.velocity.xyz;
         let ke = 0.5 * m * dot(v, v) + 0.5 * dot(s.omega.xyz, s.angular_momentum.xyz);
-        let pe = -m * dot(params.gravity.xyz, s.position.xyz - health_params.reference.xyz);
+        let pe = -m * dot(params.gravity.xyz,
+                          (s.position.xyz - health_params.reference.xyz) + s.position_lo.xyz);
         let p = v * m;
         a = vec4<f32>(ke, pe, p.x, p.y);
         pz = p.z;
@@ -82,7 +83,7 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         let r = statics[i].radius;
         for (var w = 0u; w < params.num_walls; w++) {
             let plane = walls[w].plane;
-            if dot(plane.xyz, s.position.xyz) - plane.w < -r {
+            if plane_offset_from(i, plane.xyz, plane.w) > r {
                 atomicMin(&red_escaped, i);
             }
         }

@@ -97,7 +97,9 @@ fn integrate_body(i: u32) -> u32 {
     var b = bodies[i];
     let dt = params.dt;
     let v = b.velocity.xyz + (f * st.inv_inertia.w + params.gravity.xyz) * dt;
-    let x = b.position.xyz + v * dt;
+    // The displacement rounded once to f32, added to the double-single position (the CPU
+    // adds it in f64): kept at any coordinate.
+    let x = ds3_add(Ds3(b.position.xyz, b.position_lo.xyz), Ds3(v * dt, vec3<f32>(0.0)));
     let l = b.angular_momentum.xyz + t * dt;
     let q = b.orientation;
     var w: vec3<f32>;
@@ -120,16 +122,19 @@ fn integrate_body(i: u32) -> u32 {
     if abs(n2 - 1.0) > 4.0 * 1.1920929e-7 {
         qn = q2 * (1.5 - 0.5 * n2);
     }
-    let xw = periodic_wrap(x);
+    let xs = periodic_wrap_ds(x);
+    let xw = xs.hi;
     let removed = in_sink(xw);
     b.position = vec4<f32>(xw, select(0.0, 1.0, removed));
+    b.position_lo = vec4<f32>(xs.lo, 0.0);
     b.velocity = vec4<f32>(v, 0.0);
     b.angular_momentum = vec4<f32>(l, 0.0);
     b.omega = vec4<f32>(w, 0.0);
     b.orientation = qn;
     b.residual = residual;
     bodies[i] = b;
-    let d = periodic_nearest(xw - rebuild_pos[i].xyz);
+    // The rebuild positions keep the high part only (the broad phase bins and pairs at it).
+    let d = periodic_nearest((xw - rebuild_pos[i].xyz) + xs.lo);
     var d2 = dot(d, d);
     if COMPOSITES {
         // A rotation moves the pieces too: |dx| + 2 reach |q - q0| (the CPU's
