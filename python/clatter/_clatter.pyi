@@ -92,8 +92,8 @@ class Simulation:
     @property
     def scene_toml(self) -> str: ...
     @property
-    def positions(self) -> npt.NDArray[np.float32]:
-        """(N, 3) centres of mass, m. Settable."""
+    def positions(self) -> npt.NDArray[np.float64]:
+        """(N, 3) centres of mass, m, float64 (positions are kept in double precision). Settable."""
     @positions.setter
     def positions(self, value: ArrayLike) -> None: ...
     @property
@@ -121,7 +121,7 @@ class Simulation:
     def potential_energy(self) -> float: ...
     def momentum(self) -> Tuple[float, float, float]: ...
     def contacts(self) -> Dict[str, np.ndarray]:
-        """Touching contacts: body, other (-1 for walls), wall (-1 for pairs), point (M, 3),
+        """Touching contacts: body, other (-1 for walls), wall (-1 for pairs), point (M, 3, float64),
         point_count, normal (M, 3, from body to the other side), depth, force (M, 3, on
         body), normal_force."""
     def write_vtk(self, dir: PathLike, contacts: bool = True) -> List[pathlib.Path]: ...

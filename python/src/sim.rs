@@ -304,7 +304,7 @@ impl Simulation {
     /// - `other` (int64): the other body, or -1 for a wall contact.
     /// - `wall` (int64): the wall index (order of the scene's walls, a container's five or
     ///   six planes after the `[[wall]]` entries), or -1 for a body pair.
-    /// - `point` (M, 3): the centroid of the contact manifold, m.
+    /// - `point` (M, 3): the centroid of the contact manifold, m (float64, like `positions`).
     /// - `point_count` (int64): how many points the manifold has (1 to 4).
     /// - `normal` (M, 3): unit, pointing from `body` towards the other side.
     /// - `depth` (M,): the deepest overlap of the manifold, m.

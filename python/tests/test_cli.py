@@ -18,22 +18,25 @@ def run_cli(bin_, *args, check=True):
     return r
 
 
-def final_csv(path: Path) -> np.ndarray:
-    """final.csv as float32 (the CLI prints each f32 with the shortest text that reads back to
-    it, so this is bitwise the state)."""
+def final_csv(path: Path) -> tuple:
+    """final.csv as (positions float64, the rest float32): the CLI prints each value with the
+    shortest text that reads back to it (positions are f64, the rest f32), so this is
+    bitwise the state."""
     data = np.loadtxt(path, delimiter=",", skiprows=1, dtype=np.float64, ndmin=2)
     assert open(path).readline().strip() == "id,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz"
-    return data[:, 1:].astype(np.float32)
+    return data[:, 1:4], data[:, 4:].astype(np.float32)
 
 
-def state(sim) -> np.ndarray:
-    return np.hstack([sim.positions, sim.orientations, sim.velocities, sim.angular_velocities])
+def state(sim) -> tuple:
+    return sim.positions, np.hstack([sim.orientations, sim.velocities, sim.angular_velocities])
 
 
-def assert_bitwise(a: np.ndarray, b: np.ndarray) -> None:
-    assert a.shape == b.shape
-    bad = np.flatnonzero(a.view(np.uint32) != b.view(np.uint32))
-    assert bad.size == 0, f"{bad.size} values differ, first at {np.unravel_index(bad[0], a.shape)}: {a.flat[bad[0]]!r} vs {b.flat[bad[0]]!r}"
+def assert_bitwise(a: tuple, b: tuple) -> None:
+    for x, y in zip(a, b):
+        assert x.shape == y.shape and x.dtype == y.dtype
+        bits = np.uint64 if x.dtype == np.float64 else np.uint32
+        bad = np.flatnonzero(x.view(bits) != y.view(bits))
+        assert bad.size == 0, f"{bad.size} values differ, first at {np.unravel_index(bad[0], x.shape)}: {x.flat[bad[0]]!r} vs {y.flat[bad[0]]!r}"
 
 
 @pytest.mark.parametrize("threads", [1, 2])

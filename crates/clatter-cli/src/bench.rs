@@ -126,8 +126,9 @@ pub const SETTLED_ENERGY: f64 = 1.0e-3;
 /// warning; it is cached all the same).
 pub const MAX_SETTLE_STEPS: u64 = 400_000;
 
-/// Bump when the poured pile or its settling changes, so that old cached piles are not used.
-const PILE_CACHE_VERSION: u32 = 1;
+/// Bump when the poured pile, its settling or the checkpoint format changes, so that old
+/// cached piles are not used (2: checkpoint version 4, f64 positions).
+const PILE_CACHE_VERSION: u32 = 2;
 
 /// Where settled poured piles are cached: `--pile-cache DIR`, else `$CLATTER_PILE_CACHE`,
 /// else `$XDG_CACHE_HOME/clatter/piles`, else `~/.cache/clatter/piles`.

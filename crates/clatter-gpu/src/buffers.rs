@@ -381,6 +381,31 @@ fn buf_at(k: usize) -> Buf {
 mod tests {
     use super::*;
 
+    /// GPU memory per body of a sphere pile in a box (5 walls, one material, the pair
+    /// capacity of `PAIRS_PER_BODY` pairs per body): every group-0 buffer, over 1e5 bodies.
+    /// Precise positions (the low part of each position in the body record and in the last
+    /// good state) cost 32 bytes of it (BENCHMARKS.md).
+    #[test]
+    fn memory_per_body() {
+        let n = 100_000u64;
+        let d = Dims {
+            bodies: n,
+            cells: 8 * n + 64,
+            pairs: 8 * n,
+            materials: 1,
+            walls: 5,
+            sinks: 0,
+            pieces: 1,
+            composites: false,
+            boundaries: 0,
+        };
+        let total: u64 = BUFFERS.iter().map(|b| b.size(&d)).sum();
+        let per_body = total as f64 / n as f64;
+        eprintln!("GPU memory: {per_body:.1} bytes per body ({total} bytes for {n} bodies)");
+        assert_eq!(size_of::<BodyState>(), 112);
+        assert!(per_body < 1200.0, "{per_body}");
+    }
+
     #[test]
     fn the_table_and_the_names_agree() {
         assert_eq!(ALL.len(), BUFFERS.len());

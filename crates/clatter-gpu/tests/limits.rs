@@ -8,7 +8,7 @@ use clatter_gpu::world::check_fits;
 fn too_many_bodies_for_the_binding_limit_is_a_clear_error() {
     // WebGPU's default limits: 128 MiB per storage binding.
     let limits = wgpu::Limits::default();
-    let n = 2_000_000u64; // 96 bytes of state each: 192 MB
+    let n = 2_000_000u64; // 112 bytes of state each: 224 MB
     let err = check_fits(&limits, "test adapter", n, 8 * n, 6).unwrap_err();
     match &err {
         GpuError::TooLarge {
@@ -20,7 +20,7 @@ fn too_many_bodies_for_the_binding_limit_is_a_clear_error() {
         } => {
             assert_eq!(adapter, "test adapter");
             assert!(what.contains("body state"), "{what}");
-            assert_eq!(need, &format!("{} bytes", 96 * n));
+            assert_eq!(need, &format!("{} bytes", 112 * n));
             assert_eq!(
                 limit,
                 &format!("{} bytes", limits.max_storage_buffer_binding_size)
@@ -31,7 +31,7 @@ fn too_many_bodies_for_the_binding_limit_is_a_clear_error() {
     }
     let msg = err.to_string();
     assert!(
-        msg.contains("192000000 bytes") && msg.contains("134217728 bytes"),
+        msg.contains("224000000 bytes") && msg.contains("134217728 bytes"),
         "{msg}"
     );
 }

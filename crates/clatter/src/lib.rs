@@ -26,6 +26,7 @@ pub mod material;
 pub mod mesh_boundary;
 pub mod periodic;
 pub mod pile;
+pub mod precise;
 pub mod shape_spec;
 pub mod sink;
 pub mod step;

@@ -10,6 +10,7 @@ use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
 use crate::mesh_boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshSlot};
 use crate::periodic::Periodic;
+use crate::precise;
 use crate::sink::{Discharged, Sink};
 use crate::step;
 use clatter_geom::narrow::Plane;
@@ -147,9 +148,11 @@ impl World {
             let mass = density * shape.volume;
             let inertia = shape.unit_inertia * density;
             let q = (b.orientation * shape.frame).normalize();
+            // Wrapped, and on the grid of stored positions (48 bits: `precise::snap`).
+            let x = desc.periodic.map_or(b.position, |p| p.wrap_f64(b.position));
             state
                 .position
-                .push(desc.periodic.map_or(b.position, |p| p.wrap_f64(b.position)));
+                .push(precise::join(precise::snap(precise::split(x))));
             state.velocity.push(b.velocity);
             state.orientation.push(q);
             let body_w = q.conjugate() * b.angular_velocity;
@@ -441,19 +444,21 @@ impl World {
     /// Where body `j` (or its nearest periodic image) is seen from body `i`: `x_j - x_i`,
     /// subtracted in f64 and rounded to f32 after, so a contact is resolved to the float
     /// precision of the offset, not of the coordinates.
+    /// The arithmetic is [`crate::precise`]'s, bit for bit the GPU's.
     #[inline]
     pub fn offset_of(&self, i: usize, j: usize) -> Vec3 {
-        let d = self.state.position[j] - self.state.position[i];
-        match &self.periodic {
-            Some(p) => p.nearest_f64(d).as_vec3(),
-            None => d.as_vec3(),
-        }
+        precise::offset(
+            self.periodic.as_ref(),
+            self.state.position[i],
+            self.state.position[j],
+        )
     }
 
-    /// A world point `x` as seen from body `i` (`x - x_i` in f64, then rounded to f32).
+    /// A world point `x` as seen from body `i` (`x - x_i` of the precise pairs, then rounded
+    /// to f32; [`precise::relative`]).
     #[inline]
     pub fn relative_to(&self, i: usize, x: Vec3) -> Vec3 {
-        (x.as_dvec3() - self.state.position[i]).as_vec3()
+        precise::relative(precise::split(self.state.position[i]), x)
     }
 
     /// Body `j`'s pose as seen from body `i`: relative to `i`'s position (see
@@ -474,13 +479,13 @@ impl World {
         }
     }
 
-    /// A wall's plane as seen from body `i` (its offset `d - n . x_i`, in f64).
+    /// A wall's plane as seen from body `i`: its offset `d - n . x_i`, with the products
+    /// exact ([`precise::plane_offset`]).
     #[inline]
     pub fn plane_from(&self, i: usize, plane: &Plane) -> Plane {
         Plane {
             normal: plane.normal,
-            offset: (plane.offset as f64 - plane.normal.as_dvec3().dot(self.state.position[i]))
-                as f32,
+            offset: precise::plane_offset(plane.normal, plane.offset, self.state.position[i]),
         }
     }
 

@@ -200,6 +200,10 @@ fn flipped_bytes_are_detected() {
     bad[8] = 9;
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
     assert!(msg.contains("version 9 is not supported"), "{msg}");
+    // Version 3 (f32 positions) is refused the same way: this build writes version 4.
+    bad[8] = 3;
+    let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
+    assert!(msg.contains("version 3 is not supported"), "{msg}");
     let mut bad = good.clone();
     bad[0] = b'X';
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();

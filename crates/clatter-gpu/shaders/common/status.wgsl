@@ -108,10 +108,11 @@ fn image_of(i: u32, j: u32) -> vec3<f32> {
     return xi + periodic_nearest(bodies[j].position.xyz - xi);
 }
 
-// Precise positions (crates/clatter/src/bodies.rs): a body's centre is the double-single
-// pair `position.xyz + position_lo.xyz` (hi the nearest f32, lo the rest), which the CPU
-// keeps in f64. Relative geometry is taken from differences of the pairs, rounded to f32
-// only after subtracting.
+// Precise positions (crates/clatter/src/precise.rs, the twin of these functions, op for
+// op): a body's centre is the double-single pair `position.xyz + position_lo.xyz` (hi the
+// nearest f32, lo the rest, on the grid `ds_snap` keeps), which the CPU stores as the f64
+// `hi + lo`. Relative geometry is taken from differences of the pairs, rounded to f32 only
+// after subtracting.
 struct Ds3 {
     hi: vec3<f32>,
     lo: vec3<f32>,
@@ -125,6 +126,21 @@ fn ds3_add(a: Ds3, b: Ds3) -> Ds3 {
     let hi = (s + e) * params.one;
     let lo = e - (hi - s) * params.one;
     return Ds3(hi, lo);
+}
+
+// The pair with its low part rounded to a multiple of 2^-48 of the high part's binade, then
+// renormalised (hi the nearest f32 of the sum): at most 49 significant bits, so exactly the
+// f64 the CPU stores (precise.rs `snap`). Below |hi| = 2^-78 the low part is dropped.
+fn ds_snap(p: Ds3) -> Ds3 {
+    let e = (bitcast<vec3<u32>>(p.hi) >> vec3<u32>(23u)) & vec3<u32>(0xffu);
+    let keep = e > vec3<u32>(48u);
+    let eq = select(vec3<u32>(49u), e, keep);
+    let q = bitcast<vec3<f32>>((eq - vec3<u32>(48u)) << vec3<u32>(23u));
+    let inv = bitcast<vec3<f32>>((vec3<u32>(302u) - eq) << vec3<u32>(23u));
+    let ls = select(vec3<f32>(0.0), round(p.lo * inv) * q, keep);
+    let hs = (p.hi + ls) * params.one;
+    let lo = ls - (hs - p.hi) * params.one;
+    return Ds3(hs, lo);
 }
 
 fn ds3_neg(a: Ds3) -> Ds3 {

@@ -122,7 +122,7 @@ fn integrate_body(i: u32) -> u32 {
     if abs(n2 - 1.0) > 4.0 * 1.1920929e-7 {
         qn = q2 * (1.5 - 0.5 * n2);
     }
-    let xs = periodic_wrap_ds(x);
+    let xs = ds_snap(periodic_wrap_ds(x));
     let xw = xs.hi;
     let removed = in_sink(xw);
     b.position = vec4<f32>(xw, select(0.0, 1.0, removed));

@@ -363,12 +363,11 @@ pub(crate) fn composite_moved(world: &World) -> f32 {
     (0..world.len())
         .filter(|&i| world.reach[i] > 0.0)
         .map(|i| {
-            let dx = s.position[i] - world.rebuild_position[i];
-            let dx = world
-                .periodic
-                .as_ref()
-                .map_or(dx, |p| p.nearest_f64(dx))
-                .as_vec3();
+            let dx = crate::precise::moved(
+                world.periodic.as_ref(),
+                s.position[i],
+                world.rebuild_position[i],
+            );
             let (q, q0) = (s.orientation[i], world.rebuild_orientation[i]);
             let dq = (q - q0).length().min((q + q0).length());
             let d = dx.length() + 2.0 * world.reach[i] * dq;

@@ -9,6 +9,7 @@ use glam::{Quat, Vec3};
 use rayon::prelude::*;
 
 use super::CHUNK;
+use crate::precise;
 use crate::sink::in_any;
 use crate::world::World;
 
@@ -56,19 +57,14 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 let v = &mut vs[k];
                 let x = &mut xs[k];
                 *v += (f * consts.inv_mass[i] + gravity) * dt;
-                // The displacement rounded once to f32, added in f64: kept at any coordinate.
-                *x += (*v * dt).as_dvec3();
+                // The displacement rounded once to f32, added to the precise position (bit
+                // for bit the GPU's arithmetic, `crate::precise`): kept at any coordinate.
+                let (next, moved) =
+                    precise::advance(periodic.as_ref(), *x, *v * dt, rebuild_position[i]);
+                *x = next;
                 ls[k] += t * dt;
                 ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
                 qs[k] = rotate(qs[k], ws[k], &mut rs[k], dt);
-                let moved = match &periodic {
-                    Some(p) => {
-                        *x = p.wrap_f64(*x);
-                        p.nearest_f64(*x - rebuild_position[i])
-                    }
-                    None => *x - rebuild_position[i],
-                }
-                .as_vec3();
                 let d2 = moved.length_squared();
                 // NaN or infinity anywhere in the state shows up in d2 or in q.
                 let d2 = if d2.is_finite() && qs[k].w.is_finite() {

@@ -4,7 +4,8 @@
 //! matched to the body's mesh slots and run through the contact law. Each body writes only
 //! its own slots, so the result does not depend on the thread count.
 
-use glam::{DVec3, Vec3};
+use crate::precise::Ds3;
+use glam::Vec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
@@ -201,7 +202,7 @@ fn body_slots(
 /// shifted by `-x_i` in f64 before rounding, so the manifold (points relative to the body)
 /// keeps the precision of the overlap at any coordinate.
 fn found_contacts(w: &World, i: usize, poses: &[MeshPose], cands: &[u32]) -> Found8 {
-    let x = w.state.position[i];
+    let x = crate::precise::split(w.state.position[i]);
     let mut found = Found8::new();
     for k in 0..w.shape(i).piece_count() as u32 {
         let (shape, pose) = w.piece_at(i, k, Vec3::ZERO);
@@ -242,7 +243,7 @@ fn piece_contacts(
     piece: u32,
     cands: &[u32],
     poses: &[MeshPose],
-    origin: DVec3,
+    origin: Ds3,
     out: &mut Found8,
 ) {
     let mc = &w.mesh;
@@ -351,11 +352,12 @@ fn piece_contacts(
     }
 }
 
-/// Triangle `t` of `mesh` at `pose`, relative to `origin` (subtracted in f64).
+/// Triangle `t` of `mesh` at `pose`, relative to `origin` (subtracted as precise pairs,
+/// [`crate::precise::relative`], the GPU's `mesh_local`).
 #[inline]
-fn local_triangle(mesh: &Boundary, t: usize, pose: &MeshPose, origin: DVec3) -> [Vec3; 3] {
+fn local_triangle(mesh: &Boundary, t: usize, pose: &MeshPose, origin: Ds3) -> [Vec3; 3] {
     mesh.world_triangle(t, pose)
-        .map(|v| (v.as_dvec3() - origin).as_vec3())
+        .map(|v| crate::precise::relative(origin, v))
 }
 
 /// The manifold of a piece against one plane of coplanar triangles: the plane's own manifold

@@ -1,0 +1,279 @@
+//! Precise positions: the arithmetic both executors do on them, bit for bit.
+//!
+//! A body's centre is stored as an `f64` ([`crate::bodies::BodyStates::position`]) and
+//! handed to the GPU as a double-single pair `(hi, lo)` of `f32` ([`split`]: `hi` the nearest
+//! f32, `lo` the rest). Every operation on positions is done on the pairs with `f32`
+//! arithmetic, the same operations in the same order as the WGSL twins in
+//! `crates/clatter-gpu/shaders/common/status.wgsl` (`ds3_add`, `offset_of`,
+//! `plane_offset_from`, `relative_to`, `periodic_wrap_ds`, `ds_snap`) and `integrate.wgsl`,
+//! so that the CPU and the GPU stay bitwise together as they did with `f32` positions.
+//!
+//! After each update the low part is rounded to a multiple of `2^-48` of the high part's
+//! binade ([`snap`]): the pair then holds at most 49 significant bits, so it is exactly an
+//! `f64` and [`split`] of that `f64` gives the pair back. Positions thus keep about 48 bits
+//! (3.6e-13 m at 100 m, 3.6e-12 m at 1 km), where `f32` keeps 24 (7.6e-6 m at 100 m).
+//!
+//! Relative geometry is the difference of two pairs rounded to `f32` after subtracting: a
+//! contact is resolved to the float precision of the overlap, not of the coordinate.
+
+use glam::{DVec3, Vec3};
+
+use crate::periodic::Periodic;
+
+/// A double-single vector: `hi + lo` per component.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ds3 {
+    /// The high parts (the nearest f32 of the sum, once normalised).
+    pub hi: Vec3,
+    /// The low parts.
+    pub lo: Vec3,
+}
+
+impl Ds3 {
+    /// `v` with a zero low part.
+    #[inline]
+    pub fn from_f32(v: Vec3) -> Ds3 {
+        Ds3 {
+            hi: v,
+            lo: Vec3::ZERO,
+        }
+    }
+
+    /// `-self`.
+    #[inline]
+    pub fn neg(self) -> Ds3 {
+        Ds3 {
+            hi: -self.hi,
+            lo: -self.lo,
+        }
+    }
+}
+
+/// A stored position as a pair: `hi` the f32 nearest `x`, `lo` the f32 nearest `x - hi`
+/// (exact for positions produced by [`snap`]).
+#[inline]
+pub fn split(x: DVec3) -> Ds3 {
+    let hi = x.as_vec3();
+    Ds3 {
+        hi,
+        lo: (x - hi.as_dvec3()).as_vec3(),
+    }
+}
+
+/// `hi + lo` in f64 (exact for snapped pairs).
+#[inline]
+pub fn join(p: Ds3) -> DVec3 {
+    p.hi.as_dvec3() + p.lo.as_dvec3()
+}
+
+/// `a + b` to about 2^-48 per component: Knuth's two-sum of the high parts, the low parts
+/// added to its error, renormalised (WGSL `ds3_add`, and `ds_add` per scalar).
+#[inline]
+pub fn ds_add(a: Ds3, b: Ds3) -> Ds3 {
+    let s = a.hi + b.hi;
+    let v = s - a.hi;
+    let e = ((a.hi - (s - v)) + (b.hi - v)) + (a.lo + b.lo);
+    let hi = s + e;
+    let lo = e - (hi - s);
+    Ds3 { hi, lo }
+}
+
+/// [`ds_add`] of scalar pairs `(hi, lo)`.
+#[inline]
+pub fn ds_add1(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
+    let s = a.0 + b.0;
+    let v = s - a.0;
+    let e = ((a.0 - (s - v)) + (b.0 - v)) + (a.1 + b.1);
+    let hi = s + e;
+    (hi, e - (hi - s))
+}
+
+/// `a b` exactly, as `(product, error)`: Dekker's product with Veltkamp's split (WGSL
+/// `two_prod`).
+#[inline]
+pub fn two_prod(a: f32, b: f32) -> (f32, f32) {
+    let p = a * b;
+    let ca = 4097.0 * a;
+    let ah = ca - (ca - a);
+    let al = a - ah;
+    let cb = 4097.0 * b;
+    let bh = cb - (cb - b);
+    let bl = b - bh;
+    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    (p, e)
+}
+
+/// One component of [`snap`].
+#[inline]
+fn snap1(h: f32, l: f32) -> (f32, f32) {
+    let e = (h.to_bits() >> 23) & 0xff;
+    if e <= 48 {
+        // |h| < 2^-78 m: nothing below it is kept.
+        return (h, 0.0);
+    }
+    let q = f32::from_bits((e - 48) << 23);
+    let inv = f32::from_bits((302 - e) << 23);
+    let ls = (l * inv).round_ties_even() * q;
+    let hs = h + ls;
+    (hs, ls - (hs - h))
+}
+
+/// The pair rounded to the grid of stored positions: the low part to a multiple of
+/// `2^-48` of the high part's binade, then renormalised (`hi` the nearest f32 of the sum,
+/// ties to even), so that `split(join(p)) == p` (WGSL `ds_snap`).
+#[inline]
+pub fn snap(p: Ds3) -> Ds3 {
+    let (x, y, z) = (
+        snap1(p.hi.x, p.lo.x),
+        snap1(p.hi.y, p.lo.y),
+        snap1(p.hi.z, p.lo.z),
+    );
+    Ds3 {
+        hi: Vec3::new(x.0, y.0, z.0),
+        lo: Vec3::new(x.1, y.1, z.1),
+    }
+}
+
+/// `d` moved to its shortest periodic image (WGSL `periodic_nearest_ds`).
+#[inline]
+pub fn nearest(periodic: Option<&Periodic>, d: Ds3) -> Ds3 {
+    let Some(p) = periodic else {
+        return d;
+    };
+    let len = p.length();
+    let mut shift = Vec3::ZERO;
+    for k in 0..3 {
+        if len[k] > 0.0 {
+            if d.hi[k] > 0.5 * len[k] {
+                shift[k] = -len[k];
+            } else if d.hi[k] < -0.5 * len[k] {
+                shift[k] = len[k];
+            }
+        }
+    }
+    if shift == Vec3::ZERO {
+        return d;
+    }
+    ds_add(d, Ds3::from_f32(shift))
+}
+
+/// `x` wrapped into the periodic box (WGSL `periodic_wrap_ds`).
+#[inline]
+pub fn wrap(periodic: Option<&Periodic>, x: Ds3) -> Ds3 {
+    let Some(p) = periodic else {
+        return x;
+    };
+    let len = p.length();
+    let mut shift = Vec3::ZERO;
+    for k in 0..3 {
+        if len[k] > 0.0 {
+            let lo = p.min[k];
+            if x.hi[k] >= lo + len[k] {
+                shift[k] = -len[k];
+            } else if x.hi[k] < lo {
+                shift[k] = len[k];
+            }
+        }
+    }
+    if shift == Vec3::ZERO {
+        return x;
+    }
+    ds_add(x, Ds3::from_f32(shift))
+}
+
+/// Where `xj` (its nearest periodic image) is seen from `xi`: the difference of the pairs,
+/// rounded to f32 (WGSL `offset_of`).
+#[inline]
+pub fn offset(periodic: Option<&Periodic>, xi: DVec3, xj: DVec3) -> Vec3 {
+    nearest(periodic, ds_add(split(xj), split(xi).neg())).hi
+}
+
+/// A world point `p` (f32) as seen from `origin`: `p - origin` of the pairs, rounded (WGSL
+/// `relative_to`, `mesh_local`).
+#[inline]
+pub fn relative(origin: Ds3, p: Vec3) -> Vec3 {
+    ds_add(Ds3::from_f32(p), origin.neg()).hi
+}
+
+/// The offset of the plane `n . x = d` as seen from `x`: `d - n . x`, the products of the
+/// high parts exact (WGSL `plane_offset_from`).
+#[inline]
+pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> f32 {
+    let p = split(x);
+    let mut s = (d, 0.0);
+    for k in 0..3 {
+        let (pr, e) = two_prod(n[k], p.hi[k]);
+        s = ds_add1(s, (-pr, -e));
+    }
+    ds_add1(s, (-n.dot(p.lo), 0.0)).0
+}
+
+/// The Verlet test's displacement of `x` from `rebuild`: `(hi - rebuild_hi) + lo` in f32,
+/// nearest image (the GPU keeps the rebuild positions' high parts only; WGSL integrate).
+#[inline]
+pub fn moved(periodic: Option<&Periodic>, x: DVec3, rebuild: DVec3) -> Vec3 {
+    let p = split(x);
+    let d = (p.hi - rebuild.as_vec3()) + p.lo;
+    periodic.map_or(d, |q| q.nearest(d))
+}
+
+/// One step's displacement `dx` (f32) added to the stored position `x`, wrapped into the
+/// periodic box and snapped: the new stored position, and its [`moved`] from `rebuild`
+/// (WGSL integrate).
+#[inline]
+pub fn advance(periodic: Option<&Periodic>, x: DVec3, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
+    let p = snap(wrap(periodic, ds_add(split(x), Ds3::from_f32(dx))));
+    let d = (p.hi - rebuild.as_vec3()) + p.lo;
+    (join(p), periodic.map_or(d, |q| q.nearest(d)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn snapped_pairs_are_f64_values() {
+        let mut x = DVec3::new(100.123456789, -50.000001, 1e-3);
+        for k in 0..10_000 {
+            let dx = Vec3::new(1e-9, -3e-7, 2e-6) * (1.0 + k as f32 * 1e-3);
+            let (next, _) = advance(None, x, dx, x);
+            let p = split(next);
+            assert_eq!(join(p), next);
+            assert_eq!(snap(p), p);
+            x = next;
+        }
+    }
+
+    #[test]
+    fn small_steps_are_kept_far_out() {
+        let x0 = DVec3::new(1000.0, 100.0, 5.0);
+        let mut x = x0;
+        let dx = Vec3::splat(1e-9);
+        for _ in 0..1000 {
+            x = advance(None, x, dx, x0).0;
+        }
+        let moved = x - x0;
+        for k in 0..3 {
+            assert!((moved[k] - 1e-6).abs() < 1e-9, "{moved}");
+        }
+    }
+
+    #[test]
+    fn two_prod_is_exact() {
+        for (a, b) in [(0.1f32, 100.3f32), (-3.7, 1e-3), (1.0 / 3.0, 3.0)] {
+            let (p, e) = two_prod(a, b);
+            assert_eq!(p as f64 + e as f64, a as f64 * b as f64);
+        }
+    }
+
+    #[test]
+    fn offsets_are_the_rounded_differences() {
+        let on_grid = |x: DVec3| advance(None, x, Vec3::ZERO, x).0;
+        let (xi, xj) = (
+            on_grid(DVec3::new(100.0, -50.0, 20.0)),
+            on_grid(DVec3::new(100.002, -50.001, 20.0)),
+        );
+        let d = offset(None, xi, xj);
+        assert_eq!(d, (xj - xi).as_vec3());
+    }
+}
