@@ -238,7 +238,10 @@ fn cubes_slide_off_the_floor_edge_and_tip_over_it_as_on_the_cpu() {
         2e-5,
         vec![boundary(&v, &t, BoundaryMotion::Fixed, 0.0)],
     );
-    let (cpu, _, d) = compare(w.clone(), 250, 12, 1e-4 * h, 1e-3, 1e-2);
+    // Up to step 2750: the tipping starts near step 2900 (it moved from past 3000 when the
+    // contacts became relative to the body, which rounds differently; a tipping point
+    // amplifies rounding exponentially, see the one-step checks below).
+    let (cpu, _, d) = compare(w.clone(), 250, 11, 1e-4 * h, 1e-3, 1e-2);
     assert!(
         cpu.state.position[0].x > 0.49,
         "hangs over the edge: {}",
@@ -247,7 +250,7 @@ fn cubes_slide_off_the_floor_edge_and_tip_over_it_as_on_the_cpu() {
     eprintln!("cubes over the floor's edge: {d:?}");
     // Then they tip over the rim, which amplifies rounding differences (an edge contact's
     // region test flips at a threshold): single steps from the CPU's state.
-    one_step_agreement(&w, &(3000..5000).step_by(100).collect::<Vec<_>>());
+    one_step_agreement(&w, &(2800..5000).step_by(100).collect::<Vec<_>>());
 }
 
 #[test]
@@ -470,9 +473,11 @@ fn one_step_agreement(w: &World, steps: &[u64]) {
 
 /// The example hopper (2000 beads filling the silo) for 2000 steps: as long as the pile is
 /// loose the GPU gives the CPU's contacts exactly; once the beads collide in numbers, the
-/// GPU run departs from the CPU run no more than a CPU run whose positions start one ulp
-/// away does (positions within 4 times that run's departure, touching counts within 3 times
-/// its difference or 1%): the differences are f32 rounding amplified by the collisions.
+/// GPU run departs from the CPU run no more than a CPU run whose positions and gravity are
+/// one f32 ulp away does (positions within 4 times that run's departure, touching counts
+/// within 3 times its difference or 1%): the differences are f32 rounding amplified by the
+/// collisions. (Gravity is nudged too since positions are kept to 48 bits: a position nudge
+/// alone no longer stands for f32 rounding, which now enters through the f32 velocities.)
 #[test]
 fn full_hopper_departs_from_the_cpu_no_more_than_a_one_ulp_nudge() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/hopper.toml");
@@ -484,6 +489,9 @@ fn full_hopper_departs_from_the_cpu_no_more_than_a_one_ulp_nudge() {
     for x in &mut nudged.state.position {
         x.x = f32::from_bits((x.x as f32).to_bits() + 1) as f64;
     }
+    // Gravity one f32 ulp off too: positions are kept to 48 bits, so f32 rounding enters
+    // through the velocities, every step (a one-time nudge alone no longer stands for it).
+    nudged.gravity.z = f32::from_bits(nudged.gravity.z.to_bits() + 1);
     let mut host = s.world();
     let mut gpu = GpuWorld::new(ctx, &host).unwrap();
     for chunk in 1..=8 {

@@ -10,10 +10,11 @@ use crate::contract::{BodyConsts, BodyState, quat_of, vec3_of};
 /// The integrated state of every body.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BodyStates {
-    /// Centre of mass, m, in double precision: a step's displacement is added in f64, so
-    /// it is kept anywhere in a large domain (the f32 spacing at 100 m is 7.6e-6 m). Relative
-    /// geometry (pair offsets, wall and mesh distances) is taken from differences of these
-    /// and rounded to f32 only after subtracting ([`crate::World::offset_of`]).
+    /// Centre of mass, m, kept to 48 bits (an `f64` on the grid of [`crate::precise::snap`],
+    /// exactly the GPU's double-single pair): a step's displacement is kept anywhere in a
+    /// large domain (the f32 spacing at 100 m is 7.6e-6 m). Relative geometry (pair
+    /// offsets, wall and mesh distances) is taken from differences of these and rounded to
+    /// f32 only after subtracting ([`crate::World::offset_of`], [`crate::precise`]).
     pub position: Vec<DVec3>,
     /// Linear velocity, m/s.
     pub velocity: Vec<Vec3>,
@@ -92,14 +93,14 @@ impl BodyStates {
 /// `lo` the nearest f32 to the rest (what the GPU keeps; 48 bits of mantissa).
 #[inline]
 pub fn split_position(x: DVec3) -> (Vec3, Vec3) {
-    let hi = x.as_vec3();
-    (hi, (x - hi.as_dvec3()).as_vec3())
+    let p = crate::precise::split(x);
+    (p.hi, p.lo)
 }
 
 /// The inverse of [`split_position`]: `hi + lo` in f64.
 #[inline]
 pub fn join_position(hi: Vec3, lo: Vec3) -> DVec3 {
-    hi.as_dvec3() + lo.as_dvec3()
+    crate::precise::join(crate::precise::Ds3 { hi, lo })
 }
 
 /// The constants of every body.
