@@ -362,7 +362,7 @@ pub const SPACINGS_PER_OVERLAP: f64 = 4.0;
 fn float_spacing_cause(world: &World, body: usize) -> Option<String> {
     let x = *world.state.position.get(body)?;
     let weight = world.consts.mass[body] * world.gravity.length();
-    if !(weight > 0.0) || !x.is_finite() {
+    if weight.is_nan() || weight <= 0.0 || !x.is_finite() {
         return None;
     }
     let (params, r_eff, share) = law_of(world, body as u32, Partner::Body(body as u32));
