@@ -51,7 +51,7 @@ impl Ds3 {
 
 /// A stored position as a pair: `hi` the f32 nearest `x`, `lo` the f32 nearest `x - hi`
 /// (exact for positions produced by [`snap`]).
-#[inline]
+#[inline(always)]
 pub fn split(x: DVec3) -> Ds3 {
     let hi = x.as_vec3();
     Ds3 {
@@ -68,7 +68,7 @@ pub fn join(p: Ds3) -> DVec3 {
 
 /// `a + b` to about 2^-48 per component: Knuth's two-sum of the high parts, the low parts
 /// added to its error, renormalised (WGSL `ds3_add`, and `ds_add` per scalar).
-#[inline]
+#[inline(always)]
 pub fn ds_add(a: Ds3, b: Ds3) -> Ds3 {
     let s = a.hi + b.hi;
     let v = s - a.hi;
@@ -79,7 +79,7 @@ pub fn ds_add(a: Ds3, b: Ds3) -> Ds3 {
 }
 
 /// [`ds_add`] of scalar pairs `(hi, lo)`.
-#[inline]
+#[inline(always)]
 pub fn ds_add1(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
     let s = a.0 + b.0;
     let v = s - a.0;
@@ -90,7 +90,7 @@ pub fn ds_add1(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
 
 /// `a b` exactly, as `(product, error)`: Dekker's product with Veltkamp's split (WGSL
 /// `two_prod`).
-#[inline]
+#[inline(always)]
 pub fn two_prod(a: f32, b: f32) -> (f32, f32) {
     let p = a * b;
     let ca = 4097.0 * a;
@@ -104,7 +104,7 @@ pub fn two_prod(a: f32, b: f32) -> (f32, f32) {
 }
 
 /// One component of [`snap`].
-#[inline]
+#[inline(always)]
 fn snap1(h: f32, l: f32) -> (f32, f32) {
     let e = (h.to_bits() >> 23) & 0xff;
     if e <= 48 {
@@ -113,7 +113,10 @@ fn snap1(h: f32, l: f32) -> (f32, f32) {
     }
     let q = f32::from_bits((e - 48) << 23);
     let inv = f32::from_bits((302 - e) << 23);
-    let ls = (l * inv).round_ties_even() * q;
+    // `round_ties_even` of |l inv| <= 2^24 (exact in f64: adding 1.5 2^52 rounds to an
+    // integer, ties to even, with no library call).
+    const MAGIC: f64 = 6755399441055744.0;
+    let ls = ((((l * inv) as f64 + MAGIC) - MAGIC) as f32) * q;
     let hs = h + ls;
     (hs, ls - (hs - h))
 }
@@ -121,7 +124,7 @@ fn snap1(h: f32, l: f32) -> (f32, f32) {
 /// The pair rounded to the grid of stored positions: the low part to a multiple of
 /// `2^-48` of the high part's binade, then renormalised (`hi` the nearest f32 of the sum,
 /// ties to even), so that `split(join(p)) == p` (WGSL `ds_snap`).
-#[inline]
+#[inline(always)]
 pub fn snap(p: Ds3) -> Ds3 {
     let (x, y, z) = (
         snap1(p.hi.x, p.lo.x),
@@ -135,7 +138,7 @@ pub fn snap(p: Ds3) -> Ds3 {
 }
 
 /// `d` moved to its shortest periodic image (WGSL `periodic_nearest_ds`).
-#[inline]
+#[inline(always)]
 pub fn nearest(periodic: Option<&Periodic>, d: Ds3) -> Ds3 {
     let Some(p) = periodic else {
         return d;
@@ -183,21 +186,21 @@ pub fn wrap(periodic: Option<&Periodic>, x: Ds3) -> Ds3 {
 
 /// Where `xj` (its nearest periodic image) is seen from `xi`: the difference of the pairs,
 /// rounded to f32 (WGSL `offset_of`).
-#[inline]
+#[inline(always)]
 pub fn offset(periodic: Option<&Periodic>, xi: DVec3, xj: DVec3) -> Vec3 {
     nearest(periodic, ds_add(split(xj), split(xi).neg())).hi
 }
 
 /// A world point `p` (f32) as seen from `origin`: `p - origin` of the pairs, rounded (WGSL
 /// `relative_to`, `mesh_local`).
-#[inline]
+#[inline(always)]
 pub fn relative(origin: Ds3, p: Vec3) -> Vec3 {
     ds_add(Ds3::from_f32(p), origin.neg()).hi
 }
 
 /// The offset of the plane `n . x = d` as seen from `x`: `d - n . x`, the products of the
 /// high parts exact (WGSL `plane_offset_from`).
-#[inline]
+#[inline(always)]
 pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> f32 {
     let p = split(x);
     let mut s = (d, 0.0);
@@ -210,7 +213,7 @@ pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> f32 {
 
 /// The Verlet test's displacement of `x` from `rebuild`: `(hi - rebuild_hi) + lo` in f32,
 /// nearest image (the GPU keeps the rebuild positions' high parts only; WGSL integrate).
-#[inline]
+#[inline(always)]
 pub fn moved(periodic: Option<&Periodic>, x: DVec3, rebuild: DVec3) -> Vec3 {
     let p = split(x);
     let d = (p.hi - rebuild.as_vec3()) + p.lo;
@@ -220,7 +223,7 @@ pub fn moved(periodic: Option<&Periodic>, x: DVec3, rebuild: DVec3) -> Vec3 {
 /// One step's displacement `dx` (f32) added to the stored position `x`, wrapped into the
 /// periodic box and snapped: the new stored position, and its [`moved`] from `rebuild`
 /// (WGSL integrate).
-#[inline]
+#[inline(always)]
 pub fn advance(periodic: Option<&Periodic>, x: DVec3, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
     let p = snap(wrap(periodic, ds_add(split(x), Ds3::from_f32(dx))));
     let d = (p.hi - rebuild.as_vec3()) + p.lo;

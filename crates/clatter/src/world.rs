@@ -445,7 +445,7 @@ impl World {
     /// subtracted in f64 and rounded to f32 after, so a contact is resolved to the float
     /// precision of the offset, not of the coordinates.
     /// The arithmetic is [`crate::precise`]'s, bit for bit the GPU's.
-    #[inline]
+    #[inline(always)]
     pub fn offset_of(&self, i: usize, j: usize) -> Vec3 {
         precise::offset(
             self.periodic.as_ref(),

@@ -153,7 +153,11 @@ fn sphere_pair(
             n * (ri - 0.5 * depth),
             depth,
             &w.local_motion(i),
-            &w.motion_from(i, j),
+            &BodyMotion {
+                position: d,
+                velocity: w.state.velocity[j],
+                omega: w.state.omega[j],
+            },
             hist,
             coverage,
             w.dt,
