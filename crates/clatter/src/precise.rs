@@ -38,10 +38,14 @@ impl Ds3 {
             lo: Vec3::ZERO,
         }
     }
+}
 
-    /// `-self`.
+impl std::ops::Neg for Ds3 {
+    type Output = Ds3;
+
+    /// `-self` (both parts; exact).
     #[inline]
-    pub fn neg(self) -> Ds3 {
+    fn neg(self) -> Ds3 {
         Ds3 {
             hi: -self.hi,
             lo: -self.lo,
@@ -188,14 +192,14 @@ pub fn wrap(periodic: Option<&Periodic>, x: Ds3) -> Ds3 {
 /// rounded to f32 (WGSL `offset_of`).
 #[inline(always)]
 pub fn offset(periodic: Option<&Periodic>, xi: DVec3, xj: DVec3) -> Vec3 {
-    nearest(periodic, ds_add(split(xj), split(xi).neg())).hi
+    nearest(periodic, ds_add(split(xj), -split(xi))).hi
 }
 
 /// A world point `p` (f32) as seen from `origin`: `p - origin` of the pairs, rounded (WGSL
 /// `relative_to`, `mesh_local`).
 #[inline(always)]
 pub fn relative(origin: Ds3, p: Vec3) -> Vec3 {
-    ds_add(Ds3::from_f32(p), origin.neg()).hi
+    ds_add(Ds3::from_f32(p), -origin).hi
 }
 
 /// The offset of the plane `n . x = d` as seen from `x`: `d - n . x`, the products of the

@@ -118,7 +118,7 @@ fn assert_rests_on_face(w: &mut World, i: usize, inradius: f64, what: &str) {
         .map_or(4, |f| f.count.min(4));
     let k_face = K * face_vertices as f32 / 4.0;
     let overlap = (w.consts.mass[i] * G / k_face) as f64;
-    let z = w.state.position[i].z as f64;
+    let z = w.state.position[i].z;
     let v = w.state.velocity[i].length();
     let omega = w.state.omega[i].length();
     eprintln!(

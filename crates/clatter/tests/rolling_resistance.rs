@@ -73,7 +73,7 @@ fn rolling_sphere_stops_over_the_analytic_distance() {
         let expected = (u0 as f64).powi(2) / (2.0 * a);
         let steps = ((1.3 * t_stop) / w.dt as f64).ceil() as u64;
         step_n(&mut w, steps).unwrap();
-        let travelled = w.state.position[0].x as f64;
+        let travelled = w.state.position[0].x;
         let speed = w.state.velocity[0].length();
         assert!(
             speed < 1e-3 * u0,

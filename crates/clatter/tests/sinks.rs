@@ -186,12 +186,12 @@ fn a_body_resting_on_a_removed_one_falls_freely() {
     step(&mut w).expect("step");
     assert!(w.is_removed(0) && !w.is_removed(1));
     let b = (w.state.position[0], w.state.velocity[0]);
-    let (z1, v1) = (w.state.position[1].z as f64, w.state.velocity[1].z as f64);
+    let (z1, v1) = (w.state.position[1].z, w.state.velocity[1].z as f64);
     let k = 100u64;
     step_n(&mut w, k).expect("steps");
     let dt = w.dt as f64;
     let v = w.state.velocity[1].z as f64;
-    let z = w.state.position[1].z as f64;
+    let z = w.state.position[1].z;
     // Semi-implicit Euler in free fall: v_k = v_1 - g k dt, z_k = z_1 + k v_1 dt - g dt^2 k(k+1)/2.
     let kf = k as f64;
     assert!(

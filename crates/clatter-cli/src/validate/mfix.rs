@@ -268,13 +268,7 @@ fn trace(
     let dt = w.dt as f64;
     let every = ((seconds / dt / samples as f64).ceil() as u64).max(1);
     let mut sim = ctx.sim(w)?;
-    let read = |w: &World, i: usize| {
-        (
-            w.time,
-            w.state.position[i].z as f64,
-            w.state.velocity[i].z as f64,
-        )
-    };
+    let read = |w: &World, i: usize| (w.time, w.state.position[i].z, w.state.velocity[i].z as f64);
     let mut out: Vec<Vec<Sample>> = (0..c.balls.len())
         .map(|i| vec![read(&sim.world, i)])
         .collect();

@@ -154,7 +154,7 @@ fn dem03_run(ctx: &Ctx, e: f64) -> anyhow::Result<Run> {
     loop {
         let w = &sim.world;
         let p = &w.state.position;
-        run.got.push([w.time, p[0].z as f64, p[1].z as f64]);
+        run.got.push([w.time, p[0].z, p[1].z]);
         truth.advance(w.time);
         run.want.push([w.time, truth.s[0], truth.s[2]]);
         kicked.advance(w.time);

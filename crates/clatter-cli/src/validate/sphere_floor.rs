@@ -100,11 +100,7 @@ fn bounce(
     for _ in 0..n {
         sim.step(every)?;
         let w = &sim.world;
-        samples.push((
-            w.time,
-            w.state.position[0].z as f64,
-            w.state.velocity[0].z as f64,
-        ));
+        samples.push((w.time, w.state.position[0].z, w.state.velocity[0].z as f64));
     }
     Ok((samples, dt))
 }
@@ -262,8 +258,8 @@ pub fn two_sphere_stack(ctx: &Ctx) -> anyhow::Result<Outcome> {
         sim.run_for(2.0 * tc)?;
         let p = &sim.world.state.position;
         t.push(sim.world.time);
-        d1.push(r1 - p[0].z as f64);
-        d2.push(r1 + r2 - (p[1].z - p[0].z) as f64);
+        d1.push(r1 - p[0].z);
+        d2.push(r1 + r2 - (p[1].z - p[0].z));
     }
     let e1 = (m1 + m2) * G / k;
     let e2 = m2 * G / k;

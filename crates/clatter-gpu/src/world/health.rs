@@ -25,9 +25,11 @@ impl GpuWorld {
         setup.snapshot_every = setup.snapshot_every.max(1).div_ceil(check) * check;
         // The centroid of the bodies as the reference of the potential energy.
         let n = world.len().max(1) as f64;
-        let c = world.state.position.iter().fold([0.0f64; 3], |a, p| {
-            [a[0] + p.x as f64, a[1] + p.y as f64, a[2] + p.z as f64]
-        });
+        let c = world
+            .state
+            .position
+            .iter()
+            .fold([0.0f64; 3], |a, p| [a[0] + p.x, a[1] + p.y, a[2] + p.z]);
         let reference = Vec3::new((c[0] / n) as f32, (c[1] / n) as f32, (c[2] / n) as f32);
         let mass: f64 = world.consts.mass.iter().map(|&m| m as f64).sum();
         let reference_energy = -mass * world.gravity.dot(reference) as f64;
