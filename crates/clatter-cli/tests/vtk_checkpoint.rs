@@ -955,7 +955,8 @@ fn check_vtu(path: &Path) {
         .unwrap();
     let bytes = base64_decode(b64);
     let len = u32::from_le_bytes(bytes[..4].try_into().unwrap()) as usize;
-    assert_eq!(len, 12 * n, "{}: Points byte count", path.display());
+    // Float64 points (positions at full precision).
+    assert_eq!(len, 24 * n, "{}: Points byte count", path.display());
     assert_eq!(bytes.len(), 4 + len, "{}: Points data", path.display());
 }
 

@@ -238,11 +238,11 @@ fn collide(world: &World, body: u32, other: Partner) -> Option<Manifold> {
             world.shape(j as usize),
             &world.pose_from(i, j as usize),
         ),
-        Partner::Wall(w) => narrow::collide_plane(
-            &world.plane_from(i, &world.walls[w as usize].plane),
-            world.shape(i),
-            &world.local_pose(i),
-        ),
+        Partner::Wall(w) => {
+            let (plane, rest) = world.plane_from(i, &world.walls[w as usize].plane);
+            narrow::collide_plane(&plane, world.shape(i), &world.local_pose(i))
+                .map(|m| World::add_rest(m, rest))
+        }
         // Mesh contacts are found per body (`mesh_reports`), never through the contact list.
         Partner::Boundary(_) => None,
     }

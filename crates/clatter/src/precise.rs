@@ -202,17 +202,21 @@ pub fn relative(origin: Ds3, p: Vec3) -> Vec3 {
     ds_add(Ds3::from_f32(p), -origin).hi
 }
 
-/// The offset of the plane `n . x = d` as seen from `x`: `d - n . x`, the products of the
-/// high parts exact (WGSL `plane_offset_from`).
+/// The offset of the plane `n . x = d` as seen from `x`: `d - n . x` as a pair `(offset,
+/// rest)`, the products of the high parts exact (WGSL `plane_offset_from`). The rest is
+/// added to the depths of the contact found with `offset`, so that a depth keeps its own
+/// precision rather than that of the body's distance from the plane (a body resting on a
+/// wall creeps below the f32 spacing of that distance: without the rest its depth, and the
+/// law's dashpot, would jump by that spacing).
 #[inline(always)]
-pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> f32 {
+pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> (f32, f32) {
     let p = split(x);
     let mut s = (d, 0.0);
     for k in 0..3 {
         let (pr, e) = two_prod(n[k], p.hi[k]);
         s = ds_add1(s, (-pr, -e));
     }
-    ds_add1(s, (-n.dot(p.lo), 0.0)).0
+    ds_add1(s, (-n.dot(p.lo), 0.0))
 }
 
 /// The Verlet test's displacement of `x` from `rebuild`: `(hi - rebuild_hi) + lo` in f32,

@@ -13,7 +13,7 @@ use crate::periodic::Periodic;
 use crate::precise;
 use crate::sink::{Discharged, Sink};
 use crate::step;
-use clatter_geom::narrow::Plane;
+use clatter_geom::narrow::{Manifold, Plane};
 use clatter_geom::{Pose, PreparedShape, Shape};
 
 /// A body as placed by a scene: which shape and material, and its initial state.
@@ -480,13 +480,28 @@ impl World {
     }
 
     /// A wall's plane as seen from body `i`: its offset `d - n . x_i`, with the products
-    /// exact ([`precise::plane_offset`]).
+    /// exact, and the rest of that offset below f32, to be added to the depths of the
+    /// contacts found with the plane ([`precise::plane_offset`], [`World::add_rest`]).
     #[inline]
-    pub fn plane_from(&self, i: usize, plane: &Plane) -> Plane {
-        Plane {
-            normal: plane.normal,
-            offset: precise::plane_offset(plane.normal, plane.offset, self.state.position[i]),
+    pub fn plane_from(&self, i: usize, plane: &Plane) -> (Plane, f32) {
+        let (offset, rest) =
+            precise::plane_offset(plane.normal, plane.offset, self.state.position[i]);
+        (
+            Plane {
+                normal: plane.normal,
+                offset,
+            },
+            rest,
+        )
+    }
+
+    /// `m` with `rest` (from [`World::plane_from`]) added to its depths.
+    #[inline]
+    pub fn add_rest(mut m: Manifold, rest: f32) -> Manifold {
+        for p in &mut m.points[..m.count] {
+            p.depth += rest;
         }
+        m
     }
 
     /// Body `i`'s shape.

@@ -196,15 +196,15 @@ fn two_prod(a: f32, b: f32) -> vec2<f32> {
     return vec2<f32>(p, e);
 }
 
-// The offset of the plane `n . x = d` as seen from body i: `d - n . x_i`, with `n . hi`
-// summed exactly (the CPU's `World::plane_from`, in f64 there).
-fn plane_offset_from(i: u32, n: vec3<f32>, d: f32) -> f32 {
+// The offset of the plane `n . x = d` as seen from body i: `d - n . x_i` as a pair (offset,
+// rest), with `n . hi` summed exactly (precise.rs `plane_offset`); the rest is added to the
+// depths of the contact found with the offset.
+fn plane_offset_from(i: u32, n: vec3<f32>, d: f32) -> vec2<f32> {
     let b = bodies[i];
     var s = vec2<f32>(d, 0.0);
     for (var k = 0u; k < 3u; k++) {
         let p = two_prod(n[k], b.position[k]);
         s = ds_add(s, -p);
     }
-    s = ds_add(s, vec2<f32>(-dot(n, b.position_lo.xyz), 0.0));
-    return s.x;
+    return ds_add(s, vec2<f32>(-dot(n, b.position_lo.xyz), 0.0));
 }

@@ -499,6 +499,8 @@ var<private> mesh_nfound: u32;
 // Face groups (normal, offset) and their boundaries; edge and vertex contacts.
 var<private> mesh_groups: array<vec4<f32>, MESH_MAX_FOUND>;
 var<private> mesh_groups_b: array<u32, MESH_MAX_FOUND>;
+// The rest of each group's offset below f32 (precise.rs, mesh_contacts.rs `FaceGroup::rest`).
+var<private> mesh_groups_rest: array<f32, MESH_MAX_FOUND>;
 var<private> mesh_feat_n: array<vec4<f32>, MESH_MAX_FOUND>; // normal, depth
 var<private> mesh_feat_p: array<vec4<f32>, MESH_MAX_FOUND>; // point, boundary (bits)
 var<private> mesh_feat_key: array<vec2<u32>, MESH_MAX_FOUND>;
@@ -624,6 +626,9 @@ fn mesh_piece(s: u32, x: vec3<f32>, q: vec4<f32>, piece: u32) -> bool {
                     return false;
                 }
                 mesh_groups[ngroups] = vec4<f32>(hit.normal, hit.offset);
+                let wa = quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t;
+                let lo0 = ds3_add(Ds3(wa, vec3<f32>(0.0)), ds3_neg(mesh_origin)).lo;
+                mesh_groups_rest[ngroups] = dot(hit.normal, lo0);
                 mesh_groups_b[ngroups] = b;
                 ngroups++;
             }
@@ -667,7 +672,10 @@ fn mesh_piece(s: u32, x: vec3<f32>, q: vec4<f32>, piece: u32) -> bool {
     let start = mesh_nfound;
     for (var k = 0u; k < ngroups; k++) {
         let b = mesh_groups_b[k];
-        let m = mesh_plane_manifold(s, x, q, b, mesh_pose(b), mesh_groups[k].xyz, mesh_groups[k].w, size);
+        var m = mesh_plane_manifold(s, x, q, b, mesh_pose(b), mesh_groups[k].xyz, mesh_groups[k].w, size);
+        for (var p = 0u; p < m.count; p++) {
+            m.points[p].w += mesh_groups_rest[k];
+        }
         if m.count > 0u {
             if mesh_nfound - start == MESH_MAX_FOUND {
                 return false;

@@ -83,7 +83,7 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         let r = statics[i].radius;
         for (var w = 0u; w < params.num_walls; w++) {
             let plane = walls[w].plane;
-            if plane_offset_from(i, plane.xyz, plane.w) > r {
+            if plane_offset_from(i, plane.xyz, plane.w).x > r {
                 atomicMin(&red_escaped, i);
             }
         }

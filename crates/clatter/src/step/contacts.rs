@@ -250,7 +250,8 @@ fn wall_pair<const PIECES: bool>(
     } else {
         (w.shape(i), w.local_pose(i))
     };
-    match narrow::collide_plane(&w.plane_from(i, &wall.plane), shape, &pose) {
+    let (plane, rest) = w.plane_from(i, &wall.plane);
+    match narrow::collide_plane(&plane, shape, &pose).map(|m| World::add_rest(m, rest)) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
             let (r, sphere) = if PIECES {

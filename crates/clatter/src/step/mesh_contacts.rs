@@ -226,6 +226,9 @@ struct FaceGroup {
     boundary: u32,
     normal: Vec3,
     offset: f32,
+    /// The rest of `offset` below f32 (the low part of the relative first vertex along the
+    /// normal), added to the group's depths as for a wall ([`World::plane_from`]).
+    rest: f32,
     /// Every candidate triangle on the plane (those the piece touches on their faces and the
     /// others).
     support: SmallVec<[[Vec3; 3]; 4]>,
@@ -257,6 +260,11 @@ fn piece_contacts(
         let mp = &poses[b];
         let tri = local_triangle(mesh, t, mp, origin);
         let normal = mp.rotation * mesh.normals[t];
+        let lo0 = crate::precise::ds_add(
+            crate::precise::Ds3::from_f32(mesh.world_triangle(t, mp)[0]),
+            -origin,
+        )
+        .lo;
         match triangle::collide_triangle(shape, pose, &tri, normal) {
             None => {}
             Some(TriContact::Face { normal, offset }) => {
@@ -271,6 +279,7 @@ fn piece_contacts(
                         boundary: b as u32,
                         normal,
                         offset,
+                        rest: normal.dot(lo0),
                         support: SmallVec::new(),
                     }),
                 }
@@ -340,7 +349,7 @@ fn piece_contacts(
             out.push(Found {
                 boundary: g.boundary,
                 piece,
-                manifold: m,
+                manifold: World::add_rest(m, g.rest),
             });
         }
     }
