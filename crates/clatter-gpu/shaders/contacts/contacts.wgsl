@@ -115,8 +115,8 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
     let po = plane_offset_from(i, wall.plane.xyz, wall.plane.w);
     var m = collide_plane(wall.plane.xyz, po.x, shape, x, q);
     // The offset's rest below f32 on the depths (precise.rs `plane_offset`).
-    for (var k = 0u; k < m.count; k++) {
-        m.points[k].w += po.y;
+    for (var kp = 0u; kp < m.count; kp++) {
+        m.points[kp].w += po.y;
     }
     if m.count > 0u {
         let params_w = pair_table[wall.material * params.num_materials + si.material];
