@@ -132,16 +132,8 @@ fn tangential_law(
     let ft_len2 = ft.length_squared();
     if ft_len2 > cap * cap {
         ft *= cap / ft_len2.sqrt();
-        // Keep the spring at the length that, with the dashpot, gives the capped force: at
-        // the threshold it is unchanged (continuous between sticking and sliding). Setting it
-        // to `-ft / kt` made it jump by `eta_t vt / kt` there, so that a contact within f32
-        // rounding of the cap ended the step with springs 5% apart on two executors.
-        // WGSL twin: law.wgsl `tangential_law`.
-        xi = if kt > 0.0 {
-            -(ft + eta_t * vt) / kt
-        } else {
-            Vec3::ZERO
-        };
+        // Keep the spring at the length that the capped force corresponds to.
+        xi = if kt > 0.0 { -ft / kt } else { Vec3::ZERO };
     }
     *history = xi;
     ft

@@ -183,12 +183,7 @@ pub fn impact(law: &Law, mut a: Ball, mut b: Ball, dt: f64) -> Impact {
             let cap = law.friction * fn_.max(0.0);
             if ft.length() > cap {
                 ft *= cap / ft.length();
-                // As law.rs: the spring that, with the dashpot, gives the capped force.
-                xi = if kt > 0.0 {
-                    -(ft + gamma_t * vt) / kt
-                } else {
-                    DVec3::ZERO
-                };
+                xi = if kt > 0.0 { -ft / kt } else { DVec3::ZERO };
             } else if fn_ > 0.0 {
                 sliding = false;
             }

@@ -66,7 +66,7 @@ fn tangential_law(p: PairParams, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_
     let ft_len2 = dot(ft, ft);
     if ft_len2 > cap * cap {
         ft *= cap / sqrt(ft_len2);
-        xi = select(vec3<f32>(0.0), -(ft + eta_t * vt) / kt, kt > 0.0);
+        xi = select(vec3<f32>(0.0), -ft / kt, kt > 0.0);
     }
     return Tangential(ft, xi);
 }
