@@ -248,8 +248,13 @@ pub mod arg {
     pub const WORK: u32 = 5;
     /// `integrate`, every step (zero while the pipeline is stopped).
     pub const STEP_BODIES: u32 = 6;
+    /// `health_bodies`: every body on the steps a check or an energy sample is due, else
+    /// nothing (written each step by `health_gate`).
+    pub const HEALTH: u32 = 7;
+    /// `snapshot_state`: its grid on snapshot steps, else nothing (`health_gate`).
+    pub const SNAPSHOT: u32 = 8;
     /// The first scan-level slot.
-    pub const FIRST_SCAN: u32 = 7;
+    pub const FIRST_SCAN: u32 = 9;
 }
 
 /// Threads per workgroup of every kernel (`WG`).
@@ -299,6 +304,9 @@ fn constants() -> Vec<Constant> {
         U32("ARG_COMMIT", arg::COMMIT),
         U32("ARG_WORK", arg::WORK),
         U32("ARG_STEP_BODIES", arg::STEP_BODIES),
+        U32("ARG_HEALTH", arg::HEALTH),
+        U32("ARG_SNAPSHOT", arg::SNAPSHOT),
+        U32("SNAPSHOT_GROUPS", crate::stages::health::SNAPSHOT_GROUPS),
         U32("ARG_SCAN0", arg::FIRST_SCAN),
     ]
 }

@@ -485,7 +485,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         let failed = outcome.rows.iter().filter(|r| r.fails()).count();
         let differ = outcome.rows.iter().filter(|r| r.differs()).count();
         match &ctx.log {
-            Some(l) => l.end(outcome.rows.len(), failed),
+            Some(l) => l.end(outcome.rows.len(), failed, differ),
             None if !args.progress.quiet => eprintln!(
                 "{name}: {}, {failed} failed{} ({secs:.1} s)",
                 counted(outcome.rows.len(), "row"),

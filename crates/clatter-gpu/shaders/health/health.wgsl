@@ -38,6 +38,21 @@ fn health_step(lid: u32) -> u32 {
     return workgroupUniformLoad(&red_step);
 }
 
+// Sizes this step's health_bodies and snapshot_state (ARG_HEALTH, ARG_SNAPSHOT): their
+// grids on the steps a check, a sample or a snapshot is due, else nothing, so that the
+// steps in between launch no workgroup. The kernels still test the step themselves.
+@compute @workgroup_size(1)
+fn health_gate() {
+    let g = atomicLoad(&status[ST_STEPS]);
+    let hp = health_params;
+    let live = !halted();
+    let due = live && (due_every(g, hp.check_every, hp.base_check)
+        || due_every(g, hp.energy_every, hp.base_energy));
+    write_args(ARG_HEALTH, select(0u, (params.n + WG - 1u) / WG, due));
+    let snap = live && due_every(g, hp.snapshot_every, hp.base_snapshot);
+    write_args(ARG_SNAPSHOT, select(0u, SNAPSHOT_GROUPS, snap));
+}
+
 // Tree reduction of red_a/red_b in workgroup memory: always the same pairs, in the same order.
 fn reduce_tree(lid: u32) {
     for (var half = WG / 2u; half > 0u; half = half / 2u) {

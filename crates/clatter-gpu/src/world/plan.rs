@@ -90,7 +90,7 @@ impl Plan {
             ],
         });
         let (ops, lean_ops) = stages::record(&compiled.base, contacts, &scans, spheres_only);
-        let health_ops = stages::health::record(&compiled.base, params.n as u64);
+        let health_ops = stages::health::record(&compiled.base);
         Ok(Plan {
             compiled: compiled.clone(),
             contacts: variant,
