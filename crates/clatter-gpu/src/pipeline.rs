@@ -96,8 +96,6 @@ pub(crate) enum Size {
     Single,
     /// Indirect, from an argument slot.
     Indirect(u32),
-    /// A fixed grid of workgroups, sized when the step is recorded.
-    Fixed([u32; 3]),
 }
 
 /// Which compiled set a kernel is in.

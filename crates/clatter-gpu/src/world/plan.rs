@@ -143,7 +143,6 @@ impl Plan {
             Size::Indirect(slot) => {
                 pass.dispatch_workgroups_indirect(&self.args, slot as u64 * ARGS_BYTES)
             }
-            Size::Fixed([x, y, z]) => pass.dispatch_workgroups(x, y, z),
         }
     }
 }
