@@ -816,8 +816,8 @@ fn mesh_contacts(i: u32) -> MeshSum {
         }
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);
         let pp = pair_table[mesh_h(b, 1u) * params.num_materials + st.material];
-        let r = contact_force(pp, st.mass, radius, share, m, mesh_motion(b), motion_of(i),
-                              springs[c], params.dt);
+        let context = PairContext(pp, st.mass, radius, share, params.dt);
+        let r = contact_force(context, m, mesh_motion(b), motion_of(i), springs[c]);
         let k = place[c];
         let at = mesh_slot_at(i, k);
         mesh[at] = b;
