@@ -81,10 +81,9 @@ struct WallResult {
     force: ContactForce,
 }
 
-// Whether body-wall slot t touched in the last step: the flag is kept in the unused `pad0`
-// word of its force record (1 as bits; a released slot's record is all zero).
+// Whether body-wall slot t touched in the last step (a released slot's record is all zero).
 fn wall_touched(t: u32) -> bool {
-    return bitcast<u32>(wall_forces[t].pad0) != 0u;
+    return wall_forces[t].touching != 0u;
 }
 
 // Body i's piece k (the body itself, k = 0, unless a composite) against wall w, in slot
@@ -116,13 +115,12 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
         let fixed = BodyMotion(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
         let context = PairContext(params_w, si.mass, radius, share, params.dt);
         let r = contact_force(context, m, fixed, motion_of(i), wall_hist[t]);
-        var stored = r.force;
-        stored.pad0 = bitcast<f32>(1u); // touching (wall_touched)
-        wall_forces[t] = stored;
+        let f = r.force;
+        wall_forces[t] = WallForce(f.force_b, f.normal_force, f.torque_a, 1u, f.torque_b, 0.0);
         wall_hist[t] = r.hist;
         return WallResult(true, r.force);
     } else if wall_touched(t) {
-        wall_forces[t] = ContactForce();
+        wall_forces[t] = WallForce();
         wall_hist[t] = vec4<f32>(0.0);
     }
     return WallResult(false, ContactForce());
