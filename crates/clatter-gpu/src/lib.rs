@@ -13,7 +13,6 @@
 //! harnesses `law` and `narrow`, which run the law and the narrow phase in WGSL on
 //! thousands of queries for the tests that hold them against `clatter`'s Rust.
 
-pub mod backend;
 pub mod bandwidth;
 pub mod buffers;
 pub mod context;
@@ -27,12 +26,8 @@ pub(crate) mod pipeline;
 pub mod readback;
 pub mod shapes;
 pub mod stages;
-pub mod watch;
 pub mod world;
 
-pub use backend::{
-    BackendChoice, BackendError, Chosen, Device, Readback, StepError, Stepped, Stepper, choose,
-};
 #[cfg(feature = "test-harness")]
 pub use context::test_context;
 pub use context::{GpuContext, GpuError, instance_flags, quiet_device_select};
@@ -43,5 +38,4 @@ pub use narrow::{
 };
 pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;
-pub use watch::{Watch, WatchError};
 pub use world::{EnergySample, GpuWorld, HealthSetup, StepReport};

@@ -11,7 +11,7 @@ use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
 use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
-use clatter_gpu::{Device, Readback, StepError, Stepper, Watch, WatchError};
+use clatter_backend::{Device, Readback, StepError, Stepper, Watch, WatchError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
@@ -28,7 +28,7 @@ use outputs::Outputs;
 
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).
-pub const FULL_CHECK_EVERY: u64 = clatter_gpu::watch::FULL_CHECK_EVERY;
+pub const FULL_CHECK_EVERY: u64 = clatter_backend::FULL_CHECK_EVERY;
 
 /// Where `clatter run` without a scene file and without `--out` writes the default scene's
 /// results (relative to the working directory), with a picture of the last step.

@@ -25,7 +25,8 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clatter::World;
-use clatter_gpu::{Device, GpuContext, Readback, Stepper};
+use clatter_backend::{Device, Readback, Stepper};
+use clatter_gpu::GpuContext;
 
 use crate::args::{Pipeline, Progress};
 use crate::backend::Backend;
@@ -323,11 +324,12 @@ impl Ctx {
         let stepper = match &self.gpu {
             None => Stepper::Cpu,
             Some(ctx) => {
-                clatter_gpu::choose(
-                    clatter_gpu::BackendChoice::Gpu,
+                clatter_backend::choose(
+                    clatter_backend::BackendChoice::Gpu,
                     &world,
                     Device::Shared(ctx.clone()),
-                )?
+                )
+                .map_err(|e| anyhow::anyhow!(e.describe(crate::backend::GPU_OPTION)))?
                 .stepper
             }
         };

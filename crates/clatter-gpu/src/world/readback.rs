@@ -21,6 +21,14 @@ impl GpuWorld {
         Ok(bytemuck::pod_collect_to_vec(&bytes))
     }
 
+    /// Copies the body state, step count and time back into `world` (the world it was
+    /// created from), not the contact list: what a caller that reads only the bodies needs.
+    pub fn read_bodies_into(&self, world: &mut World) -> Result<(), GpuError> {
+        let states = self.read_states()?;
+        self.apply_states(&states, world);
+        Ok(())
+    }
+
     /// Copies the GPU state back into `world` (the world it was created from): body state,
     /// step count, time, and the contact list with its springs and forces, so outputs,
     /// health checks and checkpoints work on it as after CPU steps.
