@@ -449,6 +449,25 @@ impl Stepper {
         Ok(())
     }
 
+    /// The world's step count: the world's own on the CPU; on the GPU the device's, which
+    /// the world reaches at the next [`Stepper::sync`] (nothing is read back).
+    pub fn step_count(&self, world: &World) -> u64 {
+        match self {
+            Stepper::Cpu => world.step_count,
+            #[cfg(feature = "gpu")]
+            Stepper::Gpu(g) => g.step_count(),
+        }
+    }
+
+    /// The simulated time, as [`Stepper::step_count`] gives the step count.
+    pub fn time(&self, world: &World) -> f64 {
+        match self {
+            Stepper::Cpu => world.time,
+            #[cfg(feature = "gpu")]
+            Stepper::Gpu(g) => g.time(),
+        }
+    }
+
     /// Broad-phase (pair list) rebuilds so far: the world's count on the CPU, the GPU's own
     /// since upload on the GPU.
     pub fn rebuilds(&self, world: &World) -> u64 {

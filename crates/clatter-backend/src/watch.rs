@@ -195,7 +195,9 @@ impl Watch {
             };
             s += stats.steps;
             if !stepper.is_gpu() || stats.alarm {
-                let full = s.is_multiple_of(FULL_CHECK_EVERY);
+                // The world is current here (the CPU's, or read back for the alarm), also
+                // when `back` leaves it behind between calls.
+                let full = world.step_count.is_multiple_of(FULL_CHECK_EVERY);
                 self.after(stepper, world, &stats, full)?;
             }
             total = Some(match total {
