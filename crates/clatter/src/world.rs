@@ -1,5 +1,8 @@
-//! The world: bodies (state and constants, structure of arrays), materials, walls and the
-//! contact list. The step that advances it is in [`crate::step`].
+//! The world: bodies (state and constants, structure of arrays; composites with their
+//! pieces' reaches), materials, walls, triangle-mesh boundaries, the periodic box, sinks and
+//! the contact list. The step that advances it, and whatever else needs a stage (rebuilding
+//! the contact list, taking one over from the GPU), is in [`crate::step`]: the stages use
+//! the world, the world does not call them.
 
 use glam::{Quat, Vec3};
 use thiserror::Error;
