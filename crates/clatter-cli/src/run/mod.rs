@@ -187,7 +187,6 @@ impl Plan {
     }
 }
 
-/// Checks the output options; `stored` are the options of the run being resumed.
 /// The output options after checking, with a resumed run's stored ones filled in.
 struct Resolved {
     csv: bool,
@@ -199,6 +198,42 @@ struct Resolved {
     check_every: u64,
 }
 
+impl Resolved {
+    /// The plan of a run of `scene` (and its text) to `end_step` with these outputs, in
+    /// `out`, as loud as `progress` says, on `pipeline`'s backend; neither resumed nor
+    /// pictured.
+    fn into_plan(
+        self,
+        end_step: u64,
+        health: Health,
+        out: Option<PathBuf>,
+        progress: &Progress,
+        pipeline: &Pipeline,
+        (scene, scene_text): (Scene, String),
+    ) -> Plan {
+        Plan {
+            end_step,
+            out,
+            csv: self.csv,
+            vtk: self.vtk,
+            output_every: self.output_every,
+            contacts: self.contacts,
+            checkpoint_every: self.checkpoint_every,
+            energy_every: self.energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+            check_every: self.check_every,
+            health,
+            resumed: false,
+            quiet: progress.quiet,
+            log: progress.lines(),
+            backend: pipeline.backend,
+            picture: false,
+            scene,
+            scene_text,
+        }
+    }
+}
+
+/// Checks the output options; `stored` are the options of the run being resumed.
 fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved> {
     let every = match (o.output_every, o.trace_every) {
         (Some(a), Some(b)) if a != b => anyhow::bail!(
@@ -281,40 +316,20 @@ pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
     if picture {
         args.output.out = Some(PathBuf::from(DEFAULT_OUT));
     }
-    let Resolved {
-        csv,
-        vtk,
-        output_every,
-        contacts,
-        checkpoint_every,
-        energy_every,
-        check_every,
-    } = resolve(&args.output, None)?;
+    let resolved = resolve(&args.output, None)?;
     let world = scene.world();
     let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
     let health = Health::new(&world);
-    execute(
-        Plan {
-            end_step,
-            out: args.output.out,
-            csv,
-            vtk,
-            output_every,
-            contacts,
-            checkpoint_every,
-            energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
-            check_every,
-            health,
-            resumed: false,
-            quiet: args.progress.quiet,
-            log: args.progress.lines(),
-            backend: args.pipeline.backend,
-            picture,
-            scene,
-            scene_text: text,
-        },
-        world,
-    )
+    let mut plan = resolved.into_plan(
+        end_step,
+        health,
+        args.output.out,
+        &args.progress,
+        &args.pipeline,
+        (scene, text),
+    );
+    plan.picture = picture;
+    execute(plan, world)
 }
 
 /// `clatter resume`: a run continued from a checkpoint.
@@ -327,15 +342,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
     } else {
         serde_json::from_slice(&ckpt.app).ok()
     };
-    let Resolved {
-        csv,
-        vtk,
-        output_every,
-        contacts,
-        checkpoint_every,
-        energy_every,
-        check_every,
-    } = resolve(&args.output, stored.as_ref())?;
+    let resolved = resolve(&args.output, stored.as_ref())?;
     let (scene, world) = ckpt
         .world()
         .with_context(|| format!("cannot resume from {}", path.display()))?;
@@ -355,28 +362,16 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
         Some(b) => Health::with_baseline(&world, b),
         None => Health::new(&world),
     };
-    execute(
-        Plan {
-            end_step,
-            out: args.output.out,
-            csv,
-            vtk,
-            output_every,
-            contacts,
-            checkpoint_every,
-            energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
-            check_every,
-            health,
-            resumed: true,
-            quiet: args.progress.quiet,
-            log: args.progress.lines(),
-            backend: args.pipeline.backend,
-            picture: false,
-            scene_text: ckpt.scene_text.clone(),
-            scene,
-        },
-        world,
-    )
+    let mut plan = resolved.into_plan(
+        end_step,
+        health,
+        args.output.out,
+        &args.progress,
+        &args.pipeline,
+        (scene, ckpt.scene_text.clone()),
+    );
+    plan.resumed = true;
+    execute(plan, world)
 }
 
 /// Steps `world` as `plan` says: the header, the stepping loop with its outputs, then the
