@@ -144,6 +144,51 @@ clatter::gpu_record! {
     }
 }
 
+clatter::gpu_record! {
+    /// A body-wall slot's last force, as the GPU keeps it (`wall_forces`): a
+    /// [`ContactForce`] whose unused word holds whether the body touched the wall in the
+    /// last step (1) or not (0), so the slot costs no more than the force.
+    pub struct WallForce {
+        /// Force on the body (side b), N.
+        pub force_b: glam::Vec3,
+        /// Total normal force, N.
+        pub normal_force: f32,
+        /// Torque on the wall (side a), N m.
+        pub torque_a: glam::Vec3,
+        /// 1 when the body touched the wall in the last step, else 0.
+        pub touching: u32,
+        /// Torque on the body (side b), N m.
+        pub torque_b: glam::Vec3,
+        /// Unused.
+        pub pad0: f32,
+    }
+}
+
+impl WallForce {
+    /// A slot's record from its force and touching flag.
+    pub fn new(f: &ContactForce, touching: bool) -> WallForce {
+        WallForce {
+            force_b: f.force_b,
+            normal_force: f.normal_force,
+            torque_a: f.torque_a,
+            touching: touching as u32,
+            torque_b: f.torque_b,
+            pad0: 0.0,
+        }
+    }
+
+    /// The slot's force (as the CPU keeps it) and touching flag.
+    pub fn split(&self) -> (ContactForce, bool) {
+        let f = ContactForce::new(
+            self.force_b,
+            self.torque_a,
+            self.torque_b,
+            self.normal_force,
+        );
+        (f, self.touching != 0)
+    }
+}
+
 /// Slots of the energy log ring (the start of the `health` buffer): more than the steps of
 /// one batch.
 pub const HEALTH_LOG: u32 = 128;
@@ -323,6 +368,7 @@ pub fn wgsl_prelude() -> String {
         Grid::wgsl(),
         HealthParams::wgsl(),
         HealthRecord::wgsl(),
+        WallForce::wgsl(),
         crate::buffers::wgsl_bindings(),
     ]
     .join("\n")
@@ -339,6 +385,8 @@ mod tests {
         assert_eq!(layout_mismatch::<Grid>(), None);
         assert_eq!(layout_mismatch::<HealthParams>(), None);
         assert_eq!(layout_mismatch::<HealthRecord>(), None);
+        assert_eq!(layout_mismatch::<WallForce>(), None);
+        assert_eq!(size_of::<WallForce>(), size_of::<ContactForce>());
     }
 
     #[test]

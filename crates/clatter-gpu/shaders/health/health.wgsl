@@ -111,7 +111,7 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         }
         let slots = params.num_walls * params.max_pieces;
         for (var t = i * slots; t < (i + 1u) * slots; t++) {
-            if bitcast<u32>(wall_forces[t].pad0) != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
+            if wall_forces[t].touching != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
                 suspect = true;
             }
         }
@@ -252,8 +252,10 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
     if i < slots {
         let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * i;
         snap4(at, wall_hist[i]);
-        snap_force(at + 4u, wall_forces[i]);
-        snapshot[at + 16u] = bitcast<u32>(wall_forces[i].pad0);
+        let wf = wall_forces[i];
+        snap_force(at + 4u, ContactForce(wf.force_b, wf.normal_force, wf.torque_a, 0.0, wf.torque_b,
+                                         0.0));
+        snapshot[at + 16u] = wf.touching;
     }
     if i < params.pair_capacity {
         let at = mesh_at + mesh_words + SNAP_PAIR * i;

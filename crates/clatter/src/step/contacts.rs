@@ -7,10 +7,10 @@ use rayon::prelude::*;
 
 use super::CHUNK;
 use crate::contact_list::{ContactSprings, piece_ids};
-use crate::law::{self, BodyMotion, ContactForce};
+use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::world::World;
 use clatter_geom::Shape;
-use clatter_geom::narrow::{self, Manifold, SatHint};
+use clatter_geom::narrow::{self, ContactPoint, Manifold, SatHint};
 
 /// Runs the stage; returns the number of contacts that touch.
 pub(crate) fn run(world: &mut World) -> usize {
@@ -144,19 +144,25 @@ fn sphere_pair(
         let depth = ri + rj - dist;
         let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
         let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
-        *force = law::point_contact_force(
-            params,
-            mi * mj / (mi + mj),
-            ri * rj / (ri + rj),
-            1.0,
-            n,
-            xi + n * (ri - 0.5 * depth),
+        let context = PairContext {
+            params: *params,
+            m_eff: mi * mj / (mi + mj),
+            r_eff: ri * rj / (ri + rj),
+            share: 1.0,
+            dt: w.dt,
+        };
+        let point = ContactPoint {
+            point: xi + n * (ri - 0.5 * depth),
             depth,
+        };
+        *force = law::point_contact_force(
+            &context,
+            n,
+            point,
             &w.motion(i),
             &w.motion_from(i, j),
             hist,
             coverage,
-            w.dt,
         );
         *touching = true;
     } else if *touching {
@@ -207,17 +213,20 @@ fn body_pair<const PIECES: bool>(
                     (w.consts.equivalent_radius[j], w.consts.is_sphere[j]),
                 )
             };
+            let context = PairContext {
+                params: *params,
+                m_eff: mi * mj / (mi + mj),
+                r_eff: ri * rj / (ri + rj),
+                share: law::point_share(si, sj),
+                dt: w.dt,
+            };
             *force = law::contact_force(
-                params,
-                mi * mj / (mi + mj),
-                ri * rj / (ri + rj),
-                law::point_share(si, sj),
+                &context,
                 &m,
                 &w.motion(i),
                 &w.motion_from(i, j),
                 hist,
                 twist,
-                w.dt,
             );
             *touching = true;
         }
@@ -253,17 +262,20 @@ fn wall_pair<const PIECES: bool>(
             } else {
                 (w.consts.equivalent_radius[i], w.consts.is_sphere[i])
             };
+            let context = PairContext {
+                params: *params,
+                m_eff: w.consts.mass[i],
+                r_eff: r,
+                share: law::point_share(sphere, sphere),
+                dt: w.dt,
+            };
             *force = law::contact_force(
-                params,
-                w.consts.mass[i],
-                r,
-                law::point_share(sphere, sphere),
+                &context,
                 &m,
                 &BodyMotion::default(),
                 &w.motion(i),
                 hist,
                 twist,
-                w.dt,
             );
             *touching = true;
         }

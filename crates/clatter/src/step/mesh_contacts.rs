@@ -8,7 +8,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
-use crate::law::{self, BodyMotion};
+use crate::law::{self, BodyMotion, PairContext};
 use crate::mesh_boundary::{
     Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS,
 };
@@ -442,17 +442,20 @@ fn assign(
         let s = &mut slots[place[c]];
         let b = f.boundary as usize;
         let params = w.pair_params(w.boundaries[b].material, w.consts.material[i]);
-        s.force = law::contact_force(
-            params,
-            mass,
+        let context = PairContext {
+            params: *params,
+            m_eff: mass,
             r_eff,
             share,
+            dt: w.dt,
+        };
+        s.force = law::contact_force(
+            &context,
             &f.manifold,
             &motions[b],
             &body,
             &mut s.history,
             &mut s.twist,
-            w.dt,
         );
         s.boundary = f.boundary;
         s.piece = f.piece;
