@@ -68,9 +68,16 @@ pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
     collide_with_hint(a, pa, b, pb, &mut NO_HINT.clone(), &mut 0.0)
 }
 
-/// A separating axis remembered between steps for one pair (temporal coherence): bodies move
-/// little per DEM step, so the axis that separated them last step usually still does, and
-/// one test replaces the full separating-axis search. [`NO_HINT`] when there is none.
+/// What the narrow phase remembers between steps for one pair (temporal coherence), in one
+/// word, with the pair's `bound` (see [`collide_with_hint`]):
+/// - for a pair found apart, the axis that separated it: bodies move little per DEM step, so
+///   the axis usually still separates them next step and one test replaces the full
+///   separating-axis search;
+/// - for polyhedra found touching, the contact feature the full test chose (the reference
+///   face of A or of B, see [`is_contact_hint`]): while the pair's margin lasts, the same
+///   test would choose it again, so only that face is clipped.
+///
+/// [`NO_HINT`] when there is none.
 pub type SatHint = u32;
 /// No remembered axis.
 pub const NO_HINT: SatHint = u32::MAX;
@@ -78,34 +85,57 @@ const HINT_FACE_A: u32 = 0;
 const HINT_FACE_B: u32 = 1 << 30;
 const HINT_EDGE: u32 = 2 << 30;
 const HINT_KIND: u32 = 3 << 30;
+/// Set in a face hint that names the reference face of a touching pair (not a separating
+/// axis). Face indices stay below this bit.
+const HINT_CONTACT: u32 = 1 << 29;
 
-/// [`collide`] with a per-pair separating-axis `hint` that is read first and updated.
+/// Whether `hint` remembers the contact feature of a touching polyhedron pair (its `bound`
+/// is then the pair's decision margin) rather than a separating axis.
+#[inline]
+pub fn is_contact_hint(hint: SatHint) -> bool {
+    hint != NO_HINT && hint & HINT_KIND != HINT_EDGE && hint & HINT_CONTACT != 0
+}
+
+/// [`collide`] with what the pair remembers from earlier steps (`hint`, read first and
+/// updated) and its `bound`:
+/// - on return, for a pair found apart, `bound` is a lower bound of the distance (0 when
+///   unknown): the caller may skip the pair until the bodies have moved that far;
+/// - for a touching polyhedron pair, `hint` names the contact face and `bound` is its
+///   margin: how much any separation of the full test may still change before one of the
+///   test's decisions could turn (0 and [`NO_HINT`] when there is none). The caller
+///   subtracts from `bound`, before each later call, twice a bound of how much any axis's
+///   separation can have changed since (both sides of each decision move); while it stays
+///   positive, the remembered face is clipped alone, and the manifold is the one the full
+///   test would give, bitwise.
 ///
-/// `separation` receives a lower bound of the distance when polyhedra are found apart (0 when
-/// unknown or touching); see [`polyhedron_polyhedron`].
+/// See [`polyhedron_polyhedron`].
 pub fn collide_with_hint(
     a: &Shape,
     pa: &Pose,
     b: &Shape,
     pb: &Pose,
     hint: &mut SatHint,
-    separation: &mut f32,
+    bound: &mut f32,
 ) -> Option<Manifold> {
-    *separation = 0.0;
     match (a, b) {
-        (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
-            sphere_sphere(pa.position, *ra, pb.position, *rb)
-        }
-        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
-            sphere_polyhedron(pa.position, *radius, p, pb)
-        }
-        (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
-            sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
-        }
         (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
-            polyhedron_polyhedron(p, pa, q, pb, hint, separation)
+            polyhedron_polyhedron(p, pa, q, pb, hint, bound)
         }
-        _ => deepest_piece_contact(a, pa, b, pb),
+        _ => {
+            *bound = 0.0;
+            match (a, b) {
+                (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
+                    sphere_sphere(pa.position, *ra, pb.position, *rb)
+                }
+                (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+                    sphere_polyhedron(pa.position, *radius, p, pb)
+                }
+                (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+                    sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
+                }
+                _ => deepest_piece_contact(a, pa, b, pb),
+            }
+        }
     }
 }
 

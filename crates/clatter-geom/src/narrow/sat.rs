@@ -1,11 +1,14 @@
 //! The separating-axis test of two convex polyhedra: face axes of both bodies, then the
 //! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]).
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
 use super::edges::{edge_axes_by_direction, edge_axes_gauss_map};
-use super::{HINT_EDGE, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold, NO_HINT, SatHint};
+use super::{
+    HINT_CONTACT, HINT_EDGE, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold, NO_HINT, SatHint,
+    is_contact_hint,
+};
 use crate::{ConvexPolyhedron, Pose};
 
 /// Separation of `q`'s vertices (given in `p`'s frame) along `p`'s face `f`.
@@ -65,25 +68,33 @@ impl SoaPoints {
     }
 }
 
-/// Two convex polyhedra.
+/// Two convex polyhedra, with what the pair remembers (`hint`, `bound`: see
+/// [`super::collide_with_hint`]).
 ///
-/// When the bodies are apart, `separation` receives a lower bound of their distance (the gap
+/// When the bodies are apart, `bound` receives a lower bound of their distance (the gap
 /// along the separating axis found, or between the bounding spheres), else 0: the simulator
-/// skips the pair until the bodies have moved that far.
+/// skips the pair until the bodies have moved that far. When they touch at a face, `hint`
+/// receives the reference face and `bound` the margin of the full test's decisions (see
+/// [`contact_margin`]); a later call with a positive remaining margin tests and clips that
+/// face alone, for the manifold the full test would give, bitwise.
 pub fn polyhedron_polyhedron(
     a: &ConvexPolyhedron,
     pa: &Pose,
     b: &ConvexPolyhedron,
     pb: &Pose,
     hint: &mut SatHint,
-    separation: &mut f32,
+    bound: &mut f32,
 ) -> Option<Manifold> {
-    *separation = 0.0;
+    let margin = *bound;
+    *bound = 0.0;
     let d = pb.position - pa.position;
     let rs = a.radius + b.radius;
     let d2 = d.length_squared();
     if d2 >= rs * rs {
-        *separation = d2.sqrt() - rs;
+        if is_contact_hint(*hint) {
+            *hint = NO_HINT;
+        }
+        *bound = d2.sqrt() - rs;
         return None;
     }
     // Everything in A's frame: B's rotation and offset relative to A.
@@ -92,6 +103,24 @@ pub fn polyhedron_polyhedron(
     let rot = glam::Mat3::from_quat(rot_q);
     let inv_rot = rot.transpose();
     let t = inv_a * d;
+    if is_contact_hint(*hint) {
+        if margin > 0.0 {
+            // The full test would choose the remembered face again: test and clip it alone.
+            let face = *hint & !(HINT_KIND | HINT_CONTACT);
+            let rel = Relative { rot, inv_rot, t };
+            let found = SCRATCH.with_borrow_mut(|sc| {
+                remembered_face(a, pa, b, pb, &rel, sc, *hint & HINT_KIND, face as usize)
+            });
+            if let Some(m) = found {
+                *bound = if m.is_some() { margin } else { 0.0 };
+                if m.is_none() {
+                    *hint = NO_HINT;
+                }
+                return m;
+            }
+        }
+        *hint = NO_HINT;
+    }
     // The axis that separated this pair last step, if any, tested on support points in each
     // body's own frame (no vertex transformed).
     if *hint != NO_HINT {
@@ -132,11 +161,113 @@ pub fn polyhedron_polyhedron(
             _ => 0.0,
         };
         if gap > 0.0 {
-            *separation = gap;
+            *bound = gap;
             return None;
         }
     }
-    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint, separation))
+    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint, bound))
+}
+
+/// B's rotation and offset in A's frame.
+struct Relative {
+    rot: Mat3,
+    inv_rot: Mat3,
+    t: Vec3,
+}
+
+/// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
+/// clipped with the full test's own expressions ([`sat_full`]): `Some(manifold)` as the full
+/// test would return it, or `None` when the overlap is not certain enough to rule out a
+/// separating axis ([`overlap_certified`]; the full test must run).
+#[allow(clippy::too_many_arguments)]
+fn remembered_face(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    rel: &Relative,
+    sc: &mut Scratch,
+    kind: u32,
+    face: usize,
+) -> Option<Option<Manifold>> {
+    let Relative { rot, inv_rot, t } = *rel;
+    let Scratch { av, bv, clip, .. } = sc;
+    let delta = 2e-5 * (a.radius + b.radius);
+    if kind == HINT_FACE_A {
+        if face >= a.faces.len() {
+            return None;
+        }
+        bv.clear();
+        bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+        let m = clip_faces(a, face, b, bv, rot, clip)?;
+        overlap_certified(a, &m, delta).then(|| Some(to_world(m, pa)))
+    } else {
+        if face >= b.faces.len() {
+            return None;
+        }
+        av.clear();
+        av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
+        let m = clip_faces(b, face, a, av, inv_rot, clip)?;
+        overlap_certified(b, &m, delta).then(|| Some(to_world(m, pb).flipped()))
+    }
+}
+
+/// The margin of the full test's decisions for a face contact: how much the separation
+/// along every axis may still change (each compared quantity by this much) before the
+/// test could decide otherwise. `best` is the winning face's separation and `second` the
+/// best of the other faces of its body, `other` the best face of the other body, `edge`
+/// the best edge axis, `ref_b` whether the reference face is B's.
+///
+/// The decisions and their slacks (each compared quantity may move by the bound, so the
+/// caller subtracts twice the bound per step):
+/// - the winner beat the other faces of its body, the first maximum winning ties:
+///   `best - second` (0 on a tie: no margin);
+/// - A's face is kept unless `best_b > best_a + tol`: `best_a + tol - best_b`, or
+///   `best_b - best_a - tol` for B's face;
+/// - no edge contact, `best_e <= face_best + tol`: an edge axis is the normal of a face of
+///   the Minkowski difference, which turns much faster than the bodies when its two edges
+///   are close to parallel, so one edge axis's separation cannot be followed from step to
+///   step. But each is the separation along its axis, at most the largest separation along
+///   any direction, `max(face_best, best_e)` (attained at a face axis or an edge axis), and
+///   that largest separation moves no more than the bodies: the slack is `face_best + tol -
+///   max(face_best, best_e)`;
+/// - no axis separates: checked at each step instead, on the manifold found
+///   ([`overlap_certified`]): the bodies' overlap, not a decision's slack.
+///
+/// Less `eps` for rounding and for edge axes skipped as near-parallel.
+fn contact_margin(best: f32, second: f32, other: f32, edge: f32, ref_b: bool, tol: f32) -> f32 {
+    let (best_a, best_b) = if ref_b { (other, best) } else { (best, other) };
+    let face_best = best_a.max(best_b);
+    let largest = face_best.max(edge);
+    let cross = if ref_b {
+        best_b - best_a - tol
+    } else {
+        best_a + tol - best_b
+    };
+    (best - second).min(cross).min(face_best + tol - largest)
+}
+
+/// Whether the bodies certainly overlap by more than `delta`, so that no axis of the full
+/// test separates them, for a face contact `m` in the reference body's frame.
+///
+/// Why: each point of the manifold is a point of the incident face (a corner of its clipped
+/// polygon, or its deepest vertex) moved halfway along the normal; moved back, their
+/// centroid `c` is a point of the incident body (the face is convex), up to rounding. If
+/// `c` is at least `delta` inside every face plane of the reference body, the ball of
+/// radius `delta` about `c` lies in that body, so along any direction `u` the incident
+/// body reaches below `u.c` and the reference body above `u.c + delta`: every axis's
+/// separation is at most `-delta`. With `delta` above the rounding of `c` and of the full
+/// test's separations, none of them is positive.
+fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool {
+    let n = m.normal;
+    let mut c = Vec3::ZERO;
+    for p in m.points() {
+        c += p.point - n * (0.5 * p.depth);
+    }
+    let c = c / m.count as f32;
+    refp.faces
+        .iter()
+        .all(|f| f.normal.dot(c) - f.offset <= -delta)
 }
 
 /// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
@@ -183,6 +314,7 @@ fn sat_full(
     a_local.fill(&a.vertices);
     // Face axes of A.
     let mut best_a = (f32::NEG_INFINITY, 0usize);
+    let mut second_a = f32::NEG_INFINITY;
     for f in 0..a.faces.len() {
         let s = face_separation(a, f, b_soa);
         if s > 0.0 {
@@ -191,12 +323,16 @@ fn sat_full(
             return None;
         }
         if s > best_a.0 {
+            second_a = best_a.0;
             best_a = (s, f);
+        } else if s > second_a {
+            second_a = s;
         }
     }
     // Face axes of B, tested in A's frame: B's face plane `n.x = offset` becomes
     // `(R n).x = offset + (R n).t`, and A's own vertices need no transform.
     let mut best_b = (f32::NEG_INFINITY, 0usize);
+    let mut second_b = f32::NEG_INFINITY;
     for (f, face) in b.faces.iter().enumerate() {
         let n = rot * face.normal;
         let s = a_local.min_along(n) - (face.offset + n.dot(t));
@@ -206,7 +342,10 @@ fn sat_full(
             return None;
         }
         if s > best_b.0 {
+            second_b = best_b.0;
             best_b = (s, f);
+        } else if s > second_b {
+            second_b = s;
         }
     }
     let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
@@ -241,14 +380,29 @@ fn sat_full(
         ));
     }
     // Face contact: prefer A's face unless B's is clearly better.
-    if best_b.0 > best_a.0 + tol {
+    let ref_b = best_b.0 > best_a.0 + tol;
+    let (best, second, other, kind, face) = if ref_b {
+        (best_b.0, second_b, best_a.0, HINT_FACE_B, best_b.1)
+    } else {
+        (best_a.0, second_a, best_b.0, HINT_FACE_A, best_a.1)
+    };
+    // Rounding of the separations (a few ulps of the bodies' size) and the near-parallel
+    // edge axes left out (sine below 1e-5, over edges shorter than the diameter).
+    let eps = 1e-4 * scale;
+    let margin = contact_margin(best, second, other, best_e.0, ref_b, tol) - eps;
+    let m = if ref_b {
         // Reference face on B: work in B's frame with A as incident.
         av.clear();
         av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
-        clip_faces(b, best_b.1, a, av, inv_rot, clip).map(|m| to_world(m, pb).flipped())
+        clip_faces(b, face, a, av, inv_rot, clip).map(|m| to_world(m, pb).flipped())
     } else {
-        clip_faces(a, best_a.1, b, bv, rot, clip).map(|m| to_world(m, pa))
+        clip_faces(a, face, b, bv, rot, clip).map(|m| to_world(m, pa))
+    };
+    if m.is_some() && margin > 0.0 && face < HINT_CONTACT as usize {
+        *hint = kind | HINT_CONTACT | face as u32;
+        *separation = margin;
     }
+    m
 }
 
 /// The best edge-edge axis `(separation, edge of A, edge of B, axis in A's frame)`, or `None`
