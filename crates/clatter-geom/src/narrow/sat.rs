@@ -104,20 +104,25 @@ pub fn polyhedron_polyhedron(
     let inv_rot = rot.transpose();
     let t = inv_a * d;
     if is_contact_hint(*hint) {
-        if margin > 0.0 {
-            // The full test would choose the remembered face again: test and clip it alone.
-            let face = *hint & !(HINT_KIND | HINT_CONTACT);
-            let rel = Relative { rot, inv_rot, t };
-            let found = SCRATCH.with_borrow_mut(|sc| {
+        let face = *hint & !(HINT_KIND | HINT_CONTACT);
+        let rel = Relative { rot, inv_rot, t };
+        let found = if face == EDGE_CONTACT {
+            // The full edge search again, without the face axes.
+            SCRATCH.with_borrow_mut(|sc| remembered_edge(a, pa, b, &rel, sc, margin))
+        } else if margin > 0.0 {
+            // The full test would choose the remembered face again: clip it alone.
+            SCRATCH.with_borrow_mut(|sc| {
                 remembered_face(a, pa, b, pb, &rel, sc, *hint & HINT_KIND, face as usize)
-            });
-            if let Some(m) = found {
-                *bound = if m.is_some() { margin } else { 0.0 };
-                if m.is_none() {
-                    *hint = NO_HINT;
-                }
-                return m;
+            })
+        } else {
+            None
+        };
+        if let Some(m) = found {
+            *bound = if m.is_some() { margin } else { 0.0 };
+            if m.is_none() {
+                *hint = NO_HINT;
             }
+            return m;
         }
         *hint = NO_HINT;
     }
@@ -210,6 +215,112 @@ fn remembered_face(
         let m = clip_faces(b, face, a, av, inv_rot, clip)?;
         overlap_certified(b, &m, delta).then(|| Some(to_world(m, pb).flipped()))
     }
+}
+
+/// The face index of [`HINT_EDGE_CONTACT`]: no face has it.
+const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
+/// The contact hint of an edge contact (its `bound` is the threshold the best edge axis
+/// must stay above, see [`remembered_edge`]).
+const HINT_EDGE_CONTACT: SatHint = HINT_FACE_A | HINT_CONTACT | EDGE_CONTACT;
+
+/// An edge contact found at an earlier step: the full edge-axis search again (the winning
+/// edge pair is then the full test's by construction), without the face axes, whose
+/// decisions are known otherwise. `None` when the full test must run.
+///
+/// The full test keeps an edge contact when `best_e > face_best + tol`. The best face
+/// axis's separation moves by at most the bodies' motion bound per step (see
+/// [`contact_margin`]), so with `margin = -(face_best_then + tol) - eps` less twice the
+/// bounds since (the caller's), `best_e + margin > 0` implies the decision. No axis
+/// separates when B's point of the contact is inside A by more than the rounding (the
+/// argument of [`overlap_certified`], on a point of B's edge).
+fn remembered_edge(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    rel: &Relative,
+    sc: &mut Scratch,
+    margin: f32,
+) -> Option<Option<Manifold>> {
+    let Scratch {
+        bv,
+        b_soa,
+        a_local,
+        tables,
+        ..
+    } = sc;
+    bv.clear();
+    bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
+    b_soa.fill(bv);
+    a_local.fill(&a.vertices);
+    let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables).ok()?;
+    if !(best_e.0 + margin > 0.0) {
+        return None;
+    }
+    let (m, qb) = edge_manifold(a, b, pa, bv, best_e);
+    let delta = 2e-5 * (a.radius + b.radius);
+    let inside = a
+        .faces
+        .iter()
+        .all(|f| f.normal.dot(qb) - f.offset <= -delta);
+    inside.then_some(Some(m))
+}
+
+/// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
+/// pair), or `Err((hint, separation))` when an edge axis separates the bodies.
+fn edge_search(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    rel: &Relative,
+    bv: &[Vec3],
+    a_local: &SoaPoints,
+    b_soa: &SoaPoints,
+    tables: &mut Vec<f32>,
+) -> Result<EdgeAxis, (SatHint, f32)> {
+    let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
+    let cost_dirs = nda * ndb * (a.vertices.len() + bv.len());
+    let cost_tables = a.edges.len() * b.faces.len()
+        + b.edges.len() * a.faces.len()
+        + a.edges.len() * b.edges.len();
+    let (mut hint, mut separation) = (NO_HINT, 0.0);
+    let found = if cost_dirs <= 2 * cost_tables {
+        edge_axes_by_direction(
+            a,
+            b,
+            rel.rot,
+            a_local,
+            b_soa,
+            bv,
+            &mut hint,
+            &mut separation,
+        )
+    } else {
+        let (rot, inv_rot) = (rel.rot, rel.inv_rot);
+        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, &mut hint, &mut separation)
+    };
+    found.ok_or((hint, separation))
+}
+
+/// The manifold of edge contact `best_e` (one point, halfway between the closest points of
+/// the two edges), and B's closest point, in A's frame.
+fn edge_manifold(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    pa: &Pose,
+    bv: &[Vec3],
+    best_e: EdgeAxis,
+) -> (Manifold, Vec3) {
+    let (s, ea, eb, axis) = best_e;
+    let [a0, a1] = a.edges[ea];
+    let [b0, b1] = b.edges[eb];
+    let (qa, qb) = segment_closest(
+        a.vertices[a0 as usize],
+        a.vertices[a1 as usize],
+        bv[b0 as usize],
+        bv[b1 as usize],
+    );
+    let mid = 0.5 * (qa + qb);
+    let m = Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s);
+    (m, qb)
 }
 
 /// The margin of the full test's decisions for a face contact: how much the separation
@@ -348,36 +459,28 @@ fn sat_full(
             second_b = s;
         }
     }
-    let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
-    let cost_dirs = nda * ndb * (a.vertices.len() + bv.len());
-    let cost_tables = a.edges.len() * b.faces.len()
-        + b.edges.len() * a.faces.len()
-        + a.edges.len() * b.edges.len();
-    let best_e = if cost_dirs <= 2 * cost_tables {
-        edge_axes_by_direction(a, b, rot, a_local, b_soa, bv, hint, separation)?
-    } else {
-        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, hint, separation)?
+    let rel = Relative { rot, inv_rot, t };
+    let best_e = match edge_search(a, b, &rel, bv, a_local, b_soa, tables) {
+        Ok(e) => e,
+        Err((h, s)) => {
+            *hint = h;
+            *separation = s;
+            return None;
+        }
     };
     let scale = a.radius.max(b.radius);
     *hint = NO_HINT;
     let face_best = best_a.0.max(best_b.0);
     let tol = 1e-3 * scale;
+    // Rounding of the separations (a few ulps of the bodies' size) and the near-parallel
+    // edge axes left out (sine below 1e-5, over edges shorter than the diameter).
+    let eps = 1e-4 * scale;
     if best_e.0 > face_best + tol {
-        let (s, ea, eb, axis) = best_e;
-        let [a0, a1] = a.edges[ea];
-        let [b0, b1] = b.edges[eb];
-        let (qa, qb) = segment_closest(
-            a.vertices[a0 as usize],
-            a.vertices[a1 as usize],
-            bv[b0 as usize],
-            bv[b1 as usize],
-        );
-        let mid = 0.5 * (qa + qb);
-        return Some(Manifold::single(
-            pa.rotation * axis,
-            pa.transform_point(mid),
-            -s,
-        ));
+        // Edge contact. Remembered with the bound the edge must stay above: the best face
+        // moves by at most the bodies' motion (see `remembered_edge`).
+        *hint = HINT_EDGE_CONTACT;
+        *separation = -(face_best + tol) - eps;
+        return Some(edge_manifold(a, b, pa, bv, best_e).0);
     }
     // Face contact: prefer A's face unless B's is clearly better.
     let ref_b = best_b.0 > best_a.0 + tol;
@@ -386,9 +489,6 @@ fn sat_full(
     } else {
         (best_a.0, second_a, best_b.0, HINT_FACE_A, best_a.1)
     };
-    // Rounding of the separations (a few ulps of the bodies' size) and the near-parallel
-    // edge axes left out (sine below 1e-5, over edges shorter than the diameter).
-    let eps = 1e-4 * scale;
     let margin = contact_margin(best, second, other, best_e.0, ref_b, tol) - eps;
     let m = if ref_b {
         // Reference face on B: work in B's frame with A as incident.
@@ -398,7 +498,7 @@ fn sat_full(
     } else {
         clip_faces(a, face, b, bv, rot, clip).map(|m| to_world(m, pa))
     };
-    if m.is_some() && margin > 0.0 && face < HINT_CONTACT as usize {
+    if m.is_some() && margin > 0.0 && face < EDGE_CONTACT as usize {
         *hint = kind | HINT_CONTACT | face as u32;
         *separation = margin;
     }

@@ -312,7 +312,7 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
     } else {
         bound - 2.0 * axis_motion_bound::<false>(world, i, j)
     };
-    let before = (narrow::is_contact_hint(hint) && left > 0.0).then_some((hint, left));
+    let before = narrow::is_contact_hint(hint).then_some((hint, left));
     let found = if composites {
         remembered_narrow::<true>(world, c.pairs[k], c.pieces[k], &mut hint, &mut bound)
     } else {
