@@ -22,13 +22,14 @@ pub(super) fn to_world(mut m: Manifold, pose: &Pose) -> Manifold {
     m
 }
 
-/// Clips the incident face of `inc` (vertices `inc_v` in `refp`'s frame) against reference face
-/// `rf` of `refp`. Normal: the reference face's outward normal (from `refp` to `inc`).
+/// Clips the incident face of `inc` (its vertex `i` in `refp`'s frame is `inc_v(i)`, computed
+/// only for the vertices needed) against reference face `rf` of `refp`. Normal: the reference
+/// face's outward normal (from `refp` to `inc`).
 pub(super) fn clip_faces(
     refp: &ConvexPolyhedron,
     rf: usize,
     inc: &ConvexPolyhedron,
-    inc_v: &[Vec3],
+    inc_v: impl Fn(usize) -> Vec3,
     inc_rot: glam::Mat3,
     clip: &mut ClipBuffers,
 ) -> Option<Manifold> {
@@ -47,7 +48,7 @@ pub(super) fn clip_faces(
     }
     let ClipBuffers { poly, tmp, pts } = clip;
     poly.clear();
-    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v[i as usize]));
+    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v(i as usize)));
     let rl = refp.face_loop(rf);
     for k in 0..rl.len() {
         let v0 = refp.vertices[rl[k] as usize];
@@ -83,9 +84,8 @@ pub(super) fn clip_faces(
         // The separating-axis test found overlap but the incident face clips away entirely
         // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
         // rather than losing it.
-        let deepest = inc_v
-            .iter()
-            .copied()
+        let deepest = (0..inc.vertices.len())
+            .map(inc_v)
             .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
         let depth = rface.offset - n.dot(deepest);
         if depth <= 0.0 {

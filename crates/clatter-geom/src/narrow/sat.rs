@@ -196,23 +196,19 @@ fn remembered_face(
     face: usize,
 ) -> Option<Option<Manifold>> {
     let Relative { rot, inv_rot, t } = *rel;
-    let Scratch { av, bv, clip, .. } = sc;
+    let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
             return None;
         }
-        bv.clear();
-        bv.extend(b.vertices.iter().map(|&v| rot * v + t));
-        let m = clip_faces(a, face, b, bv, rot, clip)?;
+        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip)?;
         overlap_certified(a, &m, delta).then(|| Some(to_world(m, pa)))
     } else {
         if face >= b.faces.len() {
             return None;
         }
-        av.clear();
-        av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
-        let m = clip_faces(b, face, a, av, inv_rot, clip)?;
+        let m = clip_faces(b, face, a, |i| inv_rot * (a.vertices[i] - t), inv_rot, clip)?;
         overlap_certified(b, &m, delta).then(|| Some(to_world(m, pb).flipped()))
     }
 }
@@ -250,8 +246,10 @@ fn remembered_edge(
     } = sc;
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
-    b_soa.fill(bv);
-    a_local.fill(&a.vertices);
+    if edges_by_direction(a, b) {
+        b_soa.fill(bv);
+        a_local.fill(&a.vertices);
+    }
     let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables).ok()?;
     if !(best_e.0 + margin > 0.0) {
         return None;
@@ -276,13 +274,8 @@ fn edge_search(
     b_soa: &SoaPoints,
     tables: &mut Vec<f32>,
 ) -> Result<EdgeAxis, (SatHint, f32)> {
-    let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
-    let cost_dirs = nda * ndb * (a.vertices.len() + bv.len());
-    let cost_tables = a.edges.len() * b.faces.len()
-        + b.edges.len() * a.faces.len()
-        + a.edges.len() * b.edges.len();
     let (mut hint, mut separation) = (NO_HINT, 0.0);
-    let found = if cost_dirs <= 2 * cost_tables {
+    let found = if edges_by_direction(a, b) {
         edge_axes_by_direction(
             a,
             b,
@@ -298,6 +291,17 @@ fn edge_search(
         edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, &mut hint, &mut separation)
     };
     found.ok_or((hint, separation))
+}
+
+/// Whether the edge axes of `a` and `b` are cheaper by direction (projecting both bodies
+/// on each pair of edge directions) than by Gauss map.
+fn edges_by_direction(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> bool {
+    let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
+    let cost_dirs = nda * ndb * (a.vertices.len() + b.vertices.len());
+    let cost_tables = a.edges.len() * b.faces.len()
+        + b.edges.len() * a.faces.len()
+        + a.edges.len() * b.edges.len();
+    cost_dirs <= 2 * cost_tables
 }
 
 /// The manifold of edge contact `best_e` (one point, halfway between the closest points of
@@ -384,7 +388,6 @@ fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool 
 /// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
 #[derive(Default)]
 struct Scratch {
-    av: Vec<Vec3>,
     bv: Vec<Vec3>,
     b_soa: SoaPoints,
     a_local: SoaPoints,
@@ -411,7 +414,6 @@ fn sat_full(
     separation: &mut f32,
 ) -> Option<Manifold> {
     let Scratch {
-        av,
         bv,
         b_soa,
         a_local,
@@ -492,11 +494,10 @@ fn sat_full(
     let margin = contact_margin(best, second, other, best_e.0, ref_b, tol) - eps;
     let m = if ref_b {
         // Reference face on B: work in B's frame with A as incident.
-        av.clear();
-        av.extend(a.vertices.iter().map(|&v| inv_rot * (v - t)));
-        clip_faces(b, face, a, av, inv_rot, clip).map(|m| to_world(m, pb).flipped())
+        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        clip_faces(b, face, a, inc_v, inv_rot, clip).map(|m| to_world(m, pb).flipped())
     } else {
-        clip_faces(a, face, b, bv, rot, clip).map(|m| to_world(m, pa))
+        clip_faces(a, face, b, |i| bv[i], rot, clip).map(|m| to_world(m, pa))
     };
     if m.is_some() && margin > 0.0 && face < EDGE_CONTACT as usize {
         *hint = kind | HINT_CONTACT | face as u32;
