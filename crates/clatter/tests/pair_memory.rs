@@ -158,7 +158,7 @@ fn remembered_faces_give_the_full_tests_manifolds() {
     for kind in RegularKind::ALL {
         check_pile(&format!("{kind:?}"), &[regular(kind)], n, steps, &mut tally);
     }
-    check_pile("hull", &[hull.clone()], n, steps, &mut tally);
+    check_pile("hull", std::slice::from_ref(&hull), n, steps, &mut tally);
     // The five solids and spheres (the bench's mixed pile), and hulls with spheres.
     check_pile("mixed", &[], n, steps, &mut tally);
     let sphere = ShapeKind::Sphere { radius: r };

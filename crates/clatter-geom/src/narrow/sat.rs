@@ -251,7 +251,8 @@ fn remembered_edge(
         a_local.fill(&a.vertices);
     }
     let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables).ok()?;
-    if !(best_e.0 + margin > 0.0) {
+    // (Written so that a NaN fails the test too.)
+    if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let (m, qb) = edge_manifold(a, b, pa, bv, best_e);
