@@ -27,7 +27,8 @@
 //!   their indices in increasing order (u32).
 //! - `RBLD`: the positions the Verlet list was built at (empty before the first step).
 //! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
-//!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
+//!   last forces, touching flags, separating-axis hints and separation budgets (for touching pairs:
+//!   the remembered contact and its margin). The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
 //! - `MESH` (only when the scene has `[[boundary]]` meshes): the time the mesh candidates
