@@ -73,9 +73,10 @@ pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
 /// - for a pair found apart, the axis that separated it: bodies move little per DEM step, so
 ///   the axis usually still separates them next step and one test replaces the full
 ///   separating-axis search;
-/// - for polyhedra found touching, the contact feature the full test chose (the reference
-///   face of A or of B, see [`is_contact_hint`]): while the pair's margin lasts, the same
-///   test would choose it again, so only that face is clipped.
+/// - for polyhedra found touching, the contact the full test chose (the reference face of A
+///   or of B, or an edge contact; see [`is_contact_hint`]): while the pair's margin lasts,
+///   the same test would choose it again, so only that face is clipped (only the edge axes
+///   are searched for an edge contact).
 ///
 /// [`NO_HINT`] when there is none.
 pub type SatHint = u32;
@@ -105,7 +106,8 @@ pub fn is_contact_hint(hint: SatHint) -> bool {
 ///   test's decisions could turn (0 and [`NO_HINT`] when there is none). The caller
 ///   subtracts from `bound`, before each later call, twice a bound of how much any axis's
 ///   separation can have changed since (both sides of each decision move); while it stays
-///   positive, the remembered face is clipped alone, and the manifold is the one the full
+///   positive (for an edge contact: above minus the best edge axis's separation), the
+///   remembered contact stands in for the full test, and the manifold is the one the full
 ///   test would give, bitwise.
 ///
 /// See [`polyhedron_polyhedron`].

@@ -75,8 +75,9 @@ impl SoaPoints {
 /// along the separating axis found, or between the bounding spheres), else 0: the simulator
 /// skips the pair until the bodies have moved that far. When they touch at a face, `hint`
 /// receives the reference face and `bound` the margin of the full test's decisions (see
-/// [`contact_margin`]); a later call with a positive remaining margin tests and clips that
-/// face alone, for the manifold the full test would give, bitwise.
+/// `contact_margin`); a later call with a positive remaining margin clips that face alone,
+/// for the manifold the full test would give, bitwise. An edge contact is remembered
+/// likewise (see `remembered_edge`).
 pub fn polyhedron_polyhedron(
     a: &ConvexPolyhedron,
     pa: &Pose,
