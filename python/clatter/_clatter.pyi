@@ -25,7 +25,15 @@ class SceneError(ValueError):
     message: str
 
 class CheckpointError(ValueError): ...
-class SimulationError(RuntimeError): ...
+class SimulationError(RuntimeError):
+    """A run that blew up: `clatter run`'s report, and its parts."""
+
+    kind: str
+    body: int
+    step: int
+    time: float
+    cause: str
+
 class BackendError(RuntimeError): ...
 class QueryError(ValueError): ...
 

@@ -22,7 +22,9 @@ create_exception!(
     clatter,
     SimulationError,
     PyRuntimeError,
-    "A step that failed: a body's state became non-finite (the run blew up)."
+    "A run that blew up. `str(e)` is `clatter run`'s report; its parts are the attributes \
+     `kind` (\"non_finite\", \"energy_growth\", \"escaped\", \"deep_overlap\" or \
+     \"initial_overlap\"), `body`, `step`, `time` and `cause` (the likely cause, in words)."
 );
 create_exception!(
     clatter,
@@ -62,4 +64,41 @@ pub fn checkpoint_error(e: &clatter::CheckpointError) -> PyErr {
         clatter::CheckpointError::Io { .. } => PyOSError::new_err(e.to_string()),
         _ => CheckpointError::new_err(e.to_string()),
     }
+}
+
+/// A blow-up report as a Python `SimulationError`: `clatter run`'s words, and the report's
+/// data as attributes.
+pub fn blow_up_error(py: Python<'_>, b: &clatter::BlowUp) -> PyErr {
+    use clatter::health::BlowUpKind;
+    let err = SimulationError::new_err(b.to_string());
+    let value = err.value(py);
+    let kind = match &b.kind {
+        BlowUpKind::NonFinite => "non_finite",
+        BlowUpKind::EnergyGrowth { .. } => "energy_growth",
+        BlowUpKind::Escaped { .. } => "escaped",
+        BlowUpKind::DeepOverlap { .. } if b.step == 0 => "initial_overlap",
+        BlowUpKind::DeepOverlap { .. } => "deep_overlap",
+    };
+    // As in `scene_error`: setting attributes on a fresh instance does not fail in practice.
+    let _ = value.setattr("kind", kind);
+    let _ = value.setattr("body", b.body);
+    let _ = value.setattr("step", b.step);
+    let _ = value.setattr("time", b.time);
+    let _ = value.setattr("cause", &b.cause);
+    err
+}
+
+/// Why stepping stopped, as a Python exception: a blow-up as [`blow_up_error`], a GPU
+/// failure as `BackendError`.
+pub fn watch_error(py: Python<'_>, e: &clatter_backend::WatchError) -> PyErr {
+    match e {
+        clatter_backend::WatchError::BlowUp(b) => blow_up_error(py, b),
+        #[allow(unreachable_patterns)]
+        other => BackendError::new_err(other.to_string()),
+    }
+}
+
+/// A failure of the GPU device (reading back, uploading) as `BackendError`.
+pub fn device_error(e: &clatter_backend::DeviceError) -> PyErr {
+    BackendError::new_err(e.to_string())
 }

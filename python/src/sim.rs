@@ -1,9 +1,14 @@
 //! `Simulation`: a world stepped on the CPU (rayon) or the GPU (wgpu), its state as numpy
 //! arrays.
 //!
-//! The host `World` is always current: after a GPU step the bodies and the contact list are
-//! read back, so every getter, `contacts()`, `write_vtk` and `save_checkpoint` read one
-//! place. A setter marks the GPU copy stale; the next step uploads the world again.
+//! Stepping goes through the backend layer every front end shares (`clatter_backend`): the
+//! executor chosen as `clatter run --backend` chooses it, stepped by its `Stepper` under its
+//! `Watch` (the blow-up checks of `clatter run`; on the GPU the cheap ones run on the
+//! device). After GPU steps the host `World` is left behind and read back lazily, only as
+//! much as a getter needs ([`Behind`]): the body state for the body arrays, the contact
+//! list too for `contacts()`, `write_vtk` and `save_checkpoint`; the step count and time
+//! come from the device without a read. A setter first brings the world up to date, then
+//! marks the GPU copy stale; the next step uploads the world again.
 
 use std::path::{Path, PathBuf};
 
@@ -16,20 +21,26 @@ use pyo3::types::PyDict;
 
 use clatter::health::touching_contacts;
 use clatter::{Checkpoint, Partner, World};
+use clatter_backend::{BackendChoice, CHECK_EVERY, Device, Readback, Stepper, Watch};
 
-use crate::errors::{BackendError, SimulationError, checkpoint_error};
+use crate::errors::{BackendError, blow_up_error, checkpoint_error, device_error, watch_error};
 use crate::scene::ParsedScene;
 
 /// Steps run between two checks for Ctrl-C (the GIL is released while they run).
 const CHUNK: u64 = 1024;
-/// Steps between two blow-up checks (energy growth, escape, deep overlaps), as `clatter run`.
-const CHECK_EVERY: u64 = 10;
 
-/// What steps the world.
-enum Engine {
-    Cpu,
-    #[cfg(feature = "gpu")]
-    Gpu(Box<clatter_gpu::GpuWorld>),
+/// Python's name for asking for the GPU, in the backend layer's messages.
+const GPU_OPTION: &str = "backend=\"gpu\"";
+
+/// What of the GPU's state the host world lacks (always `Nothing` on the CPU).
+#[derive(Copy, Clone, Debug, PartialEq, Eq)]
+enum Behind {
+    /// The world is current.
+    Nothing,
+    /// The body state is current; the contact list is not.
+    Contacts,
+    /// Bodies and contacts are the state of the last upload.
+    All,
 }
 
 /// A running simulation of one scene.
@@ -45,13 +56,15 @@ pub struct Simulation {
     world: World,
     source: String,
     text: String,
-    engine: Engine,
+    stepper: Stepper,
     pool: Option<rayon::ThreadPool>,
     reason: String,
     /// The host world was changed by a setter since the GPU copy was made.
     gpu_stale: bool,
+    /// What of the GPU's state the host world lacks.
+    behind: Behind,
     /// The blow-up checks of `clatter run`, with their energy baseline (renewed by setters).
-    health: clatter::Health,
+    watch: Watch,
     /// Whether the initial-overlap check has run.
     started: bool,
 }
@@ -95,27 +108,22 @@ impl Simulation {
     /// an overlap deeper than half a body (checked every 10 steps, as `clatter run` does).
     #[pyo3(signature = (n = 1))]
     fn step(&mut self, py: Python<'_>, n: u64) -> PyResult<()> {
-        if !self.started {
-            self.health
-                .check_initial(&self.world)
-                .map_err(|b| SimulationError::new_err(b.to_string()))?;
-            self.started = true;
-        }
+        self.prepare(py)?;
         let mut left = n;
         while left > 0 {
             let m = left.min(CHUNK);
-            py.detach(|| -> PyResult<()> {
-                let mut done = 0;
-                while done < m {
-                    let k = (m - done).min(CHECK_EVERY);
-                    self.advance(k)?;
-                    self.health
-                        .check(&self.world, false)
-                        .map_err(|b| SimulationError::new_err(b.to_string()))?;
-                    done += k;
+            let stepped = py.detach(|| {
+                let (watch, stepper, world) = (&self.watch, &mut self.stepper, &mut self.world);
+                let mut run = || watch.step(stepper, world, m, Readback::Nothing);
+                match &self.pool {
+                    Some(p) => p.install(run),
+                    None => run(),
                 }
-                Ok(())
-            })?;
+            });
+            if self.stepper.is_gpu() {
+                self.behind = Behind::All;
+            }
+            stepped.map_err(|e| watch_error(py, &e))?;
             left -= m;
             if left > 0 {
                 py.check_signals()?;
@@ -127,13 +135,13 @@ impl Simulation {
     /// Simulated time, s.
     #[getter]
     fn time(&self) -> f64 {
-        self.world.time
+        self.stepper.time(&self.world)
     }
 
     /// Steps taken since the scene's start.
     #[getter]
     fn step_count(&self) -> u64 {
-        self.world.step_count
+        self.stepper.step_count(&self.world)
     }
 
     /// The time step, s (the scene's `dt`, or 1/50 of the shortest contact duration).
@@ -161,11 +169,7 @@ impl Simulation {
     /// The backend stepping the world: "cpu" or "gpu (ADAPTER NAME)".
     #[getter]
     fn backend(&self) -> String {
-        match &self.engine {
-            Engine::Cpu => "cpu".into(),
-            #[cfg(feature = "gpu")]
-            Engine::Gpu(g) => format!("gpu ({})", g.context().adapter_name()),
-        }
+        self.stepper.name()
     }
 
     /// Why this backend was chosen (the `backend: ...` line of `clatter run`).
@@ -190,54 +194,52 @@ impl Simulation {
     /// so a step's displacement is kept anywhere in a large domain). Settable, at full
     /// precision (the broad phase is rebuilt before the next step).
     #[getter]
-    fn positions<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let p = &self.world.state.position;
-        array2(py, p.iter().flat_map(|v| v.to_array()).collect(), 3)
+    fn positions<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let p = &self.bodies(py)?.state.position;
+        Ok(array2(py, p.iter().flat_map(|v| v.to_array()).collect(), 3))
     }
 
     #[setter]
     fn set_positions(&mut self, value: PyArrayLike2<'_, f64, AllowTypeChange>) -> PyResult<()> {
         let v = dvec3_input(&value, self.world.len(), "positions")?;
-        self.world.state.position = v;
-        self.world.set_needs_rebuild(true);
-        self.gpu_stale = true;
-        self.health = clatter::Health::new(&self.world);
+        let world = self.edit(value.py())?;
+        world.state.position = v;
+        world.set_needs_rebuild(true);
         Ok(())
     }
 
     /// Orientations as unit quaternions (w, x, y, z) in the frame the shapes were authored
     /// in (as in scene files and final.csv): (N, 4) float32.
     #[getter]
-    fn orientations<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        let n = self.world.len();
+    fn orientations<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let world = self.bodies(py)?;
+        let n = world.len();
         let mut out = Vec::with_capacity(4 * n);
         for i in 0..n {
-            let q = self.world.user_orientation(i);
+            let q = world.user_orientation(i);
             out.extend([q.w, q.x, q.y, q.z]);
         }
-        array2(py, out, 4)
+        Ok(array2(py, out, 4))
     }
 
     /// Velocities of the centres of mass, m/s: (N, 3) float32. Settable.
     #[getter]
-    fn velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        vec3_array(py, &self.world.state.velocity)
+    fn velocities<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        Ok(vec3_array(py, &self.bodies(py)?.state.velocity))
     }
 
     #[setter]
     fn set_velocities(&mut self, value: PyArrayLike2<'_, f64, AllowTypeChange>) -> PyResult<()> {
         let v = vec3_input(&value, self.world.len(), "velocities")?;
-        self.world.state.velocity = v;
-        self.gpu_stale = true;
-        self.health = clatter::Health::new(&self.world);
+        self.edit(value.py())?.state.velocity = v;
         Ok(())
     }
 
     /// Angular velocities in the world frame, rad/s: (N, 3) float32. Settable (the angular
     /// momentum follows from the current orientation and inertia).
     #[getter]
-    fn angular_velocities<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f32>> {
-        vec3_array(py, &self.world.state.omega)
+    fn angular_velocities<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        Ok(vec3_array(py, &self.bodies(py)?.state.omega))
     }
 
     #[setter]
@@ -246,15 +248,14 @@ impl Simulation {
         value: PyArrayLike2<'_, f64, AllowTypeChange>,
     ) -> PyResult<()> {
         let v = vec3_input(&value, self.world.len(), "angular_velocities")?;
-        let st = &mut self.world.state;
+        let world = self.edit(value.py())?;
+        let st = &mut world.state;
         for (i, w) in v.into_iter().enumerate() {
             let q: Quat = st.orientation[i];
             let body_w = q.conjugate() * w;
-            st.angular_momentum[i] = q * (self.world.consts.inertia[i] * body_w);
+            st.angular_momentum[i] = q * (world.consts.inertia[i] * body_w);
             st.omega[i] = w;
         }
-        self.gpu_stale = true;
-        self.health = clatter::Health::new(&self.world);
         Ok(())
     }
 
@@ -283,19 +284,19 @@ impl Simulation {
     }
 
     /// Total kinetic energy (translational plus rotational), J.
-    fn kinetic_energy(&self) -> f64 {
-        self.world.kinetic_energy()
+    fn kinetic_energy(&mut self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.bodies(py)?.kinetic_energy())
     }
 
     /// Gravitational potential energy relative to the origin, J.
-    fn potential_energy(&self) -> f64 {
-        self.world.potential_energy()
+    fn potential_energy(&mut self, py: Python<'_>) -> PyResult<f64> {
+        Ok(self.bodies(py)?.potential_energy())
     }
 
     /// Total linear momentum, kg m/s, as a tuple (px, py, pz).
-    fn momentum(&self) -> (f64, f64, f64) {
-        let p = self.world.momentum();
-        (p[0], p[1], p[2])
+    fn momentum(&mut self, py: Python<'_>) -> PyResult<(f64, f64, f64)> {
+        let p = self.bodies(py)?.momentum();
+        Ok((p[0], p[1], p[2]))
     }
 
     /// The contacts that touched in the last step, as a dict of arrays (M rows):
@@ -314,8 +315,9 @@ impl Simulation {
     ///
     /// Points, normals and depths are recomputed at the current positions (contacts that no
     /// longer overlap are left out); forces are those of the last step.
-    fn contacts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let reports = py.detach(|| touching_contacts(&self.world));
+    fn contacts<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let world = self.current(py)?;
+        let reports = py.detach(|| touching_contacts(world));
         let m = reports.len();
         let (mut body, mut other, mut wall, mut boundary, mut count) = (
             Vec::with_capacity(m),
@@ -386,12 +388,17 @@ impl Simulation {
     /// `bodies.pvd` / `contacts.pvd` there, so calls at several steps make a time series.
     /// Returns the paths written.
     #[pyo3(signature = (dir, contacts = true))]
-    fn write_vtk(&self, dir: PathBuf, contacts: bool) -> PyResult<Vec<PathBuf>> {
+    fn write_vtk(
+        &mut self,
+        py: Python<'_>,
+        dir: PathBuf,
+        contacts: bool,
+    ) -> PyResult<Vec<PathBuf>> {
         let io = |what: &Path, e: std::io::Error| {
             PyOSError::new_err(format!("cannot write {}: {e}", what.display()))
         };
         std::fs::create_dir_all(&dir).map_err(|e| io(&dir, e))?;
-        let w = &self.world;
+        let w = self.current(py)?;
         let step = w.step_count;
         let mut written = Vec::new();
         type Writer = fn(&Path, &World) -> std::io::Result<()>;
@@ -413,7 +420,8 @@ impl Simulation {
 
     /// Writes the complete state to `path` (atomically): `Simulation.from_checkpoint(path)`
     /// and `clatter resume path` continue from it bitwise.
-    fn save_checkpoint(&self, path: PathBuf) -> PyResult<()> {
+    fn save_checkpoint(&mut self, py: Python<'_>, path: PathBuf) -> PyResult<()> {
+        self.current(py)?;
         let bytes = self.world.checkpoint_bytes(&self.source, &self.text, &[]);
         clatter::checkpoint::write_atomic(&path, &bytes)
             .map_err(|e| PyOSError::new_err(format!("cannot write {}: {e}", path.display())))
@@ -424,8 +432,8 @@ impl Simulation {
             "<Simulation {}: {} bodies, step {}, t = {:.6} s, {}>",
             self.source,
             self.world.len(),
-            self.world.step_count,
-            self.world.time,
+            self.step_count(),
+            self.time(),
             self.backend()
         )
     }
@@ -449,120 +457,89 @@ impl Simulation {
                     .map_err(|e| BackendError::new_err(format!("cannot start {n} threads: {e}")))?,
             ),
         };
-        let (engine, reason) = choose(backend, &world)?;
-        let health = clatter::Health::new(&world);
+        let choice = match backend {
+            "cpu" => BackendChoice::Cpu,
+            "gpu" => BackendChoice::Gpu,
+            "auto" => BackendChoice::Auto,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "backend must be \"auto\", \"cpu\" or \"gpu\", got {other:?}"
+                )));
+            }
+        };
+        let chosen = clatter_backend::choose(choice, &world, Device::Headless)
+            .map_err(|e| BackendError::new_err(e.describe(GPU_OPTION)))?;
+        let mut stepper = chosen.stepper;
+        let watch = Watch::start(
+            &mut stepper,
+            &world,
+            clatter::Health::new(&world),
+            CHECK_EVERY,
+            0,
+        );
         Ok(Simulation {
             world,
             source,
             text,
-            engine,
+            stepper,
             pool,
-            reason,
+            reason: chosen.choice.describe(GPU_OPTION),
             gpu_stale: false,
-            health,
+            behind: Behind::Nothing,
+            watch,
             started: false,
         })
     }
 
-    /// `m` steps on the chosen engine; the host world is current afterwards.
-    fn advance(&mut self, m: u64) -> PyResult<()> {
-        match &mut self.engine {
-            Engine::Cpu => {
-                let world = &mut self.world;
-                let health = &self.health;
-                let mut run = || -> PyResult<()> {
-                    for _ in 0..m {
-                        if let Err(e) = world.step() {
-                            let report = health.non_finite(world, &e);
-                            return Err(SimulationError::new_err(report.to_string()));
-                        }
-                    }
-                    Ok(())
-                };
-                match &self.pool {
-                    Some(p) => p.install(run),
-                    None => run(),
-                }
-            }
-            #[cfg(feature = "gpu")]
-            Engine::Gpu(gpu) => {
-                let world = &mut self.world;
-                let gpu_err = |e: clatter_gpu::GpuError| BackendError::new_err(e.to_string());
-                if self.gpu_stale {
-                    let ctx = gpu.context().clone();
-                    **gpu = clatter_gpu::GpuWorld::new(ctx, world).map_err(gpu_err)?;
-                    self.gpu_stale = false;
-                }
-                let report = gpu.step_into(m, world).map_err(gpu_err)?;
-                world.set_contact_state(gpu.contact_state().map_err(gpu_err)?);
-                if let Some(body) = report.bad_body {
-                    let e = clatter::SimError::NonFinite {
-                        body,
-                        step: world.step_count + 1,
-                        time: world.time + world.dt as f64,
-                        dt: world.dt,
-                    };
-                    let report = self.health.non_finite(world, &e);
-                    return Err(SimulationError::new_err(report.to_string()));
-                }
-                Ok(())
-            }
+    /// Before steps: the world uploaded again if a setter changed it (with the checks'
+    /// baseline renewed), and the initial-overlap check before the first.
+    fn prepare(&mut self, py: Python<'_>) -> PyResult<()> {
+        if self.gpu_stale {
+            self.stepper
+                .restart(&self.world)
+                .map_err(|e| device_error(&e))?;
+            let health = clatter::Health::new(&self.world);
+            self.watch = Watch::start(&mut self.stepper, &self.world, health, CHECK_EVERY, 0);
+            self.gpu_stale = false;
         }
-    }
-}
-
-/// The engine for `backend` and the reason, as `clatter run --backend` chooses it.
-fn choose(backend: &str, world: &World) -> PyResult<(Engine, String)> {
-    match backend {
-        "cpu" => Ok((Engine::Cpu, "cpu".into())),
-        "gpu" | "auto" => choose_gpu(backend == "auto", world),
-        other => Err(PyValueError::new_err(format!(
-            "backend must be \"auto\", \"cpu\" or \"gpu\", got {other:?}"
-        ))),
-    }
-}
-
-#[cfg(not(feature = "gpu"))]
-fn choose_gpu(auto: bool, _world: &World) -> PyResult<(Engine, String)> {
-    if auto {
-        Ok((
-            Engine::Cpu,
-            "cpu (auto: this module was built without GPU support)".into(),
-        ))
-    } else {
-        Err(BackendError::new_err(
-            "backend=\"gpu\": this module was built without GPU support (build it with the `gpu` feature)",
-        ))
-    }
-}
-
-/// `clatter_gpu::backend::choose`, the CLI's own choice, with Python's wording of errors.
-#[cfg(feature = "gpu")]
-fn choose_gpu(auto: bool, world: &World) -> PyResult<(Engine, String)> {
-    use clatter_gpu::backend::{self, BackendChoice, Device, Stepper};
-    let choice = if auto {
-        BackendChoice::Auto
-    } else {
-        BackendChoice::Gpu
-    };
-    match backend::choose(choice, world, Device::Headless) {
-        Ok(chosen) => {
-            let reason = chosen
-                .note
-                .as_deref()
-                .map_or("cpu", |n| n.trim_start_matches("backend: "))
-                .replace("--backend gpu", "backend=\"gpu\"");
-            let engine = match chosen.stepper {
-                Stepper::Cpu => Engine::Cpu,
-                Stepper::Gpu(g) => Engine::Gpu(g),
-            };
-            Ok((engine, reason))
+        if !self.started {
+            self.watch
+                .health()
+                .check_initial(&self.world)
+                .map_err(|b| blow_up_error(py, &b))?;
+            self.started = true;
         }
-        Err(e) => Err(BackendError::new_err(e.to_string().replacen(
-            "--backend gpu",
-            "backend=\"gpu\"",
-            1,
-        ))),
+        Ok(())
+    }
+
+    /// The world with its body state current (read back from the GPU if it is behind).
+    fn bodies(&mut self, py: Python<'_>) -> PyResult<&World> {
+        if self.behind == Behind::All {
+            let (stepper, world) = (&self.stepper, &mut self.world);
+            py.detach(|| stepper.sync_bodies(world))
+                .map_err(|e| device_error(&e))?;
+            self.behind = Behind::Contacts;
+        }
+        Ok(&self.world)
+    }
+
+    /// The world with everything current: bodies and the contact list.
+    fn current(&mut self, py: Python<'_>) -> PyResult<&World> {
+        if self.behind != Behind::Nothing {
+            let (stepper, world) = (&self.stepper, &mut self.world);
+            py.detach(|| stepper.sync(world))
+                .map_err(|e| device_error(&e))?;
+            self.behind = Behind::Nothing;
+        }
+        Ok(&self.world)
+    }
+
+    /// The world for a setter to change: made current first, its GPU copy (if any) then
+    /// stale, so the next step uploads it again with a new energy baseline.
+    fn edit(&mut self, py: Python<'_>) -> PyResult<&mut World> {
+        self.current(py)?;
+        self.gpu_stale = true;
+        Ok(&mut self.world)
     }
 }
 

@@ -151,6 +151,11 @@ def test_a_blow_up_raises_the_command_lines_message():
     assert "blew up at step" in text and "body 0" in text, text
     assert "Likely cause" in text and "time step" in text, text
     assert sim.step_count < 2000
+    # The report's parts, as attributes.
+    e = err.value
+    assert e.body == 0 and 0 < e.step <= sim.step_count and e.time > 0, (e.body, e.step)
+    assert e.kind in ("non_finite", "energy_growth", "escaped", "deep_overlap"), e.kind
+    assert "time step" in e.cause, e.cause
 
 
 def test_bodies_starting_deeply_overlapped_are_refused():

@@ -1,9 +1,9 @@
 //! `--backend cpu|gpu|auto`: the option's values, and the CLI's side of
-//! [`clatter_gpu::choose`] (printing the choice unless `--quiet`).
+//! [`clatter_backend::choose`] (printing the choice unless `--quiet`, wording its errors).
 
 use clap::ValueEnum;
 use clatter::World;
-use clatter_gpu::{BackendChoice, Device, Stepper};
+use clatter_backend::{BackendChoice, Device, Stepper};
 
 /// The values of `--backend` (their doc comments are the `--help` text); each is a
 /// [`BackendChoice`].
@@ -18,6 +18,9 @@ pub enum Backend {
     Gpu,
 }
 
+/// The command line's name for asking for the GPU, in the backend layer's messages.
+pub const GPU_OPTION: &str = "--backend gpu";
+
 impl From<Backend> for BackendChoice {
     fn from(b: Backend) -> BackendChoice {
         match b {
@@ -28,16 +31,17 @@ impl From<Backend> for BackendChoice {
     }
 }
 
-/// The stepper for `world` on `device` ([`clatter_gpu::choose`]); prints the `backend: ...`
-/// line unless `quiet`.
+/// The stepper for `world` on `device` ([`clatter_backend::choose`]); prints the
+/// `backend: ...` line unless `quiet`.
 pub fn choose(
     backend: Backend,
     world: &World,
     device: Device,
     quiet: bool,
 ) -> anyhow::Result<Stepper> {
-    let chosen = clatter_gpu::choose(backend.into(), world, device)?;
-    if let Some(note) = &chosen.note
+    let chosen = clatter_backend::choose(backend.into(), world, device)
+        .map_err(|e| anyhow::anyhow!(e.describe(GPU_OPTION)))?;
+    if let Some(note) = chosen.choice.note()
         && !quiet
     {
         eprintln!("{note}");

@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::Context;
 use clatter::World;
 use clatter::pile::{PileParams, PileShape, pile, poured};
-use clatter_gpu::{Device, Readback, StepError, Stepper};
+use clatter_backend::{Device, Readback, StepError, Stepper};
 
 use clap::ValueEnum;
 

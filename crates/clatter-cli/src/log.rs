@@ -283,18 +283,24 @@ impl SuiteLog {
         }
     }
 
-    /// The check begun last is done with `rows` rows, `failed` of them failing.
-    pub fn end(&self, rows: usize, failed: usize) {
+    /// The check begun last is done with `rows` rows, `failed` of them failing and `differ`
+    /// of them outside their tolerance where clatter is documented to differ from the
+    /// published data (`DIFFERS` rows, which do not fail the suite).
+    pub fn end(&self, rows: usize, failed: usize, differ: usize) {
         let mut st = self.state.lock().unwrap_or_else(|e| e.into_inner());
         st.done += 1;
-        self.print(&mut st, "done", &format!("{rows:>6}  {failed:>6}"));
+        self.print(
+            &mut st,
+            "done",
+            &format!("{rows:>6}  {failed:>6}  {differ:>6}"),
+        );
     }
 
     fn print(&self, st: &mut SuiteState, status: &str, rows: &str) {
         if !st.printed {
             eprintln!(
-                "{:<20}  {:>4}/{:<4}  {:<7}  {:>9}  {:>9}  {:>6}  {:>6}",
-                "check", "done", "all", "status", "check", "elapsed", "rows", "failed"
+                "{:<20}  {:>4}/{:<4}  {:<7}  {:>9}  {:>9}  {:>6}  {:>6}  {:>6}",
+                "check", "done", "all", "status", "check", "elapsed", "rows", "failed", "differ"
             );
             st.printed = true;
         }

@@ -10,8 +10,8 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use clatter::health::Health;
-use clatter_gpu::watch::CHECK_EVERY;
-use clatter_gpu::{Device, GpuContext, Readback, Stepper, Watch, WatchError};
+use clatter_backend::{CHECK_EVERY, Device, Readback, Stepper, Watch, WatchError};
+use clatter_gpu::GpuContext;
 use clatter_render::{Offscreen, Poses, save_png};
 
 use crate::args::{Pipeline, Progress};

@@ -183,13 +183,13 @@ fn one_check_alone_counts_in_the_singular_and_keeps_time_within_the_total() {
         String::from_utf8_lossy(&o.stderr),
     );
     // Stderr is a pipe here, so the per-check line is the batch log's (docs/outputs.md):
-    // `poured-pile  1/1  done  <check> s  <elapsed> s  <rows>  <failed>`.
+    // `poured-pile  1/1  done  <check> s  <elapsed> s  <rows>  <failed>  <differ>`.
     assert!(
         err.lines().any(|l| {
             let w: Vec<&str> = l.split_whitespace().collect();
             w.first() == Some(&"poured-pile")
                 && w.get(1) == Some(&"1/1")
-                && w.ends_with(&["1", "0"])
+                && w.ends_with(&["1", "0", "0"])
         }),
         "{all}"
     );

@@ -576,36 +576,40 @@ impl TriMesh<'_> {
         // faces, and it is dropped above although it lies far outside the merged faces
         // (found by fuzzing). Accept the tolerant faces only if every vertex of the exact
         // triangulation is still inside every face.
-        if tier == Tier::Tolerant {
-            let planes: Vec<(DVec3, f64)> = loops
-                .iter()
-                .map(|lp| {
-                    let origin = p(lp[0]);
-                    let mut n = DVec3::ZERO;
-                    for k in 0..lp.len() {
-                        n += (p(lp[k]) - origin).cross(p(lp[(k + 1) % lp.len()]) - origin);
-                    }
-                    let n = n.normalize_or_zero();
-                    let offset = lp.iter().map(|&v| n.dot(p(v))).sum::<f64>() / lp.len() as f64;
-                    (n, offset)
-                })
-                .collect();
-            let mut used = vec![false; self.pts.len()];
-            for t in &self.tris {
-                for &v in t {
-                    used[v as usize] = true;
-                }
-            }
-            let outside = used.iter().enumerate().filter(|(_, u)| **u).any(|(v, _)| {
-                planes
-                    .iter()
-                    .any(|(n, o)| n.dot(self.pts[v]) - o > 2.0 * self.tol)
-            });
-            if outside {
-                return None;
-            }
+        if tier == Tier::Tolerant && self.leaves_a_vertex_outside(&loops) {
+            return None;
         }
         closed_surface(&loops, self.pts.len()).then_some(loops)
+    }
+
+    /// Whether a vertex of the exact triangulation lies more than `2 tol` outside one of
+    /// the merged faces `loops` (their Newell planes through their mean vertex).
+    fn leaves_a_vertex_outside(&self, loops: &[Vec<u32>]) -> bool {
+        let p = |i: u32| self.pts[i as usize];
+        let planes: Vec<(DVec3, f64)> = loops
+            .iter()
+            .map(|lp| {
+                let origin = p(lp[0]);
+                let mut n = DVec3::ZERO;
+                for k in 0..lp.len() {
+                    n += (p(lp[k]) - origin).cross(p(lp[(k + 1) % lp.len()]) - origin);
+                }
+                let n = n.normalize_or_zero();
+                let offset = lp.iter().map(|&v| n.dot(p(v))).sum::<f64>() / lp.len() as f64;
+                (n, offset)
+            })
+            .collect();
+        let mut used = vec![false; self.pts.len()];
+        for t in &self.tris {
+            for &v in t {
+                used[v as usize] = true;
+            }
+        }
+        used.iter().enumerate().filter(|(_, u)| **u).any(|(v, _)| {
+            planes
+                .iter()
+                .any(|(n, o)| n.dot(self.pts[v]) - o > 2.0 * self.tol)
+        })
     }
 }
 

@@ -157,57 +157,56 @@ buffers! {
     /// Wall planes.
     Walls = "walls", Read, "array<WallRecord>", size_of::<WallRecord>(), WallsAndSinks;
     /// Status words (`layout::status`).
-    Status = "status", ReadWrite, "array<atomic<u32>>", 4, StatusWords;
+    Status = "status", ReadWrite, "array<atomic<u32>>", size_of::<u32>(), StatusWords;
     /// The grid of the last rebuild.
     Grid = "grid", ReadWrite, "Grid", size_of::<crate::layout::Grid>(), One;
     /// Cell key per body.
-    Keys = "keys", ReadWrite, "array<u32>", 4, Bodies;
+    Keys = "keys", ReadWrite, "array<u32>", size_of::<u32>(), Bodies;
     /// Bodies in cell order.
-    Sorted = "sorted", ReadWrite, "array<u32>", 4, Bodies;
+    Sorted = "sorted", ReadWrite, "array<u32>", size_of::<u32>(), Bodies;
     /// Bodies per cell.
-    CellCount = "cell_count", ReadWrite, "array<atomic<u32>>", 4, CellsPlusOne;
+    CellCount = "cell_count", ReadWrite, "array<atomic<u32>>", size_of::<u32>(), CellsPlusOne;
     /// First body of each cell in `sorted`.
-    CellStart = "cell_start", ReadWrite, "array<u32>", 4, CellsPlusOne;
+    CellStart = "cell_start", ReadWrite, "array<u32>", size_of::<u32>(), CellsPlusOne;
     /// Positions at the last rebuild; with composites, then their orientations (body `i`'s
     /// at `n + i`).
-    RebuildPos = "rebuild_pos", ReadWrite, "array<vec4<f32>>", 16, RebuildSlots;
+    RebuildPos = "rebuild_pos", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), RebuildSlots;
     /// The new pair list's per-body offsets (during a rebuild).
-    NewAStart = "new_a_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
+    NewAStart = "new_a_start", ReadWrite, "array<u32>", size_of::<u32>(), BodiesPlusOne;
     /// Body `i` is side a of pairs `a_start[i]..a_start[i + 1]`.
-    AStart = "a_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
+    AStart = "a_start", ReadWrite, "array<u32>", size_of::<u32>(), BodiesPlusOne;
     /// The new pair list (during a rebuild).
-    NewPairs = "new_pairs", ReadWrite, "array<vec2<u32>>", 8, Pairs;
+    NewPairs = "new_pairs", ReadWrite, "array<vec2<u32>>", size_of::<[u32; 2]>(), Pairs;
     /// Candidate pairs `(i, j)`, `i < j`, sorted.
-    Pairs = "pairs", ReadWrite, "array<vec2<u32>>", 8, Pairs, keep;
+    Pairs = "pairs", ReadWrite, "array<vec2<u32>>", size_of::<[u32; 2]>(), Pairs, keep;
     /// The new list's springs (during a rebuild).
-    NewHist = "new_hist", ReadWrite, "array<vec4<f32>>", 16, Pairs;
+    NewHist = "new_hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), Pairs;
     /// Springs per pair: xyz tangential, w twist.
-    Hist = "hist", ReadWrite, "array<vec4<f32>>", 16, Pairs, keep;
+    Hist = "hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), Pairs, keep;
     /// Per pair: 1 touching, 0 not, 2 + axis: apart along that separating axis.
-    Touching = "touching", ReadWrite, "array<u32>", 4, Pairs;
+    Touching = "touching", ReadWrite, "array<u32>", size_of::<u32>(), Pairs;
     /// The last step's force per pair.
     Forces = "forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), Pairs;
     /// Pairs per body as side b.
-    BCount = "b_count", ReadWrite, "array<atomic<u32>>", 4, BodiesPlusOne;
+    BCount = "b_count", ReadWrite, "array<atomic<u32>>", size_of::<u32>(), BodiesPlusOne;
     /// Body `i` is side b of pairs `b_adj[b_start[i]..b_start[i + 1]]`.
-    BStart = "b_start", ReadWrite, "array<u32>", 4, BodiesPlusOne;
+    BStart = "b_start", ReadWrite, "array<u32>", size_of::<u32>(), BodiesPlusOne;
     /// Pair indices by side-b body.
-    BAdj = "b_adj", ReadWrite, "array<u32>", 4, Pairs;
+    BAdj = "b_adj", ReadWrite, "array<u32>", size_of::<u32>(), Pairs;
     /// Springs per body and wall (`body * walls + wall`).
-    WallHist = "wall_hist", ReadWrite, "array<vec4<f32>>", 16, WallSlots;
-    /// The last step's force per body and wall; `pad0` holds (as bits) whether the body
-    /// touched the wall (1) or not (0).
-    WallForces = "wall_forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), WallSlots;
+    WallHist = "wall_hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), WallSlots;
+    /// The last step's force per body and wall and whether the body touched the wall.
+    WallForces = "wall_forces", ReadWrite, "array<WallForce>", size_of::<crate::layout::WallForce>(), WallSlots;
     /// The triangle-mesh boundaries' state (`crate::mesh`): their time and the pose at the
     /// last rebuild, then each body's mesh contact slots (springs, normal, force).
-    Mesh = "mesh", ReadWrite, "array<u32>", 4, MeshWords;
+    Mesh = "mesh", ReadWrite, "array<u32>", size_of::<u32>(), MeshWords;
     /// What the blow-up checks compare against.
     HealthParams = "health_params", Uniform, "HealthParams", size_of::<crate::layout::HealthParams>(), One;
     /// The energy log (a ring of `HEALTH_LOG` samples, status word `SAMPLES` counts them),
     /// then the checks' sums per workgroup of bodies (summed by `health_reduce`).
     Health = "health", ReadWrite, "array<HealthRecord>", size_of::<crate::layout::HealthRecord>(), HealthSlots;
     /// The last good state (`snapshot` in health.wgsl), as words: see `layout::snapshot`.
-    Snapshot = "snapshot", ReadWrite, "array<u32>", 4, SnapshotWords, keep;
+    Snapshot = "snapshot", ReadWrite, "array<u32>", size_of::<u32>(), SnapshotWords, keep;
 }
 
 /// The `@binding` declarations of group 0.

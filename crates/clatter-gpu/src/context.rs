@@ -255,7 +255,8 @@ pub fn instance_flags(base: wgpu::InstanceFlags) -> wgpu::InstanceFlags {
 /// For tests: the GPU context, shared by all tests of a test binary (pipelines are compiled
 /// once per device, which matters on software adapters), or `None` with a loud message when
 /// no adapter exists. When the `CI` environment variable is set, a missing adapter is a
-/// failure, not a skip.
+/// failure, not a skip. (Feature `test-harness`.)
+#[cfg(feature = "test-harness")]
 pub fn test_context() -> Option<Arc<GpuContext>> {
     static SHARED: std::sync::OnceLock<Result<Arc<GpuContext>, GpuError>> =
         std::sync::OnceLock::new();

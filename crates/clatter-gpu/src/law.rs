@@ -1,7 +1,7 @@
 //! The contact law on the GPU (`shaders/contacts/law.wgsl`) applied to a batch of contact states, so
 //! that tests can hold it against its twin, `clatter::law`, on thousands of random contacts.
 
-use clatter::contract::{ContactForce, PairParams};
+use clatter::contract::{ContactForce, PairContext};
 use clatter::law::BodyMotion;
 use clatter_geom::narrow::Manifold;
 use glam::Vec3;
@@ -12,7 +12,7 @@ use crate::{GpuContext, GpuError};
 clatter::gpu_record! {
     /// One contact state (`LawQuery` in law_batch.wgsl).
     pub struct LawQueryRecord {
-        pub params: PairParams,
+        pub context: PairContext,
         pub normal: Vec3,
         pub count: u32,
         pub p0: [f32; 4],
@@ -26,10 +26,6 @@ clatter::gpu_record! {
         pub b_velocity: [f32; 4],
         pub b_omega: [f32; 4],
         pub hist: [f32; 4],
-        pub m_eff: f32,
-        pub r_eff: f32,
-        pub share: f32,
-        pub dt: f32,
     }
 }
 
@@ -44,10 +40,8 @@ clatter::gpu_record! {
 /// One contact state: the arguments of `clatter::law::contact_force`.
 #[derive(Debug, Clone, Copy)]
 pub struct LawQuery {
-    pub params: PairParams,
-    pub m_eff: f32,
-    pub r_eff: f32,
-    pub share: f32,
+    /// The pair's law parameters, effective mass and radius, point share and step.
+    pub context: PairContext,
     pub manifold: Manifold,
     pub a: BodyMotion,
     pub b: BodyMotion,
@@ -55,7 +49,6 @@ pub struct LawQuery {
     pub history: Vec3,
     /// Twisting spring.
     pub twist: f32,
-    pub dt: f32,
 }
 
 fn v4(v: Vec3) -> [f32; 4] {
@@ -70,7 +63,7 @@ impl LawQuery {
             [c.point.x, c.point.y, c.point.z, c.depth]
         };
         LawQueryRecord {
-            params: self.params,
+            context: self.context,
             normal: m.normal,
             count: m.count as u32,
             p0: pt(0),
@@ -84,10 +77,6 @@ impl LawQuery {
             b_velocity: v4(self.b.velocity),
             b_omega: v4(self.b.omega),
             hist: [self.history.x, self.history.y, self.history.z, self.twist],
-            m_eff: self.m_eff,
-            r_eff: self.r_eff,
-            share: self.share,
-            dt: self.dt,
         }
     }
 }
@@ -175,12 +164,12 @@ mod tests {
 
     #[test]
     fn records_have_the_wgsl_layout() {
-        use clatter::contract::layout_mismatch;
+        use clatter::contract::{PairParams, layout_mismatch};
         assert_eq!(layout_mismatch::<LawQueryRecord>(), None);
         assert_eq!(layout_mismatch::<LawAnswerRecord>(), None);
         assert_eq!(
             std::mem::size_of::<LawQueryRecord>(),
-            std::mem::size_of::<PairParams>() + 16 + 4 * 16 + 7 * 16 + 16
+            std::mem::size_of::<PairContext>() + 4 * 16 + 7 * 16 + 16
         );
         assert_eq!(
             std::mem::size_of::<PairParams>() % 16,

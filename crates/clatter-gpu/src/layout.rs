@@ -144,6 +144,51 @@ clatter::gpu_record! {
     }
 }
 
+clatter::gpu_record! {
+    /// A body-wall slot's last force, as the GPU keeps it (`wall_forces`): a
+    /// [`ContactForce`] whose unused word holds whether the body touched the wall in the
+    /// last step (1) or not (0), so the slot costs no more than the force.
+    pub struct WallForce {
+        /// Force on the body (side b), N.
+        pub force_b: glam::Vec3,
+        /// Total normal force, N.
+        pub normal_force: f32,
+        /// Torque on the wall (side a), N m.
+        pub torque_a: glam::Vec3,
+        /// 1 when the body touched the wall in the last step, else 0.
+        pub touching: u32,
+        /// Torque on the body (side b), N m.
+        pub torque_b: glam::Vec3,
+        /// Unused.
+        pub pad0: f32,
+    }
+}
+
+impl WallForce {
+    /// A slot's record from its force and touching flag.
+    pub fn new(f: &ContactForce, touching: bool) -> WallForce {
+        WallForce {
+            force_b: f.force_b,
+            normal_force: f.normal_force,
+            torque_a: f.torque_a,
+            touching: touching as u32,
+            torque_b: f.torque_b,
+            pad0: 0.0,
+        }
+    }
+
+    /// The slot's force (as the CPU keeps it) and touching flag.
+    pub fn split(&self) -> (ContactForce, bool) {
+        let f = ContactForce::new(
+            self.force_b,
+            self.torque_a,
+            self.torque_b,
+            self.normal_force,
+        );
+        (f, self.touching != 0)
+    }
+}
+
 /// Slots of the energy log ring (the start of the `health` buffer): more than the steps of
 /// one batch.
 pub const HEALTH_LOG: u32 = 128;
@@ -248,8 +293,13 @@ pub mod arg {
     pub const WORK: u32 = 5;
     /// `integrate`, every step (zero while the pipeline is stopped).
     pub const STEP_BODIES: u32 = 6;
+    /// `health_bodies`: every body on the steps a check or an energy sample is due, else
+    /// nothing (written each step by `health_gate`).
+    pub const HEALTH: u32 = 7;
+    /// `snapshot_state`: its grid on snapshot steps, else nothing (`health_gate`).
+    pub const SNAPSHOT: u32 = 8;
     /// The first scan-level slot.
-    pub const FIRST_SCAN: u32 = 7;
+    pub const FIRST_SCAN: u32 = 9;
 }
 
 /// Threads per workgroup of every kernel (`WG`).
@@ -299,6 +349,9 @@ fn constants() -> Vec<Constant> {
         U32("ARG_COMMIT", arg::COMMIT),
         U32("ARG_WORK", arg::WORK),
         U32("ARG_STEP_BODIES", arg::STEP_BODIES),
+        U32("ARG_HEALTH", arg::HEALTH),
+        U32("ARG_SNAPSHOT", arg::SNAPSHOT),
+        U32("SNAPSHOT_GROUPS", crate::stages::health::SNAPSHOT_GROUPS),
         U32("ARG_SCAN0", arg::FIRST_SCAN),
     ]
 }
@@ -315,6 +368,7 @@ pub fn wgsl_prelude() -> String {
         Grid::wgsl(),
         HealthParams::wgsl(),
         HealthRecord::wgsl(),
+        WallForce::wgsl(),
         crate::buffers::wgsl_bindings(),
     ]
     .join("\n")
@@ -331,6 +385,8 @@ mod tests {
         assert_eq!(layout_mismatch::<Grid>(), None);
         assert_eq!(layout_mismatch::<HealthParams>(), None);
         assert_eq!(layout_mismatch::<HealthRecord>(), None);
+        assert_eq!(layout_mismatch::<WallForce>(), None);
+        assert_eq!(size_of::<WallForce>(), size_of::<ContactForce>());
     }
 
     #[test]

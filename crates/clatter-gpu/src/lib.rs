@@ -8,31 +8,34 @@
 //! `integrate/integrate.wgsl`, ...; `shaders/common/` holds what every kernel includes).
 //! [`world`] holds a scene's state on the GPU and drives the step; body state stays on the
 //! GPU between steps, and the host reads it back only when output is due.
+//!
+//! The `test-harness` feature adds the test-only API: [`test_context`] and the batch
+//! harnesses `law` and `narrow`, which run the law and the narrow phase in WGSL on
+//! thousands of queries for the tests that hold them against `clatter`'s Rust.
 
-pub mod backend;
 pub mod bandwidth;
 pub mod buffers;
 pub mod context;
+#[cfg(feature = "test-harness")]
 pub mod law;
 pub mod layout;
 pub mod mesh;
+#[cfg(feature = "test-harness")]
 pub mod narrow;
 pub(crate) mod pipeline;
 pub mod readback;
 pub mod shapes;
 pub mod stages;
-pub mod watch;
 pub mod world;
 
-pub use backend::{
-    BackendChoice, BackendError, Chosen, Device, Readback, StepError, Stepped, Stepper, choose,
-};
-pub use context::{GpuContext, GpuError, instance_flags, quiet_device_select, test_context};
+#[cfg(feature = "test-harness")]
+pub use context::test_context;
+pub use context::{GpuContext, GpuError, instance_flags, quiet_device_select};
 pub use layout::BodyState;
+#[cfg(feature = "test-harness")]
 pub use narrow::{
     GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,
 };
 pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;
-pub use watch::{Watch, WatchError};
 pub use world::{EnergySample, GpuWorld, HealthSetup, StepReport};

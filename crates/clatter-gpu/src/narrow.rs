@@ -19,7 +19,10 @@ use crate::{GpuContext, GpuError};
 pub const COMMON_WGSL: &str = include_str!("../shaders/common/common.wgsl");
 /// The narrow phase's WGSL: `collide`, `collide_plane`, `shape_is_sphere`, `shape_radius`,
 /// the `Manifold` struct and the group-1 shape bindings. Goes after [`COMMON_WGSL`].
-pub const NARROW_WGSL: &str = include_str!("../shaders/contacts/narrow.wgsl");
+pub const NARROW_WGSL: &str = concat!(
+    include_str!("../shaders/contacts/narrow.wgsl"),
+    include_str!("../shaders/contacts/narrow_poly.wgsl")
+);
 const BATCH_WGSL: &str = include_str!("../shaders/test/narrow_batch.wgsl");
 /// Invocations per workgroup of the batch kernel (`BATCH_WG` in `narrow_batch.wgsl`).
 const BATCH_WG: u32 = 64;

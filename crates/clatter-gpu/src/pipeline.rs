@@ -14,7 +14,12 @@ pub(crate) const MESH_POLY: &str = include_str!("../shaders/contacts/mesh_poly.w
 pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/contacts/mesh_spheres.wgsl");
 pub(crate) const MESH_NONE: &str = include_str!("../shaders/contacts/mesh_none.wgsl");
 pub(crate) const ARGS: &str = include_str!("../shaders/common/args.wgsl");
-pub(crate) const NARROW: &str = include_str!("../shaders/contacts/narrow.wgsl");
+/// The narrow phase: narrow.wgsl (shapes, spheres, walls, the entry points) and
+/// narrow_poly.wgsl (polyhedron pairs), one text.
+pub(crate) const NARROW: &str = concat!(
+    include_str!("../shaders/contacts/narrow.wgsl"),
+    include_str!("../shaders/contacts/narrow_poly.wgsl")
+);
 pub(crate) const NARROW_SPHERES: &str = include_str!("../shaders/contacts/narrow_spheres.wgsl");
 pub(crate) const BIN: &str = include_str!("../shaders/broad/bin.wgsl");
 pub(crate) const SCAN: &str = include_str!("../shaders/broad/scan.wgsl");
@@ -96,8 +101,6 @@ pub(crate) enum Size {
     Single,
     /// Indirect, from an argument slot.
     Indirect(u32),
-    /// A fixed grid of workgroups, sized when the step is recorded.
-    Fixed([u32; 3]),
 }
 
 /// Which compiled set a kernel is in.

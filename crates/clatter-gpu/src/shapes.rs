@@ -333,7 +333,7 @@ mod tests {
 
     #[test]
     fn wgsl_constants_match() {
-        let wgsl = include_str!("../shaders/contacts/narrow.wgsl");
+        let wgsl = crate::pipeline::NARROW;
         assert!(wgsl.contains(&format!("const NRW_MAX_CLIP: u32 = {MAX_CLIP_POINTS}u;")));
         assert!(wgsl.contains(&format!("array<vec4<f32>, {MAX_CLIP_POINTS}>")));
         assert!(wgsl.contains(&format!("const NRW_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));

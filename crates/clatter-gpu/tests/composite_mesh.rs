@@ -420,12 +420,11 @@ fn gpu_runs_are_bitwise_the_same_and_resume_on_the_cpu() {
 
 #[test]
 fn the_gpu_backend_takes_composites_with_meshes() {
-    // (`auto` picks the CPU on a software rasteriser such as lavapipe whatever the scene.)
-    use clatter_gpu::{BackendChoice, Device, Stepper, choose};
+    // What `clatter_backend::choose` does for `--backend gpu` once it has a device. (`auto`
+    // picks the CPU on a software rasteriser such as lavapipe whatever the scene.)
     let ctx = clatter_gpu::test_context().expect("a GPU adapter");
     let world = parse(&drum_scene(2, 3.0)).world();
-    let chosen = choose(BackendChoice::Gpu, &world, Device::Shared(ctx)).expect("gpu");
-    assert!(matches!(chosen.stepper, Stepper::Gpu(_)));
+    GpuWorld::new(ctx, &world).expect("the GPU takes composites with meshes");
 }
 
 /// A denser load of clumps, dropped close to the fixed drum's floor: from the CPU's state at

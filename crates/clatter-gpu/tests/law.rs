@@ -7,6 +7,7 @@
 //! force and torque scales.
 
 use clatter::PairParams;
+use clatter::contract::PairContext;
 use clatter::law::{self, BodyMotion};
 use clatter::material::{Cohesion, ContactLaw, Material};
 use clatter_geom::narrow::{ContactPoint, Manifold};
@@ -120,10 +121,13 @@ fn query(rng: &mut ChaCha8Rng) -> LawQuery {
         };
     }
     LawQuery {
-        params: params(rng),
-        m_eff: mass,
-        r_eff: size,
-        share,
+        context: PairContext {
+            params: params(rng),
+            m_eff: mass,
+            r_eff: size,
+            share,
+            dt,
+        },
         manifold: Manifold {
             normal,
             points,
@@ -133,7 +137,6 @@ fn query(rng: &mut ChaCha8Rng) -> LawQuery {
         b,
         history: vec(rng, reach),
         twist,
-        dt,
     }
 }
 
@@ -149,18 +152,8 @@ fn wgsl_law_matches_the_rust_law() {
     let (mut capped, mut patches, mut rolling_or_sticky, mut worst) = (0, 0, 0, 0.0f32);
     for (k, (q, (g, g_hist))) in queries.iter().zip(&gpu).enumerate() {
         let (mut hist, mut twist) = (q.history, q.twist);
-        let c = law::contact_force(
-            &q.params,
-            q.m_eff,
-            q.r_eff,
-            q.share,
-            &q.manifold,
-            &q.a,
-            &q.b,
-            &mut hist,
-            &mut twist,
-            q.dt,
-        );
+        let qc = &q.context;
+        let c = law::contact_force(qc, &q.manifold, &q.a, &q.b, &mut hist, &mut twist);
         // Scales: the force, and the torque it makes over the contact's lever arms.
         let lever = (q.manifold.points[0].point - q.b.position).length()
             + (q.manifold.points[0].point - q.a.position).length();
@@ -169,34 +162,16 @@ fn wgsl_law_matches_the_rust_law() {
             .manifold
             .points()
             .iter()
-            .map(|p| law::spring(&q.params, q.r_eff, p.depth, q.share).0.abs())
+            .map(|p| law::spring(&qc.params, qc.r_eff, p.depth, qc.share).0.abs())
             .sum();
         let f_scale = c
             .force_b
             .length()
             .max(c.normal_force.abs())
-            .max(springs + law::adhesion(&q.params, q.r_eff))
+            .max(springs + law::adhesion(&qc.params, qc.r_eff))
             .max(1e-30);
-        let rolling = law::rolling_torque(
-            &q.params,
-            q.m_eff,
-            q.r_eff,
-            q.manifold.normal,
-            &q.a,
-            &q.b,
-            f_scale,
-            q.dt,
-        );
-        let spinning = law::spinning_torque(
-            &q.params,
-            q.m_eff,
-            q.r_eff,
-            q.manifold.normal,
-            &q.a,
-            &q.b,
-            f_scale,
-            q.dt,
-        );
+        let rolling = law::rolling_torque(qc, q.manifold.normal, &q.a, &q.b, f_scale);
+        let spinning = law::spinning_torque(qc, q.manifold.normal, &q.a, &q.b, f_scale);
         let t_scale = f_scale * lever
             + c.torque_a.length()
             + c.torque_b.length()
@@ -208,12 +183,12 @@ fn wgsl_law_matches_the_rust_law() {
         let travel = (q.a.velocity.length()
             + q.b.velocity.length()
             + (q.a.omega.length() + q.b.omega.length()) * lever)
-            * q.dt;
+            * qc.dt;
         let h_scale = hist.length().max(q.history.length()).max(travel).max(1e-30);
         let twist_scale = twist
             .abs()
             .max(q.twist.abs())
-            .max((q.a.omega.length() + q.b.omega.length()) * q.dt)
+            .max((q.a.omega.length() + q.b.omega.length()) * qc.dt)
             .max(q.manifold.points[0].depth)
             .max(1e-30);
         let errs = [
@@ -230,16 +205,16 @@ fn wgsl_law_matches_the_rust_law() {
             "contact {k}: GPU and CPU laws disagree by {err:.2e} ({errs:?})\n  query {q:?}\n  cpu {c:?} spring {hist} twist {twist}\n  gpu {g:?} spring {g_hist:?}"
         );
         worst = worst.max(err);
-        let cap = q.params.friction * c.normal_force.max(0.0);
+        let cap = qc.params.friction * c.normal_force.max(0.0);
         if q.history.length() > 0.0 && (hist.length() * 1.0001 < q.history.length() || cap == 0.0) {
             capped += 1;
         }
         if q.manifold.count > 1 {
             patches += 1;
         }
-        if q.params.rolling_friction > 0.0
-            || q.params.spinning_friction > 0.0
-            || q.params.cohesion_model != 0
+        if qc.params.rolling_friction > 0.0
+            || qc.params.spinning_friction > 0.0
+            || qc.params.cohesion_model != 0
         {
             rolling_or_sticky += 1;
         }

@@ -12,10 +12,10 @@ use std::time::{Duration, Instant};
 
 use clatter::World;
 use clatter::health::Health;
-use clatter_gpu::watch::CHECK_EVERY;
-use clatter_gpu::{
-    BackendChoice, BackendError, Device, GpuContext, Readback, Stepper, Watch, WatchError,
+use clatter_backend::{
+    BackendChoice, BackendError, CHECK_EVERY, Device, Readback, Stepper, Watch, WatchError,
 };
+use clatter_gpu::GpuContext;
 use glam::{Quat, Vec3};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
@@ -46,7 +46,7 @@ pub struct ViewerOptions {
     /// Frames shown before the screenshot.
     pub frames: u64,
     /// Which pipeline steps the world, chosen on the window's device
-    /// ([`clatter_gpu::choose`]): the CPU's state is uploaded once per frame; the GPU's
+    /// ([`clatter_backend::choose`]): the CPU's state is uploaded once per frame; the GPU's
     /// frames are drawn straight from its body buffer.
     pub backend: BackendChoice,
 }
@@ -63,7 +63,7 @@ pub enum ViewerError {
     #[error("no GPU adapter can draw into the window: {0}")]
     Adapter(String),
     /// `--backend gpu` and the scene cannot run on the window's adapter.
-    #[error(transparent)]
+    #[error("--backend gpu: {0}")]
     Backend(Box<BackendError>),
     /// Rendering failed.
     #[error(transparent)]
@@ -224,13 +224,13 @@ impl App {
             pollster::block_on(GpuContext::from_adapter(adapter.clone()))
                 .map_err(|e| ViewerError::Adapter(e.to_string()))?,
         );
-        let chosen = clatter_gpu::choose(
+        let chosen = clatter_backend::choose(
             self.options.backend,
             &self.world,
             Device::Window(ctx.clone()),
         )
         .map_err(|e| ViewerError::Backend(Box::new(e)))?;
-        if let Some(note) = &chosen.note {
+        if let Some(note) = chosen.choice.note() {
             eprintln!("{note}");
         }
         let caps = surface.get_capabilities(&adapter);

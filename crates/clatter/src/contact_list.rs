@@ -46,10 +46,15 @@ pub struct ContactSprings {
     pub forces: Vec<ContactForce>,
     /// Whether the contact touched in the last step.
     pub touching: Vec<bool>,
-    /// Separating-axis hint per body pair (narrow-phase coherence).
+    /// What the narrow phase remembers per body pair ([`SatHint`]): for a pair found apart,
+    /// the axis that separated it; for touching polyhedra, the contact the full
+    /// separating-axis test chose (a reference face, or an edge contact).
     pub hints: Vec<SatHint>,
-    /// Per body pair: how far apart the pair was last found, less the most both bodies can
-    /// have moved since; the narrow phase skips the pair while it is positive.
+    /// Per body pair, with its hint: for a pair found apart, how far apart it was last found,
+    /// less the most both bodies can have moved since (the narrow phase skips the pair while
+    /// it is positive); for touching polyhedra with a remembered contact, the margin of the
+    /// full test's decisions less twice the most any axis's separation can have moved since
+    /// (see `clatter_geom::narrow::collide_with_hint`).
     pub separation_bound: Vec<f32>,
 }
 

@@ -331,6 +331,25 @@ impl WgslType for PairParams {
 }
 
 gpu_record! {
+    /// Everything the contact law takes about a pair besides its manifold, motions and
+    /// springs: the pair's [`PairParams`], its effective mass and radius, the share of the
+    /// law each manifold point carries, and the step. Built per contact by the contacts
+    /// stage (`law::contact_force`'s first argument, in Rust and WGSL alike).
+    pub struct PairContext {
+        /// The combined law parameters of the pair's materials.
+        pub params: PairParams,
+        /// Effective mass `m_a m_b / (m_a + m_b)` (a body against a wall: its mass), kg.
+        pub m_eff: f32,
+        /// Effective radius `r_a r_b / (r_a + r_b)` (a body against a wall: its radius), m.
+        pub r_eff: f32,
+        /// The share of the law each manifold point carries (`law::point_share`).
+        pub share: f32,
+        /// The time step, s.
+        pub dt: f32,
+    }
+}
+
+gpu_record! {
     /// What one contact does, 48 bytes: the force on side b (side a gets exactly its
     /// negative), the total normal force, and the torques on both sides about their centres
     /// of mass.
@@ -354,6 +373,12 @@ impl WgslType for ContactForce {
     const WGSL: &'static str = "ContactForce";
     const ALIGN: usize = 16;
     const SIZE: usize = std::mem::size_of::<ContactForce>();
+}
+
+impl WgslType for PairContext {
+    const WGSL: &'static str = "PairContext";
+    const ALIGN: usize = 4;
+    const SIZE: usize = std::mem::size_of::<PairContext>();
 }
 
 impl ContactForce {
@@ -403,6 +428,7 @@ pub fn wgsl_records() -> String {
         BodyState::wgsl(),
         BodyConsts::wgsl(),
         PairParams::wgsl(),
+        PairContext::wgsl(),
         ContactForce::wgsl(),
         WallRecord::wgsl(),
     ]
@@ -419,6 +445,7 @@ mod tests {
             layout_mismatch::<BodyState>(),
             layout_mismatch::<BodyConsts>(),
             layout_mismatch::<PairParams>(),
+            layout_mismatch::<PairContext>(),
             layout_mismatch::<ContactForce>(),
             layout_mismatch::<WallRecord>(),
         ] {

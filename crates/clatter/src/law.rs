@@ -33,8 +33,8 @@ use crate::contract::{
     COHESION_DMT, COHESION_NONE, LINEAR_TANGENTIAL_RATIO, MODEL_HERTZ, POLYHEDRON_POINT_SHARE,
     SPHERE_POINT_SHARE, TANGENTIAL_DAMPING_RATIO,
 };
-pub use crate::contract::{ContactForce, PairParams};
-use clatter_geom::narrow::Manifold;
+pub use crate::contract::{ContactForce, PairContext, PairParams};
+use clatter_geom::narrow::{ContactPoint, Manifold};
 
 /// Rigid motion of one side of a contact (a wall has zero velocities).
 #[derive(Debug, Clone, Copy, Default)]
@@ -81,9 +81,9 @@ fn damping(p: &PairParams, m_eff: f32, k: f32) -> f32 {
 /// `S_t = kt = 8 G* sqrt(R* d)`, the normal law's damping form applied to the tangential
 /// stiffness; linear: [`TANGENTIAL_DAMPING_RATIO`] times the normal damping `eta_n`.
 #[inline(always)]
-fn tangential_damping(p: &PairParams, m_eff: f32, kt: f32, eta_n: f32) -> f32 {
-    if p.model == MODEL_HERTZ {
-        damping(p, m_eff, kt)
+fn tangential_damping(c: &PairContext, kt: f32, eta_n: f32) -> f32 {
+    if c.params.model == MODEL_HERTZ {
+        damping(&c.params, c.m_eff, kt)
     } else {
         TANGENTIAL_DAMPING_RATIO * eta_n
     }
@@ -91,9 +91,10 @@ fn tangential_damping(p: &PairParams, m_eff: f32, kt: f32, eta_n: f32) -> f32 {
 
 /// Tangential stiffness of the pair's spring.
 #[inline(always)]
-fn tangential_stiffness(p: &PairParams, r_eff: f32, depth: f32, share_total: f32) -> f32 {
+fn tangential_stiffness(c: &PairContext, depth: f32, share_total: f32) -> f32 {
+    let p = &c.params;
     if p.model == MODEL_HERTZ {
-        share_total * 8.0 * p.shear * (r_eff * depth.max(0.0)).sqrt()
+        share_total * 8.0 * p.shear * (c.r_eff * depth.max(0.0)).sqrt()
     } else {
         LINEAR_TANGENTIAL_RATIO * p.stiffness
     }
@@ -103,16 +104,14 @@ fn tangential_stiffness(p: &PairParams, r_eff: f32, depth: f32, share_total: f32
 /// rotates `history` into the tangent plane of `n`, stretches it, caps it by Coulomb, and
 /// returns the tangential force on side b.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn tangential_law(
-    p: &PairParams,
+    c: &PairContext,
     kt: f32,
     n: Vec3,
     vrel: Vec3,
     normal_force: f32,
     eta_t: f32,
     history: &mut Vec3,
-    dt: f32,
 ) -> Vec3 {
     let vt = vrel - n * vrel.dot(n);
     let mut xi = *history;
@@ -126,9 +125,9 @@ fn tangential_law(
             xi *= (old_len2 / new_len2).sqrt();
         }
     }
-    xi += vt * dt;
+    xi += vt * c.dt;
     let mut ft = -kt * xi - eta_t * vt;
-    let cap = p.friction * normal_force.max(0.0);
+    let cap = c.params.friction * normal_force.max(0.0);
     let ft_len2 = ft.length_squared();
     if ft_len2 > cap * cap {
         ft *= cap / ft_len2.sqrt();
@@ -140,49 +139,35 @@ fn tangential_law(
 }
 
 /// The contact force of a one-point contact (spheres, vertex and edge contacts): normal and
-/// tangential forces act at `point`, overlap `depth` along the unit normal `n` (from a to b).
+/// tangential forces act at `cp.point`, overlap `cp.depth` along the unit normal `n` (from a
+/// to b).
 /// `coverage` is the contact's normal state across steps: for contacts with a sphere
 /// (`share` = [`SPHERE_POINT_SHARE`]) the normal force is resolved within the step
 /// ([`resolved_normal_force`]) and `coverage` carries the dashpot's primitive at the overlap
 /// up to which it has been applied; polyhedron contacts use the explicit law and get 0.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub fn point_contact_force(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
-    share: f32,
+    c: &PairContext,
     n: Vec3,
-    point: Vec3,
-    depth: f32,
+    cp: ContactPoint,
     a: &BodyMotion,
     b: &BodyMotion,
     history: &mut Vec3,
     coverage: &mut f32,
-    dt: f32,
 ) -> ContactForce {
+    let (p, point, depth) = (&c.params, cp.point, cp.depth);
     let vrel = b.point_velocity(point) - a.point_velocity(point);
-    let (fs, k) = spring(p, r_eff, depth, share);
-    let eta = damping(p, m_eff, k);
-    let fn_ = if share == SPHERE_POINT_SHARE {
-        resolved_normal_force(
-            p,
-            m_eff,
-            r_eff,
-            share,
-            depth,
-            -vrel.dot(n),
-            (fs, k, eta),
-            coverage,
-            dt,
-        )
+    let (fs, k) = spring(p, c.r_eff, depth, c.share);
+    let eta = damping(p, c.m_eff, k);
+    let fn_ = if c.share == SPHERE_POINT_SHARE {
+        resolved_normal_force(c, depth, -vrel.dot(n), (fs, k, eta), coverage)
     } else {
         *coverage = 0.0;
         fs - eta * vrel.dot(n)
     };
-    let kt = tangential_stiffness(p, r_eff, depth, share);
-    let eta_t = tangential_damping(p, m_eff, kt, eta);
-    let ft = tangential_law(p, kt, n, vrel, fn_, eta_t, history, dt);
+    let kt = tangential_stiffness(c, depth, c.share);
+    let eta_t = tangential_damping(c, kt, eta);
+    let ft = tangential_law(c, kt, n, vrel, fn_, eta_t, history);
     let f = n * fn_ + ft;
     let mut out = ContactForce::new(
         f,
@@ -190,7 +175,7 @@ pub fn point_contact_force(
         (point - b.position).cross(f),
         fn_,
     );
-    adhesion_and_rolling(p, m_eff, r_eff, n, point, a, b, fn_, dt, &mut out);
+    adhesion_and_rolling(c, n, point, (a, b), fn_, &mut out);
     out
 }
 
@@ -234,18 +219,14 @@ const EDGE_SLACK: f32 = 0.05;
 /// in static overlaps). `(spring_force, stiffness, eta)` are [`spring`] and the damping at
 /// `depth`, which the caller has computed already.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub fn resolved_normal_force(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
-    share: f32,
+    c: &PairContext,
     depth: f32,
     approach: f32,
     (spring_force, stiffness, eta): (f32, f32, f32),
     coverage: &mut f32,
-    dt: f32,
 ) -> f32 {
+    let (m_eff, dt) = (c.m_eff, c.dt);
     let (x, v, fs) = (depth, approach, spring_force);
     if dt * (dt * stiffness + eta) > RESOLVABLE * m_eff {
         // A step too long for the contact (near or past the stability bound): the explicit
@@ -261,11 +242,11 @@ pub fn resolved_normal_force(
     let g_start = if *coverage > 0.0 {
         *coverage
     } else if first {
-        dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v)
+        dashpot_primitive(c, eta, x - dt * v)
     } else {
         0.0
     };
-    let g_x = eta * x / dashpot_exponent(p);
+    let g_x = eta * x / dashpot_exponent(&c.params);
     if !first {
         // Inside the contact: the spring at `x` over the step (midpoint rule), the dashpot
         // from the covered end to `x1 = x + dt v+ / 2`, its primitive linearised at `x`
@@ -280,70 +261,39 @@ pub fn resolved_normal_force(
             return force;
         }
         // Separating within the step: this is the contact's last step.
-        return contact_edge(
-            p,
-            m_eff,
-            r_eff,
-            share,
-            x,
-            v,
-            (false, true),
-            v_after,
-            g_start,
-            eta,
-            coverage,
-            dt,
-        );
+        return contact_edge(c, (x, v), (false, true), v_after, g_start, eta, coverage);
     }
     let v_next = v - (fs + eta * v) * dt / (m_eff + 0.5 * eta * dt);
     let last = x + dt * v_next <= EDGE_SLACK * dt * v_next.abs();
-    contact_edge(
-        p,
-        m_eff,
-        r_eff,
-        share,
-        x,
-        v,
-        (true, last),
-        v_next,
-        g_start,
-        eta,
-        coverage,
-        dt,
-    )
+    contact_edge(c, (x, v), (true, last), v_next, g_start, eta, coverage)
 }
 
 /// The first or last step of a contact ([`resolved_normal_force`]): the spring over the part
 /// of the interval in contact, `v+` by three fixed-point iterations from `v_next` (three more
 /// as the last step if a first step separates after all).
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
 fn contact_edge(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
-    share: f32,
-    x: f32,
-    v: f32,
+    c: &PairContext,
+    (x, v): (f32, f32),
     (first, mut last): (bool, bool),
     mut v_next: f32,
     g_start: f32,
     eta: f32,
     coverage: &mut f32,
-    dt: f32,
 ) -> f32 {
-    let inv_m = 1.0 / m_eff;
+    let dt = c.dt;
+    let inv_m = 1.0 / c.m_eff;
     let (mut force, mut g_end) = (0.0, 0.0);
     for _pass in 0..2 {
         for _ in 0..3 {
             let back = if first { -dt } else { -0.5 * dt };
             let ahead = if last { dt } else { 0.5 * dt };
-            let spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
-                + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
+            let spring_impulse =
+                spring_integral(c, x, v, back, 0.0) + spring_integral(c, x, v_next, 0.0, ahead);
             g_end = if last {
                 0.0
             } else {
-                dashpot_primitive(p, m_eff, r_eff, share, eta, x + 0.5 * dt * v_next)
+                dashpot_primitive(c, eta, x + 0.5 * dt * v_next)
             };
             force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
@@ -366,16 +316,8 @@ fn contact_edge(
 /// Simpson's rule where it stays positive (exact for the linear law, within 1e-4 for Hertz
 /// over a step), the elastic energy over `|v|` where it crosses zero.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn spring_integral(
-    p: &PairParams,
-    r_eff: f32,
-    share: f32,
-    x0: f32,
-    v: f32,
-    s0: f32,
-    s1: f32,
-) -> f32 {
+fn spring_integral(c: &PairContext, x0: f32, v: f32, s0: f32, s1: f32) -> f32 {
+    let (p, r_eff, share) = (&c.params, c.r_eff, c.share);
     let (a, b) = (x0 + v * s0, x0 + v * s1);
     if a > 0.0 && b > 0.0 {
         let mid = x0 + v * (0.5 * (s0 + s1));
@@ -402,17 +344,11 @@ fn dashpot_exponent(p: &PairParams) -> f32 {
 /// `x <= 0`). `eta_linear` is the linear law's (constant) damping, passed in to save its
 /// square root.
 #[inline(always)]
-fn dashpot_primitive(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
-    share: f32,
-    eta_linear: f32,
-    x: f32,
-) -> f32 {
+fn dashpot_primitive(c: &PairContext, eta_linear: f32, x: f32) -> f32 {
+    let p = &c.params;
     let x = x.max(0.0);
     let eta = if p.model == MODEL_HERTZ {
-        damping(p, m_eff, spring(p, r_eff, x, share).1)
+        damping(p, c.m_eff, spring(p, c.r_eff, x, c.share).1)
     } else {
         eta_linear
     };
@@ -435,21 +371,17 @@ pub fn adhesion(p: &PairParams, r_eff: f32) -> f32 {
 /// one step of the full torque would take away from a body of inertia `2/5 m* R*^2`, the
 /// torque shrinks in proportion, so a rolling body comes to rest instead of rocking.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub fn rolling_torque(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
+    c: &PairContext,
     n: Vec3,
     a: &BodyMotion,
     b: &BodyMotion,
     normal_force: f32,
-    dt: f32,
 ) -> Vec3 {
     let w = b.omega - a.omega;
     let w_roll = w - n * w.dot(n);
-    let limit = p.rolling_friction * r_eff * normal_force.max(0.0);
-    match resisting_scale(limit, w_roll.length(), m_eff, r_eff, dt) {
+    let limit = c.params.rolling_friction * c.r_eff * normal_force.max(0.0);
+    match resisting_scale(c, limit, w_roll.length()) {
         Some(scale) => -w_roll * scale,
         None => Vec3::ZERO,
     }
@@ -460,8 +392,8 @@ pub fn rolling_torque(
 /// torque would take more than `speed` away from a body of inertia `2/5 m* R*^2`. `None`
 /// when there is nothing to resist.
 #[inline(always)]
-fn resisting_scale(limit: f32, speed: f32, m_eff: f32, r_eff: f32, dt: f32) -> Option<f32> {
-    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+fn resisting_scale(c: &PairContext, limit: f32, speed: f32) -> Option<f32> {
+    let step_change = limit * c.dt / (0.4 * c.m_eff * c.r_eff * c.r_eff);
     (limit > 0.0 && speed > 0.0).then(|| limit / speed.max(step_change))
 }
 
@@ -469,20 +401,16 @@ fn resisting_scale(limit: f32, speed: f32, m_eff: f32, r_eff: f32, dt: f32) -> O
 /// `-mu_s R* Fn sign(w_n) n` against the relative spin `w_n` about the normal, shrinking in
 /// proportion near rest as [`rolling_torque`] does.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub fn spinning_torque(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
+    c: &PairContext,
     n: Vec3,
     a: &BodyMotion,
     b: &BodyMotion,
     normal_force: f32,
-    dt: f32,
 ) -> Vec3 {
     let w_n = (b.omega - a.omega).dot(n);
-    let limit = p.spinning_friction * r_eff * normal_force.max(0.0);
-    match resisting_scale(limit, w_n.abs(), m_eff, r_eff, dt) {
+    let limit = c.params.spinning_friction * c.r_eff * normal_force.max(0.0);
+    match resisting_scale(c, limit, w_n.abs()) {
         Some(scale) => n * (-w_n * scale),
         None => Vec3::ZERO,
     }
@@ -491,21 +419,17 @@ pub fn spinning_torque(
 /// Adds adhesion (acting at `at`, along the normal) and rolling resistance to a contact's
 /// force; `normal_force` is the contact's spring-dashpot normal force (without adhesion).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn adhesion_and_rolling(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
+    c: &PairContext,
     n: Vec3,
     at: Vec3,
-    a: &BodyMotion,
-    b: &BodyMotion,
+    (a, b): (&BodyMotion, &BodyMotion),
     normal_force: f32,
-    dt: f32,
     out: &mut ContactForce,
 ) {
+    let p = &c.params;
     if p.cohesion_model != COHESION_NONE {
-        let pull = adhesion(p, r_eff);
+        let pull = adhesion(p, c.r_eff);
         let f = n * -pull;
         out.force_b += f;
         out.normal_force -= pull;
@@ -513,42 +437,36 @@ fn adhesion_and_rolling(
         out.torque_a += f.cross(at - a.position);
     }
     if p.rolling_friction > 0.0 {
-        let tau = rolling_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        let tau = rolling_torque(c, n, a, b, normal_force);
         out.torque_b += tau;
         out.torque_a -= tau;
     }
     if p.spinning_friction > 0.0 {
-        let tau = spinning_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        let tau = spinning_torque(c, n, a, b, normal_force);
         out.torque_b += tau;
         out.torque_a -= tau;
     }
 }
 
 /// Computes the contact force of `manifold` between `a` and `b` and updates the tangential
-/// spring `history` and the twisting spring `twist` (zero for a new contact). `m_eff` and
-/// `r_eff` are the effective mass and radius of the pair; `share` is the fraction of the
-/// material's law each point carries (1 for contacts involving a sphere, 1/4 otherwise).
+/// spring `history` and the twisting spring `twist` (zero for a new contact). The context
+/// `c` holds the pair's law parameters, its effective mass and radius, the fraction of the
+/// material's law each point carries (1 for contacts involving a sphere, 1/4 otherwise) and
+/// the step.
 #[inline]
-#[allow(clippy::too_many_arguments)]
 pub fn contact_force(
-    p: &PairParams,
-    m_eff: f32,
-    r_eff: f32,
-    share: f32,
+    c: &PairContext,
     manifold: &Manifold,
     a: &BodyMotion,
     b: &BodyMotion,
     history: &mut Vec3,
     twist: &mut f32,
-    dt: f32,
 ) -> ContactForce {
+    let (p, m_eff, r_eff, share, dt) = (&c.params, c.m_eff, c.r_eff, c.share, c.dt);
     let n = manifold.normal;
     if manifold.count == 1 {
         // The twist slot holds the normal coverage of one-point contacts.
-        let cp = manifold.points[0];
-        return point_contact_force(
-            p, m_eff, r_eff, share, n, cp.point, cp.depth, a, b, history, twist, dt,
-        );
+        return point_contact_force(c, n, manifold.points[0], a, b, history, twist);
     }
     let pts = manifold.points();
     let inv_count = 1.0 / pts.len() as f32;
@@ -583,10 +501,10 @@ pub fn contact_force(
     }
     // One tangential spring for the whole patch, at its centroid.
     let share_total = share * pts.len() as f32;
-    let kt = tangential_stiffness(p, r_eff, mean_depth, share_total);
-    let eta_t = tangential_damping(p, m_eff, kt, eta_total);
+    let kt = tangential_stiffness(c, mean_depth, share_total);
+    let eta_t = tangential_damping(c, kt, eta_total);
     let vrel = b.point_velocity(centroid) - a.point_velocity(centroid);
-    let ft = tangential_law(p, kt, n, vrel, out.normal_force, eta_t, history, dt);
+    let ft = tangential_law(c, kt, n, vrel, out.normal_force, eta_t, history);
     out.force_b += ft;
     out.torque_b += (centroid - b.position).cross(ft);
     out.torque_a += ft.cross(centroid - a.position);
@@ -614,18 +532,7 @@ pub fn contact_force(
         *twist = 0.0;
     }
     let normal_force = out.normal_force;
-    adhesion_and_rolling(
-        p,
-        m_eff,
-        r_eff,
-        n,
-        centroid,
-        a,
-        b,
-        normal_force,
-        dt,
-        &mut out,
-    );
+    adhesion_and_rolling(c, n, centroid, (a, b), normal_force, &mut out);
     out
 }
 

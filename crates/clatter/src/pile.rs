@@ -155,18 +155,15 @@ pub fn pile(shape: PileShape, n: usize, p: &PileParams) -> WorldDesc {
             angular_velocity: Vec3::ZERO,
         });
     }
-    let material = Material {
-        name: "grain".into(),
-        density: p.density,
-        law: ContactLaw::Linear {
+    let material = Material::new(
+        "grain",
+        p.density,
+        ContactLaw::Linear {
             stiffness: p.stiffness,
         },
-        restitution: p.restitution,
-        friction: p.friction,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    };
+        p.restitution,
+        p.friction,
+    );
     let (wx, wy) = (nx as f32 * gap, ny as f32 * gap);
     let walls = [
         (Vec3::Z, 0.0),

@@ -25,7 +25,8 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use clatter::World;
-use clatter_gpu::{Device, GpuContext, Readback, Stepper};
+use clatter_backend::{Device, Readback, Stepper};
+use clatter_gpu::GpuContext;
 
 use crate::args::{Pipeline, Progress};
 use crate::backend::Backend;
@@ -323,11 +324,12 @@ impl Ctx {
         let stepper = match &self.gpu {
             None => Stepper::Cpu,
             Some(ctx) => {
-                clatter_gpu::choose(
-                    clatter_gpu::BackendChoice::Gpu,
+                clatter_backend::choose(
+                    clatter_backend::BackendChoice::Gpu,
                     &world,
                     Device::Shared(ctx.clone()),
-                )?
+                )
+                .map_err(|e| anyhow::anyhow!(e.describe(crate::backend::GPU_OPTION)))?
                 .stepper
             }
         };
@@ -404,10 +406,10 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
     ]
 }
 
-/// Runs the suite; `Ok(true)` when every row passes.
-pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
-    let started = Instant::now();
-    let gpu = match args.pipeline.backend {
+/// The GPU the suite runs on for `--backend`: none for `cpu`; for `auto`, a hardware
+/// adapter if there is one (saying why not otherwise, unless `quiet`).
+fn validation_gpu(backend: Backend, quiet: bool) -> anyhow::Result<Option<Arc<GpuContext>>> {
+    Ok(match backend {
         Backend::Cpu => None,
         Backend::Gpu => Some(Arc::new(
             GpuContext::new().context("--backend gpu: no GPU adapter")?,
@@ -415,7 +417,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         Backend::Auto => match GpuContext::new() {
             Ok(ctx) if !ctx.is_software() => Some(Arc::new(ctx)),
             Ok(ctx) => {
-                if !args.progress.quiet {
+                if !quiet {
                     eprintln!(
                         "backend: cpu (auto: the only GPU adapter, {}, is a software rasteriser; --backend gpu uses it anyway)",
                         ctx.adapter_name()
@@ -424,13 +426,19 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
                 None
             }
             Err(e) => {
-                if !args.progress.quiet {
+                if !quiet {
                     eprintln!("backend: cpu (auto: {e})");
                 }
                 None
             }
         },
-    };
+    })
+}
+
+/// Runs the suite; `Ok(true)` when every row passes.
+pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
+    let started = Instant::now();
+    let gpu = validation_gpu(args.pipeline.backend, args.progress.quiet)?;
     let backend = match &gpu {
         Some(ctx) => format!("gpu ({})", ctx.adapter_name()),
         None => "cpu".to_string(),
@@ -485,7 +493,7 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         let failed = outcome.rows.iter().filter(|r| r.fails()).count();
         let differ = outcome.rows.iter().filter(|r| r.differs()).count();
         match &ctx.log {
-            Some(l) => l.end(outcome.rows.len(), failed),
+            Some(l) => l.end(outcome.rows.len(), failed, differ),
             None if !args.progress.quiet => eprintln!(
                 "{name}: {}, {failed} failed{} ({secs:.1} s)",
                 counted(outcome.rows.len(), "row"),

@@ -52,9 +52,10 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
         let ri = select(pa.law_radius, si.radius, only);
         let rj = select(pb.law_radius, sj.radius, only);
         let r_eff = ri * rj / (ri + rj);
-        let r = contact_force(params_ij, si.mass * sj.mass / (si.mass + sj.mass), r_eff, share, m,
-                            motion_of(i), BodyMotion(xj, bj.velocity.xyz, bj.omega.xyz),
-                            hist[c], params.dt);
+        let context = PairContext(params_ij, si.mass * sj.mass / (si.mass + sj.mass), r_eff,
+                                  share, params.dt);
+        let r = contact_force(context, m, motion_of(i),
+                              BodyMotion(xj, bj.velocity.xyz, bj.omega.xyz), hist[c]);
         forces[c] = r.force;
         hist[c] = r.hist;
         touching[c] = 1u;
@@ -83,10 +84,9 @@ struct WallResult {
     force: ContactForce,
 }
 
-// Whether body-wall slot t touched in the last step: the flag is kept in the unused `pad0`
-// word of its force record (1 as bits; a released slot's record is all zero).
+// Whether body-wall slot t touched in the last step (a released slot's record is all zero).
 fn wall_touched(t: u32) -> bool {
-    return bitcast<u32>(wall_forces[t].pad0) != 0u;
+    return wall_forces[t].touching != 0u;
 }
 
 // Body i's piece k (the body itself, k = 0, unless a composite) against wall w, in slot
@@ -122,15 +122,14 @@ fn wall_contact(i: u32, w: u32, k: u32) -> WallResult {
         let params_w = pair_table[wall.material * params.num_materials + si.material];
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, sphere);
         let fixed = BodyMotion(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
-        let r = contact_force(params_w, si.mass, radius, share, m, fixed, motion_of(i),
-                            wall_hist[t], params.dt);
-        var stored = r.force;
-        stored.pad0 = bitcast<f32>(1u); // touching (wall_touched)
-        wall_forces[t] = stored;
+        let context = PairContext(params_w, si.mass, radius, share, params.dt);
+        let r = contact_force(context, m, fixed, motion_of(i), wall_hist[t]);
+        let f = r.force;
+        wall_forces[t] = WallForce(f.force_b, f.normal_force, f.torque_a, 1u, f.torque_b, 0.0);
         wall_hist[t] = r.hist;
         return WallResult(true, r.force);
     } else if wall_touched(t) {
-        wall_forces[t] = ContactForce();
+        wall_forces[t] = WallForce();
         wall_hist[t] = vec4<f32>(0.0);
     }
     return WallResult(false, ContactForce());

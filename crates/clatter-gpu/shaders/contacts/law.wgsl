@@ -1,6 +1,7 @@
 // The DEM contact law on the GPU: the twin of crates/clatter/src/law.rs, function for
-// function under the same names (tests/law.rs runs both on random contacts). Parameters come
-// from the `PairParams` table and the constants of clatter::contract (generated prelude).
+// function under the same names (tests/law.rs runs both on random contacts). Each contact
+// passes a `PairContext` (its `PairParams` row, effective mass and radius, point share and
+// step) and the constants of clatter::contract (both from the generated prelude).
 
 struct BodyMotion {
     position: vec3<f32>,
@@ -28,18 +29,18 @@ fn damping(p: PairParams, m_eff: f32, k: f32) -> f32 {
 
 // Tangential damping (law.rs `tangential_damping`): Hertz-Mindlin's on the tangential
 // stiffness, or the linear law's ratio of the normal damping.
-fn tangential_damping(p: PairParams, m_eff: f32, kt: f32, eta_n: f32) -> f32 {
-    if p.model == MODEL_HERTZ {
-        return damping(p, m_eff, kt);
+fn tangential_damping(c: PairContext, kt: f32, eta_n: f32) -> f32 {
+    if c.params.model == MODEL_HERTZ {
+        return damping(c.params, c.m_eff, kt);
     }
     return TANGENTIAL_DAMPING_RATIO * eta_n;
 }
 
-fn tangential_stiffness(p: PairParams, r_eff: f32, depth: f32, share_total: f32) -> f32 {
-    if p.model == MODEL_HERTZ {
-        return share_total * 8.0 * p.shear * sqrt(r_eff * max(depth, 0.0));
+fn tangential_stiffness(c: PairContext, depth: f32, share_total: f32) -> f32 {
+    if c.params.model == MODEL_HERTZ {
+        return share_total * 8.0 * c.params.shear * sqrt(c.r_eff * max(depth, 0.0));
     }
-    return LINEAR_TANGENTIAL_RATIO * p.stiffness;
+    return LINEAR_TANGENTIAL_RATIO * c.params.stiffness;
 }
 
 struct Tangential {
@@ -47,8 +48,8 @@ struct Tangential {
     spring: vec3<f32>,
 }
 
-fn tangential_law(p: PairParams, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_force: f32,
-                  eta_t: f32, history: vec3<f32>, dt: f32) -> Tangential {
+fn tangential_law(c: PairContext, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_force: f32,
+                  eta_t: f32, history: vec3<f32>) -> Tangential {
     let vt = vrel - n * dot(vrel, n);
     var xi = history;
     let along = dot(xi, n);
@@ -60,9 +61,9 @@ fn tangential_law(p: PairParams, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal_
             xi *= sqrt(old_len2 / new_len2);
         }
     }
-    xi += vt * dt;
+    xi += vt * c.dt;
     var ft = -kt * xi - eta_t * vt;
-    let cap = p.friction * max(normal_force, 0.0);
+    let cap = c.params.friction * max(normal_force, 0.0);
     let ft_len2 = dot(ft, ft);
     if ft_len2 > cap * cap {
         ft *= cap / sqrt(ft_len2);
@@ -76,35 +77,36 @@ struct LawResult {
     hist: vec4<f32>,
 }
 
-// One point: normal and tangential forces at `point`, overlap `depth` along the unit
+// One point: normal and tangential forces at `cp.xyz`, overlap `cp.w` along the unit
 // normal `n` (from a to b); `coverage` the contact's normal state (law.rs). Twin of
 // `point_contact_force` in law.rs.
-fn point_contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, n: vec3<f32>,
-                       point: vec3<f32>, depth: f32, a: BodyMotion, b: BodyMotion,
-                       history: vec3<f32>, coverage: f32, dt: f32) -> LawResult {
+fn point_contact_force(c: PairContext, n: vec3<f32>, cp: vec4<f32>, a: BodyMotion,
+                       b: BodyMotion, history: vec3<f32>, coverage: f32) -> LawResult {
+    let p = c.params;
+    let point = cp.xyz;
+    let depth = cp.w;
     let vrel = point_velocity(b, point) - point_velocity(a, point);
-    let sk = spring(p, r_eff, depth, share);
-    let eta = damping(p, m_eff, sk.y);
+    let sk = spring(p, c.r_eff, depth, c.share);
+    let eta = damping(p, c.m_eff, sk.y);
     var fn_: f32;
     var cov = 0.0;
-    if share == SPHERE_POINT_SHARE {
-        let r = resolved_normal_force(p, m_eff, r_eff, share, depth, -dot(vrel, n), sk, eta,
-                                      coverage, dt);
+    if c.share == SPHERE_POINT_SHARE {
+        let r = resolved_normal_force(c, depth, -dot(vrel, n), sk, eta, coverage);
         fn_ = r.x;
         cov = r.y;
     } else {
         fn_ = sk.x - eta * dot(vrel, n);
     }
-    let kt = tangential_stiffness(p, r_eff, depth, share);
-    let eta_t = tangential_damping(p, m_eff, kt, eta);
-    let t = tangential_law(p, kt, n, vrel, fn_, eta_t, history, dt);
+    let kt = tangential_stiffness(c, depth, c.share);
+    let eta_t = tangential_damping(c, kt, eta);
+    let t = tangential_law(c, kt, n, vrel, fn_, eta_t, history);
     let f = n * fn_ + t.force;
     var out = ContactForce();
     out.force_b = f;
     out.normal_force = fn_;
     out.torque_a = cross(f, point - a.position);
     out.torque_b = cross(point - b.position, f);
-    adhesion_and_rolling(p, m_eff, r_eff, n, point, a, b, fn_, dt, &out);
+    adhesion_and_rolling(c, n, point, a, b, fn_, &out);
     return LawResult(out, vec4<f32>(t.spring, cov));
 }
 
@@ -114,9 +116,10 @@ const RESOLVABLE: f32 = 1.0;
 
 // The normal force resolved within the step (x) and the new coverage (y): law.rs
 // `resolved_normal_force`, where the method is explained.
-fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, depth: f32,
-                         approach: f32, sk: vec2<f32>, eta: f32, coverage: f32,
-                         dt: f32) -> vec2<f32> {
+fn resolved_normal_force(c: PairContext, depth: f32, approach: f32, sk: vec2<f32>, eta: f32,
+                         coverage: f32) -> vec2<f32> {
+    let m_eff = c.m_eff;
+    let dt = c.dt;
     let x = depth;
     let v = approach;
     let fs = sk.x;
@@ -128,9 +131,9 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
     if coverage > 0.0 {
         g_start = coverage;
     } else if first {
-        g_start = dashpot_primitive(p, m_eff, r_eff, share, eta, x - dt * v);
+        g_start = dashpot_primitive(c, eta, x - dt * v);
     }
-    let g_x = eta * x / dashpot_exponent(p);
+    let g_x = eta * x / dashpot_exponent(c.params);
     if !first {
         let impulse = fs * dt + (g_x - g_start) + 0.5 * eta * v * dt;
         let per_mass = 1.0 / (m_eff + 0.5 * eta * dt);
@@ -139,17 +142,18 @@ fn resolved_normal_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, dept
         if x + dt * v_after > EDGE_SLACK * dt * abs(v_after) {
             return vec2<f32>(force, max(g_x + 0.5 * eta * dt * v_after, 1.17549435e-38));
         }
-        return contact_edge(p, m_eff, r_eff, share, x, v, false, true, v_after, g_start, eta, dt);
+        return contact_edge(c, x, v, false, true, v_after, g_start, eta);
     }
     let v_next = v - (fs + eta * v) * dt / (m_eff + 0.5 * eta * dt);
     let last = x + dt * v_next <= EDGE_SLACK * dt * abs(v_next);
-    return contact_edge(p, m_eff, r_eff, share, x, v, true, last, v_next, g_start, eta, dt);
+    return contact_edge(c, x, v, true, last, v_next, g_start, eta);
 }
 
 // law.rs `contact_edge`: the force (x) and the new coverage (y) of a first or last step.
-fn contact_edge(p: PairParams, m_eff: f32, r_eff: f32, share: f32, x: f32, v: f32, first: bool,
-                last_in: bool, v_in: f32, g_start: f32, eta: f32, dt: f32) -> vec2<f32> {
-    let inv_m = 1.0 / m_eff;
+fn contact_edge(c: PairContext, x: f32, v: f32, first: bool, last_in: bool, v_in: f32,
+                g_start: f32, eta: f32) -> vec2<f32> {
+    let dt = c.dt;
+    let inv_m = 1.0 / c.m_eff;
     var last = last_in;
     var v_next = v_in;
     var force = 0.0;
@@ -158,12 +162,12 @@ fn contact_edge(p: PairParams, m_eff: f32, r_eff: f32, share: f32, x: f32, v: f3
         for (var it = 0u; it < 3u; it++) {
             let back = select(-0.5 * dt, -dt, first);
             let ahead = select(0.5 * dt, dt, last);
-            let spring_impulse = spring_integral(p, r_eff, share, x, v, back, 0.0)
-                + spring_integral(p, r_eff, share, x, v_next, 0.0, ahead);
+            let spring_impulse = spring_integral(c, x, v, back, 0.0)
+                + spring_integral(c, x, v_next, 0.0, ahead);
             if last {
                 g_end = 0.0;
             } else {
-                g_end = dashpot_primitive(p, m_eff, r_eff, share, eta, x + 0.5 * dt * v_next);
+                g_end = dashpot_primitive(c, eta, x + 0.5 * dt * v_next);
             }
             force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
@@ -177,8 +181,10 @@ fn contact_edge(p: PairParams, m_eff: f32, r_eff: f32, share: f32, x: f32, v: f3
 }
 
 // law.rs `spring_integral`.
-fn spring_integral(p: PairParams, r_eff: f32, share: f32, x0: f32, v: f32, s0: f32,
-                   s1: f32) -> f32 {
+fn spring_integral(c: PairContext, x0: f32, v: f32, s0: f32, s1: f32) -> f32 {
+    let p = c.params;
+    let r_eff = c.r_eff;
+    let share = c.share;
     let a = x0 + v * s0;
     let b = x0 + v * s1;
     if a > 0.0 && b > 0.0 {
@@ -200,14 +206,13 @@ fn dashpot_exponent(p: PairParams) -> f32 {
 }
 
 // law.rs `dashpot_primitive`: G(x) = eta(x) x / (1 + q), 0 for x <= 0.
-fn dashpot_primitive(p: PairParams, m_eff: f32, r_eff: f32, share: f32, eta_linear: f32,
-                     x_in: f32) -> f32 {
+fn dashpot_primitive(c: PairContext, eta_linear: f32, x_in: f32) -> f32 {
     let x = max(x_in, 0.0);
     var eta = eta_linear;
-    if p.model == MODEL_HERTZ {
-        eta = damping(p, m_eff, spring(p, r_eff, x, share).y);
+    if c.params.model == MODEL_HERTZ {
+        eta = damping(c.params, c.m_eff, spring(c.params, c.r_eff, x, c.share).y);
     }
-    return eta * x / dashpot_exponent(p);
+    return eta * x / dashpot_exponent(c.params);
 }
 
 // The adhesive pull of a touching pair (DMT: 2 pi gamma R*), 0 without cohesion.
@@ -219,42 +224,42 @@ fn adhesion(p: PairParams, r_eff: f32) -> f32 {
 }
 
 // Rolling resistance, the torque on side b (law.rs `rolling_torque`).
-fn rolling_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyMotion,
-                  b: BodyMotion, normal_force: f32, dt: f32) -> vec3<f32> {
+fn rolling_torque(c: PairContext, n: vec3<f32>, a: BodyMotion, b: BodyMotion,
+                  normal_force: f32) -> vec3<f32> {
     let w = b.omega - a.omega;
     let w_roll = w - n * dot(w, n);
-    let limit = p.rolling_friction * r_eff * max(normal_force, 0.0);
+    let limit = c.params.rolling_friction * c.r_eff * max(normal_force, 0.0);
     let speed = length(w_roll);
     if limit > 0.0 && speed > 0.0 {
-        return -w_roll * resisting_scale(limit, speed, m_eff, r_eff, dt);
+        return -w_roll * resisting_scale(c, limit, speed);
     }
     return vec3<f32>(0.0);
 }
 
 // law.rs `resisting_scale` (callers check limit > 0 and speed > 0).
-fn resisting_scale(limit: f32, speed: f32, m_eff: f32, r_eff: f32, dt: f32) -> f32 {
-    let step_change = limit * dt / (0.4 * m_eff * r_eff * r_eff);
+fn resisting_scale(c: PairContext, limit: f32, speed: f32) -> f32 {
+    let step_change = limit * c.dt / (0.4 * c.m_eff * c.r_eff * c.r_eff);
     return limit / max(speed, step_change);
 }
 
 // Spinning resistance, the torque on side b (law.rs `spinning_torque`).
-fn spinning_torque(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, a: BodyMotion,
-                   b: BodyMotion, normal_force: f32, dt: f32) -> vec3<f32> {
+fn spinning_torque(c: PairContext, n: vec3<f32>, a: BodyMotion, b: BodyMotion,
+                   normal_force: f32) -> vec3<f32> {
     let w_n = dot(b.omega - a.omega, n);
-    let limit = p.spinning_friction * r_eff * max(normal_force, 0.0);
+    let limit = c.params.spinning_friction * c.r_eff * max(normal_force, 0.0);
     let speed = abs(w_n);
     if limit > 0.0 && speed > 0.0 {
-        return n * (-w_n * resisting_scale(limit, speed, m_eff, r_eff, dt));
+        return n * (-w_n * resisting_scale(c, limit, speed));
     }
     return vec3<f32>(0.0);
 }
 
 // Adds adhesion (at `at`, along the normal) and rolling resistance to a contact's force.
-fn adhesion_and_rolling(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, at: vec3<f32>,
-                        a: BodyMotion, b: BodyMotion, normal_force: f32, dt: f32,
-                        out: ptr<function, ContactForce>) {
+fn adhesion_and_rolling(c: PairContext, n: vec3<f32>, at: vec3<f32>, a: BodyMotion,
+                        b: BodyMotion, normal_force: f32, out: ptr<function, ContactForce>) {
+    let p = c.params;
     if p.cohesion_model != COHESION_NONE {
-        let pull = adhesion(p, r_eff);
+        let pull = adhesion(p, c.r_eff);
         let f = n * -pull;
         (*out).force_b += f;
         (*out).normal_force -= pull;
@@ -262,12 +267,12 @@ fn adhesion_and_rolling(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, at:
         (*out).torque_a += cross(f, at - a.position);
     }
     if p.rolling_friction > 0.0 {
-        let tau = rolling_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        let tau = rolling_torque(c, n, a, b, normal_force);
         (*out).torque_b += tau;
         (*out).torque_a -= tau;
     }
     if p.spinning_friction > 0.0 {
-        let tau = spinning_torque(p, m_eff, r_eff, n, a, b, normal_force, dt);
+        let tau = spinning_torque(c, n, a, b, normal_force);
         (*out).torque_b += tau;
         (*out).torque_a -= tau;
     }
@@ -275,12 +280,16 @@ fn adhesion_and_rolling(p: PairParams, m_eff: f32, r_eff: f32, n: vec3<f32>, at:
 
 // A whole manifold; springs in `hist_in` (xyz tangential, w twist). Twin of
 // `contact_force` in law.rs.
-fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold, a: BodyMotion,
-                 b: BodyMotion, hist_in: vec4<f32>, dt: f32) -> LawResult {
+fn contact_force(c: PairContext, m: Manifold, a: BodyMotion, b: BodyMotion,
+                 hist_in: vec4<f32>) -> LawResult {
+    let p = c.params;
+    let m_eff = c.m_eff;
+    let r_eff = c.r_eff;
+    let share = c.share;
+    let dt = c.dt;
     let n = m.normal;
     if m.count == 1u {
-        return point_contact_force(p, m_eff, r_eff, share, n, m.points[0].xyz, m.points[0].w, a,
-                                   b, hist_in.xyz, hist_in.w, dt);
+        return point_contact_force(c, n, m.points[0], a, b, hist_in.xyz, hist_in.w);
     }
     let count = m.count;
     let inv_count = 1.0 / f32(count);
@@ -313,10 +322,10 @@ fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold,
         normal_force += fn_i;
     }
     let share_total = share * f32(count);
-    let kt = tangential_stiffness(p, r_eff, mean_depth, share_total);
-    let eta_t = tangential_damping(p, m_eff, kt, eta_total);
+    let kt = tangential_stiffness(c, mean_depth, share_total);
+    let eta_t = tangential_damping(c, kt, eta_total);
     let vrel = point_velocity(b, centroid) - point_velocity(a, centroid);
-    let t = tangential_law(p, kt, n, vrel, normal_force, eta_t, hist_in.xyz, dt);
+    let t = tangential_law(c, kt, n, vrel, normal_force, eta_t, hist_in.xyz);
     force_b += t.force;
     torque_b += cross(centroid - b.position, t.force);
     torque_a += cross(t.force, centroid - a.position);
@@ -347,7 +356,7 @@ fn contact_force(p: PairParams, m_eff: f32, r_eff: f32, share: f32, m: Manifold,
     out.normal_force = normal_force;
     out.torque_a = torque_a;
     out.torque_b = torque_b;
-    adhesion_and_rolling(p, m_eff, r_eff, n, centroid, a, b, normal_force, dt, &out);
+    adhesion_and_rolling(c, n, centroid, a, b, normal_force, &out);
     return LawResult(out, vec4<f32>(t.spring, twist));
 }
 

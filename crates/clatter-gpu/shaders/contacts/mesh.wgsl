@@ -718,6 +718,26 @@ fn mesh_local(p: vec3<f32>) -> vec3<f32> {
     return ds3_add(Ds3(p, vec3<f32>(0.0)), ds3_neg(mesh_origin)).hi;
 }
 
+// A touching mesh contact slot at word `at`: boundary `b`, piece `p`, the normal, the
+// springs and the force the law gave.
+fn mesh_write_slot(at: u32, b: u32, p: u32, normal: vec3<f32>, r: LawResult) {
+    mesh[at] = b;
+    mesh[at + 1u] = p;
+    mesh[at + 2u] = 1u;
+    mesh[at + 3u] = 0u;
+    mesh_set_v3(at + 4u, normal);
+    mesh[at + 7u] = bitcast<u32>(r.hist.w);
+    mesh_set_v3(at + 8u, r.hist.xyz);
+    mesh[at + 11u] = 0u;
+    let fr = r.force;
+    mesh_set_v3(at + 12u, fr.force_b);
+    mesh[at + 15u] = bitcast<u32>(fr.normal_force);
+    mesh_set_v3(at + 16u, fr.torque_a);
+    mesh[at + 19u] = bitcast<u32>(fr.pad0);
+    mesh_set_v3(at + 20u, fr.torque_b);
+    mesh[at + 23u] = bitcast<u32>(fr.pad1);
+}
+
 // Body i's mesh contacts this step (boundary.rs `body_slots`, `found_contacts`, `assign`):
 // the slots written, the force and torque summed in slot order.
 fn mesh_contacts(i: u32) -> MeshSum {
@@ -839,26 +859,11 @@ fn mesh_contacts(i: u32) -> MeshSum {
         let pp = pair_table[mesh_h(b, 1u) * params.num_materials + st.material];
         var side_a = mesh_motion(b);
         side_a.position = mesh_local(side_a.position);
-        let r = contact_force(pp, st.mass, radius, share, m, side_a, motion_of(i),
-                              springs[c], params.dt);
+        let context = PairContext(pp, st.mass, radius, share, params.dt);
+        let r = contact_force(context, m, side_a, motion_of(i), springs[c]);
         let k = place[c];
-        let at = mesh_slot_at(i, k);
-        mesh[at] = b;
-        mesh[at + 1u] = p;
-        mesh[at + 2u] = 1u;
-        mesh[at + 3u] = 0u;
-        mesh_set_v3(at + 4u, m.normal);
-        mesh[at + 7u] = bitcast<u32>(r.hist.w);
-        mesh_set_v3(at + 8u, r.hist.xyz);
-        mesh[at + 11u] = 0u;
-        let fr = r.force;
-        mesh_set_v3(at + 12u, fr.force_b);
-        mesh[at + 15u] = bitcast<u32>(fr.normal_force);
-        mesh_set_v3(at + 16u, fr.torque_a);
-        mesh[at + 19u] = bitcast<u32>(fr.pad0);
-        mesh_set_v3(at + 20u, fr.torque_b);
-        mesh[at + 23u] = bitcast<u32>(fr.pad1);
-        forces[k] = fr;
+        mesh_write_slot(mesh_slot_at(i, k), b, p, m.normal, r);
+        forces[k] = r.force;
         used[k] = true;
     }
     for (var k = 0u; k < MESH_SLOTS; k++) {

@@ -38,6 +38,21 @@ fn health_step(lid: u32) -> u32 {
     return workgroupUniformLoad(&red_step);
 }
 
+// Sizes this step's health_bodies and snapshot_state (ARG_HEALTH, ARG_SNAPSHOT): their
+// grids on the steps a check, a sample or a snapshot is due, else nothing, so that the
+// steps in between launch no workgroup. The kernels still test the step themselves.
+@compute @workgroup_size(1)
+fn health_gate() {
+    let g = atomicLoad(&status[ST_STEPS]);
+    let hp = health_params;
+    let live = !halted();
+    let due = live && (due_every(g, hp.check_every, hp.base_check)
+        || due_every(g, hp.energy_every, hp.base_energy));
+    write_args(ARG_HEALTH, select(0u, (params.n + WG - 1u) / WG, due));
+    let snap = live && due_every(g, hp.snapshot_every, hp.base_snapshot);
+    write_args(ARG_SNAPSHOT, select(0u, SNAPSHOT_GROUPS, snap));
+}
+
 // Tree reduction of red_a/red_b in workgroup memory: always the same pairs, in the same order.
 fn reduce_tree(lid: u32) {
     for (var half = WG / 2u; half > 0u; half = half / 2u) {
@@ -97,7 +112,7 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         }
         let slots = params.num_walls * params.max_pieces;
         for (var t = i * slots; t < (i + 1u) * slots; t++) {
-            if bitcast<u32>(wall_forces[t].pad0) != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
+            if wall_forces[t].touching != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
                 suspect = true;
             }
         }
@@ -239,8 +254,10 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
     if i < slots {
         let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * i;
         snap4(at, wall_hist[i]);
-        snap_force(at + 4u, wall_forces[i]);
-        snapshot[at + 16u] = bitcast<u32>(wall_forces[i].pad0);
+        let wf = wall_forces[i];
+        snap_force(at + 4u, ContactForce(wf.force_b, wf.normal_force, wf.torque_a, 0.0, wf.torque_b,
+                                         0.0));
+        snapshot[at + 16u] = wf.touching;
     }
     if i < params.pair_capacity {
         let at = mesh_at + mesh_words + SNAP_PAIR * i;

@@ -2,7 +2,7 @@
 // the contract's records, common.wgsl and law.wgsl (src/law.rs).
 
 struct LawQuery {
-    params: PairParams,
+    context: PairContext,
     normal: vec3<f32>,
     count: u32,
     points: array<vec4<f32>, 4>,
@@ -13,10 +13,6 @@ struct LawQuery {
     b_velocity: vec4<f32>,
     b_omega: vec4<f32>,
     hist: vec4<f32>,
-    m_eff: f32,
-    r_eff: f32,
-    share: f32,
-    dt: f32,
 }
 
 struct LawAnswer {
@@ -37,6 +33,6 @@ fn law_batch(@builtin(global_invocation_id) id: vec3<u32>) {
     let m = Manifold(q.normal, q.count, q.points);
     let a = BodyMotion(q.a_position.xyz, q.a_velocity.xyz, q.a_omega.xyz);
     let b = BodyMotion(q.b_position.xyz, q.b_velocity.xyz, q.b_omega.xyz);
-    let r = contact_force(q.params, q.m_eff, q.r_eff, q.share, m, a, b, q.hist, q.dt);
+    let r = contact_force(q.context, m, a, b, q.hist);
     answers[k] = LawAnswer(r.force, r.hist);
 }

@@ -110,7 +110,7 @@ impl Scans {
                 .map(|&l| {
                     device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some(label),
-                        size: 4 * l,
+                        size: std::mem::size_of::<u32>() as u64 * l,
                         usage: wgpu::BufferUsages::STORAGE,
                         mapped_at_creation: false,
                     })

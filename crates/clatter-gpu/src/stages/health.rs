@@ -1,17 +1,19 @@
 //! The blow-up checks and energy samples on the GPU (health.wgsl), recorded only when a run
-//! turns them on (`GpuWorld::set_health`): after every step `health_bodies` and
-//! `health_reduce` (which do nothing unless a check or a sample is due at that step), then
-//! `snapshot_state` (which copies the state when the step is a snapshot step that passed its
-//! checks). Not part of `clatter::step`: the CPU's twin is
+//! turns them on (`GpuWorld::set_health`): after every step `health_gate` sizes the two
+//! per-body dispatches for that step (nothing unless a check, a sample or a snapshot is due,
+//! so the steps in between cost two empty indirect dispatches and two one-thread ones), then
+//! `health_bodies` and `health_reduce` (the checks and samples), then `snapshot_state`
+//! (which copies the state when the step is a snapshot step that passed its checks). The
+//! gate reads the GPU's own step count, so it stays right when a batch stalls and its steps
+//! shift. Not part of `clatter::step`: the CPU's twin is
 //! `clatter::health`, run by the host between steps.
 
-use crate::layout::WG;
+use crate::layout::arg;
 use crate::pipeline::{self, Dispatch, Group2, KernelSet, KernelSpec, Kernels, Size};
-
-use super::broad::grid_of;
 
 /// The health kernels (base set).
 pub(crate) const KERNELS: &[KernelSpec] = &[
+    ("health", "health_gate", Group2::Args),
     ("health", "health_bodies", Group2::None),
     ("health", "health_reduce", Group2::None),
     ("health", "snapshot_state", Group2::None),
@@ -19,16 +21,18 @@ pub(crate) const KERNELS: &[KernelSpec] = &[
 
 /// The health module's source.
 pub(crate) fn module() -> (&'static str, String) {
-    ("health", pipeline::source(&[pipeline::HEALTH]))
+    (
+        "health",
+        pipeline::source(&[pipeline::ARGS, pipeline::HEALTH]),
+    )
 }
 
 /// Workgroups of `snapshot_state`: each thread copies every `SNAPSHOT_GROUPS * WG`-th
 /// element, so the many steps without a snapshot cost a small dispatch that returns at once.
 pub(crate) const SNAPSHOT_GROUPS: u32 = 64;
 
-/// The dispatches after every step, for `n` bodies: the checks and samples, then the
-/// snapshot.
-pub(crate) fn record(base: &Kernels, n: u64) -> Vec<Dispatch> {
+/// The dispatches after every step: the gate, the checks and samples, then the snapshot.
+pub(crate) fn record(base: &Kernels) -> Vec<Dispatch> {
     let op = |name: &str, size: Size| Dispatch {
         set: KernelSet::Base,
         pipeline: base.index(name),
@@ -36,11 +40,9 @@ pub(crate) fn record(base: &Kernels, n: u64) -> Vec<Dispatch> {
         scan_level: 0,
     };
     vec![
-        op(
-            "health_bodies",
-            Size::Fixed(grid_of(n.div_ceil(WG as u64) as u32)),
-        ),
+        op("health_gate", Size::Single),
+        op("health_bodies", Size::Indirect(arg::HEALTH)),
         op("health_reduce", Size::Single),
-        op("snapshot_state", Size::Fixed([SNAPSHOT_GROUPS, 1, 1])),
+        op("snapshot_state", Size::Indirect(arg::SNAPSHOT)),
     ]
 }

@@ -4,11 +4,11 @@
 use std::sync::Arc;
 
 use clatter::contract::{BodyConsts, BodyState, WallRecord};
-use clatter::{ContactForce, ContactState, World};
+use clatter::{ContactState, World};
 
 use super::{GpuWorld, PAIRS_PER_BODY, Plan, max_cells};
 use crate::buffers::{Buf, Buffers, Dims};
-use crate::layout::{Params, status};
+use crate::layout::{Params, WallForce, status};
 use crate::pipeline::Compiled;
 use crate::shapes::GpuShapes;
 use crate::{GpuContext, GpuError};
@@ -31,7 +31,7 @@ struct Carried {
     pairs: Vec<[u32; 2]>,
     hist: Vec<[f32; 4]>,
     wall_hist: Vec<[f32; 4]>,
-    wall_forces: Vec<ContactForce>,
+    wall_forces: Vec<WallForce>,
 }
 
 impl GpuWorld {
@@ -257,15 +257,11 @@ impl Carried {
                 [h.x, h.y, h.z, state.wall_twist[k]]
             })
             .collect();
-        // A wall slot's touching flag travels in its force record's unused `pad0` word.
-        let wall_forces: Vec<ContactForce> = state
+        let wall_forces: Vec<WallForce> = state
             .wall_forces
             .iter()
             .zip(&state.wall_touching)
-            .map(|(f, &t)| ContactForce {
-                pad0: f32::from_bits(t as u32),
-                ..*f
-            })
+            .map(|(f, &t)| WallForce::new(f, t))
             .collect();
         Carried {
             a_start,

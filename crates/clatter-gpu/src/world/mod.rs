@@ -248,6 +248,18 @@ impl GpuWorld {
         self.gpu_steps
     }
 
+    /// The world's step count after the GPU's steps (what [`GpuWorld::read_into`] would
+    /// set), without reading anything back.
+    pub fn step_count(&self) -> u64 {
+        self.base_step + self.gpu_steps
+    }
+
+    /// The simulated time after the GPU's steps (the CPU's sum of `dt`), without reading
+    /// anything back.
+    pub fn time(&self) -> f64 {
+        self.time_after(self.gpu_steps)
+    }
+
     /// Broad-phase rebuilds so far on the GPU.
     pub fn rebuilds(&self) -> u64 {
         self.last_status[status::REBUILDS] as u64

@@ -90,7 +90,7 @@ impl Plan {
             ],
         });
         let (ops, lean_ops) = stages::record(&compiled.base, contacts, &scans, spheres_only);
-        let health_ops = stages::health::record(&compiled.base, params.n as u64);
+        let health_ops = stages::health::record(&compiled.base);
         Ok(Plan {
             compiled: compiled.clone(),
             contacts: variant,
@@ -143,7 +143,6 @@ impl Plan {
             Size::Indirect(slot) => {
                 pass.dispatch_workgroups_indirect(&self.args, slot as u64 * ARGS_BYTES)
             }
-            Size::Fixed([x, y, z]) => pass.dispatch_workgroups(x, y, z),
         }
     }
 }

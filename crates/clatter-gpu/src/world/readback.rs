@@ -10,7 +10,7 @@ use clatter::{ContactForce, ContactState, World};
 use super::GpuWorld;
 use crate::GpuError;
 use crate::buffers::Buf;
-use crate::layout::status;
+use crate::layout::{WallForce, status};
 use crate::readback::read_buffers;
 
 impl GpuWorld {
@@ -19,6 +19,14 @@ impl GpuWorld {
         let bytes =
             self.read_buffer(&self.bufs[Buf::Bodies], 0, Buf::Bodies.bytes(self.n as u64))?;
         Ok(bytemuck::pod_collect_to_vec(&bytes))
+    }
+
+    /// Copies the body state, step count and time back into `world` (the world it was
+    /// created from), not the contact list: what a caller that reads only the bodies needs.
+    pub fn read_bodies_into(&self, world: &mut World) -> Result<(), GpuError> {
+        let states = self.read_states()?;
+        self.apply_states(&states, world);
+        Ok(())
     }
 
     /// Copies the GPU state back into `world` (the world it was created from): body state,
@@ -89,7 +97,8 @@ impl GpuWorld {
         let hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&hist_bytes);
         let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&wh);
         let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&force_bytes);
-        let (wall_forces, wall_touching) = split_wall_forces(bytemuck::pod_collect_to_vec(&wf));
+        let wf: Vec<WallForce> = bytemuck::pod_collect_to_vec(&wf);
+        let (wall_forces, wall_touching) = wf.iter().map(WallForce::split).unzip();
         let rebuilt = st[status::REBUILDS] > 0;
         let rb: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&rb);
         let (pairs, pieces) = decode_pairs(bytemuck::pod_collect_to_vec(&pairs_bytes), composites);
@@ -172,21 +181,6 @@ impl GpuWorld {
         *cache = (k, t);
         t
     }
-}
-
-/// Wall force records as the GPU keeps them (the touching flag in `pad0`, see
-/// `wall_contact` in contacts.wgsl) split into the forces (`pad0` zero, as the CPU's) and
-/// the flags.
-fn split_wall_forces(mut forces: Vec<ContactForce>) -> (Vec<ContactForce>, Vec<bool>) {
-    let touching = forces
-        .iter_mut()
-        .map(|f| {
-            let t = f.pad0.to_bits() != 0;
-            f.pad0 = 0.0;
-            t
-        })
-        .collect();
-    (forces, touching)
 }
 
 /// Pair-list entries read back from the GPU as body pairs and, with composites, the CPU's

@@ -7,10 +7,10 @@ use rayon::prelude::*;
 
 use super::CHUNK;
 use crate::contact_list::{ContactSprings, piece_ids};
-use crate::law::{self, BodyMotion, ContactForce};
+use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::world::World;
 use clatter_geom::Shape;
-use clatter_geom::narrow::{self, Manifold, SatHint};
+use clatter_geom::narrow::{self, ContactPoint, Manifold, SatHint};
 
 /// Runs the stage; returns the number of contacts that touch.
 pub(crate) fn run(world: &mut World) -> usize {
@@ -144,23 +144,25 @@ fn sphere_pair(
         let depth = ri + rj - dist;
         let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
         let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
-        *force = law::point_contact_force(
-            params,
-            mi * mj / (mi + mj),
-            ri * rj / (ri + rj),
-            1.0,
-            n,
-            n * (ri - 0.5 * depth),
+        let context = PairContext {
+            params: *params,
+            m_eff: mi * mj / (mi + mj),
+            r_eff: ri * rj / (ri + rj),
+            share: 1.0,
+            dt: w.dt,
+        };
+        let point = ContactPoint {
+            point: n * (ri - 0.5 * depth),
             depth,
+        };
+        *force = law::point_contact_force(
+            &context,
+            n,
+            point,
             &w.local_motion(i),
-            &BodyMotion {
-                position: d,
-                velocity: w.state.velocity[j],
-                omega: w.state.omega[j],
-            },
+            &w.motion_from(i, j),
             hist,
             coverage,
-            w.dt,
         );
         *touching = true;
     } else if *touching {
@@ -187,18 +189,11 @@ fn body_pair<const PIECES: bool>(
     twist: &mut f32,
     bound: &mut f32,
 ) -> bool {
+    let Some(found) = remembered_narrow::<PIECES>(w, [i, j], pieces, hint, bound) else {
+        return *touching;
+    };
     let (i, j) = (i as usize, j as usize);
-    if *bound > 0.0 {
-        // Apart by more than both bodies can have moved: skip the test.
-        *bound -= motion_bound(w, i) + motion_bound(w, j);
-        if *bound > 0.0 {
-            return *touching;
-        }
-    }
-    let mut separation = 0.0;
     let (pa, pb) = piece_ids(pieces);
-    let found = narrow_pair::<PIECES>(w, i, j, pa, pb, hint, &mut separation);
-    *bound = separation;
     match found {
         Some(m) => {
             let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
@@ -211,17 +206,20 @@ fn body_pair<const PIECES: bool>(
                     (w.consts.equivalent_radius[j], w.consts.is_sphere[j]),
                 )
             };
+            let context = PairContext {
+                params: *params,
+                m_eff: mi * mj / (mi + mj),
+                r_eff: ri * rj / (ri + rj),
+                share: law::point_share(si, sj),
+                dt: w.dt,
+            };
             *force = law::contact_force(
-                params,
-                mi * mj / (mi + mj),
-                ri * rj / (ri + rj),
-                law::point_share(si, sj),
+                &context,
                 &m,
                 &w.local_motion(i),
                 &w.motion_from(i, j),
                 hist,
                 twist,
-                w.dt,
             );
             *touching = true;
         }
@@ -259,17 +257,20 @@ fn wall_pair<const PIECES: bool>(
             } else {
                 (w.consts.equivalent_radius[i], w.consts.is_sphere[i])
             };
+            let context = PairContext {
+                params: *params,
+                m_eff: w.consts.mass[i],
+                r_eff: r,
+                share: law::point_share(sphere, sphere),
+                dt: w.dt,
+            };
             *force = law::contact_force(
-                params,
-                w.consts.mass[i],
-                r,
-                law::point_share(sphere, sphere),
+                &context,
                 &m,
                 &BodyMotion::default(),
                 &w.local_motion(i),
                 hist,
                 twist,
-                w.dt,
             );
             *touching = true;
         }
@@ -277,6 +278,63 @@ fn wall_pair<const PIECES: bool>(
         None => {}
     }
     *touching
+}
+
+/// The narrow phase of a body pair with what it remembers (`hint`, `bound`; see
+/// [`narrow::collide_with_hint`]): the separation bound first (`None`: still apart by
+/// more than both bodies can have moved, the pair is skipped), or a remembered contact
+/// face's margin less this step's motion; then the manifold, if any.
+#[inline]
+fn remembered_narrow<const PIECES: bool>(
+    w: &World,
+    [i, j]: [u32; 2],
+    pieces: u32,
+    hint: &mut SatHint,
+    bound: &mut f32,
+) -> Option<Option<Manifold>> {
+    let (i, j) = (i as usize, j as usize);
+    if narrow::is_contact_hint(*hint) {
+        // Touching at a remembered face: its margin less what this step's motion can have
+        // changed on both sides of each decision; the narrow phase uses the face while the
+        // margin stays positive.
+        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j);
+    } else if *bound > 0.0 {
+        // Apart by more than both bodies can have moved: skip the test.
+        *bound -= motion_bound(w, i) + motion_bound(w, j);
+        if *bound > 0.0 {
+            return None;
+        }
+    }
+    let (pa, pb) = piece_ids(pieces);
+    Some(narrow_pair::<PIECES>(w, i, j, pa, pb, hint, bound))
+}
+
+/// The narrow phase of body pair `k` (contact `k < world.contacts.pairs().len()`) as the
+/// next step runs it, with what the pair remembers, without changing the world: the
+/// manifold (`None` too for a pair skipped as apart), and whether a remembered contact face
+/// stood in for the full separating-axis test. For tests that hold the remembering path
+/// against the full test ([`narrow::collide`]) on the same poses.
+pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
+    let c = &world.contacts;
+    let mut hint = c.springs.hints[k];
+    let mut bound = c.springs.separation_bound[k];
+    let composites = world.has_composites();
+    let [i, j] = c.pairs[k].map(|i| i as usize);
+    // The margin the narrow phase will see, if a face is remembered.
+    let left = if composites {
+        bound - 2.0 * axis_motion_bound::<true>(world, i, j)
+    } else {
+        bound - 2.0 * axis_motion_bound::<false>(world, i, j)
+    };
+    let before = narrow::is_contact_hint(hint).then_some((hint, left));
+    let found = if composites {
+        remembered_narrow::<true>(world, c.pairs[k], c.pieces[k], &mut hint, &mut bound)
+    } else {
+        remembered_narrow::<false>(world, c.pairs[k], 0, &mut hint, &mut bound)
+    };
+    // The face stood in when the pair kept it and its margin (a full test sets both anew).
+    let used = before == Some((hint, bound));
+    (found.flatten(), used)
 }
 
 /// A contact that stopped touching: zero force and springs (written only on the change).
@@ -305,7 +363,7 @@ fn narrow_pair<const PIECES: bool>(
     pa: u32,
     pb: u32,
     hint: &mut SatHint,
-    separation: &mut f32,
+    bound: &mut f32,
 ) -> Option<Manifold> {
     if !PIECES {
         // The plain path (no composites in the world).
@@ -319,7 +377,7 @@ fn narrow_pair<const PIECES: bool>(
                 sj,
                 &w.pose_from(i, j),
                 hint,
-                separation,
+                bound,
             ),
         };
     }
@@ -330,7 +388,7 @@ fn narrow_pair<const PIECES: bool>(
         (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
             narrow::sphere_sphere(posea.position, *ri, poseb.position, *rj)
         }
-        (si, sj) => narrow::collide_with_hint(si, &posea, sj, &poseb, hint, separation),
+        (si, sj) => narrow::collide_with_hint(si, &posea, sj, &poseb, hint, bound),
     }
 }
 
@@ -342,4 +400,40 @@ fn motion_bound(w: &World, i: usize) -> f32 {
     let (v, om) = (w.state.velocity[i].abs(), w.state.omega[i].abs());
     let r = w.consts.radius[i];
     ((v.x + v.y + v.z) + (om.x + om.y + om.z) * r) * w.dt * 1.000_001 + 1e-6 * r
+}
+
+/// An upper bound of how much the separation along any axis of the separating-axis test
+/// of bodies `i` and `j` (their pieces with `PIECES`) can have changed in the last step.
+///
+/// Why: an axis of A's faces is fixed in A's frame, and its separation is the smallest
+/// projection of B's vertices in A's frame, less a constant; so it moves no more than those
+/// vertices do (and likewise for B's faces with A's vertices in B's frame; the largest
+/// separation along any direction too, which bounds the edge axes: see
+/// `clatter_geom::narrow`). B's vertex in A's frame is `y = R_a^T (x_b + R_b p - x_a)` with
+/// `|p| <= r_b`. Over the step, `x_a`, `x_b` move by at most `|v| dt` (the step that
+/// brought them here: semi-implicit Euler moves by the current velocity), and `R_a`, `R_b`
+/// turn by angles `th <= |w| dt`. Then `|y' - y| <= |dx_a| + |dx_b| + th_b r_b + th_a |x_b +
+/// R_b p - x_a|`, exactly (`|(R'^T - R^T) z| <= th |z|`), and the pair touched last step, so
+/// its centres were closer than `r_a + r_b` and the last lever is below `r_a + 2 r_b`. Both
+/// frames together: `(|v_a| + |v_b|) dt + (|w_a| + |w_b|) dt 2 (r_a + r_b)`, with 1-norms
+/// bounding 2-norms without a square root. A piece of a composite also moves with its
+/// offset from the body's centre, at most `r` (the body's bounding radius, which is also
+/// above the pieces'): the lever grows to `3 (r_a + r_b)`.
+///
+/// Plus rounding: the positions' own (half an ulp per coordinate per step, bounded by
+/// `2^-23 |x|_1` for both bodies), the quaternions' renormalisation (a few ulps of a turn),
+/// and a relative margin on the products.
+#[inline]
+fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize) -> f32 {
+    let s = &w.state;
+    let (vi, vj) = (s.velocity[i].abs(), s.velocity[j].abs());
+    let (oi, oj) = (s.omega[i].abs(), s.omega[j].abs());
+    // Body i sits at the origin of the pair's frame (see `World::offset_of`).
+    let xj = w.offset_of(i, j).abs();
+    let r = w.consts.radius[i] + w.consts.radius[j];
+    let lever = if PIECES { 3.0 * r } else { 2.0 * r };
+    let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * w.dt;
+    let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * w.dt;
+    let rounding = (xj.x + xj.y + xj.z) * (1.0 / 8_388_608.0) + 4e-6 * r;
+    (moved + turned * lever) * 1.000_01 + rounding
 }

@@ -9,7 +9,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
-use crate::law::{self, BodyMotion};
+use crate::law::{self, BodyMotion, PairContext};
 use crate::mesh_boundary::{
     Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS,
 };
@@ -469,11 +469,15 @@ fn assign(
         let s = &mut slots[place[c]];
         let b = f.boundary as usize;
         let params = w.pair_params(w.boundaries[b].material, w.consts.material[i]);
-        s.force = law::contact_force(
-            params,
-            mass,
+        let context = PairContext {
+            params: *params,
+            m_eff: mass,
             r_eff,
             share,
+            dt: w.dt,
+        };
+        s.force = law::contact_force(
+            &context,
             &f.manifold,
             &BodyMotion {
                 position: w.relative_to(i, motions[b].position),
@@ -482,7 +486,6 @@ fn assign(
             &body,
             &mut s.history,
             &mut s.twist,
-            w.dt,
         );
         s.boundary = f.boundary;
         s.piece = f.piece;

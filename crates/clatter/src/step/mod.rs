@@ -12,6 +12,7 @@
 
 pub mod broad;
 pub mod contacts;
+mod handover;
 pub mod integrate;
 pub mod mesh_contacts;
 
@@ -21,6 +22,12 @@ use crate::world::{SimError, StepStats, World};
 pub(crate) const CHUNK: usize = 1024;
 
 impl World {
+    /// Rebuilds the broad phase now, from the current positions, carrying the springs of
+    /// the pairs that persist (as a step does when a body has moved half the skin).
+    pub fn rebuild_contacts(&mut self) {
+        broad::rebuild(self);
+    }
+
     /// Advances the simulation by one time step.
     pub fn step(&mut self) -> Result<StepStats, SimError> {
         let rebuilt = self.needs_rebuild();

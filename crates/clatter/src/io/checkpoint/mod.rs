@@ -28,7 +28,8 @@
 //! - `RBLD`: the positions the Verlet list was built at (3 f64 each; empty before the first
 //!   step).
 //! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
-//!   last forces, touching flags, separating-axis hints and separation budgets. The derived gather ranges are rebuilt by
+//!   last forces, touching flags, separating-axis hints and separation budgets (for touching pairs:
+//!   the remembered contact and its margin). The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
 //! - `MESH` (only when the scene has `[[boundary]]` meshes): the time the mesh candidates
@@ -151,60 +152,7 @@ struct State {
 impl Checkpoint {
     /// Parses and checks a checkpoint (magic, version, length, checksum, sections).
     pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, CheckpointError> {
-        let len = bytes.len();
-        if len < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-            return if len < MAGIC.len() && bytes == &MAGIC[..len] && len > 0 {
-                Err(CheckpointError::Truncated {
-                    actual: len as u64,
-                    expected: None,
-                })
-            } else {
-                Err(CheckpointError::NotACheckpoint)
-            };
-        }
-        if len < 12 {
-            return Err(CheckpointError::Truncated {
-                actual: len as u64,
-                expected: None,
-            });
-        }
-        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != FORMAT_VERSION {
-            return Err(CheckpointError::UnsupportedVersion {
-                found: version,
-                supported: FORMAT_VERSION,
-            });
-        }
-        if len < 20 {
-            return Err(CheckpointError::Truncated {
-                actual: len as u64,
-                expected: None,
-            });
-        }
-        let declared = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
-        if (len as u64) < declared {
-            return Err(CheckpointError::Truncated {
-                actual: len as u64,
-                expected: Some(declared),
-            });
-        }
-        if len < HEADER_LEN + TRAILER_LEN {
-            return Err(CheckpointError::Malformed(format!(
-                "the header declares {declared} bytes, less than a header"
-            )));
-        }
-        if (len as u64) > declared {
-            return Err(CheckpointError::Malformed(format!(
-                "{} bytes after the end the header declares ({declared} bytes)",
-                len as u64 - declared
-            )));
-        }
-        let body_end = len - TRAILER_LEN;
-        let stored = u32::from_le_bytes(bytes[body_end..].try_into().expect("4 bytes"));
-        let computed = crc32(&bytes[..body_end]);
-        if stored != computed {
-            return Err(CheckpointError::Checksum { stored, computed });
-        }
+        let body_end = check_header(bytes)?;
         let sections = u32::from_le_bytes(bytes[20..24].try_into().expect("4 bytes"));
         let mut r = Reader {
             buf: &bytes[HEADER_LEN..body_end],
@@ -279,22 +227,7 @@ impl Checkpoint {
             read_mesh_slots(&mut m, &mut st)?;
         }
         if let Some(mut r) = piec {
-            let nq = r.count(16)?;
-            if nq != 0 && nq != st.bodies as usize {
-                return Err(CheckpointError::Malformed(format!(
-                    "{nq} rebuild orientations for {} bodies",
-                    st.bodies
-                )));
-            }
-            for _ in 0..nq {
-                let (x, y, z, w) = (r.f32()?, r.f32()?, r.f32()?, r.f32()?);
-                st.rebuild_orientation.push(Quat::from_xyzw(x, y, z, w));
-            }
-            let np = r.count(4)?;
-            for _ in 0..np {
-                st.pieces.push(r.u32()?);
-            }
-            r.finish()?;
+            read_pieces(&mut r, &mut st)?;
         }
         Ok(Checkpoint {
             producer,
@@ -573,4 +506,84 @@ fn fingerprint(w: &World) -> u32 {
         bytes.extend_from_slice(&c.radius[i].to_le_bytes());
     }
     crc32(&bytes)
+}
+
+/// Checks a checkpoint's header and trailer (magic, version, declared length, checksum)
+/// and returns where its body ends (the start of the trailer).
+fn check_header(bytes: &[u8]) -> Result<usize, CheckpointError> {
+    let len = bytes.len();
+    if len < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+        return if len < MAGIC.len() && bytes == &MAGIC[..len] && len > 0 {
+            Err(CheckpointError::Truncated {
+                actual: len as u64,
+                expected: None,
+            })
+        } else {
+            Err(CheckpointError::NotACheckpoint)
+        };
+    }
+    if len < 12 {
+        return Err(CheckpointError::Truncated {
+            actual: len as u64,
+            expected: None,
+        });
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != FORMAT_VERSION {
+        return Err(CheckpointError::UnsupportedVersion {
+            found: version,
+            supported: FORMAT_VERSION,
+        });
+    }
+    if len < 20 {
+        return Err(CheckpointError::Truncated {
+            actual: len as u64,
+            expected: None,
+        });
+    }
+    let declared = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+    if (len as u64) < declared {
+        return Err(CheckpointError::Truncated {
+            actual: len as u64,
+            expected: Some(declared),
+        });
+    }
+    if len < HEADER_LEN + TRAILER_LEN {
+        return Err(CheckpointError::Malformed(format!(
+            "the header declares {declared} bytes, less than a header"
+        )));
+    }
+    if (len as u64) > declared {
+        return Err(CheckpointError::Malformed(format!(
+            "{} bytes after the end the header declares ({declared} bytes)",
+            len as u64 - declared
+        )));
+    }
+    let body_end = len - TRAILER_LEN;
+    let stored = u32::from_le_bytes(bytes[body_end..].try_into().expect("4 bytes"));
+    let computed = crc32(&bytes[..body_end]);
+    if stored != computed {
+        return Err(CheckpointError::Checksum { stored, computed });
+    }
+    Ok(body_end)
+}
+
+/// The `PIEC` section: the rebuild orientations and the piece codes of a composite world.
+fn read_pieces(r: &mut Reader, st: &mut State) -> Result<(), CheckpointError> {
+    let nq = r.count(16)?;
+    if nq != 0 && nq != st.bodies as usize {
+        return Err(CheckpointError::Malformed(format!(
+            "{nq} rebuild orientations for {} bodies",
+            st.bodies
+        )));
+    }
+    for _ in 0..nq {
+        let (x, y, z, w) = (r.f32()?, r.f32()?, r.f32()?, r.f32()?);
+        st.rebuild_orientation.push(Quat::from_xyzw(x, y, z, w));
+    }
+    let np = r.count(4)?;
+    for _ in 0..np {
+        st.pieces.push(r.u32()?);
+    }
+    r.finish()
 }

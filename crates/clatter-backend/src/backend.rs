@@ -1,17 +1,28 @@
 //! One world, two executors: which pipeline steps a [`World`], and the one interface through
-//! which every command (`run`, `resume`, `bench`, `render`, `view`) steps it.
+//! which every front end (`run`, `resume`, `bench`, `render`, `view`, the Python package)
+//! steps it.
 //!
 //! [`choose`] turns the user's [`BackendChoice`] into a [`Stepper`]: the CPU pipeline, which
-//! steps the [`World`] in place, or a [`GpuWorld`], which keeps its own copy of the state on
-//! the GPU and hands it back when asked ([`Readback`], [`Stepper::sync`]). The automatic
-//! choice, and the reason it gives, live here only.
+//! steps the [`World`] in place, or (feature `gpu`) a `GpuWorld`, which keeps its own copy of
+//! the state on the GPU and hands it back when asked ([`Readback`], [`Stepper::sync`]). The
+//! automatic choice, and the reason it gives ([`Choice`]), live here only.
 
+#[cfg(feature = "gpu")]
 use std::sync::Arc;
 
 use clatter::{SimError, World};
+#[cfg(feature = "gpu")]
+use clatter_gpu::{GpuContext, GpuError, GpuWorld};
 use thiserror::Error;
 
-use crate::{GpuContext, GpuError, GpuWorld};
+/// A failure of the GPU device (validation, out of memory, device lost): `GpuError`.
+#[cfg(feature = "gpu")]
+pub type DeviceError = GpuError;
+
+/// A failure of the GPU device: none can happen in a build without the GPU.
+#[cfg(not(feature = "gpu"))]
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum DeviceError {}
 
 /// Which pipeline the user asked for (`--backend auto|cpu|gpu`).
 #[derive(Copy, Clone, Debug, Default, PartialEq, Eq)]
@@ -30,17 +41,20 @@ pub enum BackendChoice {
 /// Where the GPU device comes from when the choice needs one.
 #[derive(Clone, Debug)]
 pub enum Device {
-    /// Open the best adapter wgpu finds, without a window ([`GpuContext::new`]), only when
+    /// Open the best adapter wgpu finds, without a window (`GpuContext::new`), only when
     /// the choice needs it.
     Headless,
-    /// A device already opened with [`GpuContext::new`] (an offscreen renderer's, so that it
+    /// A device already opened with `GpuContext::new` (an offscreen renderer's, so that it
     /// draws straight from the simulation's body buffer).
+    #[cfg(feature = "gpu")]
     Shared(Arc<GpuContext>),
     /// The device that draws into a window (the viewer's): picked for the window, so the
     /// messages call it the window's adapter.
+    #[cfg(feature = "gpu")]
     Window(Arc<GpuContext>),
 }
 
+#[cfg(feature = "gpu")]
 impl Device {
     fn open(self) -> Result<(Arc<GpuContext>, &'static str), GpuError> {
         Ok(match self {
@@ -51,25 +65,111 @@ impl Device {
     }
 }
 
-/// Why `--backend gpu` cannot be honoured (`auto` falls back to the CPU instead).
+/// Why a request for the GPU cannot be honoured (`auto` falls back to the CPU instead).
+/// Its `Display` is the reason alone; [`BackendError::describe`] puts the front end's name
+/// of the request in front.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum BackendError {
     /// No GPU device could be opened.
-    #[error("--backend gpu: {0}")]
+    #[cfg(feature = "gpu")]
+    #[error("{0}")]
     NoDevice(GpuError),
     /// The device was found but the scene does not fit it, or uses something the GPU
     /// pipeline does not support.
-    #[error("--backend gpu: cannot run this scene on the GPU: {0}")]
+    #[cfg(feature = "gpu")]
+    #[error("cannot run this scene on the GPU: {0}")]
     Scene(GpuError),
+    /// This build has no GPU executor (the `gpu` feature is off).
+    #[error("this module was built without GPU support (build it with the `gpu` feature)")]
+    NotBuilt,
+}
+
+impl BackendError {
+    /// The error in a front end's words: `gpu_option` is its name for asking for the GPU
+    /// (`--backend gpu`, `backend="gpu"`).
+    pub fn describe(&self, gpu_option: &str) -> String {
+        format!("{gpu_option}: {self}")
+    }
+}
+
+/// Why the automatic choice fell back to the CPU.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Fallback {
+    /// No GPU device could be opened: why.
+    NoDevice(String),
+    /// The only adapter is a software rasteriser (correct, but slower than the CPU).
+    Software {
+        /// Which adapter: "the only GPU adapter" or "the window's adapter".
+        which: &'static str,
+        /// Its name.
+        adapter: String,
+    },
+    /// The adapter cannot hold the scene, or the GPU pipeline lacks something it uses.
+    DoesNotFit {
+        /// The adapter's name.
+        adapter: String,
+        /// Why not.
+        why: String,
+    },
+    /// This build has no GPU executor.
+    NotBuilt,
+}
+
+/// Which pipeline [`choose`] picked, and why: the data of the `backend: ...` line, worded
+/// by each front end with [`Choice::describe`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Choice {
+    /// The CPU, as asked.
+    Cpu,
+    /// The GPU, as asked, on this adapter.
+    Gpu {
+        /// The adapter's name.
+        adapter: String,
+    },
+    /// `auto` found a hardware adapter that fits the scene.
+    AutoGpu {
+        /// The adapter's name.
+        adapter: String,
+    },
+    /// `auto` fell back to the CPU.
+    AutoCpu(Fallback),
+}
+
+impl Choice {
+    /// The choice in a front end's words (`gpu (auto: found ...)`, `cpu (auto: ...)`):
+    /// `gpu_option` is its name for asking for the GPU (`--backend gpu`, `backend="gpu"`).
+    pub fn describe(&self, gpu_option: &str) -> String {
+        match self {
+            Choice::Cpu => "cpu".into(),
+            Choice::Gpu { adapter } => format!("gpu ({adapter})"),
+            Choice::AutoGpu { adapter } => format!("gpu (auto: found {adapter})"),
+            Choice::AutoCpu(why) => format!(
+                "cpu (auto: {})",
+                match why {
+                    Fallback::NoDevice(e) => e.clone(),
+                    Fallback::Software { which, adapter } => format!(
+                        "{which}, {adapter}, is a software rasteriser, slower than the CPU pipeline; {gpu_option} uses it anyway"
+                    ),
+                    Fallback::DoesNotFit { adapter, why } => format!("found {adapter}, but {why}"),
+                    Fallback::NotBuilt => "this module was built without GPU support".into(),
+                }
+            ),
+        }
+    }
+
+    /// The line the command line prints on stderr (`backend: gpu (auto: found ...)`);
+    /// `None` for the CPU asked for, which needs no explanation.
+    pub fn note(&self) -> Option<String> {
+        (*self != Choice::Cpu).then(|| format!("backend: {}", self.describe("--backend gpu")))
+    }
 }
 
 /// The outcome of [`choose`].
 pub struct Chosen {
     /// The pipeline that steps the world.
     pub stepper: Stepper,
-    /// The line to print on stderr (`backend: gpu (auto: found ...)`), with the reason for
-    /// an automatic choice; `None` for `--backend cpu`, which needs no explanation.
-    pub note: Option<String>,
+    /// Which pipeline, and why.
+    pub choice: Choice,
 }
 
 /// Chooses the pipeline for `world`: the one function behind every command's `--backend`.
@@ -84,42 +184,72 @@ pub fn choose(
     world: &World,
     device: Device,
 ) -> Result<Chosen, BackendError> {
-    let gpu = |g: GpuWorld, note: String| Chosen {
-        stepper: Stepper::Gpu(Box::new(g)),
-        note: Some(format!("backend: {note}")),
-    };
-    let cpu = |note: String| Chosen {
-        stepper: Stepper::Cpu,
-        note: Some(format!("backend: cpu (auto: {note})")),
-    };
     match choice {
         BackendChoice::Cpu => Ok(Chosen {
             stepper: Stepper::Cpu,
-            note: None,
+            choice: Choice::Cpu,
         }),
-        BackendChoice::Gpu => {
-            let (ctx, _) = device.open().map_err(BackendError::NoDevice)?;
-            let g = GpuWorld::new(ctx, world).map_err(BackendError::Scene)?;
-            let name = g.context().adapter_name();
-            Ok(gpu(g, format!("gpu ({name})")))
-        }
-        BackendChoice::Auto => {
-            let (ctx, which) = match device.open() {
-                Ok(c) => c,
-                Err(e) => return Ok(cpu(e.to_string())),
-            };
-            let name = ctx.adapter_name();
-            if ctx.is_software() {
-                return Ok(cpu(format!(
-                    "{which}, {name}, is a software rasteriser, slower than the CPU pipeline; --backend gpu uses it anyway"
-                )));
-            }
-            Ok(match GpuWorld::new(ctx, world) {
-                Ok(g) => gpu(g, format!("gpu (auto: found {name})")),
-                Err(e) => cpu(format!("found {name}, but {e}")),
-            })
-        }
+        BackendChoice::Gpu | BackendChoice::Auto => choose_gpu(choice, world, device),
     }
+}
+
+#[cfg(not(feature = "gpu"))]
+fn choose_gpu(
+    choice: BackendChoice,
+    _world: &World,
+    _device: Device,
+) -> Result<Chosen, BackendError> {
+    match choice {
+        BackendChoice::Gpu => Err(BackendError::NotBuilt),
+        _ => Ok(Chosen {
+            stepper: Stepper::Cpu,
+            choice: Choice::AutoCpu(Fallback::NotBuilt),
+        }),
+    }
+}
+
+/// [`choose`] for `gpu` and `auto`.
+#[cfg(feature = "gpu")]
+fn choose_gpu(
+    choice: BackendChoice,
+    world: &World,
+    device: Device,
+) -> Result<Chosen, BackendError> {
+    let gpu = |g: GpuWorld, auto: bool| {
+        let adapter = g.context().adapter_name();
+        Chosen {
+            stepper: Stepper::Gpu(Box::new(g)),
+            choice: if auto {
+                Choice::AutoGpu { adapter }
+            } else {
+                Choice::Gpu { adapter }
+            },
+        }
+    };
+    let cpu = |why: Fallback| Chosen {
+        stepper: Stepper::Cpu,
+        choice: Choice::AutoCpu(why),
+    };
+    if choice == BackendChoice::Gpu {
+        let (ctx, _) = device.open().map_err(BackendError::NoDevice)?;
+        let g = GpuWorld::new(ctx, world).map_err(BackendError::Scene)?;
+        return Ok(gpu(g, false));
+    }
+    let (ctx, which) = match device.open() {
+        Ok(c) => c,
+        Err(e) => return Ok(cpu(Fallback::NoDevice(e.to_string()))),
+    };
+    let adapter = ctx.adapter_name();
+    if ctx.is_software() {
+        return Ok(cpu(Fallback::Software { which, adapter }));
+    }
+    Ok(match GpuWorld::new(ctx, world) {
+        Ok(g) => gpu(g, true),
+        Err(e) => cpu(Fallback::DoesNotFit {
+            adapter,
+            why: e.to_string(),
+        }),
+    })
 }
 
 /// What comes back to the host's [`World`] after GPU steps (the CPU steps the world in
@@ -147,10 +277,11 @@ pub struct Stepped {
     pub max_contacts: usize,
     /// Touching contacts per step, averaged over the steps (on the GPU: `contacts`).
     pub mean_contacts: f64,
-    /// The GPU's blow-up checks ([`GpuWorld::set_health`]) stopped it after `steps` steps,
+    /// The GPU's blow-up checks (`GpuWorld::set_health`) stopped it after `steps` steps,
     /// fewer than asked for maybe: the host checks that step itself
     /// (`clatter::health::Health::check`) and, if all is well, calls
-    /// [`GpuWorld::clear_alarm`] and goes on. Always false on the CPU.
+    /// `GpuWorld::clear_alarm` and goes on ([`crate::Watch::after`]). Always false on the
+    /// CPU.
     pub alarm: bool,
 }
 
@@ -162,6 +293,7 @@ pub enum StepError {
     #[error(transparent)]
     Sim(#[from] SimError),
     /// The GPU failed (validation, out of memory, device lost).
+    #[cfg(feature = "gpu")]
     #[error(transparent)]
     Gpu(#[from] GpuError),
 }
@@ -172,6 +304,7 @@ pub enum Stepper {
     /// The CPU pipeline: [`World::step`] on the world itself.
     Cpu,
     /// The GPU pipeline, with its own copy of the state.
+    #[cfg(feature = "gpu")]
     Gpu(Box<GpuWorld>),
 }
 
@@ -180,16 +313,18 @@ impl Stepper {
     pub fn name(&self) -> String {
         match self {
             Stepper::Cpu => "cpu".into(),
+            #[cfg(feature = "gpu")]
             Stepper::Gpu(g) => format!("gpu ({})", g.context().adapter_name()),
         }
     }
 
     /// Whether the GPU pipeline steps the world.
     pub fn is_gpu(&self) -> bool {
-        matches!(self, Stepper::Gpu(_))
+        !matches!(self, Stepper::Cpu)
     }
 
     /// The GPU world, when the GPU steps.
+    #[cfg(feature = "gpu")]
     pub fn as_gpu(&self) -> Option<&GpuWorld> {
         match self {
             Stepper::Cpu => None,
@@ -198,6 +333,7 @@ impl Stepper {
     }
 
     /// The GPU world, mutably, when the GPU steps.
+    #[cfg(feature = "gpu")]
     pub fn as_gpu_mut(&mut self) -> Option<&mut GpuWorld> {
         match self {
             Stepper::Cpu => None,
@@ -211,6 +347,7 @@ impl Stepper {
     /// `back` says what comes back into `world`; a body that becomes non-finite is reported
     /// as the CPU reports it ([`SimError::NonFinite`], with the step it happened in), and
     /// the world then holds the state the GPU stopped at, whatever `back` asked for.
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
     pub fn step(
         &mut self,
         world: &mut World,
@@ -244,6 +381,7 @@ impl Stepper {
                     alarm: false,
                 })
             }
+            #[cfg(feature = "gpu")]
             Stepper::Gpu(gpu) => {
                 let before = gpu.steps_taken();
                 let report = match back {
@@ -279,20 +417,55 @@ impl Stepper {
 
     /// Brings the GPU's state (bodies, step count, time, contacts) back into `world`; on the
     /// CPU the world is always up to date and this does nothing.
-    pub fn sync(&self, world: &mut World) -> Result<(), GpuError> {
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
+    pub fn sync(&self, world: &mut World) -> Result<(), DeviceError> {
         match self {
             Stepper::Cpu => Ok(()),
+            #[cfg(feature = "gpu")]
             Stepper::Gpu(g) => g.read_into(world),
         }
     }
 
-    /// Starts over from `world` (the viewer's Reset): the GPU uploads it again on the same
-    /// device; the CPU needs nothing.
-    pub fn restart(&mut self, world: &World) -> Result<(), GpuError> {
+    /// Brings only the GPU's body state, step count and time back into `world` (not the
+    /// contact list); on the CPU this does nothing.
+    #[cfg_attr(not(feature = "gpu"), allow(unused_variables))]
+    pub fn sync_bodies(&self, world: &mut World) -> Result<(), DeviceError> {
+        match self {
+            Stepper::Cpu => Ok(()),
+            #[cfg(feature = "gpu")]
+            Stepper::Gpu(g) => g.read_bodies_into(world),
+        }
+    }
+
+    /// Starts over from `world` (the viewer's Reset, or a world changed on the host): the
+    /// GPU uploads it again on the same device; the CPU needs nothing.
+    pub fn restart(&mut self, world: &World) -> Result<(), DeviceError> {
+        #[cfg(feature = "gpu")]
         if let Stepper::Gpu(g) = self {
             **g = GpuWorld::new(g.context().clone(), world)?;
         }
+        #[cfg(not(feature = "gpu"))]
+        let _ = world;
         Ok(())
+    }
+
+    /// The world's step count: the world's own on the CPU; on the GPU the device's, which
+    /// the world reaches at the next [`Stepper::sync`] (nothing is read back).
+    pub fn step_count(&self, world: &World) -> u64 {
+        match self {
+            Stepper::Cpu => world.step_count,
+            #[cfg(feature = "gpu")]
+            Stepper::Gpu(g) => g.step_count(),
+        }
+    }
+
+    /// The simulated time, as [`Stepper::step_count`] gives the step count.
+    pub fn time(&self, world: &World) -> f64 {
+        match self {
+            Stepper::Cpu => world.time,
+            #[cfg(feature = "gpu")]
+            Stepper::Gpu(g) => g.time(),
+        }
     }
 
     /// Broad-phase (pair list) rebuilds so far: the world's count on the CPU, the GPU's own
@@ -300,6 +473,7 @@ impl Stepper {
     pub fn rebuilds(&self, world: &World) -> u64 {
         match self {
             Stepper::Cpu => world.rebuilds,
+            #[cfg(feature = "gpu")]
             Stepper::Gpu(g) => g.rebuilds(),
         }
     }
@@ -321,10 +495,10 @@ mod tests {
     fn cpu_stepper_is_world_step() {
         let mut a = world();
         let chosen = choose(BackendChoice::Cpu, &a, Device::Headless).expect("cpu");
-        assert!(chosen.note.is_none());
+        assert!(chosen.choice.note().is_none());
         let mut stepper = chosen.stepper;
         assert_eq!(stepper.name(), "cpu");
-        assert!(stepper.as_gpu().is_none());
+        assert!(!stepper.is_gpu());
         let mut b = a.clone();
         let s = stepper.step(&mut a, 25, Readback::Nothing).expect("steps");
         let mut max = 0;
@@ -340,17 +514,18 @@ mod tests {
     }
 
     /// On the GPU, the same steps come back through `Readback::All`.
+    #[cfg(feature = "gpu")]
     #[test]
     fn gpu_stepper_reads_back() {
-        let Some(ctx) = crate::test_context() else {
+        let Some(ctx) = clatter_gpu::test_context() else {
             return;
         };
         let mut w = world();
         let chosen = choose(BackendChoice::Gpu, &w, Device::Shared(ctx)).expect("gpu");
         assert!(
             chosen
-                .note
-                .as_deref()
+                .choice
+                .note()
                 .is_some_and(|n| n.starts_with("backend: gpu ("))
         );
         let mut stepper = chosen.stepper;

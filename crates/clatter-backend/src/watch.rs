@@ -1,7 +1,7 @@
-//! The blow-up checks of a stepping loop, one code path for `clatter run`, `render`, `view`
-//! and whoever steps a [`Stepper`]: the host's [`Health`] checks at the same steps on both
-//! executors, with the GPU doing the cheap ones on the device ([`GpuWorld::set_health`]) and
-//! stopping only when the host must look.
+//! The blow-up checks of a stepping loop, one code path for `clatter run`, `render`, `view`,
+//! the Python package and whoever steps a [`Stepper`]: the host's [`Health`] checks at the
+//! same steps on both executors, with the GPU doing the cheap ones on the device
+//! (`GpuWorld::set_health`) and stopping only when the host must look.
 //!
 //! - On the CPU, [`Watch::step`] steps to each multiple of `check_every` and runs
 //!   [`Health::check`] there (the full check every [`FULL_CHECK_EVERY`] steps).
@@ -13,10 +13,11 @@
 //!   host's, the same words as on the CPU, and the state comes back only when needed.
 
 use clatter::World;
-use clatter::health::{BlowUp, ENERGY_FACTOR, Health};
+use clatter::health::{BlowUp, Health};
+#[cfg(feature = "gpu")]
+use clatter_gpu::{GpuError, GpuWorld, HealthSetup};
 
 use crate::backend::{Readback, StepError, Stepped, Stepper};
-use crate::{GpuError, GpuWorld, HealthSetup};
 
 /// The full check (every touching contact's overlap) and the last good state, every this
 /// many steps.
@@ -25,15 +26,19 @@ pub const FULL_CHECK_EVERY: u64 = 100;
 /// The cheap checks run every this many steps unless asked otherwise (`--check-every`).
 pub const CHECK_EVERY: u64 = 10;
 
-/// Why [`Watch::step`] stopped.
+/// Why [`Watch::step`] stopped: data for each front end to word (the command line's
+/// blow-up report and exit status, Python's `SimulationError` with its attributes).
 #[derive(Debug)]
 pub enum WatchError {
-    /// The simulation blew up: the report (the world holds the state it was found in).
+    /// The simulation blew up: the report, with its kind, body, step, time and likely
+    /// cause (the world holds the state it was found in).
     BlowUp(Box<BlowUp>),
     /// The GPU failed.
+    #[cfg(feature = "gpu")]
     Gpu(GpuError),
 }
 
+#[cfg(feature = "gpu")]
 impl From<GpuError> for WatchError {
     fn from(e: GpuError) -> WatchError {
         WatchError::Gpu(e)
@@ -44,6 +49,7 @@ impl std::fmt::Display for WatchError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             WatchError::BlowUp(b) => b.fmt(f),
+            #[cfg(feature = "gpu")]
             WatchError::Gpu(e) => e.fmt(f),
         }
     }
@@ -73,9 +79,12 @@ impl Watch {
             health,
             check_every: check_every.max(1),
         };
+        #[cfg(feature = "gpu")]
         if let Some(g) = stepper.as_gpu_mut() {
             w.arm(g, world, energy_every);
         }
+        #[cfg(not(feature = "gpu"))]
+        let _ = (stepper, world, energy_every);
         w
     }
 
@@ -90,6 +99,7 @@ impl Watch {
     }
 
     /// Sets up the GPU's checks (again, after [`Stepper::restart`]).
+    #[cfg(feature = "gpu")]
     pub fn arm(&self, gpu: &mut GpuWorld, world: &World, energy_every: u64) {
         gpu.set_health(
             world,
@@ -98,7 +108,7 @@ impl Watch {
                 energy_every,
                 snapshot_every: FULL_CHECK_EVERY,
                 budget: self.health.baseline(),
-                alarm_factor: 0.5 * ENERGY_FACTOR,
+                alarm_factor: 0.5 * clatter::health::ENERGY_FACTOR,
                 force_floor: self.health.force_floor(),
             },
         );
@@ -138,12 +148,15 @@ impl Watch {
                 .check(world, full)
                 .map_err(|b| WatchError::BlowUp(Box::new(b)))?;
         }
+        #[cfg(feature = "gpu")]
         if stats.alarm
             && let Some(g) = stepper.as_gpu_mut()
         {
             // The GPU's f32 sums looked alarming but the host's exact check passed.
             g.clear_alarm()?;
         }
+        #[cfg(not(feature = "gpu"))]
+        let _ = stepper;
         Ok(checked)
     }
 
@@ -177,11 +190,14 @@ impl Watch {
             let stats = match stepper.step(world, m, back) {
                 Ok(stats) => stats,
                 Err(StepError::Sim(e)) => return Err(self.non_finite(world, &e)),
+                #[cfg(feature = "gpu")]
                 Err(StepError::Gpu(e)) => return Err(e.into()),
             };
             s += stats.steps;
             if !stepper.is_gpu() || stats.alarm {
-                let full = s.is_multiple_of(FULL_CHECK_EVERY);
+                // The world is current here (the CPU's, or read back for the alarm), also
+                // when `back` leaves it behind between calls.
+                let full = world.step_count.is_multiple_of(FULL_CHECK_EVERY);
                 self.after(stepper, world, &stats, full)?;
             }
             total = Some(match total {

@@ -11,7 +11,7 @@ use clap::ValueEnum;
 use clatter::health::{BlowUp, Health};
 use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
-use clatter_gpu::{Device, Readback, StepError, Stepper, Watch, WatchError};
+use clatter_backend::{Device, Readback, StepError, Stepper, Watch, WatchError};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::{Deserialize, Serialize};
 
@@ -19,14 +19,16 @@ use crate::args::{Pipeline, Progress};
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
 use crate::log::{LogEvery, Sample, Thermo};
-use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, carry_rows, write_state_rows};
+use crate::output::AtomicFile;
 use crate::report::BlownUp;
 use crate::scene_io::load_scene;
-use crate::vtk;
+
+mod outputs;
+use outputs::Outputs;
 
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).
-pub const FULL_CHECK_EVERY: u64 = clatter_gpu::watch::FULL_CHECK_EVERY;
+pub const FULL_CHECK_EVERY: u64 = clatter_backend::FULL_CHECK_EVERY;
 
 /// Where `clatter run` without a scene file and without `--out` writes the default scene's
 /// results (relative to the working directory), with a picture of the last step.
@@ -185,7 +187,6 @@ impl Plan {
     }
 }
 
-/// Checks the output options; `stored` are the options of the run being resumed.
 /// The output options after checking, with a resumed run's stored ones filled in.
 struct Resolved {
     csv: bool,
@@ -197,6 +198,42 @@ struct Resolved {
     check_every: u64,
 }
 
+impl Resolved {
+    /// The plan of a run of `scene` (and its text) to `end_step` with these outputs, in
+    /// `out`, as loud as `progress` says, on `pipeline`'s backend; neither resumed nor
+    /// pictured.
+    fn into_plan(
+        self,
+        end_step: u64,
+        health: Health,
+        out: Option<PathBuf>,
+        progress: &Progress,
+        pipeline: &Pipeline,
+        (scene, scene_text): (Scene, String),
+    ) -> Plan {
+        Plan {
+            end_step,
+            out,
+            csv: self.csv,
+            vtk: self.vtk,
+            output_every: self.output_every,
+            contacts: self.contacts,
+            checkpoint_every: self.checkpoint_every,
+            energy_every: self.energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+            check_every: self.check_every,
+            health,
+            resumed: false,
+            quiet: progress.quiet,
+            log: progress.lines(),
+            backend: pipeline.backend,
+            picture: false,
+            scene,
+            scene_text,
+        }
+    }
+}
+
+/// Checks the output options; `stored` are the options of the run being resumed.
 fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved> {
     let every = match (o.output_every, o.trace_every) {
         (Some(a), Some(b)) if a != b => anyhow::bail!(
@@ -279,40 +316,20 @@ pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
     if picture {
         args.output.out = Some(PathBuf::from(DEFAULT_OUT));
     }
-    let Resolved {
-        csv,
-        vtk,
-        output_every,
-        contacts,
-        checkpoint_every,
-        energy_every,
-        check_every,
-    } = resolve(&args.output, None)?;
+    let resolved = resolve(&args.output, None)?;
     let world = scene.world();
     let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
     let health = Health::new(&world);
-    execute(
-        Plan {
-            end_step,
-            out: args.output.out,
-            csv,
-            vtk,
-            output_every,
-            contacts,
-            checkpoint_every,
-            energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
-            check_every,
-            health,
-            resumed: false,
-            quiet: args.progress.quiet,
-            log: args.progress.lines(),
-            backend: args.pipeline.backend,
-            picture,
-            scene,
-            scene_text: text,
-        },
-        world,
-    )
+    let mut plan = resolved.into_plan(
+        end_step,
+        health,
+        args.output.out,
+        &args.progress,
+        &args.pipeline,
+        (scene, text),
+    );
+    plan.picture = picture;
+    execute(plan, world)
 }
 
 /// `clatter resume`: a run continued from a checkpoint.
@@ -325,15 +342,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
     } else {
         serde_json::from_slice(&ckpt.app).ok()
     };
-    let Resolved {
-        csv,
-        vtk,
-        output_every,
-        contacts,
-        checkpoint_every,
-        energy_every,
-        check_every,
-    } = resolve(&args.output, stored.as_ref())?;
+    let resolved = resolve(&args.output, stored.as_ref())?;
     let (scene, world) = ckpt
         .world()
         .with_context(|| format!("cannot resume from {}", path.display()))?;
@@ -353,74 +362,16 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
         Some(b) => Health::with_baseline(&world, b),
         None => Health::new(&world),
     };
-    execute(
-        Plan {
-            end_step,
-            out: args.output.out,
-            csv,
-            vtk,
-            output_every,
-            contacts,
-            checkpoint_every,
-            energy_every: energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
-            check_every,
-            health,
-            resumed: true,
-            quiet: args.progress.quiet,
-            log: args.progress.lines(),
-            backend: args.pipeline.backend,
-            picture: false,
-            scene_text: ckpt.scene_text.clone(),
-            scene,
-        },
-        world,
-    )
-}
-
-/// The frame series of one run: trace.csv and the VTK files.
-struct Series {
-    trace: Option<AtomicFile>,
-    bodies: Option<vtk::Pvd>,
-    shapes: Option<vtk::Pvd>,
-    boundaries: Option<vtk::Pvd>,
-    contacts: Option<vtk::Pvd>,
-    last_frame: Option<u64>,
-}
-
-impl Series {
-    fn write(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
-        let step = world.step_count;
-        if let Some(f) = &mut self.trace {
-            write_state_rows(f.writer(), world, &format!("{},{},", step, world.time))?;
-        }
-        self.write_vtk(dir, world)
-    }
-
-    fn write_vtk(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
-        let step = world.step_count;
-        if let Some(pvd) = &mut self.bodies {
-            let name = format!("bodies_{step:06}.vtu");
-            vtk::write_bodies(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        if let Some(pvd) = &mut self.shapes {
-            let name = format!("shapes_{step:06}.vtu");
-            vtk::write_shapes(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        if let Some(pvd) = &mut self.boundaries {
-            let name = format!("boundaries_{step:06}.vtu");
-            vtk::write_boundaries(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        if let Some(pvd) = &mut self.contacts {
-            let name = format!("contacts_{step:06}.vtu");
-            vtk::write_contacts(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        self.last_frame = Some(step);
-        Ok(())
-    }
+    let mut plan = resolved.into_plan(
+        end_step,
+        health,
+        args.output.out,
+        &args.progress,
+        &args.pipeline,
+        (scene, ckpt.scene_text.clone()),
+    );
+    plan.resumed = true;
+    execute(plan, world)
 }
 
 /// Steps `world` as `plan` says: the header, the stepping loop with its outputs, then the
@@ -559,132 +510,6 @@ fn print_summary(world: &World, stepper: &Stepper, steps: u64, elapsed: f64, max
         world.contact_count()
     );
     println!("kinetic energy   {:.6e} J", world.kinetic_energy());
-}
-
-/// The files a run writes as it goes: the frame series, energy.csv, discharge.csv, and when
-/// the next checkpoint is due. Everything is created before the first step and committed
-/// (renamed into place) when complete.
-struct Outputs {
-    series: Series,
-    energy: Option<EnergySeries>,
-    discharge: Option<DischargeSeries>,
-    /// The next checkpoint is due at simulated time `next * checkpoint_every`.
-    next_checkpoint: Option<f64>,
-}
-
-impl Outputs {
-    /// Creates the outputs of `plan` (none without `--out`) and writes their first rows.
-    fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Outputs> {
-        let mut series = Series {
-            trace: None,
-            bodies: None,
-            shapes: None,
-            boundaries: None,
-            contacts: None,
-            last_frame: None,
-        };
-        let mut energy = None;
-        let mut discharge: Option<DischargeSeries> = None;
-        if let Some(dir) = &plan.out {
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("cannot create output directory {}", dir.display()))?;
-            if plan.csv && plan.output_every.is_some() {
-                let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
-                let header = format!("step,time,{STATE_HEADER}");
-                writeln!(f.writer(), "{header}")?;
-                carry_rows(&dir.join("trace.csv"), &header, start, f.writer())?;
-                series.trace = Some(f);
-            }
-            if plan.vtk {
-                series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
-                series.shapes = Some(vtk::Pvd::continuing(&dir.join("shapes.pvd"), start));
-                if !world.boundaries.is_empty() {
-                    series.boundaries =
-                        Some(vtk::Pvd::continuing(&dir.join("boundaries.pvd"), start));
-                }
-                if plan.contacts {
-                    series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
-                }
-            }
-            series.write(dir, world)?;
-            let mut e = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
-            e.sample(world)?;
-            energy = Some(e);
-            if !world.sinks.is_empty() {
-                let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
-                d.sample(world)?;
-                discharge = Some(d);
-            }
-        }
-        let half_dt = 0.5 * world.dt as f64;
-        let next_checkpoint = plan
-            .checkpoint_every
-            .map(|t| ((world.time + half_dt) / t).floor() + 1.0);
-        Ok(Outputs {
-            series,
-            energy,
-            discharge,
-            next_checkpoint,
-        })
-    }
-
-    /// Writes what is due after step `s`: a frame, energy and discharge rows, a checkpoint.
-    fn after_step(&mut self, plan: &Plan, world: &World, output_step: bool) -> anyhow::Result<()> {
-        let Some(dir) = &plan.out else {
-            return Ok(());
-        };
-        let s = world.step_count;
-        let half_dt = 0.5 * world.dt as f64;
-        if output_step {
-            self.series.write(dir, world)?;
-        }
-        if let Some(e) = &mut self.energy
-            && s.is_multiple_of(plan.energy_every)
-        {
-            e.sample(world)?;
-        }
-        if let Some(d) = &mut self.discharge
-            && s.is_multiple_of(plan.energy_every)
-        {
-            d.sample(world)?;
-        }
-        if let (Some(t), Some(next)) = (plan.checkpoint_every, &mut self.next_checkpoint)
-            && world.time + half_dt >= *next * t
-        {
-            plan.checkpoint(world, &dir.join("checkpoint.ckpt"))?;
-            *next = ((world.time + half_dt) / t).floor() + 1.0;
-        }
-        Ok(())
-    }
-
-    /// The last step: a VTK frame, an energy sample and a checkpoint even off the period;
-    /// commits the series and writes final.csv.
-    fn finish(mut self, plan: &Plan, dir: &Path, world: &World) -> anyhow::Result<()> {
-        if plan.vtk && self.series.last_frame != Some(world.step_count) {
-            self.series.write_vtk(dir, world)?;
-        }
-        if let Some(f) = self.series.trace.take() {
-            f.commit()?;
-        }
-        if let Some(mut d) = self.discharge.take() {
-            d.sample(world)?;
-            d.commit()?;
-        }
-        if let Some(mut e) = self.energy.take() {
-            e.sample(world)?;
-            e.finish(
-                Some(&dir.join("energy.svg")),
-                &format!("{}: energy and momentum", plan.scene.source),
-            )?;
-        }
-        if plan.checkpoint_every.is_some() {
-            plan.checkpoint(world, &dir.join("checkpoint.ckpt"))?;
-        }
-        let mut f = AtomicFile::create(&dir.join("final.csv"))?;
-        writeln!(f.writer(), "{STATE_HEADER}")?;
-        write_state_rows(f.writer(), world, "")?;
-        f.commit()
-    }
 }
 
 /// Which steps the loop stops at, and which get the full blow-up check.

@@ -1,0 +1,192 @@
+//! The files a run writes as it goes ([`Outputs`]): the frame series (trace.csv and the
+//! VTK files), energy.csv, discharge.csv, the periodic checkpoint, and at the end
+//! final.csv. Each is created before the first step and committed (renamed into place)
+//! when complete.
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::Context;
+use clatter::World;
+
+use super::Plan;
+use crate::energy::EnergySeries;
+use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, carry_rows, write_state_rows};
+use crate::vtk;
+
+/// The files a run writes as it goes: the frame series, energy.csv, discharge.csv, and when
+/// the next checkpoint is due. Everything is created before the first step and committed
+/// (renamed into place) when complete.
+pub(super) struct Outputs {
+    series: Series,
+    pub(super) energy: Option<EnergySeries>,
+    pub(super) discharge: Option<DischargeSeries>,
+    /// The next checkpoint is due at simulated time `next * checkpoint_every`.
+    pub(super) next_checkpoint: Option<f64>,
+}
+
+impl Outputs {
+    /// Creates the outputs of `plan` (none without `--out`) and writes their first rows.
+    pub(super) fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Outputs> {
+        let mut series = Series {
+            trace: None,
+            bodies: None,
+            shapes: None,
+            boundaries: None,
+            contacts: None,
+            last_frame: None,
+        };
+        let mut energy = None;
+        let mut discharge: Option<DischargeSeries> = None;
+        if let Some(dir) = &plan.out {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+            if plan.csv && plan.output_every.is_some() {
+                let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
+                let header = format!("step,time,{STATE_HEADER}");
+                writeln!(f.writer(), "{header}")?;
+                carry_rows(&dir.join("trace.csv"), &header, start, f.writer())?;
+                series.trace = Some(f);
+            }
+            if plan.vtk {
+                series.bodies = Some(vtk::Pvd::continuing(&dir.join("bodies.pvd"), start));
+                series.shapes = Some(vtk::Pvd::continuing(&dir.join("shapes.pvd"), start));
+                if !world.boundaries.is_empty() {
+                    series.boundaries =
+                        Some(vtk::Pvd::continuing(&dir.join("boundaries.pvd"), start));
+                }
+                if plan.contacts {
+                    series.contacts = Some(vtk::Pvd::continuing(&dir.join("contacts.pvd"), start));
+                }
+            }
+            series.write(dir, world)?;
+            let mut e = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
+            e.sample(world)?;
+            energy = Some(e);
+            if !world.sinks.is_empty() {
+                let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
+                d.sample(world)?;
+                discharge = Some(d);
+            }
+        }
+        let half_dt = 0.5 * world.dt as f64;
+        let next_checkpoint = plan
+            .checkpoint_every
+            .map(|t| ((world.time + half_dt) / t).floor() + 1.0);
+        Ok(Outputs {
+            series,
+            energy,
+            discharge,
+            next_checkpoint,
+        })
+    }
+
+    /// Writes what is due after step `s`: a frame, energy and discharge rows, a checkpoint.
+    pub(super) fn after_step(
+        &mut self,
+        plan: &Plan,
+        world: &World,
+        output_step: bool,
+    ) -> anyhow::Result<()> {
+        let Some(dir) = &plan.out else {
+            return Ok(());
+        };
+        let s = world.step_count;
+        let half_dt = 0.5 * world.dt as f64;
+        if output_step {
+            self.series.write(dir, world)?;
+        }
+        if let Some(e) = &mut self.energy
+            && s.is_multiple_of(plan.energy_every)
+        {
+            e.sample(world)?;
+        }
+        if let Some(d) = &mut self.discharge
+            && s.is_multiple_of(plan.energy_every)
+        {
+            d.sample(world)?;
+        }
+        if let (Some(t), Some(next)) = (plan.checkpoint_every, &mut self.next_checkpoint)
+            && world.time + half_dt >= *next * t
+        {
+            plan.checkpoint(world, &dir.join("checkpoint.ckpt"))?;
+            *next = ((world.time + half_dt) / t).floor() + 1.0;
+        }
+        Ok(())
+    }
+
+    /// The last step: a VTK frame, an energy sample and a checkpoint even off the period;
+    /// commits the series and writes final.csv.
+    pub(super) fn finish(mut self, plan: &Plan, dir: &Path, world: &World) -> anyhow::Result<()> {
+        if plan.vtk && self.series.last_frame != Some(world.step_count) {
+            self.series.write_vtk(dir, world)?;
+        }
+        if let Some(f) = self.series.trace.take() {
+            f.commit()?;
+        }
+        if let Some(mut d) = self.discharge.take() {
+            d.sample(world)?;
+            d.commit()?;
+        }
+        if let Some(mut e) = self.energy.take() {
+            e.sample(world)?;
+            e.finish(
+                Some(&dir.join("energy.svg")),
+                &format!("{}: energy and momentum", plan.scene.source),
+            )?;
+        }
+        if plan.checkpoint_every.is_some() {
+            plan.checkpoint(world, &dir.join("checkpoint.ckpt"))?;
+        }
+        let mut f = AtomicFile::create(&dir.join("final.csv"))?;
+        writeln!(f.writer(), "{STATE_HEADER}")?;
+        write_state_rows(f.writer(), world, "")?;
+        f.commit()
+    }
+}
+
+/// The frame series of one run: trace.csv and the VTK files.
+struct Series {
+    trace: Option<AtomicFile>,
+    bodies: Option<vtk::Pvd>,
+    shapes: Option<vtk::Pvd>,
+    boundaries: Option<vtk::Pvd>,
+    contacts: Option<vtk::Pvd>,
+    last_frame: Option<u64>,
+}
+
+impl Series {
+    fn write(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
+        let step = world.step_count;
+        if let Some(f) = &mut self.trace {
+            write_state_rows(f.writer(), world, &format!("{},{},", step, world.time))?;
+        }
+        self.write_vtk(dir, world)
+    }
+
+    fn write_vtk(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
+        let step = world.step_count;
+        if let Some(pvd) = &mut self.bodies {
+            let name = format!("bodies_{step:06}.vtu");
+            vtk::write_bodies(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        if let Some(pvd) = &mut self.shapes {
+            let name = format!("shapes_{step:06}.vtu");
+            vtk::write_shapes(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        if let Some(pvd) = &mut self.boundaries {
+            let name = format!("boundaries_{step:06}.vtu");
+            vtk::write_boundaries(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        if let Some(pvd) = &mut self.contacts {
+            let name = format!("contacts_{step:06}.vtu");
+            vtk::write_contacts(&dir.join(&name), world)?;
+            pvd.push(step, world.time, name)?;
+        }
+        self.last_frame = Some(step);
+        Ok(())
+    }
+}

@@ -1,0 +1,132 @@
+//! The manifold of a face contact (the incident face clipped against the reference face's
+//! side planes) and of an edge contact (closest points of two segments).
+
+use glam::Vec3;
+
+use super::{Manifold, reduce};
+use crate::{ConvexPolyhedron, Pose};
+
+/// Buffers of the face clipping.
+#[derive(Default)]
+pub(super) struct ClipBuffers {
+    pub(super) poly: Vec<Vec3>,
+    pub(super) tmp: Vec<Vec3>,
+    pub(super) pts: Vec<(Vec3, f32)>,
+}
+
+pub(super) fn to_world(mut m: Manifold, pose: &Pose) -> Manifold {
+    m.normal = pose.rotation * m.normal;
+    for p in &mut m.points[..m.count] {
+        p.point = pose.transform_point(p.point);
+    }
+    m
+}
+
+/// Clips the incident face of `inc` (its vertex `i` in `refp`'s frame is `inc_v(i)`, computed
+/// only for the vertices needed) against reference face `rf` of `refp`. Normal: the reference
+/// face's outward normal (from `refp` to `inc`).
+pub(super) fn clip_faces(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    inc_v: impl Fn(usize) -> Vec3,
+    inc_rot: glam::Mat3,
+    clip: &mut ClipBuffers,
+) -> Option<Manifold> {
+    let rface = refp.faces[rf];
+    let n = rface.normal;
+    // Incident face: the one most anti-parallel to the reference normal.
+    let n_inc = inc_rot.transpose() * n;
+    let mut inc_face = 0;
+    let mut best = f32::INFINITY;
+    for (f, face) in inc.faces.iter().enumerate() {
+        let d = face.normal.dot(n_inc);
+        if d < best {
+            best = d;
+            inc_face = f;
+        }
+    }
+    let ClipBuffers { poly, tmp, pts } = clip;
+    poly.clear();
+    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v(i as usize)));
+    let rl = refp.face_loop(rf);
+    for k in 0..rl.len() {
+        let v0 = refp.vertices[rl[k] as usize];
+        let v1 = refp.vertices[rl[(k + 1) % rl.len()] as usize];
+        let side = (v1 - v0).cross(n); // outward for a CCW loop
+        let off = side.dot(v0);
+        tmp.clear();
+        for i in 0..poly.len() {
+            let p = poly[i];
+            let q = poly[(i + 1) % poly.len()];
+            let dp = side.dot(p) - off;
+            let dq = side.dot(q) - off;
+            if dp <= 0.0 {
+                tmp.push(p);
+            }
+            if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+                tmp.push(p + (q - p) * (dp / (dp - dq)));
+            }
+        }
+        std::mem::swap(poly, tmp);
+        if poly.is_empty() {
+            break;
+        }
+    }
+    pts.clear();
+    for &p in poly.iter() {
+        let depth = rface.offset - n.dot(p);
+        if depth > 0.0 {
+            pts.push((p + n * (0.5 * depth), depth));
+        }
+    }
+    if pts.is_empty() {
+        // The separating-axis test found overlap but the incident face clips away entirely
+        // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
+        // rather than losing it.
+        let deepest = (0..inc.vertices.len())
+            .map(inc_v)
+            .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
+        let depth = rface.offset - n.dot(deepest);
+        if depth <= 0.0 {
+            return None;
+        }
+        return Some(Manifold::single(n, deepest + n * (0.5 * depth), depth));
+    }
+    Some(reduce(pts, n))
+}
+
+/// Closest points of segments `p0-p1` and `q0-q1`.
+pub(super) fn segment_closest(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (Vec3, Vec3) {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = d1.dot(d1);
+    let e = d2.dot(d2);
+    let f = d2.dot(r);
+    let c = d1.dot(r);
+    let b = d1.dot(d2);
+    let denom = a * e - b * b;
+    let mut s = if denom > 1e-12 * a * e {
+        ((b * f - c * e) / denom).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut t = if e > 0.0 { (b * s + f) / e } else { 0.0 };
+    if t < 0.0 {
+        t = 0.0;
+        s = if a > 0.0 {
+            (-c / a).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    } else if t > 1.0 {
+        t = 1.0;
+        s = if a > 0.0 {
+            ((b - c) / a).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+    (p0 + d1 * s, q0 + d2 * t)
+}

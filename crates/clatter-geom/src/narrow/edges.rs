@@ -1,0 +1,167 @@
+//! The edge-edge axes of the separating-axis test, by Gauss-map pruning or by edge direction.
+
+use glam::Vec3;
+
+use super::sat::{EdgeAxis, SoaPoints};
+use super::{HINT_EDGE, SatHint};
+use crate::ConvexPolyhedron;
+
+/// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn edge_axes_gauss_map(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    rot: glam::Mat3,
+    inv_rot: glam::Mat3,
+    bv: &[Vec3],
+    tables: &mut Vec<f32>,
+    hint: &mut SatHint,
+    separation: &mut f32,
+) -> Option<EdgeAxis> {
+    // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
+    // of edge `ea` of A and of edge `eb` of -B must cross). The four arc/normal products of
+    // each pair come from two small tables instead of being recomputed per pair.
+    let (nfa, nfb) = (a.faces.len(), b.faces.len());
+    let (nea, neb) = (a.edges.len(), b.edges.len());
+    tables.clear();
+    tables.resize(nea * nfb + neb * nfa, 0.0);
+    let (t1, t2) = tables.split_at_mut(nea * nfb);
+    // t1[ea][kb] = (-nb_kb) . arcA_ea, with B's normal rotated into A's frame.
+    for (ea, arc) in a.edge_arcs.iter().enumerate() {
+        let arc = inv_rot * *arc;
+        for (kb, f) in b.faces.iter().enumerate() {
+            t1[ea * nfb + kb] = -f.normal.dot(arc);
+        }
+    }
+    // t2[eb][ka] = na_ka . arcB_eb (arc rotated into A's frame).
+    for (eb, arc) in b.edge_arcs.iter().enumerate() {
+        let arc = rot * *arc;
+        for (ka, f) in a.faces.iter().enumerate() {
+            t2[eb * nfa + ka] = f.normal.dot(arc);
+        }
+    }
+    let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
+        let [fa0, fa1] = a.edge_faces[ea];
+        let row1 = &t1[ea * nfb..(ea + 1) * nfb];
+        let pa0 = a.vertices[a0 as usize];
+        let da = a.vertices[a1 as usize] - pa0;
+        for (eb, &[fb0, fb1]) in b.edge_faces.iter().enumerate() {
+            let cba = row1[fb0 as usize];
+            let dba = row1[fb1 as usize];
+            if cba * dba >= 0.0 {
+                continue;
+            }
+            let adc = t2[eb * nfa + fa0 as usize];
+            let bdc = t2[eb * nfa + fa1 as usize];
+            if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
+                continue;
+            }
+            let [b0, b1] = b.edges[eb];
+            let pb0 = bv[b0 as usize];
+            let db = bv[b1 as usize] - pb0;
+            let axis = da.cross(db);
+            let len2 = axis.length_squared();
+            if len2 < 1e-10 * da.length_squared() * db.length_squared() {
+                continue;
+            }
+            let mut axis = axis / len2.sqrt();
+            if axis.dot(pa0) < 0.0 {
+                axis = -axis;
+            }
+            let s = axis.dot(pb0 - pa0);
+            if s > 0.0 {
+                if ea < 0x8000 && eb < 0x8000 {
+                    *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+                }
+                *separation = s;
+                return None;
+            }
+            if s > best_e.0 {
+                best_e = (s, ea, eb, axis);
+            }
+        }
+    }
+    Some(best_e)
+}
+
+/// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
+/// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
+/// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn edge_axes_by_direction(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    rot: glam::Mat3,
+    a_local: &SoaPoints,
+    b_soa: &SoaPoints,
+    bv: &[Vec3],
+    hint: &mut SatHint,
+    separation: &mut f32,
+) -> Option<EdgeAxis> {
+    let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    for (ia, &ua) in a.edge_dirs.iter().enumerate() {
+        for (ib, ub) in b.edge_dirs.iter().enumerate() {
+            let axis = ua.cross(rot * *ub);
+            let len2 = axis.length_squared();
+            if len2 < 1e-10 {
+                continue;
+            }
+            let axis = axis / len2.sqrt();
+            let (min_a, max_a) = (a_local.min_along(axis), a_local.max_along(axis));
+            let (min_b, max_b) = (b_soa.min_along(axis), b_soa.max_along(axis));
+            // Separation pushing B along +axis, and along -axis; keep the larger.
+            let (s, axis) = if min_b - max_a >= min_a - max_b {
+                (min_b - max_a, axis)
+            } else {
+                (min_a - max_b, -axis)
+            };
+            if s > 0.0 {
+                // Remember one concrete edge pair with these directions for the next step.
+                let ea = a
+                    .edge_dir_of
+                    .iter()
+                    .position(|&d| d as usize == ia)
+                    .unwrap_or(0);
+                let eb = b
+                    .edge_dir_of
+                    .iter()
+                    .position(|&d| d as usize == ib)
+                    .unwrap_or(0);
+                if ea < 0x8000 && eb < 0x8000 {
+                    *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+                }
+                *separation = s;
+                return None;
+            }
+            if s > best.0 {
+                best = (s, ia, ib, axis);
+            }
+        }
+    }
+    if best.0 == f32::NEG_INFINITY {
+        return Some(best);
+    }
+    // The supporting edges: A's edge of direction ia furthest along the axis, B's edge of
+    // direction ib furthest against it.
+    let (_, ia, ib, axis) = best;
+    let mut ea_best = (f32::NEG_INFINITY, 0usize);
+    for (e, &[v0, v1]) in a.edges.iter().enumerate() {
+        if a.edge_dir_of[e] as usize == ia {
+            let h = axis.dot(a.vertices[v0 as usize] + a.vertices[v1 as usize]);
+            if h > ea_best.0 {
+                ea_best = (h, e);
+            }
+        }
+    }
+    let mut eb_best = (f32::INFINITY, 0usize);
+    for (e, &[v0, v1]) in b.edges.iter().enumerate() {
+        if b.edge_dir_of[e] as usize == ib {
+            let h = axis.dot(bv[v0 as usize] + bv[v1 as usize]);
+            if h < eb_best.0 {
+                eb_best = (h, e);
+            }
+        }
+    }
+    Some((best.0, ea_best.1, eb_best.1, axis))
+}

@@ -1,0 +1,415 @@
+//! The simulator's narrow phase: exact overlap of two shapes (or a shape and a wall plane) as
+//! a contact manifold of up to four points, so that a cube resting on a face gets four support
+//! points and stays flat.
+//!
+//! Polyhedron pairs use the separating-axis test on face normals and on the edge-edge axes
+//! that survive Gauss-map pruning (only edge pairs whose arcs cross can form a face of the
+//! Minkowski difference), then clip the incident face against the reference face's side planes.
+
+use glam::Vec3;
+
+use crate::{ConvexPolyhedron, Pose, Shape};
+
+mod clip;
+mod edges;
+mod sat;
+
+pub use sat::polyhedron_polyhedron;
+
+/// One point of a contact manifold.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ContactPoint {
+    /// World position, halfway through the overlap.
+    pub point: Vec3,
+    /// Overlap depth along the manifold normal (> 0 when overlapping).
+    pub depth: f32,
+}
+
+/// Contact between shape `a` and shape `b`: a unit normal pointing from `a` towards `b` and
+/// up to four points. Pushing `b` along `normal` by `depth` separates them.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Manifold {
+    pub normal: Vec3,
+    pub points: [ContactPoint; 4],
+    pub count: usize,
+}
+
+impl Manifold {
+    /// The used points.
+    #[inline]
+    pub fn points(&self) -> &[ContactPoint] {
+        &self.points[..self.count]
+    }
+
+    /// The deepest overlap of the manifold.
+    pub fn max_depth(&self) -> f32 {
+        self.points().iter().map(|p| p.depth).fold(0.0, f32::max)
+    }
+
+    #[inline(always)]
+    fn single(normal: Vec3, point: Vec3, depth: f32) -> Self {
+        let mut m = Manifold {
+            normal,
+            count: 1,
+            ..Default::default()
+        };
+        m.points[0] = ContactPoint { point, depth };
+        m
+    }
+
+    fn flipped(mut self) -> Self {
+        self.normal = -self.normal;
+        self
+    }
+}
+
+/// Overlap of `a` at `pa` and `b` at `pb`; `None` when they do not overlap.
+pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
+    collide_with_hint(a, pa, b, pb, &mut NO_HINT.clone(), &mut 0.0)
+}
+
+/// What the narrow phase remembers between steps for one pair (temporal coherence), in one
+/// word, with the pair's `bound` (see [`collide_with_hint`]):
+/// - for a pair found apart, the axis that separated it: bodies move little per DEM step, so
+///   the axis usually still separates them next step and one test replaces the full
+///   separating-axis search;
+/// - for polyhedra found touching, the contact the full test chose (the reference face of A
+///   or of B, or an edge contact; see [`is_contact_hint`]): while the pair's margin lasts,
+///   the same test would choose it again, so only that face is clipped (only the edge axes
+///   are searched for an edge contact).
+///
+/// [`NO_HINT`] when there is none.
+pub type SatHint = u32;
+/// No remembered axis.
+pub const NO_HINT: SatHint = u32::MAX;
+const HINT_FACE_A: u32 = 0;
+const HINT_FACE_B: u32 = 1 << 30;
+const HINT_EDGE: u32 = 2 << 30;
+const HINT_KIND: u32 = 3 << 30;
+/// Set in a face hint that names the reference face of a touching pair (not a separating
+/// axis). Face indices stay below this bit.
+const HINT_CONTACT: u32 = 1 << 29;
+
+/// Whether `hint` remembers the contact feature of a touching polyhedron pair (its `bound`
+/// is then the pair's decision margin) rather than a separating axis.
+#[inline]
+pub fn is_contact_hint(hint: SatHint) -> bool {
+    hint != NO_HINT && hint & HINT_KIND != HINT_EDGE && hint & HINT_CONTACT != 0
+}
+
+/// [`collide`] with what the pair remembers from earlier steps (`hint`, read first and
+/// updated) and its `bound`:
+/// - on return, for a pair found apart, `bound` is a lower bound of the distance (0 when
+///   unknown): the caller may skip the pair until the bodies have moved that far;
+/// - for a touching polyhedron pair, `hint` names the contact face and `bound` is its
+///   margin: how much any separation of the full test may still change before one of the
+///   test's decisions could turn (0 and [`NO_HINT`] when there is none). The caller
+///   subtracts from `bound`, before each later call, twice a bound of how much any axis's
+///   separation can have changed since (both sides of each decision move); while it stays
+///   positive (for an edge contact: above minus the best edge axis's separation), the
+///   remembered contact stands in for the full test, and the manifold is the one the full
+///   test would give, bitwise.
+///
+/// See [`polyhedron_polyhedron`].
+pub fn collide_with_hint(
+    a: &Shape,
+    pa: &Pose,
+    b: &Shape,
+    pb: &Pose,
+    hint: &mut SatHint,
+    bound: &mut f32,
+) -> Option<Manifold> {
+    match (a, b) {
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
+            polyhedron_polyhedron(p, pa, q, pb, hint, bound)
+        }
+        _ => {
+            *bound = 0.0;
+            match (a, b) {
+                (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
+                    sphere_sphere(pa.position, *ra, pb.position, *rb)
+                }
+                (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+                    sphere_polyhedron(pa.position, *radius, p, pb)
+                }
+                (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+                    sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
+                }
+                _ => deepest_piece_contact(a, pa, b, pb),
+            }
+        }
+    }
+}
+
+/// Two convex shapes (spheres or polyhedra); `None` for a composite. Kept apart from
+/// [`collide_with_hint`] so that the composite path does not make it recursive.
+fn collide_convex(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
+    match (a, b) {
+        (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
+            sphere_sphere(pa.position, *ra, pb.position, *rb)
+        }
+        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+            sphere_polyhedron(pa.position, *radius, p, pb)
+        }
+        (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+            sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
+        }
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
+            polyhedron_polyhedron(p, pa, q, pb, &mut NO_HINT.clone(), &mut 0.0)
+        }
+        _ => None,
+    }
+}
+
+/// A piece's world pose, for a piece at `local` in a shape at `pose`.
+#[inline]
+pub fn piece_pose(pose: &Pose, local: &Pose) -> Pose {
+    Pose::new(
+        pose.transform_point(local.position),
+        pose.rotation * local.rotation,
+    )
+}
+
+/// Composites in the single-manifold queries: every piece pair is collided and the manifold
+/// with the deepest point is returned. (The simulator does not use this: it keeps one contact,
+/// with its own springs, per piece pair.)
+fn deepest_piece_contact(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
+    let mut best: Option<(f32, Manifold)> = None;
+    for (sa, la) in a.pieces() {
+        for (sb, lb) in b.pieces() {
+            if let Some(m) = collide_convex(sa, &piece_pose(pa, &la), sb, &piece_pose(pb, &lb)) {
+                let depth = m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max);
+                if best.as_ref().is_none_or(|(d, _)| depth > *d) {
+                    best = Some((depth, m));
+                }
+            }
+        }
+    }
+    best.map(|(_, m)| m)
+}
+
+/// Two spheres by centre and radius.
+#[inline]
+pub fn sphere_sphere(ca: Vec3, ra: f32, cb: Vec3, rb: f32) -> Option<Manifold> {
+    let d = cb - ca;
+    let dist2 = d.length_squared();
+    let rsum = ra + rb;
+    if dist2 >= rsum * rsum {
+        return None;
+    }
+    let dist = dist2.sqrt();
+    let normal = if dist > 1e-12 * rsum {
+        d / dist
+    } else {
+        Vec3::Z
+    };
+    let depth = rsum - dist;
+    Some(Manifold::single(
+        normal,
+        ca + normal * (ra - 0.5 * depth),
+        depth,
+    ))
+}
+
+/// Closest point of a convex polygon (a face loop of `p`) to `x`, all in `p`'s local frame.
+fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3) -> Vec3 {
+    let face = p.faces[f];
+    let lp = p.face_loop(f);
+    let proj = x - face.normal * (face.normal.dot(x) - face.offset);
+    let mut inside = true;
+    for k in 0..lp.len() {
+        let a = p.vertices[lp[k] as usize];
+        let b = p.vertices[lp[(k + 1) % lp.len()] as usize];
+        if (b - a).cross(proj - a).dot(face.normal) < 0.0 {
+            inside = false;
+            break;
+        }
+    }
+    if inside {
+        return proj;
+    }
+    let mut best = proj;
+    let mut best_d = f32::INFINITY;
+    for k in 0..lp.len() {
+        let a = p.vertices[lp[k] as usize];
+        let b = p.vertices[lp[(k + 1) % lp.len()] as usize];
+        let q = closest_on_segment(a, b, x);
+        let d = (q - x).length_squared();
+        if d < best_d {
+            best_d = d;
+            best = q;
+        }
+    }
+    best
+}
+
+#[inline]
+fn closest_on_segment(a: Vec3, b: Vec3, x: Vec3) -> Vec3 {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    if len2 <= 0.0 {
+        return a;
+    }
+    a + ab * ((x - a).dot(ab) / len2).clamp(0.0, 1.0)
+}
+
+/// Sphere `a` (centre, radius) against polyhedron `b` at `pose`; normal from sphere to polyhedron.
+pub fn sphere_polyhedron(
+    centre: Vec3,
+    radius: f32,
+    p: &ConvexPolyhedron,
+    pose: &Pose,
+) -> Option<Manifold> {
+    let c = pose.inverse_transform_point(centre);
+    if c.length_squared() >= (p.radius + radius) * (p.radius + radius) {
+        return None;
+    }
+    let mut best_face = 0;
+    let mut best_sep = f32::NEG_INFINITY;
+    for (i, f) in p.faces.iter().enumerate() {
+        let s = f.normal.dot(c) - f.offset;
+        if s > best_sep {
+            best_sep = s;
+            best_face = i;
+        }
+    }
+    if best_sep >= radius {
+        return None;
+    }
+    let (surface, n_local, depth) = if best_sep <= 0.0 {
+        // Centre inside: push out through the nearest face.
+        let n = p.faces[best_face].normal;
+        (c - n * best_sep, -n, radius - best_sep)
+    } else {
+        let mut q = c;
+        let mut best_d2 = f32::INFINITY;
+        for (i, f) in p.faces.iter().enumerate() {
+            if f.normal.dot(c) - f.offset > 0.0 {
+                let cand = closest_on_face(p, i, c);
+                let d2 = (cand - c).length_squared();
+                if d2 < best_d2 {
+                    best_d2 = d2;
+                    q = cand;
+                }
+            }
+        }
+        let dist = best_d2.sqrt();
+        if dist >= radius {
+            return None;
+        }
+        let n = if dist > 1e-12 {
+            (q - c) / dist
+        } else {
+            -p.faces[best_face].normal
+        };
+        (q, n, radius - dist)
+    };
+    let deepest = c + n_local * radius;
+    let mid = 0.5 * (surface + deepest);
+    Some(Manifold::single(
+        pose.rotation * n_local,
+        pose.transform_point(mid),
+        depth,
+    ))
+}
+
+/// A wall: the half-space `normal . x <= offset` is solid; bodies live on the side the unit
+/// `normal` points to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plane {
+    pub normal: Vec3,
+    pub offset: f32,
+}
+
+/// A shape against a wall plane; the normal points from the wall into the body (the plane's normal).
+pub fn collide_plane(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> {
+    if let Shape::Composite(_) = s {
+        // The deepest piece (see `deepest_piece_contact`); the simulator collides each piece.
+        let mut best: Option<(f32, Manifold)> = None;
+        for (sp, local) in s.pieces() {
+            if let Some(m) = collide_plane_convex(plane, sp, &piece_pose(pose, &local)) {
+                let depth = m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max);
+                if best.as_ref().is_none_or(|(d, _)| depth > *d) {
+                    best = Some((depth, m));
+                }
+            }
+        }
+        return best.map(|(_, m)| m);
+    }
+    collide_plane_convex(plane, s, pose)
+}
+
+/// [`collide_plane`] for a sphere or polyhedron (`None` for a composite).
+#[inline]
+fn collide_plane_convex(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifold> {
+    let n = plane.normal;
+    let centre_height = n.dot(pose.position) - plane.offset;
+    match s {
+        Shape::Sphere { radius } => {
+            let depth = radius - centre_height;
+            if depth <= 0.0 {
+                return None;
+            }
+            Some(Manifold::single(
+                n,
+                pose.position - n * (radius - 0.5 * depth),
+                depth,
+            ))
+        }
+        Shape::Polyhedron(p) => {
+            if centre_height >= p.radius {
+                return None;
+            }
+            let n_local = pose.rotation.conjugate() * n;
+            let mut buf = [(Vec3::ZERO, 0.0f32); 64];
+            let mut count = 0;
+            let mut extra = Vec::new();
+            for &v in &p.vertices {
+                let h = n_local.dot(v) + centre_height;
+                if h < 0.0 {
+                    let world = pose.transform_point(v) - n * (0.5 * h);
+                    if count < buf.len() {
+                        buf[count] = (world, -h);
+                        count += 1;
+                    } else {
+                        extra.push((world, -h));
+                    }
+                }
+            }
+            if count == 0 {
+                return None;
+            }
+            if extra.is_empty() {
+                Some(reduce(&buf[..count], n))
+            } else {
+                let mut all = buf[..count].to_vec();
+                all.extend(extra);
+                Some(reduce(&all, n))
+            }
+        }
+        Shape::Composite(_) => None,
+    }
+}
+
+/// A manifold of at most four of the patch points `(point, depth)` with `normal` (the
+/// same reduction as the narrow phase's: deepest point, then the widest support polygon).
+pub fn patch(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
+    reduce(pts, normal)
+}
+
+/// Keeps at most four points of a contact patch (see [`crate::reduce::reduce`]).
+fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
+    let (idx, count) = crate::reduce::reduce(pts, normal);
+    let mut m = Manifold {
+        normal,
+        count,
+        ..Default::default()
+    };
+    for (k, &i) in idx[..count].iter().enumerate() {
+        m.points[k] = ContactPoint {
+            point: pts[i].0,
+            depth: pts[i].1,
+        };
+    }
+    m
+}

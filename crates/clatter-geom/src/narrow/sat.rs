@@ -1,0 +1,513 @@
+//! The separating-axis test of two convex polyhedra: face axes of both bodies, then the
+//! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]).
+
+use glam::{Mat3, Vec3};
+
+use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
+use super::edges::{edge_axes_by_direction, edge_axes_gauss_map};
+use super::{
+    HINT_CONTACT, HINT_EDGE, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold, NO_HINT, SatHint,
+    is_contact_hint,
+};
+use crate::{ConvexPolyhedron, Pose};
+
+/// Separation of `q`'s vertices (given in `p`'s frame) along `p`'s face `f`.
+#[inline]
+fn face_separation(p: &ConvexPolyhedron, f: usize, q: &SoaPoints) -> f32 {
+    let face = p.faces[f];
+    q.min_along(face.normal) - face.offset
+}
+
+/// Points as separate x, y, z arrays padded to a multiple of 4 (with copies of the first
+/// point), so that "smallest projection on an axis" compiles to packed SIMD.
+#[derive(Default)]
+pub(super) struct SoaPoints {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+}
+
+impl SoaPoints {
+    fn fill(&mut self, pts: &[Vec3]) {
+        self.x.clear();
+        self.y.clear();
+        self.z.clear();
+        let pad = pts.len().next_multiple_of(4);
+        for k in 0..pad {
+            let v = pts[if k < pts.len() { k } else { 0 }];
+            self.x.push(v.x);
+            self.y.push(v.y);
+            self.z.push(v.z);
+        }
+    }
+
+    /// Largest projection on `n`.
+    #[inline]
+    pub(super) fn max_along(&self, n: Vec3) -> f32 {
+        -self.min_along(-n)
+    }
+
+    /// Smallest projection on `n`.
+    #[inline]
+    pub(super) fn min_along(&self, n: Vec3) -> f32 {
+        let mut m = [f32::INFINITY; 4];
+        for ((xs, ys), zs) in self
+            .x
+            .chunks_exact(4)
+            .zip(self.y.chunks_exact(4))
+            .zip(self.z.chunks_exact(4))
+        {
+            for k in 0..4 {
+                let d = n.x * xs[k] + n.y * ys[k] + n.z * zs[k];
+                m[k] = if d < m[k] { d } else { m[k] };
+            }
+        }
+        let a = if m[0] < m[1] { m[0] } else { m[1] };
+        let b = if m[2] < m[3] { m[2] } else { m[3] };
+        if a < b { a } else { b }
+    }
+}
+
+/// Two convex polyhedra, with what the pair remembers (`hint`, `bound`: see
+/// [`super::collide_with_hint`]).
+///
+/// When the bodies are apart, `bound` receives a lower bound of their distance (the gap
+/// along the separating axis found, or between the bounding spheres), else 0: the simulator
+/// skips the pair until the bodies have moved that far. When they touch at a face, `hint`
+/// receives the reference face and `bound` the margin of the full test's decisions (see
+/// `contact_margin`); a later call with a positive remaining margin clips that face alone,
+/// for the manifold the full test would give, bitwise. An edge contact is remembered
+/// likewise (see `remembered_edge`).
+pub fn polyhedron_polyhedron(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    hint: &mut SatHint,
+    bound: &mut f32,
+) -> Option<Manifold> {
+    let margin = *bound;
+    *bound = 0.0;
+    let d = pb.position - pa.position;
+    let rs = a.radius + b.radius;
+    let d2 = d.length_squared();
+    if d2 >= rs * rs {
+        if is_contact_hint(*hint) {
+            *hint = NO_HINT;
+        }
+        *bound = d2.sqrt() - rs;
+        return None;
+    }
+    // Everything in A's frame: B's rotation and offset relative to A.
+    let inv_a = pa.rotation.conjugate();
+    let rot_q = inv_a * pb.rotation;
+    let rot = glam::Mat3::from_quat(rot_q);
+    let inv_rot = rot.transpose();
+    let t = inv_a * d;
+    if is_contact_hint(*hint) {
+        let face = *hint & !(HINT_KIND | HINT_CONTACT);
+        let rel = Relative { rot, inv_rot, t };
+        let found = if face == EDGE_CONTACT {
+            // The full edge search again, without the face axes.
+            SCRATCH.with_borrow_mut(|sc| remembered_edge(a, pa, b, &rel, sc, margin))
+        } else if margin > 0.0 {
+            // The full test would choose the remembered face again: clip it alone.
+            SCRATCH.with_borrow_mut(|sc| {
+                remembered_face(a, pa, b, pb, &rel, sc, *hint & HINT_KIND, face as usize)
+            })
+        } else {
+            None
+        };
+        if let Some(m) = found {
+            *bound = if m.is_some() { margin } else { 0.0 };
+            if m.is_none() {
+                *hint = NO_HINT;
+            }
+            return m;
+        }
+        *hint = NO_HINT;
+    }
+    // The axis that separated this pair last step, if any, tested on support points in each
+    // body's own frame (no vertex transformed).
+    if *hint != NO_HINT {
+        let idx = (*hint & !HINT_KIND) as usize;
+        let min_along = |p: &ConvexPolyhedron, dir: Vec3| {
+            let mut m = f32::INFINITY;
+            for v in &p.vertices {
+                let d = dir.dot(*v);
+                m = if d < m { d } else { m };
+            }
+            m
+        };
+        // Signed gap along the remembered axis (a distance: the axis is a unit vector).
+        let gap = match *hint & HINT_KIND {
+            HINT_FACE_A if idx < a.faces.len() => {
+                let f = a.faces[idx];
+                min_along(b, inv_rot * f.normal) + f.normal.dot(t) - f.offset
+            }
+            HINT_FACE_B if idx < b.faces.len() => {
+                let f = b.faces[idx];
+                let n = rot * f.normal;
+                min_along(a, n) - n.dot(t) - f.offset
+            }
+            HINT_EDGE if (idx >> 15) < a.edges.len() && (idx & 0x7fff) < b.edges.len() => {
+                let (ea, eb) = (idx >> 15, idx & 0x7fff);
+                let [a0, a1] = a.edges[ea];
+                let [b0, b1] = b.edges[eb];
+                let pa0 = a.vertices[a0 as usize];
+                let db = rot * (b.vertices[b1 as usize] - b.vertices[b0 as usize]);
+                let axis = (a.vertices[a1 as usize] - pa0)
+                    .cross(db)
+                    .normalize_or_zero();
+                let axis = if axis.dot(pa0) < 0.0 { -axis } else { axis };
+                let lo_b = min_along(b, inv_rot * axis) + axis.dot(t);
+                let hi_a = -min_along(a, -axis);
+                if axis == Vec3::ZERO { 0.0 } else { lo_b - hi_a }
+            }
+            _ => 0.0,
+        };
+        if gap > 0.0 {
+            *bound = gap;
+            return None;
+        }
+    }
+    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint, bound))
+}
+
+/// B's rotation and offset in A's frame.
+struct Relative {
+    rot: Mat3,
+    inv_rot: Mat3,
+    t: Vec3,
+}
+
+/// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
+/// clipped with the full test's own expressions ([`sat_full`]): `Some(manifold)` as the full
+/// test would return it, or `None` when the overlap is not certain enough to rule out a
+/// separating axis ([`overlap_certified`]; the full test must run).
+#[allow(clippy::too_many_arguments)]
+fn remembered_face(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    rel: &Relative,
+    sc: &mut Scratch,
+    kind: u32,
+    face: usize,
+) -> Option<Option<Manifold>> {
+    let Relative { rot, inv_rot, t } = *rel;
+    let Scratch { clip, .. } = sc;
+    let delta = 2e-5 * (a.radius + b.radius);
+    if kind == HINT_FACE_A {
+        if face >= a.faces.len() {
+            return None;
+        }
+        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip)?;
+        overlap_certified(a, &m, delta).then(|| Some(to_world(m, pa)))
+    } else {
+        if face >= b.faces.len() {
+            return None;
+        }
+        let m = clip_faces(b, face, a, |i| inv_rot * (a.vertices[i] - t), inv_rot, clip)?;
+        overlap_certified(b, &m, delta).then(|| Some(to_world(m, pb).flipped()))
+    }
+}
+
+/// The face index of [`HINT_EDGE_CONTACT`]: no face has it.
+const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
+/// The contact hint of an edge contact (its `bound` is the threshold the best edge axis
+/// must stay above, see [`remembered_edge`]).
+const HINT_EDGE_CONTACT: SatHint = HINT_FACE_A | HINT_CONTACT | EDGE_CONTACT;
+
+/// An edge contact found at an earlier step: the full edge-axis search again (the winning
+/// edge pair is then the full test's by construction), without the face axes, whose
+/// decisions are known otherwise. `None` when the full test must run.
+///
+/// The full test keeps an edge contact when `best_e > face_best + tol`. The best face
+/// axis's separation moves by at most the bodies' motion bound per step (see
+/// [`contact_margin`]), so with `margin = -(face_best_then + tol) - eps` less twice the
+/// bounds since (the caller's), `best_e + margin > 0` implies the decision. No axis
+/// separates when B's point of the contact is inside A by more than the rounding (the
+/// argument of [`overlap_certified`], on a point of B's edge).
+fn remembered_edge(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    rel: &Relative,
+    sc: &mut Scratch,
+    margin: f32,
+) -> Option<Option<Manifold>> {
+    let Scratch {
+        bv,
+        b_soa,
+        a_local,
+        tables,
+        ..
+    } = sc;
+    bv.clear();
+    bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
+    if edges_by_direction(a, b) {
+        b_soa.fill(bv);
+        a_local.fill(&a.vertices);
+    }
+    let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables).ok()?;
+    // (Written so that a NaN fails the test too.)
+    if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let (m, qb) = edge_manifold(a, b, pa, bv, best_e);
+    let delta = 2e-5 * (a.radius + b.radius);
+    let inside = a
+        .faces
+        .iter()
+        .all(|f| f.normal.dot(qb) - f.offset <= -delta);
+    inside.then_some(Some(m))
+}
+
+/// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
+/// pair), or `Err((hint, separation))` when an edge axis separates the bodies.
+fn edge_search(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    rel: &Relative,
+    bv: &[Vec3],
+    a_local: &SoaPoints,
+    b_soa: &SoaPoints,
+    tables: &mut Vec<f32>,
+) -> Result<EdgeAxis, (SatHint, f32)> {
+    let (mut hint, mut separation) = (NO_HINT, 0.0);
+    let found = if edges_by_direction(a, b) {
+        edge_axes_by_direction(
+            a,
+            b,
+            rel.rot,
+            a_local,
+            b_soa,
+            bv,
+            &mut hint,
+            &mut separation,
+        )
+    } else {
+        let (rot, inv_rot) = (rel.rot, rel.inv_rot);
+        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, &mut hint, &mut separation)
+    };
+    found.ok_or((hint, separation))
+}
+
+/// Whether the edge axes of `a` and `b` are cheaper by direction (projecting both bodies
+/// on each pair of edge directions) than by Gauss map.
+fn edges_by_direction(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> bool {
+    let (nda, ndb) = (a.edge_dirs.len(), b.edge_dirs.len());
+    let cost_dirs = nda * ndb * (a.vertices.len() + b.vertices.len());
+    let cost_tables = a.edges.len() * b.faces.len()
+        + b.edges.len() * a.faces.len()
+        + a.edges.len() * b.edges.len();
+    cost_dirs <= 2 * cost_tables
+}
+
+/// The manifold of edge contact `best_e` (one point, halfway between the closest points of
+/// the two edges), and B's closest point, in A's frame.
+fn edge_manifold(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    pa: &Pose,
+    bv: &[Vec3],
+    best_e: EdgeAxis,
+) -> (Manifold, Vec3) {
+    let (s, ea, eb, axis) = best_e;
+    let [a0, a1] = a.edges[ea];
+    let [b0, b1] = b.edges[eb];
+    let (qa, qb) = segment_closest(
+        a.vertices[a0 as usize],
+        a.vertices[a1 as usize],
+        bv[b0 as usize],
+        bv[b1 as usize],
+    );
+    let mid = 0.5 * (qa + qb);
+    let m = Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s);
+    (m, qb)
+}
+
+/// The margin of the full test's decisions for a face contact: how much the separation
+/// along every axis may still change (each compared quantity by this much) before the
+/// test could decide otherwise. `best` is the winning face's separation and `second` the
+/// best of the other faces of its body, `other` the best face of the other body, `edge`
+/// the best edge axis, `ref_b` whether the reference face is B's.
+///
+/// The decisions and their slacks (each compared quantity may move by the bound, so the
+/// caller subtracts twice the bound per step):
+/// - the winner beat the other faces of its body, the first maximum winning ties:
+///   `best - second` (0 on a tie: no margin);
+/// - A's face is kept unless `best_b > best_a + tol`: `best_a + tol - best_b`, or
+///   `best_b - best_a - tol` for B's face;
+/// - no edge contact, `best_e <= face_best + tol`: an edge axis is the normal of a face of
+///   the Minkowski difference, which turns much faster than the bodies when its two edges
+///   are close to parallel, so one edge axis's separation cannot be followed from step to
+///   step. But each is the separation along its axis, at most the largest separation along
+///   any direction, `max(face_best, best_e)` (attained at a face axis or an edge axis), and
+///   that largest separation moves no more than the bodies: the slack is `face_best + tol -
+///   max(face_best, best_e)`;
+/// - no axis separates: checked at each step instead, on the manifold found
+///   ([`overlap_certified`]): the bodies' overlap, not a decision's slack.
+///
+/// Less `eps` for rounding and for edge axes skipped as near-parallel.
+fn contact_margin(best: f32, second: f32, other: f32, edge: f32, ref_b: bool, tol: f32) -> f32 {
+    let (best_a, best_b) = if ref_b { (other, best) } else { (best, other) };
+    let face_best = best_a.max(best_b);
+    let largest = face_best.max(edge);
+    let cross = if ref_b {
+        best_b - best_a - tol
+    } else {
+        best_a + tol - best_b
+    };
+    (best - second).min(cross).min(face_best + tol - largest)
+}
+
+/// Whether the bodies certainly overlap by more than `delta`, so that no axis of the full
+/// test separates them, for a face contact `m` in the reference body's frame.
+///
+/// Why: each point of the manifold is a point of the incident face (a corner of its clipped
+/// polygon, or its deepest vertex) moved halfway along the normal; moved back, their
+/// centroid `c` is a point of the incident body (the face is convex), up to rounding. If
+/// `c` is at least `delta` inside every face plane of the reference body, the ball of
+/// radius `delta` about `c` lies in that body, so along any direction `u` the incident
+/// body reaches below `u.c` and the reference body above `u.c + delta`: every axis's
+/// separation is at most `-delta`. With `delta` above the rounding of `c` and of the full
+/// test's separations, none of them is positive.
+fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool {
+    let n = m.normal;
+    let mut c = Vec3::ZERO;
+    for p in m.points() {
+        c += p.point - n * (0.5 * p.depth);
+    }
+    let c = c / m.count as f32;
+    refp.faces
+        .iter()
+        .all(|f| f.normal.dot(c) - f.offset <= -delta)
+}
+
+/// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
+#[derive(Default)]
+struct Scratch {
+    bv: Vec<Vec3>,
+    b_soa: SoaPoints,
+    a_local: SoaPoints,
+    tables: Vec<f32>,
+    clip: ClipBuffers,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// The full separating-axis test with B at rotation `rot` and offset `t` in A's frame.
+#[allow(clippy::too_many_arguments)]
+fn sat_full(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    rot: glam::Mat3,
+    inv_rot: glam::Mat3,
+    t: Vec3,
+    sc: &mut Scratch,
+    hint: &mut SatHint,
+    separation: &mut f32,
+) -> Option<Manifold> {
+    let Scratch {
+        bv,
+        b_soa,
+        a_local,
+        tables,
+        clip,
+    } = sc;
+    bv.clear();
+    bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+    let bv: &[Vec3] = bv;
+    b_soa.fill(bv);
+    a_local.fill(&a.vertices);
+    // Face axes of A.
+    let mut best_a = (f32::NEG_INFINITY, 0usize);
+    let mut second_a = f32::NEG_INFINITY;
+    for f in 0..a.faces.len() {
+        let s = face_separation(a, f, b_soa);
+        if s > 0.0 {
+            *hint = HINT_FACE_A | f as u32;
+            *separation = s;
+            return None;
+        }
+        if s > best_a.0 {
+            second_a = best_a.0;
+            best_a = (s, f);
+        } else if s > second_a {
+            second_a = s;
+        }
+    }
+    // Face axes of B, tested in A's frame: B's face plane `n.x = offset` becomes
+    // `(R n).x = offset + (R n).t`, and A's own vertices need no transform.
+    let mut best_b = (f32::NEG_INFINITY, 0usize);
+    let mut second_b = f32::NEG_INFINITY;
+    for (f, face) in b.faces.iter().enumerate() {
+        let n = rot * face.normal;
+        let s = a_local.min_along(n) - (face.offset + n.dot(t));
+        if s > 0.0 {
+            *hint = HINT_FACE_B | f as u32;
+            *separation = s;
+            return None;
+        }
+        if s > best_b.0 {
+            second_b = best_b.0;
+            best_b = (s, f);
+        } else if s > second_b {
+            second_b = s;
+        }
+    }
+    let rel = Relative { rot, inv_rot, t };
+    let best_e = match edge_search(a, b, &rel, bv, a_local, b_soa, tables) {
+        Ok(e) => e,
+        Err((h, s)) => {
+            *hint = h;
+            *separation = s;
+            return None;
+        }
+    };
+    let scale = a.radius.max(b.radius);
+    *hint = NO_HINT;
+    let face_best = best_a.0.max(best_b.0);
+    let tol = 1e-3 * scale;
+    // Rounding of the separations (a few ulps of the bodies' size) and the near-parallel
+    // edge axes left out (sine below 1e-5, over edges shorter than the diameter).
+    let eps = 1e-4 * scale;
+    if best_e.0 > face_best + tol {
+        // Edge contact. Remembered with the bound the edge must stay above: the best face
+        // moves by at most the bodies' motion (see `remembered_edge`).
+        *hint = HINT_EDGE_CONTACT;
+        *separation = -(face_best + tol) - eps;
+        return Some(edge_manifold(a, b, pa, bv, best_e).0);
+    }
+    // Face contact: prefer A's face unless B's is clearly better.
+    let ref_b = best_b.0 > best_a.0 + tol;
+    let (best, second, other, kind, face) = if ref_b {
+        (best_b.0, second_b, best_a.0, HINT_FACE_B, best_b.1)
+    } else {
+        (best_a.0, second_a, best_b.0, HINT_FACE_A, best_a.1)
+    };
+    let margin = contact_margin(best, second, other, best_e.0, ref_b, tol) - eps;
+    let m = if ref_b {
+        // Reference face on B: work in B's frame with A as incident.
+        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        clip_faces(b, face, a, inc_v, inv_rot, clip).map(|m| to_world(m, pb).flipped())
+    } else {
+        clip_faces(a, face, b, |i| bv[i], rot, clip).map(|m| to_world(m, pa))
+    };
+    if m.is_some() && margin > 0.0 && face < EDGE_CONTACT as usize {
+        *hint = kind | HINT_CONTACT | face as u32;
+        *separation = margin;
+    }
+    m
+}
+
+/// The best edge-edge axis `(separation, edge of A, edge of B, axis in A's frame)`, or `None`
+/// when an edge axis separates the bodies (recorded in `hint`).
+pub(super) type EdgeAxis = (f32, usize, usize, Vec3);

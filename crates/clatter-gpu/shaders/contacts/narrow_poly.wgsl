@@ -1,0 +1,463 @@
+// The narrow phase's polyhedron pairs, the second half of narrow.wgsl (split only for size;
+// the kernels include both, see src/pipeline.rs `NARROW`): the separating-axis test over face
+// and edge axes (Gauss-map pruning or unique edge directions), face clipping, and
+// nrw_poly_poly, the port of clatter-geom's narrow/sat.rs, edges.rs and clip.rs.
+
+// ---------------------------------------------------------------- polyhedra
+
+// Closest points of segments p0-p1 and q0-q1 (returned as the two columns).
+fn nrw_segment_closest(p0: vec3<f32>, p1: vec3<f32>, q0: vec3<f32>, q1: vec3<f32>) -> mat2x3<f32> {
+    let d1 = p1 - p0;
+    let d2 = q1 - q0;
+    let r = p0 - q0;
+    let a = dot(d1, d1);
+    let e = dot(d2, d2);
+    let f = dot(d2, r);
+    let c = dot(d1, r);
+    let b = dot(d1, d2);
+    let denom = a * e - b * b;
+    var s = 0.0;
+    if denom > 1e-12 * a * e {
+        s = clamp((b * f - c * e) / denom, 0.0, 1.0);
+    }
+    var t = 0.0;
+    if e > 0.0 {
+        t = (b * s + f) / e;
+    }
+    if t < 0.0 {
+        t = 0.0;
+        s = 0.0;
+        if a > 0.0 {
+            s = clamp(-c / a, 0.0, 1.0);
+        }
+    } else if t > 1.0 {
+        t = 1.0;
+        s = 0.0;
+        if a > 0.0 {
+            s = clamp((b - c) / a, 0.0, 1.0);
+        }
+    }
+    return mat2x3<f32>(p0 + d1 * s, q0 + d2 * t);
+}
+
+// B's vertex i in A's frame (the CPU's `bv`): rot * v + t.
+fn nrw_bv(b: NrwShape, i: u32, rot: mat3x3<f32>, t: vec3<f32>) -> vec3<f32> {
+    return rot * nrw_vert(b, i) + t;
+}
+
+// The incident body's vertex i in the reference body's frame: `rot * v + t` when the
+// incident body is B (CPU `bv`), `rot * (v - t)` when it is A (CPU `av`, rot = inv_rot).
+fn nrw_inc_vert(p: NrwShape, i: u32, rot: mat3x3<f32>, t: vec3<f32>, inc_is_a: bool) -> vec3<f32> {
+    let v = nrw_vert(p, i);
+    if inc_is_a {
+        return rot * (v - t);
+    }
+    return rot * v + t;
+}
+
+// Smallest projection of A's own vertices on n.
+fn nrw_min_a(a: NrwShape, n: vec3<f32>) -> f32 {
+    var m = dot(n, nrw_vert(a, 0u));
+    for (var i = 1u; i < a.num_vertices; i += 1u) {
+        let d = dot(n, nrw_vert(a, i));
+        if d < m {
+            m = d;
+        }
+    }
+    return m;
+}
+
+fn nrw_max_a(a: NrwShape, n: vec3<f32>) -> f32 {
+    var m = dot(n, nrw_vert(a, 0u));
+    for (var i = 1u; i < a.num_vertices; i += 1u) {
+        let d = dot(n, nrw_vert(a, i));
+        if d > m {
+            m = d;
+        }
+    }
+    return m;
+}
+
+// Smallest projection of B's vertices (in A's frame) on n.
+fn nrw_min_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>) -> f32 {
+    var m = dot(n, nrw_bv(b, 0u, rot, t));
+    for (var i = 1u; i < b.num_vertices; i += 1u) {
+        let d = dot(n, nrw_bv(b, i, rot, t));
+        if d < m {
+            m = d;
+        }
+    }
+    return m;
+}
+
+fn nrw_max_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>) -> f32 {
+    var m = dot(n, nrw_bv(b, 0u, rot, t));
+    for (var i = 1u; i < b.num_vertices; i += 1u) {
+        let d = dot(n, nrw_bv(b, i, rot, t));
+        if d > m {
+            m = d;
+        }
+    }
+    return m;
+}
+
+// The best edge-edge axis: separation, A's edge, B's edge, axis in A's frame; `separated`
+// when an edge axis separates the bodies, `found` false when no axis was tested.
+struct NrwEdgeAxis {
+    s: f32,
+    ea: u32,
+    eb: u32,
+    axis: vec3<f32>,
+    found: bool,
+    separated: bool,
+    // When separated: the separating axis as a hint (see nrw_hint_in).
+    hint: u32,
+}
+
+// Edge axes over edge pairs whose Gauss-map arcs cross (CPU `edge_axes_gauss_map`; the
+// CPU's two product tables are recomputed per pair).
+fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
+    var r: NrwEdgeAxis;
+    r.s = 0.0;
+    r.ea = 0u;
+    r.eb = 0u;
+    r.axis = vec3<f32>(0.0);
+    r.found = false;
+    r.separated = false;
+    r.hint = 0u;
+    for (var ea = 0u; ea < a.num_edges; ea += 1u) {
+        let e_a = nrw_edge(a, ea);
+        let arc_a = inv_rot * shape_f[a.arc_base + ea].xyz;
+        let pa0 = nrw_vert(a, e_a.x);
+        let da = nrw_vert(a, e_a.y) - pa0;
+        let na0 = nrw_face(a, e_a.z).xyz;
+        let na1 = nrw_face(a, e_a.w).xyz;
+        for (var eb = 0u; eb < b.num_edges; eb += 1u) {
+            let e_b = nrw_edge(b, eb);
+            let cba = -dot(nrw_face(b, e_b.z).xyz, arc_a);
+            let dba = -dot(nrw_face(b, e_b.w).xyz, arc_a);
+            if cba * dba >= 0.0 {
+                continue;
+            }
+            let arc_b = rot * shape_f[b.arc_base + eb].xyz;
+            let adc = dot(na0, arc_b);
+            let bdc = dot(na1, arc_b);
+            if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
+                continue;
+            }
+            let pb0 = nrw_bv(b, e_b.x, rot, t);
+            let db = nrw_bv(b, e_b.y, rot, t) - pb0;
+            let ax = cross(da, db);
+            let len2 = dot(ax, ax);
+            if len2 < 1e-10 * dot(da, da) * dot(db, db) {
+                continue;
+            }
+            var axis = ax / sqrt(len2);
+            if dot(axis, pa0) < 0.0 {
+                axis = -axis;
+            }
+            let s = dot(axis, pb0 - pa0);
+            if s > 0.0 {
+                r.separated = true;
+                r.hint = nrw_hint(3u, ea * b.num_edges + eb);
+                return r;
+            }
+            if !r.found || s > r.s {
+                r.found = true;
+                r.s = s;
+                r.ea = ea;
+                r.eb = eb;
+                r.axis = axis;
+            }
+        }
+    }
+    return r;
+}
+
+// Edge axes over pairs of unique edge directions, projecting both bodies (CPU
+// `edge_axes_by_direction`), then the supporting edges of the best pair.
+fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
+    var r: NrwEdgeAxis;
+    r.s = 0.0;
+    r.ea = 0u;
+    r.eb = 0u;
+    r.axis = vec3<f32>(0.0);
+    r.found = false;
+    r.separated = false;
+    r.hint = 0u;
+    var ia_best = 0u;
+    var ib_best = 0u;
+    for (var ia = 0u; ia < a.num_dirs; ia += 1u) {
+        let ua = shape_f[a.dir_base + ia].xyz;
+        for (var ib = 0u; ib < b.num_dirs; ib += 1u) {
+            let ax = cross(ua, rot * shape_f[b.dir_base + ib].xyz);
+            let len2 = dot(ax, ax);
+            if len2 < 1e-10 {
+                continue;
+            }
+            let axis = ax / sqrt(len2);
+            let min_a = nrw_min_a(a, axis);
+            let max_a = nrw_max_a(a, axis);
+            let min_b = nrw_min_b(b, axis, rot, t);
+            let max_b = nrw_max_b(b, axis, rot, t);
+            var s = min_a - max_b;
+            var sa = -axis;
+            if min_b - max_a >= min_a - max_b {
+                s = min_b - max_a;
+                sa = axis;
+            }
+            if s > 0.0 {
+                r.separated = true;
+                r.hint = nrw_hint(2u, ia * b.num_dirs + ib);
+                return r;
+            }
+            if !r.found || s > r.s {
+                r.found = true;
+                r.s = s;
+                ia_best = ia;
+                ib_best = ib;
+                r.axis = sa;
+            }
+        }
+    }
+    if !r.found {
+        return r;
+    }
+    var ha = 0.0;
+    var fa = false;
+    for (var e = 0u; e < a.num_edges; e += 1u) {
+        if shape_u[a.edge_dir_base + e] == ia_best {
+            let ev = nrw_edge(a, e);
+            let h = dot(r.axis, nrw_vert(a, ev.x) + nrw_vert(a, ev.y));
+            if !fa || h > ha {
+                fa = true;
+                ha = h;
+                r.ea = e;
+            }
+        }
+    }
+    var hb = 0.0;
+    var fb = false;
+    for (var e = 0u; e < b.num_edges; e += 1u) {
+        if shape_u[b.edge_dir_base + e] == ib_best {
+            let ev = nrw_edge(b, e);
+            let h = dot(r.axis, nrw_bv(b, ev.x, rot, t) + nrw_bv(b, ev.y, rot, t));
+            if !fb || h < hb {
+                fb = true;
+                hb = h;
+                r.eb = e;
+            }
+        }
+    }
+    return r;
+}
+
+// Clips the incident face of `inc` (vertices mapped into refp's frame by nrw_inc_vert with
+// (inc_m, inc_t, inc_is_a)) against reference face rf of refp; `inc_rot` is the rotation from
+// inc's frame into refp's. Normal: the reference face's outward normal. Result in refp's frame.
+fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, inc_t: vec3<f32>, inc_is_a: bool, inc_rot: mat3x3<f32>) -> Manifold {
+    let rface = nrw_face(refp, rf);
+    let n = rface.xyz;
+    // Incident face: the one most anti-parallel to the reference normal.
+    let n_inc = transpose(inc_rot) * n;
+    var inc_face = 0u;
+    var best = 0.0;
+    for (var f = 0u; f < inc.num_faces; f += 1u) {
+        let d = dot(nrw_face(inc, f).xyz, n_inc);
+        if f == 0u || d < best {
+            best = d;
+            inc_face = f;
+        }
+    }
+    var poly: NrwBuf;
+    var tmp: NrwBuf;
+    var len = nrw_loop_len(inc, inc_face);
+    let ifirst = nrw_loop_first(inc, inc_face);
+    for (var i = 0u; i < len; i += 1u) {
+        poly[i] = vec4<f32>(nrw_inc_vert(inc, shape_u[ifirst + i], inc_m, inc_t, inc_is_a), 0.0);
+    }
+    let rfirst = nrw_loop_first(refp, rf);
+    let rlen = nrw_loop_len(refp, rf);
+    for (var k = 0u; k < rlen; k += 1u) {
+        let v0 = nrw_vert(refp, shape_u[rfirst + k]);
+        let v1 = nrw_vert(refp, shape_u[rfirst + (k + 1u) % rlen]);
+        let side = cross(v1 - v0, n); // outward for a CCW loop
+        let off = dot(side, v0);
+        var olen = 0u;
+        for (var i = 0u; i < len; i += 1u) {
+            let p = poly[i].xyz;
+            let q = poly[(i + 1u) % len].xyz;
+            let dp = dot(side, p) - off;
+            let dq = dot(side, q) - off;
+            if dp <= 0.0 && olen < NRW_MAX_CLIP {
+                tmp[olen] = vec4<f32>(p, 0.0);
+                olen += 1u;
+            }
+            if ((dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0)) && olen < NRW_MAX_CLIP {
+                tmp[olen] = vec4<f32>(p + (q - p) * (dp / (dp - dq)), 0.0);
+                olen += 1u;
+            }
+        }
+        for (var i = 0u; i < olen; i += 1u) {
+            poly[i] = tmp[i];
+        }
+        len = olen;
+        if len == 0u {
+            break;
+        }
+    }
+    // Points below the reference face, moved halfway through the overlap, into tmp.
+    var count = 0u;
+    for (var i = 0u; i < len; i += 1u) {
+        let p = poly[i].xyz;
+        let depth = rface.w - dot(n, p);
+        if depth > 0.0 {
+            tmp[count] = vec4<f32>(p + n * (0.5 * depth), depth);
+            count += 1u;
+        }
+    }
+    if count == 0u {
+        // The incident face clips away entirely (deep or oblique overlap): keep the contact
+        // with the incident body's deepest vertex (min_by(total_cmp): the first minimum).
+        var deepest = nrw_inc_vert(inc, 0u, inc_m, inc_t, inc_is_a);
+        var kd = nrw_key(dot(n, deepest));
+        for (var i = 1u; i < inc.num_vertices; i += 1u) {
+            let v = nrw_inc_vert(inc, i, inc_m, inc_t, inc_is_a);
+            let k = nrw_key(dot(n, v));
+            if k < kd {
+                kd = k;
+                deepest = v;
+            }
+        }
+        let depth = rface.w - dot(n, deepest);
+        if depth <= 0.0 {
+            return nrw_none();
+        }
+        return nrw_single(n, deepest + n * (0.5 * depth), depth);
+    }
+    let src = NrwPatch(false, count, refp, vec3<f32>(0.0), 0.0, vec3<f32>(0.0), vec4<f32>(0.0));
+    return nrw_reduce(src, &tmp, n);
+}
+
+// The separating-axis test of two polyhedra (B in A's frame by rot, inv_rot, t): the hinted
+// axis, A's face axes, B's face axes, then the edge axes; stops at the first axis that
+// separates them (and leaves it in nrw_hint_out).
+struct NrwSat {
+    separated: bool,
+    best_a: f32,
+    best_af: u32,
+    best_b: f32,
+    best_bf: u32,
+    e: NrwEdgeAxis,
+}
+
+fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwSat {
+    var r: NrwSat;
+    r.separated = true;
+    if nrw_hint_in != 0u && nrw_hint_separates(a, b, rot, t, nrw_hint_in) {
+        nrw_hint_out = nrw_hint_in;
+        return r;
+    }
+    // Face axes of A.
+    for (var f = 0u; f < a.num_faces; f += 1u) {
+        let fc = nrw_face(a, f);
+        let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
+        if s > 0.0 {
+            nrw_hint_out = nrw_hint(0u, f);
+            return r;
+        }
+        if f == 0u || s > r.best_a {
+            r.best_a = s;
+            r.best_af = f;
+        }
+    }
+    // Face axes of B, in A's frame.
+    for (var f = 0u; f < b.num_faces; f += 1u) {
+        let fc = nrw_face(b, f);
+        let n = rot * fc.xyz;
+        let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
+        if s > 0.0 {
+            nrw_hint_out = nrw_hint(1u, f);
+            return r;
+        }
+        if f == 0u || s > r.best_b {
+            r.best_b = s;
+            r.best_bf = f;
+        }
+    }
+    // Edge axes: the cheaper enumeration, by the CPU's cost rule.
+    let cost_dirs = a.num_dirs * b.num_dirs * (a.num_vertices + b.num_vertices);
+    let cost_tables = a.num_edges * b.num_faces + b.num_edges * a.num_faces + a.num_edges * b.num_edges;
+    if cost_dirs <= 2u * cost_tables {
+        r.e = nrw_edge_axes_by_direction(a, b, rot, t);
+    } else {
+        r.e = nrw_edge_axes_gauss_map(a, b, rot, inv_rot, t);
+    }
+    if r.e.separated {
+        nrw_hint_out = r.e.hint;
+        return r;
+    }
+    r.separated = false;
+    return r;
+}
+
+// Two convex polyhedra: the full separating-axis test (CPU `polyhedron_polyhedron` without a
+// hint, i.e. `sat_full`).
+fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
+    let d = xb - xa;
+    let rs = a.radius + b.radius;
+    if dot(d, d) >= rs * rs {
+        return nrw_none();
+    }
+    // Everything in A's frame: B's rotation and offset relative to A.
+    let inv_a = quat_conj(qa);
+    let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
+    let inv_rot = transpose(rot);
+    let t = quat_rotate(inv_a, d);
+    let sat = nrw_sat(a, b, rot, inv_rot, t);
+    if sat.separated {
+        return nrw_none();
+    }
+    let best_a = sat.best_a;
+    let best_af = sat.best_af;
+    let best_b = sat.best_b;
+    let best_bf = sat.best_bf;
+    let e = sat.e;
+    let scale = max(a.radius, b.radius);
+    let face_best = max(best_a, best_b);
+    let tol = 1e-3 * scale;
+    if e.found && e.s > face_best + tol {
+        let ev_a = nrw_edge(a, e.ea);
+        let ev_b = nrw_edge(b, e.eb);
+        let cl = nrw_segment_closest(nrw_vert(a, ev_a.x), nrw_vert(a, ev_a.y), nrw_bv(b, ev_b.x, rot, t), nrw_bv(b, ev_b.y, rot, t));
+        let mid = 0.5 * (cl[0] + cl[1]);
+        return nrw_single(quat_rotate(qa, e.axis), quat_rotate(qa, mid) + xa, -e.s);
+    }
+    // Face contact: prefer A's face unless B's is clearly better. One call site for the
+    // clipping (each inlined copy of its private array costs compile time).
+    let b_ref = best_b > best_a + tol;
+    var refp = a;
+    var inc = b;
+    var rf = best_af;
+    var inc_m = rot;
+    var xr = xa;
+    var qr = qa;
+    if b_ref {
+        // Reference face on B: B's frame, A incident with vertices inv_rot * (v - t).
+        refp = b;
+        inc = a;
+        rf = best_bf;
+        inc_m = inv_rot;
+        xr = xb;
+        qr = qb;
+    }
+    var m = nrw_clip_faces(refp, rf, inc, inc_m, t, b_ref, inc_m);
+    if m.count == 0u {
+        return m;
+    }
+    m = nrw_to_world(m, xr, qr);
+    if b_ref {
+        m.normal = -m.normal;
+    }
+    return m;
+}
