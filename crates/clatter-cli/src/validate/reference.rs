@@ -10,7 +10,7 @@
 //! - tangential: a spring `-k_t xi` (`k_t = 8 G* sqrt(R* d)` for Hertz, `2/7 k` linear) on
 //!   the accumulated tangential displacement `xi` (rotated into the current tangent plane),
 //!   minus `gamma_t v_t` (Hertz: `2 sqrt(5/6) beta sqrt(k_t m*)`; linear: `gamma_n / 2`),
-//!   capped at `mu F_n`, the spring reset to the capped force when it slides.
+//!   the spring limited to `mu F_n / k_t` (it slips there) and the sum capped at `mu F_n`.
 //!
 //! The oblique-impact checks run perfectly elastic (`e = 1`), where both damping terms vanish,
 //! so their truth does not depend on how the tangential damping is defined.
@@ -179,11 +179,15 @@ pub fn impact(law: &Law, mut a: Ball, mut b: Ball, dt: f64) -> Impact {
                 }
             }
             xi += vt * dt;
-            let mut ft = -kt * xi - gamma_t * vt;
             let cap = law.friction * fn_.max(0.0);
+            // As law.rs: the spring slips at the Coulomb force, then the sum is capped.
+            let spring = kt * xi.length();
+            if spring > cap {
+                xi *= cap / spring;
+            }
+            let mut ft = -kt * xi - gamma_t * vt;
             if ft.length() > cap {
                 ft *= cap / ft.length();
-                xi = if kt > 0.0 { -ft / kt } else { DVec3::ZERO };
             } else if fn_ > 0.0 {
                 sliding = false;
             }

@@ -62,12 +62,17 @@ fn tangential_law(c: PairContext, kt: f32, n: vec3<f32>, vrel: vec3<f32>, normal
         }
     }
     xi += vt * c.dt;
-    var ft = -kt * xi - eta_t * vt;
     let cap = c.params.friction * max(normal_force, 0.0);
+    // The spring slips at the Coulomb force, then the sum with the dashpot is capped: both
+    // continuous across sticking and sliding (law.rs `tangential_law` says why).
+    let spring2 = kt * kt * dot(xi, xi);
+    if spring2 > cap * cap {
+        xi *= cap / sqrt(spring2);
+    }
+    var ft = -kt * xi - eta_t * vt;
     let ft_len2 = dot(ft, ft);
     if ft_len2 > cap * cap {
         ft *= cap / sqrt(ft_len2);
-        xi = select(vec3<f32>(0.0), -ft / kt, kt > 0.0);
     }
     return Tangential(ft, xi);
 }

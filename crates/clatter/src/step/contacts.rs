@@ -371,14 +371,9 @@ fn narrow_pair<const PIECES: bool>(
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
                 narrow::sphere_sphere(Vec3::ZERO, *ri, w.offset_of(i, j), *rj)
             }
-            (si, sj) => narrow::collide_with_hint(
-                si,
-                &w.local_pose(i),
-                sj,
-                &w.pose_from(i, j),
-                hint,
-                bound,
-            ),
+            (si, sj) => {
+                narrow::collide_with_hint(si, &w.local_pose(i), sj, &w.pose_from(i, j), hint, bound)
+            }
         };
     }
     // Body i at the origin, j at its offset (see `World::offset_of`).
