@@ -71,7 +71,11 @@ def test_contacts_dict_of_arrays(pile):
     floor = c["wall"] == 4
     assert floor.any()
     np.testing.assert_allclose(c["normal"][floor], np.tile([0, 0, -1], (floor.sum(), 1)), atol=1e-6)
-    assert np.all(c["force"][floor][:, 2] > 0)
+    # Its force is vertical, up by the normal force (the dashpot pulls on a body leaving it),
+    # and up for most of its contacts.
+    np.testing.assert_allclose(c["force"][floor][:, 2], c["normal_force"][floor],
+                               atol=1e-3 * np.abs(c["normal_force"]).max())
+    assert np.mean(c["force"][floor][:, 2] > 0) > 0.8
 
 
 def test_setters_move_bodies_and_are_checked(pile):
