@@ -348,9 +348,15 @@ fn clumps_tumble_in_a_turning_drum_as_on_the_cpu() {
     // (the step-resolved dashpot sees it as a change of depth over dt). That grows faster
     // than the nudge, so the bound is of the order of tests/boundaries.rs's turning
     // drum with spheres (1e-3 of a 10 mm radius: 10 um), with equal touching contacts and
-    // mesh slots throughout.
+    // mesh slots throughout. Measured on lavapipe (2026-11-26, precise positions and the
+    // continuous tangential spring): the runs are bitwise equal until the clumps first
+    // reach the drum (step 2950: 4e-10 m), then the gap grows, with jumps where contacts
+    // begin (3300, 3600), to 2.4e-5 m at step 4000 (orientations 1.5e-3, within their
+    // 4e-3). The position bound is 3e-5 m: a turn at that orientation bound's order moves
+    // the points at the clumps' 7-8 mm reach that far (a turned clump's contacts move its
+    // centre).
     let scene = parse(&drum_scene(15, 3.0));
-    let (cpu, _, seen) = compare(&scene, 4000, 500, 1e-5, 4e-3);
+    let (cpu, _, seen) = compare(&scene, 4000, 500, 3e-5, 4e-3);
     assert!(seen.mesh_touching >= 2, "{seen:?}");
     assert!(seen.second_piece > 0, "{seen:?}");
     // The drum carried clumps along (they move about its axis).
@@ -458,6 +464,7 @@ fn a_dense_drum_load_steps_as_on_the_cpu() {
     let mut cpu = scene.world();
     let (mut touching, mut second) = (0, 0);
     let (mut worst_abs, mut worst_rel) = (0.0f32, 0.0f32);
+    let mut knife_edges = 0;
     for start in (900u64..=3000).step_by(100) {
         while cpu.step_count < start {
             cpu.step().unwrap();
@@ -468,7 +475,19 @@ fn a_dense_drum_load_steps_as_on_the_cpu() {
         let st = a.step().unwrap();
         let rep = gpu.step_into(1, &mut host).unwrap();
         gpu.read_into(&mut host).unwrap();
-        assert_eq!(st.contacts, rep.touching, "from step {start}");
+        if st.contacts != rep.touching {
+            // Only a contact within rounding of touching may be taken one way on one
+            // executor and the other way on the other (lavapipe rounds and fuses differently).
+            let edge = knife_edge_pairs(&cpu, &a, &host);
+            assert_eq!(
+                st.contacts.abs_diff(rep.touching),
+                edge,
+                "from step {start}: touching contacts {} (CPU) vs {} (GPU), {edge} of them within {KNIFE_EDGE_DEPTH:e} m of touching",
+                st.contacts,
+                rep.touching
+            );
+            knife_edges += 1;
+        }
         let (ma, mb) = (mesh_touching(&a), mesh_touching(&host));
         assert_eq!(ma, mb, "mesh slots from step {start}");
         touching += ma.len();
@@ -494,6 +513,49 @@ fn a_dense_drum_load_steps_as_on_the_cpu() {
     );
     assert!(touching >= 30, "{touching} mesh contacts over the steps");
     assert!(second > 0);
+    // Knife edges are rare: a depth within 5e-8 m of zero, among depths of micrometres.
+    assert!(
+        knife_edges <= 2,
+        "{knife_edges} of 22 steps had a knife-edge contact"
+    );
+}
+
+/// How deep a contact may be (or how far apart) and still be decided differently by the two
+/// executors: a few ulps of the pair's offset (1e-9 m at 1 cm) and of the 0.07 m mesh
+/// coordinates (7.5e-9 m), summed in another order and with fused multiply-adds.
+const KNIFE_EDGE_DEPTH: f32 = 5e-8;
+
+/// The piece pairs touching after one step on one executor and not on the other (`cpu`
+/// before the step, `a` and `gpu` after it), each checked to be a knife edge: its depth at
+/// the step's start within [`KNIFE_EDGE_DEPTH`] of zero. Returns how many there are.
+fn knife_edge_pairs(before: &World, a: &World, gpu: &World) -> usize {
+    use clatter::contact_list::piece_ids;
+    use std::collections::BTreeSet;
+    let touching = |w: &World| -> BTreeSet<([u32; 2], u32)> {
+        let c = w.contact_state();
+        (0..c.pairs.len())
+            .filter(|&k| c.touching[k])
+            .map(|k| (c.pairs[k], c.pieces.get(k).copied().unwrap_or(0)))
+            .collect()
+    };
+    let (ta, tb) = (touching(a), touching(gpu));
+    let differ: Vec<_> = ta.symmetric_difference(&tb).copied().collect();
+    for &([i, j], code) in &differ {
+        let (i, j) = (i as usize, j as usize);
+        let (pa, pb) = piece_ids(code);
+        let (sa, posea) = before.piece_at(i, pa, glam::Vec3::ZERO);
+        let (sb, poseb) = before.piece_at(j, pb, before.offset_of(i, j));
+        // Deepest point of the CPU's manifold, or minus the gap (an independent distance
+        // query, clatter-geom's GJK) when the CPU's narrow phase finds none.
+        let depth = clatter::geom::narrow::collide(sa, &posea, sb, &poseb)
+            .map(|m| m.points().iter().map(|p| p.depth).fold(f32::MIN, f32::max))
+            .unwrap_or_else(|| -clatter::geom::query::distance(sa, &posea, sb, &poseb).distance);
+        assert!(
+            depth.abs() <= KNIFE_EDGE_DEPTH,
+            "bodies {i} and {j} (pieces {pa}, {pb}) touch on one executor only, {depth:e} m deep"
+        );
+    }
+    differ.len()
 }
 
 /// The device's last good state (`GpuWorld::read_last_good`, the `last_good.ckpt` of a GPU

@@ -188,7 +188,9 @@ pub fn impact(law: &Law, mut a: Ball, mut b: Ball, dt: f64) -> Impact {
             let mut ft = -kt * xi - gamma_t * vt;
             if ft.length() > cap {
                 ft *= cap / ft.length();
-            } else if fn_ > 0.0 {
+            }
+            // Gross sliding: the friction at its cap (to rounding) while the contact presses.
+            if fn_ > 0.0 && ft.length() < cap * (1.0 - 1e-9) {
                 sliding = false;
             }
             let f = n * fn_ + ft;
