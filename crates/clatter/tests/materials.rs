@@ -9,32 +9,20 @@ use clatter::{BodyInit, ContactLaw, Material, PairParams, Wall, World, WorldDesc
 use glam::{Quat, Vec3};
 
 fn linear(k: f32, e: f32, mu: f32) -> Material {
-    Material {
-        name: "lin".into(),
-        density: 2500.0,
-        law: ContactLaw::Linear { stiffness: k },
-        restitution: e,
-        friction: mu,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    Material::new("lin", 2500.0, ContactLaw::Linear { stiffness: k }, e, mu)
 }
 
 fn hertz(youngs: f32, poisson: f32, e: f32, mu: f32) -> Material {
-    Material {
-        name: "hertz".into(),
-        density: 2500.0,
-        law: ContactLaw::Hertz {
+    Material::new(
+        "hertz",
+        2500.0,
+        ContactLaw::Hertz {
             youngs_modulus: youngs,
             poisson_ratio: poisson,
         },
-        restitution: e,
-        friction: mu,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+        e,
+        mu,
+    )
 }
 
 /// `beta = 2 (-ln e) / sqrt(pi^2 + ln^2 e)`: the damping ratio of the linear law times 2.
