@@ -51,7 +51,10 @@ fn material_coefficients(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::
             d.set_item("default", default)?;
             d.set_item("range", c.range.describe())?;
             d.set_item("unit", c.unit)?;
-            d.set_item("doc", c.doc.split_whitespace().collect::<Vec<_>>().join(" "))?;
+            d.set_item(
+                "doc",
+                c.doc.split_whitespace().collect::<Vec<_>>().join(" "),
+            )?;
             Ok(d)
         })
         .collect()
