@@ -44,6 +44,7 @@ from ._clatter import (
     DEFAULT_SCENE,
     EXAMPLE_SCENES,
     GPU_SUPPORT,
+    MATERIAL_COEFFICIENTS,
     BackendError,
     CheckpointError,
     ParsedScene,
@@ -67,6 +68,7 @@ __all__ = [
     "GPU_SUPPORT",
     "DEFAULT_SCENE",
     "EXAMPLE_SCENES",
+    "MATERIAL_COEFFICIENTS",
     "__version__",
 ]
 
@@ -116,6 +118,19 @@ def _table(header: str, fields: Mapping[str, Any]) -> str:
         if v is not None:
             lines.append(f"{_toml_key(k)} = {_toml_value(v, k)}")
     return "\n".join(lines) + "\n"
+
+
+# The material coefficients (``restitution``, ``friction``, ``rolling_friction``, ...), from the
+# Rust table: ``Scene.material`` takes each as a keyword and documents it from there.
+_COEFFICIENT_NAMES: Tuple[str, ...] = tuple(str(c["name"]) for c in MATERIAL_COEFFICIENTS)
+
+
+def _coefficient_docs(indent: str) -> str:
+    lines = []
+    for c in MATERIAL_COEFFICIENTS:
+        unit = f" {c['unit']}" if c["unit"] else ""
+        lines.append(f"- ``{c['name']}``{unit}, {c['range']}, default {c['default']:g}: {c['doc']}")
+    return ("\n" + indent).join(lines)
 
 
 class Scene:
@@ -225,19 +240,25 @@ class Scene:
         density: float,
         *,
         stiffness: Optional[float] = None,
-        restitution: Optional[float] = None,
-        friction: Optional[float] = None,
         model: Optional[str] = None,
         youngs_modulus: Optional[float] = None,
         poisson_ratio: Optional[float] = None,
-        rolling_friction: Optional[float] = None,
-        spinning_friction: Optional[float] = None,
         cohesion: Optional[Mapping[str, Any]] = None,
+        **coefficients: Optional[float],
     ) -> "Scene":
         """``[[material]]``: density (kg/m^3); the linear model's ``stiffness`` (N/m), or
-        ``model="hertz"`` with ``youngs_modulus`` (Pa) and ``poisson_ratio``; ``restitution``
-        in (0, 1] (default 0.5), ``friction`` (default 0.3), ``rolling_friction`` and
-        ``spinning_friction`` (default 0) and ``cohesion`` (``{"model": "dmt", "surface_energy": gamma}``)."""
+        ``model="hertz"`` with ``youngs_modulus`` (Pa) and ``poisson_ratio``; ``cohesion``
+        (``{"model": "dmt", "surface_energy": gamma}``); and the material coefficients as
+        keywords (those of the scene file; a coefficient left out takes its default):
+
+        {coefficients}
+        """
+        unknown = [k for k in coefficients if k not in _COEFFICIENT_NAMES]
+        if unknown:
+            raise TypeError(
+                f"Scene.material() got an unexpected keyword argument {unknown[0]!r} "
+                f"(material coefficients: {', '.join(_COEFFICIENT_NAMES)})"
+            )
         return self._add(
             "[[material]]",
             dict(
@@ -247,13 +268,13 @@ class Scene:
                 stiffness=stiffness,
                 youngs_modulus=youngs_modulus,
                 poisson_ratio=poisson_ratio,
-                restitution=restitution,
-                friction=friction,
-                rolling_friction=rolling_friction,
-                spinning_friction=spinning_friction,
+                **{k: coefficients.get(k) for k in _COEFFICIENT_NAMES},
                 cohesion=cohesion,
             ),
         )
+
+    if material.__doc__ is not None:  # None under python -OO
+        material.__doc__ = material.__doc__.replace("{coefficients}", _coefficient_docs(" " * 8))
 
     def shape(
         self,

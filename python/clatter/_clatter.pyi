@@ -11,6 +11,9 @@ __version__: str
 GPU_SUPPORT: bool
 DEFAULT_SCENE: str
 EXAMPLE_SCENES: List[str]
+# The material coefficients `Scene.material` takes as keywords, in the table's order: one
+# dict each with "name" (str), "default" (float), "range" (str), "unit" (str), "doc" (str).
+MATERIAL_COEFFICIENTS: List[Dict[str, Union[str, float]]]
 
 PathLike = Union[str, os.PathLike[str]]
 ArrayLike = npt.ArrayLike

@@ -31,8 +31,33 @@ fn _clatter(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("GPU_SUPPORT", cfg!(feature = "gpu"))?;
     m.add("DEFAULT_SCENE", clatter_default_scene())?;
     m.add("EXAMPLE_SCENES", scene::example_names())?;
+    m.add("MATERIAL_COEFFICIENTS", material_coefficients(py)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
+}
+
+/// The material coefficients of `clatter::material::COEFFICIENTS` (restitution, frictions,
+/// ...), one dict each (`name`, `default`, `range`, `unit`, `doc`), in the table's order:
+/// `Scene.material` takes each as a keyword and its docstring lists them, so a coefficient
+/// added to the table needs no edit of the Python package.
+fn material_coefficients(py: Python<'_>) -> PyResult<Vec<Bound<'_, pyo3::types::PyDict>>> {
+    clatter::material::COEFFICIENTS
+        .iter()
+        .map(|c| {
+            let d = pyo3::types::PyDict::new(py);
+            d.set_item("name", c.name)?;
+            // The default as written in the table (0.3, not 0.30000001192092896).
+            let default: f64 = c.default.to_string().parse().unwrap_or(c.default as f64);
+            d.set_item("default", default)?;
+            d.set_item("range", c.range.describe())?;
+            d.set_item("unit", c.unit)?;
+            d.set_item(
+                "doc",
+                c.doc.split_whitespace().collect::<Vec<_>>().join(" "),
+            )?;
+            Ok(d)
+        })
+        .collect()
 }
 
 /// The scene `clatter run` runs without a scene file.

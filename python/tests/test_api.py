@@ -166,6 +166,23 @@ def test_builder_errors_name_the_field():
         clatter.Scene(steps=1).material("m", density=object())
 
 
+def test_material_takes_every_coefficient_of_the_rust_table():
+    names = [c["name"] for c in clatter.MATERIAL_COEFFICIENTS]
+    assert names[:4] == ["restitution", "friction", "rolling_friction", "spinning_friction"]
+    defaults = {c["name"]: c["default"] for c in clatter.MATERIAL_COEFFICIENTS}
+    assert defaults["restitution"] == 0.5 and defaults["friction"] == 0.3 and defaults["rolling_friction"] == 0
+    doc = clatter.Scene.material.__doc__
+    assert all(f"``{n}``" in doc for n in names) and "{coefficients}" not in doc
+    text = clatter.Scene(steps=1).material("m", density=1, stiffness=1, spinning_friction=0.2, friction=0.4).to_toml()
+    # The scene file's key order, whatever the keywords' order.
+    assert "stiffness = 1\nfriction = 0.4\nspinning_friction = 0.2\n" in text
+    with pytest.raises(TypeError, match="unexpected keyword argument 'rolling_fricton' \\(material coefficients: restitution, friction, rolling_friction"):
+        clatter.Scene(steps=1).material("m", density=1, stiffness=1, rolling_fricton=0.1)
+    with pytest.raises(clatter.SceneError) as info:
+        clatter.Scene(steps=1).material("m", density=1, stiffness=1, rolling_friction=-1).validate()
+    assert info.value.field == "material[0].rolling_friction" and ">= 0" in info.value.message
+
+
 def test_bad_arguments_raise_clear_errors(tmp_path):
     scene = clatter.Scene.from_toml(PILE)
     with pytest.raises(ValueError, match='backend must be "auto", "cpu" or "gpu"'):

@@ -1,7 +1,8 @@
 //! The WGSL contact law (`shaders/contacts/law.wgsl`) against its Rust twin (`clatter::law`) on
 //! thousands of random contact states: linear and Hertz, one to four points, sphere and
-//! polyhedron shares, springs inside and beyond the Coulomb cap, spinning patches, rolling
-//! friction and adhesion.
+//! polyhedron shares, springs inside and beyond the Coulomb cap, spinning patches, adhesion,
+//! and every material coefficient that is off by default (rolling and spinning friction, and
+//! any added to `clatter::material_coefficients!`) on for half the materials.
 //! Forces, torques and the new springs must agree to rounding (the GPU may fuse
 //! multiply-adds, and damping may nearly cancel a spring): within 1e-4 of the contact's
 //! force and torque scales.
@@ -9,7 +10,7 @@
 use clatter::PairParams;
 use clatter::contract::PairContext;
 use clatter::law::{self, BodyMotion};
-use clatter::material::{Cohesion, ContactLaw, Material};
+use clatter::material::{COEFFICIENTS, Cohesion, ContactLaw, Material};
 use clatter_geom::narrow::{ContactPoint, Manifold};
 use clatter_gpu::law::{LawQuery, law_batch};
 use glam::Vec3;
@@ -37,10 +38,8 @@ fn unit(rng: &mut ChaCha8Rng) -> Vec3 {
 }
 
 fn params(rng: &mut ChaCha8Rng) -> PairParams {
-    let material = |rng: &mut ChaCha8Rng| Material {
-        name: "m".into(),
-        density: 1000.0,
-        law: if rng.random_bool(0.5) {
+    let material = |rng: &mut ChaCha8Rng| {
+        let law = if rng.random_bool(0.5) {
             ContactLaw::Linear {
                 stiffness: 10f32.powf(rng.random_range(2.0..6.0)),
             }
@@ -49,22 +48,25 @@ fn params(rng: &mut ChaCha8Rng) -> PairParams {
                 youngs_modulus: 10f32.powf(rng.random_range(6.0..10.0)),
                 poisson_ratio: rng.random_range(0.0..0.45),
             }
-        },
-        restitution: rng.random_range(0.05..1.0),
-        friction: rng.random_range(0.0..1.0),
-        rolling_friction: if rng.random_bool(0.5) {
-            rng.random_range(0.0..0.5)
-        } else {
-            0.0
-        },
-        spinning_friction: if rng.random_bool(0.5) {
-            rng.random_range(0.0..0.5)
-        } else {
-            0.0
-        },
-        cohesion: rng.random_bool(0.5).then(|| Cohesion::Dmt {
+        };
+        let restitution = rng.random_range(0.05..1.0);
+        let friction = rng.random_range(0.0..1.0);
+        let mut m = Material::new("m", 1000.0, law, restitution, friction);
+        // Every coefficient that is off by default (rolling and spinning friction, and any
+        // term added to the table since): on for half the materials.
+        for c in COEFFICIENTS.iter().filter(|c| c.default == 0.0) {
+            if let Some(v) = m.coefficient_mut(c.name) {
+                *v = if rng.random_bool(0.5) {
+                    rng.random_range(0.0..0.5)
+                } else {
+                    0.0
+                };
+            }
+        }
+        m.cohesion = rng.random_bool(0.5).then(|| Cohesion::Dmt {
             surface_energy: 10f32.powf(rng.random_range(-3.0..1.0)),
-        }),
+        });
+        m
     };
     let a = material(rng);
     let mut b = material(rng);
@@ -149,7 +151,7 @@ fn wgsl_law_matches_the_rust_law() {
     let queries: Vec<LawQuery> = (0..20_000).map(|_| query(&mut rng)).collect();
     let gpu = law_batch(&ctx, &queries).expect("law batch runs");
     assert_eq!(gpu.len(), queries.len());
-    let (mut capped, mut patches, mut rolling_or_sticky, mut worst) = (0, 0, 0, 0.0f32);
+    let (mut capped, mut patches, mut optional_or_sticky, mut worst) = (0, 0, 0, 0.0f32);
     for (k, (q, (g, g_hist))) in queries.iter().zip(&gpu).enumerate() {
         let (mut hist, mut twist) = (q.history, q.twist);
         let qc = &q.context;
@@ -212,19 +214,20 @@ fn wgsl_law_matches_the_rust_law() {
         if q.manifold.count > 1 {
             patches += 1;
         }
-        if qc.params.rolling_friction > 0.0
-            || qc.params.spinning_friction > 0.0
-            || qc.params.cohesion_model != 0
-        {
-            rolling_or_sticky += 1;
+        let optional_on = COEFFICIENTS
+            .iter()
+            .filter(|c| c.default == 0.0)
+            .any(|c| qc.params.coefficient(c.name).is_some_and(|v| v > 0.0));
+        if optional_on || qc.params.cohesion_model != 0 {
+            optional_or_sticky += 1;
         }
     }
     eprintln!(
-        "law twins: {} contacts, {patches} patches, {capped} at the Coulomb cap, {rolling_or_sticky} with rolling friction or adhesion, worst relative difference {worst:.2e}",
+        "law twins: {} contacts, {patches} patches, {capped} at the Coulomb cap, {optional_or_sticky} with an optional coefficient (rolling or spinning friction, ...) or adhesion, worst relative difference {worst:.2e}",
         queries.len()
     );
     assert!(
-        patches > 10_000 && capped > 1_000 && rolling_or_sticky > 5_000,
+        patches > 10_000 && capped > 1_000 && optional_or_sticky > 5_000,
         "the random states cover the law's branches"
     );
 }

@@ -13,16 +13,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn material(law: ContactLaw) -> Material {
-    Material {
-        name: "m".into(),
-        density: 2500.0,
-        law,
-        restitution: 0.4,
-        friction: 0.5,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    Material::new("m", 2500.0, law, 0.4, 0.5)
 }
 
 /// A box of `n` random bodies (shapes chosen from `shapes`), overlapping a little, moving

@@ -288,11 +288,46 @@ gpu_record! {
     }
 }
 
+/// The material coefficients: every per-material number of the contact law that is one `f32`
+/// read from the scene's `[[material]]` table and combined per pair into the [`PairParams`]
+/// field of the same name. This one table is the list; from it come the
+/// [`Material`](crate::Material) field and its default, the descriptors
+/// [`COEFFICIENTS`](crate::material::COEFFICIENTS) (name, default, allowed range, unit,
+/// doc, combination rule), the scene file's key and its check, the pair combination in
+/// [`PairParams::combine`] and the Python builder's keyword (`Scene.material`).
+///
+/// A row: the doc (the material field's, the scene key's and the Python keyword's), then
+/// `name { default, range, unit, combine }` with `range` a
+/// [`Range`](crate::material::Range) and `combine` a
+/// [`Combine`](crate::material::Combine). A new coefficient is a row here and a field of
+/// the same name in [`PairParams`] below (the pair's combined value, which the law reads);
+/// the build fails until both exist.
+///
+/// The table is handed to a macro of the caller's (`material_coefficients!(then)` expands
+/// to `then! { rows }`), so each consumer declares what it derives next to its own code.
+#[macro_export]
+macro_rules! material_coefficients {
+    ($then:ident) => {
+        $then! {
+            /// Coefficient of restitution, in (0, 1]; sets the normal damping.
+            restitution { default: 0.5, range: UnitInterval, unit: "", combine: GeometricMean }
+            /// Coulomb friction coefficient (>= 0), capping the tangential spring force.
+            friction { default: 0.3, range: NonNegative, unit: "", combine: GeometricMean }
+            /// Rolling friction coefficient `mu_r` (>= 0, dimensionless; 0: none).
+            rolling_friction { default: 0.0, range: NonNegative, unit: "", combine: GeometricMean }
+            /// Spinning friction coefficient `mu_s` (>= 0, dimensionless; 0: none).
+            spinning_friction { default: 0.0, range: NonNegative, unit: "", combine: GeometricMean }
+        }
+    };
+}
+
 gpu_record! {
     /// The combined contact parameters of two materials (or a material and a wall): the one
     /// table of the contact law's parameters. Both backends index it by
-    /// `material_a * materials + material_b`; a new law term is a new field here (with its
-    /// combination rule in [`PairParams::combine`]).
+    /// `material_a * materials + material_b`; a new law term with a new material coefficient
+    /// is a row in [`material_coefficients!`](crate::material_coefficients) and a field of
+    /// the same name here (taking a `pad` while there is one, so that the size stays a
+    /// multiple of 16 bytes), combined by [`PairParams::combine`] with the row's rule.
     pub struct PairParams {
         /// [`MODEL_LINEAR`] or [`MODEL_HERTZ`].
         pub model: u32,

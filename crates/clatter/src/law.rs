@@ -587,16 +587,7 @@ mod tests {
     use crate::material::{ContactLaw, Material};
 
     fn params(law: ContactLaw) -> PairParams {
-        let m = Material {
-            name: "m".into(),
-            density: 1000.0,
-            law,
-            restitution: 0.5,
-            friction: 0.3,
-            rolling_friction: 0.0,
-            spinning_friction: 0.0,
-            cohesion: None,
-        };
+        let m = Material::new("m", 1000.0, law, 0.5, 0.3);
         PairParams::combine(&m, &m)
     }
 

@@ -5,7 +5,9 @@
 //! - Hertz: the physical effective moduli `1/E* = (1-v1^2)/E1 + (1-v2^2)/E2` and
 //!   `1/G* = 2(2-v1)(1+v1)/E1 + 2(2-v2)(1+v2)/E2` (for one material these are what the
 //!   Hertz-Mindlin law uses for that material);
-//! - restitution, friction, rolling and spinning friction: geometric means (`sqrt(e1 e2)`, ...);
+//! - the coefficients of the table [`material_coefficients!`](crate::material_coefficients)
+//!   (restitution, friction, rolling and spinning friction): each by its row's [`Combine`]
+//!   rule, today all geometric means (`sqrt(e1 e2)`, ...);
 //! - cohesion (DMT surface energy): geometric mean, none if either material has none.
 //!
 //! Linear and Hertz materials cannot be mixed in one scene (a scene error says so).
@@ -39,30 +41,169 @@ pub enum Cohesion {
     },
 }
 
-/// A material: density, contact law, restitution, friction, rolling friction, cohesion.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Material {
-    /// Name used by scene files.
-    pub name: String,
-    /// kg/m^3.
-    pub density: f32,
-    /// Normal force law.
-    pub law: ContactLaw,
-    /// Coefficient of restitution in (0, 1]; sets the normal damping.
-    pub restitution: f32,
-    /// Coulomb friction coefficient (>= 0) capping the tangential spring force.
-    pub friction: f32,
-    /// Rolling friction coefficient `mu_r` (>= 0, dimensionless; 0: none).
-    pub rolling_friction: f32,
-    /// Spinning friction coefficient `mu_s` (>= 0, dimensionless; 0: none).
-    pub spinning_friction: f32,
-    /// Adhesion, if any.
-    pub cohesion: Option<Cohesion>,
+/// The allowed values of a material coefficient ([`Coefficient::range`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Range {
+    /// Finite and `>= 0`.
+    NonNegative,
+    /// In `(0, 1]`.
+    UnitInterval,
 }
 
+impl Range {
+    /// `None` when `v` is allowed, else what is wrong (the scene error's message).
+    pub fn check(self, v: f64) -> Option<String> {
+        match self {
+            Range::NonNegative => (!(v.is_finite() && v >= 0.0))
+                .then(|| format!("must be a finite number >= 0, got {v}")),
+            Range::UnitInterval => (!(v.is_finite() && v > 0.0 && v <= 1.0))
+                .then(|| format!("must be in (0, 1], got {v}")),
+        }
+    }
+
+    /// The range in words, for documentation (`>= 0`, `in (0, 1]`).
+    pub fn describe(self) -> &'static str {
+        match self {
+            Range::NonNegative => ">= 0",
+            Range::UnitInterval => "in (0, 1]",
+        }
+    }
+}
+
+/// How two materials' values of a coefficient combine into their pair's
+/// ([`Coefficient::combine`]); identical materials always get their own value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Combine {
+    /// `sqrt(a b)`: zero when either is zero.
+    GeometricMean,
+}
+
+impl Combine {
+    /// The pair's value from the two materials' values.
+    #[inline]
+    pub fn apply(self, a: f32, b: f32) -> f32 {
+        match self {
+            Combine::GeometricMean => (a * b).sqrt(),
+        }
+    }
+}
+
+/// One material coefficient, as declared in the table
+/// [`material_coefficients!`](crate::material_coefficients): what the scene reader, the
+/// Python builder and the documentation know about it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coefficient {
+    /// The name: the [`Material`] field, the scene key, the [`PairParams`] field and the
+    /// Python keyword.
+    pub name: &'static str,
+    /// The value when a scene leaves it out.
+    pub default: f32,
+    /// The allowed values.
+    pub range: Range,
+    /// SI unit (`""`: dimensionless).
+    pub unit: &'static str,
+    /// What it is (the doc of the table's row).
+    pub doc: &'static str,
+    /// How a pair combines two materials' values.
+    pub combine: Combine,
+}
+
+/// Declares, from the coefficient table, `Material` (with one `f32` field per coefficient),
+/// [`COEFFICIENTS`], the named access to the coefficients and their pair combination.
+macro_rules! material_from_table {
+    ($(
+        $(#[doc = $doc:literal])*
+        $name:ident {
+            default: $default:literal,
+            range: $range:ident,
+            unit: $unit:literal,
+            combine: $combine:ident $(,)?
+        }
+    )*) => {
+        /// A material: density, contact law, cohesion and the coefficients of
+        /// [`COEFFICIENTS`] (restitution, friction, rolling and spinning friction, ...).
+        #[derive(Debug, Clone, PartialEq)]
+        pub struct Material {
+            /// Name used by scene files.
+            pub name: String,
+            /// kg/m^3.
+            pub density: f32,
+            /// Normal force law.
+            pub law: ContactLaw,
+            $(
+                $(#[doc = $doc])*
+                pub $name: f32,
+            )*
+            /// Adhesion, if any.
+            pub cohesion: Option<Cohesion>,
+        }
+
+        /// Every material coefficient, in the table's order (the order of the scene keys
+        /// and of the Python keywords).
+        pub const COEFFICIENTS: &[Coefficient] = &[$(
+            Coefficient {
+                name: stringify!($name),
+                default: $default,
+                range: Range::$range,
+                unit: $unit,
+                doc: concat!($($doc, "\n",)*),
+                combine: Combine::$combine,
+            },
+        )*];
+
+        impl Material {
+            /// A material with every coefficient at its default and no cohesion.
+            pub fn with_defaults(name: impl Into<String>, density: f32, law: ContactLaw) -> Material {
+                Material {
+                    name: name.into(),
+                    density,
+                    law,
+                    $($name: $default,)*
+                    cohesion: None,
+                }
+            }
+
+            /// The value of coefficient `name` ([`COEFFICIENTS`]), `None` for an unknown name.
+            pub fn coefficient(&self, name: &str) -> Option<f32> {
+                match name {
+                    $(stringify!($name) => Some(self.$name),)*
+                    _ => None,
+                }
+            }
+
+            /// Coefficient `name` to change it, `None` for an unknown name.
+            pub fn coefficient_mut(&mut self, name: &str) -> Option<&mut f32> {
+                match name {
+                    $(stringify!($name) => Some(&mut self.$name),)*
+                    _ => None,
+                }
+            }
+        }
+
+        impl PairParams {
+            /// The pair's combined value of coefficient `name` ([`COEFFICIENTS`]), `None` for
+            /// an unknown name.
+            pub fn coefficient(&self, name: &str) -> Option<f32> {
+                match name {
+                    $(stringify!($name) => Some(self.$name),)*
+                    _ => None,
+                }
+            }
+
+            /// Sets every coefficient of the pair from those of `a` and `b`, each by its
+            /// rule.
+            fn combine_coefficients(&mut self, a: &Material, b: &Material) {
+                $(self.$name = Combine::$combine.apply(a.$name, b.$name);)*
+            }
+        }
+    };
+}
+
+crate::material_coefficients!(material_from_table);
+
 impl Material {
-    /// A material with the given law, restitution and friction, without rolling friction or
-    /// cohesion.
+    /// A material with the given law, restitution and friction, the other coefficients at
+    /// their defaults (no rolling or spinning friction) and no cohesion.
     pub fn new(
         name: impl Into<String>,
         density: f32,
@@ -71,14 +212,9 @@ impl Material {
         friction: f32,
     ) -> Material {
         Material {
-            name: name.into(),
-            density,
-            law,
             restitution,
             friction,
-            rolling_friction: 0.0,
-            spinning_friction: 0.0,
-            cohesion: None,
+            ..Material::with_defaults(name, density, law)
         }
     }
 }
@@ -94,12 +230,11 @@ impl PairParams {
 
     /// Combines two materials with the rules in this module's documentation.
     pub fn combine(a: &Material, b: &Material) -> PairParams {
-        let e = (a.restitution * b.restitution).sqrt();
+        let mut coefficients = PairParams::default();
+        coefficients.combine_coefficients(a, b);
+        let e = coefficients.restitution;
         let ln_e = (e as f64).ln();
         let base = 2.0 * (-ln_e) / (std::f64::consts::PI.powi(2) + ln_e * ln_e).sqrt();
-        let friction = (a.friction * b.friction).sqrt();
-        let rolling_friction = (a.rolling_friction * b.rolling_friction).sqrt();
-        let spinning_friction = (a.spinning_friction * b.spinning_friction).sqrt();
         // Adhesion between two materials: the geometric mean of the surface energies (the
         // Berthelot rule), none when either has none.
         let (cohesion_model, surface_energy) = match (a.cohesion, b.cohesion) {
@@ -128,14 +263,10 @@ impl PairParams {
                     model: MODEL_HERTZ,
                     stiffness: e_star as f32,
                     shear: g_star as f32,
-                    restitution: e,
                     damping_factor: (base * (5.0f64 / 6.0).sqrt()) as f32,
-                    friction,
-                    rolling_friction,
                     cohesion_model,
                     surface_energy,
-                    spinning_friction,
-                    ..Default::default()
+                    ..coefficients
                 }
             }
             _ => {
@@ -148,14 +279,10 @@ impl PairParams {
                     model: MODEL_LINEAR,
                     stiffness: (2.0 * k1 * k2 / (k1 + k2)) as f32,
                     shear: 0.0,
-                    restitution: e,
                     damping_factor: base as f32,
-                    friction,
-                    rolling_friction,
                     cohesion_model,
                     surface_energy,
-                    spinning_friction,
-                    ..Default::default()
+                    ..coefficients
                 }
             }
         }

@@ -190,16 +190,13 @@ fn mixed_cloud(n: usize, seed: u64) -> WorldDesc {
         .collect();
     WorldDesc {
         shapes,
-        materials: vec![Material {
-            name: "m".into(),
-            density: 2500.0,
-            law: ContactLaw::Linear { stiffness: 2.0e4 },
-            restitution: 0.3,
-            friction: 0.5,
-            rolling_friction: 0.0,
-            spinning_friction: 0.0,
-            cohesion: None,
-        }],
+        materials: vec![Material::new(
+            "m",
+            2500.0,
+            ContactLaw::Linear { stiffness: 2.0e4 },
+            0.3,
+            0.5,
+        )],
         walls: vec![],
         bodies,
         gravity: Vec3::ZERO,

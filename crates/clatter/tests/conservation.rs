@@ -27,16 +27,7 @@ use std::collections::HashSet;
 const K: f32 = 2.0e4;
 
 fn material(e: f32, mu: f32) -> Material {
-    Material {
-        name: "m".into(),
-        density: 2500.0,
-        law: ContactLaw::Linear { stiffness: K },
-        restitution: e,
-        friction: mu,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    Material::new("m", 2500.0, ContactLaw::Linear { stiffness: K }, e, mu)
 }
 
 fn rand_vec(rng: &mut ChaCha8Rng, scale: f32) -> Vec3 {

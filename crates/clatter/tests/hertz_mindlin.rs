@@ -44,19 +44,16 @@ fn tangential_oscillation_follows_hertz_mindlin() {
     let period = 2.0 * std::f64::consts::PI / w_d;
     let decay = (-zeta * w_n * period).exp();
 
-    let material = Material {
-        name: "m".into(),
-        density: DENSITY as f32,
-        law: ContactLaw::Hertz {
+    let material = Material::new(
+        "m",
+        DENSITY as f32,
+        ContactLaw::Hertz {
             youngs_modulus: YOUNG as f32,
             poisson_ratio: POISSON as f32,
         },
-        restitution: E as f32,
-        friction: 10.0,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    };
+        E as f32,
+        10.0,
+    );
     let mut w = World::new(WorldDesc {
         shapes: vec![shape],
         materials: vec![material],

@@ -9,32 +9,20 @@ use clatter::{BodyInit, ContactLaw, Material, PairParams, Wall, World, WorldDesc
 use glam::{Quat, Vec3};
 
 fn linear(k: f32, e: f32, mu: f32) -> Material {
-    Material {
-        name: "lin".into(),
-        density: 2500.0,
-        law: ContactLaw::Linear { stiffness: k },
-        restitution: e,
-        friction: mu,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    Material::new("lin", 2500.0, ContactLaw::Linear { stiffness: k }, e, mu)
 }
 
 fn hertz(youngs: f32, poisson: f32, e: f32, mu: f32) -> Material {
-    Material {
-        name: "hertz".into(),
-        density: 2500.0,
-        law: ContactLaw::Hertz {
+    Material::new(
+        "hertz",
+        2500.0,
+        ContactLaw::Hertz {
             youngs_modulus: youngs,
             poisson_ratio: poisson,
         },
-        restitution: e,
-        friction: mu,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+        e,
+        mu,
+    )
 }
 
 /// `beta = 2 (-ln e) / sqrt(pi^2 + ln^2 e)`: the damping ratio of the linear law times 2.
@@ -352,5 +340,103 @@ fn hertz_static_overlap_under_load() {
                 "overlap {overlap}, Hertz {d}"
             );
         }
+    }
+}
+
+/// A scene with one material whose last line is `extra` (and one ball on a floor).
+fn one_material_scene(extra: &str) -> String {
+    format!(
+        "[simulation]\nsteps = 1\n\n[[material]]\nname = \"m\"\ndensity = 1000.0\nstiffness = 1.0e4\n{extra}\n\n\
+         [[shape]]\nname = \"ball\"\nsphere = {{ radius = 0.01 }}\n\n\
+         [[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.0, 0.0, 0.0]\n"
+    )
+}
+
+/// Every coefficient of the table is a scene key: left out it takes its default, given it is
+/// checked against its range (the error naming the line and the field), and a pair of one
+/// material keeps the material's value. Holds for a coefficient added to the table with no
+/// edit here.
+#[test]
+fn every_coefficient_is_a_scene_key_with_its_default_and_range() {
+    use clatter::material::{COEFFICIENTS, Range};
+    assert_eq!(
+        COEFFICIENTS.iter().map(|c| c.name).collect::<Vec<_>>()[..4],
+        [
+            "restitution",
+            "friction",
+            "rolling_friction",
+            "spinning_friction"
+        ]
+    );
+    let plain = Scene::parse(&one_material_scene(""), "plain.toml").unwrap();
+    for c in COEFFICIENTS {
+        let m = &plain.desc.materials[0];
+        assert_eq!(m.coefficient(c.name), Some(c.default), "{}", c.name);
+
+        let given = Scene::parse(
+            &one_material_scene(&format!("{} = 0.25", c.name)),
+            "given.toml",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let m = &given.desc.materials[0];
+        assert_eq!(m.coefficient(c.name), Some(0.25), "{}", c.name);
+        let pair = PairParams::combine(m, m);
+        assert_eq!(pair.coefficient(c.name), Some(0.25), "{}", c.name);
+
+        let bad = match c.range {
+            Range::NonNegative => "-1.0",
+            Range::UnitInterval => "1.5",
+        };
+        let e = Scene::parse(
+            &one_material_scene(&format!("{} = {bad}", c.name)),
+            "bad.toml",
+        )
+        .err()
+        .unwrap_or_else(|| panic!("{} = {bad} accepted", c.name));
+        assert_eq!(
+            e.field.as_deref(),
+            Some(&*format!("material[0].{}", c.name))
+        );
+        assert_eq!(e.line.map(|(l, _)| l), Some(8), "{e}");
+        assert_eq!(Some(e.message.clone()), c.range.check(bad.parse().unwrap()));
+    }
+}
+
+/// A misspelt coefficient is refused by name, the message listing the keys a material has.
+#[test]
+fn an_unknown_material_key_is_refused_with_the_known_ones() {
+    let Err(e) = Scene::parse(&one_material_scene("rolling_fricton = 0.1"), "typo.toml") else {
+        panic!("an unknown key is accepted");
+    };
+    let text = e.to_string();
+    assert!(text.contains("rolling_fricton"), "{text}");
+    for c in clatter::material::COEFFICIENTS {
+        assert!(text.contains(&format!("`{}`", c.name)), "{text}");
+    }
+    assert_eq!(e.line.map(|(l, _)| l), Some(8), "{e}");
+}
+
+/// docs/scene-format.md's `[[material]]` table has a row for every coefficient, with its
+/// default.
+#[test]
+fn every_coefficient_is_documented_in_the_scene_format() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/scene-format.md");
+    let doc = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let section = doc
+        .split("## `[[material]]`")
+        .nth(1)
+        .and_then(|s| s.split("\n## ").next())
+        .expect("a `[[material]]` section");
+    for c in clatter::material::COEFFICIENTS {
+        let row = section
+            .lines()
+            .find(|l| l.starts_with(&format!("| `{}` ", c.name)))
+            .unwrap_or_else(|| panic!("no row for `{}` in {}", c.name, path.display()));
+        assert!(
+            row.contains(&format!("`{}`", c.default)),
+            "the row of `{}` should give its default `{}`: {row}",
+            c.name,
+            c.default
+        );
     }
 }

@@ -15,16 +15,7 @@ const G: f32 = 9.81;
 const H: f64 = 0.01; // cube half side
 
 fn material() -> Material {
-    Material {
-        name: "m".into(),
-        density: 2500.0,
-        law: ContactLaw::Linear { stiffness: K },
-        restitution: 0.5,
-        friction: 0.5,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    Material::new("m", 2500.0, ContactLaw::Linear { stiffness: K }, 0.5, 0.5)
 }
 
 fn body(position: Vec3, orientation: Quat) -> BodyInit {

@@ -17,16 +17,7 @@ const K: f32 = 2.0e4;
 const V0: f32 = 0.5;
 
 fn material(law: ContactLaw, e: f32) -> Material {
-    Material {
-        name: "m".into(),
-        density: DENSITY,
-        law,
-        restitution: e,
-        friction: 0.0,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    Material::new("m", DENSITY, law, e, 0.0)
 }
 
 fn body(shape: u32, position: Vec3, velocity: Vec3) -> BodyInit {

@@ -25,16 +25,7 @@ const G: f32 = 9.81;
 fn world(velocity: Vec3, omega: Vec3) -> World {
     let shape = ShapeKind::Sphere { radius: R as f64 }.prepare().unwrap();
     let mass = DENSITY * shape.volume;
-    let material = Material {
-        name: "m".into(),
-        density: DENSITY,
-        law: ContactLaw::Linear { stiffness: K },
-        restitution: 0.5,
-        friction: MU,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    };
+    let material = Material::new("m", DENSITY, ContactLaw::Linear { stiffness: K }, 0.5, MU);
     World::new(WorldDesc {
         shapes: vec![shape],
         materials: vec![material],

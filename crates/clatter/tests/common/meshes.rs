@@ -17,16 +17,13 @@ pub const K: f32 = 2.0e4;
 /// The one material of the tests (linear law), with the given friction and restitution.
 #[allow(dead_code)]
 pub fn material(friction: f32, restitution: f32) -> Material {
-    Material {
-        name: "m".into(),
-        density: DENSITY,
-        law: ContactLaw::Linear { stiffness: K },
+    Material::new(
+        "m",
+        DENSITY,
+        ContactLaw::Linear { stiffness: K },
         restitution,
         friction,
-        rolling_friction: 0.0,
-        spinning_friction: 0.0,
-        cohesion: None,
-    }
+    )
 }
 
 /// A sphere of radius [`R`].

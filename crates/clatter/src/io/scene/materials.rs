@@ -1,5 +1,6 @@
-//! `[[material]]`: density, the contact law (linear or Hertz) and its constants, restitution,
-//! the three frictions and cohesion. Names must be unique, and one scene uses one contact
+//! `[[material]]`: density, the contact law (linear or Hertz) and its constants, the
+//! coefficients of the table `material_coefficients!` (restitution, frictions, ...: each
+//! checked against its range) and cohesion. Names must be unique, and one scene uses one contact
 //! model.
 
 use std::collections::HashMap;
@@ -8,7 +9,7 @@ use toml::Spanned;
 
 use super::raw::{RawCohesion, RawMaterial};
 use super::{SceneError, SourceFile};
-use crate::material::{Cohesion, ContactLaw, Material};
+use crate::material::{COEFFICIENTS, Cohesion, ContactLaw, Material};
 
 /// Validates every `[[material]]` in order; returns them with their name -> index table.
 pub(super) fn materials(
@@ -61,43 +62,33 @@ fn material(cx: &SourceFile, k: usize, m: &Spanned<RawMaterial>) -> Result<Mater
     let f = |name: &str| format!("material[{k}].{name}");
     let density = cx.positive(&r.density, &f("density"))? as f32;
     let law = contact_law(cx, k, m)?;
-    let restitution = match &r.restitution {
-        Some(e) => {
-            let v = *e.get_ref();
-            if !(v.is_finite() && v > 0.0 && v <= 1.0) {
-                return cx.err(
-                    e.span(),
-                    f("restitution"),
-                    format!("must be in (0, 1], got {v}"),
-                );
-            }
-            v as f32
+    let mut material = Material::with_defaults(r.name.get_ref().clone(), density, law);
+    for (name, v) in r.coefficients() {
+        let value = coefficient(cx, &f(name), name, v)?;
+        if let Some(c) = material.coefficient_mut(name) {
+            *c = value;
         }
-        None => 0.5,
-    };
-    let friction = match &r.friction {
-        Some(mu) => cx.non_negative(mu, &f("friction"))? as f32,
-        None => 0.3,
-    };
-    let rolling_friction = match &r.rolling_friction {
-        Some(mu) => cx.non_negative(mu, &f("rolling_friction"))? as f32,
-        None => 0.0,
-    };
-    let spinning_friction = match &r.spinning_friction {
-        Some(mu) => cx.non_negative(mu, &f("spinning_friction"))? as f32,
-        None => 0.0,
-    };
-    let cohesion = cohesion(cx, k, &r.cohesion)?;
-    Ok(Material {
-        name: r.name.get_ref().clone(),
-        density,
-        law,
-        restitution,
-        friction,
-        rolling_friction,
-        spinning_friction,
-        cohesion,
-    })
+    }
+    material.cohesion = cohesion(cx, k, &r.cohesion)?;
+    Ok(material)
+}
+
+/// The value of coefficient `name` given as `v`, checked against the coefficient's range.
+fn coefficient(
+    cx: &SourceFile,
+    field: &str,
+    name: &str,
+    v: &Spanned<f64>,
+) -> Result<f32, SceneError> {
+    let x = *v.get_ref();
+    let range = COEFFICIENTS
+        .iter()
+        .find(|c| c.name == name)
+        .map(|c| c.range);
+    match range.and_then(|r| r.check(x)) {
+        Some(message) => cx.err(v.span(), field, message),
+        None => Ok(x as f32),
+    }
 }
 
 /// The contact law of material `k`: `model` (linear by default) and the constants it takes;

@@ -50,22 +50,38 @@ pub(super) struct RawPeriodic {
     pub(super) axes: Spanned<String>,
 }
 
-/// `[[material]]`: density, contact model and its constants, friction, cohesion.
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-pub(super) struct RawMaterial {
-    pub(super) name: Spanned<String>,
-    pub(super) density: Spanned<f64>,
-    pub(super) model: Option<Spanned<String>>,
-    pub(super) stiffness: Option<Spanned<f64>>,
-    pub(super) youngs_modulus: Option<Spanned<f64>>,
-    pub(super) poisson_ratio: Option<Spanned<f64>>,
-    pub(super) restitution: Option<Spanned<f64>>,
-    pub(super) friction: Option<Spanned<f64>>,
-    pub(super) rolling_friction: Option<Spanned<f64>>,
-    pub(super) spinning_friction: Option<Spanned<f64>>,
-    pub(super) cohesion: Option<Spanned<RawCohesion>>,
+/// Declares `RawMaterial` with one optional key per row of the coefficient table
+/// ([`material_coefficients!`](crate::material_coefficients)), so that serde keeps its span
+/// and `deny_unknown_fields` still names every key a material may have.
+macro_rules! raw_material {
+    ($( $(#[$doc:meta])* $name:ident { $($row:tt)* } )*) => {
+        /// `[[material]]`: density, contact model and its constants, the coefficients
+        /// (restitution, frictions, ...), cohesion.
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub(super) struct RawMaterial {
+            pub(super) name: Spanned<String>,
+            pub(super) density: Spanned<f64>,
+            pub(super) model: Option<Spanned<String>>,
+            pub(super) stiffness: Option<Spanned<f64>>,
+            pub(super) youngs_modulus: Option<Spanned<f64>>,
+            pub(super) poisson_ratio: Option<Spanned<f64>>,
+            $(pub(super) $name: Option<Spanned<f64>>,)*
+            pub(super) cohesion: Option<Spanned<RawCohesion>>,
+        }
+
+        impl RawMaterial {
+            /// The coefficient keys the material gives, by name, in the table's order.
+            pub(super) fn coefficients(&self) -> impl Iterator<Item = (&'static str, &Spanned<f64>)> {
+                [$((stringify!($name), self.$name.as_ref()),)*]
+                    .into_iter()
+                    .filter_map(|(name, v)| Some((name, v?)))
+            }
+        }
+    };
 }
+
+crate::material_coefficients!(raw_material);
 
 /// `cohesion = { model = "dmt", surface_energy = .. }` in a material.
 #[derive(Deserialize)]
