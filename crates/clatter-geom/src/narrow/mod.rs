@@ -123,20 +123,13 @@ pub fn collide_with_hint(
         (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
             polyhedron_polyhedron(p, pa, q, pb, hint, bound)
         }
+        (Shape::Composite(_), _) | (_, Shape::Composite(_)) => {
+            *bound = 0.0;
+            deepest_piece_contact(a, pa, b, pb)
+        }
         _ => {
             *bound = 0.0;
-            match (a, b) {
-                (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) => {
-                    sphere_sphere(pa.position, *ra, pb.position, *rb)
-                }
-                (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
-                    sphere_polyhedron(pa.position, *radius, p, pb)
-                }
-                (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
-                    sphere_polyhedron(pb.position, *radius, p, pa).map(Manifold::flipped)
-                }
-                _ => deepest_piece_contact(a, pa, b, pb),
-            }
+            collide_convex(a, pa, b, pb)
         }
     }
 }

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::CHUNK;
 use crate::contact_list::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
+use crate::material::PairParams;
 use crate::world::World;
 use clatter_geom::Shape;
 use clatter_geom::narrow::{self, ContactPoint, Manifold, SatHint};
@@ -144,13 +145,7 @@ fn sphere_pair(
         let depth = ri + rj - dist;
         let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
         let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
-        let context = PairContext {
-            params: *params,
-            m_eff: mi * mj / (mi + mj),
-            r_eff: ri * rj / (ri + rj),
-            share: 1.0,
-            dt: w.dt,
-        };
+        let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), 1.0);
         let point = ContactPoint {
             point: n * (ri - 0.5 * depth),
             depth,
@@ -198,21 +193,9 @@ fn body_pair<const PIECES: bool>(
         Some(m) => {
             let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
             let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
-            let ((ri, si), (rj, sj)) = if PIECES {
-                (w.piece_law(i, pa), w.piece_law(j, pb))
-            } else {
-                (
-                    (w.consts.equivalent_radius[i], w.consts.is_sphere[i]),
-                    (w.consts.equivalent_radius[j], w.consts.is_sphere[j]),
-                )
-            };
-            let context = PairContext {
-                params: *params,
-                m_eff: mi * mj / (mi + mj),
-                r_eff: ri * rj / (ri + rj),
-                share: law::point_share(si, sj),
-                dt: w.dt,
-            };
+            let ((ri, si), (rj, sj)) = (law_side::<PIECES>(w, i, pa), law_side::<PIECES>(w, j, pb));
+            let share = law::point_share(si, sj);
+            let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
             *force = law::contact_force(
                 &context,
                 &m,
@@ -227,6 +210,36 @@ fn body_pair<const PIECES: bool>(
         None => {}
     }
     *touching
+}
+
+/// What the law takes of body `i` (of its piece `piece` with composites): its equivalent
+/// radius and whether it is a sphere.
+#[inline(always)]
+fn law_side<const PIECES: bool>(w: &World, i: usize, piece: u32) -> (f32, bool) {
+    if PIECES {
+        w.piece_law(i, piece)
+    } else {
+        (w.consts.equivalent_radius[i], w.consts.is_sphere[i])
+    }
+}
+
+/// The law's context of a contact with these parameters, effective mass and radius and
+/// point share, at the world's step.
+#[inline(always)]
+pub(super) fn pair_context(
+    w: &World,
+    params: &PairParams,
+    m_eff: f32,
+    r_eff: f32,
+    share: f32,
+) -> PairContext {
+    PairContext {
+        params: *params,
+        m_eff,
+        r_eff,
+        share,
+        dt: w.dt,
+    }
 }
 
 /// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
@@ -252,18 +265,9 @@ fn wall_pair<const PIECES: bool>(
     match narrow::collide_plane(&plane, shape, &pose).map(|m| World::add_rest(m, rest)) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
-            let (r, sphere) = if PIECES {
-                w.piece_law(i, piece)
-            } else {
-                (w.consts.equivalent_radius[i], w.consts.is_sphere[i])
-            };
-            let context = PairContext {
-                params: *params,
-                m_eff: w.consts.mass[i],
-                r_eff: r,
-                share: law::point_share(sphere, sphere),
-                dt: w.dt,
-            };
+            let (r, sphere) = law_side::<PIECES>(w, i, piece);
+            let share = law::point_share(sphere, sphere);
+            let context = pair_context(w, params, w.consts.mass[i], r, share);
             *force = law::contact_force(
                 &context,
                 &m,

@@ -9,7 +9,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use smallvec::SmallVec;
 
-use crate::law::{self, BodyMotion, PairContext};
+use crate::law::{self, BodyMotion};
 use crate::mesh_boundary::{
     Boundary, MESH_SLOTS, MeshContacts, MeshPose, MeshSlot, SLOT_MATCH_COS,
 };
@@ -469,13 +469,7 @@ fn assign(
         let s = &mut slots[place[c]];
         let b = f.boundary as usize;
         let params = w.pair_params(w.boundaries[b].material, w.consts.material[i]);
-        let context = PairContext {
-            params: *params,
-            m_eff: mass,
-            r_eff,
-            share,
-            dt: w.dt,
-        };
+        let context = super::contacts::pair_context(w, params, mass, r_eff, share);
         s.force = law::contact_force(
             &context,
             &f.manifold,
