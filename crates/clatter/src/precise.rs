@@ -16,7 +16,7 @@
 //! Relative geometry is the difference of two pairs rounded to `f32` after subtracting: a
 //! contact is resolved to the float precision of the overlap, not of the coordinate.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 
 use crate::periodic::Periodic;
 
@@ -53,6 +53,74 @@ impl std::ops::Neg for Ds3 {
     }
 }
 
+/// A [`Ds3`] in SIMD lanes (`Vec3A`): the form the step keeps the positions in while it runs
+/// ([`crate::World`] splits each body's `f64` once per step, not at every pair), so that a
+/// pair's offset is a few packed operations. Each lane does [`Ds3`]'s `f32` operations in the
+/// same order, so the results are the same bits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ds3A {
+    /// The high parts.
+    pub hi: Vec3A,
+    /// The low parts.
+    pub lo: Vec3A,
+}
+
+impl From<Ds3> for Ds3A {
+    #[inline(always)]
+    fn from(p: Ds3) -> Ds3A {
+        Ds3A {
+            hi: p.hi.into(),
+            lo: p.lo.into(),
+        }
+    }
+}
+
+impl From<Ds3A> for Ds3 {
+    #[inline(always)]
+    fn from(p: Ds3A) -> Ds3 {
+        Ds3 {
+            hi: p.hi.into(),
+            lo: p.lo.into(),
+        }
+    }
+}
+
+impl std::ops::Neg for Ds3A {
+    type Output = Ds3A;
+
+    /// `-self` (both parts; exact).
+    #[inline(always)]
+    fn neg(self) -> Ds3A {
+        Ds3A {
+            hi: -self.hi,
+            lo: -self.lo,
+        }
+    }
+}
+
+/// Where a stage reads the bodies' positions as pairs: the step's split (a [`Ds3A`] per
+/// body, made once per step: [`crate::World`]'s contact stages and integrate), or the stored
+/// `f64`s split at each read (for callers outside a step, where that split may be stale).
+/// Both give the same bits.
+pub(crate) trait PositionPairs: Copy {
+    /// Body `i`'s position as a pair.
+    fn pair(self, i: usize) -> Ds3A;
+}
+
+impl PositionPairs for &[Ds3A] {
+    #[inline(always)]
+    fn pair(self, i: usize) -> Ds3A {
+        self[i]
+    }
+}
+
+impl PositionPairs for &[DVec3] {
+    #[inline(always)]
+    fn pair(self, i: usize) -> Ds3A {
+        split(self[i]).into()
+    }
+}
+
 /// A stored position as a pair: `hi` the f32 nearest `x`, `lo` the f32 nearest `x - hi`
 /// (exact for positions produced by [`snap`]).
 #[inline(always)]
@@ -80,6 +148,17 @@ pub fn ds_add(a: Ds3, b: Ds3) -> Ds3 {
     let hi = s + e;
     let lo = e - (hi - s);
     Ds3 { hi, lo }
+}
+
+/// [`ds_add`] in SIMD lanes (the same operations per lane).
+#[inline(always)]
+pub fn ds_add_a(a: Ds3A, b: Ds3A) -> Ds3A {
+    let s = a.hi + b.hi;
+    let v = s - a.hi;
+    let e = ((a.hi - (s - v)) + (b.hi - v)) + (a.lo + b.lo);
+    let hi = s + e;
+    let lo = e - (hi - s);
+    Ds3A { hi, lo }
 }
 
 /// [`ds_add`] of scalar pairs `(hi, lo)`.
@@ -195,6 +274,16 @@ pub fn offset(periodic: Option<&Periodic>, xi: DVec3, xj: DVec3) -> Vec3 {
     nearest(periodic, ds_add(split(xj), -split(xi))).hi
 }
 
+/// [`offset`] of positions already split (the step's pairs, [`Ds3A`]): the same bits.
+#[inline(always)]
+pub fn offset_a(periodic: Option<&Periodic>, xi: Ds3A, xj: Ds3A) -> Vec3 {
+    let d = ds_add_a(xj, -xi);
+    match periodic {
+        None => d.hi.into(),
+        Some(_) => nearest(periodic, d.into()).hi,
+    }
+}
+
 /// A world point `p` (f32) as seen from `origin`: `p - origin` of the pairs, rounded (WGSL
 /// `relative_to`, `mesh_local`).
 #[inline(always)]
@@ -210,7 +299,14 @@ pub fn relative(origin: Ds3, p: Vec3) -> Vec3 {
 /// law's dashpot, would jump by that spacing).
 #[inline(always)]
 pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> (f32, f32) {
-    let p = split(x);
+    plane_offset_a(n, d, split(x).into())
+}
+
+/// [`plane_offset`] from a position already split (the step's pairs, [`Ds3A`]): the same
+/// bits.
+#[inline(always)]
+pub fn plane_offset_a(n: Vec3, d: f32, p: Ds3A) -> (f32, f32) {
+    let p = Ds3::from(p);
     let mut s = (d, 0.0);
     for k in 0..3 {
         let (pr, e) = two_prod(n[k], p.hi[k]);
@@ -233,7 +329,13 @@ pub fn moved(periodic: Option<&Periodic>, x: DVec3, rebuild: DVec3) -> Vec3 {
 /// (WGSL integrate).
 #[inline(always)]
 pub fn advance(periodic: Option<&Periodic>, x: DVec3, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
-    let p = snap(wrap(periodic, ds_add(split(x), Ds3::from_f32(dx))));
+    advance_a(periodic, split(x).into(), dx, rebuild)
+}
+
+/// [`advance`] from a position already split (the step's pairs, [`Ds3A`]): the same bits.
+#[inline(always)]
+pub fn advance_a(periodic: Option<&Periodic>, x: Ds3A, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
+    let p = snap(wrap(periodic, ds_add(x.into(), Ds3::from_f32(dx))));
     let d = (p.hi - rebuild.as_vec3()) + p.lo;
     (join(p), periodic.map_or(d, |q| q.nearest(d)))
 }

@@ -86,7 +86,8 @@ fn check_pile(name: &str, kinds: &[ShapeKind], n: usize, steps: usize, tally: &m
                 w.contacts.springs().hints[k],
                 w.contacts.springs().separation_bound[k],
             );
-            let full = narrow::collide(w.shape(i), &w.local_pose(i), w.shape(j), &w.pose_from(i, j));
+            let full =
+                narrow::collide(w.shape(i), &w.local_pose(i), w.shape(j), &w.pose_from(i, j));
             let apart_memory =
                 !narrow::is_contact_hint(hint) && (hint != narrow::NO_HINT || bound > 0.0);
             if bits(&mem) != bits(&full) && apart_memory {
