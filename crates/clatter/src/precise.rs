@@ -335,9 +335,91 @@ pub fn advance(periodic: Option<&Periodic>, x: DVec3, dx: Vec3, rebuild: DVec3) 
 /// [`advance`] from a position already split (the step's pairs, [`Ds3A`]): the same bits.
 #[inline(always)]
 pub fn advance_a(periodic: Option<&Periodic>, x: Ds3A, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
-    let p = snap(wrap(periodic, ds_add(x.into(), Ds3::from_f32(dx))));
-    let d = (p.hi - rebuild.as_vec3()) + p.lo;
-    (join(p), periodic.map_or(d, |q| q.nearest(d)))
+    let sum = ds_add_a(
+        x,
+        Ds3A {
+            hi: dx.into(),
+            lo: Vec3A::ZERO,
+        },
+    );
+    let wrapped = match periodic {
+        None => sum,
+        Some(_) => wrap(periodic, sum.into()).into(),
+    };
+    let p = snap_a(wrapped);
+    let d = Vec3::from((p.hi - Vec3A::from(rebuild.as_vec3())) + p.lo);
+    (join_a(p), periodic.map_or(d, |q| q.nearest(d)))
+}
+
+/// [`join`] in SIMD lanes (the same exact conversions and one rounding per component).
+#[inline(always)]
+fn join_a(p: Ds3A) -> DVec3 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86_64 baseline; the stores are to local arrays.
+        unsafe {
+            let (h, l): (__m128, __m128) = (p.hi.into(), p.lo.into());
+            let xy = _mm_add_pd(_mm_cvtps_pd(h), _mm_cvtps_pd(l));
+            let zw = _mm_add_pd(
+                _mm_cvtps_pd(_mm_movehl_ps(h, h)),
+                _mm_cvtps_pd(_mm_movehl_ps(l, l)),
+            );
+            let (mut a, mut b) = ([0.0f64; 2], [0.0f64; 2]);
+            _mm_storeu_pd(a.as_mut_ptr(), xy);
+            _mm_storeu_pd(b.as_mut_ptr(), zw);
+            DVec3::new(a[0], a[1], b[0])
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        join(p.into())
+    }
+}
+
+/// [`snap`] in SIMD lanes: the same values bit for bit (the rounding of the scaled low part
+/// to an integer, ties to even, done in `f32` with `2^23` where [`snap1`] adds `1.5 2^52`
+/// in `f64`; both give `+0` for a zero result).
+#[inline(always)]
+pub fn snap_a(p: Ds3A) -> Ds3A {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86_64 baseline; only register operations.
+        unsafe {
+            let (h, l): (__m128, __m128) = (p.hi.into(), p.lo.into());
+            let e = _mm_and_si128(
+                _mm_srli_epi32::<23>(_mm_castps_si128(h)),
+                _mm_set1_epi32(0xff),
+            );
+            // |h| < 2^-78 m: nothing below it is kept (lanes chosen at the end).
+            let tiny = _mm_castsi128_ps(_mm_cmplt_epi32(e, _mm_set1_epi32(49)));
+            let q = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_sub_epi32(e, _mm_set1_epi32(48))));
+            let inv = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_sub_epi32(_mm_set1_epi32(302), e)));
+            let y = _mm_mul_ps(l, inv);
+            // round_ties_even(y): |y| + 2^23 has unit spacing below 2^24, and its parity is
+            // that of the integer part of |y|; from 2^23 up every f32 is an integer.
+            let sign = _mm_set1_ps(-0.0);
+            let two23 = _mm_set1_ps(8_388_608.0);
+            let a = _mm_andnot_ps(sign, y);
+            let t = _mm_sub_ps(_mm_add_ps(a, two23), two23);
+            // The sign back, and `+ 0` turns a `-0` into `+0` as the f64 rounding gives.
+            let rounded = _mm_add_ps(_mm_or_ps(t, _mm_and_ps(y, sign)), _mm_setzero_ps());
+            let whole = _mm_cmpge_ps(a, two23);
+            let r = _mm_or_ps(_mm_and_ps(whole, y), _mm_andnot_ps(whole, rounded));
+            let ls = _mm_mul_ps(r, q);
+            let hs = _mm_add_ps(h, ls);
+            let lo = _mm_sub_ps(ls, _mm_sub_ps(hs, h));
+            Ds3A {
+                hi: _mm_or_ps(_mm_and_ps(tiny, h), _mm_andnot_ps(tiny, hs)).into(),
+                lo: _mm_andnot_ps(tiny, lo).into(),
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        snap(p.into()).into()
+    }
 }
 
 #[cfg(test)]
@@ -368,6 +450,61 @@ mod tests {
         let moved = x - x0;
         for k in 0..3 {
             assert!((moved[k] - 1e-6).abs() < 1e-9, "{moved}");
+        }
+    }
+
+    #[test]
+    fn lanes_match_scalars() {
+        // Random pairs over many binades (ties, tiny and huge parts included), and steps.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let bits = |p: Ds3| [p.hi.to_array(), p.lo.to_array()].map(|v| v.map(f32::to_bits));
+        for k in 0..200_000 {
+            let r = next();
+            let scale = 2f32.powi((r % 200) as i32 - 100);
+            let h = Vec3::new(
+                (next() as i32) as f32 * scale,
+                (next() as i32) as f32 * scale * 1e-6,
+                if k % 7 == 0 {
+                    0.0
+                } else {
+                    -((next() >> 40) as f32) * scale
+                },
+            );
+            let ulp = Vec3::new(h.x.abs(), h.y.abs(), h.z.abs()) * f32::EPSILON;
+            let frac = |u: u64| ((u >> 11) as f32 / (1u64 << 53) as f32) - 0.5;
+            let mut l = Vec3::new(frac(next()), frac(next()), frac(next())) * ulp;
+            if k % 5 == 0 {
+                // Ties of either sign (halves of the snap grid `2^-25` ulp), and parts that
+                // round to zero from below.
+                let m = [(k % 9) as f32 - 4.5, -0.25, -0.5, 0.5, 2.5][(k / 5) % 5];
+                l = ulp * m * (0.5f32).powi(25);
+            }
+            let p = Ds3 { hi: h, lo: l };
+            assert_eq!(bits(snap(p)), bits(snap_a(p.into()).into()), "{p:?}");
+            let x = join(snap(p));
+            let dx = Vec3::new(frac(next()), -frac(next()), frac(next())) * scale;
+            let rebuild = x + DVec3::splat(1e-3);
+            let (a, b) = (
+                {
+                    let q = snap(ds_add(split(x), Ds3::from_f32(dx)));
+                    (join(q), (q.hi - rebuild.as_vec3()) + q.lo)
+                },
+                advance_a(None, split(x).into(), dx, rebuild),
+            );
+            assert_eq!(
+                a.0.to_array().map(f64::to_bits),
+                b.0.to_array().map(f64::to_bits)
+            );
+            assert_eq!(
+                a.1.to_array().map(f32::to_bits),
+                b.1.to_array().map(f32::to_bits)
+            );
         }
     }
 
