@@ -117,7 +117,7 @@ impl PositionPairs for &[Ds3A] {
 impl PositionPairs for &[DVec3] {
     #[inline(always)]
     fn pair(self, i: usize) -> Ds3A {
-        split(self[i]).into()
+        split_a(self[i])
     }
 }
 
@@ -129,6 +129,32 @@ pub fn split(x: DVec3) -> Ds3 {
     Ds3 {
         hi,
         lo: (x - hi.as_dvec3()).as_vec3(),
+    }
+}
+
+/// [`split`] into SIMD lanes (the same conversions per component).
+#[inline(always)]
+pub fn split_a(x: DVec3) -> Ds3A {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        let x = x.to_array();
+        // SAFETY: SSE2 is part of the x86_64 baseline; the loads read `x`'s three values.
+        unsafe {
+            let xy = _mm_loadu_pd(x.as_ptr());
+            let z = _mm_set_sd(x[2]);
+            let (hi_xy, hi_z) = (_mm_cvtpd_ps(xy), _mm_cvtpd_ps(z));
+            let lo_xy = _mm_cvtpd_ps(_mm_sub_pd(xy, _mm_cvtps_pd(hi_xy)));
+            let lo_z = _mm_cvtpd_ps(_mm_sub_pd(z, _mm_cvtps_pd(hi_z)));
+            Ds3A {
+                hi: _mm_movelh_ps(hi_xy, hi_z).into(),
+                lo: _mm_movelh_ps(lo_xy, lo_z).into(),
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        split(x).into()
     }
 }
 
@@ -306,13 +332,28 @@ pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> (f32, f32) {
 /// bits.
 #[inline(always)]
 pub fn plane_offset_a(n: Vec3, d: f32, p: Ds3A) -> (f32, f32) {
-    let p = Ds3::from(p);
+    // The three products in lanes ([`two_prod`]'s operations per lane), summed in order.
+    let (pr, e) = two_prod_a(n.into(), p.hi);
+    let (pr, e) = (Vec3::from(pr), Vec3::from(e));
     let mut s = (d, 0.0);
     for k in 0..3 {
-        let (pr, e) = two_prod(n[k], p.hi[k]);
-        s = ds_add1(s, (-pr, -e));
+        s = ds_add1(s, (-pr[k], -e[k]));
     }
-    ds_add1(s, (-n.dot(p.lo), 0.0))
+    ds_add1(s, (-n.dot(Vec3::from(p.lo)), 0.0))
+}
+
+/// [`two_prod`] in SIMD lanes (the same operations per lane).
+#[inline(always)]
+fn two_prod_a(a: Vec3A, b: Vec3A) -> (Vec3A, Vec3A) {
+    let p = a * b;
+    let ca = 4097.0 * a;
+    let ah = ca - (ca - a);
+    let al = a - ah;
+    let cb = 4097.0 * b;
+    let bh = cb - (cb - b);
+    let bl = b - bh;
+    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    (p, e)
 }
 
 /// The Verlet test's displacement of `x` from `rebuild`: `(hi - rebuild_hi) + lo` in f32,
@@ -488,6 +529,9 @@ mod tests {
             let p = Ds3 { hi: h, lo: l };
             assert_eq!(bits(snap(p)), bits(snap_a(p.into()).into()), "{p:?}");
             let x = join(snap(p));
+            assert_eq!(bits(split(x)), bits(split_a(x).into()));
+            let unsnapped = join(p) * (1.0 + 1e-12);
+            assert_eq!(bits(split(unsnapped)), bits(split_a(unsnapped).into()));
             let dx = Vec3::new(frac(next()), -frac(next()), frac(next())) * scale;
             let rebuild = x + DVec3::splat(1e-3);
             let (a, b) = (
@@ -504,6 +548,26 @@ mod tests {
             assert_eq!(
                 a.1.to_array().map(f32::to_bits),
                 b.1.to_array().map(f32::to_bits)
+            );
+            let n = Vec3::new(frac(next()), frac(next()), frac(next())).normalize();
+            let d = frac(next()) * scale;
+            let scalar = {
+                let p = split(x);
+                let mut s = (d, 0.0);
+                for k in 0..3 {
+                    let (pr, e) = two_prod(n[k], p.hi[k]);
+                    s = ds_add1(s, (-pr, -e));
+                }
+                ds_add1(s, (-n.dot(p.lo), 0.0))
+            };
+            let lanes = plane_offset(n, d, x);
+            if !(scalar.0.is_finite() && scalar.1.is_finite()) {
+                // Products past f32's range (|x| > 1e34): NaNs, whose sign bits may differ.
+                continue;
+            }
+            assert_eq!(
+                (scalar.0.to_bits(), scalar.1.to_bits()),
+                (lanes.0.to_bits(), lanes.1.to_bits())
             );
         }
     }

@@ -452,12 +452,8 @@ impl World {
     /// the contact stage).
     pub(crate) fn split_positions(&mut self) {
         self.position_pairs.clear();
-        self.position_pairs.extend(
-            self.state
-                .position
-                .iter()
-                .map(|&x| precise::Ds3A::from(precise::split(x))),
-        );
+        self.position_pairs
+            .extend(self.state.position.iter().map(|&x| precise::split_a(x)));
     }
 
     /// A world point `x` as seen from body `i` (`x - x_i` of the precise pairs, then rounded

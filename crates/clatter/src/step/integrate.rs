@@ -48,6 +48,10 @@ pub(crate) fn run(world: &mut World) -> Moved {
         .enumerate()
         .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
             let mut worst = 0.0f32;
+            // This chunk's pairs and rebuild positions (sliced once: no bounds test per body).
+            let first = chunk * CHUNK;
+            let pairs = &pairs[first..first + xs.len()];
+            let rebuild_position = &rebuild_position[first..first + xs.len()];
             for k in 0..xs.len() {
                 let i = chunk * CHUNK + k;
                 if gone[k] {
@@ -64,7 +68,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 // The displacement rounded once to f32, added to the precise position (bit
                 // for bit the GPU's arithmetic, `crate::precise`): kept at any coordinate.
                 let (next, moved) =
-                    precise::advance_a(periodic.as_ref(), pairs[i], *v * dt, rebuild_position[i]);
+                    precise::advance_a(periodic.as_ref(), pairs[k], *v * dt, rebuild_position[k]);
                 *x = next;
                 ls[k] += t * dt;
                 ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
