@@ -187,6 +187,18 @@ pub fn ds_add_a(a: Ds3A, b: Ds3A) -> Ds3A {
     Ds3A { hi, lo }
 }
 
+/// `ds_add_a(a, -b)` with the negations folded into the operations (`x + (-y)` is `x - y`
+/// and `(-y) - v` is `-(y + v)` exactly, signed zeros included): the same bits.
+#[inline(always)]
+pub fn ds_sub_a(a: Ds3A, b: Ds3A) -> Ds3A {
+    let s = a.hi - b.hi;
+    let v = s - a.hi;
+    let e = ((a.hi - (s - v)) - (b.hi + v)) + (a.lo - b.lo);
+    let hi = s + e;
+    let lo = e - (hi - s);
+    Ds3A { hi, lo }
+}
+
 /// [`ds_add`] of scalar pairs `(hi, lo)`.
 #[inline(always)]
 pub fn ds_add1(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
@@ -303,7 +315,7 @@ pub fn offset(periodic: Option<&Periodic>, xi: DVec3, xj: DVec3) -> Vec3 {
 /// [`offset`] of positions already split (the step's pairs, [`Ds3A`]): the same bits.
 #[inline(always)]
 pub fn offset_a(periodic: Option<&Periodic>, xi: Ds3A, xj: Ds3A) -> Vec3 {
-    let d = ds_add_a(xj, -xi);
+    let d = ds_sub_a(xj, xi);
     match periodic {
         None => d.hi.into(),
         Some(_) => nearest(periodic, d.into()).hi,
@@ -418,11 +430,13 @@ fn join_a(p: Ds3A) -> DVec3 {
     }
 }
 
-/// [`snap`] in SIMD lanes: the same values bit for bit (the rounding of the scaled low part
-/// to an integer, ties to even, done in `f32` with `2^23` where [`snap1`] adds `1.5 2^52`
-/// in `f64`; both give `+0` for a zero result).
+/// [`snap`] in SIMD lanes, for pairs as [`ds_add`] leaves them (`|lo|` within a few ulps of
+/// `hi`): the same values bit for bit. The scaled low part `y` (`|y| <= 2^25` for such pairs)
+/// is rounded to an integer, ties to even, by a round trip through `i32` (the SSE2
+/// conversion rounds to nearest even, and gives `+0` for a zero result, as [`snap1`]'s
+/// `f64` rounding does).
 #[inline(always)]
-pub fn snap_a(p: Ds3A) -> Ds3A {
+fn snap_a(p: Ds3A) -> Ds3A {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::*;
@@ -438,16 +452,7 @@ pub fn snap_a(p: Ds3A) -> Ds3A {
             let q = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_sub_epi32(e, _mm_set1_epi32(48))));
             let inv = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_sub_epi32(_mm_set1_epi32(302), e)));
             let y = _mm_mul_ps(l, inv);
-            // round_ties_even(y): |y| + 2^23 has unit spacing below 2^24, and its parity is
-            // that of the integer part of |y|; from 2^23 up every f32 is an integer.
-            let sign = _mm_set1_ps(-0.0);
-            let two23 = _mm_set1_ps(8_388_608.0);
-            let a = _mm_andnot_ps(sign, y);
-            let t = _mm_sub_ps(_mm_add_ps(a, two23), two23);
-            // The sign back, and `+ 0` turns a `-0` into `+0` as the f64 rounding gives.
-            let rounded = _mm_add_ps(_mm_or_ps(t, _mm_and_ps(y, sign)), _mm_setzero_ps());
-            let whole = _mm_cmpge_ps(a, two23);
-            let r = _mm_or_ps(_mm_and_ps(whole, y), _mm_andnot_ps(whole, rounded));
+            let r = _mm_cvtepi32_ps(_mm_cvtps_epi32(y));
             let ls = _mm_mul_ps(r, q);
             let hs = _mm_add_ps(h, ls);
             let lo = _mm_sub_ps(ls, _mm_sub_ps(hs, h));
@@ -507,7 +512,7 @@ mod tests {
         let bits = |p: Ds3| [p.hi.to_array(), p.lo.to_array()].map(|v| v.map(f32::to_bits));
         for k in 0..200_000 {
             let r = next();
-            let scale = 2f32.powi((r % 200) as i32 - 100);
+            let scale = 2f32.powi((r % 180) as i32 - 90);
             let h = Vec3::new(
                 (next() as i32) as f32 * scale,
                 (next() as i32) as f32 * scale * 1e-6,
