@@ -238,6 +238,7 @@ fn body_pair<const PIECES: bool>(
 /// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
 /// rest). The per-piece form is what other static boundaries can reuse.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn wall_pair<const PIECES: bool>(
     w: &World,
     x: &[Ds3A],
