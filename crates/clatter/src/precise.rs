@@ -16,7 +16,7 @@
 //! Relative geometry is the difference of two pairs rounded to `f32` after subtracting: a
 //! contact is resolved to the float precision of the overlap, not of the coordinate.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 
 use crate::periodic::Periodic;
 
@@ -53,6 +53,74 @@ impl std::ops::Neg for Ds3 {
     }
 }
 
+/// A [`Ds3`] in SIMD lanes (`Vec3A`): the form the step keeps the positions in while it runs
+/// ([`crate::World`] splits each body's `f64` once per step, not at every pair), so that a
+/// pair's offset is a few packed operations. Each lane does [`Ds3`]'s `f32` operations in the
+/// same order, so the results are the same bits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ds3A {
+    /// The high parts.
+    pub hi: Vec3A,
+    /// The low parts.
+    pub lo: Vec3A,
+}
+
+impl From<Ds3> for Ds3A {
+    #[inline(always)]
+    fn from(p: Ds3) -> Ds3A {
+        Ds3A {
+            hi: p.hi.into(),
+            lo: p.lo.into(),
+        }
+    }
+}
+
+impl From<Ds3A> for Ds3 {
+    #[inline(always)]
+    fn from(p: Ds3A) -> Ds3 {
+        Ds3 {
+            hi: p.hi.into(),
+            lo: p.lo.into(),
+        }
+    }
+}
+
+impl std::ops::Neg for Ds3A {
+    type Output = Ds3A;
+
+    /// `-self` (both parts; exact).
+    #[inline(always)]
+    fn neg(self) -> Ds3A {
+        Ds3A {
+            hi: -self.hi,
+            lo: -self.lo,
+        }
+    }
+}
+
+/// Where a stage reads the bodies' positions as pairs: the step's split (a [`Ds3A`] per
+/// body, made once per step: [`crate::World`]'s contact stages and integrate), or the stored
+/// `f64`s split at each read (for callers outside a step, where that split may be stale).
+/// Both give the same bits.
+pub(crate) trait PositionPairs: Copy {
+    /// Body `i`'s position as a pair.
+    fn pair(self, i: usize) -> Ds3A;
+}
+
+impl PositionPairs for &[Ds3A] {
+    #[inline(always)]
+    fn pair(self, i: usize) -> Ds3A {
+        self[i]
+    }
+}
+
+impl PositionPairs for &[DVec3] {
+    #[inline(always)]
+    fn pair(self, i: usize) -> Ds3A {
+        split_a(self[i])
+    }
+}
+
 /// A stored position as a pair: `hi` the f32 nearest `x`, `lo` the f32 nearest `x - hi`
 /// (exact for positions produced by [`snap`]).
 #[inline(always)]
@@ -61,6 +129,32 @@ pub fn split(x: DVec3) -> Ds3 {
     Ds3 {
         hi,
         lo: (x - hi.as_dvec3()).as_vec3(),
+    }
+}
+
+/// [`split`] into SIMD lanes (the same conversions per component).
+#[inline(always)]
+pub fn split_a(x: DVec3) -> Ds3A {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        let x = x.to_array();
+        // SAFETY: SSE2 is part of the x86_64 baseline; the loads read `x`'s three values.
+        unsafe {
+            let xy = _mm_loadu_pd(x.as_ptr());
+            let z = _mm_set_sd(x[2]);
+            let (hi_xy, hi_z) = (_mm_cvtpd_ps(xy), _mm_cvtpd_ps(z));
+            let lo_xy = _mm_cvtpd_ps(_mm_sub_pd(xy, _mm_cvtps_pd(hi_xy)));
+            let lo_z = _mm_cvtpd_ps(_mm_sub_pd(z, _mm_cvtps_pd(hi_z)));
+            Ds3A {
+                hi: _mm_movelh_ps(hi_xy, hi_z).into(),
+                lo: _mm_movelh_ps(lo_xy, lo_z).into(),
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        split(x).into()
     }
 }
 
@@ -80,6 +174,29 @@ pub fn ds_add(a: Ds3, b: Ds3) -> Ds3 {
     let hi = s + e;
     let lo = e - (hi - s);
     Ds3 { hi, lo }
+}
+
+/// [`ds_add`] in SIMD lanes (the same operations per lane).
+#[inline(always)]
+pub fn ds_add_a(a: Ds3A, b: Ds3A) -> Ds3A {
+    let s = a.hi + b.hi;
+    let v = s - a.hi;
+    let e = ((a.hi - (s - v)) + (b.hi - v)) + (a.lo + b.lo);
+    let hi = s + e;
+    let lo = e - (hi - s);
+    Ds3A { hi, lo }
+}
+
+/// `ds_add_a(a, -b)` with the negations folded into the operations (`x + (-y)` is `x - y`
+/// and `(-y) - v` is `-(y + v)` exactly, signed zeros included): the same bits.
+#[inline(always)]
+pub fn ds_sub_a(a: Ds3A, b: Ds3A) -> Ds3A {
+    let s = a.hi - b.hi;
+    let v = s - a.hi;
+    let e = ((a.hi - (s - v)) - (b.hi + v)) + (a.lo - b.lo);
+    let hi = s + e;
+    let lo = e - (hi - s);
+    Ds3A { hi, lo }
 }
 
 /// [`ds_add`] of scalar pairs `(hi, lo)`.
@@ -195,6 +312,16 @@ pub fn offset(periodic: Option<&Periodic>, xi: DVec3, xj: DVec3) -> Vec3 {
     nearest(periodic, ds_add(split(xj), -split(xi))).hi
 }
 
+/// [`offset`] of positions already split (the step's pairs, [`Ds3A`]): the same bits.
+#[inline(always)]
+pub fn offset_a(periodic: Option<&Periodic>, xi: Ds3A, xj: Ds3A) -> Vec3 {
+    let d = ds_sub_a(xj, xi);
+    match periodic {
+        None => d.hi.into(),
+        Some(_) => nearest(periodic, d.into()).hi,
+    }
+}
+
 /// A world point `p` (f32) as seen from `origin`: `p - origin` of the pairs, rounded (WGSL
 /// `relative_to`, `mesh_local`).
 #[inline(always)]
@@ -210,13 +337,35 @@ pub fn relative(origin: Ds3, p: Vec3) -> Vec3 {
 /// law's dashpot, would jump by that spacing).
 #[inline(always)]
 pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> (f32, f32) {
-    let p = split(x);
+    plane_offset_a(n, d, split(x).into())
+}
+
+/// [`plane_offset`] from a position already split (the step's pairs, [`Ds3A`]): the same
+/// bits.
+#[inline(always)]
+pub fn plane_offset_a(n: Vec3, d: f32, p: Ds3A) -> (f32, f32) {
+    // The three products in lanes ([`two_prod`]'s operations per lane), summed in order.
+    let (pr, e) = two_prod_a(n.into(), p.hi);
+    let (pr, e) = (Vec3::from(pr), Vec3::from(e));
     let mut s = (d, 0.0);
     for k in 0..3 {
-        let (pr, e) = two_prod(n[k], p.hi[k]);
-        s = ds_add1(s, (-pr, -e));
+        s = ds_add1(s, (-pr[k], -e[k]));
     }
-    ds_add1(s, (-n.dot(p.lo), 0.0))
+    ds_add1(s, (-n.dot(Vec3::from(p.lo)), 0.0))
+}
+
+/// [`two_prod`] in SIMD lanes (the same operations per lane).
+#[inline(always)]
+fn two_prod_a(a: Vec3A, b: Vec3A) -> (Vec3A, Vec3A) {
+    let p = a * b;
+    let ca = 4097.0 * a;
+    let ah = ca - (ca - a);
+    let al = a - ah;
+    let cb = 4097.0 * b;
+    let bh = cb - (cb - b);
+    let bl = b - bh;
+    let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+    (p, e)
 }
 
 /// The Verlet test's displacement of `x` from `rebuild`: `(hi - rebuild_hi) + lo` in f32,
@@ -233,9 +382,90 @@ pub fn moved(periodic: Option<&Periodic>, x: DVec3, rebuild: DVec3) -> Vec3 {
 /// (WGSL integrate).
 #[inline(always)]
 pub fn advance(periodic: Option<&Periodic>, x: DVec3, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
-    let p = snap(wrap(periodic, ds_add(split(x), Ds3::from_f32(dx))));
-    let d = (p.hi - rebuild.as_vec3()) + p.lo;
-    (join(p), periodic.map_or(d, |q| q.nearest(d)))
+    advance_a(periodic, split(x).into(), dx, rebuild)
+}
+
+/// [`advance`] from a position already split (the step's pairs, [`Ds3A`]): the same bits.
+#[inline(always)]
+pub fn advance_a(periodic: Option<&Periodic>, x: Ds3A, dx: Vec3, rebuild: DVec3) -> (DVec3, Vec3) {
+    let sum = ds_add_a(
+        x,
+        Ds3A {
+            hi: dx.into(),
+            lo: Vec3A::ZERO,
+        },
+    );
+    let wrapped = match periodic {
+        None => sum,
+        Some(_) => wrap(periodic, sum.into()).into(),
+    };
+    let p = snap_a(wrapped);
+    let d = Vec3::from((p.hi - Vec3A::from(rebuild.as_vec3())) + p.lo);
+    (join_a(p), periodic.map_or(d, |q| q.nearest(d)))
+}
+
+/// [`join`] in SIMD lanes (the same exact conversions and one rounding per component).
+#[inline(always)]
+fn join_a(p: Ds3A) -> DVec3 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86_64 baseline; the stores are to local arrays.
+        unsafe {
+            let (h, l): (__m128, __m128) = (p.hi.into(), p.lo.into());
+            let xy = _mm_add_pd(_mm_cvtps_pd(h), _mm_cvtps_pd(l));
+            let zw = _mm_add_pd(
+                _mm_cvtps_pd(_mm_movehl_ps(h, h)),
+                _mm_cvtps_pd(_mm_movehl_ps(l, l)),
+            );
+            let (mut a, mut b) = ([0.0f64; 2], [0.0f64; 2]);
+            _mm_storeu_pd(a.as_mut_ptr(), xy);
+            _mm_storeu_pd(b.as_mut_ptr(), zw);
+            DVec3::new(a[0], a[1], b[0])
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        join(p.into())
+    }
+}
+
+/// [`snap`] in SIMD lanes, for pairs as [`ds_add`] leaves them (`|lo|` within a few ulps of
+/// `hi`): the same values bit for bit. The scaled low part `y` (`|y| <= 2^25` for such pairs)
+/// is rounded to an integer, ties to even, by a round trip through `i32` (the SSE2
+/// conversion rounds to nearest even, and gives `+0` for a zero result, as [`snap1`]'s
+/// `f64` rounding does).
+#[inline(always)]
+fn snap_a(p: Ds3A) -> Ds3A {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of the x86_64 baseline; only register operations.
+        unsafe {
+            let (h, l): (__m128, __m128) = (p.hi.into(), p.lo.into());
+            let e = _mm_and_si128(
+                _mm_srli_epi32::<23>(_mm_castps_si128(h)),
+                _mm_set1_epi32(0xff),
+            );
+            // |h| < 2^-78 m: nothing below it is kept (lanes chosen at the end).
+            let tiny = _mm_castsi128_ps(_mm_cmplt_epi32(e, _mm_set1_epi32(49)));
+            let q = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_sub_epi32(e, _mm_set1_epi32(48))));
+            let inv = _mm_castsi128_ps(_mm_slli_epi32::<23>(_mm_sub_epi32(_mm_set1_epi32(302), e)));
+            let y = _mm_mul_ps(l, inv);
+            let r = _mm_cvtepi32_ps(_mm_cvtps_epi32(y));
+            let ls = _mm_mul_ps(r, q);
+            let hs = _mm_add_ps(h, ls);
+            let lo = _mm_sub_ps(ls, _mm_sub_ps(hs, h));
+            Ds3A {
+                hi: _mm_or_ps(_mm_and_ps(tiny, h), _mm_andnot_ps(tiny, hs)).into(),
+                lo: _mm_andnot_ps(tiny, lo).into(),
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        snap(p.into()).into()
+    }
 }
 
 #[cfg(test)]
@@ -266,6 +496,84 @@ mod tests {
         let moved = x - x0;
         for k in 0..3 {
             assert!((moved[k] - 1e-6).abs() < 1e-9, "{moved}");
+        }
+    }
+
+    #[test]
+    fn lanes_match_scalars() {
+        // Random pairs over many binades (ties, tiny and huge parts included), and steps.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let bits = |p: Ds3| [p.hi.to_array(), p.lo.to_array()].map(|v| v.map(f32::to_bits));
+        for k in 0..200_000 {
+            let r = next();
+            let scale = 2f32.powi((r % 180) as i32 - 90);
+            let h = Vec3::new(
+                (next() as i32) as f32 * scale,
+                (next() as i32) as f32 * scale * 1e-6,
+                if k % 7 == 0 {
+                    0.0
+                } else {
+                    -((next() >> 40) as f32) * scale
+                },
+            );
+            let ulp = Vec3::new(h.x.abs(), h.y.abs(), h.z.abs()) * f32::EPSILON;
+            let frac = |u: u64| ((u >> 11) as f32 / (1u64 << 53) as f32) - 0.5;
+            let mut l = Vec3::new(frac(next()), frac(next()), frac(next())) * ulp;
+            if k % 5 == 0 {
+                // Ties of either sign (halves of the snap grid `2^-25` ulp), and parts that
+                // round to zero from below.
+                let m = [(k % 9) as f32 - 4.5, -0.25, -0.5, 0.5, 2.5][(k / 5) % 5];
+                l = ulp * m * (0.5f32).powi(25);
+            }
+            let p = Ds3 { hi: h, lo: l };
+            assert_eq!(bits(snap(p)), bits(snap_a(p.into()).into()), "{p:?}");
+            let x = join(snap(p));
+            assert_eq!(bits(split(x)), bits(split_a(x).into()));
+            let unsnapped = join(p) * (1.0 + 1e-12);
+            assert_eq!(bits(split(unsnapped)), bits(split_a(unsnapped).into()));
+            let dx = Vec3::new(frac(next()), -frac(next()), frac(next())) * scale;
+            let rebuild = x + DVec3::splat(1e-3);
+            let (a, b) = (
+                {
+                    let q = snap(ds_add(split(x), Ds3::from_f32(dx)));
+                    (join(q), (q.hi - rebuild.as_vec3()) + q.lo)
+                },
+                advance_a(None, split(x).into(), dx, rebuild),
+            );
+            assert_eq!(
+                a.0.to_array().map(f64::to_bits),
+                b.0.to_array().map(f64::to_bits)
+            );
+            assert_eq!(
+                a.1.to_array().map(f32::to_bits),
+                b.1.to_array().map(f32::to_bits)
+            );
+            let n = Vec3::new(frac(next()), frac(next()), frac(next())).normalize();
+            let d = frac(next()) * scale;
+            let scalar = {
+                let p = split(x);
+                let mut s = (d, 0.0);
+                for k in 0..3 {
+                    let (pr, e) = two_prod(n[k], p.hi[k]);
+                    s = ds_add1(s, (-pr, -e));
+                }
+                ds_add1(s, (-n.dot(p.lo), 0.0))
+            };
+            let lanes = plane_offset(n, d, x);
+            if !(scalar.0.is_finite() && scalar.1.is_finite()) {
+                // Products past f32's range (|x| > 1e34): NaNs, whose sign bits may differ.
+                continue;
+            }
+            assert_eq!(
+                (scalar.0.to_bits(), scalar.1.to_bits()),
+                (lanes.0.to_bits(), lanes.1.to_bits())
+            );
         }
     }
 

@@ -13,7 +13,7 @@ use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
 use crate::mesh_boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshSlot};
 use crate::periodic::Periodic;
-use crate::precise;
+use crate::precise::{self, PositionPairs};
 use crate::sink::{Discharged, Sink};
 use clatter_geom::narrow::{Manifold, Plane};
 use clatter_geom::{Pose, PreparedShape, Shape};
@@ -128,6 +128,10 @@ pub struct World {
     pub(crate) rebuild_orientation: Vec<Quat>,
     /// Positions at the last broad-phase rebuild.
     pub(crate) rebuild_position: Vec<DVec3>,
+    /// The positions as pairs ([`precise::Ds3A`]), split once per step when the contact
+    /// stage starts ([`World::split_positions`]) and read by the contact stage and integrate:
+    /// a pair's offset then needs no `f64` splits. Stale outside a step.
+    pub(crate) position_pairs: Vec<precise::Ds3A>,
     needs_rebuild: bool,
 }
 
@@ -214,6 +218,7 @@ impl World {
             reach,
             rebuild_orientation: Vec::new(),
             rebuild_position: Vec::new(),
+            position_pairs: Vec::new(),
             needs_rebuild: true,
         };
         if !w.boundaries.is_empty() {
@@ -436,6 +441,21 @@ impl World {
         )
     }
 
+    /// [`World::offset_of`] with the positions read from `x` (the step's pairs, or the
+    /// stored positions): the same bits.
+    #[inline(always)]
+    pub(crate) fn offset_in(&self, x: impl PositionPairs, i: usize, j: usize) -> Vec3 {
+        precise::offset_a(self.periodic.as_ref(), x.pair(i), x.pair(j))
+    }
+
+    /// Splits the stored positions into [`World::position_pairs`] (once per step, before
+    /// the contact stage).
+    pub(crate) fn split_positions(&mut self) {
+        self.position_pairs.clear();
+        self.position_pairs
+            .extend(self.state.position.iter().map(|&x| precise::split_a(x)));
+    }
+
     /// A world point `x` as seen from body `i` (`x - x_i` of the precise pairs, then rounded
     /// to f32; [`precise::relative`]).
     #[inline]
@@ -454,8 +474,15 @@ impl World {
     /// its nearest image).
     #[inline]
     pub fn motion_from(&self, i: usize, j: usize) -> BodyMotion {
+        self.motion_at(j, self.offset_of(i, j))
+    }
+
+    /// Body `j`'s rigid motion with its position given (its offset from the body the
+    /// contact is seen from, already computed).
+    #[inline(always)]
+    pub(crate) fn motion_at(&self, j: usize, position: Vec3) -> BodyMotion {
         BodyMotion {
-            position: self.offset_of(i, j),
+            position,
             velocity: self.state.velocity[j],
             omega: self.state.omega[j],
         }
@@ -466,8 +493,14 @@ impl World {
     /// contacts found with the plane ([`precise::plane_offset`], [`World::add_rest`]).
     #[inline]
     pub fn plane_from(&self, i: usize, plane: &Plane) -> (Plane, f32) {
-        let (offset, rest) =
-            precise::plane_offset(plane.normal, plane.offset, self.state.position[i]);
+        self.plane_in(self.state.position.as_slice(), i, plane)
+    }
+
+    /// [`World::plane_from`] with the positions read from `x` (the step's pairs, or the
+    /// stored positions): the same bits.
+    #[inline(always)]
+    pub(crate) fn plane_in(&self, x: impl PositionPairs, i: usize, plane: &Plane) -> (Plane, f32) {
+        let (offset, rest) = precise::plane_offset_a(plane.normal, plane.offset, x.pair(i));
         (
             Plane {
                 normal: plane.normal,

@@ -9,14 +9,18 @@ use super::CHUNK;
 use crate::contact_list::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::material::PairParams;
+use crate::precise::{Ds3A, PositionPairs};
 use crate::world::World;
-use clatter_geom::Shape;
 use clatter_geom::narrow::{self, ContactPoint, Manifold, SatHint};
+use clatter_geom::{Pose, Shape};
 
 /// Runs the stage; returns the number of contacts that touch.
 pub(crate) fn run(world: &mut World) -> usize {
+    // Each body's position split into its pair once, for every contact it takes part in.
+    world.split_positions();
     let mut springs = std::mem::take(&mut world.contacts.springs);
     let w = &*world;
+    let x = w.position_pairs.as_slice();
     let np = w.contacts.pairs.len();
     let ContactSprings {
         history,
@@ -49,7 +53,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(separation_bound.par_iter_mut())
                     .with_min_len(CHUNK)
                     .map(|(((((((p, pc), h), f), t), hn), tw), b)| {
-                        body_pair::<true>(w, *p, *pc, h, f, t, hn, tw, b) as usize
+                        body_pair::<true>(w, x, *p, *pc, h, f, t, hn, tw, b) as usize
                     })
                     .sum::<usize>();
             }
@@ -69,7 +73,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                         let (h, f, t, c) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut c[..n]);
                         (0..n)
                             .map(|k| {
-                                sphere_pair(w, p[k], &mut h[k], &mut c[k], &mut f[k], &mut t[k])
+                                sphere_pair(w, x, p[k], &mut h[k], &mut c[k], &mut f[k], &mut t[k])
                                     as usize
                             })
                             .sum::<usize>()
@@ -87,7 +91,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(separation_bound.par_iter_mut())
                 .with_min_len(CHUNK)
                 .map(|((((((p, h), f), t), hn), tw), b)| {
-                    body_pair::<false>(w, *p, 0, h, f, t, hn, tw, b) as usize
+                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b) as usize
                 })
                 .sum::<usize>()
         },
@@ -104,7 +108,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(twist_walls.par_iter_mut())
                     .with_min_len(CHUNK)
                     .map(|(((((p, pc), h), f), t), tw)| {
-                        wall_pair::<true>(w, *p, *pc, h, f, t, tw) as usize
+                        wall_pair::<true>(w, x, *p, *pc, h, f, t, tw) as usize
                     })
                     .sum::<usize>();
             }
@@ -116,7 +120,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(touch_walls.par_iter_mut())
                 .zip(twist_walls.par_iter_mut())
                 .with_min_len(CHUNK)
-                .map(|((((p, h), f), t), tw)| wall_pair::<false>(w, *p, 0, h, f, t, tw) as usize)
+                .map(|((((p, h), f), t), tw)| wall_pair::<false>(w, x, *p, 0, h, f, t, tw) as usize)
                 .sum::<usize>()
         },
     );
@@ -128,6 +132,7 @@ pub(crate) fn run(world: &mut World) -> usize {
 #[inline]
 fn sphere_pair(
     w: &World,
+    x: &[Ds3A],
     [i, j]: [u32; 2],
     hist: &mut Vec3,
     coverage: &mut f32,
@@ -135,8 +140,8 @@ fn sphere_pair(
     touching: &mut bool,
 ) -> bool {
     let (i, j) = (i as usize, j as usize);
-    // Relative to body i: the offset is subtracted in f64, then rounded.
-    let d = w.offset_of(i, j);
+    // Relative to body i: the offset is subtracted in double-single, then rounded.
+    let d = w.offset_in(x, i, j);
     let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
     let dist2 = d.length_squared();
     if dist2 < (ri + rj) * (ri + rj) {
@@ -155,7 +160,7 @@ fn sphere_pair(
             n,
             point,
             &w.local_motion(i),
-            &w.motion_from(i, j),
+            &w.motion_at(j, d),
             hist,
             coverage,
         );
@@ -175,6 +180,7 @@ fn sphere_pair(
 #[allow(clippy::too_many_arguments)]
 fn body_pair<const PIECES: bool>(
     w: &World,
+    x: &[Ds3A],
     [i, j]: [u32; 2],
     pieces: u32,
     hist: &mut Vec3,
@@ -184,7 +190,7 @@ fn body_pair<const PIECES: bool>(
     twist: &mut f32,
     bound: &mut f32,
 ) -> bool {
-    let Some(found) = remembered_narrow::<PIECES>(w, [i, j], pieces, hint, bound) else {
+    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, [i, j], pieces, hint, bound) else {
         return *touching;
     };
     let (i, j) = (i as usize, j as usize);
@@ -200,7 +206,7 @@ fn body_pair<const PIECES: bool>(
                 &context,
                 &m,
                 &w.local_motion(i),
-                &w.motion_from(i, j),
+                &w.motion_at(j, d),
                 hist,
                 twist,
             );
@@ -245,8 +251,10 @@ pub(super) fn pair_context(
 /// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
 /// rest). The per-piece form is what other static boundaries can reuse.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn wall_pair<const PIECES: bool>(
     w: &World,
+    x: &[Ds3A],
     [i, wall]: [u32; 2],
     piece: u32,
     hist: &mut Vec3,
@@ -261,7 +269,7 @@ fn wall_pair<const PIECES: bool>(
     } else {
         (w.shape(i), w.local_pose(i))
     };
-    let (plane, rest) = w.plane_from(i, &wall.plane);
+    let (plane, rest) = w.plane_in(x, i, &wall.plane);
     match narrow::collide_plane(&plane, shape, &pose).map(|m| World::add_rest(m, rest)) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
@@ -287,30 +295,35 @@ fn wall_pair<const PIECES: bool>(
 /// The narrow phase of a body pair with what it remembers (`hint`, `bound`; see
 /// [`narrow::collide_with_hint`]): the separation bound first (`None`: still apart by
 /// more than both bodies can have moved, the pair is skipped), or a remembered contact
-/// face's margin less this step's motion; then the manifold, if any.
+/// face's margin less this step's motion; then `j`'s offset from `i` ([`World::offset_of`],
+/// computed once for the pair) and the manifold, if any.
 #[inline]
 fn remembered_narrow<const PIECES: bool>(
     w: &World,
+    x: impl PositionPairs,
     [i, j]: [u32; 2],
     pieces: u32,
     hint: &mut SatHint,
     bound: &mut f32,
-) -> Option<Option<Manifold>> {
+) -> Option<(Vec3, Option<Manifold>)> {
     let (i, j) = (i as usize, j as usize);
-    if narrow::is_contact_hint(*hint) {
-        // Touching at a remembered face: its margin less what this step's motion can have
-        // changed on both sides of each decision; the narrow phase uses the face while the
-        // margin stays positive.
-        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j);
-    } else if *bound > 0.0 {
+    let remembered_face = narrow::is_contact_hint(*hint);
+    if !remembered_face && *bound > 0.0 {
         // Apart by more than both bodies can have moved: skip the test.
         *bound -= motion_bound(w, i) + motion_bound(w, j);
         if *bound > 0.0 {
             return None;
         }
     }
+    let d = w.offset_in(x, i, j);
+    if remembered_face {
+        // Touching at a remembered face: its margin less what this step's motion can have
+        // changed on both sides of each decision; the narrow phase uses the face while the
+        // margin stays positive.
+        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d);
+    }
     let (pa, pb) = piece_ids(pieces);
-    Some(narrow_pair::<PIECES>(w, i, j, pa, pb, hint, bound))
+    Some((d, narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound)))
 }
 
 /// The narrow phase of body pair `k` (contact `k < world.contacts.pairs().len()`) as the
@@ -324,21 +337,24 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
     let mut bound = c.springs.separation_bound[k];
     let composites = world.has_composites();
     let [i, j] = c.pairs[k].map(|i| i as usize);
+    // Outside a step: the stored positions, split at each read.
+    let x = world.state.position.as_slice();
+    let d = world.offset_in(x, i, j);
     // The margin the narrow phase will see, if a face is remembered.
     let left = if composites {
-        bound - 2.0 * axis_motion_bound::<true>(world, i, j)
+        bound - 2.0 * axis_motion_bound::<true>(world, i, j, d)
     } else {
-        bound - 2.0 * axis_motion_bound::<false>(world, i, j)
+        bound - 2.0 * axis_motion_bound::<false>(world, i, j, d)
     };
     let before = narrow::is_contact_hint(hint).then_some((hint, left));
     let found = if composites {
-        remembered_narrow::<true>(world, c.pairs[k], c.pieces[k], &mut hint, &mut bound)
+        remembered_narrow::<true>(world, x, c.pairs[k], c.pieces[k], &mut hint, &mut bound)
     } else {
-        remembered_narrow::<false>(world, c.pairs[k], 0, &mut hint, &mut bound)
+        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound)
     };
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
-    (found.flatten(), used)
+    (found.and_then(|(_, m)| m), used)
 }
 
 /// A contact that stopped touching: zero force and springs (written only on the change).
@@ -357,11 +373,13 @@ fn release(
     *touching = false;
 }
 
-/// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`): the contact
-/// manifold, if any.
+/// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`, `j` at offset
+/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn narrow_pair<const PIECES: bool>(
     w: &World,
+    d: Vec3,
     i: usize,
     j: usize,
     pa: u32,
@@ -373,16 +391,21 @@ fn narrow_pair<const PIECES: bool>(
         // The plain path (no composites in the world).
         return match (w.shape(i), w.shape(j)) {
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
-                narrow::sphere_sphere(Vec3::ZERO, *ri, w.offset_of(i, j), *rj)
+                narrow::sphere_sphere(Vec3::ZERO, *ri, d, *rj)
             }
-            (si, sj) => {
-                narrow::collide_with_hint(si, &w.local_pose(i), sj, &w.pose_from(i, j), hint, bound)
-            }
+            (si, sj) => narrow::collide_with_hint(
+                si,
+                &w.local_pose(i),
+                sj,
+                &Pose::new(d, w.state.orientation[j]),
+                hint,
+                bound,
+            ),
         };
     }
     // Body i at the origin, j at its offset (see `World::offset_of`).
     let (sa, posea) = w.piece_at(i, pa, Vec3::ZERO);
-    let (sb, poseb) = w.piece_at(j, pb, w.offset_of(i, j));
+    let (sb, poseb) = w.piece_at(j, pb, d);
     match (sa, sb) {
         (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
             narrow::sphere_sphere(posea.position, *ri, poseb.position, *rj)
@@ -423,12 +446,12 @@ fn motion_bound(w: &World, i: usize) -> f32 {
 /// `2^-23 |x|_1` for both bodies), the quaternions' renormalisation (a few ulps of a turn),
 /// and a relative margin on the products.
 #[inline]
-fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize) -> f32 {
+fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize, d: Vec3) -> f32 {
     let s = &w.state;
     let (vi, vj) = (s.velocity[i].abs(), s.velocity[j].abs());
     let (oi, oj) = (s.omega[i].abs(), s.omega[j].abs());
-    // Body i sits at the origin of the pair's frame (see `World::offset_of`).
-    let xj = w.offset_of(i, j).abs();
+    // Body i sits at the origin of the pair's frame, j at `d` (see `World::offset_of`).
+    let xj = d.abs();
     let r = w.consts.radius[i] + w.consts.radius[j];
     let lever = if PIECES { 3.0 * r } else { 2.0 * r };
     let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * w.dt;

@@ -28,6 +28,10 @@ pub(crate) fn run(world: &mut World) -> Moved {
     let mesh = (!world.mesh.slots.is_empty()).then_some(&world.mesh);
     let consts = &world.consts;
     let rebuild_position = &world.rebuild_position;
+    // The positions as pairs, split by the contact stage this step (positions have not
+    // changed since).
+    let pairs = &world.position_pairs;
+    debug_assert_eq!(pairs.len(), world.state.position.len());
     let periodic = world.periodic;
     let sinks = &world.sinks;
     let s = &mut world.state;
@@ -44,6 +48,10 @@ pub(crate) fn run(world: &mut World) -> Moved {
         .enumerate()
         .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
             let mut worst = 0.0f32;
+            // This chunk's pairs and rebuild positions (sliced once: no bounds test per body).
+            let first = chunk * CHUNK;
+            let pairs = &pairs[first..first + xs.len()];
+            let rebuild_position = &rebuild_position[first..first + xs.len()];
             for k in 0..xs.len() {
                 let i = chunk * CHUNK + k;
                 if gone[k] {
@@ -60,7 +68,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 // The displacement rounded once to f32, added to the precise position (bit
                 // for bit the GPU's arithmetic, `crate::precise`): kept at any coordinate.
                 let (next, moved) =
-                    precise::advance(periodic.as_ref(), *x, *v * dt, rebuild_position[i]);
+                    precise::advance_a(periodic.as_ref(), pairs[k], *v * dt, rebuild_position[k]);
                 *x = next;
                 ls[k] += t * dt;
                 ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
