@@ -1,0 +1,71 @@
+//! `mpirun -np N clatter run SCENE`: a run on several MPI ranks (docs/parallel.md).
+//!
+//! This module finds out whether the process was started by an MPI launcher (whatever the
+//! build); the MPI run itself (`mpi.rs`) needs the cargo feature `mpi`. A build without it
+//! started on several ranks stops with an error instead of running the whole scene N times.
+
+#[cfg(feature = "mpi")]
+mod mpi;
+
+use crate::run::RunArgs;
+
+/// The environment variables MPI launchers set to the number of ranks: Open MPI's `mpirun`,
+/// MPICH's Hydra (and Slurm's `srun` with PMI-1/2), PMIx launchers (Slurm, PRRTE).
+const SIZE_VARS: [&str; 3] = ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"];
+
+/// The number of ranks when an MPI launcher started this process (`None` otherwise, or when
+/// the variable is not a number).
+pub fn launched() -> Option<usize> {
+    SIZE_VARS
+        .iter()
+        .find_map(|v| std::env::var(v).ok())
+        .and_then(|s| s.trim().parse().ok())
+}
+
+/// Whether `clatter run` takes the MPI path when an MPI launcher started `ranks` ranks: always
+/// with the `mpi` feature (one rank too, which runs the decomposition on one rank), and on
+/// several ranks without it (to say it cannot).
+pub fn wanted(ranks: usize) -> bool {
+    cfg!(feature = "mpi") || ranks > 1
+}
+
+/// `clatter run` under an MPI launcher that started `ranks` ranks: the decomposed run with
+/// the `mpi` feature; without it, the error that this build cannot.
+pub fn run(args: RunArgs, ranks: usize) -> anyhow::Result<()> {
+    #[cfg(feature = "mpi")]
+    {
+        let _ = ranks;
+        mpi::run(args)
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        let _ = args;
+        anyhow::bail!(
+            "started on {ranks} MPI ranks, but this clatter was built without MPI: each rank would run the whole scene. Build it with `cargo build --release -p clatter-cli --features mpi` (docs/parallel.md), or run it without mpirun"
+        )
+    }
+}
+
+/// For the subcommands that do not run on several ranks yet: an error when started on
+/// several (`name` is the subcommand).
+pub fn single_rank_only(name: &str) -> anyhow::Result<()> {
+    match launched() {
+        Some(n) if n > 1 => anyhow::bail!(
+            "`clatter {name}` does not run on several MPI ranks yet (started on {n}); only `clatter run` does (docs/parallel.md)"
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// The error of the ranks other than 0 when the run stops on an error every rank found: rank
+/// 0 prints it, the others exit with a failure and say nothing (one message, not N).
+#[derive(Debug)]
+pub struct Quiet;
+
+impl std::fmt::Display for Quiet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("stopped (rank 0 says why)")
+    }
+}
+
+impl std::error::Error for Quiet {}

@@ -1,0 +1,310 @@
+//! The MPI run (cargo feature `mpi`): rank 0 reads the scene and broadcasts its text, every
+//! rank builds the same world from it, [`clatter::domain::Domain`] steps it, and rank 0
+//! writes final.csv and summary.json from the gathered state (in scene order, bitwise what
+//! one process writes). [`MpiComm`] is the domain's transport over rsmpi.
+
+use std::io::Write;
+use std::time::Instant;
+
+use anyhow::Context;
+use clatter::domain::{Comm, Domain};
+use clatter::scene::Scene;
+use indicatif::{ProgressBar, ProgressStyle};
+use mpi::collective::SystemOperation;
+use mpi::datatype::{Partition, PartitionMut};
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+
+use super::Quiet;
+use crate::backend::Backend;
+use crate::output::{AtomicFile, STATE_HEADER, write_state_rows};
+use crate::run::RunArgs;
+use crate::scene_io::load_scene;
+
+/// [`Comm`] over an MPI communicator.
+pub struct MpiComm {
+    world: SimpleCommunicator,
+}
+
+/// Byte counts as MPI takes them (`int`): a message of 2 GiB or more is refused.
+fn count(n: usize) -> i32 {
+    i32::try_from(n).unwrap_or_else(|_| {
+        panic!("an MPI message of {n} bytes is over MPI's 2 GiB limit (docs/parallel.md)")
+    })
+}
+
+/// The offsets of consecutive blocks of `counts`.
+fn displacements(counts: &[i32]) -> Vec<i32> {
+    counts
+        .iter()
+        .scan(0i32, |at, &c| {
+            let d = *at;
+            *at += c;
+            Some(d)
+        })
+        .collect()
+}
+
+/// Splits `buf` into blocks of `counts`.
+fn split(buf: &[u8], counts: &[i32]) -> Vec<Vec<u8>> {
+    let mut at = 0;
+    counts
+        .iter()
+        .map(|&c| {
+            let b = buf[at..at + c as usize].to_vec();
+            at += c as usize;
+            b
+        })
+        .collect()
+}
+
+impl Comm for MpiComm {
+    fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
+        let mut recv_counts = vec![0i32; counts.len()];
+        self.world
+            .all_to_all_into(&counts[..], &mut recv_counts[..]);
+        let flat: Vec<u8> = send.concat();
+        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let (sd, rd) = (displacements(&counts), displacements(&recv_counts));
+        {
+            let sendp = Partition::new(&flat[..], &counts[..], &sd[..]);
+            let mut recvp = PartitionMut::new(&mut buf[..], &recv_counts[..], &rd[..]);
+            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
+        }
+        split(&buf, &recv_counts)
+    }
+
+    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let mut counts = vec![0i32; self.size()];
+        self.world
+            .all_gather_into(&count(mine.len()), &mut counts[..]);
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let d = displacements(&counts);
+        {
+            let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
+            self.world.all_gather_varcount_into(mine, &mut recvp);
+        }
+        split(&buf, &counts)
+    }
+
+    fn max_f32(&self, x: f32) -> f32 {
+        let mut y = 0.0f32;
+        self.world
+            .all_reduce_into(&x, &mut y, SystemOperation::max());
+        y
+    }
+
+    fn sum_u64(&self, x: u64) -> u64 {
+        let mut y = 0u64;
+        self.world
+            .all_reduce_into(&x, &mut y, SystemOperation::sum());
+        y
+    }
+
+    fn min_u64(&self, x: u64) -> u64 {
+        let mut y = 0u64;
+        self.world
+            .all_reduce_into(&x, &mut y, SystemOperation::min());
+        y
+    }
+}
+
+impl MpiComm {
+    /// Rank 0's `bytes` on every rank (the others pass anything).
+    fn broadcast(&self, bytes: Vec<u8>) -> Vec<u8> {
+        let root = self.world.process_at_rank(0);
+        let mut len = bytes.len() as u64;
+        root.broadcast_into(&mut len);
+        let mut buf = if self.rank() == 0 {
+            bytes
+        } else {
+            vec![0u8; len as usize]
+        };
+        root.broadcast_into(&mut buf[..]);
+        buf
+    }
+
+    /// `result` as every rank's outcome of a step all ranks take together: rank 0's error
+    /// (or the first failing rank's, said by rank 0) stops every rank. Collective.
+    fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
+        let mine = match &result {
+            Ok(_) => Vec::new(),
+            Err(e) => format!("{e:#}").into_bytes(),
+        };
+        let all = self.all_gather(&mine);
+        let first = all.iter().position(|m| !m.is_empty());
+        match (result, first) {
+            (Ok(v), None) => Ok(v),
+            (r, Some(k)) if self.rank() == 0 => Err(r.err().unwrap_or_else(|| {
+                anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k]))
+            })),
+            (_, _) => Err(Quiet.into()),
+        }
+    }
+}
+
+/// `clatter run` on MPI ranks (collective; see the module docs).
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
+    let universe = mpi::initialize().context("MPI could not be initialised")?;
+    let comm = MpiComm {
+        world: universe.world(),
+    };
+    let (rank, ranks) = (comm.rank(), comm.size());
+    // Rank 0 reads the scene file; every rank parses the same text.
+    let loaded = if rank == 0 {
+        load_scene(args.scene.as_deref()).map(|(text, scene)| (text, scene.source))
+    } else {
+        Ok((String::new(), String::new()))
+    };
+    let (text, source) = comm.agree(loaded)?;
+    let text = String::from_utf8(comm.broadcast(text.into_bytes()))
+        .context("the scene text is not UTF-8")?;
+    let source = String::from_utf8_lossy(&comm.broadcast(source.into_bytes())).into_owned();
+    let scene = comm.agree(Scene::parse(&text, &source).map_err(anyhow::Error::from))?;
+    let checked = check_args(&args, &scene, ranks);
+    comm.agree(checked)?;
+    let world = scene.world();
+    let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
+    let (bodies, walls, dt) = (world.len(), world.walls.len(), world.dt);
+    let domain = Domain::new(world, rank, ranks).map_err(anyhow::Error::from);
+    let mut domain = comm.agree(domain)?;
+    let loud = rank == 0 && !args.progress.quiet;
+    if rank == 0 {
+        for w in &scene.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    if loud {
+        eprintln!(
+            "{source}: {bodies} bodies, {walls} walls, dt = {dt:.3e} s, {end_step} steps ({:.4} s simulated), {ranks} MPI ranks x {} threads",
+            end_step as f64 * dt as f64,
+            rayon::current_num_threads()
+        );
+    }
+    let bar = if loud {
+        ProgressBar::new(end_step)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30.cyan/blue} {pos}/{len} steps, {msg}, eta {eta}")
+            .expect("valid template"),
+    );
+    let started = Instant::now();
+    for k in 0..end_step {
+        if let Err(e) = domain.step(&comm) {
+            bar.finish_and_clear();
+            // Every rank has the same error (the body is named by its scene id).
+            return Err(if rank == 0 {
+                anyhow::Error::new(crate::report::BlownUp(format!(
+                    "{e}\n(on {ranks} MPI ranks: no last_good.ckpt is written yet, see docs/parallel.md)"
+                )))
+            } else {
+                Quiet.into()
+            });
+        }
+        if (k + 1) % 64 == 0 {
+            bar.set_position(k + 1);
+            bar.set_message(format!("{:.0} steps/s", bar.per_sec()));
+        }
+    }
+    bar.finish_and_clear();
+    let elapsed = started.elapsed().as_secs_f64();
+    let contacts = domain.contact_count(&comm);
+    let whole = domain.gather(&comm);
+    if rank != 0 {
+        return Ok(());
+    }
+    let steps_per_s = end_step as f64 / elapsed.max(1e-9);
+    if loud {
+        println!("simulated time   {:.6} s", whole.time);
+        println!("steps            {end_step}");
+        println!("wall time        {elapsed:.3} s");
+        println!("backend          cpu on {ranks} MPI ranks");
+        println!("steps/s          {steps_per_s:.1}");
+        println!("contacts         {contacts}");
+        println!("kinetic energy   {:.6e} J", whole.kinetic_energy());
+    }
+    let Some(dir) = &args.output.out else {
+        return Ok(());
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut f = AtomicFile::create(&dir.join("final.csv"))?;
+    writeln!(f.writer(), "{STATE_HEADER}")?;
+    write_state_rows(f.writer(), &whole, "")?;
+    f.commit()?;
+    let summary = serde_json::json!({
+        "scene": source,
+        "bodies": whole.len(),
+        "walls": whole.walls.len(),
+        "dt": whole.dt.to_string().parse::<f64>().unwrap_or(whole.dt as f64),
+        "steps": end_step,
+        "step": whole.step_count,
+        "resumed_from_step": null,
+        "simulated_time": whole.time,
+        "wall_time_s": elapsed,
+        "steps_per_s": steps_per_s,
+        "threads": rayon::current_num_threads(),
+        "ranks": ranks,
+        "backend": "cpu",
+        "contacts": contacts,
+        "kinetic_energy": whole.kinetic_energy(),
+        "potential_energy": whole.potential_energy(),
+        "momentum": whole.momentum(),
+        "broad_phase_rebuilds": whole.rebuilds,
+        "removed": whole.discharged().count,
+        "removed_mass": whole.discharged().mass,
+    });
+    let mut f = AtomicFile::create(&dir.join("summary.json"))?;
+    serde_json::to_writer_pretty(f.writer(), &summary)?;
+    writeln!(f.writer())?;
+    f.commit()?;
+    if loud {
+        println!("results in {}/: final.csv, summary.json", dir.display());
+    }
+    Ok(())
+}
+
+/// What the MPI run does not do yet, refused before the first step (every rank finds the
+/// same: the arguments and the scene are the same everywhere).
+fn check_args(args: &RunArgs, scene: &Scene, ranks: usize) -> anyhow::Result<()> {
+    let o = &args.output;
+    let not_yet = |what: &str| {
+        anyhow::anyhow!(
+            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv and summary.json"
+        )
+    };
+    if !o.format.is_empty() || o.output_every.is_some() || o.trace_every.is_some() {
+        return Err(not_yet("the frame series (--format, --output-every)"));
+    }
+    if o.checkpoint_every.is_some() {
+        return Err(not_yet("a checkpoint (--checkpoint-every)"));
+    }
+    if o.contacts {
+        return Err(not_yet("the contact series (--contacts)"));
+    }
+    if args.pipeline.backend == Backend::Gpu {
+        anyhow::bail!(
+            "--backend gpu: runs on several MPI ranks use the CPU pipeline (one GPU per rank is planned, docs/parallel.md)"
+        );
+    }
+    let bodies = scene.desc.bodies.len();
+    if ranks > bodies.max(1) {
+        anyhow::bail!(
+            "{ranks} MPI ranks for {bodies} bodies: use at most one rank per body (mpirun -np {})",
+            bodies.max(1)
+        );
+    }
+    Ok(())
+}

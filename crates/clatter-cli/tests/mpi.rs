@@ -1,0 +1,258 @@
+//! `mpirun -np N clatter run` (docs/parallel.md): final.csv byte for byte the one-process
+//! run's on 1, 2 and 3 ranks, for the default scene and a sphere pile; bad rank counts and a
+//! build without MPI give errors, not hangs.
+//!
+//! The runs under mpirun need the binary built with the feature:
+//! `cargo test --release -p clatter-cli --features mpi --test mpi`. Without it they are
+//! skipped, loudly; the decomposition itself is tested without MPI by
+//! `crates/clatter/tests/domain.rs`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+mod common;
+use common::{assert_ok, clatter, text};
+
+fn test_dir(name: &str) -> PathBuf {
+    common::test_dir("mpi", name)
+}
+
+/// A command's output, killed after `limit` (a hang is a failure, not a stuck test).
+fn output_within(mut cmd: Command, limit: Duration) -> Output {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start the command");
+    let started = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("collect the output");
+        }
+        if started.elapsed() > limit {
+            let _ = child.kill();
+            let o = child.wait_with_output().expect("collect the output");
+            panic!("still running after {limit:?} (a hang?):\n{}", text(&o));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Started as if by `mpirun -np 3` (Open MPI's variable), a build without the feature stops
+/// at once with an error instead of running the scene three times.
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn several_ranks_without_the_feature_is_an_error() {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
+    cmd.args(["run", "--steps", "1", "--quiet"])
+        .env("OMPI_COMM_WORLD_SIZE", "3");
+    let o = output_within(cmd, Duration::from_secs(60));
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("built without MPI"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn runs_under_mpirun_need_the_mpi_feature() {
+    eprintln!(
+        "\n*** SKIPPED: the MPI runs (1, 2, 3 ranks bitwise equal to one process) need \
+         `cargo test --release -p clatter-cli --features mpi --test mpi` ***\n"
+    );
+}
+
+/// 300 spheres poured into a narrow box with a push sideways: they cross the slab
+/// boundaries (the slabs are cut along the box's long axis, x) many times.
+#[cfg(feature = "mpi")]
+const SPHERE_PILE: &str = r#"[simulation]
+steps = 1500
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 2.0e3
+restitution = 0.5
+friction = 0.5
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.3, 0.05, 0.2]
+material = "m"
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.005 }
+
+[[group]]
+shape = "ball"
+material = "m"
+random = { min = [0.01, 0.01, 0.01], max = [0.29, 0.04, 0.19], count = 300, seed = 7 }
+velocity = [1.5, 0.0, -0.5]
+"#;
+
+/// `mpirun` with what it needs here: `--oversubscribe` (2 cores), and leave to run as root
+/// (containers).
+#[cfg(feature = "mpi")]
+fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    let mut cmd = Command::new("mpirun");
+    cmd.args(["--oversubscribe", "-np", &ranks.to_string()])
+        .arg(env!("CARGO_BIN_EXE_clatter"))
+        .args(args)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
+    output_within(cmd, Duration::from_secs(600))
+}
+
+/// Whether mpirun is on the PATH (says loudly when not).
+#[cfg(feature = "mpi")]
+fn have_mpirun() -> bool {
+    let ok = Command::new("mpirun")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!("\n*** SKIPPED: mpirun is not on the PATH (apt-get install openmpi-bin) ***\n");
+    }
+    ok
+}
+
+#[cfg(feature = "mpi")]
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("read {}: {e}", path.display()))
+}
+
+/// `scene` (None: the default scene) for `steps` steps on one process, then on 1, 2 and 3
+/// ranks: final.csv byte for byte the same, and the summary's contacts, rebuilds and
+/// energies.
+#[cfg(feature = "mpi")]
+fn bitwise_on_ranks(name: &str, scene: Option<&Path>, steps: &str) {
+    let dir = test_dir(name);
+    let reference = dir.join("one");
+    let mut args: Vec<String> = Vec::new();
+    if let Some(s) = scene {
+        args.push(s.display().to_string());
+    }
+    args.extend(["--steps", steps, "--quiet"].map(String::from));
+    let mut one: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"run", &"--backend", &"cpu"];
+    one.extend(args.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
+    one.extend([&"--out" as &dyn AsRef<std::ffi::OsStr>, &reference]);
+    assert_ok(&clatter(&one), "the run without MPI");
+    let want = read(&reference.join("final.csv"));
+    let want_summary: serde_json::Value =
+        serde_json::from_str(&read(&reference.join("summary.json"))).expect("summary");
+    for ranks in 1..=3 {
+        let out = dir.join(format!("ranks{ranks}"));
+        let mut a: Vec<&str> = vec!["run"];
+        a.extend(args.iter().map(String::as_str));
+        let out_s = out.display().to_string();
+        a.extend(["--out", &out_s]);
+        let o = mpirun(ranks, &a);
+        assert_ok(&o, &format!("{name} on {ranks} ranks"));
+        let got = read(&out.join("final.csv"));
+        if got != want {
+            let line = got
+                .lines()
+                .zip(want.lines())
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
+            panic!(
+                "{name} on {ranks} ranks: final.csv differs from one process, first at line {}:\n  mpi: {}\n  one: {}",
+                line + 1,
+                got.lines().nth(line).unwrap_or(""),
+                want.lines().nth(line).unwrap_or("")
+            );
+        }
+        let summary: serde_json::Value =
+            serde_json::from_str(&read(&out.join("summary.json"))).expect("summary");
+        for key in [
+            "step",
+            "contacts",
+            "broad_phase_rebuilds",
+            "kinetic_energy",
+            "potential_energy",
+            "momentum",
+        ] {
+            assert_eq!(
+                summary[key], want_summary[key],
+                "{name} on {ranks} ranks: summary {key}"
+            );
+        }
+        assert_eq!(summary["ranks"], ranks, "{name}: ranks in the summary");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(feature = "mpi")]
+#[test]
+fn default_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        bitwise_on_ranks("default", None, "200");
+    }
+}
+
+#[cfg(feature = "mpi")]
+#[test]
+fn sphere_pile_on_1_2_3_ranks_is_bitwise_one_process() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("pile-scene");
+    let scene = dir.join("pile.toml");
+    std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
+    bitwise_on_ranks("pile", Some(&scene), "1500");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// More ranks than bodies, a missing scene file and options not carried yet: one clear
+/// error (from rank 0), every rank stopped, no hang.
+#[cfg(feature = "mpi")]
+#[test]
+fn bad_rank_counts_and_arguments_are_errors() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("errors");
+    let scene = dir.join("two.toml");
+    std::fs::write(
+        &scene,
+        "[simulation]\nsteps = 10\n\
+         [[material]]\nname = \"m\"\ndensity = 1000.0\nstiffness = 2.0e3\nrestitution = 0.5\nfriction = 0.5\n\
+         [[shape]]\nname = \"b\"\nsphere = { radius = 0.01 }\n\
+         [[body]]\nshape = \"b\"\nmaterial = \"m\"\nposition = [0.0, 0.0, 0.0]\n\
+         [[body]]\nshape = \"b\"\nmaterial = \"m\"\nposition = [0.1, 0.0, 0.0]\n",
+    )
+    .expect("write the scene");
+    let s = scene.display().to_string();
+    let cases: [(Vec<&str>, &str); 3] = [
+        (vec!["run", &s], "3 MPI ranks for 2 bodies"),
+        (vec!["run", "no-such-scene.toml"], "no-such-scene.toml"),
+        (
+            vec!["run", &s, "--out", "x", "--format", "vtk"],
+            "not written on several MPI ranks yet",
+        ),
+    ];
+    for (args, message) in cases {
+        let o = mpirun(3, &args);
+        assert!(!o.status.success(), "{args:?} should fail:\n{}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(message),
+            "{args:?}: want {message:?}:\n{}",
+            text(&o)
+        );
+        assert_eq!(
+            err.matches("error:").count(),
+            1,
+            "{args:?}: one message, from rank 0:\n{}",
+            text(&o)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,142 @@
+//! The records ranks exchange, as little-endian bytes: a body's state (every field the step
+//! integrates, so a copy steps bitwise as the original), a body pair's springs and a body-wall
+//! pair's springs (what a rebuild carries over). Bodies are named by their global id (their
+//! index in the scene).
+
+use glam::{DVec3, Quat, Vec3};
+
+use crate::bodies::BodyStates;
+
+/// The size of a state written by [`Writer::state`]: position (3 f64), velocity,
+/// orientation, its residual, angular momentum, angular velocity (f32) and the removed flag.
+pub(crate) const STATE_BYTES: usize = 24 + 12 + 16 + 16 + 12 + 12 + 4;
+
+/// Appends little-endian fields to a message.
+#[derive(Default)]
+pub(crate) struct Writer(pub Vec<u8>);
+
+impl Writer {
+    pub fn u32(&mut self, x: u32) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    pub fn f32(&mut self, x: f32) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    pub fn f64(&mut self, x: f64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    pub fn vec3(&mut self, v: Vec3) {
+        self.f32(v.x);
+        self.f32(v.y);
+        self.f32(v.z);
+    }
+    pub fn quat(&mut self, q: Quat) {
+        self.f32(q.x);
+        self.f32(q.y);
+        self.f32(q.z);
+        self.f32(q.w);
+    }
+
+    /// Body `i`'s state.
+    pub fn state(&mut self, s: &BodyStates, i: usize) {
+        let x = s.position[i];
+        self.f64(x.x);
+        self.f64(x.y);
+        self.f64(x.z);
+        self.vec3(s.velocity[i]);
+        self.quat(s.orientation[i]);
+        self.quat(s.orientation_residual[i]);
+        self.vec3(s.angular_momentum[i]);
+        self.vec3(s.omega[i]);
+        self.u32(s.removed[i] as u32);
+    }
+}
+
+/// Reads little-endian fields from a message written by [`Writer`]. Messages come from
+/// ranks of the same binary, so a short message is a bug: it panics.
+pub(crate) struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        Reader { bytes, at: 0 }
+    }
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0u8; N];
+        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
+        self.at += N;
+        out
+    }
+    /// A reader of `bytes` from byte `at` on.
+    pub fn at(bytes: &'a [u8], at: usize) -> Self {
+        Reader { bytes, at }
+    }
+    /// Where the next field starts.
+    pub fn position(&self) -> usize {
+        self.at
+    }
+    /// Skips a state written by [`Writer::state`].
+    pub fn skip_state(&mut self) {
+        self.at += STATE_BYTES;
+    }
+    pub fn is_empty(&self) -> bool {
+        self.at >= self.bytes.len()
+    }
+    pub fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    pub fn f32(&mut self) -> f32 {
+        f32::from_le_bytes(self.take())
+    }
+    pub fn f64(&mut self) -> f64 {
+        f64::from_le_bytes(self.take())
+    }
+    pub fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+    pub fn quat(&mut self) -> Quat {
+        let (x, y, z, w) = (self.f32(), self.f32(), self.f32(), self.f32());
+        Quat::from_xyzw(x, y, z, w)
+    }
+
+    /// A state written by [`Writer::state`], into body `i` of `s`.
+    pub fn state(&mut self, s: &mut BodyStates, i: usize) {
+        s.position[i] = DVec3::new(self.f64(), self.f64(), self.f64());
+        s.velocity[i] = self.vec3();
+        s.orientation[i] = self.quat();
+        s.orientation_residual[i] = self.quat();
+        s.angular_momentum[i] = self.vec3();
+        s.omega[i] = self.vec3();
+        s.removed[i] = self.u32() != 0;
+    }
+}
+
+/// A contact's springs on the move between ranks at a rebuild: the contact by global ids
+/// (`[body, body]` or `[body, wall]`) and piece code, its tangential and twisting springs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SpringRow {
+    pub key: [u32; 2],
+    pub piece: u32,
+    pub history: Vec3,
+    pub twist: f32,
+}
+
+impl SpringRow {
+    pub fn write(&self, w: &mut Writer) {
+        w.u32(self.key[0]);
+        w.u32(self.key[1]);
+        w.u32(self.piece);
+        w.vec3(self.history);
+        w.f32(self.twist);
+    }
+    pub fn read(r: &mut Reader) -> SpringRow {
+        SpringRow {
+            key: [r.u32(), r.u32()],
+            piece: r.u32(),
+            history: r.vec3(),
+            twist: r.f32(),
+        }
+    }
+}

@@ -1,0 +1,161 @@
+//! The domain decomposition (`clatter::domain`) on ranks that are threads of this process
+//! (`ThreadComm`): a world stepped on 1, 2, 3 and 4 ranks ends bitwise equal to the same
+//! world stepped by `World::step`, with the same contact count and rebuilds. The MPI
+//! transport itself is tested by `clatter-cli/tests/mpi.rs` (feature `mpi`).
+
+use std::path::Path;
+
+use clatter::World;
+use clatter::domain::{Comm, Domain, ThreadComm};
+use clatter::pile::{PileParams, PileShape, pile};
+use clatter::scene::Scene;
+use glam::Vec3;
+
+/// Every state bit of every body, in order.
+fn snapshot(w: &World) -> Vec<u64> {
+    let mut out = Vec::with_capacity(w.len() * 20);
+    for i in 0..w.len() {
+        let s = &w.state;
+        out.extend(s.position[i].to_array().map(f64::to_bits));
+        let f32s = s.velocity[i]
+            .to_array()
+            .into_iter()
+            .chain(s.orientation[i].to_array())
+            .chain(s.orientation_residual[i].to_array())
+            .chain(s.angular_momentum[i].to_array())
+            .chain(s.omega[i].to_array());
+        out.extend(f32s.map(|x| x.to_bits() as u64));
+        out.push(s.removed[i] as u64);
+    }
+    out
+}
+
+/// What a run ends with: every state bit, the touching contacts, the rebuilds.
+#[derive(Debug, PartialEq)]
+struct End {
+    state: Vec<u64>,
+    contacts: usize,
+    rebuilds: u64,
+    step: u64,
+}
+
+fn one_process(mut w: World, steps: usize) -> End {
+    for _ in 0..steps {
+        w.step().expect("one process steps");
+    }
+    End {
+        state: snapshot(&w),
+        contacts: w.contact_count(),
+        rebuilds: w.rebuilds,
+        step: w.step_count,
+    }
+}
+
+/// `world` stepped on `ranks` threads; every rank's gathered end must agree.
+fn on_ranks(world: &World, ranks: usize, steps: usize) -> End {
+    let ends: Vec<End> = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group(ranks)
+            .into_iter()
+            .map(|comm| {
+                let w = world.clone();
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size()).expect("supported");
+                    for _ in 0..steps {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    let contacts = d.contact_count(&comm);
+                    let g = d.gather(&comm);
+                    End {
+                        state: snapshot(&g),
+                        contacts,
+                        rebuilds: g.rebuilds,
+                        step: g.step_count,
+                    }
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect()
+    });
+    for e in &ends[1..] {
+        assert_eq!(e, &ends[0], "ranks disagree");
+    }
+    ends.into_iter().next().expect("one rank at least")
+}
+
+fn check(name: &str, world: World, steps: usize) {
+    let reference = one_process(world.clone(), steps);
+    assert!(
+        reference.rebuilds > 3,
+        "{name}: the run should rebuild ({} rebuilds)",
+        reference.rebuilds
+    );
+    eprintln!(
+        "{name}: {} steps, {} rebuilds, {} contacts at the end",
+        steps, reference.rebuilds, reference.contacts
+    );
+    for ranks in 1..=4 {
+        let got = on_ranks(&world, ranks, steps);
+        assert_eq!(got.step, reference.step, "{name} on {ranks} ranks: step");
+        assert_eq!(
+            got.rebuilds, reference.rebuilds,
+            "{name} on {ranks} ranks: rebuilds"
+        );
+        assert_eq!(
+            got.contacts, reference.contacts,
+            "{name} on {ranks} ranks: contacts"
+        );
+        let first = got
+            .state
+            .iter()
+            .zip(&reference.state)
+            .position(|(a, b)| a != b);
+        assert!(
+            first.is_none(),
+            "{name} on {ranks} ranks: state differs from one process at word {first:?} (body {:?})",
+            first.map(|k| k / 20)
+        );
+    }
+}
+
+/// A lattice of spheres shaken hard: bodies cross the slab boundaries many times.
+#[test]
+fn sphere_pile_on_1_to_4_ranks_is_bitwise_one_process() {
+    let mut desc = pile(PileShape::Sphere, 400, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
+    }
+    check("sphere pile", World::new(desc), 600);
+}
+
+/// The mixed polyhedra of the determinism test (separating-axis hints, face contacts).
+#[test]
+fn mixed_pile_on_1_to_4_ranks_is_bitwise_one_process() {
+    let mut desc = pile(PileShape::Mixed, 300, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
+        b.angular_velocity = Vec3::new((f * 0.29).cos(), (f * 0.53).sin(), (f * 0.97).cos()) * 30.0;
+    }
+    check("mixed pile", World::new(desc), 400);
+}
+
+/// The CLI's default scene (a few thousand polyhedra poured into a box), shortened.
+#[test]
+fn default_scene_on_1_to_4_ranks_is_bitwise_one_process() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/default.toml");
+    let scene = Scene::load(&path).expect("default scene");
+    check("default scene", scene.world(), 2000);
+}
+
+/// Worlds the decomposition does not carry yet are refused, not run wrongly.
+#[test]
+fn unsupported_worlds_are_refused() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/periodic-floor.toml");
+    let scene = Scene::load(&path).expect("periodic scene");
+    let err = Domain::new(scene.world(), 0, 2).err().expect("refused");
+    assert!(err.to_string().contains("periodic"), "{err}");
+}
