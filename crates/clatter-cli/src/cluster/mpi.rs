@@ -45,17 +45,27 @@ fn displacements(counts: &[i32]) -> Vec<i32> {
         .collect()
 }
 
-/// Splits `buf` into blocks of `counts`.
+/// Splits `buf` into blocks of `counts`, each without its first byte (see [`padded`]).
 fn split(buf: &[u8], counts: &[i32]) -> Vec<Vec<u8>> {
     let mut at = 0;
     counts
         .iter()
         .map(|&c| {
-            let b = buf[at..at + c as usize].to_vec();
+            let b = buf[at + 1..at + c as usize].to_vec();
             at += c as usize;
             b
         })
         .collect()
+}
+
+/// `m` after one byte: no buffer MPI sees is empty. Two empty buffers of the same type share
+/// Rust's dangling pointer, which Open MPI takes for the send buffer aliasing the receive
+/// buffer (`MPI_ERR_ARG`).
+fn padded(m: &[u8]) -> Vec<u8> {
+    let mut p = Vec::with_capacity(m.len() + 1);
+    p.push(0);
+    p.extend_from_slice(m);
+    p
 }
 
 impl Comm for MpiComm {
@@ -68,6 +78,7 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
         let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
         let mut recv_counts = vec![0i32; counts.len()];
         self.world
@@ -85,6 +96,7 @@ impl Comm for MpiComm {
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let mine = &padded(mine)[..];
         let mut counts = vec![0i32; self.size()];
         self.world
             .all_gather_into(&count(mine.len()), &mut counts[..]);
