@@ -109,7 +109,9 @@ fn main() -> ExitCode {
         }
         Err(e) if e.is::<validate::Failed>() => ExitCode::from(validate::FAILED_EXIT),
         // Another rank (rank 0) has said why.
-        Err(e) if e.is::<cluster::Quiet>() => ExitCode::FAILURE,
+        Err(e) if e.is::<cluster::Quiet>() => {
+            ExitCode::from(e.downcast_ref::<cluster::Quiet>().map_or(1, |q| q.0))
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

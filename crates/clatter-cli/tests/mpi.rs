@@ -69,7 +69,7 @@ fn runs_under_mpirun_need_the_mpi_feature() {
 /// boundaries (the slabs are cut along the box's long axis, x) many times.
 #[cfg(feature = "mpi")]
 const SPHERE_PILE: &str = r#"[simulation]
-steps = 1500
+steps = 6000
 dt = 2.0e-5
 gravity = [0.0, 0.0, -9.81]
 
@@ -206,7 +206,7 @@ fn sphere_pile_on_1_2_3_ranks_is_bitwise_one_process() {
     let dir = test_dir("pile-scene");
     let scene = dir.join("pile.toml");
     std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
-    bitwise_on_ranks("pile", Some(&scene), "1500");
+    bitwise_on_ranks("pile", Some(&scene), "6000");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -57,10 +57,10 @@ pub fn single_rank_only(name: &str) -> anyhow::Result<()> {
     }
 }
 
-/// The error of the ranks other than 0 when the run stops on an error every rank found: rank
-/// 0 prints it, the others exit with a failure and say nothing (one message, not N).
+/// The error every rank of an MPI run returns when the run stopped: rank 0 has printed why
+/// already, before any rank exited; `main` exits with the status it carries and says nothing.
 #[derive(Debug)]
-pub struct Quiet;
+pub struct Quiet(pub u8);
 
 impl std::fmt::Display for Quiet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -161,17 +161,41 @@ impl MpiComm {
             (r, Some(k)) if self.rank() == 0 => Err(r.err().unwrap_or_else(|| {
                 anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k]))
             })),
-            (_, _) => Err(Quiet.into()),
+            (_, _) => Err(Quiet(1).into()),
         }
     }
 }
 
-/// `clatter run` on MPI ranks (collective; see the module docs).
+/// `clatter run` on MPI ranks (collective; see the module docs). An error is printed here by
+/// rank 0 before any rank exits (mpirun stops the job at the first rank that exits with a
+/// failure, and rank 0 might not have said why yet); every rank then returns [`Quiet`] with
+/// the exit status.
 pub fn run(args: RunArgs) -> anyhow::Result<()> {
     let universe = mpi::initialize().context("MPI could not be initialised")?;
     let comm = MpiComm {
         world: universe.world(),
     };
+    let result = run_on(&comm, args);
+    let result = match result {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let status = if e.is::<crate::report::BlownUp>() {
+                crate::report::BLOW_UP_EXIT
+            } else {
+                1
+            };
+            if !e.is::<Quiet>() {
+                eprintln!("error: {e:#}");
+            }
+            Err(Quiet(status).into())
+        }
+    };
+    comm.world.barrier();
+    result
+}
+
+/// [`run`] on `comm`'s ranks.
+fn run_on(comm: &MpiComm, args: RunArgs) -> anyhow::Result<()> {
     let (rank, ranks) = (comm.rank(), comm.size());
     // Rank 0 reads the scene file; every rank parses the same text.
     let loaded = if rank == 0 {
@@ -215,7 +239,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     );
     let started = Instant::now();
     for k in 0..end_step {
-        if let Err(e) = domain.step(&comm) {
+        if let Err(e) = domain.step(comm) {
             bar.finish_and_clear();
             // Every rank has the same error (the body is named by its scene id).
             return Err(if rank == 0 {
@@ -223,7 +247,7 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
                     "{e}\n(on {ranks} MPI ranks: no last_good.ckpt is written yet, see docs/parallel.md)"
                 )))
             } else {
-                Quiet.into()
+                Quiet(crate::report::BLOW_UP_EXIT).into()
             });
         }
         if (k + 1) % 64 == 0 {
@@ -233,8 +257,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    let contacts = domain.contact_count(&comm);
-    let whole = domain.gather(&comm);
+    let contacts = domain.contact_count(comm);
+    let whole = domain.gather(comm);
     if rank != 0 {
         return Ok(());
     }
