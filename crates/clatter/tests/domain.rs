@@ -34,6 +34,9 @@ fn snapshot(w: &World) -> Vec<u64> {
 #[derive(Debug, PartialEq)]
 struct End {
     state: Vec<u64>,
+    /// The world's checkpoint: every state bit, the contact list with its springs, forces,
+    /// hints and bounds, the rebuild positions, the clock.
+    checkpoint: Vec<u8>,
     contacts: usize,
     rebuilds: u64,
     step: u64,
@@ -45,6 +48,7 @@ fn one_process(mut w: World, steps: usize) -> End {
     }
     End {
         state: snapshot(&w),
+        checkpoint: w.checkpoint_bytes("test", "", &[]),
         contacts: w.contact_count(),
         rebuilds: w.rebuilds,
         step: w.step_count,
@@ -67,6 +71,7 @@ fn on_ranks(world: &World, ranks: usize, steps: usize) -> End {
                     let g = d.gather(&comm);
                     End {
                         state: snapshot(&g),
+                        checkpoint: g.checkpoint_bytes("test", "", &[]),
                         contacts,
                         rebuilds: g.rebuilds,
                         step: g.step_count,
@@ -117,6 +122,17 @@ fn check(name: &str, world: World, steps: usize) {
             "{name} on {ranks} ranks: state differs from one process at word {first:?} (body {:?})",
             first.map(|k| k / 20)
         );
+        let first = got
+            .checkpoint
+            .iter()
+            .zip(&reference.checkpoint)
+            .position(|(a, b)| a != b);
+        assert!(
+            first.is_none() && got.checkpoint.len() == reference.checkpoint.len(),
+            "{name} on {ranks} ranks: the gathered world's checkpoint differs from one process's at byte {first:?} (lengths {} and {})",
+            got.checkpoint.len(),
+            reference.checkpoint.len()
+        );
     }
 }
 
@@ -143,7 +159,7 @@ fn mixed_pile_on_1_to_4_ranks_is_bitwise_one_process() {
     check("mixed pile", World::new(desc), 400);
 }
 
-/// The CLI's default scene (a few thousand polyhedra poured into a box), shortened.
+/// The CLI's default scene (2500 polyhedra and spheres poured into a box), shortened.
 #[test]
 fn default_scene_on_1_to_4_ranks_is_bitwise_one_process() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/default.toml");
@@ -158,4 +174,36 @@ fn unsupported_worlds_are_refused() {
     let scene = Scene::load(&path).expect("periodic scene");
     let err = Domain::new(scene.world(), 0, 2).err().expect("refused");
     assert!(err.to_string().contains("periodic"), "{err}");
+}
+
+fn scene_world(name: &str) -> World {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name);
+    Scene::load(&path)
+        .unwrap_or_else(|e| panic!("{name}: {e}"))
+        .world()
+}
+
+/// Sinks: bodies removed on one rank stay removed (the flag travels with the state) and
+/// drop out of every pair, as on one process.
+#[test]
+fn sink_scene_on_1_to_4_ranks_is_bitwise_one_process() {
+    let world = scene_world("sink-floor.toml");
+    assert!(!world.sinks.is_empty());
+    let reference = {
+        let mut w = world.clone();
+        for _ in 0..4000 {
+            w.step().expect("steps");
+        }
+        w.discharged().count
+    };
+    assert!(reference > 0, "the sink should remove bodies");
+    check("sink floor", world, 4000);
+}
+
+/// Composites (clumps): contacts per piece pair, their springs carried by piece code.
+#[test]
+fn clumps_on_1_to_4_ranks_is_bitwise_one_process() {
+    check("clumps", scene_world("clumps.toml"), 3000);
 }

@@ -6,6 +6,7 @@
 use glam::{DVec3, Quat, Vec3};
 
 use crate::bodies::BodyStates;
+use crate::contract::ContactForce;
 
 /// The size of a state written by [`Writer::state`]: position (3 f64), velocity,
 /// orientation, its residual, angular momentum, angular velocity (f32) and the removed flag.
@@ -35,6 +36,19 @@ impl Writer {
         self.f32(q.y);
         self.f32(q.z);
         self.f32(q.w);
+    }
+
+    pub fn dvec3(&mut self, v: DVec3) {
+        self.f64(v.x);
+        self.f64(v.y);
+        self.f64(v.z);
+    }
+    /// A contact's force (without the padding).
+    pub fn force(&mut self, f: &ContactForce) {
+        self.vec3(f.force_b);
+        self.f32(f.normal_force);
+        self.vec3(f.torque_a);
+        self.vec3(f.torque_b);
     }
 
     /// Body `i`'s state.
@@ -101,6 +115,20 @@ impl<'a> Reader<'a> {
         Quat::from_xyzw(x, y, z, w)
     }
 
+    pub fn dvec3(&mut self) -> DVec3 {
+        DVec3::new(self.f64(), self.f64(), self.f64())
+    }
+    /// A force written by [`Writer::force`].
+    pub fn force(&mut self) -> ContactForce {
+        ContactForce {
+            force_b: self.vec3(),
+            normal_force: self.f32(),
+            torque_a: self.vec3(),
+            torque_b: self.vec3(),
+            ..ContactForce::default()
+        }
+    }
+
     /// A state written by [`Writer::state`], into body `i` of `s`.
     pub fn state(&mut self, s: &mut BodyStates, i: usize) {
         s.position[i] = DVec3::new(self.f64(), self.f64(), self.f64());
@@ -137,6 +165,55 @@ impl SpringRow {
             piece: r.u32(),
             history: r.vec3(),
             twist: r.f32(),
+        }
+    }
+}
+
+/// A contact with everything it carries, for gathering the whole contact list
+/// ([`super::Domain::gather`]); `hint` and `bound` only for body pairs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ContactRow {
+    pub key: [u32; 2],
+    pub piece: u32,
+    pub history: Vec3,
+    pub twist: f32,
+    pub force: ContactForce,
+    pub touching: bool,
+    pub hint: u32,
+    pub bound: f32,
+}
+
+impl ContactRow {
+    pub fn write(&self, w: &mut Writer, pair: bool) {
+        w.u32(self.key[0]);
+        w.u32(self.key[1]);
+        w.u32(self.piece);
+        w.vec3(self.history);
+        w.f32(self.twist);
+        w.force(&self.force);
+        w.u32(self.touching as u32);
+        if pair {
+            w.u32(self.hint);
+            w.f32(self.bound);
+        }
+    }
+    pub fn read(r: &mut Reader, pair: bool) -> ContactRow {
+        let key = [r.u32(), r.u32()];
+        let piece = r.u32();
+        let history = r.vec3();
+        let twist = r.f32();
+        let force = r.force();
+        let touching = r.u32() != 0;
+        let (hint, bound) = if pair { (r.u32(), r.f32()) } else { (0, 0.0) };
+        ContactRow {
+            key,
+            piece,
+            history,
+            twist,
+            force,
+            touching,
+            hint,
+            bound,
         }
     }
 }
