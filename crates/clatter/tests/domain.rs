@@ -164,7 +164,7 @@ fn mixed_pile_on_1_to_4_ranks_is_bitwise_one_process() {
 fn default_scene_on_1_to_4_ranks_is_bitwise_one_process() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/default.toml");
     let scene = Scene::load(&path).expect("default scene");
-    check("default scene", scene.world(), 2000);
+    check("default scene", scene.world(), 5000);
 }
 
 /// Worlds the decomposition does not carry yet are refused, not run wrongly.
@@ -205,5 +205,59 @@ fn sink_scene_on_1_to_4_ranks_is_bitwise_one_process() {
 /// Composites (clumps): contacts per piece pair, their springs carried by piece code.
 #[test]
 fn clumps_on_1_to_4_ranks_is_bitwise_one_process() {
-    check("clumps", scene_world("clumps.toml"), 3000);
+    check("clumps", scene_world("clumps.toml"), 10000);
+}
+
+/// A run stopped between rebuilds on 3 ranks, its world gathered (what a checkpoint
+/// stores) and continued on 2 ranks and on 1, ends bitwise as one process's uninterrupted
+/// run; so does one process's world continued on 3 ranks.
+#[test]
+fn a_world_gathered_on_3_ranks_continues_on_2_and_1_bitwise() {
+    let mut desc = pile(PileShape::Mixed, 200, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
+    }
+    let world = World::new(desc);
+    let (first, then) = (157, 300);
+    let reference = one_process(world.clone(), first + then);
+    // 157 steps on 3 ranks, gathered; stopped mid-interval (no rebuild due).
+    let gathered: World = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group(3)
+            .into_iter()
+            .map(|comm| {
+                let w = world.clone();
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size()).expect("supported");
+                    for _ in 0..first {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    d.gather(&comm)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .next()
+            .expect("rank 0")
+    });
+    assert!(!gathered.needs_rebuild(), "stop between rebuilds");
+    let resumed = |start: &World, ranks: usize| on_ranks(start, ranks, then);
+    for ranks in [2, 1] {
+        let got = resumed(&gathered, ranks);
+        assert!(
+            got.checkpoint == reference.checkpoint,
+            "gathered on 3 ranks, continued on {ranks}: differs from one process"
+        );
+    }
+    let mut one = world.clone();
+    for _ in 0..first {
+        one.step().expect("steps");
+    }
+    let got = resumed(&one, 3);
+    assert!(
+        got.checkpoint == reference.checkpoint,
+        "one process continued on 3 ranks: differs"
+    );
 }

@@ -129,8 +129,9 @@ pub struct Domain {
 
 impl Domain {
     /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
-    /// is broadcast): rank 0 starts owning every body, the others none, and the first step's
-    /// rebuild distributes them. Fails for what is not carried across ranks yet.
+    /// or checkpoint is broadcast): rank 0 starts owning every body, the others none, and the
+    /// first rebuild distributes them (the first step's for a new world). Fails for what is
+    /// not carried across ranks yet.
     pub fn new(world: World, rank: usize, ranks: usize) -> Result<Domain, DomainError> {
         if !world.boundaries.is_empty() {
             return Err(DomainError::Unsupported("a scene with mesh boundaries"));
@@ -138,19 +139,17 @@ impl Domain {
         if world.periodic.is_some() {
             return Err(DomainError::Unsupported("a periodic scene"));
         }
-        if !world.needs_rebuild() {
-            // A checkpoint's list would have to be moved without a rebuild (hints, bounds
-            // and forces as well as springs): the one process does not rebuild there.
-            return Err(DomainError::Unsupported(
-                "a world with a current contact list (a resumed checkpoint)",
-            ));
-        }
-        let ids: Vec<u32> = if rank == 0 {
-            (0..world.len() as u32).collect()
+        // Rank 0 takes the world whole, with its contact list if it has a current one (a
+        // resumed checkpoint): it steps it alone up to the next rebuild, where one process
+        // rebuilds too and the bodies are distributed (moving a list between rebuilds would
+        // need every contact's hints, bounds and forces moved as well).
+        let (ids, local) = if rank == 0 {
+            ((0..world.len() as u32).collect(), world.clone())
         } else {
-            Vec::new()
+            let mut empty = world.subset(&[], Vec::new());
+            empty.set_needs_rebuild(world.needs_rebuild());
+            (Vec::new(), empty)
         };
-        let local = world.subset(&ids, vec![false; ids.len()]);
         let reach = 2.0 * world.consts.max_radius() + world.skin;
         Ok(Domain {
             template: world,
