@@ -60,21 +60,28 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        // Under mpirun (docs/parallel.md): `run` steps the scene on the ranks; the other
-        // subcommands refuse several ranks.
+        // Under mpirun (docs/parallel.md): `run` and `resume` step the world on the ranks;
+        // the other subcommands refuse several ranks.
         Command::Run(args) => {
             args.pipeline
                 .init_threads()
                 .and_then(|_| match cluster::launched() {
-                    Some(ranks) if cluster::wanted(ranks) => cluster::run(args, ranks),
+                    Some(ranks) if cluster::wanted(ranks) => {
+                        cluster::run(cluster::Invocation::Run(args), ranks)
+                    }
                     _ => run::run(args),
                 })
         }
-        Command::Resume(args) => args
-            .pipeline
-            .init_threads()
-            .and_then(|_| cluster::single_rank_only("resume"))
-            .and_then(|_| run::resume(args)),
+        Command::Resume(args) => {
+            args.pipeline
+                .init_threads()
+                .and_then(|_| match cluster::launched() {
+                    Some(ranks) if cluster::wanted(ranks) => {
+                        cluster::run(cluster::Invocation::Resume(args), ranks)
+                    }
+                    _ => run::resume(args),
+                })
+        }
         Command::Bench(args) => args
             .pipeline
             .init_threads()

@@ -1,6 +1,7 @@
-//! `mpirun -np N clatter run` (docs/parallel.md): final.csv byte for byte the one-process
-//! run's on 1, 2 and 3 ranks, for the default scene and a sphere pile; bad rank counts and a
-//! build without MPI give errors, not hangs.
+//! `mpirun -np N clatter run` and `resume` (docs/parallel.md): final.csv byte for byte the
+//! one-process run's on 1, 2 and 3 ranks, for the default scene and a sphere pile; a
+//! checkpoint written on 3 ranks byte for byte one process's, resumed on 2 ranks and on one
+//! process; bad rank counts and a build without MPI give errors, not hangs.
 //!
 //! The runs under mpirun need the binary built with the feature:
 //! `cargo test --release -p clatter-cli --features mpi --test mpi`. Without it they are
@@ -210,6 +211,90 @@ fn sphere_pile_on_1_2_3_ranks_is_bitwise_one_process() {
     let scene = dir.join("pile.toml");
     std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
     bitwise_on_ranks("pile", Some(&scene), "6000");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A checkpoint written on 3 ranks is byte for byte one process's; resumed on 2 ranks and
+/// on one process (no MPI), it ends as the uninterrupted one-process run.
+#[cfg(feature = "mpi")]
+#[test]
+fn checkpoint_on_3_ranks_resumes_on_2_and_on_one_process_bitwise() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("checkpoint");
+    let scene = dir.join("pile.toml");
+    std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
+    let (one, three, whole, two, alone) = (
+        dir.join("one"),
+        dir.join("three"),
+        dir.join("whole"),
+        dir.join("two"),
+        dir.join("alone"),
+    );
+    let every = ["--checkpoint-every", "0.01", "--quiet"];
+    let mut a: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+        &"run",
+        &scene,
+        &"--backend",
+        &"cpu",
+        &"--steps",
+        &"2900",
+        &"--out",
+        &one,
+    ];
+    a.extend(every.iter().map(|s| s as &dyn AsRef<std::ffi::OsStr>));
+    assert_ok(&clatter(&a), "one process to step 2900");
+    let s = scene.display().to_string();
+    let t = three.display().to_string();
+    let mut m = vec!["run", &s, "--steps", "2900", "--out", &t];
+    m.extend(every);
+    assert_ok(&mpirun(3, &m), "3 ranks to step 2900");
+    assert!(
+        std::fs::read(one.join("checkpoint.ckpt")).expect("one process's checkpoint")
+            == std::fs::read(three.join("checkpoint.ckpt")).expect("3 ranks' checkpoint"),
+        "the checkpoint written on 3 ranks differs from one process's"
+    );
+    let a: [&dyn AsRef<std::ffi::OsStr>; 9] = [
+        &"run",
+        &scene,
+        &"--backend",
+        &"cpu",
+        &"--steps",
+        &"4500",
+        &"--quiet",
+        &"--out",
+        &whole,
+    ];
+    assert_ok(&clatter(&a), "one process to step 4500");
+    let ckpt = three.join("checkpoint.ckpt").display().to_string();
+    let t2 = two.display().to_string();
+    let o = mpirun(
+        2,
+        &["resume", &ckpt, "--steps", "1600", "--quiet", "--out", &t2],
+    );
+    assert_ok(&o, "resumed on 2 ranks");
+    let a: [&dyn AsRef<std::ffi::OsStr>; 9] = [
+        &"resume",
+        &ckpt,
+        &"--backend",
+        &"cpu",
+        &"--steps",
+        &"1600",
+        &"--quiet",
+        &"--out",
+        &alone,
+    ];
+    assert_ok(&clatter(&a), "resumed on one process");
+    let want = read(&whole.join("final.csv"));
+    assert!(
+        read(&two.join("final.csv")) == want,
+        "resumed on 2 ranks: final.csv differs"
+    );
+    assert!(
+        read(&alone.join("final.csv")) == want,
+        "resumed on one process: final.csv differs"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

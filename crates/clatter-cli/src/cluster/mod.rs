@@ -7,7 +7,17 @@
 #[cfg(feature = "mpi")]
 mod mpi;
 
-use crate::run::RunArgs;
+use crate::run::{ResumeArgs, RunArgs};
+
+/// What the ranks were started to do (read by the MPI run only: a build without the feature
+/// just refuses it).
+#[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+pub enum Invocation {
+    /// `clatter run`.
+    Run(RunArgs),
+    /// `clatter resume`.
+    Resume(ResumeArgs),
+}
 
 /// The environment variables MPI launchers set to the number of ranks: Open MPI's `mpirun`,
 /// MPICH's Hydra (and Slurm's `srun` with PMI-1/2), PMIx launchers (Slurm, PRRTE).
@@ -29,17 +39,17 @@ pub fn wanted(ranks: usize) -> bool {
     cfg!(feature = "mpi") || ranks > 1
 }
 
-/// `clatter run` under an MPI launcher that started `ranks` ranks: the decomposed run with
-/// the `mpi` feature; without it, the error that this build cannot.
-pub fn run(args: RunArgs, ranks: usize) -> anyhow::Result<()> {
+/// `clatter run` or `clatter resume` under an MPI launcher that started `ranks` ranks: the
+/// decomposed run with the `mpi` feature; without it, the error that this build cannot.
+pub fn run(invocation: Invocation, ranks: usize) -> anyhow::Result<()> {
     #[cfg(feature = "mpi")]
     {
         let _ = ranks;
-        mpi::run(args)
+        mpi::run(invocation)
     }
     #[cfg(not(feature = "mpi"))]
     {
-        let _ = args;
+        let _ = invocation;
         anyhow::bail!(
             "started on {ranks} MPI ranks, but this clatter was built without MPI: each rank would run the whole scene. Build it with `cargo build --release -p clatter-cli --features mpi` (docs/parallel.md), or run it without mpirun"
         )

@@ -9,16 +9,17 @@ use std::time::Instant;
 use anyhow::Context;
 use clatter::domain::{Comm, Domain};
 use clatter::scene::Scene;
+use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
 use mpi::collective::SystemOperation;
 use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 
-use super::Quiet;
+use super::{Invocation, Quiet};
 use crate::backend::Backend;
 use crate::output::{AtomicFile, STATE_HEADER, write_state_rows};
-use crate::run::RunArgs;
+use crate::run::{Plan, resume_plan, run_plan};
 use crate::scene_io::load_scene;
 
 /// [`Comm`] over an MPI communicator.
@@ -166,16 +167,16 @@ impl MpiComm {
     }
 }
 
-/// `clatter run` on MPI ranks (collective; see the module docs). An error is printed here by
-/// rank 0 before any rank exits (mpirun stops the job at the first rank that exits with a
-/// failure, and rank 0 might not have said why yet); every rank then returns [`Quiet`] with
-/// the exit status.
-pub fn run(args: RunArgs) -> anyhow::Result<()> {
+/// `clatter run` or `clatter resume` on MPI ranks (collective; see the module docs). An
+/// error is printed here by rank 0 before any rank exits (mpirun stops the job at the first
+/// rank that exits with a failure, and rank 0 might not have said why yet); every rank then
+/// returns [`Quiet`] with the exit status.
+pub fn run(invocation: Invocation) -> anyhow::Result<()> {
     let universe = mpi::initialize().context("MPI could not be initialised")?;
     let comm = MpiComm {
         world: universe.world(),
     };
-    let result = run_on(&comm, args);
+    let result = run_on(&comm, invocation);
     let result = match result {
         Ok(()) => Ok(()),
         Err(e) => {
@@ -194,42 +195,79 @@ pub fn run(args: RunArgs) -> anyhow::Result<()> {
     result
 }
 
+/// The plan and the world on every rank: rank 0 reads the scene file or the checkpoint, every
+/// rank builds both from the bytes it broadcasts.
+fn start(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<(Plan, World)> {
+    let rank = comm.rank();
+    match invocation {
+        Invocation::Run(args) => {
+            let loaded = if rank == 0 {
+                load_scene(args.scene.as_deref()).map(|(text, scene)| (text, scene.source))
+            } else {
+                Ok((String::new(), String::new()))
+            };
+            let (text, source) = comm.agree(loaded)?;
+            let text = String::from_utf8(comm.broadcast(text.into_bytes()))
+                .context("the scene text is not UTF-8")?;
+            let source = String::from_utf8_lossy(&comm.broadcast(source.into_bytes())).into_owned();
+            let scene = comm.agree(Scene::parse(&text, &source).map_err(anyhow::Error::from))?;
+            let (mut plan, world) = comm.agree(run_plan(args, text, scene))?;
+            plan.picture = false;
+            Ok((plan, world))
+        }
+        Invocation::Resume(args) => {
+            let path = args.checkpoint.clone();
+            let what = || format!("cannot resume from {}", path.display());
+            let bytes = if rank == 0 {
+                std::fs::read(&path).with_context(what)
+            } else {
+                Ok(Vec::new())
+            };
+            let bytes = comm.broadcast(comm.agree(bytes)?);
+            let ckpt = comm.agree(Checkpoint::from_bytes(&bytes).with_context(what))?;
+            comm.agree(resume_plan(args, ckpt))
+        }
+    }
+}
+
 /// [`run`] on `comm`'s ranks.
-fn run_on(comm: &MpiComm, args: RunArgs) -> anyhow::Result<()> {
+fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let (rank, ranks) = (comm.rank(), comm.size());
-    // Rank 0 reads the scene file; every rank parses the same text.
-    let loaded = if rank == 0 {
-        load_scene(args.scene.as_deref()).map(|(text, scene)| (text, scene.source))
-    } else {
-        Ok((String::new(), String::new()))
-    };
-    let (text, source) = comm.agree(loaded)?;
-    let text = String::from_utf8(comm.broadcast(text.into_bytes()))
-        .context("the scene text is not UTF-8")?;
-    let source = String::from_utf8_lossy(&comm.broadcast(source.into_bytes())).into_owned();
-    let scene = comm.agree(Scene::parse(&text, &source).map_err(anyhow::Error::from))?;
-    let checked = check_args(&args, &scene, ranks);
-    comm.agree(checked)?;
-    let world = scene.world();
-    let end_step = args.steps.unwrap_or_else(|| scene.steps(world.dt));
+    let (plan, world) = start(comm, invocation)?;
+    comm.agree(check_plan(&plan, world.len(), ranks))?;
+    let start_step = world.step_count;
+    let steps = plan.end_step.saturating_sub(start_step);
     let (bodies, walls, dt) = (world.len(), world.walls.len(), world.dt);
-    let domain = Domain::new(world, rank, ranks).map_err(anyhow::Error::from);
-    let mut domain = comm.agree(domain)?;
-    let loud = rank == 0 && !args.progress.quiet;
-    if rank == 0 {
-        for w in &scene.warnings {
+    let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
+    let loud = rank == 0 && !plan.quiet;
+    if rank == 0 && !plan.resumed {
+        for w in &plan.scene.warnings {
             eprintln!("warning: {w}");
         }
     }
     if loud {
+        let from = if plan.resumed {
+            format!(" from step {start_step}")
+        } else {
+            String::new()
+        };
         eprintln!(
-            "{source}: {bodies} bodies, {walls} walls, dt = {dt:.3e} s, {end_step} steps ({:.4} s simulated), {ranks} MPI ranks x {} threads",
-            end_step as f64 * dt as f64,
+            "{}: {bodies} bodies, {walls} walls, dt = {dt:.3e} s, {steps} steps{from} ({:.4} s simulated), {ranks} MPI ranks x {} threads",
+            plan.scene.source,
+            steps as f64 * dt as f64,
             rayon::current_num_threads()
         );
     }
+    if let Some(dir) = &plan.out {
+        let made = if rank == 0 {
+            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+        } else {
+            Ok(())
+        };
+        comm.agree(made)?;
+    }
     let bar = if loud {
-        ProgressBar::new(end_step)
+        ProgressBar::new(steps)
     } else {
         ProgressBar::hidden()
     };
@@ -237,8 +275,13 @@ fn run_on(comm: &MpiComm, args: RunArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{bar:30.cyan/blue} {pos}/{len} steps, {msg}, eta {eta}")
             .expect("valid template"),
     );
+    // Checkpoints at the simulated times one process writes them (`run/outputs.rs`).
+    let half_dt = 0.5 * dt as f64;
+    let mut next_checkpoint = plan
+        .checkpoint_every
+        .map(|t| ((domain.local().time + half_dt) / t).floor() + 1.0);
     let started = Instant::now();
-    for k in 0..end_step {
+    for k in 0..steps {
         if let Err(e) = domain.step(comm) {
             bar.finish_and_clear();
             // Every rank has the same error (the body is named by its scene id).
@@ -250,6 +293,21 @@ fn run_on(comm: &MpiComm, args: RunArgs) -> anyhow::Result<()> {
                 Quiet(crate::report::BLOW_UP_EXIT).into()
             });
         }
+        if let (Some(t), Some(next), Some(dir)) =
+            (plan.checkpoint_every, &mut next_checkpoint, &plan.out)
+        {
+            let time = domain.local().time;
+            if time + half_dt >= *next * t {
+                let whole = domain.gather(comm);
+                let written = if rank == 0 {
+                    plan.checkpoint(&whole, &dir.join("checkpoint.ckpt"))
+                } else {
+                    Ok(())
+                };
+                comm.agree(written)?;
+                *next = ((time + half_dt) / t).floor() + 1.0;
+            }
+        }
         if (k + 1) % 64 == 0 {
             bar.set_position(k + 1);
             bar.set_message(format!("{:.0} steps/s", bar.per_sec()));
@@ -257,44 +315,57 @@ fn run_on(comm: &MpiComm, args: RunArgs) -> anyhow::Result<()> {
     }
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    let contacts = domain.contact_count(comm);
     let whole = domain.gather(comm);
-    if rank != 0 {
-        return Ok(());
-    }
-    let steps_per_s = end_step as f64 / elapsed.max(1e-9);
+    let finished = if rank == 0 {
+        finish(&plan, &whole, steps, start_step, elapsed, ranks)
+    } else {
+        Ok(())
+    };
+    comm.agree(finished)
+}
+
+/// Rank 0's end of the run: the summary lines, final.csv, summary.json and the checkpoint.
+fn finish(
+    plan: &Plan,
+    whole: &World,
+    steps: u64,
+    start_step: u64,
+    elapsed: f64,
+    ranks: usize,
+) -> anyhow::Result<()> {
+    let steps_per_s = steps as f64 / elapsed.max(1e-9);
+    let loud = !plan.quiet;
     if loud {
         println!("simulated time   {:.6} s", whole.time);
-        println!("steps            {end_step}");
+        println!("steps            {steps}");
         println!("wall time        {elapsed:.3} s");
         println!("backend          cpu on {ranks} MPI ranks");
         println!("steps/s          {steps_per_s:.1}");
-        println!("contacts         {contacts}");
+        println!("contacts         {}", whole.contact_count());
         println!("kinetic energy   {:.6e} J", whole.kinetic_energy());
     }
-    let Some(dir) = &args.output.out else {
+    let Some(dir) = &plan.out else {
         return Ok(());
     };
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut f = AtomicFile::create(&dir.join("final.csv"))?;
     writeln!(f.writer(), "{STATE_HEADER}")?;
-    write_state_rows(f.writer(), &whole, "")?;
+    write_state_rows(f.writer(), whole, "")?;
     f.commit()?;
     let summary = serde_json::json!({
-        "scene": source,
+        "scene": plan.scene.source,
         "bodies": whole.len(),
         "walls": whole.walls.len(),
         "dt": whole.dt.to_string().parse::<f64>().unwrap_or(whole.dt as f64),
-        "steps": end_step,
+        "steps": steps,
         "step": whole.step_count,
-        "resumed_from_step": null,
+        "resumed_from_step": plan.resumed.then_some(start_step),
         "simulated_time": whole.time,
         "wall_time_s": elapsed,
         "steps_per_s": steps_per_s,
         "threads": rayon::current_num_threads(),
         "ranks": ranks,
         "backend": "cpu",
-        "contacts": contacts,
+        "contacts": whole.contact_count(),
         "kinetic_energy": whole.kinetic_energy(),
         "potential_energy": whole.potential_energy(),
         "momentum": whole.momentum(),
@@ -306,36 +377,36 @@ fn run_on(comm: &MpiComm, args: RunArgs) -> anyhow::Result<()> {
     serde_json::to_writer_pretty(f.writer(), &summary)?;
     writeln!(f.writer())?;
     f.commit()?;
+    let mut written = "final.csv, summary.json".to_string();
+    if plan.checkpoint_every.is_some() {
+        plan.checkpoint(whole, &dir.join("checkpoint.ckpt"))?;
+        written.push_str(", checkpoint.ckpt");
+    }
     if loud {
-        println!("results in {}/: final.csv, summary.json", dir.display());
+        println!("results in {}/: {written}", dir.display());
     }
     Ok(())
 }
 
 /// What the MPI run does not do yet, refused before the first step (every rank finds the
-/// same: the arguments and the scene are the same everywhere).
-fn check_args(args: &RunArgs, scene: &Scene, ranks: usize) -> anyhow::Result<()> {
-    let o = &args.output;
+/// same: the arguments and the scene or checkpoint are the same everywhere).
+fn check_plan(plan: &Plan, bodies: usize, ranks: usize) -> anyhow::Result<()> {
     let not_yet = |what: &str| {
         anyhow::anyhow!(
-            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv and summary.json"
+            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv, summary.json and checkpoint.ckpt"
         )
     };
-    if !o.format.is_empty() || o.output_every.is_some() || o.trace_every.is_some() {
+    if plan.vtk || plan.output_every.is_some() {
         return Err(not_yet("the frame series (--format, --output-every)"));
     }
-    if o.checkpoint_every.is_some() {
-        return Err(not_yet("a checkpoint (--checkpoint-every)"));
-    }
-    if o.contacts {
+    if plan.contacts {
         return Err(not_yet("the contact series (--contacts)"));
     }
-    if args.pipeline.backend == Backend::Gpu {
+    if plan.backend == Backend::Gpu {
         anyhow::bail!(
             "--backend gpu: runs on several MPI ranks use the CPU pipeline (one GPU per rank is planned, docs/parallel.md)"
         );
     }
-    let bodies = scene.desc.bodies.len();
     if ranks > bodies.max(1) {
         anyhow::bail!(
             "{ranks} MPI ranks for {bodies} bodies: use at most one rank per body (mpirun -np {})",
