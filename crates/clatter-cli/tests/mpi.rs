@@ -1,5 +1,6 @@
-//! `mpirun -np N clatter run` and `resume` (docs/parallel.md): final.csv byte for byte the
-//! one-process run's on 1, 2 and 3 ranks, for the default scene and a sphere pile; a
+//! `mpirun -np N clatter run` and `resume` (docs/parallel.md): final.csv, energy.csv and
+//! discharge.csv byte for byte the one-process run's on 1, 2 and 3 ranks, for the default
+//! scene, a sphere pile and a scene with a sink; a
 //! checkpoint written on 3 ranks byte for byte one process's, resumed on 2 ranks and on one
 //! process; bad rank counts and a build without MPI give errors, not hangs.
 //!
@@ -133,8 +134,8 @@ fn read(path: &Path) -> String {
 }
 
 /// `scene` (None: the default scene) for `steps` steps on one process, then on 1, 2 and 3
-/// ranks: final.csv byte for byte the same, and the summary's contacts, rebuilds and
-/// energies.
+/// ranks: final.csv, energy.csv (and discharge.csv) byte for byte the same, and the
+/// summary's contacts, rebuilds and energies.
 #[cfg(feature = "mpi")]
 fn bitwise_on_ranks(name: &str, scene: Option<&Path>, steps: &str) {
     let dir = test_dir(name);
@@ -159,6 +160,15 @@ fn bitwise_on_ranks(name: &str, scene: Option<&Path>, steps: &str) {
         a.extend(["--out", &out_s]);
         let o = mpirun(ranks, &a);
         assert_ok(&o, &format!("{name} on {ranks} ranks"));
+        for file in ["energy.csv", "discharge.csv"] {
+            let one = reference.join(file);
+            if one.exists() {
+                assert!(
+                    read(&out.join(file)) == read(&one),
+                    "{name} on {ranks} ranks: {file} differs from one process's"
+                );
+            }
+        }
         let got = read(&out.join("final.csv"));
         if got != want {
             let line = got
@@ -212,6 +222,16 @@ fn sphere_pile_on_1_2_3_ranks_is_bitwise_one_process() {
     std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
     bitwise_on_ranks("pile", Some(&scene), "6000");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Sinks: discharge.csv as well (`scenes/sink-floor.toml`, 30 of 50 spheres removed).
+#[cfg(feature = "mpi")]
+#[test]
+fn sink_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/sink-floor.toml");
+        bitwise_on_ranks("sink", Some(&scene), "4000");
+    }
 }
 
 /// A checkpoint written on 3 ranks is byte for byte one process's; resumed on 2 ranks and

@@ -57,7 +57,12 @@ fn one_process(mut w: World, steps: usize) -> End {
 
 /// `world` stepped on `ranks` threads; every rank's gathered end must agree.
 fn on_ranks(world: &World, ranks: usize, steps: usize) -> End {
-    let ends: Vec<End> = std::thread::scope(|scope| {
+    on_ranks_counted(world, ranks, steps).0
+}
+
+/// [`on_ranks`], with the number of bodies handed from one rank to another at rebuilds.
+fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
+    let ends: Vec<(End, u64)> = std::thread::scope(|scope| {
         let handles: Vec<_> = ThreadComm::group(ranks)
             .into_iter()
             .map(|comm| {
@@ -68,14 +73,16 @@ fn on_ranks(world: &World, ranks: usize, steps: usize) -> End {
                         d.step(&comm).expect("ranks step");
                     }
                     let contacts = d.contact_count(&comm);
+                    let handovers = comm.sum_u64(d.handed_over());
                     let g = d.gather(&comm);
-                    End {
+                    let end = End {
                         state: snapshot(&g),
                         checkpoint: g.checkpoint_bytes("test", "", &[]),
                         contacts,
                         rebuilds: g.rebuilds,
                         step: g.step_count,
-                    }
+                    };
+                    (end, handovers)
                 })
             })
             .collect();
@@ -90,7 +97,7 @@ fn on_ranks(world: &World, ranks: usize, steps: usize) -> End {
     ends.into_iter().next().expect("one rank at least")
 }
 
-fn check(name: &str, world: World, steps: usize) {
+fn check(name: &str, world: World, steps: usize) -> u64 {
     let reference = one_process(world.clone(), steps);
     assert!(
         reference.rebuilds > 3,
@@ -101,8 +108,11 @@ fn check(name: &str, world: World, steps: usize) {
         "{name}: {} steps, {} rebuilds, {} contacts at the end",
         steps, reference.rebuilds, reference.contacts
     );
+    let mut handovers = 0;
     for ranks in 1..=4 {
-        let got = on_ranks(&world, ranks, steps);
+        let (got, handed) = on_ranks_counted(&world, ranks, steps);
+        eprintln!("{name} on {ranks} ranks: {handed} bodies handed over");
+        handovers = handovers.max(handed);
         assert_eq!(got.step, reference.step, "{name} on {ranks} ranks: step");
         assert_eq!(
             got.rebuilds, reference.rebuilds,
@@ -134,6 +144,7 @@ fn check(name: &str, world: World, steps: usize) {
             reference.checkpoint.len()
         );
     }
+    handovers
 }
 
 /// A lattice of spheres shaken hard: bodies cross the slab boundaries many times.
@@ -144,7 +155,11 @@ fn sphere_pile_on_1_to_4_ranks_is_bitwise_one_process() {
         let f = i as f32;
         b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
     }
-    check("sphere pile", World::new(desc), 600);
+    let handovers = check("sphere pile", World::new(desc), 600);
+    assert!(
+        handovers > 100,
+        "bodies should cross rank boundaries many times ({handovers} handovers)"
+    );
 }
 
 /// The mixed polyhedra of the determinism test (separating-axis hints, face contacts).

@@ -18,7 +18,8 @@ use mpi::traits::*;
 
 use super::{Invocation, Quiet};
 use crate::backend::Backend;
-use crate::output::{AtomicFile, STATE_HEADER, write_state_rows};
+use crate::energy::EnergySeries;
+use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, write_state_rows};
 use crate::run::{Plan, resume_plan, run_plan};
 use crate::scene_io::load_scene;
 
@@ -238,6 +239,13 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let start_step = world.step_count;
     let steps = plan.end_step.saturating_sub(start_step);
     let (bodies, walls, dt) = (world.len(), world.walls.len(), world.dt);
+    // Rank 0's series (energy.csv, discharge.csv) start from the world as it is.
+    let series = if rank == 0 {
+        Series::create(&plan, &world, start_step)
+    } else {
+        Ok(None)
+    };
+    let mut series = comm.agree(series)?;
     let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
     let loud = rank == 0 && !plan.quiet;
     if rank == 0 && !plan.resumed {
@@ -293,6 +301,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
                 Quiet(crate::report::BLOW_UP_EXIT).into()
             });
         }
+        let s = domain.local().step_count;
+        if plan.out.is_some() && s.is_multiple_of(plan.energy_every) {
+            let whole = domain.gather_bodies(comm);
+            let sampled = series.as_mut().map_or(Ok(()), |x| x.sample(&whole));
+            comm.agree(sampled)?;
+        }
         if let (Some(t), Some(next), Some(dir)) =
             (plan.checkpoint_every, &mut next_checkpoint, &plan.out)
         {
@@ -317,11 +331,65 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let elapsed = started.elapsed().as_secs_f64();
     let whole = domain.gather(comm);
     let finished = if rank == 0 {
-        finish(&plan, &whole, steps, start_step, elapsed, ranks)
+        series
+            .map_or(Ok(()), |x| x.finish(&plan, &whole))
+            .and_then(|_| finish(&plan, &whole, steps, start_step, elapsed, ranks))
     } else {
         Ok(())
     };
     comm.agree(finished)
+}
+
+/// Rank 0's energy and discharge series, sampled from the gathered bodies at the steps one
+/// process samples them (`run/outputs.rs`), so the files are the same bytes.
+struct Series {
+    energy: EnergySeries,
+    discharge: Option<DischargeSeries>,
+}
+
+impl Series {
+    /// The series in `plan.out` (none without it), with the first sample of `world`.
+    fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Option<Series>> {
+        let Some(dir) = &plan.out else {
+            return Ok(None);
+        };
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+        let mut energy = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
+        energy.sample(world)?;
+        let discharge = if world.sinks.is_empty() {
+            None
+        } else {
+            let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
+            d.sample(world)?;
+            Some(d)
+        };
+        Ok(Some(Series { energy, discharge }))
+    }
+
+    fn sample(&mut self, world: &World) -> anyhow::Result<()> {
+        self.energy.sample(world)?;
+        if let Some(d) = &mut self.discharge {
+            d.sample(world)?;
+        }
+        Ok(())
+    }
+
+    /// The last samples, the files committed and the energy plot drawn.
+    fn finish(mut self, plan: &Plan, world: &World) -> anyhow::Result<()> {
+        let Some(dir) = &plan.out else {
+            return Ok(());
+        };
+        if let Some(mut d) = self.discharge.take() {
+            d.sample(world)?;
+            d.commit()?;
+        }
+        self.energy.sample(world)?;
+        self.energy.finish(
+            Some(&dir.join("energy.svg")),
+            &format!("{}: energy and momentum", plan.scene.source),
+        )
+    }
 }
 
 /// Rank 0's end of the run: the summary lines, final.csv, summary.json and the checkpoint.
@@ -377,7 +445,10 @@ fn finish(
     serde_json::to_writer_pretty(f.writer(), &summary)?;
     writeln!(f.writer())?;
     f.commit()?;
-    let mut written = "final.csv, summary.json".to_string();
+    let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
+    if !whole.sinks.is_empty() {
+        written.push_str(", discharge.csv");
+    }
     if plan.checkpoint_every.is_some() {
         plan.checkpoint(whole, &dir.join("checkpoint.ckpt"))?;
         written.push_str(", checkpoint.ckpt");
@@ -393,7 +464,7 @@ fn finish(
 fn check_plan(plan: &Plan, bodies: usize, ranks: usize) -> anyhow::Result<()> {
     let not_yet = |what: &str| {
         anyhow::anyhow!(
-            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv, summary.json and checkpoint.ckpt"
+            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv, summary.json, energy.csv, discharge.csv and checkpoint.ckpt"
         )
     };
     if plan.vtk || plan.output_every.is_some() {

@@ -125,6 +125,8 @@ pub struct Domain {
     recv: Vec<Vec<u32>>,
     /// `2 r_max + skin`: the reach of a pair, and so of the ghost layer.
     reach: f32,
+    /// Bodies this rank handed to another at rebuilds (not counting the first distribution).
+    handed_over: u64,
 }
 
 impl Domain {
@@ -159,6 +161,7 @@ impl Domain {
             send: vec![Vec::new(); ranks],
             recv: vec![Vec::new(); ranks],
             reach,
+            handed_over: 0,
         })
     }
 
@@ -175,6 +178,13 @@ impl Domain {
     /// The slabs of the last rebuild (`None` before the first step).
     pub fn slabs(&self) -> Option<&Slabs> {
         self.slabs.as_ref()
+    }
+
+    /// How many bodies this rank has handed to another rank at rebuilds (bodies that crossed
+    /// a slab boundary, or a boundary that moved past them), not counting the first
+    /// distribution of a world.
+    pub fn handed_over(&self) -> u64 {
+        self.handed_over
     }
 
     /// Number of bodies this rank owns.
@@ -226,10 +236,27 @@ impl Domain {
     /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
     /// due: bitwise the world one process would have (its checkpoint is the same bytes).
     pub fn gather(&self, comm: &dyn Comm) -> World {
+        self.gather_with(comm, true)
+    }
+
+    /// [`Domain::gather`] without the contact list (which is left empty): every body's state
+    /// for what is computed from the bodies alone (energies, momentum, discharged mass),
+    /// at a fraction of the traffic.
+    pub fn gather_bodies(&self, comm: &dyn Comm) -> World {
+        self.gather_with(comm, false)
+    }
+
+    /// [`Domain::gather`], with or without the contact list.
+    fn gather_with(&self, comm: &dyn Comm, with_contacts: bool) -> World {
         let local = &self.local;
         let mut w = Writer::default();
         self.write_bodies(&mut w);
-        self.write_contacts(&mut w);
+        if with_contacts {
+            self.write_contacts(&mut w);
+        } else {
+            w.u32(0);
+            w.u32(0);
+        }
         let mut world = self.template.clone();
         let n = world.len();
         let composites = world.has_composites();
@@ -459,6 +486,9 @@ impl Domain {
             let x = local.state.position[i];
             let o = slabs.owner(x);
             new_owner[i] = o;
+            if o != comm.rank() && self.slabs.is_some() {
+                self.handed_over += 1;
+            }
             for (s, (n, w)) in bodies.iter_mut().enumerate() {
                 let ghost = s != o && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis]);
                 if s == o || ghost {
