@@ -185,10 +185,10 @@ fn default_scene_on_1_to_4_ranks_is_bitwise_one_process() {
 /// Worlds the decomposition does not carry yet are refused, not run wrongly.
 #[test]
 fn unsupported_worlds_are_refused() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/periodic-floor.toml");
-    let scene = Scene::load(&path).expect("periodic scene");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
+    let scene = Scene::load(&path).expect("mesh scene");
     let err = Domain::new(scene.world(), 0, 2).err().expect("refused");
-    assert!(err.to_string().contains("periodic"), "{err}");
+    assert!(err.to_string().contains("mesh boundaries"), "{err}");
 }
 
 fn scene_world(name: &str) -> World {
@@ -275,4 +275,12 @@ fn a_world_gathered_on_3_ranks_continues_on_2_and_1_bitwise() {
         got.checkpoint == reference.checkpoint,
         "one process continued on 3 ranks: differs"
     );
+}
+
+/// Periodic boundaries (x and y): ghosts across the seam, a rank its own neighbour on one
+/// rank, the slabs ending at the box.
+#[test]
+fn periodic_scene_on_1_to_4_ranks_is_bitwise_one_process() {
+    let handovers = check("periodic floor", scene_world("periodic-floor.toml"), 6000);
+    assert!(handovers > 50, "{handovers} handovers");
 }

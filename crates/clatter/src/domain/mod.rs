@@ -1,7 +1,8 @@
 //! Domain decomposition: one world stepped by several ranks (MPI processes, or threads in
 //! tests), bitwise as one process steps it. See `docs/parallel.md` for the design; in short:
 //!
-//! - **Ownership**: space is cut into slabs along one axis ([`Slabs`]), chosen at every
+//! - **Ownership**: space is cut into slabs along one axis ([`Slabs`], across the seam of a
+//!   periodic axis too), chosen at every
 //!   broad-phase rebuild so that each rank owns as many bodies as the others (by centre).
 //!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
 //!   of other ranks whose centres lie within `2 r_max + skin` of its slab (every partner of
@@ -32,6 +33,7 @@ use glam::{DVec3, Vec3};
 use thiserror::Error;
 
 use crate::contact_list::{ContactSprings, Contacts};
+use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate};
 use crate::world::{SimError, StepStats, World};
 use rows::{ContactRow, Reader, SpringRow, Writer};
@@ -52,6 +54,9 @@ pub struct Slabs {
     pub axis: usize,
     /// `ranks - 1` cut coordinates, ascending.
     pub cuts: Vec<f32>,
+    /// The periodic box's `[min, max)` along `axis` when that axis is periodic: the first
+    /// and last slabs end there, and distances to a slab are taken across the seam too.
+    pub period: Option<(f64, f64)>,
 }
 
 impl Slabs {
@@ -59,7 +64,7 @@ impl Slabs {
     /// first such axis), cut at quantiles so that each rank owns `n / ranks` bodies (more
     /// or fewer when bodies share a coordinate). Every rank computes it from the same
     /// gathered positions, so all agree.
-    pub fn balanced(positions: &[Vec3], ranks: usize) -> Slabs {
+    pub fn balanced(positions: &[Vec3], ranks: usize, periodic: Option<&Periodic>) -> Slabs {
         let (lo, hi) = positions.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(*p), hi.max(*p)),
@@ -81,7 +86,10 @@ impl Slabs {
                 if at < n { c[at] } else { f32::INFINITY }
             })
             .collect();
-        Slabs { axis, cuts }
+        let period = periodic
+            .filter(|p| p.axes[axis])
+            .map(|p| (p.min[axis] as f64, p.max[axis] as f64));
+        Slabs { axis, cuts, period }
     }
 
     /// Number of ranks.
@@ -95,16 +103,22 @@ impl Slabs {
         self.cuts.partition_point(|&k| k <= c)
     }
 
-    /// How far `x` is from rank `r`'s slab along the axis (0 inside).
+    /// How far `x` is from rank `r`'s slab along the axis (0 inside; across the seam too
+    /// when the axis is periodic: the nearest of the images).
     pub fn distance(&self, x: DVec3, r: usize) -> f64 {
+        let (start, end) = self.period.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
         let lo = if r == 0 {
-            f64::NEG_INFINITY
+            start
         } else {
             self.cuts[r - 1] as f64
         };
-        let hi = self.cuts.get(r).map_or(f64::INFINITY, |&c| c as f64);
+        let hi = self.cuts.get(r).map_or(end, |&c| c as f64);
+        let gap = |c: f64| (lo - c).max(c - hi).max(0.0);
         let c = x[self.axis];
-        (lo - c).max(c - hi).max(0.0)
+        match self.period {
+            Some((a, b)) => gap(c).min(gap(c + (b - a))).min(gap(c - (b - a))),
+            None => gap(c),
+        }
     }
 }
 
@@ -137,9 +151,6 @@ impl Domain {
     pub fn new(world: World, rank: usize, ranks: usize) -> Result<Domain, DomainError> {
         if !world.boundaries.is_empty() {
             return Err(DomainError::Unsupported("a scene with mesh boundaries"));
-        }
-        if world.periodic.is_some() {
-            return Err(DomainError::Unsupported("a periodic scene"));
         }
         // Rank 0 takes the world whole, with its contact list if it has a current one (a
         // resumed checkpoint): it steps it alone up to the next rebuild, where one process
@@ -478,7 +489,7 @@ impl Domain {
                 positions.push(r.vec3());
             }
         }
-        let slabs = Slabs::balanced(&positions, ranks);
+        let slabs = Slabs::balanced(&positions, ranks, local.periodic.as_ref());
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let mut new_owner = vec![usize::MAX; local.len()];
