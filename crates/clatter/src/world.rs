@@ -272,12 +272,29 @@ impl World {
             radius: ids.iter().map(|i| c.radius[pick(i)]).collect(),
             equivalent_radius: ids.iter().map(|i| c.equivalent_radius[pick(i)]).collect(),
         };
+        // Mesh boundaries: the bodies' slots (springs); candidates at the next rebuild.
+        let mesh = if self.boundaries.is_empty() {
+            MeshContacts::default()
+        } else {
+            let m = &self.mesh;
+            let slots: Vec<MeshSlot> = ids
+                .iter()
+                .flat_map(|&i| m.body_slots(i as usize).iter().copied())
+                .collect();
+            MeshContacts {
+                first: m.first.clone(),
+                total: ids.iter().map(|&i| m.total[i as usize]).collect(),
+                slots,
+                rebuild_time: m.rebuild_time,
+                ..MeshContacts::default()
+            }
+        };
         World {
             shapes: self.shapes.clone(),
             materials: self.materials.clone(),
             walls: self.walls.clone(),
-            boundaries: Vec::new(),
-            mesh: MeshContacts::default(),
+            boundaries: self.boundaries.clone(),
+            mesh,
             periodic: self.periodic,
             sinks: self.sinks.clone(),
             gravity: self.gravity,

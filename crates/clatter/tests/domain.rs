@@ -182,15 +182,6 @@ fn default_scene_on_1_to_4_ranks_is_bitwise_one_process() {
     check("default scene", scene.world(), 5000);
 }
 
-/// Worlds the decomposition does not carry yet are refused, not run wrongly.
-#[test]
-fn unsupported_worlds_are_refused() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
-    let scene = Scene::load(&path).expect("mesh scene");
-    let err = Domain::new(scene.world(), 0, 2).err().expect("refused");
-    assert!(err.to_string().contains("mesh boundaries"), "{err}");
-}
-
 fn scene_world(name: &str) -> World {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenes")
@@ -283,4 +274,12 @@ fn a_world_gathered_on_3_ranks_continues_on_2_and_1_bitwise() {
 fn periodic_scene_on_1_to_4_ranks_is_bitwise_one_process() {
     let handovers = check("periodic floor", scene_world("periodic-floor.toml"), 6000);
     assert!(handovers > 50, "{handovers} handovers");
+}
+
+/// Mesh boundaries: a static mesh floor, and a turning drum (slots carried with the bodies,
+/// the rebuild test counting the meshes' motion).
+#[test]
+fn mesh_scenes_on_1_to_4_ranks_are_bitwise_one_process() {
+    check("mesh floor", scene_world("mesh-floor.toml"), 3000);
+    check("drum", scene_world("drum.toml"), 3000);
 }

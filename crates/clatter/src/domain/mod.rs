@@ -33,8 +33,9 @@ use glam::{DVec3, Vec3};
 use thiserror::Error;
 
 use crate::contact_list::{ContactSprings, Contacts};
+use crate::mesh_boundary::MESH_SLOTS;
 use crate::periodic::Periodic;
-use crate::step::{broad, contacts, integrate};
+use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
 use rows::{ContactRow, Reader, SpringRow, Writer};
 
@@ -149,9 +150,6 @@ impl Domain {
     /// first rebuild distributes them (the first step's for a new world). Fails for what is
     /// not carried across ranks yet.
     pub fn new(world: World, rank: usize, ranks: usize) -> Result<Domain, DomainError> {
-        if !world.boundaries.is_empty() {
-            return Err(DomainError::Unsupported("a scene with mesh boundaries"));
-        }
         // Rank 0 takes the world whole, with its contact list if it has a current one (a
         // resumed checkpoint): it steps it alone up to the next rebuild, where one process
         // rebuilds too and the bodies are distributed (moving a list between rebuilds would
@@ -214,6 +212,7 @@ impl Domain {
             self.migrate(comm);
         }
         contacts::run(&mut self.local);
+        mesh_contacts::run(&mut self.local);
         let moved = integrate::run(&mut self.local);
         self.local.step_count += 1;
         self.local.time += self.local.dt as f64;
@@ -226,7 +225,13 @@ impl Domain {
         if d2 == f32::INFINITY {
             return Err(self.non_finite_error(comm));
         }
-        if d2 > 0.25 * self.local.skin * self.local.skin {
+        let skin = self.local.skin;
+        if d2 > 0.25 * skin * skin
+            || (!self.local.boundaries.is_empty()
+                && d2.sqrt() + mesh_contacts::moved_since_rebuild(&self.local) > 0.5 * skin)
+        {
+            // As `World::step`: a body, or bodies and meshes together, may have closed half
+            // the skin.
             self.local.set_needs_rebuild(true);
         }
         Ok(StepStats {
@@ -245,7 +250,9 @@ impl Domain {
     /// state, the contact list with all it carries (springs, forces, touching flags,
     /// separating-axis hints, separation bounds), the positions (and, with composites, the
     /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
-    /// due: bitwise the world one process would have (its checkpoint is the same bytes).
+    /// due, each body's mesh contact slots: bitwise the world one process would have (its
+    /// checkpoint is the same bytes). The mesh candidates are not gathered (a checkpoint
+    /// does not store them either: restoring finds them again).
     pub fn gather(&self, comm: &dyn Comm) -> World {
         self.gather_with(comm, true)
     }
@@ -274,6 +281,12 @@ impl Domain {
         let mut pairs = Vec::new();
         let mut walls = Vec::new();
         let mut any_built = false;
+        let slots = if world.boundaries.is_empty() {
+            0
+        } else {
+            MESH_SLOTS
+        };
+        let mut mesh_slots = world.mesh_slots().to_vec();
         for m in comm.all_gather(&w.0) {
             let mut r = Reader::new(&m);
             for _ in 0..r.u32() {
@@ -293,6 +306,9 @@ impl Domain {
                     if composites {
                         world.rebuild_orientation[id] = q;
                     }
+                }
+                for k in 0..slots {
+                    mesh_slots[id * slots + k] = r.slot();
                 }
             }
             for _ in 0..r.u32() {
@@ -332,6 +348,12 @@ impl Domain {
             world.rebuild_position.clear();
             world.rebuild_orientation.clear();
         }
+        if slots > 0 {
+            world
+                .set_mesh_slots(mesh_slots)
+                .expect("MESH_SLOTS slots per body");
+            world.mesh.rebuild_time = local.mesh.rebuild_time;
+        }
         world.step_count = local.step_count;
         world.time = local.time;
         world.rebuilds = local.rebuilds;
@@ -360,6 +382,9 @@ impl Domain {
                 glam::Quat::IDENTITY
             });
             w.u32(built as u32);
+            for slot in local.mesh.body_slots(i) {
+                w.slot(slot);
+            }
         }
     }
 
@@ -420,7 +445,12 @@ impl Domain {
         let pairs = (0..np)
             .filter(|&k| t[k] && !self.local.is_ghost(c.pairs[k][0] as usize))
             .count();
-        pairs + t[np..].iter().filter(|&&x| x).count()
+        let mesh = (0..self.local.len())
+            .filter(|&i| !self.local.is_ghost(i))
+            .flat_map(|i| self.local.mesh.body_slots(i))
+            .filter(|s| s.touching)
+            .count();
+        pairs + t[np..].iter().filter(|&&x| x).count() + mesh
     }
 
     /// The error of a step that left some body non-finite: the lowest such global id, as
@@ -507,6 +537,9 @@ impl Domain {
                     w.u32(self.ids[i]);
                     w.u32((s == o) as u32);
                     w.state(&local.state, i);
+                    for slot in local.mesh.body_slots(i) {
+                        w.slot(slot);
+                    }
                 }
             }
         }
@@ -582,6 +615,12 @@ impl Domain {
     /// Builds the new local world from the messages of a rebuild (by sending rank) and runs
     /// the local broad phase on it.
     fn install(&mut self, got: &[Vec<u8>], slabs: Slabs) {
+        // Mesh contact slots per body (none without boundaries).
+        let slots = if self.template.boundaries.is_empty() {
+            0
+        } else {
+            MESH_SLOTS
+        };
         // Bodies: (global id, owned, sending rank, where its state starts).
         let mut entries = Vec::new();
         let mut pair_rows = Vec::new();
@@ -593,6 +632,7 @@ impl Domain {
                 let owned = r.u32() != 0;
                 entries.push((id, owned, from, r.position()));
                 r.skip_state();
+                r.skip_slots(slots);
             }
             for _ in 0..r.u32() {
                 pair_rows.push(SpringRow::read(&mut r));
@@ -605,8 +645,19 @@ impl Domain {
         let ids: Vec<u32> = entries.iter().map(|e| e.0).collect();
         let ghost: Vec<bool> = entries.iter().map(|e| !e.1).collect();
         let mut local = self.template.subset(&ids, ghost);
+        let mut mesh_slots = Vec::with_capacity(entries.len() * slots);
         for (i, &(_, _, from, at)) in entries.iter().enumerate() {
-            Reader::at(&got[from], at).state(&mut local.state, i);
+            let mut r = Reader::at(&got[from], at);
+            r.state(&mut local.state, i);
+            mesh_slots.extend((0..slots).map(|_| r.slot()));
+        }
+        if slots > 0 {
+            local
+                .set_mesh_slots(mesh_slots)
+                .expect("MESH_SLOTS slots per body");
+            // Every body may have had candidates: the rebuild clears the slots of those that
+            // have none now (the others' are clear already), as one process does.
+            local.mesh.active = (0..local.len() as u32).collect();
         }
         local.step_count = self.local.step_count;
         local.time = self.local.time;

@@ -7,10 +7,14 @@ use glam::{DVec3, Quat, Vec3};
 
 use crate::bodies::BodyStates;
 use crate::contract::ContactForce;
+use crate::mesh_boundary::MeshSlot;
 
 /// The size of a state written by [`Writer::state`]: position (3 f64), velocity,
 /// orientation, its residual, angular momentum, angular velocity (f32) and the removed flag.
 pub(crate) const STATE_BYTES: usize = 24 + 12 + 16 + 16 + 12 + 12 + 4;
+
+/// The size of a mesh contact slot written by [`Writer::slot`].
+pub(crate) const SLOT_BYTES: usize = 12 + 12 + 12 + 4 + 40;
 
 /// Appends little-endian fields to a message.
 #[derive(Default)]
@@ -49,6 +53,17 @@ impl Writer {
         self.f32(f.normal_force);
         self.vec3(f.torque_a);
         self.vec3(f.torque_b);
+    }
+
+    /// A body's mesh contact slot.
+    pub fn slot(&mut self, m: &MeshSlot) {
+        self.u32(m.boundary);
+        self.u32(m.piece);
+        self.u32(m.touching as u32);
+        self.vec3(m.normal);
+        self.vec3(m.history);
+        self.f32(m.twist);
+        self.force(&m.force);
     }
 
     /// Body `i`'s state.
@@ -127,6 +142,23 @@ impl<'a> Reader<'a> {
             torque_b: self.vec3(),
             ..ContactForce::default()
         }
+    }
+
+    /// A slot written by [`Writer::slot`].
+    pub fn slot(&mut self) -> MeshSlot {
+        MeshSlot {
+            boundary: self.u32(),
+            piece: self.u32(),
+            touching: self.u32() != 0,
+            normal: self.vec3(),
+            history: self.vec3(),
+            twist: self.f32(),
+            force: self.force(),
+        }
+    }
+    /// Skips `n` slots.
+    pub fn skip_slots(&mut self, n: usize) {
+        self.at += n * SLOT_BYTES;
     }
 
     /// A state written by [`Writer::state`], into body `i` of `s`.
