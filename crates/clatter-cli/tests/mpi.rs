@@ -1,6 +1,6 @@
 //! `mpirun -np N clatter run` and `resume` (docs/parallel.md): final.csv, energy.csv and
 //! discharge.csv byte for byte the one-process run's on 1, 2 and 3 ranks, for the default
-//! scene, a sphere pile, a scene with a sink and a periodic scene; a
+//! scene, a sphere pile, a scene with a sink, a periodic scene and a mesh boundary; a
 //! checkpoint written on 3 ranks byte for byte one process's, resumed on 2 ranks and on one
 //! process; bad rank counts and a build without MPI give errors, not hangs.
 //!
@@ -241,6 +241,16 @@ fn periodic_scene_on_1_2_3_ranks_is_bitwise_one_process() {
     if have_mpirun() {
         let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/periodic-floor.toml");
         bitwise_on_ranks("periodic", Some(&scene), "20000");
+    }
+}
+
+/// A mesh boundary (`scenes/mesh-floor.toml`): mesh contact slots moved with the bodies.
+#[cfg(feature = "mpi")]
+#[test]
+fn mesh_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
+        bitwise_on_ranks("mesh", Some(&scene), "3000");
     }
 }
 
