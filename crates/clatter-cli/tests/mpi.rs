@@ -338,6 +338,65 @@ fn checkpoint_on_3_ranks_resumes_on_2_and_on_one_process_bitwise() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Blow-ups: a time step far above the stability bound (the energy check, on the gathered
+/// world) and an absurd one (a non-finite state, named by its lowest scene id): on 2 ranks,
+/// the same message, exit status 3, last_good.ckpt and energy.csv as one process.
+#[cfg(feature = "mpi")]
+#[test]
+fn blow_ups_stop_every_rank_as_one_process_stops() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("blow-up");
+    for (name, dt) in [("energy", "1.5e-3"), ("nan", "1.0e30")] {
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &scene,
+            SPHERE_PILE.replace("dt = 2.0e-5", &format!("dt = {dt}")),
+        )
+        .expect("write the scene");
+        let (one, two) = (
+            dir.join(format!("{name}-one")),
+            dir.join(format!("{name}-two")),
+        );
+        let a: [&dyn AsRef<std::ffi::OsStr>; 7] = [
+            &"run",
+            &scene,
+            &"--backend",
+            &"cpu",
+            &"--quiet",
+            &"--out",
+            &one,
+        ];
+        let o1 = clatter(&a);
+        let (s, t) = (scene.display().to_string(), two.display().to_string());
+        let o2 = mpirun(2, &["run", &s, "--quiet", "--out", &t]);
+        assert_eq!(
+            o1.status.code(),
+            Some(3),
+            "{name}: one process\n{}",
+            text(&o1)
+        );
+        assert_eq!(o2.status.code(), Some(3), "{name}: 2 ranks\n{}", text(&o2));
+        let error = |o: &Output| {
+            String::from_utf8_lossy(&o.stderr)
+                .lines()
+                .find(|l| l.starts_with("error:"))
+                .map(String::from)
+        };
+        assert!(error(&o1).is_some(), "{name}: {}", text(&o1));
+        assert_eq!(error(&o1), error(&o2), "{name}: the same message");
+        for file in ["last_good.ckpt", "energy.csv"] {
+            assert!(
+                std::fs::read(one.join(file)).expect("one process's file")
+                    == std::fs::read(two.join(file)).expect("2 ranks' file"),
+                "{name}: {file} differs"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// More ranks than bodies, a missing scene file and options not carried yet: one clear
 /// error (from rank 0), every rank stopped, no hang.
 #[cfg(feature = "mpi")]

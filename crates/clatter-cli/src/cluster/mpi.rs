@@ -20,7 +20,7 @@ use super::{Invocation, Quiet};
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
 use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, write_state_rows};
-use crate::run::{Plan, resume_plan, run_plan};
+use crate::run::{FULL_CHECK_EVERY, Plan, blown_up, resume_plan, run_plan};
 use crate::scene_io::load_scene;
 
 /// [`Comm`] over an MPI communicator.
@@ -152,19 +152,36 @@ impl MpiComm {
     /// `result` as every rank's outcome of a step all ranks take together: rank 0's error
     /// (or the first failing rank's, said by rank 0) stops every rank. Collective.
     fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
+        // An error travels as its exit status and its message.
         let mine = match &result {
             Ok(_) => Vec::new(),
-            Err(e) => format!("{e:#}").into_bytes(),
+            Err(e) => {
+                let mut m = vec![exit_status(e)];
+                m.extend(format!("{e:#}").into_bytes());
+                m
+            }
         };
         let all = self.all_gather(&mine);
         let first = all.iter().position(|m| !m.is_empty());
         match (result, first) {
             (Ok(v), None) => Ok(v),
             (r, Some(k)) if self.rank() == 0 => Err(r.err().unwrap_or_else(|| {
-                anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k]))
+                anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k][1..]))
             })),
-            (_, _) => Err(Quiet(1).into()),
+            (_, Some(k)) => Err(Quiet(all[k][0]).into()),
+            (_, None) => unreachable!("an error is a message"),
         }
+    }
+}
+
+/// The exit status `main` gives `e`: a blow-up's, or 1.
+fn exit_status(e: &anyhow::Error) -> u8 {
+    if e.is::<crate::report::BlownUp>() {
+        crate::report::BLOW_UP_EXIT
+    } else if let Some(q) = e.downcast_ref::<Quiet>() {
+        q.0
+    } else {
+        1
     }
 }
 
@@ -181,11 +198,7 @@ pub fn run(invocation: Invocation) -> anyhow::Result<()> {
     let result = match result {
         Ok(()) => Ok(()),
         Err(e) => {
-            let status = if e.is::<crate::report::BlownUp>() {
-                crate::report::BLOW_UP_EXIT
-            } else {
-                1
-            };
+            let status = exit_status(&e);
             if !e.is::<Quiet>() {
                 eprintln!("error: {e:#}");
             }
@@ -246,13 +259,30 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         Ok(None)
     };
     let mut series = comm.agree(series)?;
-    let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
-    let loud = rank == 0 && !plan.quiet;
-    if rank == 0 && !plan.resumed {
-        for w in &plan.scene.warnings {
+    let mut last_good = (rank == 0).then(|| world.clone());
+    if let Some(good) = &last_good {
+        if !plan.resumed {
+            for w in &plan.scene.warnings {
+                eprintln!("warning: {w}");
+            }
+        }
+        for w in plan.health.warnings(good) {
             eprintln!("warning: {w}");
         }
     }
+    // The blow-up checks run on rank 0 on the gathered world, at one process's steps, so
+    // they stop the same runs with the same messages; rank 0 keeps the last good state.
+    let initial = match &last_good {
+        Some(good) if !plan.resumed => plan
+            .health
+            .check_initial(good)
+            .map_err(|b| blown_up(&plan, b, good, None)),
+        _ => Ok(()),
+    };
+    comm.agree(initial)?;
+    let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
+    let loud = rank == 0 && !plan.quiet;
+
     if loud {
         let from = if plan.resumed {
             format!(" from step {start_step}")
@@ -293,15 +323,35 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         if let Err(e) = domain.step(comm) {
             bar.finish_and_clear();
             // Every rank has the same error (the body is named by its scene id).
-            return Err(if rank == 0 {
-                anyhow::Error::new(crate::report::BlownUp(format!(
-                    "{e}\n(on {ranks} MPI ranks: no last_good.ckpt is written yet, see docs/parallel.md)"
-                )))
-            } else {
-                Quiet(crate::report::BLOW_UP_EXIT).into()
+            return Err(match &last_good {
+                Some(good) => {
+                    let b = plan.health.non_finite(good, &e);
+                    blown_up(&plan, b, good, series.take().map(|x| x.energy))
+                }
+                None => Quiet(crate::report::BLOW_UP_EXIT).into(),
             });
         }
         let s = domain.local().step_count;
+        let full = s.is_multiple_of(FULL_CHECK_EVERY) || s == plan.end_step;
+        if full || s.is_multiple_of(plan.check_every) {
+            let whole = domain.gather(comm);
+            let checked = match &mut last_good {
+                Some(good) => match plan.health.check(&whole, full) {
+                    Ok(()) => {
+                        if full {
+                            *good = whole;
+                        }
+                        Ok(())
+                    }
+                    Err(b) => {
+                        bar.finish_and_clear();
+                        Err(blown_up(&plan, b, good, series.take().map(|x| x.energy)))
+                    }
+                },
+                None => Ok(()),
+            };
+            comm.agree(checked)?;
+        }
         if plan.out.is_some() && s.is_multiple_of(plan.energy_every) {
             let whole = domain.gather_bodies(comm);
             let sampled = series.as_mut().map_or(Ok(()), |x| x.sample(&whole));

@@ -751,7 +751,8 @@ fn newer_last_good(stepper: &Stepper, last_good: &mut World) -> anyhow::Result<(
 /// The error of a blown-up run: the report, and where the last good state went. Writes
 /// `last_good.ckpt` and commits the energy series up to the failure; the trace being written
 /// is dropped (its temporary file removed), and no final.csv or summary.json is written.
-fn blown_up(
+/// The MPI run (`crate::cluster`) reports its blow-ups with it too, on rank 0.
+pub(crate) fn blown_up(
     plan: &Plan,
     b: BlowUp,
     last_good: &World,
