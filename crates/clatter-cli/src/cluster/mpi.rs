@@ -19,6 +19,7 @@ use mpi::traits::*;
 use super::{Invocation, Quiet};
 use crate::backend::Backend;
 use crate::energy::EnergySeries;
+use crate::log::{Sample, Thermo};
 use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, write_state_rows};
 use crate::run::{FULL_CHECK_EVERY, Plan, blown_up, resume_plan, run_plan};
 use crate::scene_io::load_scene;
@@ -304,7 +305,13 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         };
         comm.agree(made)?;
     }
-    let bar = if loud {
+    // Progress lines (`--log-every`, or by default when stderr is not a terminal, as under
+    // most launchers) on rank 0, which decides when one is due (it may be by wall-clock) and
+    // says so to the others: the line's kinetic energy and contacts are collective.
+    let mut thermo = plan
+        .log
+        .map(|every| Thermo::new(every, start_step, plan.end_step));
+    let bar = if loud && thermo.is_none() {
         ProgressBar::new(steps)
     } else {
         ProgressBar::hidden()
@@ -372,12 +379,27 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
                 *next = ((time + half_dt) / t).floor() + 1.0;
             }
         }
+        if let Some(l) = &mut thermo {
+            let due = comm.broadcast(vec![(rank == 0 && l.due(s)) as u8]);
+            if due.first() == Some(&1) {
+                let line = progress_sample(comm, &domain);
+                if rank == 0 {
+                    l.line(line);
+                }
+            }
+        }
         if (k + 1) % 64 == 0 {
             bar.set_position(k + 1);
             bar.set_message(format!("{:.0} steps/s", bar.per_sec()));
         }
     }
     bar.finish_and_clear();
+    if let Some(l) = &mut thermo {
+        let line = progress_sample(comm, &domain);
+        if rank == 0 {
+            l.finish(line);
+        }
+    }
     let elapsed = started.elapsed().as_secs_f64();
     let whole = domain.gather(comm);
     let finished = if rank == 0 {
@@ -388,6 +410,19 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         Ok(())
     };
     comm.agree(finished)
+}
+
+/// What a progress line reports (collective): the step, the time, the whole world's kinetic
+/// energy (summed in scene order, as one process sums it) and touching contacts.
+fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
+    let contacts = domain.contact_count(comm);
+    let whole = domain.gather_bodies(comm);
+    Sample {
+        step: whole.step_count,
+        time: whole.time,
+        kinetic: whole.kinetic_energy(),
+        contacts,
+    }
 }
 
 /// Rank 0's energy and discharge series, sampled from the gathered bodies at the steps one
