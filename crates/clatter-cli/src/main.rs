@@ -4,6 +4,7 @@
 mod args;
 mod backend;
 mod bench;
+mod cluster;
 mod energy;
 mod log;
 mod output;
@@ -59,19 +60,42 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Run(args) => args.pipeline.init_threads().and_then(|_| run::run(args)),
-        Command::Resume(args) => args.pipeline.init_threads().and_then(|_| run::resume(args)),
+        // Under mpirun (docs/parallel.md): `run` and `resume` step the world on the ranks;
+        // the other subcommands refuse several ranks.
+        Command::Run(args) => {
+            args.pipeline
+                .init_threads()
+                .and_then(|_| match cluster::launched() {
+                    Some(ranks) if cluster::wanted(ranks) => {
+                        cluster::run(cluster::Invocation::Run(args), ranks)
+                    }
+                    _ => run::run(args),
+                })
+        }
+        Command::Resume(args) => {
+            args.pipeline
+                .init_threads()
+                .and_then(|_| match cluster::launched() {
+                    Some(ranks) if cluster::wanted(ranks) => {
+                        cluster::run(cluster::Invocation::Resume(args), ranks)
+                    }
+                    _ => run::resume(args),
+                })
+        }
         Command::Bench(args) => args
             .pipeline
             .init_threads()
+            .and_then(|_| cluster::single_rank_only("bench"))
             .and_then(|_| bench::bench(args)),
         Command::Render(args) => args
             .pipeline
             .init_threads()
+            .and_then(|_| cluster::single_rank_only("render"))
             .and_then(|_| render::render(args)),
         Command::View(args) => args
             .pipeline
             .init_threads()
+            .and_then(|_| cluster::single_rank_only("view"))
             .and_then(|_| render::view(args)),
         Command::Query { input } => query::run(&input),
         Command::Validate(args) => args.pipeline.init_threads().and_then(|_| {
@@ -91,6 +115,10 @@ fn main() -> ExitCode {
             ExitCode::from(report::BLOW_UP_EXIT)
         }
         Err(e) if e.is::<validate::Failed>() => ExitCode::from(validate::FAILED_EXIT),
+        // Another rank (rank 0) has said why.
+        Err(e) if e.is::<cluster::Quiet>() => {
+            ExitCode::from(e.downcast_ref::<cluster::Quiet>().map_or(1, |q| q.0))
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

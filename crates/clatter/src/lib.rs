@@ -12,6 +12,8 @@
 //! - [`io`] holds the file formats, apart from the engine: [`scene`] reads scene files,
 //!   [`mesh`] reads triangle meshes (cleaned by [`mesh_repair`]), [`checkpoint`] saves and
 //!   restores runs, [`vtk`] writes ParaView frames. They are re-exported at the crate root.
+//! - [`domain`]: a world stepped by several ranks (MPI processes), bitwise as one process
+//!   steps it (docs/parallel.md).
 //! - [`health`] finds runs that blow up; [`analysis`] and [`pile`] are application helpers
 //!   (measurements of a run, pile builders for benchmarks).
 
@@ -19,6 +21,7 @@ pub mod analysis;
 pub mod bodies;
 pub mod contact_list;
 pub mod contract;
+pub mod domain;
 pub mod health;
 pub mod io;
 pub mod law;

@@ -133,6 +133,11 @@ pub struct World {
     /// a pair's offset then needs no `f64` splits. Stale outside a step.
     pub(crate) position_pairs: Vec<precise::Ds3A>,
     needs_rebuild: bool,
+    /// Per body, whether it is a ghost: a copy of a body another MPI rank owns
+    /// ([`crate::domain`]), read by the contacts of this rank's bodies but never integrated,
+    /// and in no pair with another ghost nor in any wall pair. Empty (no ghosts) outside
+    /// a domain decomposition.
+    pub(crate) ghost: Vec<bool>,
 }
 
 impl World {
@@ -220,6 +225,7 @@ impl World {
             rebuild_position: Vec::new(),
             position_pairs: Vec::new(),
             needs_rebuild: true,
+            ghost: Vec::new(),
         };
         if !w.boundaries.is_empty() {
             let cell = 2.0 * w.consts.max_radius() + w.skin;
@@ -234,6 +240,95 @@ impl World {
         }
         w.dt = desc.dt.unwrap_or_else(|| w.auto_dt());
         w
+    }
+
+    /// The world of bodies `ids` (ascending) of this one, `ghost[k]` saying whether body
+    /// `ids[k]` is a ghost there ([`World::ghost`]): the same shapes, materials, walls,
+    /// gravity, `dt`, skin, clock and code paths (sphere-only, composites: taken from this
+    /// world, not from the subset, so that every pair is computed as here), the bodies'
+    /// states and constants copied, no contact list (a rebuild is due). Mesh boundaries are
+    /// not carried (their per-body slots would have to be). What an MPI rank steps
+    /// ([`crate::domain`]).
+    pub fn subset(&self, ids: &[u32], ghost: Vec<bool>) -> World {
+        debug_assert_eq!(ids.len(), ghost.len());
+        let pick = |i: &u32| *i as usize;
+        let s = &self.state;
+        let c = &self.consts;
+        let state = BodyStates {
+            position: ids.iter().map(|i| s.position[pick(i)]).collect(),
+            velocity: ids.iter().map(|i| s.velocity[pick(i)]).collect(),
+            orientation: ids.iter().map(|i| s.orientation[pick(i)]).collect(),
+            orientation_residual: ids
+                .iter()
+                .map(|i| s.orientation_residual[pick(i)])
+                .collect(),
+            angular_momentum: ids.iter().map(|i| s.angular_momentum[pick(i)]).collect(),
+            omega: ids.iter().map(|i| s.omega[pick(i)]).collect(),
+            removed: ids.iter().map(|i| s.removed[pick(i)]).collect(),
+        };
+        let consts = BodyConstants {
+            shape: ids.iter().map(|i| c.shape[pick(i)]).collect(),
+            material: ids.iter().map(|i| c.material[pick(i)]).collect(),
+            is_sphere: ids.iter().map(|i| c.is_sphere[pick(i)]).collect(),
+            mass: ids.iter().map(|i| c.mass[pick(i)]).collect(),
+            inertia: ids.iter().map(|i| c.inertia[pick(i)]).collect(),
+            inv_mass: ids.iter().map(|i| c.inv_mass[pick(i)]).collect(),
+            inv_inertia: ids.iter().map(|i| c.inv_inertia[pick(i)]).collect(),
+            radius: ids.iter().map(|i| c.radius[pick(i)]).collect(),
+            equivalent_radius: ids.iter().map(|i| c.equivalent_radius[pick(i)]).collect(),
+        };
+        // Mesh boundaries: the bodies' slots (springs); candidates at the next rebuild.
+        let mesh = if self.boundaries.is_empty() {
+            MeshContacts::default()
+        } else {
+            let m = &self.mesh;
+            let slots: Vec<MeshSlot> = ids
+                .iter()
+                .flat_map(|&i| m.body_slots(i as usize).iter().copied())
+                .collect();
+            MeshContacts {
+                first: m.first.clone(),
+                total: ids.iter().map(|&i| m.total[i as usize]).collect(),
+                slots,
+                rebuild_time: m.rebuild_time,
+                ..MeshContacts::default()
+            }
+        };
+        World {
+            shapes: self.shapes.clone(),
+            materials: self.materials.clone(),
+            walls: self.walls.clone(),
+            boundaries: self.boundaries.clone(),
+            mesh,
+            periodic: self.periodic,
+            sinks: self.sinks.clone(),
+            gravity: self.gravity,
+            dt: self.dt,
+            skin: self.skin,
+            time: self.time,
+            step_count: self.step_count,
+            rebuilds: self.rebuilds,
+            state,
+            consts,
+            contacts: Contacts::default(),
+            spheres_only: self.spheres_only,
+            has_composites: self.has_composites,
+            reach: if self.reach.is_empty() {
+                Vec::new()
+            } else {
+                ids.iter().map(|i| self.reach[pick(i)]).collect()
+            },
+            rebuild_orientation: Vec::new(),
+            rebuild_position: Vec::new(),
+            needs_rebuild: true,
+            ghost,
+        }
+    }
+
+    /// Whether body `i` is a ghost (a copy of another rank's body, see [`World::subset`]).
+    #[inline]
+    pub fn is_ghost(&self, i: usize) -> bool {
+        self.ghost.get(i).copied().unwrap_or(false)
     }
 
     /// Every body's mesh contact slots ([`MESH_SLOTS`] per body; empty without boundaries).

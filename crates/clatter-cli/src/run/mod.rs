@@ -133,25 +133,25 @@ struct RunState {
 }
 
 /// Everything one invocation does.
-struct Plan {
-    scene: Scene,
-    scene_text: String,
-    end_step: u64,
-    out: Option<PathBuf>,
-    csv: bool,
-    vtk: bool,
-    output_every: Option<u64>,
-    contacts: bool,
-    checkpoint_every: Option<f64>,
-    energy_every: u64,
-    check_every: u64,
-    health: Health,
-    resumed: bool,
-    quiet: bool,
-    log: Option<LogEvery>,
-    backend: Backend,
+pub(crate) struct Plan {
+    pub(crate) scene: Scene,
+    pub(crate) scene_text: String,
+    pub(crate) end_step: u64,
+    pub(crate) out: Option<PathBuf>,
+    pub(crate) csv: bool,
+    pub(crate) vtk: bool,
+    pub(crate) output_every: Option<u64>,
+    pub(crate) contacts: bool,
+    pub(crate) checkpoint_every: Option<f64>,
+    pub(crate) energy_every: u64,
+    pub(crate) check_every: u64,
+    pub(crate) health: Health,
+    pub(crate) resumed: bool,
+    pub(crate) quiet: bool,
+    pub(crate) log: Option<LogEvery>,
+    pub(crate) backend: Backend,
     /// Also render the last step into `out/final.png` (the default scene's first run).
-    picture: bool,
+    pub(crate) picture: bool,
 }
 
 impl Plan {
@@ -175,7 +175,8 @@ impl Plan {
         }
     }
 
-    fn checkpoint(&self, world: &World, path: &Path) -> anyhow::Result<()> {
+    /// Writes `world`'s checkpoint with this run's options to `path` (atomically).
+    pub(crate) fn checkpoint(&self, world: &World, path: &Path) -> anyhow::Result<()> {
         let app = serde_json::to_vec(&self.run_state())?;
         let mut f = AtomicFile::create(path)?;
         f.writer().write_all(&world.checkpoint_bytes(
@@ -308,8 +309,19 @@ fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved
 }
 
 /// `clatter run`: a scene from the start.
-pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
+pub fn run(args: RunArgs) -> anyhow::Result<()> {
     let (text, scene) = load_scene(args.scene.as_deref())?;
+    let (plan, world) = run_plan(args, text, scene)?;
+    execute(plan, world)
+}
+
+/// The plan and the world of `clatter run` for `scene` (read from `text`); the MPI run
+/// (`crate::cluster`) makes them on every rank from the text rank 0 read.
+pub(crate) fn run_plan(
+    mut args: RunArgs,
+    text: String,
+    scene: Scene,
+) -> anyhow::Result<(Plan, World)> {
     // The default scene's run leaves something to open: its results in DEFAULT_OUT, with a
     // picture. A scene file without --out writes nothing (and says how to get the files).
     let picture = args.scene.is_none() && args.output.out.is_none();
@@ -329,7 +341,7 @@ pub fn run(mut args: RunArgs) -> anyhow::Result<()> {
         (scene, text),
     );
     plan.picture = picture;
-    execute(plan, world)
+    Ok((plan, world))
 }
 
 /// `clatter resume`: a run continued from a checkpoint.
@@ -337,6 +349,14 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
     let path = &args.checkpoint;
     let ckpt =
         Checkpoint::load(path).with_context(|| format!("cannot resume from {}", path.display()))?;
+    let (plan, world) = resume_plan(args, ckpt)?;
+    execute(plan, world)
+}
+
+/// The plan and the world of `clatter resume` from `ckpt` (read from `args.checkpoint`);
+/// the MPI run makes them on every rank from the bytes rank 0 read.
+pub(crate) fn resume_plan(args: ResumeArgs, ckpt: Checkpoint) -> anyhow::Result<(Plan, World)> {
+    let path = &args.checkpoint;
     let stored: Option<RunState> = if ckpt.app.is_empty() {
         None
     } else {
@@ -371,7 +391,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<()> {
         (scene, ckpt.scene_text.clone()),
     );
     plan.resumed = true;
-    execute(plan, world)
+    Ok((plan, world))
 }
 
 /// Steps `world` as `plan` says: the header, the stepping loop with its outputs, then the
@@ -731,7 +751,8 @@ fn newer_last_good(stepper: &Stepper, last_good: &mut World) -> anyhow::Result<(
 /// The error of a blown-up run: the report, and where the last good state went. Writes
 /// `last_good.ckpt` and commits the energy series up to the failure; the trace being written
 /// is dropped (its temporary file removed), and no final.csv or summary.json is written.
-fn blown_up(
+/// The MPI run (`crate::cluster`) reports its blow-ups with it too, on rank 0.
+pub(crate) fn blown_up(
     plan: &Plan,
     b: BlowUp,
     last_good: &World,

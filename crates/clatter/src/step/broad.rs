@@ -213,6 +213,11 @@ pub(crate) fn rebuild(world: &mut World) {
     if removed.iter().any(|&r| r) {
         pairs.retain(|&[i, j]| !(removed[i as usize] || removed[j as usize]));
     }
+    // A rank's ghosts (`crate::domain`) pair only with the bodies it owns.
+    let ghost = &world.ghost;
+    if !ghost.is_empty() {
+        pairs.retain(|&[i, j]| !(ghost[i as usize] && ghost[j as usize]));
+    }
     let wall_pairs = wall_candidates(world, &world.state.position);
     if world.has_composites() {
         let contacts = piece_contacts(world, pairs, wall_pairs);
@@ -376,12 +381,12 @@ pub(crate) fn composite_moved(world: &World) -> f32 {
         .fold(0.0, f32::max)
 }
 
-/// Wall candidates: `(body, wall)` for the bodies (not removed by a sink) whose bounding
+/// Wall candidates: `(body, wall)` for the bodies (not removed by a sink, not ghosts) whose bounding
 /// sphere at `positions` comes within the skin of a wall, sorted.
 pub(crate) fn wall_candidates(world: &World, positions: &[DVec3]) -> Vec<[u32; 2]> {
     let mut wall_pairs = Vec::new();
     for (i, p) in positions.iter().enumerate() {
-        if world.state.removed[i] {
+        if world.state.removed[i] || world.is_ghost(i) {
             continue;
         }
         for (w, wall) in world.walls.iter().enumerate() {

@@ -3,7 +3,7 @@
 //! semi-implicit Euler for the translation and the angular momentum, and a compensated
 //! quaternion update for the orientation. Then the sink test: a body whose centre is inside
 //! a sink after the update is removed (and asks for a rebuild, which drops its pairs);
-//! removed bodies are skipped.
+//! removed bodies and ghosts (another MPI rank's bodies) are skipped.
 
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
@@ -34,6 +34,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
     debug_assert_eq!(pairs.len(), world.state.position.len());
     let periodic = world.periodic;
     let sinks = &world.sinks;
+    let ghost = &world.ghost;
     let s = &mut world.state;
     // Chunks of bodies, one task each; the loop body sees plain slices.
     let worst = s
@@ -54,7 +55,8 @@ pub(crate) fn run(world: &mut World) -> Moved {
             let rebuild_position = &rebuild_position[first..first + xs.len()];
             for k in 0..xs.len() {
                 let i = chunk * CHUNK + k;
-                if gone[k] {
+                // Ghosts (`crate::domain`) are integrated by the rank that owns them.
+                if gone[k] || ghost.get(i).is_some_and(|&g| g) {
                     continue;
                 }
                 let (f, t) = contacts.gather(i);

@@ -69,8 +69,8 @@ fn candidates_of(
     skin: f32,
     cells: &mut Vec<u32>,
 ) -> Vec<u32> {
-    // A body removed by a sink touches no mesh.
-    if w.state.removed[i] {
+    // A body removed by a sink touches no mesh; a ghost's mesh contacts are its owner's.
+    if w.state.removed[i] || w.is_ghost(i) {
         return Vec::new();
     }
     let reach = w.consts.radius[i] + skin;

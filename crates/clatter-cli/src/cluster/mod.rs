@@ -1,0 +1,81 @@
+//! `mpirun -np N clatter run SCENE`: a run on several MPI ranks (docs/parallel.md).
+//!
+//! This module finds out whether the process was started by an MPI launcher (whatever the
+//! build); the MPI run itself (`mpi.rs`) needs the cargo feature `mpi`. A build without it
+//! started on several ranks stops with an error instead of running the whole scene N times.
+
+#[cfg(feature = "mpi")]
+mod mpi;
+
+use crate::run::{ResumeArgs, RunArgs};
+
+/// What the ranks were started to do (read by the MPI run only: a build without the feature
+/// just refuses it).
+#[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+pub enum Invocation {
+    /// `clatter run`.
+    Run(RunArgs),
+    /// `clatter resume`.
+    Resume(ResumeArgs),
+}
+
+/// The environment variables MPI launchers set to the number of ranks: Open MPI's `mpirun`,
+/// MPICH's Hydra (and Slurm's `srun` with PMI-1/2), PMIx launchers (Slurm, PRRTE).
+const SIZE_VARS: [&str; 3] = ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE"];
+
+/// The number of ranks when an MPI launcher started this process (`None` otherwise, or when
+/// the variable is not a number).
+pub fn launched() -> Option<usize> {
+    SIZE_VARS
+        .iter()
+        .find_map(|v| std::env::var(v).ok())
+        .and_then(|s| s.trim().parse().ok())
+}
+
+/// Whether `clatter run` takes the MPI path when an MPI launcher started `ranks` ranks: always
+/// with the `mpi` feature (one rank too, which runs the decomposition on one rank), and on
+/// several ranks without it (to say it cannot).
+pub fn wanted(ranks: usize) -> bool {
+    cfg!(feature = "mpi") || ranks > 1
+}
+
+/// `clatter run` or `clatter resume` under an MPI launcher that started `ranks` ranks: the
+/// decomposed run with the `mpi` feature; without it, the error that this build cannot.
+pub fn run(invocation: Invocation, ranks: usize) -> anyhow::Result<()> {
+    #[cfg(feature = "mpi")]
+    {
+        let _ = ranks;
+        mpi::run(invocation)
+    }
+    #[cfg(not(feature = "mpi"))]
+    {
+        let _ = invocation;
+        anyhow::bail!(
+            "started on {ranks} MPI ranks, but this clatter was built without MPI: each rank would run the whole scene. Build it with `cargo build --release -p clatter-cli --features mpi` (docs/parallel.md), or run it without mpirun"
+        )
+    }
+}
+
+/// For the subcommands that do not run on several ranks yet: an error when started on
+/// several (`name` is the subcommand).
+pub fn single_rank_only(name: &str) -> anyhow::Result<()> {
+    match launched() {
+        Some(n) if n > 1 => anyhow::bail!(
+            "`clatter {name}` does not run on several MPI ranks yet (started on {n}); only `clatter run` does (docs/parallel.md)"
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// The error every rank of an MPI run returns when the run stopped: rank 0 has printed why
+/// already, before any rank exited; `main` exits with the status it carries and says nothing.
+#[derive(Debug)]
+pub struct Quiet(pub u8);
+
+impl std::fmt::Display for Quiet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("stopped (rank 0 says why)")
+    }
+}
+
+impl std::error::Error for Quiet {}

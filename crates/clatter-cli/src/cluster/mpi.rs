@@ -1,0 +1,573 @@
+//! The MPI run (cargo feature `mpi`): rank 0 reads the scene and broadcasts its text, every
+//! rank builds the same world from it, [`clatter::domain::Domain`] steps it, and rank 0
+//! writes final.csv and summary.json from the gathered state (in scene order, bitwise what
+//! one process writes). [`MpiComm`] is the domain's transport over rsmpi.
+
+use std::io::Write;
+use std::time::Instant;
+
+use anyhow::Context;
+use clatter::domain::{Comm, Domain};
+use clatter::scene::Scene;
+use clatter::{Checkpoint, World};
+use indicatif::{ProgressBar, ProgressStyle};
+use mpi::collective::SystemOperation;
+use mpi::datatype::{Partition, PartitionMut};
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+
+use super::{Invocation, Quiet};
+use crate::backend::Backend;
+use crate::energy::EnergySeries;
+use crate::log::{Sample, Thermo};
+use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, write_state_rows};
+use crate::run::{FULL_CHECK_EVERY, Plan, blown_up, resume_plan, run_plan};
+use crate::scene_io::load_scene;
+
+/// [`Comm`] over an MPI communicator.
+pub struct MpiComm {
+    world: SimpleCommunicator,
+}
+
+/// Byte counts as MPI takes them (`int`): a message of 2 GiB or more is refused.
+fn count(n: usize) -> i32 {
+    i32::try_from(n).unwrap_or_else(|_| {
+        panic!("an MPI message of {n} bytes is over MPI's 2 GiB limit (docs/parallel.md)")
+    })
+}
+
+/// The offsets of consecutive blocks of `counts`.
+fn displacements(counts: &[i32]) -> Vec<i32> {
+    counts
+        .iter()
+        .scan(0i32, |at, &c| {
+            let d = *at;
+            *at += c;
+            Some(d)
+        })
+        .collect()
+}
+
+/// Splits `buf` into blocks of `counts`, each without its first byte (see [`padded`]).
+fn split(buf: &[u8], counts: &[i32]) -> Vec<Vec<u8>> {
+    let mut at = 0;
+    counts
+        .iter()
+        .map(|&c| {
+            let b = buf[at + 1..at + c as usize].to_vec();
+            at += c as usize;
+            b
+        })
+        .collect()
+}
+
+/// `m` after one byte: no buffer MPI sees is empty. Two empty buffers of the same type share
+/// Rust's dangling pointer, which Open MPI takes for the send buffer aliasing the receive
+/// buffer (`MPI_ERR_ARG`).
+fn padded(m: &[u8]) -> Vec<u8> {
+    let mut p = Vec::with_capacity(m.len() + 1);
+    p.push(0);
+    p.extend_from_slice(m);
+    p
+}
+
+impl Comm for MpiComm {
+    fn rank(&self) -> usize {
+        self.world.rank() as usize
+    }
+
+    fn size(&self) -> usize {
+        self.world.size() as usize
+    }
+
+    fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
+        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
+        let mut recv_counts = vec![0i32; counts.len()];
+        self.world
+            .all_to_all_into(&counts[..], &mut recv_counts[..]);
+        let flat: Vec<u8> = send.concat();
+        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let (sd, rd) = (displacements(&counts), displacements(&recv_counts));
+        {
+            let sendp = Partition::new(&flat[..], &counts[..], &sd[..]);
+            let mut recvp = PartitionMut::new(&mut buf[..], &recv_counts[..], &rd[..]);
+            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
+        }
+        split(&buf, &recv_counts)
+    }
+
+    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let mine = &padded(mine)[..];
+        let mut counts = vec![0i32; self.size()];
+        self.world
+            .all_gather_into(&count(mine.len()), &mut counts[..]);
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let d = displacements(&counts);
+        {
+            let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
+            self.world.all_gather_varcount_into(mine, &mut recvp);
+        }
+        split(&buf, &counts)
+    }
+
+    fn max_f32(&self, x: f32) -> f32 {
+        let mut y = 0.0f32;
+        self.world
+            .all_reduce_into(&x, &mut y, SystemOperation::max());
+        y
+    }
+
+    fn sum_u64(&self, x: u64) -> u64 {
+        let mut y = 0u64;
+        self.world
+            .all_reduce_into(&x, &mut y, SystemOperation::sum());
+        y
+    }
+
+    fn min_u64(&self, x: u64) -> u64 {
+        let mut y = 0u64;
+        self.world
+            .all_reduce_into(&x, &mut y, SystemOperation::min());
+        y
+    }
+}
+
+impl MpiComm {
+    /// Rank 0's `bytes` on every rank (the others pass anything).
+    fn broadcast(&self, bytes: Vec<u8>) -> Vec<u8> {
+        let root = self.world.process_at_rank(0);
+        let mut len = bytes.len() as u64;
+        root.broadcast_into(&mut len);
+        let mut buf = if self.rank() == 0 {
+            bytes
+        } else {
+            vec![0u8; len as usize]
+        };
+        root.broadcast_into(&mut buf[..]);
+        buf
+    }
+
+    /// `result` as every rank's outcome of a step all ranks take together: rank 0's error
+    /// (or the first failing rank's, said by rank 0) stops every rank. Collective.
+    fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
+        // An error travels as its exit status and its message.
+        let mine = match &result {
+            Ok(_) => Vec::new(),
+            Err(e) => {
+                let mut m = vec![exit_status(e)];
+                m.extend(format!("{e:#}").into_bytes());
+                m
+            }
+        };
+        let all = self.all_gather(&mine);
+        let first = all.iter().position(|m| !m.is_empty());
+        match (result, first) {
+            (Ok(v), None) => Ok(v),
+            (r, Some(k)) if self.rank() == 0 => Err(r.err().unwrap_or_else(|| {
+                anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k][1..]))
+            })),
+            (_, Some(k)) => Err(Quiet(all[k][0]).into()),
+            (_, None) => unreachable!("an error is a message"),
+        }
+    }
+}
+
+/// The exit status `main` gives `e`: a blow-up's, or 1.
+fn exit_status(e: &anyhow::Error) -> u8 {
+    if e.is::<crate::report::BlownUp>() {
+        crate::report::BLOW_UP_EXIT
+    } else if let Some(q) = e.downcast_ref::<Quiet>() {
+        q.0
+    } else {
+        1
+    }
+}
+
+/// `clatter run` or `clatter resume` on MPI ranks (collective; see the module docs). An
+/// error is printed here by rank 0 before any rank exits (mpirun stops the job at the first
+/// rank that exits with a failure, and rank 0 might not have said why yet); every rank then
+/// returns [`Quiet`] with the exit status.
+pub fn run(invocation: Invocation) -> anyhow::Result<()> {
+    let universe = mpi::initialize().context("MPI could not be initialised")?;
+    let comm = MpiComm {
+        world: universe.world(),
+    };
+    let result = run_on(&comm, invocation);
+    let result = match result {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let status = exit_status(&e);
+            if !e.is::<Quiet>() {
+                eprintln!("error: {e:#}");
+            }
+            Err(Quiet(status).into())
+        }
+    };
+    comm.world.barrier();
+    result
+}
+
+/// The plan and the world on every rank: rank 0 reads the scene file or the checkpoint, every
+/// rank builds both from the bytes it broadcasts.
+fn start(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<(Plan, World)> {
+    let rank = comm.rank();
+    match invocation {
+        Invocation::Run(args) => {
+            let loaded = if rank == 0 {
+                load_scene(args.scene.as_deref()).map(|(text, scene)| (text, scene.source))
+            } else {
+                Ok((String::new(), String::new()))
+            };
+            let (text, source) = comm.agree(loaded)?;
+            let text = String::from_utf8(comm.broadcast(text.into_bytes()))
+                .context("the scene text is not UTF-8")?;
+            let source = String::from_utf8_lossy(&comm.broadcast(source.into_bytes())).into_owned();
+            let scene = comm.agree(Scene::parse(&text, &source).map_err(anyhow::Error::from))?;
+            let (mut plan, world) = comm.agree(run_plan(args, text, scene))?;
+            plan.picture = false;
+            Ok((plan, world))
+        }
+        Invocation::Resume(args) => {
+            let path = args.checkpoint.clone();
+            let what = || format!("cannot resume from {}", path.display());
+            let bytes = if rank == 0 {
+                std::fs::read(&path).with_context(what)
+            } else {
+                Ok(Vec::new())
+            };
+            let bytes = comm.broadcast(comm.agree(bytes)?);
+            let ckpt = comm.agree(Checkpoint::from_bytes(&bytes).with_context(what))?;
+            comm.agree(resume_plan(args, ckpt))
+        }
+    }
+}
+
+/// [`run`] on `comm`'s ranks.
+fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
+    let (rank, ranks) = (comm.rank(), comm.size());
+    let (plan, world) = start(comm, invocation)?;
+    comm.agree(check_plan(&plan, world.len(), ranks))?;
+    let start_step = world.step_count;
+    let steps = plan.end_step.saturating_sub(start_step);
+    let (bodies, walls, dt) = (world.len(), world.walls.len(), world.dt);
+    // Rank 0's series (energy.csv, discharge.csv) start from the world as it is.
+    let series = if rank == 0 {
+        Series::create(&plan, &world, start_step)
+    } else {
+        Ok(None)
+    };
+    let mut series = comm.agree(series)?;
+    let mut last_good = (rank == 0).then(|| world.clone());
+    if let Some(good) = &last_good {
+        if !plan.resumed {
+            for w in &plan.scene.warnings {
+                eprintln!("warning: {w}");
+            }
+        }
+        for w in plan.health.warnings(good) {
+            eprintln!("warning: {w}");
+        }
+    }
+    // The blow-up checks run on rank 0 on the gathered world, at one process's steps, so
+    // they stop the same runs with the same messages; rank 0 keeps the last good state.
+    let initial = match &last_good {
+        Some(good) if !plan.resumed => plan
+            .health
+            .check_initial(good)
+            .map_err(|b| blown_up(&plan, b, good, None)),
+        _ => Ok(()),
+    };
+    comm.agree(initial)?;
+    let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
+    let loud = rank == 0 && !plan.quiet;
+
+    if loud {
+        let from = if plan.resumed {
+            format!(" from step {start_step}")
+        } else {
+            String::new()
+        };
+        eprintln!(
+            "{}: {bodies} bodies, {walls} walls, dt = {dt:.3e} s, {steps} steps{from} ({:.4} s simulated), {ranks} MPI ranks x {} threads",
+            plan.scene.source,
+            steps as f64 * dt as f64,
+            rayon::current_num_threads()
+        );
+    }
+    if let Some(dir) = &plan.out {
+        let made = if rank == 0 {
+            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
+        } else {
+            Ok(())
+        };
+        comm.agree(made)?;
+    }
+    // Progress lines (`--log-every`, or by default when stderr is not a terminal, as under
+    // most launchers) on rank 0, which decides when one is due (it may be by wall-clock) and
+    // says so to the others: the line's kinetic energy and contacts are collective.
+    let mut thermo = plan
+        .log
+        .map(|every| Thermo::new(every, start_step, plan.end_step));
+    let bar = if loud && thermo.is_none() {
+        ProgressBar::new(steps)
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30.cyan/blue} {pos}/{len} steps, {msg}, eta {eta}")
+            .expect("valid template"),
+    );
+    // Checkpoints at the simulated times one process writes them (`run/outputs.rs`).
+    let half_dt = 0.5 * dt as f64;
+    let mut next_checkpoint = plan
+        .checkpoint_every
+        .map(|t| ((domain.local().time + half_dt) / t).floor() + 1.0);
+    let started = Instant::now();
+    for k in 0..steps {
+        if let Err(e) = domain.step(comm) {
+            bar.finish_and_clear();
+            // Every rank has the same error (the body is named by its scene id).
+            return Err(match &last_good {
+                Some(good) => {
+                    let b = plan.health.non_finite(good, &e);
+                    blown_up(&plan, b, good, series.take().map(|x| x.energy))
+                }
+                None => Quiet(crate::report::BLOW_UP_EXIT).into(),
+            });
+        }
+        let s = domain.local().step_count;
+        let full = s.is_multiple_of(FULL_CHECK_EVERY) || s == plan.end_step;
+        if full || s.is_multiple_of(plan.check_every) {
+            let whole = domain.gather(comm);
+            let checked = match &mut last_good {
+                Some(good) => match plan.health.check(&whole, full) {
+                    Ok(()) => {
+                        if full {
+                            *good = whole;
+                        }
+                        Ok(())
+                    }
+                    Err(b) => {
+                        bar.finish_and_clear();
+                        Err(blown_up(&plan, b, good, series.take().map(|x| x.energy)))
+                    }
+                },
+                None => Ok(()),
+            };
+            comm.agree(checked)?;
+        }
+        if plan.out.is_some() && s.is_multiple_of(plan.energy_every) {
+            let whole = domain.gather_bodies(comm);
+            let sampled = series.as_mut().map_or(Ok(()), |x| x.sample(&whole));
+            comm.agree(sampled)?;
+        }
+        if let (Some(t), Some(next), Some(dir)) =
+            (plan.checkpoint_every, &mut next_checkpoint, &plan.out)
+        {
+            let time = domain.local().time;
+            if time + half_dt >= *next * t {
+                let whole = domain.gather(comm);
+                let written = if rank == 0 {
+                    plan.checkpoint(&whole, &dir.join("checkpoint.ckpt"))
+                } else {
+                    Ok(())
+                };
+                comm.agree(written)?;
+                *next = ((time + half_dt) / t).floor() + 1.0;
+            }
+        }
+        if let Some(l) = &mut thermo {
+            let due = comm.broadcast(vec![(rank == 0 && l.due(s)) as u8]);
+            if due.first() == Some(&1) {
+                let line = progress_sample(comm, &domain);
+                if rank == 0 {
+                    l.line(line);
+                }
+            }
+        }
+        if (k + 1) % 64 == 0 {
+            bar.set_position(k + 1);
+            bar.set_message(format!("{:.0} steps/s", bar.per_sec()));
+        }
+    }
+    bar.finish_and_clear();
+    if let Some(l) = &mut thermo {
+        let line = progress_sample(comm, &domain);
+        if rank == 0 {
+            l.finish(line);
+        }
+    }
+    let elapsed = started.elapsed().as_secs_f64();
+    let whole = domain.gather(comm);
+    let finished = if rank == 0 {
+        series
+            .map_or(Ok(()), |x| x.finish(&plan, &whole))
+            .and_then(|_| finish(&plan, &whole, steps, start_step, elapsed, ranks))
+    } else {
+        Ok(())
+    };
+    comm.agree(finished)
+}
+
+/// What a progress line reports (collective): the step, the time, the whole world's kinetic
+/// energy (summed in scene order, as one process sums it) and touching contacts.
+fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
+    let contacts = domain.contact_count(comm);
+    let whole = domain.gather_bodies(comm);
+    Sample {
+        step: whole.step_count,
+        time: whole.time,
+        kinetic: whole.kinetic_energy(),
+        contacts,
+    }
+}
+
+/// Rank 0's energy and discharge series, sampled from the gathered bodies at the steps one
+/// process samples them (`run/outputs.rs`), so the files are the same bytes.
+struct Series {
+    energy: EnergySeries,
+    discharge: Option<DischargeSeries>,
+}
+
+impl Series {
+    /// The series in `plan.out` (none without it), with the first sample of `world`.
+    fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Option<Series>> {
+        let Some(dir) = &plan.out else {
+            return Ok(None);
+        };
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+        let mut energy = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
+        energy.sample(world)?;
+        let discharge = if world.sinks.is_empty() {
+            None
+        } else {
+            let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
+            d.sample(world)?;
+            Some(d)
+        };
+        Ok(Some(Series { energy, discharge }))
+    }
+
+    fn sample(&mut self, world: &World) -> anyhow::Result<()> {
+        self.energy.sample(world)?;
+        if let Some(d) = &mut self.discharge {
+            d.sample(world)?;
+        }
+        Ok(())
+    }
+
+    /// The last samples, the files committed and the energy plot drawn.
+    fn finish(mut self, plan: &Plan, world: &World) -> anyhow::Result<()> {
+        let Some(dir) = &plan.out else {
+            return Ok(());
+        };
+        if let Some(mut d) = self.discharge.take() {
+            d.sample(world)?;
+            d.commit()?;
+        }
+        self.energy.sample(world)?;
+        self.energy.finish(
+            Some(&dir.join("energy.svg")),
+            &format!("{}: energy and momentum", plan.scene.source),
+        )
+    }
+}
+
+/// Rank 0's end of the run: the summary lines, final.csv, summary.json and the checkpoint.
+fn finish(
+    plan: &Plan,
+    whole: &World,
+    steps: u64,
+    start_step: u64,
+    elapsed: f64,
+    ranks: usize,
+) -> anyhow::Result<()> {
+    let steps_per_s = steps as f64 / elapsed.max(1e-9);
+    let loud = !plan.quiet;
+    if loud {
+        println!("simulated time   {:.6} s", whole.time);
+        println!("steps            {steps}");
+        println!("wall time        {elapsed:.3} s");
+        println!("backend          cpu on {ranks} MPI ranks");
+        println!("steps/s          {steps_per_s:.1}");
+        println!("contacts         {}", whole.contact_count());
+        println!("kinetic energy   {:.6e} J", whole.kinetic_energy());
+    }
+    let Some(dir) = &plan.out else {
+        return Ok(());
+    };
+    let mut f = AtomicFile::create(&dir.join("final.csv"))?;
+    writeln!(f.writer(), "{STATE_HEADER}")?;
+    write_state_rows(f.writer(), whole, "")?;
+    f.commit()?;
+    let summary = serde_json::json!({
+        "scene": plan.scene.source,
+        "bodies": whole.len(),
+        "walls": whole.walls.len(),
+        "dt": whole.dt.to_string().parse::<f64>().unwrap_or(whole.dt as f64),
+        "steps": steps,
+        "step": whole.step_count,
+        "resumed_from_step": plan.resumed.then_some(start_step),
+        "simulated_time": whole.time,
+        "wall_time_s": elapsed,
+        "steps_per_s": steps_per_s,
+        "threads": rayon::current_num_threads(),
+        "ranks": ranks,
+        "backend": "cpu",
+        "contacts": whole.contact_count(),
+        "kinetic_energy": whole.kinetic_energy(),
+        "potential_energy": whole.potential_energy(),
+        "momentum": whole.momentum(),
+        "broad_phase_rebuilds": whole.rebuilds,
+        "removed": whole.discharged().count,
+        "removed_mass": whole.discharged().mass,
+    });
+    let mut f = AtomicFile::create(&dir.join("summary.json"))?;
+    serde_json::to_writer_pretty(f.writer(), &summary)?;
+    writeln!(f.writer())?;
+    f.commit()?;
+    let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
+    if !whole.sinks.is_empty() {
+        written.push_str(", discharge.csv");
+    }
+    if plan.checkpoint_every.is_some() {
+        plan.checkpoint(whole, &dir.join("checkpoint.ckpt"))?;
+        written.push_str(", checkpoint.ckpt");
+    }
+    if loud {
+        println!("results in {}/: {written}", dir.display());
+    }
+    Ok(())
+}
+
+/// What the MPI run does not do yet, refused before the first step (every rank finds the
+/// same: the arguments and the scene or checkpoint are the same everywhere).
+fn check_plan(plan: &Plan, bodies: usize, ranks: usize) -> anyhow::Result<()> {
+    let not_yet = |what: &str| {
+        anyhow::anyhow!(
+            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv, summary.json, energy.csv, discharge.csv and checkpoint.ckpt"
+        )
+    };
+    if plan.vtk || plan.output_every.is_some() {
+        return Err(not_yet("the frame series (--format, --output-every)"));
+    }
+    if plan.contacts {
+        return Err(not_yet("the contact series (--contacts)"));
+    }
+    if plan.backend == Backend::Gpu {
+        anyhow::bail!(
+            "--backend gpu: runs on several MPI ranks use the CPU pipeline (one GPU per rank is planned, docs/parallel.md)"
+        );
+    }
+    if ranks > bodies.max(1) {
+        anyhow::bail!(
+            "{ranks} MPI ranks for {bodies} bodies: use at most one rank per body (mpirun -np {})",
+            bodies.max(1)
+        );
+    }
+    Ok(())
+}

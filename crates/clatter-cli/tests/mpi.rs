@@ -1,0 +1,445 @@
+//! `mpirun -np N clatter run` and `resume` (docs/parallel.md): final.csv, energy.csv and
+//! discharge.csv byte for byte the one-process run's on 1, 2 and 3 ranks, for the default
+//! scene, a sphere pile, a scene with a sink, a periodic scene and a mesh boundary; a
+//! checkpoint written on 3 ranks byte for byte one process's, resumed on 2 ranks and on one
+//! process; bad rank counts and a build without MPI give errors, not hangs.
+//!
+//! The runs under mpirun need the binary built with the feature:
+//! `cargo test --release -p clatter-cli --features mpi --test mpi`. Without it they are
+//! skipped, loudly; the decomposition itself is tested without MPI by
+//! `crates/clatter/tests/domain.rs`.
+
+#[cfg(feature = "mpi")]
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+mod common;
+use common::text;
+#[cfg(feature = "mpi")]
+use common::{assert_ok, clatter};
+
+#[cfg(feature = "mpi")]
+fn test_dir(name: &str) -> PathBuf {
+    common::test_dir("mpi", name)
+}
+
+/// A command's output, killed after `limit` (a hang is a failure, not a stuck test).
+fn output_within(mut cmd: Command, limit: Duration) -> Output {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start the command");
+    let started = Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return child.wait_with_output().expect("collect the output");
+        }
+        if started.elapsed() > limit {
+            let _ = child.kill();
+            let o = child.wait_with_output().expect("collect the output");
+            panic!("still running after {limit:?} (a hang?):\n{}", text(&o));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Started as if by `mpirun -np 3` (Open MPI's variable), a build without the feature stops
+/// at once with an error instead of running the scene three times.
+#[cfg(not(feature = "mpi"))]
+#[test]
+fn several_ranks_without_the_feature_is_an_error() {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
+    cmd.args(["run", "--steps", "1", "--quiet"])
+        .env("OMPI_COMM_WORLD_SIZE", "3");
+    let o = output_within(cmd, Duration::from_secs(60));
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("built without MPI"),
+        "{}",
+        text(&o)
+    );
+}
+
+/// Listed as ignored, with the reason, in every `cargo test` without the feature.
+#[cfg(not(feature = "mpi"))]
+#[test]
+#[ignore = "SKIPPED: the runs under mpirun (1, 2, 3 ranks bitwise equal to one process) need `cargo test --release -p clatter-cli --features mpi --test mpi`"]
+fn runs_under_mpirun_need_the_mpi_feature() {}
+
+/// 300 spheres poured into a narrow box with a push sideways: they cross the slab
+/// boundaries (the slabs are cut along the box's long axis, x) many times.
+#[cfg(feature = "mpi")]
+const SPHERE_PILE: &str = r#"[simulation]
+steps = 6000
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 2.0e3
+restitution = 0.5
+friction = 0.5
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.3, 0.05, 0.2]
+material = "m"
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.005 }
+
+[[group]]
+shape = "ball"
+material = "m"
+random = { min = [0.01, 0.01, 0.01], max = [0.29, 0.04, 0.19], count = 300, seed = 7 }
+velocity = [1.5, 0.0, -0.5]
+"#;
+
+/// `mpirun` with what it needs here: `--oversubscribe` (2 cores), and leave to run as root
+/// (containers).
+#[cfg(feature = "mpi")]
+fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    let mut cmd = Command::new("mpirun");
+    cmd.args(["--oversubscribe", "-np", &ranks.to_string()])
+        .arg(env!("CARGO_BIN_EXE_clatter"))
+        .args(args)
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
+    output_within(cmd, Duration::from_secs(600))
+}
+
+/// Whether mpirun is on the PATH: a build with the feature is meant to be tested under it,
+/// so its absence fails the test.
+#[cfg(feature = "mpi")]
+fn have_mpirun() -> bool {
+    let ok = Command::new("mpirun")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        ok,
+        "built with --features mpi but mpirun is not on the PATH (apt-get install openmpi-bin)"
+    );
+    ok
+}
+
+#[cfg(feature = "mpi")]
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_else(|e| panic!("read {}: {e}", path.display()))
+}
+
+/// `scene` (None: the default scene) for `steps` steps on one process, then on 1, 2 and 3
+/// ranks: final.csv, energy.csv (and discharge.csv) byte for byte the same, and the
+/// summary's contacts, rebuilds and energies.
+#[cfg(feature = "mpi")]
+fn bitwise_on_ranks(name: &str, scene: Option<&Path>, steps: &str) {
+    let dir = test_dir(name);
+    let reference = dir.join("one");
+    let mut args: Vec<String> = Vec::new();
+    if let Some(s) = scene {
+        args.push(s.display().to_string());
+    }
+    args.extend(["--steps", steps, "--quiet"].map(String::from));
+    let mut one: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"run", &"--backend", &"cpu"];
+    one.extend(args.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
+    one.extend([&"--out" as &dyn AsRef<std::ffi::OsStr>, &reference]);
+    assert_ok(&clatter(&one), "the run without MPI");
+    let want = read(&reference.join("final.csv"));
+    let want_summary: serde_json::Value =
+        serde_json::from_str(&read(&reference.join("summary.json"))).expect("summary");
+    for ranks in 1..=3 {
+        let out = dir.join(format!("ranks{ranks}"));
+        let mut a: Vec<&str> = vec!["run"];
+        a.extend(args.iter().map(String::as_str));
+        let out_s = out.display().to_string();
+        a.extend(["--out", &out_s]);
+        let o = mpirun(ranks, &a);
+        assert_ok(&o, &format!("{name} on {ranks} ranks"));
+        for file in ["energy.csv", "discharge.csv"] {
+            let one = reference.join(file);
+            if one.exists() {
+                assert!(
+                    read(&out.join(file)) == read(&one),
+                    "{name} on {ranks} ranks: {file} differs from one process's"
+                );
+            }
+        }
+        let got = read(&out.join("final.csv"));
+        if got != want {
+            let line = got
+                .lines()
+                .zip(want.lines())
+                .position(|(a, b)| a != b)
+                .unwrap_or(0);
+            panic!(
+                "{name} on {ranks} ranks: final.csv differs from one process, first at line {}:\n  mpi: {}\n  one: {}",
+                line + 1,
+                got.lines().nth(line).unwrap_or(""),
+                want.lines().nth(line).unwrap_or("")
+            );
+        }
+        let summary: serde_json::Value =
+            serde_json::from_str(&read(&out.join("summary.json"))).expect("summary");
+        for key in [
+            "step",
+            "contacts",
+            "broad_phase_rebuilds",
+            "kinetic_energy",
+            "potential_energy",
+            "momentum",
+        ] {
+            assert_eq!(
+                summary[key], want_summary[key],
+                "{name} on {ranks} ranks: summary {key}"
+            );
+        }
+        assert_eq!(summary["ranks"], ranks, "{name}: ranks in the summary");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(feature = "mpi")]
+#[test]
+fn default_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        bitwise_on_ranks("default", None, "200");
+    }
+}
+
+#[cfg(feature = "mpi")]
+#[test]
+fn sphere_pile_on_1_2_3_ranks_is_bitwise_one_process() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("pile-scene");
+    let scene = dir.join("pile.toml");
+    std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
+    bitwise_on_ranks("pile", Some(&scene), "6000");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Sinks: discharge.csv as well (`scenes/sink-floor.toml`, 30 of 50 spheres removed).
+#[cfg(feature = "mpi")]
+#[test]
+fn sink_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/sink-floor.toml");
+        bitwise_on_ranks("sink", Some(&scene), "4000");
+    }
+}
+
+/// Periodic boundaries in x and y (`scenes/periodic-floor.toml`): ghosts across the seam.
+#[cfg(feature = "mpi")]
+#[test]
+fn periodic_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/periodic-floor.toml");
+        bitwise_on_ranks("periodic", Some(&scene), "20000");
+    }
+}
+
+/// A mesh boundary (`scenes/mesh-floor.toml`): mesh contact slots moved with the bodies.
+#[cfg(feature = "mpi")]
+#[test]
+fn mesh_scene_on_1_2_3_ranks_is_bitwise_one_process() {
+    if have_mpirun() {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
+        bitwise_on_ranks("mesh", Some(&scene), "3000");
+    }
+}
+
+/// A checkpoint written on 3 ranks is byte for byte one process's; resumed on 2 ranks and
+/// on one process (no MPI), it ends as the uninterrupted one-process run.
+#[cfg(feature = "mpi")]
+#[test]
+fn checkpoint_on_3_ranks_resumes_on_2_and_on_one_process_bitwise() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("checkpoint");
+    let scene = dir.join("pile.toml");
+    std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
+    let (one, three, whole, two, alone) = (
+        dir.join("one"),
+        dir.join("three"),
+        dir.join("whole"),
+        dir.join("two"),
+        dir.join("alone"),
+    );
+    let every = ["--checkpoint-every", "0.01", "--quiet"];
+    let mut a: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![
+        &"run",
+        &scene,
+        &"--backend",
+        &"cpu",
+        &"--steps",
+        &"2900",
+        &"--out",
+        &one,
+    ];
+    a.extend(every.iter().map(|s| s as &dyn AsRef<std::ffi::OsStr>));
+    assert_ok(&clatter(&a), "one process to step 2900");
+    let s = scene.display().to_string();
+    let t = three.display().to_string();
+    let mut m = vec!["run", &s, "--steps", "2900", "--out", &t];
+    m.extend(every);
+    assert_ok(&mpirun(3, &m), "3 ranks to step 2900");
+    assert!(
+        std::fs::read(one.join("checkpoint.ckpt")).expect("one process's checkpoint")
+            == std::fs::read(three.join("checkpoint.ckpt")).expect("3 ranks' checkpoint"),
+        "the checkpoint written on 3 ranks differs from one process's"
+    );
+    let a: [&dyn AsRef<std::ffi::OsStr>; 9] = [
+        &"run",
+        &scene,
+        &"--backend",
+        &"cpu",
+        &"--steps",
+        &"4500",
+        &"--quiet",
+        &"--out",
+        &whole,
+    ];
+    assert_ok(&clatter(&a), "one process to step 4500");
+    let ckpt = three.join("checkpoint.ckpt").display().to_string();
+    let t2 = two.display().to_string();
+    let o = mpirun(
+        2,
+        &["resume", &ckpt, "--steps", "1600", "--quiet", "--out", &t2],
+    );
+    assert_ok(&o, "resumed on 2 ranks");
+    let a: [&dyn AsRef<std::ffi::OsStr>; 9] = [
+        &"resume",
+        &ckpt,
+        &"--backend",
+        &"cpu",
+        &"--steps",
+        &"1600",
+        &"--quiet",
+        &"--out",
+        &alone,
+    ];
+    assert_ok(&clatter(&a), "resumed on one process");
+    let want = read(&whole.join("final.csv"));
+    assert!(
+        read(&two.join("final.csv")) == want,
+        "resumed on 2 ranks: final.csv differs"
+    );
+    assert!(
+        read(&alone.join("final.csv")) == want,
+        "resumed on one process: final.csv differs"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Blow-ups: a time step far above the stability bound (the energy check, on the gathered
+/// world) and an absurd one (a non-finite state, named by its lowest scene id): on 2 ranks,
+/// the same message, exit status 3, last_good.ckpt and energy.csv as one process.
+#[cfg(feature = "mpi")]
+#[test]
+fn blow_ups_stop_every_rank_as_one_process_stops() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("blow-up");
+    for (name, dt) in [("energy", "1.5e-3"), ("nan", "1.0e30")] {
+        let scene = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &scene,
+            SPHERE_PILE.replace("dt = 2.0e-5", &format!("dt = {dt}")),
+        )
+        .expect("write the scene");
+        let (one, two) = (
+            dir.join(format!("{name}-one")),
+            dir.join(format!("{name}-two")),
+        );
+        let a: [&dyn AsRef<std::ffi::OsStr>; 7] = [
+            &"run",
+            &scene,
+            &"--backend",
+            &"cpu",
+            &"--quiet",
+            &"--out",
+            &one,
+        ];
+        let o1 = clatter(&a);
+        let (s, t) = (scene.display().to_string(), two.display().to_string());
+        let o2 = mpirun(2, &["run", &s, "--quiet", "--out", &t]);
+        assert_eq!(
+            o1.status.code(),
+            Some(3),
+            "{name}: one process\n{}",
+            text(&o1)
+        );
+        assert_eq!(o2.status.code(), Some(3), "{name}: 2 ranks\n{}", text(&o2));
+        let error = |o: &Output| {
+            String::from_utf8_lossy(&o.stderr)
+                .lines()
+                .find(|l| l.starts_with("error:"))
+                .map(String::from)
+        };
+        assert!(error(&o1).is_some(), "{name}: {}", text(&o1));
+        assert_eq!(error(&o1), error(&o2), "{name}: the same message");
+        for file in ["last_good.ckpt", "energy.csv"] {
+            assert!(
+                std::fs::read(one.join(file)).expect("one process's file")
+                    == std::fs::read(two.join(file)).expect("2 ranks' file"),
+                "{name}: {file} differs"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// More ranks than bodies, a missing scene file and options not carried yet: one clear
+/// error (from rank 0), every rank stopped, no hang.
+#[cfg(feature = "mpi")]
+#[test]
+fn bad_rank_counts_and_arguments_are_errors() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("errors");
+    let scene = dir.join("two.toml");
+    std::fs::write(
+        &scene,
+        "[simulation]\nsteps = 10\n\
+         [[material]]\nname = \"m\"\ndensity = 1000.0\nstiffness = 2.0e3\nrestitution = 0.5\nfriction = 0.5\n\
+         [[shape]]\nname = \"b\"\nsphere = { radius = 0.01 }\n\
+         [[body]]\nshape = \"b\"\nmaterial = \"m\"\nposition = [0.0, 0.0, 0.0]\n\
+         [[body]]\nshape = \"b\"\nmaterial = \"m\"\nposition = [0.1, 0.0, 0.0]\n",
+    )
+    .expect("write the scene");
+    let s = scene.display().to_string();
+    let cases: [(Vec<&str>, &str); 3] = [
+        (vec!["run", &s], "3 MPI ranks for 2 bodies"),
+        (vec!["run", "no-such-scene.toml"], "no-such-scene.toml"),
+        (
+            vec!["run", &s, "--out", "x", "--format", "vtk"],
+            "not written on several MPI ranks yet",
+        ),
+    ];
+    for (args, message) in cases {
+        let o = mpirun(3, &args);
+        assert!(!o.status.success(), "{args:?} should fail:\n{}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(message),
+            "{args:?}: want {message:?}:\n{}",
+            text(&o)
+        );
+        assert_eq!(
+            err.matches("error:").count(),
+            1,
+            "{args:?}: one message, from rank 0:\n{}",
+            text(&o)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

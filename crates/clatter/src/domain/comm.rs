@@ -1,0 +1,113 @@
+//! What a domain decomposition needs from its transport ([`Comm`]): a handful of
+//! collectives on byte messages. The CLI implements it over MPI (`clatter-cli`, feature
+//! `mpi`); [`ThreadComm`] implements it over threads of one process, so the decomposition is
+//! tested bitwise by `cargo test` without an MPI installation.
+
+use std::sync::{Arc, Barrier, Mutex};
+
+/// The collectives of a group of ranks. Every rank calls the same methods in the same order
+/// (they are collective: a rank that skips one leaves the others waiting).
+pub trait Comm {
+    /// This rank, `0..size()`.
+    fn rank(&self) -> usize;
+    /// Number of ranks.
+    fn size(&self) -> usize;
+    /// Sends `send[r]` to rank `r` (one message per rank, empty ones included); returns the
+    /// message each rank sent here, by rank.
+    fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>>;
+    /// Every rank's `mine`, by rank, on every rank.
+    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>>;
+    /// The largest of every rank's `x` (max is exact, so the result does not depend on the
+    /// order of reduction).
+    fn max_f32(&self, x: f32) -> f32;
+    /// The sum of every rank's `x`.
+    fn sum_u64(&self, x: u64) -> u64;
+    /// The smallest of every rank's `x`.
+    fn min_u64(&self, x: u64) -> u64;
+}
+
+/// The ranks of one process, one thread each (for tests): [`ThreadComm::group`] makes `n`
+/// handles, each to be moved into its own thread.
+pub struct ThreadComm {
+    rank: usize,
+    shared: Arc<Shared>,
+}
+
+struct Shared {
+    size: usize,
+    barrier: Barrier,
+    /// `mail[from][to]`.
+    mail: Mutex<Vec<Vec<Vec<u8>>>>,
+}
+
+impl ThreadComm {
+    /// `n` ranks, one handle per rank.
+    pub fn group(n: usize) -> Vec<ThreadComm> {
+        let shared = Arc::new(Shared {
+            size: n,
+            barrier: Barrier::new(n),
+            mail: Mutex::new(vec![Vec::new(); n]),
+        });
+        (0..n)
+            .map(|rank| ThreadComm {
+                rank,
+                shared: shared.clone(),
+            })
+            .collect()
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Vec<Vec<u8>>>> {
+        // A rank that panicked poisons the lock; the others then panic too (a test failure).
+        self.shared.mail.lock().expect("a rank thread panicked")
+    }
+}
+
+impl Comm for ThreadComm {
+    fn rank(&self) -> usize {
+        self.rank
+    }
+
+    fn size(&self) -> usize {
+        self.shared.size
+    }
+
+    fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        assert_eq!(send.len(), self.shared.size, "one message per rank");
+        self.lock()[self.rank] = send;
+        self.shared.barrier.wait();
+        let got = {
+            let mut mail = self.lock();
+            (0..self.shared.size)
+                .map(|from| std::mem::take(&mut mail[from][self.rank]))
+                .collect()
+        };
+        self.shared.barrier.wait();
+        got
+    }
+
+    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        self.all_to_all(vec![mine.to_vec(); self.shared.size])
+    }
+
+    fn max_f32(&self, x: f32) -> f32 {
+        self.all_gather(&x.to_le_bytes())
+            .iter()
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .fold(f32::NEG_INFINITY, f32::max)
+    }
+
+    fn sum_u64(&self, x: u64) -> u64 {
+        self.all_gather(&x.to_le_bytes())
+            .iter()
+            .map(|b| u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8])))
+            .sum()
+    }
+
+    fn min_u64(&self, x: u64) -> u64 {
+        self.all_gather(&x.to_le_bytes())
+            .iter()
+            .map(|b| u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8])))
+            .min()
+            .unwrap_or(x)
+    }
+}

@@ -1,0 +1,723 @@
+//! Domain decomposition: one world stepped by several ranks (MPI processes, or threads in
+//! tests), bitwise as one process steps it. See `docs/parallel.md` for the design; in short:
+//!
+//! - **Ownership**: space is cut into slabs along one axis ([`Slabs`], across the seam of a
+//!   periodic axis too), chosen at every
+//!   broad-phase rebuild so that each rank owns as many bodies as the others (by centre).
+//!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
+//!   of other ranks whose centres lie within `2 r_max + skin` of its slab (every partner of
+//!   an owned body in the Verlet list), in ascending global id (scene order).
+//! - **The determinism rule**: because the local order is the global order restricted, the
+//!   local broad phase lists the pairs of an owned body in the same order as one process
+//!   does; every pair with an owned body is evaluated, by every rank that owns one of its
+//!   bodies, from bitwise the same inputs (ghost states are exact copies); and each owned
+//!   body's force is gathered from those pairs in the one-process order
+//!   ([`crate::Contacts::gather`]). No force crosses ranks: both owners of a cross-boundary
+//!   pair compute it (LAMMPS' `newton off`), so nothing depends on the rank count.
+//! - **Every step** ([`Domain::step`]): contacts and integrate on the local world (ghosts are
+//!   not integrated), then the owners send their bodies' new states to the ranks holding
+//!   them as ghosts (forward communication), then the largest displacement since the last
+//!   rebuild is reduced over ranks (max, exact) to decide the next rebuild, as one process
+//!   decides it.
+//! - **At rebuilds** ([`Domain::migrate`]): new slabs; each owner sends its bodies' states to
+//!   their new owners and to the ranks that will hold them as ghosts, and the springs
+//!   (tangential, twisting) of their contacts to the new owners of their bodies; then the
+//!   local broad phase carries them as one process does.
+
+mod comm;
+mod rows;
+
+pub use comm::{Comm, ThreadComm};
+
+use glam::{DVec3, Vec3};
+use thiserror::Error;
+
+use crate::contact_list::{ContactSprings, Contacts};
+use crate::mesh_boundary::MESH_SLOTS;
+use crate::periodic::Periodic;
+use crate::step::{broad, contacts, integrate, mesh_contacts};
+use crate::world::{SimError, StepStats, World};
+use rows::{ContactRow, Reader, SpringRow, Writer};
+
+/// Why a world cannot be stepped by a domain decomposition (yet).
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum DomainError {
+    /// A feature the decomposition does not carry across ranks yet (docs/parallel.md).
+    #[error("{0} cannot run on several MPI ranks yet (see docs/parallel.md, \"Not yet\")")]
+    Unsupported(&'static str),
+}
+
+/// Slabs along one axis: rank `r` owns the bodies whose centre (rounded to f32) has its
+/// `axis` coordinate in `[cuts[r - 1], cuts[r])` (unbounded at both ends).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Slabs {
+    /// 0, 1 or 2 (x, y, z).
+    pub axis: usize,
+    /// `ranks - 1` cut coordinates, ascending.
+    pub cuts: Vec<f32>,
+    /// The periodic box's `[min, max)` along `axis` when that axis is periodic: the first
+    /// and last slabs end there, and distances to a slab are taken across the seam too.
+    pub period: Option<(f64, f64)>,
+}
+
+impl Slabs {
+    /// Slabs for `ranks` ranks along the axis of the largest extent of `positions` (the
+    /// first such axis), cut at quantiles so that each rank owns `n / ranks` bodies (more
+    /// or fewer when bodies share a coordinate). Every rank computes it from the same
+    /// gathered positions, so all agree.
+    pub fn balanced(positions: &[Vec3], ranks: usize, periodic: Option<&Periodic>) -> Slabs {
+        let (lo, hi) = positions.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let extent = hi - lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mut c: Vec<f32> = positions.iter().map(|p| p[axis]).collect();
+        c.sort_unstable_by(f32::total_cmp);
+        let n = c.len();
+        let cuts = (1..ranks)
+            .map(|k| {
+                let at = k * n / ranks;
+                if at < n { c[at] } else { f32::INFINITY }
+            })
+            .collect();
+        let period = periodic
+            .filter(|p| p.axes[axis])
+            .map(|p| (p.min[axis] as f64, p.max[axis] as f64));
+        Slabs { axis, cuts, period }
+    }
+
+    /// Number of ranks.
+    pub fn ranks(&self) -> usize {
+        self.cuts.len() + 1
+    }
+
+    /// The rank that owns a body at `x`.
+    pub fn owner(&self, x: DVec3) -> usize {
+        let c = x.as_vec3()[self.axis];
+        self.cuts.partition_point(|&k| k <= c)
+    }
+
+    /// How far `x` is from rank `r`'s slab along the axis (0 inside; across the seam too
+    /// when the axis is periodic: the nearest of the images).
+    pub fn distance(&self, x: DVec3, r: usize) -> f64 {
+        let (start, end) = self.period.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+        let lo = if r == 0 {
+            start
+        } else {
+            self.cuts[r - 1] as f64
+        };
+        let hi = self.cuts.get(r).map_or(end, |&c| c as f64);
+        let gap = |c: f64| (lo - c).max(c - hi).max(0.0);
+        let c = x[self.axis];
+        match self.period {
+            Some((a, b)) => gap(c).min(gap(c + (b - a))).min(gap(c - (b - a))),
+            None => gap(c),
+        }
+    }
+}
+
+/// One rank's part of a world stepped by a domain decomposition (see the module docs).
+pub struct Domain {
+    /// The whole world as it was given: shapes, materials, walls and every body's constants
+    /// (its states are not kept current; [`Domain::gather`] fills them in).
+    template: World,
+    /// This rank's bodies and ghosts, in ascending global id.
+    local: World,
+    /// Global id of each local body, ascending.
+    ids: Vec<u32>,
+    /// The slabs of the last rebuild (`None` before the first).
+    slabs: Option<Slabs>,
+    /// Per rank: the local bodies it holds as ghosts (sent to it every step), ascending.
+    send: Vec<Vec<u32>>,
+    /// Per rank: the local ghosts it owns (received from it every step), ascending.
+    recv: Vec<Vec<u32>>,
+    /// `2 r_max + skin`: the reach of a pair, and so of the ghost layer.
+    reach: f32,
+    /// Bodies this rank handed to another at rebuilds (not counting the first distribution).
+    handed_over: u64,
+}
+
+impl Domain {
+    /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
+    /// or checkpoint is broadcast): rank 0 starts owning every body, the others none, and the
+    /// first rebuild distributes them (the first step's for a new world). Fails for what is
+    /// not carried across ranks yet.
+    pub fn new(world: World, rank: usize, ranks: usize) -> Result<Domain, DomainError> {
+        // Rank 0 takes the world whole, with its contact list if it has a current one (a
+        // resumed checkpoint): it steps it alone up to the next rebuild, where one process
+        // rebuilds too and the bodies are distributed (moving a list between rebuilds would
+        // need every contact's hints, bounds and forces moved as well).
+        let (ids, local) = if rank == 0 {
+            ((0..world.len() as u32).collect(), world.clone())
+        } else {
+            let mut empty = world.subset(&[], Vec::new());
+            empty.set_needs_rebuild(world.needs_rebuild());
+            (Vec::new(), empty)
+        };
+        let reach = 2.0 * world.consts.max_radius() + world.skin;
+        Ok(Domain {
+            template: world,
+            local,
+            ids,
+            slabs: None,
+            send: vec![Vec::new(); ranks],
+            recv: vec![Vec::new(); ranks],
+            reach,
+            handed_over: 0,
+        })
+    }
+
+    /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
+    pub fn local(&self) -> &World {
+        &self.local
+    }
+
+    /// The global id (scene index) of each body of [`Domain::local`].
+    pub fn ids(&self) -> &[u32] {
+        &self.ids
+    }
+
+    /// The slabs of the last rebuild (`None` before the first step).
+    pub fn slabs(&self) -> Option<&Slabs> {
+        self.slabs.as_ref()
+    }
+
+    /// How many bodies this rank has handed to another rank at rebuilds (bodies that crossed
+    /// a slab boundary, or a boundary that moved past them), not counting the first
+    /// distribution of a world.
+    pub fn handed_over(&self) -> u64 {
+        self.handed_over
+    }
+
+    /// Number of bodies this rank owns.
+    pub fn owned(&self) -> usize {
+        (0..self.local.len())
+            .filter(|&i| !self.local.is_ghost(i))
+            .count()
+    }
+
+    /// Advances the world by one step on every rank (collective): bitwise the step
+    /// [`World::step`] takes on the whole world. The stats count this rank's contacts (those
+    /// whose first body it owns).
+    pub fn step(&mut self, comm: &dyn Comm) -> Result<StepStats, SimError> {
+        let rebuilt = self.local.needs_rebuild();
+        if rebuilt {
+            self.migrate(comm);
+        }
+        contacts::run(&mut self.local);
+        mesh_contacts::run(&mut self.local);
+        let moved = integrate::run(&mut self.local);
+        self.local.step_count += 1;
+        self.local.time += self.local.dt as f64;
+        self.forward(comm);
+        let d2 = match moved {
+            integrate::Moved::NonFinite => f32::INFINITY,
+            integrate::Moved::Farthest(d2) => d2.max(broad::composite_moved(&self.local)),
+        };
+        let d2 = comm.max_f32(d2);
+        if d2 == f32::INFINITY {
+            return Err(self.non_finite_error(comm));
+        }
+        let skin = self.local.skin;
+        if d2 > 0.25 * skin * skin
+            || (!self.local.boundaries.is_empty()
+                && d2.sqrt() + mesh_contacts::moved_since_rebuild(&self.local) > 0.5 * skin)
+        {
+            // As `World::step`: a body, or bodies and meshes together, may have closed half
+            // the skin.
+            self.local.set_needs_rebuild(true);
+        }
+        Ok(StepStats {
+            contacts: self.owned_touching(),
+            rebuilt,
+        })
+    }
+
+    /// Touching contacts over all ranks (collective), each counted once: what
+    /// [`World::contact_count`] gives for the whole world.
+    pub fn contact_count(&self, comm: &dyn Comm) -> usize {
+        comm.sum_u64(self.owned_touching() as u64) as usize
+    }
+
+    /// The whole world (collective; on every rank): the template with every body's current
+    /// state, the contact list with all it carries (springs, forces, touching flags,
+    /// separating-axis hints, separation bounds), the positions (and, with composites, the
+    /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
+    /// due, each body's mesh contact slots: bitwise the world one process would have (its
+    /// checkpoint is the same bytes). The mesh candidates are not gathered (a checkpoint
+    /// does not store them either: restoring finds them again).
+    pub fn gather(&self, comm: &dyn Comm) -> World {
+        self.gather_with(comm, true)
+    }
+
+    /// [`Domain::gather`] without the contact list (which is left empty): every body's state
+    /// for what is computed from the bodies alone (energies, momentum, discharged mass),
+    /// at a fraction of the traffic.
+    pub fn gather_bodies(&self, comm: &dyn Comm) -> World {
+        self.gather_with(comm, false)
+    }
+
+    /// [`Domain::gather`], with or without the contact list.
+    fn gather_with(&self, comm: &dyn Comm, with_contacts: bool) -> World {
+        let local = &self.local;
+        let mut w = Writer::default();
+        self.write_bodies(&mut w);
+        if with_contacts {
+            self.write_contacts(&mut w);
+        } else {
+            w.u32(0);
+            w.u32(0);
+        }
+        let mut world = self.template.clone();
+        let n = world.len();
+        let composites = world.has_composites();
+        let mut pairs = Vec::new();
+        let mut walls = Vec::new();
+        let mut any_built = false;
+        let slots = if world.boundaries.is_empty() {
+            0
+        } else {
+            MESH_SLOTS
+        };
+        let mut mesh_slots = world.mesh_slots().to_vec();
+        for m in comm.all_gather(&w.0) {
+            let mut r = Reader::new(&m);
+            for _ in 0..r.u32() {
+                let id = r.u32() as usize;
+                r.state(&mut world.state, id);
+                let x = r.dvec3();
+                let q = r.quat();
+                if r.u32() != 0 {
+                    any_built = true;
+                    if world.rebuild_position.len() != n {
+                        world.rebuild_position = vec![DVec3::ZERO; n];
+                        if composites {
+                            world.rebuild_orientation = vec![glam::Quat::IDENTITY; n];
+                        }
+                    }
+                    world.rebuild_position[id] = x;
+                    if composites {
+                        world.rebuild_orientation[id] = q;
+                    }
+                }
+                for k in 0..slots {
+                    mesh_slots[id * slots + k] = r.slot();
+                }
+            }
+            for _ in 0..r.u32() {
+                pairs.push(ContactRow::read(&mut r, true));
+            }
+            for _ in 0..r.u32() {
+                walls.push(ContactRow::read(&mut r, false));
+            }
+        }
+        pairs.sort_unstable_by_key(|c| (c.key, c.piece));
+        walls.sort_unstable_by_key(|c| (c.key, c.piece));
+        let all = || pairs.iter().chain(&walls);
+        let springs = ContactSprings {
+            history: all().map(|c| c.history).collect(),
+            twist: all().map(|c| c.twist).collect(),
+            forces: all().map(|c| c.force).collect(),
+            touching: all().map(|c| c.touching).collect(),
+            hints: pairs.iter().map(|c| c.hint).collect(),
+            separation_bound: pairs.iter().map(|c| c.bound).collect(),
+        };
+        let pieces: Vec<u32> = all().map(|c| c.piece).collect();
+        let (history, twist) = (springs.history.clone(), springs.twist.clone());
+        let (pair_keys, wall_keys) = (
+            pairs.iter().map(|c| c.key).collect(),
+            walls.iter().map(|c| c.key).collect(),
+        );
+        world.contacts = if composites {
+            Contacts::with_pieces(n, pair_keys, wall_keys, pieces, history, twist)
+        } else {
+            Contacts::new(n, pair_keys, wall_keys, history, twist)
+        };
+        world
+            .contacts
+            .set_springs(springs)
+            .expect("one row per contact");
+        if !any_built {
+            world.rebuild_position.clear();
+            world.rebuild_orientation.clear();
+        }
+        if slots > 0 {
+            world
+                .set_mesh_slots(mesh_slots)
+                .expect("MESH_SLOTS slots per body");
+            world.mesh.rebuild_time = local.mesh.rebuild_time;
+        }
+        world.step_count = local.step_count;
+        world.time = local.time;
+        world.rebuilds = local.rebuilds;
+        world.set_needs_rebuild(local.needs_rebuild());
+        world
+    }
+
+    /// The owned bodies for [`Domain::gather`]: id, state, and the pose at the last rebuild.
+    fn write_bodies(&self, w: &mut Writer) {
+        let local = &self.local;
+        let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
+        let built = local.rebuild_position.len() == local.len();
+        let turned = local.rebuild_orientation.len() == local.len();
+        w.u32(owned.len() as u32);
+        for &i in &owned {
+            w.u32(self.ids[i]);
+            w.state(&local.state, i);
+            w.dvec3(if built {
+                local.rebuild_position[i]
+            } else {
+                DVec3::ZERO
+            });
+            w.quat(if turned {
+                local.rebuild_orientation[i]
+            } else {
+                glam::Quat::IDENTITY
+            });
+            w.u32(built as u32);
+            for slot in local.mesh.body_slots(i) {
+                w.slot(slot);
+            }
+        }
+    }
+
+    /// This rank's contacts for [`Domain::gather`]: the body pairs whose first body it owns
+    /// (each pair is sent by one rank) and its bodies' wall contacts, with all they carry.
+    fn write_contacts(&self, w: &mut Writer) {
+        let local = &self.local;
+        let c = &local.contacts;
+        let sp = &c.springs;
+        let np = c.pairs.len();
+        let piece = |k: usize| {
+            if c.pieces.len() == c.len() {
+                c.pieces[k]
+            } else {
+                0
+            }
+        };
+        let mine: Vec<usize> = (0..np)
+            .filter(|&k| !local.is_ghost(c.pairs[k][0] as usize))
+            .collect();
+        w.u32(mine.len() as u32);
+        for k in mine {
+            let [a, b] = c.pairs[k];
+            ContactRow {
+                key: [self.ids[a as usize], self.ids[b as usize]],
+                piece: piece(k),
+                history: sp.history[k],
+                twist: sp.twist[k],
+                force: sp.forces[k],
+                touching: sp.touching[k],
+                hint: sp.hints[k],
+                bound: sp.separation_bound[k],
+            }
+            .write(w, true);
+        }
+        w.u32(c.wall_pairs.len() as u32);
+        for (k, &[a, wall]) in c.wall_pairs.iter().enumerate() {
+            ContactRow {
+                key: [self.ids[a as usize], wall],
+                piece: piece(np + k),
+                history: sp.history[np + k],
+                twist: sp.twist[np + k],
+                force: sp.forces[np + k],
+                touching: sp.touching[np + k],
+                hint: 0,
+                bound: 0.0,
+            }
+            .write(w, false);
+        }
+    }
+
+    /// Touching contacts of this rank's share: body pairs whose first body it owns, and
+    /// its bodies' wall contacts.
+    fn owned_touching(&self) -> usize {
+        let c = &self.local.contacts;
+        let np = c.pairs.len();
+        let t = &c.springs.touching;
+        let pairs = (0..np)
+            .filter(|&k| t[k] && !self.local.is_ghost(c.pairs[k][0] as usize))
+            .count();
+        let mesh = (0..self.local.len())
+            .filter(|&i| !self.local.is_ghost(i))
+            .flat_map(|i| self.local.mesh.body_slots(i))
+            .filter(|s| s.touching)
+            .count();
+        pairs + t[np..].iter().filter(|&&x| x).count() + mesh
+    }
+
+    /// The error of a step that left some body non-finite: the lowest such global id, as
+    /// one process names it.
+    fn non_finite_error(&self, comm: &dyn Comm) -> SimError {
+        let s = &self.local.state;
+        let mine = (0..self.local.len())
+            .filter(|&i| !self.local.is_ghost(i))
+            .find(|&i| {
+                !(s.position[i].is_finite()
+                    && s.velocity[i].is_finite()
+                    && s.orientation[i].is_finite())
+            })
+            .map_or(u64::MAX, |i| self.ids[i] as u64);
+        let body = comm.min_u64(mine);
+        SimError::NonFinite {
+            body: if body == u64::MAX { 0 } else { body as usize },
+            step: self.local.step_count,
+            time: self.local.time,
+            dt: self.local.dt,
+        }
+    }
+
+    /// Forward communication: the owners' new states to the ranks holding them as ghosts.
+    fn forward(&mut self, comm: &dyn Comm) {
+        let msgs = self
+            .send
+            .iter()
+            .map(|list| {
+                let mut w = Writer::default();
+                for &i in list {
+                    w.state(&self.local.state, i as usize);
+                }
+                w.0
+            })
+            .collect();
+        for (from, m) in comm.all_to_all(msgs).iter().enumerate() {
+            let mut r = Reader::new(m);
+            for &i in &self.recv[from] {
+                r.state(&mut self.local.state, i as usize);
+            }
+        }
+    }
+
+    /// How far from a slab a body is a ghost there: the reach of a pair, with a margin for
+    /// the rounding of the f32 pair test at the coordinate `c`.
+    fn ghost_reach(&self, c: f64) -> f64 {
+        self.reach as f64 * 1.01 + c.abs() * (1.0 / 1_048_576.0)
+    }
+
+    /// The rebuild (collective): new slabs, bodies and springs moved to their new ranks, the
+    /// ghost lists found, then the local broad phase (which carries the springs).
+    fn migrate(&mut self, comm: &dyn Comm) {
+        let ranks = comm.size();
+        let local = &self.local;
+        let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
+        // 1. The new slabs, from every owned body's position.
+        let mut w = Writer::default();
+        for &i in &owned {
+            w.vec3(local.state.position[i].as_vec3());
+        }
+        let mut positions = Vec::new();
+        for m in comm.all_gather(&w.0) {
+            let mut r = Reader::new(&m);
+            while !r.is_empty() {
+                positions.push(r.vec3());
+            }
+        }
+        let slabs = Slabs::balanced(&positions, ranks, local.periodic.as_ref());
+        // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
+        let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        let mut new_owner = vec![usize::MAX; local.len()];
+        for &i in &owned {
+            let x = local.state.position[i];
+            let o = slabs.owner(x);
+            new_owner[i] = o;
+            if o != comm.rank() && self.slabs.is_some() {
+                self.handed_over += 1;
+            }
+            for (s, (n, w)) in bodies.iter_mut().enumerate() {
+                let ghost = s != o && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis]);
+                if s == o || ghost {
+                    *n += 1;
+                    w.u32(self.ids[i]);
+                    w.u32((s == o) as u32);
+                    w.state(&local.state, i);
+                    for slot in local.mesh.body_slots(i) {
+                        w.slot(slot);
+                    }
+                }
+            }
+        }
+        // 3. Springs: each owner sends its bodies' contacts to the bodies' new owners (a
+        //    contact with two owners is sent by both; the copies are equal). Zero springs
+        //    are not sent: a contact not found is carried as zero.
+        let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        let c = &local.contacts;
+        let np = c.pairs.len();
+        let sp = &c.springs;
+        let piece = |k: usize| {
+            if c.pieces.len() == c.len() {
+                c.pieces[k]
+            } else {
+                0
+            }
+        };
+        let zero = |k: usize| {
+            sp.history[k].to_array().map(f32::to_bits) == [0; 3] && sp.twist[k].to_bits() == 0
+        };
+        for (k, &[a, b]) in c.pairs.iter().enumerate() {
+            if zero(k) {
+                continue;
+            }
+            let row = SpringRow {
+                key: [self.ids[a as usize], self.ids[b as usize]],
+                piece: piece(k),
+                history: sp.history[k],
+                twist: sp.twist[k],
+            };
+            let (da, db) = (new_owner[a as usize], new_owner[b as usize]);
+            for (d, first) in [(da, true), (db, da != db)] {
+                if d != usize::MAX && first {
+                    springs[d].0 += 1;
+                    row.write(&mut springs[d].1);
+                }
+            }
+        }
+        for (k, &[a, wall]) in c.wall_pairs.iter().enumerate() {
+            let d = new_owner[a as usize];
+            if zero(np + k) || d == usize::MAX {
+                continue;
+            }
+            walls[d].0 += 1;
+            SpringRow {
+                key: [self.ids[a as usize], wall],
+                piece: piece(np + k),
+                history: sp.history[np + k],
+                twist: sp.twist[np + k],
+            }
+            .write(&mut walls[d].1);
+        }
+        let msgs = bodies
+            .into_iter()
+            .zip(springs)
+            .zip(walls)
+            .map(|(((nb, b), (ns, s)), (nw, w))| {
+                let mut m = Writer::default();
+                m.u32(nb);
+                m.0.extend(b.0);
+                m.u32(ns);
+                m.0.extend(s.0);
+                m.u32(nw);
+                m.0.extend(w.0);
+                m.0
+            })
+            .collect();
+        let got = comm.all_to_all(msgs);
+        self.install(&got, slabs);
+    }
+
+    /// Builds the new local world from the messages of a rebuild (by sending rank) and runs
+    /// the local broad phase on it.
+    fn install(&mut self, got: &[Vec<u8>], slabs: Slabs) {
+        // Mesh contact slots per body (none without boundaries).
+        let slots = if self.template.boundaries.is_empty() {
+            0
+        } else {
+            MESH_SLOTS
+        };
+        // Bodies: (global id, owned, sending rank, where its state starts).
+        let mut entries = Vec::new();
+        let mut pair_rows = Vec::new();
+        let mut wall_rows = Vec::new();
+        for (from, m) in got.iter().enumerate() {
+            let mut r = Reader::new(m);
+            for _ in 0..r.u32() {
+                let id = r.u32();
+                let owned = r.u32() != 0;
+                entries.push((id, owned, from, r.position()));
+                r.skip_state();
+                r.skip_slots(slots);
+            }
+            for _ in 0..r.u32() {
+                pair_rows.push(SpringRow::read(&mut r));
+            }
+            for _ in 0..r.u32() {
+                wall_rows.push(SpringRow::read(&mut r));
+            }
+        }
+        entries.sort_unstable_by_key(|e| e.0);
+        let ids: Vec<u32> = entries.iter().map(|e| e.0).collect();
+        let ghost: Vec<bool> = entries.iter().map(|e| !e.1).collect();
+        let mut local = self.template.subset(&ids, ghost);
+        let mut mesh_slots = Vec::with_capacity(entries.len() * slots);
+        for (i, &(_, _, from, at)) in entries.iter().enumerate() {
+            let mut r = Reader::at(&got[from], at);
+            r.state(&mut local.state, i);
+            mesh_slots.extend((0..slots).map(|_| r.slot()));
+        }
+        if slots > 0 {
+            local
+                .set_mesh_slots(mesh_slots)
+                .expect("MESH_SLOTS slots per body");
+            // Every body may have had candidates: the rebuild clears the slots of those that
+            // have none now (the others' are clear already), as one process does.
+            local.mesh.active = (0..local.len() as u32).collect();
+        }
+        local.step_count = self.local.step_count;
+        local.time = self.local.time;
+        local.rebuilds = self.local.rebuilds;
+        // The springs, in local ids, sorted as the broad phase sorts its lists.
+        let index = |g: u32| ids.binary_search(&g).ok().map(|i| i as u32);
+        let mut pairs: Vec<([u32; 2], u32, Vec3, f32)> = pair_rows
+            .iter()
+            .filter_map(|r| {
+                Some((
+                    [index(r.key[0])?, index(r.key[1])?],
+                    r.piece,
+                    r.history,
+                    r.twist,
+                ))
+            })
+            .collect();
+        pairs.sort_unstable_by_key(|p| (p.0, p.1));
+        pairs.dedup_by_key(|p| (p.0, p.1));
+        let mut wall_list: Vec<([u32; 2], u32, Vec3, f32)> = wall_rows
+            .iter()
+            .filter_map(|r| Some(([index(r.key[0])?, r.key[1]], r.piece, r.history, r.twist)))
+            .collect();
+        wall_list.sort_unstable_by_key(|p| (p.0, p.1));
+        wall_list.dedup_by_key(|p| (p.0, p.1));
+        let all = pairs.iter().chain(&wall_list);
+        let history = all.clone().map(|p| p.2).collect();
+        let twist = all.clone().map(|p| p.3).collect();
+        let pieces: Vec<u32> = all.map(|p| p.1).collect();
+        let (pairs, wall_list) = (
+            pairs.iter().map(|p| p.0).collect(),
+            wall_list.iter().map(|p| p.0).collect(),
+        );
+        local.contacts = if local.has_composites() {
+            Contacts::with_pieces(local.len(), pairs, wall_list, pieces, history, twist)
+        } else {
+            Contacts::new(local.len(), pairs, wall_list, history, twist)
+        };
+        broad::rebuild(&mut local);
+        // Who sends what every step: both sides find it from the same positions and slabs.
+        let ranks = slabs.ranks();
+        let mut send = vec![Vec::new(); ranks];
+        let mut recv = vec![Vec::new(); ranks];
+        for i in 0..local.len() {
+            let x = local.state.position[i];
+            if local.is_ghost(i) {
+                recv[slabs.owner(x)].push(i as u32);
+            } else {
+                for (s, list) in send.iter_mut().enumerate() {
+                    if s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
+                    {
+                        list.push(i as u32);
+                    }
+                }
+            }
+        }
+        self.local = local;
+        self.ids = ids;
+        self.send = send;
+        self.recv = recv;
+        self.slabs = Some(slabs);
+    }
+}

@@ -1,0 +1,251 @@
+//! The records ranks exchange, as little-endian bytes: a body's state (every field the step
+//! integrates, so a copy steps bitwise as the original), a body pair's springs and a body-wall
+//! pair's springs (what a rebuild carries over). Bodies are named by their global id (their
+//! index in the scene).
+
+use glam::{DVec3, Quat, Vec3};
+
+use crate::bodies::BodyStates;
+use crate::contract::ContactForce;
+use crate::mesh_boundary::MeshSlot;
+
+/// The size of a state written by [`Writer::state`]: position (3 f64), velocity,
+/// orientation, its residual, angular momentum, angular velocity (f32) and the removed flag.
+pub(crate) const STATE_BYTES: usize = 24 + 12 + 16 + 16 + 12 + 12 + 4;
+
+/// The size of a mesh contact slot written by [`Writer::slot`].
+pub(crate) const SLOT_BYTES: usize = 12 + 12 + 12 + 4 + 40;
+
+/// Appends little-endian fields to a message.
+#[derive(Default)]
+pub(crate) struct Writer(pub Vec<u8>);
+
+impl Writer {
+    pub fn u32(&mut self, x: u32) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    pub fn f32(&mut self, x: f32) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    pub fn f64(&mut self, x: f64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    pub fn vec3(&mut self, v: Vec3) {
+        self.f32(v.x);
+        self.f32(v.y);
+        self.f32(v.z);
+    }
+    pub fn quat(&mut self, q: Quat) {
+        self.f32(q.x);
+        self.f32(q.y);
+        self.f32(q.z);
+        self.f32(q.w);
+    }
+
+    pub fn dvec3(&mut self, v: DVec3) {
+        self.f64(v.x);
+        self.f64(v.y);
+        self.f64(v.z);
+    }
+    /// A contact's force (without the padding).
+    pub fn force(&mut self, f: &ContactForce) {
+        self.vec3(f.force_b);
+        self.f32(f.normal_force);
+        self.vec3(f.torque_a);
+        self.vec3(f.torque_b);
+    }
+
+    /// A body's mesh contact slot.
+    pub fn slot(&mut self, m: &MeshSlot) {
+        self.u32(m.boundary);
+        self.u32(m.piece);
+        self.u32(m.touching as u32);
+        self.vec3(m.normal);
+        self.vec3(m.history);
+        self.f32(m.twist);
+        self.force(&m.force);
+    }
+
+    /// Body `i`'s state.
+    pub fn state(&mut self, s: &BodyStates, i: usize) {
+        let x = s.position[i];
+        self.f64(x.x);
+        self.f64(x.y);
+        self.f64(x.z);
+        self.vec3(s.velocity[i]);
+        self.quat(s.orientation[i]);
+        self.quat(s.orientation_residual[i]);
+        self.vec3(s.angular_momentum[i]);
+        self.vec3(s.omega[i]);
+        self.u32(s.removed[i] as u32);
+    }
+}
+
+/// Reads little-endian fields from a message written by [`Writer`]. Messages come from
+/// ranks of the same binary, so a short message is a bug: it panics.
+pub(crate) struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    pub fn new(bytes: &'a [u8]) -> Self {
+        Reader { bytes, at: 0 }
+    }
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0u8; N];
+        out.copy_from_slice(&self.bytes[self.at..self.at + N]);
+        self.at += N;
+        out
+    }
+    /// A reader of `bytes` from byte `at` on.
+    pub fn at(bytes: &'a [u8], at: usize) -> Self {
+        Reader { bytes, at }
+    }
+    /// Where the next field starts.
+    pub fn position(&self) -> usize {
+        self.at
+    }
+    /// Skips a state written by [`Writer::state`].
+    pub fn skip_state(&mut self) {
+        self.at += STATE_BYTES;
+    }
+    pub fn is_empty(&self) -> bool {
+        self.at >= self.bytes.len()
+    }
+    pub fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    pub fn f32(&mut self) -> f32 {
+        f32::from_le_bytes(self.take())
+    }
+    pub fn f64(&mut self) -> f64 {
+        f64::from_le_bytes(self.take())
+    }
+    pub fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+    pub fn quat(&mut self) -> Quat {
+        let (x, y, z, w) = (self.f32(), self.f32(), self.f32(), self.f32());
+        Quat::from_xyzw(x, y, z, w)
+    }
+
+    pub fn dvec3(&mut self) -> DVec3 {
+        DVec3::new(self.f64(), self.f64(), self.f64())
+    }
+    /// A force written by [`Writer::force`].
+    pub fn force(&mut self) -> ContactForce {
+        ContactForce {
+            force_b: self.vec3(),
+            normal_force: self.f32(),
+            torque_a: self.vec3(),
+            torque_b: self.vec3(),
+            ..ContactForce::default()
+        }
+    }
+
+    /// A slot written by [`Writer::slot`].
+    pub fn slot(&mut self) -> MeshSlot {
+        MeshSlot {
+            boundary: self.u32(),
+            piece: self.u32(),
+            touching: self.u32() != 0,
+            normal: self.vec3(),
+            history: self.vec3(),
+            twist: self.f32(),
+            force: self.force(),
+        }
+    }
+    /// Skips `n` slots.
+    pub fn skip_slots(&mut self, n: usize) {
+        self.at += n * SLOT_BYTES;
+    }
+
+    /// A state written by [`Writer::state`], into body `i` of `s`.
+    pub fn state(&mut self, s: &mut BodyStates, i: usize) {
+        s.position[i] = DVec3::new(self.f64(), self.f64(), self.f64());
+        s.velocity[i] = self.vec3();
+        s.orientation[i] = self.quat();
+        s.orientation_residual[i] = self.quat();
+        s.angular_momentum[i] = self.vec3();
+        s.omega[i] = self.vec3();
+        s.removed[i] = self.u32() != 0;
+    }
+}
+
+/// A contact's springs on the move between ranks at a rebuild: the contact by global ids
+/// (`[body, body]` or `[body, wall]`) and piece code, its tangential and twisting springs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SpringRow {
+    pub key: [u32; 2],
+    pub piece: u32,
+    pub history: Vec3,
+    pub twist: f32,
+}
+
+impl SpringRow {
+    pub fn write(&self, w: &mut Writer) {
+        w.u32(self.key[0]);
+        w.u32(self.key[1]);
+        w.u32(self.piece);
+        w.vec3(self.history);
+        w.f32(self.twist);
+    }
+    pub fn read(r: &mut Reader) -> SpringRow {
+        SpringRow {
+            key: [r.u32(), r.u32()],
+            piece: r.u32(),
+            history: r.vec3(),
+            twist: r.f32(),
+        }
+    }
+}
+
+/// A contact with everything it carries, for gathering the whole contact list
+/// ([`super::Domain::gather`]); `hint` and `bound` only for body pairs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ContactRow {
+    pub key: [u32; 2],
+    pub piece: u32,
+    pub history: Vec3,
+    pub twist: f32,
+    pub force: ContactForce,
+    pub touching: bool,
+    pub hint: u32,
+    pub bound: f32,
+}
+
+impl ContactRow {
+    pub fn write(&self, w: &mut Writer, pair: bool) {
+        w.u32(self.key[0]);
+        w.u32(self.key[1]);
+        w.u32(self.piece);
+        w.vec3(self.history);
+        w.f32(self.twist);
+        w.force(&self.force);
+        w.u32(self.touching as u32);
+        if pair {
+            w.u32(self.hint);
+            w.f32(self.bound);
+        }
+    }
+    pub fn read(r: &mut Reader, pair: bool) -> ContactRow {
+        let key = [r.u32(), r.u32()];
+        let piece = r.u32();
+        let history = r.vec3();
+        let twist = r.f32();
+        let force = r.force();
+        let touching = r.u32() != 0;
+        let (hint, bound) = if pair { (r.u32(), r.f32()) } else { (0, 0.0) };
+        ContactRow {
+            key,
+            piece,
+            history,
+            twist,
+            force,
+            touching,
+            hint,
+            bound,
+        }
+    }
+}
