@@ -322,6 +322,7 @@ impl World {
             rebuild_position: Vec::new(),
             needs_rebuild: true,
             ghost,
+            position_pairs: Vec::new(),
         }
     }
 
