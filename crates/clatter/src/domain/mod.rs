@@ -251,8 +251,8 @@ impl Domain {
     /// separating-axis hints, separation bounds), the positions (and, with composites, the
     /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
     /// due, each body's mesh contact slots: bitwise the world one process would have (its
-    /// checkpoint is the same bytes). The mesh candidates are not gathered (a checkpoint
-    /// does not store them either: restoring finds them again).
+    /// checkpoint is the same bytes). The mesh candidates are not sent: they are found again
+    /// at the rebuild's poses and time, as restoring a checkpoint finds them.
     pub fn gather(&self, comm: &dyn Comm) -> World {
         self.gather_with(comm, true)
     }
@@ -352,6 +352,26 @@ impl Domain {
             world
                 .set_mesh_slots(mesh_slots)
                 .expect("MESH_SLOTS slots per body");
+            if with_contacts && any_built {
+                // The mesh candidates, found again where the last rebuild found them (the
+                // bodies at their rebuild poses, the meshes at the rebuild time), as a
+                // restored checkpoint finds them.
+                let (x, q) = (
+                    world.state.position.clone(),
+                    world.state.orientation.clone(),
+                );
+                world.state.position.clone_from(&world.rebuild_position);
+                if composites {
+                    world
+                        .state
+                        .orientation
+                        .clone_from(&world.rebuild_orientation);
+                }
+                world.time = local.mesh.rebuild_time;
+                mesh_contacts::rebuild(&mut world);
+                world.state.position = x;
+                world.state.orientation = q;
+            }
             world.mesh.rebuild_time = local.mesh.rebuild_time;
         }
         world.step_count = local.step_count;
