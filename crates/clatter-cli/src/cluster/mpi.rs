@@ -97,6 +97,23 @@ impl Comm for MpiComm {
         split(&buf, &recv_counts)
     }
 
+    fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
+        // One `Alltoallv`, without the exchange of sizes `all_to_all` needs.
+        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
+        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
+        let recv_counts: Vec<i32> = recv_len.iter().map(|&n| count(n + 1)).collect();
+        let flat: Vec<u8> = send.concat();
+        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let (sd, rd) = (displacements(&counts), displacements(&recv_counts));
+        {
+            let sendp = Partition::new(&flat[..], &counts[..], &sd[..]);
+            let mut recvp = PartitionMut::new(&mut buf[..], &recv_counts[..], &rd[..]);
+            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
+        }
+        split(&buf, &recv_counts)
+    }
+
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         let mine = &padded(mine)[..];
         let mut counts = vec![0i32; self.size()];

@@ -507,7 +507,12 @@ impl Domain {
                 w.0
             })
             .collect();
-        for (from, m) in comm.all_to_all(msgs).iter().enumerate() {
+        let sizes: Vec<usize> = self
+            .recv
+            .iter()
+            .map(|list| list.len() * rows::STATE_BYTES)
+            .collect();
+        for (from, m) in comm.all_to_all_known(msgs, &sizes).iter().enumerate() {
             let mut r = Reader::new(m);
             for &i in &self.recv[from] {
                 r.state(&mut self.local.state, i as usize);
