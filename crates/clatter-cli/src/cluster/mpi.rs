@@ -298,7 +298,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         Ok(None)
     };
     let mut outputs = comm.agree(outputs)?;
-    let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
+    let mut domain = Domain::new(world, rank, ranks);
     let loud = rank == 0 && !plan.quiet;
 
     if loud {

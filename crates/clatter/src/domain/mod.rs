@@ -30,7 +30,6 @@ mod rows;
 pub use comm::{Comm, ThreadComm};
 
 use glam::{DVec3, Vec3};
-use thiserror::Error;
 
 use crate::contact_list::{ContactSprings, Contacts};
 use crate::mesh_boundary::MESH_SLOTS;
@@ -38,14 +37,6 @@ use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
 use rows::{ContactRow, Reader, SpringRow, Writer};
-
-/// Why a world cannot be stepped by a domain decomposition (yet).
-#[derive(Debug, Error, Clone, PartialEq)]
-pub enum DomainError {
-    /// A feature the decomposition does not carry across ranks yet (docs/parallel.md).
-    #[error("{0} cannot run on several MPI ranks yet (see docs/parallel.md, \"Not yet\")")]
-    Unsupported(&'static str),
-}
 
 /// Slabs along one axis: rank `r` owns the bodies whose centre (rounded to f32) has its
 /// `axis` coordinate in `[cuts[r - 1], cuts[r])` (unbounded at both ends).
@@ -147,9 +138,9 @@ pub struct Domain {
 impl Domain {
     /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
     /// or checkpoint is broadcast): rank 0 starts owning every body, the others none, and the
-    /// first rebuild distributes them (the first step's for a new world). Fails for what is
-    /// not carried across ranks yet.
-    pub fn new(world: World, rank: usize, ranks: usize) -> Result<Domain, DomainError> {
+    /// first rebuild distributes them (the first step's for a new world). Every world can be
+    /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
+    pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
         // Rank 0 takes the world whole, with its contact list if it has a current one (a
         // resumed checkpoint): it steps it alone up to the next rebuild, where one process
         // rebuilds too and the bodies are distributed (moving a list between rebuilds would
@@ -162,7 +153,7 @@ impl Domain {
             (Vec::new(), empty)
         };
         let reach = 2.0 * world.consts.max_radius() + world.skin;
-        Ok(Domain {
+        Domain {
             template: world,
             local,
             ids,
@@ -171,7 +162,7 @@ impl Domain {
             recv: vec![Vec::new(); ranks],
             reach,
             handed_over: 0,
-        })
+        }
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
