@@ -18,10 +18,9 @@ use mpi::traits::*;
 
 use super::{Invocation, Quiet};
 use crate::backend::Backend;
-use crate::energy::EnergySeries;
 use crate::log::{Sample, Thermo};
-use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, write_state_rows};
-use crate::run::{FULL_CHECK_EVERY, Plan, blown_up, resume_plan, run_plan};
+use crate::output::AtomicFile;
+use crate::run::{FULL_CHECK_EVERY, Outputs, Plan, blown_up, resume_plan, run_plan};
 use crate::scene_io::load_scene;
 
 /// [`Comm`] over an MPI communicator.
@@ -86,6 +85,23 @@ impl Comm for MpiComm {
         let mut recv_counts = vec![0i32; counts.len()];
         self.world
             .all_to_all_into(&counts[..], &mut recv_counts[..]);
+        let flat: Vec<u8> = send.concat();
+        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let (sd, rd) = (displacements(&counts), displacements(&recv_counts));
+        {
+            let sendp = Partition::new(&flat[..], &counts[..], &sd[..]);
+            let mut recvp = PartitionMut::new(&mut buf[..], &recv_counts[..], &rd[..]);
+            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
+        }
+        split(&buf, &recv_counts)
+    }
+
+    fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
+        // One `Alltoallv`, without the exchange of sizes `all_to_all` needs.
+        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
+        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
+        let recv_counts: Vec<i32> = recv_len.iter().map(|&n| count(n + 1)).collect();
         let flat: Vec<u8> = send.concat();
         let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
         let mut buf = vec![0u8; total];
@@ -253,13 +269,6 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let start_step = world.step_count;
     let steps = plan.end_step.saturating_sub(start_step);
     let (bodies, walls, dt) = (world.len(), world.walls.len(), world.dt);
-    // Rank 0's series (energy.csv, discharge.csv) start from the world as it is.
-    let series = if rank == 0 {
-        Series::create(&plan, &world, start_step)
-    } else {
-        Ok(None)
-    };
-    let mut series = comm.agree(series)?;
     let mut last_good = (rank == 0).then(|| world.clone());
     if let Some(good) = &last_good {
         if !plan.resumed {
@@ -281,7 +290,15 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         _ => Ok(()),
     };
     comm.agree(initial)?;
-    let mut domain = comm.agree(Domain::new(world, rank, ranks).map_err(anyhow::Error::from))?;
+    // Rank 0's files (the frame series, energy.csv, discharge.csv, checkpoints) are one
+    // process's `Outputs`, fed the gathered world at the steps they are due.
+    let outputs = if rank == 0 {
+        Outputs::create(&plan, &world, start_step).map(Some)
+    } else {
+        Ok(None)
+    };
+    let mut outputs = comm.agree(outputs)?;
+    let mut domain = Domain::new(world, rank, ranks);
     let loud = rank == 0 && !plan.quiet;
 
     if loud {
@@ -296,14 +313,6 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
             steps as f64 * dt as f64,
             rayon::current_num_threads()
         );
-    }
-    if let Some(dir) = &plan.out {
-        let made = if rank == 0 {
-            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))
-        } else {
-            Ok(())
-        };
-        comm.agree(made)?;
     }
     // Progress lines (`--log-every`, or by default when stderr is not a terminal, as under
     // most launchers) on rank 0, which decides when one is due (it may be by wall-clock) and
@@ -333,7 +342,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
             return Err(match &last_good {
                 Some(good) => {
                     let b = plan.health.non_finite(good, &e);
-                    blown_up(&plan, b, good, series.take().map(|x| x.energy))
+                    blown_up(
+                        &plan,
+                        b,
+                        good,
+                        outputs.as_mut().and_then(|o| o.energy.take()),
+                    )
                 }
                 None => Quiet(crate::report::BLOW_UP_EXIT).into(),
             });
@@ -352,32 +366,40 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
                     }
                     Err(b) => {
                         bar.finish_and_clear();
-                        Err(blown_up(&plan, b, good, series.take().map(|x| x.energy)))
+                        Err(blown_up(
+                            &plan,
+                            b,
+                            good,
+                            outputs.as_mut().and_then(|o| o.energy.take()),
+                        ))
                     }
                 },
                 None => Ok(()),
             };
             comm.agree(checked)?;
         }
-        if plan.out.is_some() && s.is_multiple_of(plan.energy_every) {
-            let whole = domain.gather_bodies(comm);
-            let sampled = series.as_mut().map_or(Ok(()), |x| x.sample(&whole));
-            comm.agree(sampled)?;
-        }
-        if let (Some(t), Some(next), Some(dir)) =
-            (plan.checkpoint_every, &mut next_checkpoint, &plan.out)
-        {
-            let time = domain.local().time;
-            if time + half_dt >= *next * t {
-                let whole = domain.gather(comm);
-                let written = if rank == 0 {
-                    plan.checkpoint(&whole, &dir.join("checkpoint.ckpt"))
-                } else {
-                    Ok(())
-                };
-                comm.agree(written)?;
+        // What one process writes after this step (`run/outputs.rs`): the state is gathered
+        // when something is due, with the contacts for a frame or a checkpoint.
+        let frame = plan.output_every.is_some_and(|n| s.is_multiple_of(n));
+        let sample = s.is_multiple_of(plan.energy_every);
+        let time = domain.local().time;
+        let checkpoint = match (plan.checkpoint_every, &mut next_checkpoint) {
+            (Some(t), Some(next)) if time + half_dt >= *next * t => {
                 *next = ((time + half_dt) / t).floor() + 1.0;
+                true
             }
+            _ => false,
+        };
+        if plan.out.is_some() && (frame || sample || checkpoint) {
+            let whole = if frame || checkpoint {
+                domain.gather(comm)
+            } else {
+                domain.gather_bodies(comm)
+            };
+            let written = outputs
+                .as_mut()
+                .map_or(Ok(()), |o| o.after_step(&plan, &whole, frame));
+            comm.agree(written)?;
         }
         if let Some(l) = &mut thermo {
             let due = comm.broadcast(vec![(rank == 0 && l.due(s)) as u8]);
@@ -402,12 +424,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     }
     let elapsed = started.elapsed().as_secs_f64();
     let whole = domain.gather(comm);
-    let finished = if rank == 0 {
-        series
-            .map_or(Ok(()), |x| x.finish(&plan, &whole))
-            .and_then(|_| finish(&plan, &whole, steps, start_step, elapsed, ranks))
-    } else {
-        Ok(())
+    let finished = match (outputs, &plan.out) {
+        (Some(o), Some(dir)) => o
+            .finish(&plan, dir, &whole)
+            .and_then(|_| finish(&plan, &whole, steps, start_step, elapsed, ranks)),
+        (Some(_), None) => finish(&plan, &whole, steps, start_step, elapsed, ranks),
+        (None, _) => Ok(()),
     };
     comm.agree(finished)
 }
@@ -425,59 +447,8 @@ fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
     }
 }
 
-/// Rank 0's energy and discharge series, sampled from the gathered bodies at the steps one
-/// process samples them (`run/outputs.rs`), so the files are the same bytes.
-struct Series {
-    energy: EnergySeries,
-    discharge: Option<DischargeSeries>,
-}
-
-impl Series {
-    /// The series in `plan.out` (none without it), with the first sample of `world`.
-    fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Option<Series>> {
-        let Some(dir) = &plan.out else {
-            return Ok(None);
-        };
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create output directory {}", dir.display()))?;
-        let mut energy = EnergySeries::create(Some(&dir.join("energy.csv")), start)?;
-        energy.sample(world)?;
-        let discharge = if world.sinks.is_empty() {
-            None
-        } else {
-            let mut d = DischargeSeries::create(&dir.join("discharge.csv"), start)?;
-            d.sample(world)?;
-            Some(d)
-        };
-        Ok(Some(Series { energy, discharge }))
-    }
-
-    fn sample(&mut self, world: &World) -> anyhow::Result<()> {
-        self.energy.sample(world)?;
-        if let Some(d) = &mut self.discharge {
-            d.sample(world)?;
-        }
-        Ok(())
-    }
-
-    /// The last samples, the files committed and the energy plot drawn.
-    fn finish(mut self, plan: &Plan, world: &World) -> anyhow::Result<()> {
-        let Some(dir) = &plan.out else {
-            return Ok(());
-        };
-        if let Some(mut d) = self.discharge.take() {
-            d.sample(world)?;
-            d.commit()?;
-        }
-        self.energy.sample(world)?;
-        self.energy.finish(
-            Some(&dir.join("energy.svg")),
-            &format!("{}: energy and momentum", plan.scene.source),
-        )
-    }
-}
-
-/// Rank 0's end of the run: the summary lines, final.csv, summary.json and the checkpoint.
+/// Rank 0's end of the run after `Outputs::finish` (final.csv, the series, the checkpoint):
+/// the summary lines and summary.json.
 fn finish(
     plan: &Plan,
     whole: &World,
@@ -500,10 +471,6 @@ fn finish(
     let Some(dir) = &plan.out else {
         return Ok(());
     };
-    let mut f = AtomicFile::create(&dir.join("final.csv"))?;
-    writeln!(f.writer(), "{STATE_HEADER}")?;
-    write_state_rows(f.writer(), whole, "")?;
-    f.commit()?;
     let summary = serde_json::json!({
         "scene": plan.scene.source,
         "bodies": whole.len(),
@@ -534,10 +501,6 @@ fn finish(
     if !whole.sinks.is_empty() {
         written.push_str(", discharge.csv");
     }
-    if plan.checkpoint_every.is_some() {
-        plan.checkpoint(whole, &dir.join("checkpoint.ckpt"))?;
-        written.push_str(", checkpoint.ckpt");
-    }
     if loud {
         println!("results in {}/: {written}", dir.display());
     }
@@ -547,17 +510,6 @@ fn finish(
 /// What the MPI run does not do yet, refused before the first step (every rank finds the
 /// same: the arguments and the scene or checkpoint are the same everywhere).
 fn check_plan(plan: &Plan, bodies: usize, ranks: usize) -> anyhow::Result<()> {
-    let not_yet = |what: &str| {
-        anyhow::anyhow!(
-            "{what} is not written on several MPI ranks yet (docs/parallel.md, \"Not yet\"); a run on {ranks} ranks writes final.csv, summary.json, energy.csv, discharge.csv and checkpoint.ckpt"
-        )
-    };
-    if plan.vtk || plan.output_every.is_some() {
-        return Err(not_yet("the frame series (--format, --output-every)"));
-    }
-    if plan.contacts {
-        return Err(not_yet("the contact series (--contacts)"));
-    }
     if plan.backend == Backend::Gpu {
         anyhow::bail!(
             "--backend gpu: runs on several MPI ranks use the CPU pipeline (one GPU per rank is planned, docs/parallel.md)"

@@ -24,7 +24,7 @@ use crate::report::BlownUp;
 use crate::scene_io::load_scene;
 
 mod outputs;
-use outputs::Outputs;
+pub(crate) use outputs::Outputs;
 
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).

@@ -15,19 +15,20 @@ use crate::output::{AtomicFile, DischargeSeries, STATE_HEADER, carry_rows, write
 use crate::vtk;
 
 /// The files a run writes as it goes: the frame series, energy.csv, discharge.csv, and when
-/// the next checkpoint is due. Everything is created before the first step and committed
+/// the next checkpoint is due (rank 0 of an MPI run writes them too, from the gathered
+/// world: `crate::cluster`). Everything is created before the first step and committed
 /// (renamed into place) when complete.
-pub(super) struct Outputs {
+pub(crate) struct Outputs {
     series: Series,
-    pub(super) energy: Option<EnergySeries>,
+    pub(crate) energy: Option<EnergySeries>,
     pub(super) discharge: Option<DischargeSeries>,
     /// The next checkpoint is due at simulated time `next * checkpoint_every`.
-    pub(super) next_checkpoint: Option<f64>,
+    pub(crate) next_checkpoint: Option<f64>,
 }
 
 impl Outputs {
     /// Creates the outputs of `plan` (none without `--out`) and writes their first rows.
-    pub(super) fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Outputs> {
+    pub(crate) fn create(plan: &Plan, world: &World, start: u64) -> anyhow::Result<Outputs> {
         let mut series = Series {
             trace: None,
             bodies: None,
@@ -82,7 +83,7 @@ impl Outputs {
     }
 
     /// Writes what is due after step `s`: a frame, energy and discharge rows, a checkpoint.
-    pub(super) fn after_step(
+    pub(crate) fn after_step(
         &mut self,
         plan: &Plan,
         world: &World,
@@ -117,7 +118,7 @@ impl Outputs {
 
     /// The last step: a VTK frame, an energy sample and a checkpoint even off the period;
     /// commits the series and writes final.csv.
-    pub(super) fn finish(mut self, plan: &Plan, dir: &Path, world: &World) -> anyhow::Result<()> {
+    pub(crate) fn finish(mut self, plan: &Plan, dir: &Path, world: &World) -> anyhow::Result<()> {
         if plan.vtk && self.series.last_frame != Some(world.step_count) {
             self.series.write_vtk(dir, world)?;
         }

@@ -15,6 +15,14 @@ pub trait Comm {
     /// Sends `send[r]` to rank `r` (one message per rank, empty ones included); returns the
     /// message each rank sent here, by rank.
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>>;
+    /// [`Comm::all_to_all`] when this rank knows how many bytes each rank sends it
+    /// (`recv_len[r]`): the per-step exchange of ghost states, whose sizes follow from the
+    /// ghost lists. A transport may then skip exchanging the sizes.
+    fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
+        let got = self.all_to_all(send);
+        debug_assert!(got.iter().map(Vec::len).eq(recv_len.iter().copied()));
+        got
+    }
     /// Every rank's `mine`, by rank, on every rank.
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>>;
     /// The largest of every rank's `x` (max is exact, so the result does not depend on the

@@ -30,7 +30,6 @@ mod rows;
 pub use comm::{Comm, ThreadComm};
 
 use glam::{DVec3, Vec3};
-use thiserror::Error;
 
 use crate::contact_list::{ContactSprings, Contacts};
 use crate::mesh_boundary::MESH_SLOTS;
@@ -38,14 +37,6 @@ use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
 use rows::{ContactRow, Reader, SpringRow, Writer};
-
-/// Why a world cannot be stepped by a domain decomposition (yet).
-#[derive(Debug, Error, Clone, PartialEq)]
-pub enum DomainError {
-    /// A feature the decomposition does not carry across ranks yet (docs/parallel.md).
-    #[error("{0} cannot run on several MPI ranks yet (see docs/parallel.md, \"Not yet\")")]
-    Unsupported(&'static str),
-}
 
 /// Slabs along one axis: rank `r` owns the bodies whose centre (rounded to f32) has its
 /// `axis` coordinate in `[cuts[r - 1], cuts[r])` (unbounded at both ends).
@@ -147,9 +138,9 @@ pub struct Domain {
 impl Domain {
     /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
     /// or checkpoint is broadcast): rank 0 starts owning every body, the others none, and the
-    /// first rebuild distributes them (the first step's for a new world). Fails for what is
-    /// not carried across ranks yet.
-    pub fn new(world: World, rank: usize, ranks: usize) -> Result<Domain, DomainError> {
+    /// first rebuild distributes them (the first step's for a new world). Every world can be
+    /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
+    pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
         // Rank 0 takes the world whole, with its contact list if it has a current one (a
         // resumed checkpoint): it steps it alone up to the next rebuild, where one process
         // rebuilds too and the bodies are distributed (moving a list between rebuilds would
@@ -162,7 +153,7 @@ impl Domain {
             (Vec::new(), empty)
         };
         let reach = 2.0 * world.consts.max_radius() + world.skin;
-        Ok(Domain {
+        Domain {
             template: world,
             local,
             ids,
@@ -171,7 +162,7 @@ impl Domain {
             recv: vec![Vec::new(); ranks],
             reach,
             handed_over: 0,
-        })
+        }
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
@@ -251,8 +242,8 @@ impl Domain {
     /// separating-axis hints, separation bounds), the positions (and, with composites, the
     /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
     /// due, each body's mesh contact slots: bitwise the world one process would have (its
-    /// checkpoint is the same bytes). The mesh candidates are not gathered (a checkpoint
-    /// does not store them either: restoring finds them again).
+    /// checkpoint is the same bytes). The mesh candidates are not sent: they are found again
+    /// at the rebuild's poses and time, as restoring a checkpoint finds them.
     pub fn gather(&self, comm: &dyn Comm) -> World {
         self.gather_with(comm, true)
     }
@@ -352,6 +343,26 @@ impl Domain {
             world
                 .set_mesh_slots(mesh_slots)
                 .expect("MESH_SLOTS slots per body");
+            if with_contacts && any_built {
+                // The mesh candidates, found again where the last rebuild found them (the
+                // bodies at their rebuild poses, the meshes at the rebuild time), as a
+                // restored checkpoint finds them.
+                let (x, q) = (
+                    world.state.position.clone(),
+                    world.state.orientation.clone(),
+                );
+                world.state.position.clone_from(&world.rebuild_position);
+                if composites {
+                    world
+                        .state
+                        .orientation
+                        .clone_from(&world.rebuild_orientation);
+                }
+                world.time = local.mesh.rebuild_time;
+                mesh_contacts::rebuild(&mut world);
+                world.state.position = x;
+                world.state.orientation = q;
+            }
             world.mesh.rebuild_time = local.mesh.rebuild_time;
         }
         world.step_count = local.step_count;
@@ -487,7 +498,12 @@ impl Domain {
                 w.0
             })
             .collect();
-        for (from, m) in comm.all_to_all(msgs).iter().enumerate() {
+        let sizes: Vec<usize> = self
+            .recv
+            .iter()
+            .map(|list| list.len() * rows::STATE_BYTES)
+            .collect();
+        for (from, m) in comm.all_to_all_known(msgs, &sizes).iter().enumerate() {
             let mut r = Reader::new(m);
             for &i in &self.recv[from] {
                 r.state(&mut self.local.state, i as usize);
