@@ -85,16 +85,7 @@ impl Comm for MpiComm {
         let mut recv_counts = vec![0i32; counts.len()];
         self.world
             .all_to_all_into(&counts[..], &mut recv_counts[..]);
-        let flat: Vec<u8> = send.concat();
-        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
-        let mut buf = vec![0u8; total];
-        let (sd, rd) = (displacements(&counts), displacements(&recv_counts));
-        {
-            let sendp = Partition::new(&flat[..], &counts[..], &sd[..]);
-            let mut recvp = PartitionMut::new(&mut buf[..], &recv_counts[..], &rd[..]);
-            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
-        }
-        split(&buf, &recv_counts)
+        self.exchange(&send, &counts, &recv_counts)
     }
 
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
@@ -102,16 +93,7 @@ impl Comm for MpiComm {
         let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
         let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
         let recv_counts: Vec<i32> = recv_len.iter().map(|&n| count(n + 1)).collect();
-        let flat: Vec<u8> = send.concat();
-        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
-        let mut buf = vec![0u8; total];
-        let (sd, rd) = (displacements(&counts), displacements(&recv_counts));
-        {
-            let sendp = Partition::new(&flat[..], &counts[..], &sd[..]);
-            let mut recvp = PartitionMut::new(&mut buf[..], &recv_counts[..], &rd[..]);
-            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
-        }
-        split(&buf, &recv_counts)
+        self.exchange(&send, &counts, &recv_counts)
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
@@ -152,6 +134,21 @@ impl Comm for MpiComm {
 }
 
 impl MpiComm {
+    /// One `Alltoallv` of the padded messages `send` (`counts` bytes each) into messages of
+    /// `recv_counts` bytes, split per rank.
+    fn exchange(&self, send: &[Vec<u8>], counts: &[i32], recv_counts: &[i32]) -> Vec<Vec<u8>> {
+        let flat: Vec<u8> = send.concat();
+        let total: usize = recv_counts.iter().map(|&c| c as usize).sum();
+        let mut buf = vec![0u8; total];
+        let (sd, rd) = (displacements(counts), displacements(recv_counts));
+        {
+            let sendp = Partition::new(&flat[..], counts, &sd[..]);
+            let mut recvp = PartitionMut::new(&mut buf[..], recv_counts, &rd[..]);
+            self.world.all_to_all_varcount_into(&sendp, &mut recvp);
+        }
+        split(&buf, recv_counts)
+    }
+
     /// Rank 0's `bytes` on every rank (the others pass anything).
     fn broadcast(&self, bytes: Vec<u8>) -> Vec<u8> {
         let root = self.world.process_at_rank(0);
