@@ -7,7 +7,7 @@
 //!   [`Health::check`] there (the full check every [`FULL_CHECK_EVERY`] steps).
 //! - On the GPU, the device checks every `check_every` steps and raises an alarm when its
 //!   f32 sums come near what the host would report (the kinetic energy above half of
-//!   [`ENERGY_FACTOR`] times the available energy, a body behind a wall, a contact whose
+//!   [`ENERGY_FACTOR`](clatter::health::ENERGY_FACTOR) times the available energy, a body behind a wall, a contact whose
 //!   force may mean a deep overlap); the pipeline stops there, the host checks that step
 //!   exactly ([`Watch::after`]), and goes on if it finds nothing. So the reports are the
 //!   host's, the same words as on the CPU, and the state comes back only when needed.

@@ -9,7 +9,7 @@
 //! [`world`] holds a scene's state on the GPU and drives the step; body state stays on the
 //! GPU between steps, and the host reads it back only when output is due.
 //!
-//! The `test-harness` feature adds the test-only API: [`test_context`] and the batch
+//! The `test-harness` feature adds the test-only API: `test_context` and the batch
 //! harnesses `law` and `narrow`, which run the law and the narrow phase in WGSL on
 //! thousands of queries for the tests that hold them against `clatter`'s Rust.
 

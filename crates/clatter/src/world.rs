@@ -88,7 +88,7 @@ pub struct World {
     pub materials: Materials,
     /// Wall planes.
     pub walls: Vec<Wall>,
-    /// Triangle-mesh boundaries (static or moving), see [`crate::boundary`].
+    /// Triangle-mesh boundaries (static or moving), see [`crate::mesh_boundary`].
     pub boundaries: Vec<Boundary>,
     /// Per body: candidate triangles and mesh contact slots.
     pub(crate) mesh: MeshContacts,
@@ -243,7 +243,7 @@ impl World {
     }
 
     /// The world of bodies `ids` (ascending) of this one, `ghost[k]` saying whether body
-    /// `ids[k]` is a ghost there ([`World::ghost`]): the same shapes, materials, walls,
+    /// `ids[k]` is a ghost there (`World::ghost`): the same shapes, materials, walls,
     /// gravity, `dt`, skin, clock and code paths (sphere-only, composites: taken from this
     /// world, not from the subset, so that every pair is computed as here), the bodies'
     /// states and constants copied, no contact list (a rebuild is due). Mesh boundaries are

@@ -3,7 +3,7 @@
 //! Every check builds a [`World`] through the library API, steps it on the chosen backend
 //! ([`Ctx::sim`]) and compares what it measures with a truth that does not come from clatter:
 //! a closed form (Hertz theory, rigid-body impulse ratios, free fall, slip to roll, torque-free
-//! precession) or an independent f64 integration of the same contact law ([`reference`]).
+//! precession) or an independent f64 integration of the same contact law ([`mod@reference`]).
 //! One [`Row`] per compared quantity; the command prints the table, writes `validation.json`
 //! and one SVG plot per check with `--out`, and fails unless every row passes.
 

@@ -16,7 +16,7 @@ impl GpuWorld {
     /// Turns on the blow-up checks and energy samples on the GPU for a run starting from
     /// `world` (the world this was created from, at the same step): after every step the GPU
     /// checks what `clatter::health::Health::check` checks cheaply, and stops the pipeline
-    /// when it finds something the host must look at ([`StepReport::alarm`]); it keeps the
+    /// when it finds something the host must look at ([`StepReport::alarm`](super::StepReport::alarm)); it keeps the
     /// last good state on the device ([`GpuWorld::read_last_good`]) and logs energy samples
     /// ([`GpuWorld::take_samples`]). Nothing of it comes back unless asked for.
     pub fn set_health(&mut self, world: &World, setup: HealthSetup) {

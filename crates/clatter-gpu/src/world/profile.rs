@@ -15,7 +15,7 @@ impl GpuWorld {
     /// taken: the simulation advances): each dispatch in its own compute pass, so the
     /// numbers include no overlap between kernels. Returns `(kernel, milliseconds per step)`
     /// in pipeline order, the scan levels of the three prefix sums merged under `scan`.
-    /// Needs the adapter's timestamp queries ([`GpuContext::timestamps`]); `clatter bench
+    /// Needs the adapter's timestamp queries ([`GpuContext::timestamps`](crate::GpuContext::timestamps)); `clatter bench
     /// --profile` prints it.
     pub fn profile(&mut self, steps: u64) -> Result<Vec<(String, f64)>, GpuError> {
         if !self.ctx.timestamps {

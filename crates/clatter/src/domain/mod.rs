@@ -19,7 +19,7 @@
 //!   them as ghosts (forward communication), then the largest displacement since the last
 //!   rebuild is reduced over ranks (max, exact) to decide the next rebuild, as one process
 //!   decides it.
-//! - **At rebuilds** ([`Domain::migrate`]): new slabs; each owner sends its bodies' states to
+//! - **At rebuilds** (`Domain::migrate`): new slabs; each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies; then the
 //!   local broad phase carries them as one process does.

@@ -1,5 +1,5 @@
 //! The triangle-mesh boundaries' part of the **broad** and **contacts** stages (see
-//! [`crate::boundary`] for the design): candidate triangles per body at each rebuild, and
+//! [`crate::mesh_boundary`] for the design): candidate triangles per body at each rebuild, and
 //! per body and step the contacts with them, ghost contacts dropped, coplanar faces merged,
 //! matched to the body's mesh slots and run through the contact law. Each body writes only
 //! its own slots, so the result does not depend on the thread count.
