@@ -283,3 +283,58 @@ fn mesh_scenes_on_1_to_4_ranks_are_bitwise_one_process() {
     check("mesh floor", scene_world("mesh-floor.toml"), 3000);
     check("drum", scene_world("drum.toml"), 3000);
 }
+
+/// A world with a current contact list (what a resumed checkpoint or a cached pile is) is
+/// split between the ranks at once, with no rebuild: every rank owns its share before the
+/// first step, and the run continued on 1 to 4 ranks ends bitwise as one process's, for
+/// polyhedra, composites (per-piece contacts, rebuild orientations) and periodic
+/// boundaries (ghosts across the seam).
+#[test]
+fn a_current_world_is_split_at_once_and_continues_bitwise() {
+    let mut mixed = pile(PileShape::Mixed, 200, &PileParams::default());
+    for (i, b) in mixed.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
+    }
+    let cases = [
+        ("mixed pile", World::new(mixed), 157, 300),
+        ("clumps", scene_world("clumps.toml"), 2000, 1500),
+        (
+            "periodic floor",
+            scene_world("periodic-floor.toml"),
+            3000,
+            1500,
+        ),
+    ];
+    for (name, world, first, then) in cases {
+        let mut start = world;
+        for _ in 0..first {
+            start.step().expect("steps");
+        }
+        // Stop between rebuilds: the list is current.
+        while start.needs_rebuild() {
+            start.step().expect("steps");
+        }
+        let reference = one_process(start.clone(), then);
+        for ranks in 1..=4 {
+            let owned: Vec<usize> = (0..ranks)
+                .map(|r| Domain::new(start.clone(), r, ranks).owned())
+                .collect();
+            assert_eq!(
+                owned.iter().sum::<usize>(),
+                start.len(),
+                "{name}: {owned:?}"
+            );
+            assert!(
+                owned.iter().all(|&n| n > 0),
+                "{name} on {ranks} ranks: every rank owns bodies before the first step: {owned:?}"
+            );
+            let got = on_ranks(&start, ranks, then);
+            assert_eq!(got.rebuilds, reference.rebuilds, "{name} on {ranks} ranks");
+            assert!(
+                got.checkpoint == reference.checkpoint,
+                "{name}: continued on {ranks} ranks, differs from one process"
+            );
+        }
+    }
+}

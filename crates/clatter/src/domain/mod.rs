@@ -137,32 +137,150 @@ pub struct Domain {
 
 impl Domain {
     /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
-    /// or checkpoint is broadcast): rank 0 starts owning every body, the others none, and the
-    /// first rebuild distributes them (the first step's for a new world). Every world can be
+    /// or checkpoint is broadcast). A world whose contact list is current (a resumed
+    /// checkpoint, a restored pile) is split at once, as a rebuild at its rebuild positions
+    /// would split it, so every rank steps its share from the first step; a new world (or
+    /// one with mesh boundaries and a current list) starts owned by rank 0, and the first
+    /// rebuild distributes it (the first step's for a new world). Every world can be
     /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
     pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
-        // Rank 0 takes the world whole, with its contact list if it has a current one (a
-        // resumed checkpoint): it steps it alone up to the next rebuild, where one process
-        // rebuilds too and the bodies are distributed (moving a list between rebuilds would
-        // need every contact's hints, bounds and forces moved as well).
-        let (ids, local) = if rank == 0 {
-            ((0..world.len() as u32).collect(), world.clone())
-        } else {
-            let mut empty = world.subset(&[], Vec::new());
-            empty.set_needs_rebuild(world.needs_rebuild());
-            (Vec::new(), empty)
-        };
         let reach = 2.0 * world.consts.max_radius() + world.skin;
-        Domain {
+        let empty = world.subset(&[], Vec::new());
+        let mut domain = Domain {
             template: world,
-            local,
-            ids,
+            local: empty,
+            ids: Vec::new(),
             slabs: None,
             send: vec![Vec::new(); ranks],
             recv: vec![Vec::new(); ranks],
             reach,
             handed_over: 0,
+        };
+        let w = &domain.template;
+        let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && w.len() > 0;
+        if current && w.boundaries.is_empty() {
+            // A world with a current contact list (a resumed checkpoint, a cached pile):
+            // split as it stands, so every rank steps its share from the first step.
+            domain.split_current(rank, ranks);
+        } else {
+            // A new world (the first step rebuilds and distributes it), or one with mesh
+            // boundaries and a current list: rank 0 takes it whole and steps it alone up
+            // to the next rebuild, where one process rebuilds too (the mesh candidates
+            // would have to be found again per rank between rebuilds).
+            let world = &domain.template;
+            let (ids, local) = if rank == 0 {
+                ((0..world.len() as u32).collect(), world.clone())
+            } else {
+                let mut empty = world.subset(&[], Vec::new());
+                empty.set_needs_rebuild(world.needs_rebuild());
+                (Vec::new(), empty)
+            };
+            domain.ids = ids;
+            domain.local = local;
         }
+        domain
+    }
+
+    /// Splits the template, whose contact list is current (built at `rebuild_position`),
+    /// between the ranks without a rebuild: the slabs, the owners and the ghosts are those a
+    /// rebuild at the rebuild positions would have chosen (so every Verlet partner of an
+    /// owned body is on its rank, as after [`Domain::migrate`]), and each rank's contact
+    /// list is the whole list restricted to the pairs with an owned body and the owned
+    /// bodies' wall contacts, with everything they carry (springs, forces, touching flags,
+    /// hints, bounds): in ascending global id, so in the one-process order.
+    fn split_current(&mut self, rank: usize, ranks: usize) {
+        let world = &self.template;
+        let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
+        let slabs = Slabs::balanced(&built, ranks, world.periodic.as_ref());
+        let near = |x: DVec3, s: usize| {
+            s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
+        };
+        let mut ids = Vec::new();
+        let mut ghost = Vec::new();
+        for (i, &x) in world.rebuild_position.iter().enumerate() {
+            let owned = slabs.owner(x) == rank;
+            if owned || near(x, rank) {
+                ids.push(i as u32);
+                ghost.push(!owned);
+            }
+        }
+        let mut local = world.subset(&ids, ghost);
+        let pick = |v: &[DVec3]| ids.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
+        local.rebuild_position = pick(&world.rebuild_position);
+        if world.rebuild_orientation.len() == world.len() {
+            local.rebuild_orientation = ids
+                .iter()
+                .map(|&i| world.rebuild_orientation[i as usize])
+                .collect();
+        }
+        // The contacts: the pairs with an owned body (both are on the rank), the owned
+        // bodies' wall contacts; local ids are ascending global ids, so the order holds.
+        let index = |g: u32| ids.binary_search(&g).ok().map(|i| i as u32);
+        let c = &world.contacts;
+        let sp = &c.springs;
+        let np = c.pairs.len();
+        let mut pairs = Vec::new();
+        let mut keep = Vec::new();
+        for (k, &[a, b]) in c.pairs.iter().enumerate() {
+            let (la, lb) = (index(a), index(b));
+            let mine = |l: Option<u32>| l.is_some_and(|l| !local.is_ghost(l as usize));
+            if mine(la) || mine(lb) {
+                let (Some(la), Some(lb)) = (la, lb) else {
+                    unreachable!("a Verlet partner of an owned body is within the ghost reach")
+                };
+                pairs.push([la, lb]);
+                keep.push(k);
+            }
+        }
+        let hints = keep.iter().map(|&k| sp.hints[k]).collect();
+        let bounds = keep.iter().map(|&k| sp.separation_bound[k]).collect();
+        let mut walls = Vec::new();
+        for (k, &[a, wall]) in c.wall_pairs.iter().enumerate() {
+            if let Some(la) = index(a).filter(|&l| !local.is_ghost(l as usize)) {
+                walls.push([la, wall]);
+                keep.push(np + k);
+            }
+        }
+        let springs = ContactSprings {
+            history: keep.iter().map(|&k| sp.history[k]).collect(),
+            twist: keep.iter().map(|&k| sp.twist[k]).collect(),
+            forces: keep.iter().map(|&k| sp.forces[k]).collect(),
+            touching: keep.iter().map(|&k| sp.touching[k]).collect(),
+            hints,
+            separation_bound: bounds,
+        };
+        let (history, twist) = (springs.history.clone(), springs.twist.clone());
+        local.contacts = if c.pieces.len() == c.len() && world.has_composites() {
+            let pieces = keep.iter().map(|&k| c.pieces[k]).collect();
+            Contacts::with_pieces(local.len(), pairs, walls, pieces, history, twist)
+        } else {
+            Contacts::new(local.len(), pairs, walls, history, twist)
+        };
+        local
+            .contacts
+            .set_springs(springs)
+            .expect("one row per contact");
+        local.set_needs_rebuild(false);
+        // Who sends what every step, from the rebuild positions (both sides agree).
+        let mut send = vec![Vec::new(); ranks];
+        let mut recv = vec![Vec::new(); ranks];
+        for (i, &g) in ids.iter().enumerate() {
+            let x = world.rebuild_position[g as usize];
+            if local.is_ghost(i) {
+                recv[slabs.owner(x)].push(i as u32);
+            } else {
+                for (s, list) in send.iter_mut().enumerate() {
+                    if near(x, s) {
+                        list.push(i as u32);
+                    }
+                }
+            }
+        }
+        self.local = local;
+        self.ids = ids;
+        self.send = send;
+        self.recv = recv;
+        self.slabs = Some(slabs);
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
