@@ -157,7 +157,7 @@ impl Domain {
             handed_over: 0,
         };
         let w = &domain.template;
-        let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && w.len() > 0;
+        let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
         if current && w.boundaries.is_empty() {
             // A world with a current contact list (a resumed checkpoint, a cached pile):
             // split as it stands, so every rank steps its share from the first step.
@@ -205,8 +205,10 @@ impl Domain {
             }
         }
         let mut local = world.subset(&ids, ghost);
-        let pick = |v: &[DVec3]| ids.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
-        local.rebuild_position = pick(&world.rebuild_position);
+        local.rebuild_position = ids
+            .iter()
+            .map(|&i| world.rebuild_position[i as usize])
+            .collect();
         if world.rebuild_orientation.len() == world.len() {
             local.rebuild_orientation = ids
                 .iter()
