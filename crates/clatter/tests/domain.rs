@@ -338,3 +338,47 @@ fn a_current_world_is_split_at_once_and_continues_bitwise() {
         }
     }
 }
+
+/// The slabs are cut again only when the ranks' shares drift past `REBALANCE_IMBALANCE`
+/// (10%): most rebuilds of the default scene keep them (the result is one process's all the
+/// same, which `check` holds for every scene here).
+#[test]
+fn slabs_are_recut_only_past_the_imbalance_threshold() {
+    use clatter::domain::Slabs;
+    assert_eq!(Slabs::imbalance(&[10, 10, 10]), 0.0);
+    assert!((Slabs::imbalance(&[11, 10, 9]) - 0.1).abs() < 1e-12);
+    assert!((Slabs::imbalance(&[0, 0, 4]) - 2.0).abs() < 1e-12);
+    assert_eq!(Slabs::imbalance(&[0, 0]), 0.0);
+    let world = scene_world("default.toml");
+    let steps = 3000;
+    let (rebuilds, recuts): (u64, Vec<u64>) = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group(3)
+            .into_iter()
+            .map(|comm| {
+                let w = world.clone();
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size());
+                    for _ in 0..steps {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    (d.local().rebuilds, d.recuts())
+                })
+            })
+            .collect();
+        let ends: Vec<(u64, u64)> = handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect();
+        (ends[0].0, ends.iter().map(|e| e.1).collect())
+    });
+    assert!(recuts.iter().all(|&r| r == recuts[0]), "{recuts:?}");
+    eprintln!(
+        "default scene, 3 ranks, {steps} steps: {rebuilds} rebuilds, {} recuts",
+        recuts[0]
+    );
+    assert!(
+        recuts[0] >= 1 && recuts[0] < rebuilds / 2,
+        "{} recuts in {rebuilds} rebuilds",
+        recuts[0]
+    );
+}

@@ -2,8 +2,9 @@
 //! tests), bitwise as one process steps it. See `docs/parallel.md` for the design; in short:
 //!
 //! - **Ownership**: space is cut into slabs along one axis ([`Slabs`], across the seam of a
-//!   periodic axis too), chosen at every
-//!   broad-phase rebuild so that each rank owns as many bodies as the others (by centre).
+//!   periodic axis too), cut so that each rank owns as many bodies as the others (by
+//!   centre), and cut again at a broad-phase rebuild when the ranks' shares have drifted more
+//!   than [`REBALANCE_IMBALANCE`] from even.
 //!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
 //!   of other ranks whose centres lie within `2 r_max + skin` of its slab (every partner of
 //!   an owned body in the Verlet list), in ascending global id (scene order).
@@ -37,6 +38,12 @@ use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
 use rows::{ContactRow, Reader, SpringRow, Writer};
+
+/// The slabs are cut again at a rebuild only when the fullest rank would own more than this
+/// fraction above the mean number of bodies per rank (10%) with the slabs it has: recutting
+/// moves bodies between ranks (states, springs, ghost lists) and that is wasted while the
+/// ranks are still about even. The threshold changes which rank steps a body, never the result.
+pub const REBALANCE_IMBALANCE: f64 = 0.10;
 
 /// Slabs along one axis: rank `r` owns the bodies whose centre (rounded to f32) has its
 /// `axis` coordinate in `[cuts[r - 1], cuts[r])` (unbounded at both ends).
@@ -82,6 +89,18 @@ impl Slabs {
             .filter(|p| p.axes[axis])
             .map(|p| (p.min[axis] as f64, p.max[axis] as f64));
         Slabs { axis, cuts, period }
+    }
+
+    /// How unevenly ranks owning `owned` bodies each share them: the most any rank owns over
+    /// the mean, minus one (0 when every rank owns as many; 0.1 when the fullest owns 10%
+    /// more than the mean).
+    pub fn imbalance(owned: &[u64]) -> f64 {
+        let total: u64 = owned.iter().sum();
+        if total == 0 {
+            return 0.0;
+        }
+        let most = owned.iter().copied().max().unwrap_or(0);
+        most as f64 * owned.len() as f64 / total as f64 - 1.0
     }
 
     /// Number of ranks.
@@ -133,6 +152,8 @@ pub struct Domain {
     reach: f32,
     /// Bodies this rank handed to another at rebuilds (not counting the first distribution).
     handed_over: u64,
+    /// Rebuilds that cut new slabs (the first distribution included).
+    recuts: u64,
 }
 
 impl Domain {
@@ -155,6 +176,7 @@ impl Domain {
             recv: vec![Vec::new(); ranks],
             reach,
             handed_over: 0,
+            recuts: 0,
         };
         let w = &domain.template;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
@@ -283,6 +305,7 @@ impl Domain {
         self.send = send;
         self.recv = recv;
         self.slabs = Some(slabs);
+        self.recuts += 1;
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
@@ -305,6 +328,12 @@ impl Domain {
     /// distribution of a world.
     pub fn handed_over(&self) -> u64 {
         self.handed_over
+    }
+
+    /// How many rebuilds cut new slabs (the first distribution included): the others kept
+    /// the slabs they had, whose bodies were still within [`REBALANCE_IMBALANCE`] of even.
+    pub fn recuts(&self) -> u64 {
+        self.recuts
     }
 
     /// Number of bodies this rank owns.
@@ -643,19 +672,41 @@ impl Domain {
         let ranks = comm.size();
         let local = &self.local;
         let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
-        // 1. The new slabs, from every owned body's position.
-        let mut w = Writer::default();
-        for &i in &owned {
-            w.vec3(local.state.position[i].as_vec3());
-        }
-        let mut positions = Vec::new();
-        for m in comm.all_gather(&w.0) {
-            let mut r = Reader::new(&m);
-            while !r.is_empty() {
-                positions.push(r.vec3());
+        // 1. The slabs: the old ones while they are still about even (each rank counts its
+        //    bodies per old slab, and the counts are summed: `REBALANCE_IMBALANCE`), else
+        //    new ones from every owned body's position.
+        let kept = self.slabs.as_ref().filter(|old| {
+            let mut mine = Writer::default();
+            let mut counts = vec![0u32; ranks];
+            for &i in &owned {
+                counts[old.owner(local.state.position[i])] += 1;
             }
-        }
-        let slabs = Slabs::balanced(&positions, ranks, local.periodic.as_ref());
+            counts.iter().for_each(|&c| mine.u32(c));
+            let mut owned_by = vec![0u64; ranks];
+            for m in comm.all_gather(&mine.0) {
+                let mut r = Reader::new(&m);
+                owned_by.iter_mut().for_each(|n| *n += r.u32() as u64);
+            }
+            Slabs::imbalance(&owned_by) <= REBALANCE_IMBALANCE
+        });
+        let slabs = match kept {
+            Some(old) => old.clone(),
+            None => {
+                let mut w = Writer::default();
+                for &i in &owned {
+                    w.vec3(local.state.position[i].as_vec3());
+                }
+                let mut positions = Vec::new();
+                for m in comm.all_gather(&w.0) {
+                    let mut r = Reader::new(&m);
+                    while !r.is_empty() {
+                        positions.push(r.vec3());
+                    }
+                }
+                self.recuts += 1;
+                Slabs::balanced(&positions, ranks, local.periodic.as_ref())
+            }
+        };
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let mut new_owner = vec![usize::MAX; local.len()];
