@@ -48,20 +48,27 @@ fn output_within(mut cmd: Command, limit: Duration) -> Output {
 }
 
 /// Started as if by `mpirun -np 3` (Open MPI's variable), a build without the feature stops
-/// at once with an error instead of running the scene three times.
+/// at once with an error instead of running the scene (or the benchmark) three times.
 #[cfg(not(feature = "mpi"))]
 #[test]
 fn several_ranks_without_the_feature_is_an_error() {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
-    cmd.args(["run", "--steps", "1", "--quiet"])
-        .env("OMPI_COMM_WORLD_SIZE", "3");
-    let o = output_within(cmd, Duration::from_secs(60));
-    assert!(!o.status.success(), "{}", text(&o));
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("built without MPI"),
-        "{}",
-        text(&o)
-    );
+    let cases: [&[&str]; 2] = [
+        &["run", "--steps", "1", "--quiet"],
+        &[
+            "bench", "--pile", "lattice", "--bodies", "64", "--steps", "1",
+        ],
+    ];
+    for args in cases {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
+        cmd.args(args).env("OMPI_COMM_WORLD_SIZE", "3");
+        let o = output_within(cmd, Duration::from_secs(60));
+        assert!(!o.status.success(), "{args:?}: {}", text(&o));
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains("built without MPI"),
+            "{args:?}: {}",
+            text(&o)
+        );
+    }
 }
 
 /// Listed as ignored, with the reason, in every `cargo test` without the feature.
