@@ -538,7 +538,7 @@ fn bench_rows(o: &Output, what: &str) -> Vec<serde_json::Value> {
 /// taken from the cache and split between the ranks with its contact list) and a lattice
 /// (distributed at its first rebuild), timed on 2 and 3 ranks: the same rows as one process
 /// (contacts and pairs per body, rebuilds, the pile's kinetic energy after the timed steps,
-/// bitwise), one table printed; and the refusals (the GPU backend, --render), one message each.
+/// bitwise), `--emit-lammps` writing one process's files, one table printed; and the refusals (the GPU backend, --render), one message each.
 #[cfg(feature = "mpi")]
 #[test]
 fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
@@ -568,6 +568,39 @@ fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
             assert_eq!(got, one, "{case:?} on {ranks} ranks");
         }
     }
+    // --emit-lammps: rank 0 writes the gathered pile, one process's bytes.
+    let emitted = |d: &Path| {
+        ["pile.data", "in.pile"].map(|f| std::fs::read(d.join(f)).expect("an emitted file"))
+    };
+    let (e1, e2) = (dir.join("emit1"), dir.join("emit2"));
+    let emit = |d: &Path| {
+        let d = d.display().to_string();
+        let args = [
+            "bench",
+            "--bodies",
+            "256",
+            "--settle",
+            "50",
+            "--steps",
+            "10",
+            "--pile-cache",
+            &cache,
+            "--emit-lammps",
+            &d,
+        ];
+        args.map(String::from)
+    };
+    let a = emit(&e1);
+    let a: Vec<&dyn AsRef<std::ffi::OsStr>> =
+        a.iter().map(|s| s as &dyn AsRef<std::ffi::OsStr>).collect();
+    assert_ok(&clatter(&a), "--emit-lammps on one process");
+    let a = emit(&e2);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    assert_ok(&mpirun(2, &a), "--emit-lammps on 2 ranks");
+    assert!(
+        emitted(&e1) == emitted(&e2),
+        "--emit-lammps on 2 ranks differs"
+    );
     // The table: printed once, by rank 0.
     let o = mpirun(
         2,
