@@ -287,8 +287,9 @@ fn mesh_scenes_on_1_to_4_ranks_are_bitwise_one_process() {
 /// A world with a current contact list (what a resumed checkpoint or a cached pile is) is
 /// split between the ranks at once, with no rebuild: every rank owns its share before the
 /// first step, and the run continued on 1 to 4 ranks ends bitwise as one process's, for
-/// polyhedra, composites (per-piece contacts, rebuild orientations) and periodic
-/// boundaries (ghosts across the seam).
+/// polyhedra, composites (per-piece contacts, rebuild orientations), periodic boundaries
+/// (ghosts across the seam) and mesh boundaries (the candidates found again per rank, the
+/// slots carried), static and turning.
 #[test]
 fn a_current_world_is_split_at_once_and_continues_bitwise() {
     let mut mixed = pile(PileShape::Mixed, 200, &PileParams::default());
@@ -302,9 +303,11 @@ fn a_current_world_is_split_at_once_and_continues_bitwise() {
         (
             "periodic floor",
             scene_world("periodic-floor.toml"),
-            3000,
+            6000,
             1500,
         ),
+        ("mesh floor", scene_world("mesh-floor.toml"), 2500, 1000),
+        ("drum", scene_world("drum.toml"), 2500, 1000),
     ];
     for (name, world, first, then) in cases {
         let mut start = world;
@@ -315,6 +318,10 @@ fn a_current_world_is_split_at_once_and_continues_bitwise() {
         while start.needs_rebuild() {
             start.step().expect("steps");
         }
+        assert!(
+            start.contact_count() > 0,
+            "{name}: split with contacts touching"
+        );
         let reference = one_process(start.clone(), then);
         for ranks in 1..=4 {
             let owned: Vec<usize> = (0..ranks)

@@ -160,9 +160,8 @@ impl Domain {
     /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
     /// or checkpoint is broadcast). A world whose contact list is current (a resumed
     /// checkpoint, a restored pile) is split at once, as a rebuild at its rebuild positions
-    /// would split it, so every rank steps its share from the first step; a new world (or
-    /// one with mesh boundaries and a current list) starts owned by rank 0, and the first
-    /// rebuild distributes it (the first step's for a new world). Every world can be
+    /// would split it, so every rank steps its share from the first step; a new world
+    /// starts owned by rank 0, and the first step's rebuild distributes it. Every world can be
     /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
     pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
         let reach = 2.0 * world.consts.max_radius() + world.skin;
@@ -180,15 +179,13 @@ impl Domain {
         };
         let w = &domain.template;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
-        if current && w.boundaries.is_empty() {
+        if current {
             // A world with a current contact list (a resumed checkpoint, a cached pile):
             // split as it stands, so every rank steps its share from the first step.
             domain.split_current(rank, ranks);
         } else {
-            // A new world (the first step rebuilds and distributes it), or one with mesh
-            // boundaries and a current list: rank 0 takes it whole and steps it alone up
-            // to the next rebuild, where one process rebuilds too (the mesh candidates
-            // would have to be found again per rank between rebuilds).
+            // A new world: rank 0 takes it whole, and the first step's rebuild distributes
+            // it.
             let world = &domain.template;
             let (ids, local) = if rank == 0 {
                 ((0..world.len() as u32).collect(), world.clone())
@@ -209,7 +206,8 @@ impl Domain {
     /// owned body is on its rank, as after [`Domain::migrate`]), and each rank's contact
     /// list is the whole list restricted to the pairs with an owned body and the owned
     /// bodies' wall contacts, with everything they carry (springs, forces, touching flags,
-    /// hints, bounds): in ascending global id, so in the one-process order.
+    /// hints, bounds): in ascending global id, so in the one-process order. The mesh
+    /// candidates are found again at the rebuild poses and time.
     fn split_current(&mut self, rank: usize, ranks: usize) {
         let world = &self.template;
         let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
@@ -284,6 +282,28 @@ impl Domain {
             .contacts
             .set_springs(springs)
             .expect("one row per contact");
+        if !local.boundaries.is_empty() {
+            // The mesh candidates (the slots came with `subset`), found again where the last
+            // rebuild found them: the bodies at their rebuild poses, the meshes at the
+            // rebuild time, as `gather` and a restored checkpoint find them.
+            let (x, q, t) = (
+                local.state.position.clone(),
+                local.state.orientation.clone(),
+                local.time,
+            );
+            local.state.position.clone_from(&local.rebuild_position);
+            if local.has_composites() {
+                local
+                    .state
+                    .orientation
+                    .clone_from(&local.rebuild_orientation);
+            }
+            local.time = local.mesh.rebuild_time;
+            mesh_contacts::rebuild(&mut local);
+            local.state.position = x;
+            local.state.orientation = q;
+            local.time = t;
+        }
         local.set_needs_rebuild(false);
         // Who sends what every step, from the rebuild positions (both sides agree).
         let mut send = vec![Vec::new(); ranks];
