@@ -260,40 +260,83 @@ pub const RENDER_SIZE: (u32, u32) = (1280, 720);
 
 /// One row of the table.
 #[derive(serde::Serialize)]
-struct Row {
-    shape: &'static str,
-    bodies: usize,
-    steps: u64,
-    steps_per_s: f64,
-    body_steps_per_s: f64,
-    contacts_per_body: f64,
+pub(crate) struct Row {
+    pub shape: &'static str,
+    pub bodies: usize,
+    pub steps: u64,
+    pub steps_per_s: f64,
+    pub body_steps_per_s: f64,
+    /// Twice the mean touching contacts over the timed steps, per body.
+    pub contacts_per_body: f64,
     /// Candidate pairs (the Verlet list) per body after the timed steps.
-    pairs_per_body: f64,
+    pub pairs_per_body: f64,
     /// How the pile was made: `lattice`, `poured`, or `scene` (`--scene`).
-    pile: &'static str,
-    ms_per_step: f64,
-    threads: usize,
-    dt: f32,
-    rebuilds: u64,
-    backend: String,
+    pub pile: &'static str,
+    pub ms_per_step: f64,
+    /// Worker threads (per rank under mpirun).
+    pub threads: usize,
+    /// MPI ranks (1 without mpirun).
+    pub ranks: usize,
+    pub dt: f32,
+    pub rebuilds: u64,
+    /// The whole pile's kinetic energy after the timed steps, J (the same bits on any
+    /// number of threads or ranks: a check that the timed steps were the same steps).
+    pub kinetic_energy: f64,
+    pub backend: String,
     /// With `--render`: frames per second of one step plus an offscreen 1280x720 frame
     /// (upload, draw, wait for the GPU; no read-back).
     #[serde(skip_serializing_if = "Option::is_none")]
-    frames_per_s: Option<f64>,
+    pub frames_per_s: Option<f64>,
     /// With `--profile` (GPU): milliseconds per step of each kernel, timed alone.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    kernels: Vec<(String, f64)>,
+    pub kernels: Vec<(String, f64)>,
     /// With `--profile`: candidate pairs in the list after the timed steps.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pairs: Option<usize>,
+    pub pairs: Option<usize>,
     /// With `--profile`: the device's copy-kernel bandwidth (read + write), GB/s, for the
     /// bandwidth floor of the step.
     #[serde(skip_serializing_if = "Option::is_none")]
-    copy_bandwidth_gb_s: Option<f64>,
+    pub copy_bandwidth_gb_s: Option<f64>,
 }
 
-/// Runs the benchmark for every body count.
-pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+/// What `clatter bench` was asked to time, checked: the pile's shape and name, the scene's
+/// world (with `--scene`), the body counts.
+pub(crate) struct Plan {
+    pub shape: PileShape,
+    pub name: &'static str,
+    pub scene_world: Option<World>,
+    pub counts: Vec<usize>,
+    /// The rows are poured piles (settled, cached).
+    pub poured: bool,
+}
+
+impl Plan {
+    /// How the pile of each row was made (the table's `pile` column).
+    pub fn pile(&self, args: &BenchArgs) -> &'static str {
+        match (&self.scene_world, args.pile) {
+            (Some(_), _) => "scene",
+            (None, PileArg::Lattice) => "lattice",
+            (None, PileArg::Poured) => "poured",
+        }
+    }
+
+    /// The world of `n` bodies before the pile is poured or settled: the scene's, the
+    /// lattice, or the poured pile's start (the same on every rank).
+    pub fn fresh(&self, n: usize, params: &PileParams) -> World {
+        match (&self.scene_world, self.poured) {
+            (Some(w), _) => w.clone(),
+            (None, false) => World::new(pile(self.shape, n, params)),
+            (None, true) => World::new(poured(self.shape, n, params, POUR_SEED)),
+        }
+    }
+}
+
+/// Checks the arguments (what one process and the ranks both refuse) and reads the scene of
+/// `--scene` with `load` (which reads the file, or on MPI ranks takes rank 0's text).
+pub(crate) fn plan(
+    args: &BenchArgs,
+    load: impl FnOnce(Option<&Path>) -> anyhow::Result<World>,
+) -> anyhow::Result<Plan> {
     if args.bodies.is_empty() || args.bodies.contains(&0) {
         anyhow::bail!("--bodies needs positive counts, e.g. --bodies 1024,4096");
     }
@@ -315,7 +358,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
                 anyhow::bail!("--emit-lammps writes the sphere pile: it does not go with --scene");
             }
             let path = (path.as_os_str() != "default").then_some(path.as_path());
-            Some(crate::scene_io::load_scene(path)?.1.world())
+            Some(load(path)?)
         }
         None => None,
     };
@@ -332,6 +375,32 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     if args.profiled_steps().is_some() && args.pipeline.backend == Backend::Cpu {
         anyhow::bail!("--profile times GPU kernels: use it with --backend gpu");
     }
+    Ok(Plan {
+        shape,
+        name,
+        poured: args.scene.is_none() && args.pile == PileArg::Poured,
+        scene_world,
+        counts,
+    })
+}
+
+/// The settled poured pile of `n` bodies on the plan's shape (from the cache, or settled
+/// now and cached).
+pub(crate) fn settled_pile(
+    plan: &Plan,
+    n: usize,
+    params: &PileParams,
+    args: &BenchArgs,
+) -> anyhow::Result<World> {
+    poured_pile(plan.shape, plan.name, n, params, args, args.json)
+}
+
+/// Runs the benchmark for every body count.
+pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+    let plan = plan(&args, |path| {
+        Ok(crate::scene_io::load_scene(path)?.1.world())
+    })?;
+    let (name, counts) = (plan.name, plan.counts.clone());
     // One device for the simulation and the renderer, so that with the GPU backend the frames
     // are drawn straight from the simulation's body buffer.
     let gpu = match args.timed_frames() {
@@ -342,16 +411,16 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     };
     let params = PileParams::default();
     if !args.json {
-        print_header(&args, gpu.as_deref(), name);
+        print_header(&args, gpu.as_deref(), name, 1);
     }
     let mut rows = Vec::new();
     let mut bandwidth: Option<f64> = None;
     for &n in &counts {
         let quiet = args.json || !rows.is_empty();
-        let mut world = match (&scene_world, args.pile) {
-            (Some(w), _) => w.clone(),
-            (None, PileArg::Lattice) => World::new(pile(shape, n, &params)),
-            (None, PileArg::Poured) => poured_pile(shape, name, n, &params, &args, args.json)?,
+        let mut world = if plan.poured {
+            settled_pile(&plan, n, &params, &args)?
+        } else {
+            plan.fresh(n, &params)
         };
         let device = match &gpu {
             Some(ctx) => Device::Shared(ctx.clone()),
@@ -386,6 +455,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             Some(g) => g.pairs(),
             None => world.contact_state().pairs.len(),
         };
+        stepper.sync(&mut world)?;
+        let kinetic_energy = world.kinetic_energy();
         let mut kernels = Vec::new();
         let mut pairs = None;
         if let (Some(steps), Some(gpu)) = (args.profiled_steps(), stepper.as_gpu_mut()) {
@@ -416,15 +487,13 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             body_steps_per_s: sps * n as f64,
             contacts_per_body: 2.0 * contacts / n as f64,
             pairs_per_body: pairs_now as f64 / n as f64,
-            pile: match (&scene_world, args.pile) {
-                (Some(_), _) => "scene",
-                (None, PileArg::Lattice) => "lattice",
-                (None, PileArg::Poured) => "poured",
-            },
+            pile: plan.pile(&args),
             ms_per_step: 1e3 * secs / args.steps as f64,
             threads: rayon::current_num_threads(),
+            ranks: 1,
             dt: world.dt,
             rebuilds,
+            kinetic_energy,
             backend,
             frames_per_s,
             kernels,
@@ -442,8 +511,14 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The table's header lines (not with `--json`): the renderer, what is timed, the columns.
-fn print_header(args: &BenchArgs, gpu: Option<&clatter_gpu::GpuContext>, name: &str) {
+/// The table's header lines (not with `--json`): the renderer, what is timed (on how many
+/// MPI ranks), the columns.
+pub(crate) fn print_header(
+    args: &BenchArgs,
+    gpu: Option<&clatter_gpu::GpuContext>,
+    name: &str,
+    ranks: usize,
+) {
     if let Some(ctx) = gpu {
         println!(
             "# rendering: {}x{} offscreen on {}",
@@ -463,11 +538,15 @@ fn print_header(args: &BenchArgs, gpu: Option<&clatter_gpu::GpuContext>, name: &
             }
         ),
     };
+    let threads = rayon::current_num_threads();
+    let workers = if ranks > 1 {
+        format!("{ranks} MPI ranks x {threads} threads")
+    } else {
+        format!("{threads} threads")
+    };
     println!(
-        "# clatter bench: {what}, {} threads, {} settle + {} timed steps",
-        rayon::current_num_threads(),
-        args.settle,
-        args.steps
+        "# clatter bench: {what}, {workers}, {} settle + {} timed steps",
+        args.settle, args.steps
     );
     print!(
         "{:>10} {:>12} {:>16} {:>14} {:>11} {:>10} {:>9}",
@@ -480,7 +559,7 @@ fn print_header(args: &BenchArgs, gpu: Option<&clatter_gpu::GpuContext>, name: &
 }
 
 /// One row of the table (not with `--json`), with the profile's lines under it.
-fn print_row(row: &Row) {
+pub(crate) fn print_row(row: &Row) {
     print!(
         "{:>10} {:>12.1} {:>16.3e} {:>14.2} {:>11.2} {:>10.3} {:>9}",
         row.bodies,
@@ -554,7 +633,7 @@ fn time_frames(
 
 /// The error of a step of the benchmark: a blow-up says what the pile was doing (`when`:
 /// settling, timing, rendering); a GPU failure is reported as it is.
-fn blew_up(when: &'static str) -> impl Fn(StepError) -> anyhow::Error {
+pub(crate) fn blew_up(when: &'static str) -> impl Fn(StepError) -> anyhow::Error {
     move |e| match e {
         StepError::Sim(e) => {
             anyhow::Error::new(e).context(format!("the pile blew up while {when}"))
@@ -565,7 +644,12 @@ fn blew_up(when: &'static str) -> impl Fn(StepError) -> anyhow::Error {
 
 /// Writes `pile.data` and `in.pile` for LAMMPS (`pair_style gran/hooke/history`) with the same
 /// bodies, walls, contact law parameters, time step and step count.
-fn write_lammps(dir: &Path, world: &World, p: &PileParams, steps: u64) -> anyhow::Result<()> {
+pub(crate) fn write_lammps(
+    dir: &Path,
+    world: &World,
+    p: &PileParams,
+    steps: u64,
+) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut lo = glam::Vec3::splat(f32::INFINITY);
     let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);

@@ -60,8 +60,8 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        // Under mpirun (docs/parallel.md): `run` and `resume` step the world on the ranks;
-        // the other subcommands refuse several ranks.
+        // Under mpirun (docs/parallel.md): `run`, `resume` and `bench` step the world on the
+        // ranks; `render`, `view` and `validate` refuse several ranks.
         Command::Run(args) => {
             args.pipeline
                 .init_threads()
@@ -82,11 +82,16 @@ fn main() -> ExitCode {
                     _ => run::resume(args),
                 })
         }
-        Command::Bench(args) => args
-            .pipeline
-            .init_threads()
-            .and_then(|_| cluster::single_rank_only("bench"))
-            .and_then(|_| bench::bench(args)),
+        Command::Bench(args) => {
+            args.pipeline
+                .init_threads()
+                .and_then(|_| match cluster::launched() {
+                    Some(ranks) if cluster::wanted(ranks) => {
+                        cluster::run(cluster::Invocation::Bench(args), ranks)
+                    }
+                    _ => bench::bench(args),
+                })
+        }
         Command::Render(args) => args
             .pipeline
             .init_threads()
@@ -98,15 +103,19 @@ fn main() -> ExitCode {
             .and_then(|_| cluster::single_rank_only("view"))
             .and_then(|_| render::view(args)),
         Command::Query { input } => query::run(&input),
-        Command::Validate(args) => args.pipeline.init_threads().and_then(|_| {
-            validate::validate(args).and_then(|passed| {
-                if passed {
-                    Ok(())
-                } else {
-                    Err(validate::Failed.into())
-                }
-            })
-        }),
+        Command::Validate(args) => args
+            .pipeline
+            .init_threads()
+            .and_then(|_| cluster::single_rank_only("validate"))
+            .and_then(|_| {
+                validate::validate(args).and_then(|passed| {
+                    if passed {
+                        Ok(())
+                    } else {
+                        Err(validate::Failed.into())
+                    }
+                })
+            }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

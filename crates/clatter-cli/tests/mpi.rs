@@ -3,7 +3,8 @@
 //! scene, a sphere pile, a scene with a sink, a periodic scene and a mesh boundary; a
 //! checkpoint written on 3 ranks byte for byte one process's, resumed on 2 ranks and on one
 //! process; every output file (frames, VTK, contacts) one process's; blow-ups stopped as one
-//! process stops them; bad rank counts and a build without MPI give errors, not hangs.
+//! process stops them; `clatter bench` on 2 and 3 ranks timing the same steps as one process
+//! (the same rows but for the timings); bad rank counts and a build without MPI give errors, not hangs.
 //!
 //! The runs under mpirun need the binary built with the feature:
 //! `cargo test --release -p clatter-cli --features mpi --test mpi`. Without it they are
@@ -47,20 +48,27 @@ fn output_within(mut cmd: Command, limit: Duration) -> Output {
 }
 
 /// Started as if by `mpirun -np 3` (Open MPI's variable), a build without the feature stops
-/// at once with an error instead of running the scene three times.
+/// at once with an error instead of running the scene (or the benchmark) three times.
 #[cfg(not(feature = "mpi"))]
 #[test]
 fn several_ranks_without_the_feature_is_an_error() {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
-    cmd.args(["run", "--steps", "1", "--quiet"])
-        .env("OMPI_COMM_WORLD_SIZE", "3");
-    let o = output_within(cmd, Duration::from_secs(60));
-    assert!(!o.status.success(), "{}", text(&o));
-    assert!(
-        String::from_utf8_lossy(&o.stderr).contains("built without MPI"),
-        "{}",
-        text(&o)
-    );
+    let cases: [&[&str]; 2] = [
+        &["run", "--steps", "1", "--quiet"],
+        &[
+            "bench", "--pile", "lattice", "--bodies", "64", "--steps", "1",
+        ],
+    ];
+    for args in cases {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
+        cmd.args(args).env("OMPI_COMM_WORLD_SIZE", "3");
+        let o = output_within(cmd, Duration::from_secs(60));
+        assert!(!o.status.success(), "{args:?}: {}", text(&o));
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains("built without MPI"),
+            "{args:?}: {}",
+            text(&o)
+        );
+    }
 }
 
 /// Listed as ignored, with the reason, in every `cargo test` without the feature.
@@ -189,6 +197,7 @@ fn bitwise_on_ranks(name: &str, scene: Option<&Path>, steps: &str) {
         for key in [
             "step",
             "contacts",
+            "max_contacts",
             "broad_phase_rebuilds",
             "kinetic_energy",
             "potential_energy",
@@ -385,6 +394,14 @@ fn checkpoint_on_3_ranks_resumes_on_2_and_on_one_process_bitwise() {
         read(&alone.join("final.csv")) == want,
         "resumed on one process: final.csv differs"
     );
+    let summary = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&read(&d.join("summary.json"))).expect("summary")
+    };
+    assert_eq!(
+        summary(&two)["max_contacts"],
+        summary(&alone)["max_contacts"],
+        "resumed on 2 ranks: max_contacts"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -488,6 +505,130 @@ fn bad_rank_counts_and_arguments_are_errors() {
             err.matches("error:").count(),
             1,
             "{args:?}: one message, from rank 0:\n{}",
+            text(&o)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `clatter bench --json` rows without what depends on the clock and the rank count.
+#[cfg(feature = "mpi")]
+fn bench_rows(o: &Output, what: &str) -> Vec<serde_json::Value> {
+    assert_ok(o, what);
+    let rows: Vec<serde_json::Value> =
+        serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{what}: {e}:\n{}", text(o)));
+    rows.into_iter()
+        .map(|mut r| {
+            let m = r.as_object_mut().expect("a row is an object");
+            for k in [
+                "steps_per_s",
+                "body_steps_per_s",
+                "ms_per_step",
+                "ranks",
+                "backend",
+            ] {
+                assert!(m.remove(k).is_some(), "{what}: no {k} in the row");
+            }
+            r
+        })
+        .collect()
+}
+
+/// `mpirun -np N clatter bench`: a poured pile (settled and cached by one process, then
+/// taken from the cache and split between the ranks with its contact list) and a lattice
+/// (distributed at its first rebuild), timed on 2 and 3 ranks: the same rows as one process
+/// (contacts and pairs per body, rebuilds, the pile's kinetic energy after the timed steps,
+/// bitwise), `--emit-lammps` writing one process's files, one table printed; and the refusals (the GPU backend, --render), one message each.
+#[cfg(feature = "mpi")]
+#[test]
+fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("bench");
+    let cache = dir.join("piles").display().to_string();
+    let cases: [&[&str]; 2] = [
+        &["--bodies", "256,300", "--settle", "200", "--steps", "300"],
+        &[
+            "--pile", "lattice", "--shape", "mixed", "--bodies", "200", "--settle", "300",
+            "--steps", "200",
+        ],
+    ];
+    for case in cases {
+        let mut args = vec!["bench", "--json", "--threads", "1", "--pile-cache", &cache];
+        args.extend(case);
+        let a: Vec<&dyn AsRef<std::ffi::OsStr>> = args
+            .iter()
+            .map(|s| s as &dyn AsRef<std::ffi::OsStr>)
+            .collect();
+        let one = bench_rows(&clatter(&a), "bench on one process");
+        assert_eq!(one.len(), case[1].split(',').count(), "{case:?}");
+        for ranks in [2, 3] {
+            let got = bench_rows(&mpirun(ranks, &args), &format!("bench on {ranks} ranks"));
+            assert_eq!(got, one, "{case:?} on {ranks} ranks");
+        }
+    }
+    // --emit-lammps: rank 0 writes the gathered pile, one process's bytes.
+    let emitted = |d: &Path| {
+        ["pile.data", "in.pile"].map(|f| std::fs::read(d.join(f)).expect("an emitted file"))
+    };
+    let (e1, e2) = (dir.join("emit1"), dir.join("emit2"));
+    let emit = |d: &Path| {
+        let d = d.display().to_string();
+        let args = [
+            "bench",
+            "--bodies",
+            "256",
+            "--settle",
+            "50",
+            "--steps",
+            "10",
+            "--pile-cache",
+            &cache,
+            "--emit-lammps",
+            &d,
+        ];
+        args.map(String::from)
+    };
+    let a = emit(&e1);
+    let a: Vec<&dyn AsRef<std::ffi::OsStr>> =
+        a.iter().map(|s| s as &dyn AsRef<std::ffi::OsStr>).collect();
+    assert_ok(&clatter(&a), "--emit-lammps on one process");
+    let a = emit(&e2);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    assert_ok(&mpirun(2, &a), "--emit-lammps on 2 ranks");
+    assert!(
+        emitted(&e1) == emitted(&e2),
+        "--emit-lammps on 2 ranks differs"
+    );
+    // The table: printed once, by rank 0.
+    let o = mpirun(
+        2,
+        &[
+            "bench", "--pile", "lattice", "--bodies", "300", "--settle", "10", "--steps", "10",
+        ],
+    );
+    assert_ok(&o, "the table on 2 ranks");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.matches("# clatter bench").count(), 1, "{}", text(&o));
+    assert!(out.contains("2 MPI ranks x"), "{}", text(&o));
+    assert!(out.contains("cpu on 2 MPI ranks"), "{}", text(&o));
+    for (extra, message) in [
+        ("--backend=gpu", "times the CPU pipeline"),
+        ("--render", "run `clatter bench` without mpirun"),
+    ] {
+        let o = mpirun(2, &["bench", "--bodies", "300", "--pile", "lattice", extra]);
+        assert!(!o.status.success(), "{extra} should fail:\n{}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(message),
+            "{extra}: want {message:?}:\n{}",
+            text(&o)
+        );
+        assert_eq!(
+            err.matches("error:").count(),
+            1,
+            "{extra}: one message:\n{}",
             text(&o)
         );
     }

@@ -283,3 +283,109 @@ fn mesh_scenes_on_1_to_4_ranks_are_bitwise_one_process() {
     check("mesh floor", scene_world("mesh-floor.toml"), 3000);
     check("drum", scene_world("drum.toml"), 3000);
 }
+
+/// A world with a current contact list (what a resumed checkpoint or a cached pile is) is
+/// split between the ranks at once, with no rebuild: every rank owns its share before the
+/// first step, and the run continued on 1 to 4 ranks ends bitwise as one process's, for
+/// polyhedra, composites (per-piece contacts, rebuild orientations), periodic boundaries
+/// (ghosts across the seam) and mesh boundaries (the candidates found again per rank, the
+/// slots carried), static and turning.
+#[test]
+fn a_current_world_is_split_at_once_and_continues_bitwise() {
+    let mut mixed = pile(PileShape::Mixed, 200, &PileParams::default());
+    for (i, b) in mixed.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
+    }
+    let cases = [
+        ("mixed pile", World::new(mixed), 157, 300),
+        ("clumps", scene_world("clumps.toml"), 2000, 1500),
+        (
+            "periodic floor",
+            scene_world("periodic-floor.toml"),
+            6000,
+            1500,
+        ),
+        ("mesh floor", scene_world("mesh-floor.toml"), 2500, 1000),
+        ("drum", scene_world("drum.toml"), 2500, 1000),
+    ];
+    for (name, world, first, then) in cases {
+        let mut start = world;
+        for _ in 0..first {
+            start.step().expect("steps");
+        }
+        // Stop between rebuilds: the list is current.
+        while start.needs_rebuild() {
+            start.step().expect("steps");
+        }
+        assert!(
+            start.contact_count() > 0,
+            "{name}: split with contacts touching"
+        );
+        let reference = one_process(start.clone(), then);
+        for ranks in 1..=4 {
+            let owned: Vec<usize> = (0..ranks)
+                .map(|r| Domain::new(start.clone(), r, ranks).owned())
+                .collect();
+            assert_eq!(
+                owned.iter().sum::<usize>(),
+                start.len(),
+                "{name}: {owned:?}"
+            );
+            assert!(
+                owned.iter().all(|&n| n > 0),
+                "{name} on {ranks} ranks: every rank owns bodies before the first step: {owned:?}"
+            );
+            let got = on_ranks(&start, ranks, then);
+            assert_eq!(got.rebuilds, reference.rebuilds, "{name} on {ranks} ranks");
+            assert!(
+                got.checkpoint == reference.checkpoint,
+                "{name}: continued on {ranks} ranks, differs from one process"
+            );
+        }
+    }
+}
+
+/// The slabs are cut again only when the ranks' shares drift past `REBALANCE_IMBALANCE`
+/// (10%): most rebuilds of the default scene keep them (the result is one process's all the
+/// same, which `check` holds for every scene here).
+#[test]
+fn slabs_are_recut_only_past_the_imbalance_threshold() {
+    use clatter::domain::Slabs;
+    assert_eq!(Slabs::imbalance(&[10, 10, 10]), 0.0);
+    assert!((Slabs::imbalance(&[11, 10, 9]) - 0.1).abs() < 1e-12);
+    assert!((Slabs::imbalance(&[0, 0, 4]) - 2.0).abs() < 1e-12);
+    assert_eq!(Slabs::imbalance(&[0, 0]), 0.0);
+    let world = scene_world("default.toml");
+    let steps = 3000;
+    let (rebuilds, recuts): (u64, Vec<u64>) = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group(3)
+            .into_iter()
+            .map(|comm| {
+                let w = world.clone();
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size());
+                    for _ in 0..steps {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    (d.local().rebuilds, d.recuts())
+                })
+            })
+            .collect();
+        let ends: Vec<(u64, u64)> = handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect();
+        (ends[0].0, ends.iter().map(|e| e.1).collect())
+    });
+    assert!(recuts.iter().all(|&r| r == recuts[0]), "{recuts:?}");
+    eprintln!(
+        "default scene, 3 ranks, {steps} steps: {rebuilds} rebuilds, {} recuts",
+        recuts[0]
+    );
+    assert!(
+        recuts[0] >= 1 && recuts[0] < rebuilds / 2,
+        "{} recuts in {rebuilds} rebuilds",
+        recuts[0]
+    );
+}

@@ -1,12 +1,16 @@
-//! `mpirun -np N clatter run SCENE`: a run on several MPI ranks (docs/parallel.md).
+//! `mpirun -np N clatter run|resume|bench`: a run or a benchmark on several MPI ranks
+//! (docs/parallel.md).
 //!
 //! This module finds out whether the process was started by an MPI launcher (whatever the
 //! build); the MPI run itself (`mpi.rs`) needs the cargo feature `mpi`. A build without it
 //! started on several ranks stops with an error instead of running the whole scene N times.
 
 #[cfg(feature = "mpi")]
+mod bench;
+#[cfg(feature = "mpi")]
 mod mpi;
 
+use crate::bench::BenchArgs;
 use crate::run::{ResumeArgs, RunArgs};
 
 /// What the ranks were started to do (read by the MPI run only: a build without the feature
@@ -17,6 +21,8 @@ pub enum Invocation {
     Run(RunArgs),
     /// `clatter resume`.
     Resume(ResumeArgs),
+    /// `clatter bench` (the CPU pipeline).
+    Bench(BenchArgs),
 }
 
 /// The environment variables MPI launchers set to the number of ranks: Open MPI's `mpirun`,
@@ -32,14 +38,14 @@ pub fn launched() -> Option<usize> {
         .and_then(|s| s.trim().parse().ok())
 }
 
-/// Whether `clatter run` takes the MPI path when an MPI launcher started `ranks` ranks: always
+/// Whether `clatter run` (`resume`, `bench`) takes the MPI path when an MPI launcher started `ranks` ranks: always
 /// with the `mpi` feature (one rank too, which runs the decomposition on one rank), and on
 /// several ranks without it (to say it cannot).
 pub fn wanted(ranks: usize) -> bool {
     cfg!(feature = "mpi") || ranks > 1
 }
 
-/// `clatter run` or `clatter resume` under an MPI launcher that started `ranks` ranks: the
+/// `clatter run`, `resume` or `bench` under an MPI launcher that started `ranks` ranks: the
 /// decomposed run with the `mpi` feature; without it, the error that this build cannot.
 pub fn run(invocation: Invocation, ranks: usize) -> anyhow::Result<()> {
     #[cfg(feature = "mpi")]
@@ -56,12 +62,15 @@ pub fn run(invocation: Invocation, ranks: usize) -> anyhow::Result<()> {
     }
 }
 
-/// For the subcommands that do not run on several ranks yet: an error when started on
-/// several (`name` is the subcommand).
+/// For the subcommands that do not run on several ranks: an error when started on several
+/// (`name` is the subcommand). `render` and `view` draw every frame from the whole world on
+/// one GPU (a gather per frame would make ranks slower than one process); `validate` runs
+/// small verification cases, each far too small to split (`validate --only pile` would be
+/// the one worth it).
 pub fn single_rank_only(name: &str) -> anyhow::Result<()> {
     match launched() {
         Some(n) if n > 1 => anyhow::bail!(
-            "`clatter {name}` does not run on several MPI ranks yet (started on {n}); only `clatter run` does (docs/parallel.md)"
+            "`clatter {name}` does not run on several MPI ranks (started on {n}); `clatter run`, `resume` and `bench` do (docs/parallel.md)"
         ),
         _ => Ok(()),
     }

@@ -25,7 +25,42 @@ use crate::scene_io::load_scene;
 
 /// [`Comm`] over an MPI communicator.
 pub struct MpiComm {
-    world: SimpleCommunicator,
+    pub(super) world: SimpleCommunicator,
+}
+
+/// Touching contacts per step, counted by each rank for its share (the domain step's
+/// [`clatter::StepStats::contacts`]) and summed over the ranks when asked (one all-gather
+/// for many steps, not a reduction per step): the whole world's count at each step, for
+/// `summary.json`'s `max_contacts` and the bench's mean contacts.
+#[derive(Default)]
+pub struct StepCounts {
+    mine: Vec<u64>,
+}
+
+impl StepCounts {
+    /// This rank's count at the next step.
+    pub fn push(&mut self, contacts: usize) {
+        self.mine.push(contacts as u64);
+    }
+
+    /// Steps counted since the last [`StepCounts::totals`].
+    pub fn len(&self) -> usize {
+        self.mine.len()
+    }
+
+    /// The whole world's count at each step counted since the last call (collective: every
+    /// rank has counted the same steps). Integers, so the sum is exact in any order.
+    pub fn totals(&mut self, comm: &MpiComm) -> Vec<usize> {
+        let bytes: Vec<u8> = self.mine.iter().flat_map(|c| c.to_le_bytes()).collect();
+        let mut sum = vec![0usize; self.mine.len()];
+        for m in comm.all_gather(&bytes) {
+            for (s, c) in sum.iter_mut().zip(m.chunks_exact(8)) {
+                *s += u64::from_le_bytes(c.try_into().expect("8 bytes")) as usize;
+            }
+        }
+        self.mine.clear();
+        sum
+    }
 }
 
 /// Byte counts as MPI takes them (`int`): a message of 2 GiB or more is refused.
@@ -150,7 +185,7 @@ impl MpiComm {
     }
 
     /// Rank 0's `bytes` on every rank (the others pass anything).
-    fn broadcast(&self, bytes: Vec<u8>) -> Vec<u8> {
+    pub(super) fn broadcast(&self, bytes: Vec<u8>) -> Vec<u8> {
         let root = self.world.process_at_rank(0);
         let mut len = bytes.len() as u64;
         root.broadcast_into(&mut len);
@@ -165,7 +200,7 @@ impl MpiComm {
 
     /// `result` as every rank's outcome of a step all ranks take together: rank 0's error
     /// (or the first failing rank's, said by rank 0) stops every rank. Collective.
-    fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
+    pub(super) fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
         // An error travels as its exit status and its message.
         let mine = match &result {
             Ok(_) => Vec::new(),
@@ -199,7 +234,7 @@ fn exit_status(e: &anyhow::Error) -> u8 {
     }
 }
 
-/// `clatter run` or `clatter resume` on MPI ranks (collective; see the module docs). An
+/// `clatter run`, `resume` or `bench` on MPI ranks (collective; see the module docs). An
 /// error is printed here by rank 0 before any rank exits (mpirun stops the job at the first
 /// rank that exits with a failure, and rank 0 might not have said why yet); every rank then
 /// returns [`Quiet`] with the exit status.
@@ -208,7 +243,10 @@ pub fn run(invocation: Invocation) -> anyhow::Result<()> {
     let comm = MpiComm {
         world: universe.world(),
     };
-    let result = run_on(&comm, invocation);
+    let result = match invocation {
+        Invocation::Bench(args) => super::bench::bench(&comm, args),
+        other => run_on(&comm, other),
+    };
     let result = match result {
         Ok(()) => Ok(()),
         Err(e) => {
@@ -255,6 +293,7 @@ fn start(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<(Plan, World)
             let ckpt = comm.agree(Checkpoint::from_bytes(&bytes).with_context(what))?;
             comm.agree(resume_plan(args, ckpt))
         }
+        Invocation::Bench(_) => unreachable!("`clatter bench` on ranks is `super::bench`"),
     }
 }
 
@@ -331,9 +370,23 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let mut next_checkpoint = plan
         .checkpoint_every
         .map(|t| ((domain.local().time + half_dt) / t).floor() + 1.0);
+    // summary.json's max_contacts: the most touching contacts at any step (the start too,
+    // as one process counts it), reduced every `PEAK_EVERY` steps.
+    let mut max_contacts = domain.contact_count(comm);
+    let mut counts = StepCounts::default();
     let started = Instant::now();
     for k in 0..steps {
-        if let Err(e) = domain.step(comm) {
+        let stepped = domain.step(comm);
+        if let Ok(s) = &stepped {
+            counts.push(s.contacts);
+            if counts.len() >= PEAK_EVERY {
+                max_contacts = counts
+                    .totals(comm)
+                    .into_iter()
+                    .fold(max_contacts, usize::max);
+            }
+        }
+        if let Err(e) = stepped {
             bar.finish_and_clear();
             // Every rank has the same error (the body is named by its scene id).
             return Err(match &last_good {
@@ -420,12 +473,23 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         }
     }
     let elapsed = started.elapsed().as_secs_f64();
+    let max_contacts = counts
+        .totals(comm)
+        .into_iter()
+        .fold(max_contacts, usize::max);
     let whole = domain.gather(comm);
+    let ran = Ran {
+        steps,
+        start_step,
+        elapsed,
+        ranks,
+        max_contacts,
+    };
     let finished = match (outputs, &plan.out) {
         (Some(o), Some(dir)) => o
             .finish(&plan, dir, &whole)
-            .and_then(|_| finish(&plan, &whole, steps, start_step, elapsed, ranks)),
-        (Some(_), None) => finish(&plan, &whole, steps, start_step, elapsed, ranks),
+            .and_then(|_| finish(&plan, &whole, &ran)),
+        (Some(_), None) => finish(&plan, &whole, &ran),
         (None, _) => Ok(()),
     };
     comm.agree(finished)
@@ -444,16 +508,30 @@ fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
     }
 }
 
-/// Rank 0's end of the run after `Outputs::finish` (final.csv, the series, the checkpoint):
-/// the summary lines and summary.json.
-fn finish(
-    plan: &Plan,
-    whole: &World,
+/// Steps between the reductions of the per-step contact counts (`max_contacts`): 32 KiB a
+/// rank each time.
+const PEAK_EVERY: usize = 4096;
+
+/// What the steps of an MPI run came to, for its summary.
+struct Ran {
     steps: u64,
     start_step: u64,
     elapsed: f64,
     ranks: usize,
-) -> anyhow::Result<()> {
+    /// The most touching contacts at any step of the run (and at its start).
+    max_contacts: usize,
+}
+
+/// Rank 0's end of the run after `Outputs::finish` (final.csv, the series, the checkpoint):
+/// the summary lines and summary.json.
+fn finish(plan: &Plan, whole: &World, ran: &Ran) -> anyhow::Result<()> {
+    let &Ran {
+        steps,
+        start_step,
+        elapsed,
+        ranks,
+        max_contacts,
+    } = ran;
     let steps_per_s = steps as f64 / elapsed.max(1e-9);
     let loud = !plan.quiet;
     if loud {
@@ -462,7 +540,10 @@ fn finish(
         println!("wall time        {elapsed:.3} s");
         println!("backend          cpu on {ranks} MPI ranks");
         println!("steps/s          {steps_per_s:.1}");
-        println!("contacts         {}", whole.contact_count());
+        println!(
+            "contacts         {} (max {max_contacts})",
+            whole.contact_count()
+        );
         println!("kinetic energy   {:.6e} J", whole.kinetic_energy());
     }
     let Some(dir) = &plan.out else {
@@ -483,6 +564,7 @@ fn finish(
         "ranks": ranks,
         "backend": "cpu",
         "contacts": whole.contact_count(),
+        "max_contacts": max_contacts,
         "kinetic_energy": whole.kinetic_energy(),
         "potential_energy": whole.potential_energy(),
         "momentum": whole.momentum(),

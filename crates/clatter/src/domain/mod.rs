@@ -2,8 +2,9 @@
 //! tests), bitwise as one process steps it. See `docs/parallel.md` for the design; in short:
 //!
 //! - **Ownership**: space is cut into slabs along one axis ([`Slabs`], across the seam of a
-//!   periodic axis too), chosen at every
-//!   broad-phase rebuild so that each rank owns as many bodies as the others (by centre).
+//!   periodic axis too), cut so that each rank owns as many bodies as the others (by
+//!   centre), and cut again at a broad-phase rebuild when the ranks' shares have drifted more
+//!   than [`REBALANCE_IMBALANCE`] from even.
 //!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
 //!   of other ranks whose centres lie within `2 r_max + skin` of its slab (every partner of
 //!   an owned body in the Verlet list), in ascending global id (scene order).
@@ -37,6 +38,12 @@ use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
 use rows::{ContactRow, Reader, SpringRow, Writer};
+
+/// The slabs are cut again at a rebuild only when the fullest rank would own more than this
+/// fraction above the mean number of bodies per rank (10%) with the slabs it has: recutting
+/// moves bodies between ranks (states, springs, ghost lists) and that is wasted while the
+/// ranks are still about even. The threshold changes which rank steps a body, never the result.
+pub const REBALANCE_IMBALANCE: f64 = 0.10;
 
 /// Slabs along one axis: rank `r` owns the bodies whose centre (rounded to f32) has its
 /// `axis` coordinate in `[cuts[r - 1], cuts[r])` (unbounded at both ends).
@@ -82,6 +89,18 @@ impl Slabs {
             .filter(|p| p.axes[axis])
             .map(|p| (p.min[axis] as f64, p.max[axis] as f64));
         Slabs { axis, cuts, period }
+    }
+
+    /// How unevenly ranks owning `owned` bodies each share them: the most any rank owns over
+    /// the mean, minus one (0 when every rank owns as many; 0.1 when the fullest owns 10%
+    /// more than the mean).
+    pub fn imbalance(owned: &[u64]) -> f64 {
+        let total: u64 = owned.iter().sum();
+        if total == 0 {
+            return 0.0;
+        }
+        let most = owned.iter().copied().max().unwrap_or(0);
+        most as f64 * owned.len() as f64 / total as f64 - 1.0
     }
 
     /// Number of ranks.
@@ -133,36 +152,180 @@ pub struct Domain {
     reach: f32,
     /// Bodies this rank handed to another at rebuilds (not counting the first distribution).
     handed_over: u64,
+    /// Rebuilds that cut new slabs (the first distribution included).
+    recuts: u64,
 }
 
 impl Domain {
     /// Rank `rank` of `ranks`' part of `world`, which every rank was given whole (the scene
-    /// or checkpoint is broadcast): rank 0 starts owning every body, the others none, and the
-    /// first rebuild distributes them (the first step's for a new world). Every world can be
+    /// or checkpoint is broadcast). A world whose contact list is current (a resumed
+    /// checkpoint, a restored pile) is split at once, as a rebuild at its rebuild positions
+    /// would split it, so every rank steps its share from the first step; a new world
+    /// starts owned by rank 0, and the first step's rebuild distributes it. Every world can be
     /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
     pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
-        // Rank 0 takes the world whole, with its contact list if it has a current one (a
-        // resumed checkpoint): it steps it alone up to the next rebuild, where one process
-        // rebuilds too and the bodies are distributed (moving a list between rebuilds would
-        // need every contact's hints, bounds and forces moved as well).
-        let (ids, local) = if rank == 0 {
-            ((0..world.len() as u32).collect(), world.clone())
-        } else {
-            let mut empty = world.subset(&[], Vec::new());
-            empty.set_needs_rebuild(world.needs_rebuild());
-            (Vec::new(), empty)
-        };
         let reach = 2.0 * world.consts.max_radius() + world.skin;
-        Domain {
+        let empty = world.subset(&[], Vec::new());
+        let mut domain = Domain {
             template: world,
-            local,
-            ids,
+            local: empty,
+            ids: Vec::new(),
             slabs: None,
             send: vec![Vec::new(); ranks],
             recv: vec![Vec::new(); ranks],
             reach,
             handed_over: 0,
+            recuts: 0,
+        };
+        let w = &domain.template;
+        let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
+        if current {
+            // A world with a current contact list (a resumed checkpoint, a cached pile):
+            // split as it stands, so every rank steps its share from the first step.
+            domain.split_current(rank, ranks);
+        } else {
+            // A new world: rank 0 takes it whole, and the first step's rebuild distributes
+            // it.
+            let world = &domain.template;
+            let (ids, local) = if rank == 0 {
+                ((0..world.len() as u32).collect(), world.clone())
+            } else {
+                let mut empty = world.subset(&[], Vec::new());
+                empty.set_needs_rebuild(world.needs_rebuild());
+                (Vec::new(), empty)
+            };
+            domain.ids = ids;
+            domain.local = local;
         }
+        domain
+    }
+
+    /// Splits the template, whose contact list is current (built at `rebuild_position`),
+    /// between the ranks without a rebuild: the slabs, the owners and the ghosts are those a
+    /// rebuild at the rebuild positions would have chosen (so every Verlet partner of an
+    /// owned body is on its rank, as after [`Domain::migrate`]), and each rank's contact
+    /// list is the whole list restricted to the pairs with an owned body and the owned
+    /// bodies' wall contacts, with everything they carry (springs, forces, touching flags,
+    /// hints, bounds): in ascending global id, so in the one-process order. The mesh
+    /// candidates are found again at the rebuild poses and time.
+    fn split_current(&mut self, rank: usize, ranks: usize) {
+        let world = &self.template;
+        let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
+        let slabs = Slabs::balanced(&built, ranks, world.periodic.as_ref());
+        let near = |x: DVec3, s: usize| {
+            s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
+        };
+        let mut ids = Vec::new();
+        let mut ghost = Vec::new();
+        for (i, &x) in world.rebuild_position.iter().enumerate() {
+            let owned = slabs.owner(x) == rank;
+            if owned || near(x, rank) {
+                ids.push(i as u32);
+                ghost.push(!owned);
+            }
+        }
+        let mut local = world.subset(&ids, ghost);
+        local.rebuild_position = ids
+            .iter()
+            .map(|&i| world.rebuild_position[i as usize])
+            .collect();
+        if world.rebuild_orientation.len() == world.len() {
+            local.rebuild_orientation = ids
+                .iter()
+                .map(|&i| world.rebuild_orientation[i as usize])
+                .collect();
+        }
+        // The contacts: the pairs with an owned body (both are on the rank), the owned
+        // bodies' wall contacts; local ids are ascending global ids, so the order holds.
+        let index = |g: u32| ids.binary_search(&g).ok().map(|i| i as u32);
+        let c = &world.contacts;
+        let sp = &c.springs;
+        let np = c.pairs.len();
+        let mut pairs = Vec::new();
+        let mut keep = Vec::new();
+        for (k, &[a, b]) in c.pairs.iter().enumerate() {
+            let (la, lb) = (index(a), index(b));
+            let mine = |l: Option<u32>| l.is_some_and(|l| !local.is_ghost(l as usize));
+            if mine(la) || mine(lb) {
+                let (Some(la), Some(lb)) = (la, lb) else {
+                    unreachable!("a Verlet partner of an owned body is within the ghost reach")
+                };
+                pairs.push([la, lb]);
+                keep.push(k);
+            }
+        }
+        let hints = keep.iter().map(|&k| sp.hints[k]).collect();
+        let bounds = keep.iter().map(|&k| sp.separation_bound[k]).collect();
+        let mut walls = Vec::new();
+        for (k, &[a, wall]) in c.wall_pairs.iter().enumerate() {
+            if let Some(la) = index(a).filter(|&l| !local.is_ghost(l as usize)) {
+                walls.push([la, wall]);
+                keep.push(np + k);
+            }
+        }
+        let springs = ContactSprings {
+            history: keep.iter().map(|&k| sp.history[k]).collect(),
+            twist: keep.iter().map(|&k| sp.twist[k]).collect(),
+            forces: keep.iter().map(|&k| sp.forces[k]).collect(),
+            touching: keep.iter().map(|&k| sp.touching[k]).collect(),
+            hints,
+            separation_bound: bounds,
+        };
+        let (history, twist) = (springs.history.clone(), springs.twist.clone());
+        local.contacts = if c.pieces.len() == c.len() && world.has_composites() {
+            let pieces = keep.iter().map(|&k| c.pieces[k]).collect();
+            Contacts::with_pieces(local.len(), pairs, walls, pieces, history, twist)
+        } else {
+            Contacts::new(local.len(), pairs, walls, history, twist)
+        };
+        local
+            .contacts
+            .set_springs(springs)
+            .expect("one row per contact");
+        if !local.boundaries.is_empty() {
+            // The mesh candidates (the slots came with `subset`), found again where the last
+            // rebuild found them: the bodies at their rebuild poses, the meshes at the
+            // rebuild time, as `gather` and a restored checkpoint find them.
+            let (x, q, t) = (
+                local.state.position.clone(),
+                local.state.orientation.clone(),
+                local.time,
+            );
+            local.state.position.clone_from(&local.rebuild_position);
+            if local.has_composites() {
+                local
+                    .state
+                    .orientation
+                    .clone_from(&local.rebuild_orientation);
+            }
+            local.time = local.mesh.rebuild_time;
+            mesh_contacts::rebuild(&mut local);
+            local.state.position = x;
+            local.state.orientation = q;
+            local.time = t;
+        }
+        local.set_needs_rebuild(false);
+        // Who sends what every step, from the rebuild positions (both sides agree).
+        let mut send = vec![Vec::new(); ranks];
+        let mut recv = vec![Vec::new(); ranks];
+        for (i, &g) in ids.iter().enumerate() {
+            let x = world.rebuild_position[g as usize];
+            if local.is_ghost(i) {
+                recv[slabs.owner(x)].push(i as u32);
+            } else {
+                for (s, list) in send.iter_mut().enumerate() {
+                    if near(x, s) {
+                        list.push(i as u32);
+                    }
+                }
+            }
+        }
+        self.local = local;
+        self.ids = ids;
+        self.send = send;
+        self.recv = recv;
+        self.slabs = Some(slabs);
+        self.recuts += 1;
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
@@ -185,6 +348,12 @@ impl Domain {
     /// distribution of a world.
     pub fn handed_over(&self) -> u64 {
         self.handed_over
+    }
+
+    /// How many rebuilds cut new slabs (the first distribution included): the others kept
+    /// the slabs they had, whose bodies were still within [`REBALANCE_IMBALANCE`] of even.
+    pub fn recuts(&self) -> u64 {
+        self.recuts
     }
 
     /// Number of bodies this rank owns.
@@ -523,19 +692,41 @@ impl Domain {
         let ranks = comm.size();
         let local = &self.local;
         let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
-        // 1. The new slabs, from every owned body's position.
-        let mut w = Writer::default();
-        for &i in &owned {
-            w.vec3(local.state.position[i].as_vec3());
-        }
-        let mut positions = Vec::new();
-        for m in comm.all_gather(&w.0) {
-            let mut r = Reader::new(&m);
-            while !r.is_empty() {
-                positions.push(r.vec3());
+        // 1. The slabs: the old ones while they are still about even (each rank counts its
+        //    bodies per old slab, and the counts are summed: `REBALANCE_IMBALANCE`), else
+        //    new ones from every owned body's position.
+        let kept = self.slabs.as_ref().filter(|old| {
+            let mut mine = Writer::default();
+            let mut counts = vec![0u32; ranks];
+            for &i in &owned {
+                counts[old.owner(local.state.position[i])] += 1;
             }
-        }
-        let slabs = Slabs::balanced(&positions, ranks, local.periodic.as_ref());
+            counts.iter().for_each(|&c| mine.u32(c));
+            let mut owned_by = vec![0u64; ranks];
+            for m in comm.all_gather(&mine.0) {
+                let mut r = Reader::new(&m);
+                owned_by.iter_mut().for_each(|n| *n += r.u32() as u64);
+            }
+            Slabs::imbalance(&owned_by) <= REBALANCE_IMBALANCE
+        });
+        let slabs = match kept {
+            Some(old) => old.clone(),
+            None => {
+                let mut w = Writer::default();
+                for &i in &owned {
+                    w.vec3(local.state.position[i].as_vec3());
+                }
+                let mut positions = Vec::new();
+                for m in comm.all_gather(&w.0) {
+                    let mut r = Reader::new(&m);
+                    while !r.is_empty() {
+                        positions.push(r.vec3());
+                    }
+                }
+                self.recuts += 1;
+                Slabs::balanced(&positions, ranks, local.periodic.as_ref())
+            }
+        };
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let mut new_owner = vec![usize::MAX; local.len()];
