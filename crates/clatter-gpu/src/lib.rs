@@ -10,8 +10,9 @@
 //! GPU between steps, and the host reads it back only when output is due.
 //!
 //! The `test-harness` feature adds the test-only API: `test_context` and the batch
-//! harnesses `law` and `narrow`, which run the law and the narrow phase in WGSL on
-//! thousands of queries for the tests that hold them against `clatter`'s Rust.
+//! harnesses `law`, `narrow` and `turn`, which run the law, the narrow phase and a turning
+//! boundary's pose in WGSL on thousands of queries for the tests that hold them against
+//! `clatter`'s Rust.
 
 pub mod bandwidth;
 pub mod buffers;
@@ -26,6 +27,8 @@ pub(crate) mod pipeline;
 pub mod readback;
 pub mod shapes;
 pub mod stages;
+#[cfg(feature = "test-harness")]
+pub mod turn;
 pub mod world;
 
 #[cfg(feature = "test-harness")]

@@ -13,9 +13,11 @@
 //! - [`GLOBAL_WORDS`] words: the GPU step count of the last rebuild (for the read-back of
 //!   `World::mesh_rebuild_time`).
 //! - per boundary, [`BOUNDARY_STATE_WORDS`] words: the time since its motion's start `t -
-//!   start` and the rotation phase `rate (t - start) mod 2 pi`, both as unevaluated sums of
-//!   two f32 (about 48 bits: the CPU computes them in f64) advanced by `end_step` every step,
-//!   the elapsed motion time at the last rebuild (for the Verlet check), and the increments.
+//!   start` as an unevaluated sum of two f32 (words 0 and 1; about 48 bits: the CPU keeps
+//!   the time in f64), advanced by `end_step` every step, the elapsed motion time at the
+//!   last rebuild (word 4, for the Verlet check) and the motion's duration (words 7 and 8).
+//!   A rotation's angle follows from `t - start` (`clatter::turn`, twin of
+//!   `shaders/common/turn.wgsl`), bitwise as the CPU's.
 //! - per body, [`MESH_SLOTS`] slots of [`SLOT_WORDS`] words: the CPU's `MeshSlot`;
 //! - then one word per body: whether it had a triangle within its bounding radius plus the
 //!   skin at the last rebuild (the CPU's active list): bodies without skip the meshes until
@@ -176,7 +178,8 @@ pub(crate) fn pack(
         h[35] = f(rad * 1.0001 + 1e-6);
         let d = duration(m);
         // The angle and elapsed time where the motion stops, as the CPU rounds them.
-        h[36] = f((r as f64 * d).rem_euclid(std::f64::consts::TAU) as f32);
+        let ud = split(d);
+        h[36] = f(clatter::turn::turn_angle(r, (ud[0], ud[1])));
         h[37] = f(d as f32);
         words[base + HEADER_WORDS * b..base + HEADER_WORDS * (b + 1)].copy_from_slice(&h);
     }
@@ -193,15 +196,10 @@ pub(crate) fn initial_state(world: &World) -> Vec<u32> {
     let t = world.time;
     for (b, m) in world.boundaries.iter().enumerate() {
         let at = GLOBAL_WORDS + BOUNDARY_STATE_WORDS * b;
-        let r = rate(m) as f64;
         let u = split(t - m.start);
-        let phase = split((r * (t - m.start)).rem_euclid(std::f64::consts::TAU));
-        let step = split(r * world.dt as f64);
         let d = split(duration(m));
-        let tau = split(std::f64::consts::TAU);
-        let vals = [
-            u[0], u[1], phase[0], phase[1], 0.0, step[0], step[1], d[0], d[1], tau[0], tau[1],
-        ];
+        // Words 2, 3, 5 and 6 are not used (the rotation angle follows from `u`).
+        let vals = [u[0], u[1], 0.0, 0.0, 0.0, 0.0, 0.0, d[0], d[1]];
         for (k, v) in vals.iter().enumerate() {
             w[at + k] = v.to_bits();
         }

@@ -9,6 +9,7 @@ use crate::{GpuContext, GpuError};
 pub(crate) const COMMON: &str = include_str!("../shaders/common/common.wgsl");
 pub(crate) const STATUS: &str = include_str!("../shaders/common/status.wgsl");
 pub(crate) const MESH_TIME: &str = include_str!("../shaders/common/mesh_time.wgsl");
+pub(crate) const TURN: &str = include_str!("../shaders/common/turn.wgsl");
 pub(crate) const MESH: &str = include_str!("../shaders/contacts/mesh.wgsl");
 pub(crate) const MESH_POLY: &str = include_str!("../shaders/contacts/mesh_poly.wgsl");
 pub(crate) const MESH_SPHERES: &str = include_str!("../shaders/contacts/mesh_spheres.wgsl");
@@ -54,6 +55,7 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("status.wgsl", STATUS),
     ("args.wgsl", ARGS),
     ("mesh_time.wgsl", MESH_TIME),
+    ("turn.wgsl", TURN),
     ("mesh.wgsl", MESH),
     ("mesh_poly.wgsl", MESH_POLY),
     ("mesh_spheres.wgsl", MESH_SPHERES),
@@ -78,6 +80,7 @@ pub(crate) fn source(parts: &[&str]) -> String {
     s.push_str(COMMON);
     s.push_str(STATUS);
     s.push_str(MESH_TIME);
+    s.push_str(TURN);
     for p in parts {
         s.push_str(p);
     }

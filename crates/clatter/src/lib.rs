@@ -33,6 +33,7 @@ pub mod precise;
 pub mod shape_spec;
 pub mod sink;
 pub mod step;
+pub mod turn;
 pub mod world;
 
 pub use io::{checkpoint, mesh, mesh_repair, scene, vtk};

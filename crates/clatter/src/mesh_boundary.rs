@@ -71,17 +71,32 @@ pub struct MeshPose {
     pub translation: Vec3,
 }
 
+/// The poses are applied with [`crate::turn::rotate`] (not glam's product, which rounds
+/// otherwise), bitwise as the GPU's `turn_rotate`: both executors see a moving mesh's
+/// triangles at the same coordinates.
 impl MeshPose {
     /// A mesh-frame point in the world.
     #[inline]
     pub fn apply(&self, p: Vec3) -> Vec3 {
-        self.rotation * p + self.translation
+        self.rotate(p) + self.translation
     }
 
     /// A world point in the mesh frame.
     #[inline]
     pub fn inverse(&self, p: Vec3) -> Vec3 {
-        self.rotation.conjugate() * (p - self.translation)
+        self.unrotate(p - self.translation)
+    }
+
+    /// A mesh-frame direction in the world.
+    #[inline]
+    pub fn rotate(&self, v: Vec3) -> Vec3 {
+        crate::turn::rotate(self.rotation, v)
+    }
+
+    /// A world direction in the mesh frame.
+    #[inline]
+    pub fn unrotate(&self, v: Vec3) -> Vec3 {
+        crate::turn::rotate(self.rotation.conjugate(), v)
     }
 }
 
@@ -372,8 +387,20 @@ impl Boundary {
         (t.clamp(self.start, self.end.max(self.start)) - self.start) as f32
     }
 
-    /// The boundary's pose at time `t` (a rotation's angle is reduced to one turn in f64
-    /// before it is rounded to f32).
+    /// The motion's elapsed time at `t` as a double-single `(hi, lo)` (the GPU's clock
+    /// `u`, clamped to the motion's span): the f64 difference split into two f32.
+    pub fn elapsed_ds(&self, t: f64) -> (f32, f32) {
+        let u = t.clamp(self.start, self.end.max(self.start)) - self.start;
+        let hi = u as f32;
+        if !hi.is_finite() {
+            return (hi, 0.0);
+        }
+        (hi, (u - hi as f64) as f32)
+    }
+
+    /// The boundary's pose at time `t`. A rotation's is [`crate::turn`]'s, bitwise that of
+    /// the GPU: the angle `rate u mod 2 pi` from the double-single elapsed time, so that long
+    /// runs keep their precision.
     pub fn pose(&self, t: f64) -> MeshPose {
         let tau = self.elapsed(t);
         match self.motion {
@@ -389,19 +416,26 @@ impl Boundary {
                 angular_velocity,
                 center,
             } => {
-                // The angle reduced to one turn in f64, so that long runs keep their precision.
                 let rate = angular_velocity.length();
-                let angle = (rate as f64
-                    * (t.clamp(self.start, self.end.max(self.start)) - self.start))
-                    .rem_euclid(std::f64::consts::TAU) as f32;
-                let q = if rate > 0.0 {
-                    Quat::from_axis_angle(angular_velocity / rate, angle)
+                if rate > 0.0 {
+                    // Not yet started: exactly 0 (as the GPU has it, signed zeros included).
+                    let u = self.elapsed_ds(t);
+                    let angle = if u.0 > 0.0 || (u.0 == 0.0 && u.1 > 0.0) {
+                        crate::turn::turn_angle(rate, u)
+                    } else {
+                        0.0
+                    };
+                    let (rotation, translation) =
+                        crate::turn::turn_pose(angular_velocity / rate, center, angle);
+                    MeshPose {
+                        rotation,
+                        translation,
+                    }
                 } else {
-                    Quat::IDENTITY
-                };
-                MeshPose {
-                    rotation: q,
-                    translation: center - q * center,
+                    MeshPose {
+                        rotation: Quat::IDENTITY,
+                        translation: Vec3::ZERO,
+                    }
                 }
             }
         }

@@ -1,6 +1,6 @@
 // The triangle-mesh boundaries' clock (src/mesh.rs), shared by every kernel: per boundary,
-// `u = t - start` and the rotation phase `rate u mod 2 pi` as unevaluated sums of two f32
-// (hi, lo) in the `mesh` buffer, which the CPU keeps in f64. `end_step` advances them,
+// `u = t - start` as an unevaluated sum of two f32 (hi, lo) in the `mesh` buffer, which the
+// CPU keeps in f64 (a rotation's angle follows from it: turn.wgsl). `end_step` advances them,
 // `prepare` notes the pose of a rebuild (for the Verlet check), the contact and integrate
 // kernels read them.
 
@@ -71,12 +71,6 @@ fn mesh_advance() {
     for (var b = 0u; b < params.num_boundaries; b++) {
         let at = mesh_clock(b);
         mesh_set_ds(at, mesh_u_next(b));
-        var ph = ds_add(mesh_ds(at + 2u), mesh_ds(at + 5u));
-        let tau = mesh_ds(at + 9u);
-        if !ds_lt(ph, tau) {
-            ph = ds_add(ph, -tau);
-        }
-        mesh_set_ds(at + 2u, ph);
     }
 }
 

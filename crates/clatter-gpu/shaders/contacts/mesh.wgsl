@@ -30,49 +30,6 @@ fn mesh_tri_vert(b: u32, t: u32, k: u32) -> u32 {
     return shape_u[mesh_h(b, 6u) + 3u * t + k];
 }
 
-// A boundary's pose: world = rotate(q, local) + t.
-struct MeshPose {
-    q: vec4<f32>,
-    t: vec3<f32>,
-}
-
-// (sin x, cos x) for 0 <= x < 4: Cephes' sinf/cosf (reduction by pi/4 in three parts,
-// then their polynomials), within about an ulp of the CPU's libm. WGSL's own sin and cos
-// are not enough: Vulkan only asks for an absolute error of 2^-11, and lavapipe's is of
-// that order, which moved a turning drum's wall by micrometres.
-fn mesh_sin_cos(x: f32) -> vec2<f32> {
-    var j = u32(x * 1.27323954473516);
-    if (j & 1u) == 1u {
-        j += 1u;
-    }
-    let y = f32(j);
-    let z = ((x - y * 0.78515625) - y * 2.4187564849853515625e-4) - y * 3.77489497744594108e-8;
-    let zz = z * z;
-    let s = ((-1.9515295891e-4 * zz + 8.3321608736e-3) * zz - 1.6666654611e-1) * zz * z + z;
-    let c = ((2.443315711809948e-5 * zz - 1.388731625493765e-3) * zz + 4.166664568298827e-2) * zz * zz
-        - 0.5 * zz + 1.0;
-    switch j & 7u {
-        case 0u: {
-            return vec2<f32>(s, c);
-        }
-        case 2u: {
-            return vec2<f32>(c, -s);
-        }
-        case 4u: {
-            return vec2<f32>(-s, -c);
-        }
-        default: {
-            return vec2<f32>(-c, s);
-        }
-    }
-}
-
-// glam's Quat::from_axis_angle (angle in [0, 2 pi]).
-fn mesh_quat_axis_angle(axis: vec3<f32>, angle: f32) -> vec4<f32> {
-    let sc = mesh_sin_cos(angle * 0.5);
-    return vec4<f32>(axis * sc.x, sc.y);
-}
-
 // Boundary b's pose at the current step: the CPU's `Boundary::pose`.
 fn mesh_pose(b: u32) -> MeshPose {
     let kind = mesh_h(b, 0u);
@@ -82,20 +39,18 @@ fn mesh_pose(b: u32) -> MeshPose {
     }
     if kind == 2u {
         let rate = mesh_hf(b, 28u);
+        if !(rate > 0.0) {
+            return MeshPose(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec3<f32>(0.0));
+        }
         var angle = 0.0;
         if ds_positive(u) {
             if ds_lt(u, mesh_ds(mesh_clock(b) + 7u)) {
-                angle = mesh_word_f(mesh_clock(b) + 2u);
+                angle = turn_angle(rate, u);
             } else {
                 angle = mesh_hf(b, 36u);
             }
         }
-        var q = vec4<f32>(0.0, 0.0, 0.0, 1.0);
-        if rate > 0.0 {
-            q = mesh_quat_axis_angle(mesh_hv(b, 29u), angle);
-        }
-        let c = mesh_hv(b, 24u);
-        return MeshPose(q, c - quat_rotate(q, c));
+        return turn_pose(mesh_hv(b, 29u), mesh_hv(b, 24u), angle);
     }
     return MeshPose(vec4<f32>(0.0, 0.0, 0.0, 1.0), vec3<f32>(0.0));
 }
@@ -352,7 +307,7 @@ fn mesh_gather(x: vec3<f32>, reach: f32) -> bool {
     mesh_ncands = 0u;
     for (var b = 0u; b < params.num_boundaries; b++) {
         let pose = mesh_pose(b);
-        let local = quat_rotate_inv(pose.q, x - pose.t);
+        let local = turn_rotate(quat_conj(pose.q), x - pose.t);
         let toc = local - mesh_hv(b, 32u);
         let far = mesh_hf(b, 35u) + reach;
         if dot(toc, toc) > far * far {
@@ -435,10 +390,10 @@ struct MeshTri {
 }
 
 fn mesh_world_tri(b: u32, t: u32, pose: MeshPose) -> MeshTri {
-    let a = mesh_local(quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t);
-    let bb = mesh_local(quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 1u))) + pose.t);
-    let c = mesh_local(quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 2u))) + pose.t);
-    let n = quat_rotate(pose.q, shape_f[mesh_h(b, 5u) + t].xyz);
+    let a = mesh_local(turn_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t);
+    let bb = mesh_local(turn_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 1u))) + pose.t);
+    let c = mesh_local(turn_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 2u))) + pose.t);
+    let n = turn_rotate(pose.q, shape_f[mesh_h(b, 5u) + t].xyz);
     return MeshTri(a, bb, c, n);
 }
 
@@ -626,14 +581,14 @@ fn mesh_piece(s: u32, x: vec3<f32>, q: vec4<f32>, piece: u32) -> bool {
                     return false;
                 }
                 mesh_groups[ngroups] = vec4<f32>(hit.normal, hit.offset);
-                let wa = quat_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t;
+                let wa = turn_rotate(pose.q, mesh_vert(b, mesh_tri_vert(b, t, 0u))) + pose.t;
                 let lo0 = ds3_add(Ds3(wa, vec3<f32>(0.0)), ds3_neg(mesh_origin)).lo;
                 mesh_groups_rest[ngroups] = dot(hit.normal, lo0);
                 mesh_groups_b[ngroups] = b;
                 ngroups++;
             }
         } else if hit.kind == 2u && hit.feature != MESH_FACE {
-            let d = quat_rotate_inv(pose.q, hit.normal);
+            let d = turn_rotate(quat_conj(pose.q), hit.normal);
             var key: vec2<u32>;
             if hit.feature <= 3u {
                 let k = hit.feature - 1u;

@@ -259,7 +259,7 @@ fn piece_contacts(
         let mesh: &Boundary = &w.boundaries[b];
         let mp = &poses[b];
         let tri = local_triangle(mesh, t, mp, origin);
-        let normal = mp.rotation * mesh.normals[t];
+        let normal = mp.rotate(mesh.normals[t]);
         let lo0 = crate::precise::ds_add(
             crate::precise::Ds3::from_f32(mesh.world_triangle(t, mp)[0]),
             -origin,
@@ -285,7 +285,7 @@ fn piece_contacts(
                 }
             }
             Some(TriContact::Feature { feature, manifold }) => {
-                let d = mp.rotation.conjugate() * manifold.normal;
+                let d = mp.unrotate(manifold.normal);
                 let verts = mesh.triangles[t];
                 let key = match feature {
                     TriFeature::Edge(k) => {
@@ -332,7 +332,7 @@ fn piece_contacts(
         for &c in cands {
             let (b, t) = mc.locate(c);
             let mesh = &w.boundaries[b];
-            let n = poses[b].rotation * mesh.normals[t];
+            let n = poses[b].rotate(mesh.normals[t]);
             let tri = local_triangle(mesh, t, &poses[b], origin);
             for g in groups.iter_mut().filter(|g| {
                 g.boundary == b as u32
