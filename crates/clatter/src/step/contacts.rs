@@ -229,6 +229,54 @@ fn law_side<const PIECES: bool>(w: &World, i: usize, piece: u32) -> (f32, bool) 
     }
 }
 
+/// A sphere (not a piece) against a wall: [`narrow::collide_plane`]'s sphere case (the
+/// sphere at the origin, the plane shifted by its position) with the depth's `rest` added,
+/// and [`law::contact_force`]'s one-point law, written out without building a manifold: the
+/// same operations in the same order, so the same bits.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn sphere_wall(
+    w: &World,
+    i: usize,
+    wall: &crate::world::Wall,
+    plane: &narrow::Plane,
+    radius: f32,
+    rest: f32,
+    hist: &mut Vec3,
+    force: &mut ContactForce,
+    touching: &mut bool,
+    coverage: &mut f32,
+) -> bool {
+    let n = plane.normal;
+    let centre_height = n.dot(Vec3::ZERO) - plane.offset;
+    let depth = radius - centre_height;
+    // Not `depth > 0.0`: a NaN depth is a contact there, as in `collide_plane`.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if !(depth <= 0.0) {
+        let cp = ContactPoint {
+            point: Vec3::ZERO - n * (radius - 0.5 * depth),
+            depth: depth + rest,
+        };
+        let params = w.pair_params(wall.material, w.consts.material[i]);
+        let (r, sphere) = law_side::<false>(w, i, 0);
+        let share = law::point_share(sphere, sphere);
+        let context = pair_context(w, params, w.consts.mass[i], r, share);
+        *force = law::point_contact_force(
+            &context,
+            n,
+            cp,
+            &BodyMotion::default(),
+            &w.local_motion(i),
+            hist,
+            coverage,
+        );
+        *touching = true;
+    } else if *touching {
+        release(force, hist, Some(coverage), touching);
+    }
+    *touching
+}
+
 /// The law's context of a contact with these parameters, effective mass and radius and
 /// point share, at the world's step.
 #[inline(always)]
@@ -270,6 +318,11 @@ fn wall_pair<const PIECES: bool>(
         (w.shape(i), w.local_pose(i))
     };
     let (plane, rest) = w.plane_in(x, i, &wall.plane);
+    if let (false, Shape::Sphere { radius }) = (PIECES, shape) {
+        return sphere_wall(
+            w, i, wall, &plane, *radius, rest, hist, force, touching, twist,
+        );
+    }
     match narrow::collide_plane(&plane, shape, &pose).map(|m| World::add_rest(m, rest)) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);
