@@ -34,6 +34,8 @@ pub(crate) fn run(world: &mut World) -> Moved {
     debug_assert_eq!(pairs.len(), world.state.position.len());
     let periodic = world.periodic;
     let sinks = &world.sinks;
+    let has_sinks = !sinks.is_empty();
+    debug_assert!(world.ghost.is_empty() || world.ghost.len() == world.state.position.len());
     let ghost = &world.ghost;
     let s = &mut world.state;
     // Chunks of bodies, one task each; the loop body sees plain slices.
@@ -53,10 +55,12 @@ pub(crate) fn run(world: &mut World) -> Moved {
             let first = chunk * CHUNK;
             let pairs = &pairs[first..first + xs.len()];
             let rebuild_position = &rebuild_position[first..first + xs.len()];
+            // Ghosts (`crate::domain`) are integrated by the rank that owns them; a world
+            // without ghosts (one process) has an empty list.
+            let ghost = ghost.get(first..first + xs.len()).unwrap_or(&[]);
             for k in 0..xs.len() {
                 let i = chunk * CHUNK + k;
-                // Ghosts (`crate::domain`) are integrated by the rank that owns them.
-                if gone[k] || ghost.get(i).is_some_and(|&g| g) {
+                if gone[k] || (!ghost.is_empty() && ghost[k]) {
                     continue;
                 }
                 let (f, t) = contacts.gather(i);
@@ -84,7 +88,7 @@ pub(crate) fn run(world: &mut World) -> Moved {
                 };
                 // A removed body asks for a rebuild (which drops its pairs) with the
                 // largest finite distance.
-                let d2 = if d2.is_finite() && in_any(sinks, x.as_vec3()) {
+                let d2 = if has_sinks && d2.is_finite() && in_any(sinks, x.as_vec3()) {
                     gone[k] = true;
                     f32::MAX
                 } else {
