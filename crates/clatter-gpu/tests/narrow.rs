@@ -802,7 +802,8 @@ impl Paths {
 /// remembering GPU path gives the GPU full test's manifold bitwise and the CPU full test's
 /// within the batch tolerance (near-ties excused as in the random test), and the remembered
 /// path is taken in most touching pair-steps (counted as the CPU's `pair_narrow` does: the
-/// memory came back unchanged).
+/// memory came back unchanged), by the CPU's twin as often; pairs change between face and
+/// edge contacts and touch again after parting.
 #[test]
 fn gpu_pair_memory_matches_the_full_test_over_time() {
     let Some(ctx) = clatter_gpu::test_context() else {
@@ -856,6 +857,12 @@ fn gpu_pair_memory_matches_the_full_test_over_time() {
     let mut stats = Stats::default();
     let mut bitwise = 0;
     let mut kinds = [0usize; 3];
+    // Per pair: the kind of its last remembered contact, whether it parted after touching;
+    // changes between face and edge contacts, and touching again after parting.
+    let mut last_kind: Vec<Option<usize>> = vec![None; n];
+    let mut parted = vec![false; n];
+    let mut touched = vec![false; n];
+    let (mut face_edge_changes, mut retouched) = (0, 0);
     let t = std::time::Instant::now();
     for step in 0..steps {
         let poses: Vec<(Pose, Pose)> = motions.iter().map(|m| m.poses(&shapes, step)).collect();
@@ -901,6 +908,12 @@ fn gpu_pair_memory_matches_the_full_test_over_time() {
             bitwise += 1;
             let touching = full.count > 0;
             gpu_paths.count(touching, gpu_mem[s], memory[s]);
+            if touching && parted[s] {
+                retouched += 1;
+                parted[s] = false;
+            }
+            parted[s] |= !touching && touched[s];
+            touched[s] = touching;
             gpu_mem[s] = if touching {
                 memory[s]
             } else {
@@ -914,6 +927,10 @@ fn gpu_pair_memory_matches_the_full_test_over_time() {
                     (h & narrow::HINT_KIND == narrow::HINT_FACE_B) as usize
                 };
                 kinds[kind] += 1;
+                if last_kind[s].is_some_and(|k| (k == 2) != (kind == 2)) {
+                    face_edge_changes += 1;
+                }
+                last_kind[s] = Some(kind);
             }
             // The CPU's remembering path on the same poses (its memory kept apart).
             let before = cpu_mem[s];
@@ -974,4 +991,12 @@ fn gpu_pair_memory_matches_the_full_test_over_time() {
         kinds.iter().all(|&k| k > 0),
         "contacts of each kind: {kinds:?}"
     );
+    eprintln!(
+        "{face_edge_changes} changes between face and edge contacts, {retouched} pairs touching again after parting"
+    );
+    assert!(
+        face_edge_changes >= 10,
+        "{face_edge_changes} face-edge changes"
+    );
+    assert!(retouched >= 5, "{retouched} pairs touched again");
 }
