@@ -461,7 +461,8 @@ fn nrw_overlap_certified(refp: NrwShape, m: Manifold, delta: f32) -> bool {
     return nrw_inside(refp, c / f32(m.count), delta);
 }
 
-// Whether `hint` remembers the contact of a touching pair (CPU `is_contact_hint`).
+// Whether `hint` remembers the contact of a touching pair (CPU `is_contact_hint`; kind
+// 2 << 30 is the CPU's separating edge axis, never a contact).
 fn nrw_is_contact_hint(hint: u32) -> bool {
     return hint != NO_HINT && (hint & HINT_KIND) != (2u << 30u) && (hint & HINT_CONTACT) != 0u;
 }
