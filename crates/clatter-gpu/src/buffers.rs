@@ -185,6 +185,10 @@ buffers! {
     Hist = "hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), Pairs, keep;
     /// Per pair: 1 touching, 0 not, 2 + axis: apart along that separating axis.
     Touching = "touching", ReadWrite, "array<u32>", size_of::<u32>(), Pairs;
+    /// Per touching pair (`touching` 1; meaningless otherwise): what it remembers of its
+    /// contact, the CPU's hint word (`contract::PAIR_MEMORY_CONSTANTS`), and the bits of its
+    /// margin (the CPU's `separation_bound` of a touching pair).
+    PairMemory = "pair_memory", ReadWrite, "array<vec2<u32>>", size_of::<[u32; 2]>(), Pairs;
     /// The last step's force per pair.
     Forces = "forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), Pairs;
     /// Pairs per body as side b.

@@ -37,7 +37,8 @@ pub use context::{GpuContext, GpuError, instance_flags, quiet_device_select};
 pub use layout::BodyState;
 #[cfg(feature = "test-harness")]
 pub use narrow::{
-    GpuManifold, NarrowBatch, NarrowQuery, PlaneQuery, collide_batch, collide_plane_batch,
+    GpuManifold, NarrowBatch, NarrowQuery, PairMemory, PlaneQuery, collide_batch,
+    collide_plane_batch,
 };
 pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;

@@ -9,7 +9,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use clatter_geom::Pose;
-use clatter_geom::narrow::{ContactPoint, Manifold, Plane};
+use clatter_geom::narrow::{ContactPoint, Manifold, NO_HINT, Plane, SatHint};
 use glam::Vec3;
 
 use crate::shapes::GpuShapes;
@@ -76,6 +76,28 @@ pub struct NarrowQuery {
     pub pose_b: Pose,
 }
 
+/// What a touching polyhedron pair remembers of its contact between steps, as the step
+/// pipeline keeps it per pair: the contact hint (the CPU's
+/// [`SatHint`] of a touching pair, see [`clatter_geom::narrow::collide_with_hint`]) and its
+/// margin. Before a query, the caller takes from `margin` twice a bound of how much any
+/// axis's separation can have moved since the last query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairMemory {
+    /// The remembered contact, [`NO_HINT`] for none.
+    pub hint: SatHint,
+    /// Its margin (meaningless without a hint).
+    pub margin: f32,
+}
+
+impl Default for PairMemory {
+    fn default() -> Self {
+        PairMemory {
+            hint: NO_HINT,
+            margin: 0.0,
+        }
+    }
+}
+
 /// A wall query: shape `shape` at `pose` against `plane`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlaneQuery {
@@ -98,7 +120,8 @@ pub struct NarrowBatch {
 impl NarrowBatch {
     /// Compiles `common.wgsl + narrow.wgsl + narrow_batch.wgsl`.
     pub fn new(ctx: &GpuContext) -> Result<NarrowBatch, GpuError> {
-        let source = format!("{COMMON_WGSL}\n{NARROW_WGSL}\n{BATCH_WGSL}");
+        let constants = clatter::contract::wgsl_constants(clatter::contract::PAIR_MEMORY_CONSTANTS);
+        let source = format!("{constants}\n{COMMON_WGSL}\n{NARROW_WGSL}\n{BATCH_WGSL}");
         let module = ctx
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -119,7 +142,7 @@ impl NarrowBatch {
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("narrow_batch io"),
-                entries: &[storage(0, true), storage(1, false)],
+                entries: &[storage(0, true), storage(1, false), storage(2, false)],
             });
         let shape_layout = GpuShapes::create_layout(ctx);
         let layout = ctx
@@ -154,6 +177,21 @@ impl NarrowBatch {
         shapes: &GpuShapes,
         queries: &[NarrowQuery],
     ) -> Result<Vec<Manifold>, GpuError> {
+        let mut memory = vec![PairMemory::default(); queries.len()];
+        self.collide_remembering(ctx, shapes, queries, &mut memory)
+    }
+
+    /// Pair queries with what each pair remembers (`memory[k]` for `queries[k]`, read and
+    /// updated as the step pipeline does for a touching pair): the WGSL `collide` with the
+    /// remembered contact tried first.
+    pub fn collide_remembering(
+        &self,
+        ctx: &GpuContext,
+        shapes: &GpuShapes,
+        queries: &[NarrowQuery],
+        memory: &mut [PairMemory],
+    ) -> Result<Vec<Manifold>, GpuError> {
+        assert_eq!(memory.len(), queries.len(), "one memory per query");
         let mut records = Vec::with_capacity(queries.len());
         for (i, q) in queries.iter().enumerate() {
             check_shape(i, q.shape_a, shapes)?;
@@ -166,7 +204,18 @@ impl NarrowBatch {
                 shapes: [q.shape_a, q.shape_b, 0, 0],
             });
         }
-        self.run(ctx, shapes, &records)
+        let mut words: Vec<[u32; 2]> = memory
+            .iter()
+            .map(|m| [m.hint, m.margin.to_bits()])
+            .collect();
+        let out = self.run(ctx, shapes, &records, &mut words)?;
+        for (m, w) in memory.iter_mut().zip(&words) {
+            *m = PairMemory {
+                hint: w[0],
+                margin: f32::from_bits(w[1]),
+            };
+        }
+        Ok(out)
     }
 
     /// Wall queries; see [`collide_plane_batch`].
@@ -187,15 +236,18 @@ impl NarrowBatch {
                 shapes: [q.shape, 0, 1, 0],
             });
         }
-        self.run(ctx, shapes, &records)
+        let mut words = vec![[NO_HINT, 0]; records.len()];
+        self.run(ctx, shapes, &records, &mut words)
     }
 
-    /// Runs the records in chunks that fit the adapter's buffer and dispatch limits.
+    /// Runs the records (with their pair memory words, updated) in chunks that fit the
+    /// adapter's buffer and dispatch limits.
     fn run(
         &self,
         ctx: &GpuContext,
         shapes: &GpuShapes,
         records: &[QueryRecord],
+        memory: &mut [[u32; 2]],
     ) -> Result<Vec<Manifold>, GpuError> {
         let rec = std::mem::size_of::<QueryRecord>() as u64;
         let out = std::mem::size_of::<GpuManifold>() as u64;
@@ -218,8 +270,9 @@ impl NarrowBatch {
         }
         let shape_group = shapes.bind_group(ctx, &self.shape_layout);
         let mut result = Vec::with_capacity(records.len());
-        for chunk in records.chunks(per_chunk as usize) {
-            result.extend(self.run_chunk(ctx, &shape_group, chunk, max_dim)?);
+        let chunks = records.chunks(per_chunk as usize);
+        for (chunk, mem) in chunks.zip(memory.chunks_mut(per_chunk as usize)) {
+            result.extend(self.run_chunk(ctx, &shape_group, chunk, mem, max_dim)?);
         }
         Ok(result)
     }
@@ -229,6 +282,7 @@ impl NarrowBatch {
         ctx: &GpuContext,
         shape_group: &wgpu::BindGroup,
         records: &[QueryRecord],
+        memory: &mut [[u32; 2]],
         max_dim: u64,
     ) -> Result<Vec<Manifold>, GpuError> {
         use wgpu::util::DeviceExt;
@@ -247,9 +301,18 @@ impl NarrowBatch {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let mem_bytes = n * 8;
+        let mem_buf = ctx
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("narrow pair memory"),
+                contents: bytemuck::cast_slice(memory),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            });
+        // One staging buffer: the manifolds, then the memory words.
         let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("narrow readback"),
-            size: out_bytes,
+            size: out_bytes + mem_bytes,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -264,6 +327,10 @@ impl NarrowBatch {
                 wgpu::BindGroupEntry {
                     binding: 1,
                     resource: output.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: mem_buf.as_entire_binding(),
                 },
             ],
         });
@@ -288,6 +355,7 @@ impl NarrowBatch {
             pass.dispatch_workgroups(gx as u32, gy as u32, 1);
         }
         encoder.copy_buffer_to_buffer(&output, 0, &staging, 0, out_bytes);
+        encoder.copy_buffer_to_buffer(&mem_buf, 0, &staging, out_bytes, mem_bytes);
         ctx.queue.submit([encoder.finish()]);
         let (tx, rx) = std::sync::mpsc::channel();
         staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
@@ -306,7 +374,9 @@ impl NarrowBatch {
                 .slice(..)
                 .get_mapped_range()
                 .map_err(|e| runtime(format!("readback failed: {e}")))?;
-            bytemuck::cast_slice::<u8, GpuManifold>(&view)
+            let (ms, words) = view.split_at(out_bytes as usize);
+            memory.copy_from_slice(bytemuck::cast_slice(words));
+            bytemuck::cast_slice::<u8, GpuManifold>(ms)
                 .iter()
                 .map(GpuManifold::to_manifold)
                 .collect()

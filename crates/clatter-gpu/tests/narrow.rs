@@ -7,9 +7,10 @@
 //! the GPU's answer), i.e. when competing candidates (axes, faces, clip points, reduction
 //! picks) are within ~1e-5 x size of each other. Near-ties are counted and bounded.
 
+use clatter_geom::narrow::NO_HINT;
 use clatter_geom::narrow::{self, Manifold, Plane};
 use clatter_geom::{Pose, PreparedShape, RegularKind, Shape, ShapeKind};
-use clatter_gpu::{GpuError, GpuShapes, NarrowBatch, NarrowQuery, PlaneQuery};
+use clatter_gpu::{GpuError, GpuShapes, NarrowBatch, NarrowQuery, PairMemory, PlaneQuery};
 use glam::{Quat, Vec3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -670,4 +671,332 @@ fn gpu_collide_matches_cpu_on_mesh_file_hulls() {
         );
     }
     stats.report("mesh-file hulls");
+}
+
+/// One pair stepped through time ([`gpu_pair_memory_matches_the_full_test_over_time`]): B
+/// approaches A along the world direction `u`, kept at the overlap `overlap(k)` along `u`
+/// (past zero: apart, then touching again), rocked about `rock_axis`, turned steadily, and
+/// slid sideways.
+struct Motion {
+    sa: usize,
+    sb: usize,
+    qa0: Quat,
+    qb0: Quat,
+    u: Vec3,
+    /// A's steady turn per step (scaled axis).
+    wa: Vec3,
+    /// B's steady turn per step (scaled axis).
+    wb: Vec3,
+    /// B's rocking: axis (unit), amplitude (rad), period (steps).
+    rock_axis: Vec3,
+    rock: f32,
+    rock_period: f32,
+    /// Overlap along `u`: mean and amplitude (fractions of the smaller radius), period.
+    overlap: f32,
+    overlap_amp: f32,
+    overlap_period: f32,
+    /// Sideways slide per step (a length).
+    slide: Vec3,
+}
+
+impl Motion {
+    /// The poses of A and B at step `k`.
+    fn poses(&self, shapes: &[PreparedShape], k: usize) -> (Pose, Pose) {
+        let kf = k as f32;
+        let tau = std::f32::consts::TAU;
+        let qa = (self.qa0 * Quat::from_scaled_axis(self.wa * kf)).normalize();
+        let rock = self.rock * (tau * kf / self.rock_period).sin();
+        let qb = (Quat::from_scaled_axis(self.rock_axis * rock)
+            * Quat::from_scaled_axis(self.wb * kf)
+            * self.qb0)
+            .normalize();
+        let (a, b) = (&shapes[self.sa].shape, &shapes[self.sb].shape);
+        let r = size_of(&shapes[self.sa]).min(size_of(&shapes[self.sb]));
+        let ov = (self.overlap + self.overlap_amp * (tau * kf / self.overlap_period).sin()) * r;
+        let xa = Vec3::new(0.25, -0.5, 0.75);
+        let side = self.slide * kf;
+        // Where B along `u` stops touching A (by bisection: the overlapping offsets along a
+        // line form an interval, the Minkowski difference being convex).
+        let touches = |s: f32| {
+            narrow::collide(
+                a,
+                &Pose::new(xa, qa),
+                b,
+                &Pose::new(xa + self.u * s + side, qb),
+            )
+            .is_some()
+        };
+        let (mut lo, mut hi) = (
+            0.0f32,
+            size_of(&shapes[self.sa]) + size_of(&shapes[self.sb]),
+        );
+        if touches(lo) {
+            for _ in 0..24 {
+                let mid = 0.5 * (lo + hi);
+                if touches(mid) {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+        }
+        (
+            Pose::new(xa, qa),
+            Pose::new(xa + self.u * (lo - ov) + side, qb),
+        )
+    }
+}
+
+/// The rotation angle from `p` to `q` (rad), in f64 from the vector part of `q p^-1` (an
+/// `acos` of their dot product loses small angles entirely in f32).
+fn turn_angle(p: Quat, q: Quat) -> f32 {
+    let d = q.as_dquat() * p.as_dquat().conjugate();
+    (2.0 * d.xyz().length().atan2(d.w.abs())) as f32
+}
+
+/// A bound of how much any separation of the separating-axis test moved from `(pa0, pb0)` to
+/// `(pa1, pb1)` (the CPU's `axis_motion_bound` with the actual motion, and its rounding
+/// terms doubled for the positions off the origin).
+fn axis_motion(pa0: &Pose, pb0: &Pose, pa1: &Pose, pb1: &Pose, r: f32) -> f32 {
+    let l1 = |v: Vec3| v.x.abs() + v.y.abs() + v.z.abs();
+    let moved = l1(pa1.position - pa0.position) + l1(pb1.position - pb0.position);
+    let turned = (turn_angle(pa0.rotation, pa1.rotation) + turn_angle(pb0.rotation, pb1.rotation))
+        * 1.001
+        + 1e-6;
+    let x = l1(pa1.position) + l1(pb1.position);
+    (moved + turned * 2.0 * r) * 1.000_01 + x * (2.0 / 8_388_608.0) + 4e-6 * r
+}
+
+/// The paths a remembering narrow phase took over the steps.
+#[derive(Default, Debug)]
+struct Paths {
+    /// Pair-steps whose (full) test found the bodies touching.
+    touching: usize,
+    /// Of those, pair-steps where the remembered face was clipped alone.
+    face: usize,
+    /// Of those, pair-steps where a remembered edge contact was kept.
+    edge: usize,
+}
+
+impl Paths {
+    /// Counts a step with memory `before` (margin already decremented) and `after`.
+    fn count(&mut self, touching: bool, before: PairMemory, after: PairMemory) {
+        self.touching += touching as usize;
+        if narrow::is_contact_hint(before.hint) && before == after {
+            if before.hint == narrow::HINT_EDGE_CONTACT {
+                self.edge += 1;
+            } else {
+                self.face += 1;
+            }
+        }
+    }
+
+    fn remembered(&self) -> usize {
+        self.face + self.edge
+    }
+}
+
+/// The GPU's pair memory (narrow_poly.wgsl `nrw_poly_poly` with `nrw_mem_in`) against the
+/// full test on sequences of poses: pairs sliding, tumbling, rocked from face-face onto
+/// edges and back, moving apart and touching again, with DEM-sized steps. At every step the
+/// remembering GPU path gives the GPU full test's manifold bitwise and the CPU full test's
+/// within the batch tolerance (near-ties excused as in the random test), and the remembered
+/// path is taken in most touching pair-steps (counted as the CPU's `pair_narrow` does: the
+/// memory came back unchanged), by the CPU's twin as often; pairs change between face and
+/// edge contacts and touch again after parting.
+#[test]
+fn gpu_pair_memory_matches_the_full_test_over_time() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(0x6d65_6d6f);
+    let shapes = shape_set(&mut rng);
+    let gpu_shapes = GpuShapes::upload(&ctx, &shapes).expect("upload");
+    let batch = NarrowBatch::new(&ctx).expect("compile the narrow phase");
+    // Polyhedra: the boxes, the Platonic solids, the random hulls, the prism.
+    let polys: Vec<usize> = (3..shapes.len() - 1).collect();
+    let mut motions = Vec::new();
+    for k in 0..48 {
+        let sa = polys[rng.random_range(0..polys.len())];
+        let sb = polys[rng.random_range(0..polys.len())];
+        let qa0 = random_quat(&mut rng);
+        // Half stacked face on face (B on A's face up, twisted), half at random.
+        let (u, qb0) = if k % 2 == 0 {
+            let twist = Quat::from_rotation_z(rng.random_range(0.0..std::f32::consts::TAU));
+            (qa0 * Vec3::Z, (qa0 * twist).normalize())
+        } else {
+            (random_unit(&mut rng), random_quat(&mut rng))
+        };
+        let steady = |rng: &mut ChaCha8Rng, rate: f32| random_unit(rng) * rate;
+        // Motion per step: about 1e-5 of the size (DEM steps), some pairs faster.
+        let fast = if k % 4 == 3 { 4.0 } else { 1.0 };
+        let rock_axis = random_unit(&mut rng).cross(u).normalize_or(Vec3::X);
+        motions.push(Motion {
+            sa,
+            sb,
+            qa0,
+            qb0,
+            u,
+            wa: steady(&mut rng, 2e-6 * fast),
+            wb: steady(&mut rng, 1e-5 * fast),
+            rock_axis,
+            rock: if k % 3 == 0 { 0.05 } else { 0.0 },
+            rock_period: 1200.0,
+            overlap: 0.01,
+            overlap_amp: if k % 5 == 0 { 0.015 } else { 0.005 },
+            overlap_period: 700.0,
+            slide: steady(&mut rng, 2e-5 * fast).cross(u),
+        });
+    }
+    let steps = 1200;
+    let n = motions.len();
+    let mut gpu_mem = vec![PairMemory::default(); n];
+    let mut cpu_mem = vec![PairMemory::default(); n];
+    let mut prev: Vec<(Pose, Pose)> = motions.iter().map(|m| m.poses(&shapes, 0)).collect();
+    let (mut gpu_paths, mut cpu_paths) = (Paths::default(), Paths::default());
+    let mut stats = Stats::default();
+    let mut bitwise = 0;
+    let mut kinds = [0usize; 3];
+    // Per pair: the kind of its last remembered contact, whether it parted after touching;
+    // changes between face and edge contacts, and touching again after parting.
+    let mut last_kind: Vec<Option<usize>> = vec![None; n];
+    let mut parted = vec![false; n];
+    let mut touched = vec![false; n];
+    let (mut face_edge_changes, mut retouched) = (0, 0);
+    let t = std::time::Instant::now();
+    for step in 0..steps {
+        let poses: Vec<(Pose, Pose)> = motions.iter().map(|m| m.poses(&shapes, step)).collect();
+        // The remembering queries, then the same poses with nothing remembered.
+        let mut queries = Vec::with_capacity(2 * n);
+        let mut memory = Vec::with_capacity(2 * n);
+        for (s, m) in motions.iter().enumerate() {
+            let r = size_of(&shapes[m.sa]) + size_of(&shapes[m.sb]);
+            let dec = 2.0 * axis_motion(&prev[s].0, &prev[s].1, &poses[s].0, &poses[s].1, r);
+            for mem in [&mut gpu_mem[s], &mut cpu_mem[s]] {
+                if mem.hint != NO_HINT {
+                    mem.margin -= dec;
+                }
+            }
+            queries.push(NarrowQuery {
+                shape_a: m.sa as u32,
+                pose_a: poses[s].0,
+                shape_b: m.sb as u32,
+                pose_b: poses[s].1,
+            });
+            memory.push(gpu_mem[s]);
+        }
+        queries.extend_from_within(..n);
+        memory.extend(std::iter::repeat_n(PairMemory::default(), n));
+        let gpu = batch
+            .collide_remembering(&ctx, &gpu_shapes, &queries, &mut memory)
+            .expect("GPU batch");
+        for (s, m) in motions.iter().enumerate() {
+            let (a, b) = (&shapes[m.sa].shape, &shapes[m.sb].shape);
+            let (pa, pb) = poses[s];
+            let (remembering, full) = (&gpu[s], &gpu[n + s]);
+            if remembering != full {
+                let (mut h, mut bd) = (cpu_mem[s].hint, cpu_mem[s].margin);
+                let c = narrow::collide_with_hint(a, &pa, b, &pb, &mut h, &mut bd);
+                panic!(
+                    "step {step}, pair {s}: the remembering GPU path differs from the full test: {remembering:?} vs {full:?}; GPU memory {:?} -> {:?}; CPU memory {:?} -> {h:#x} {bd}, CPU {c:?}, CPU full {:?}",
+                    gpu_mem[s],
+                    memory[s],
+                    cpu_mem[s],
+                    narrow::collide(a, &pa, b, &pb)
+                );
+            }
+            bitwise += 1;
+            let touching = full.count > 0;
+            gpu_paths.count(touching, gpu_mem[s], memory[s]);
+            if touching && parted[s] {
+                retouched += 1;
+                parted[s] = false;
+            }
+            parted[s] |= !touching && touched[s];
+            touched[s] = touching;
+            gpu_mem[s] = if touching {
+                memory[s]
+            } else {
+                PairMemory::default()
+            };
+            if narrow::is_contact_hint(gpu_mem[s].hint) {
+                let h = gpu_mem[s].hint;
+                let kind = if h == narrow::HINT_EDGE_CONTACT {
+                    2
+                } else {
+                    (h & narrow::HINT_KIND == narrow::HINT_FACE_B) as usize
+                };
+                kinds[kind] += 1;
+                if last_kind[s].is_some_and(|k| (k == 2) != (kind == 2)) {
+                    face_edge_changes += 1;
+                }
+                last_kind[s] = Some(kind);
+            }
+            // The CPU's remembering path on the same poses (its memory kept apart).
+            let before = cpu_mem[s];
+            let (mut hint, mut bound) = (before.hint, before.margin);
+            if !narrow::is_contact_hint(hint) {
+                (hint, bound) = (NO_HINT, 0.0);
+            }
+            let cpu_rem = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
+            let eval = |pa: &Pose, pb: &Pose| narrow::collide(a, pa, b, pb);
+            let cpu = eval(&pa, &pb);
+            assert_eq!(cpu_rem, cpu, "step {step}, pair {s}: CPU remembering path");
+            let after = if cpu.is_some() && narrow::is_contact_hint(hint) {
+                PairMemory {
+                    hint,
+                    margin: bound,
+                }
+            } else {
+                PairMemory::default()
+            };
+            cpu_paths.count(cpu.is_some(), before, after);
+            cpu_mem[s] = after;
+            let size = a.bounding_radius().max(b.bounding_radius());
+            let label = format!("step {step}, pair {s} (shapes {} and {})", m.sa, m.sb);
+            let generic = !is_symmetric(&shapes, m.sa) && !is_symmetric(&shapes, m.sb);
+            stats.check(generic, &label, cpu, full, size, &eval, &pa, &pb, &mut rng);
+        }
+        prev = poses;
+    }
+    eprintln!(
+        "{steps} steps of {n} pairs on {} in {:.1} s; GPU paths {gpu_paths:?}, CPU paths {cpu_paths:?}; remembered contacts (face A, face B, edge): {kinds:?}; {bitwise} remembering manifolds bitwise the full test's",
+        ctx.adapter_name(),
+        t.elapsed().as_secs_f64()
+    );
+    // The GPU against the CPU: every manifold within the batch tolerance (near-ties
+    // excused), however much generic shapes contribute here.
+    let hard = stats.hard.len();
+    for h in stats.hard.iter().take(20) {
+        eprintln!("  {h}");
+    }
+    assert_eq!(hard, 0, "{hard} hard mismatches against the CPU");
+    assert!(stats.near_ties * 25 <= stats.tested, "too many near-ties");
+    let touching = gpu_paths.touching;
+    assert!(
+        touching * 2 > stats.tested,
+        "too few touching pair-steps: {touching}"
+    );
+    assert!(touching < stats.tested, "no pair ever separated");
+    assert!(
+        gpu_paths.remembered() * 2 > touching,
+        "the remembered path ran in {} of {touching} touching pair-steps",
+        gpu_paths.remembered()
+    );
+    assert!(
+        gpu_paths.face > 0 && gpu_paths.edge > 0,
+        "both remembered paths: {gpu_paths:?}"
+    );
+    assert!(
+        kinds.iter().all(|&k| k > 0),
+        "contacts of each kind: {kinds:?}"
+    );
+    eprintln!(
+        "{face_edge_changes} changes between face and edge contacts, {retouched} pairs touching again after parting"
+    );
+    assert!(
+        face_edge_changes >= 10,
+        "{face_edge_changes} face-edge changes"
+    );
+    assert!(retouched >= 5, "{retouched} pairs touched again");
 }

@@ -495,3 +495,112 @@ fn scene_warning_uses_the_gpu_vertex_limit() {
         clatter_gpu::shapes::MAX_SHAPE_VERTICES
     );
 }
+
+/// How often touching polyhedron pairs take their remembered contact in a GPU pile, beside
+/// the CPU's count on the same pile (`clatter::step::contacts::pair_narrow`): a settling
+/// poured pile, stepped one step at a time, with the GPU's `touching` and `pair_memory`
+/// read before and after each step. A pair-step took the remembered path when the pair
+/// touched with a remembered contact and kept it with its margin less the step's motion
+/// bound (recomputed here from the read-back state, to rounding; a full test sets the
+/// margin anew). A count for the record, held to be well above zero and within a tenth of
+/// the CPU's.
+#[test]
+fn pile_pairs_remember_their_contacts_on_the_gpu() {
+    use clatter::geom::narrow;
+    use clatter::pile::{PileParams, PileShape, poured};
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let is_poly = |s: &clatter::geom::Shape| matches!(s, clatter::geom::Shape::Polyhedron(_));
+    let params = PileParams {
+        restitution: 0.1,
+        ..PileParams::default()
+    };
+    let mut cpu = World::new(poured(PileShape::Mixed, 128, &params, 11));
+    // Poured and fallen on the CPU first (the GPU test time goes to the counted steps).
+    for _ in 0..6000 {
+        cpu.step().expect("CPU step");
+    }
+    let mut gpu = GpuWorld::new(ctx, &cpu).expect("scene fits");
+    let mut host = cpu.clone();
+    // The CPU's `axis_motion_bound` (no composites) on the state the GPU step starts from.
+    let axis_motion = |w: &World, i: usize, j: usize| {
+        let l1 = |v: Vec3| v.x.abs() + v.y.abs() + v.z.abs();
+        let s = &w.state;
+        let r = w.consts.radius[i] + w.consts.radius[j];
+        let moved = (l1(s.velocity[i]) + l1(s.velocity[j])) * w.dt;
+        let turned = (l1(s.omega[i]) + l1(s.omega[j])) * w.dt;
+        let rounding = l1(w.pose_from(i, j).position) * (1.0 / 8_388_608.0) + 4e-6 * r;
+        (moved + turned * 2.0 * r) * 1.000_01 + rounding
+    };
+    let words = |gpu: &GpuWorld, name: &str| -> Vec<u32> {
+        bytemuck::pod_collect_to_vec(&gpu.debug_buffer(name).expect("stage buffer"))
+    };
+    let (mut gpu_touching, mut gpu_kept, mut cpu_touching, mut cpu_used) = (0, 0, 0, 0);
+    gpu.step(1).expect("GPU step");
+    cpu.step().expect("CPU step");
+    for _ in 0..150 {
+        let poly = |w: &World, k: usize| {
+            let [i, j] = w.contacts.pairs()[k];
+            is_poly(w.shape(i as usize)) && is_poly(w.shape(j as usize))
+        };
+        // The CPU's count, on the step it is about to take.
+        if cpu.needs_rebuild() {
+            cpu.rebuild_contacts();
+        }
+        for k in 0..cpu.contacts.pairs().len() {
+            let (m, used) = clatter::step::contacts::pair_narrow(&cpu, k);
+            if m.is_some() && poly(&cpu, k) {
+                cpu_touching += 1;
+                cpu_used += used as usize;
+            }
+        }
+        cpu.step().expect("CPU step");
+        let rebuilds = gpu.rebuilds();
+        let (t0, m0) = (words(&gpu, "touching"), words(&gpu, "pair_memory"));
+        gpu.read_into(&mut host).expect("read-back");
+        gpu.step(1).expect("GPU step");
+        if gpu.rebuilds() != rebuilds {
+            continue; // a new pair list: the words do not line up
+        }
+        let (t1, m1) = (words(&gpu, "touching"), words(&gpu, "pair_memory"));
+        let pairs = words(&gpu, "pairs");
+        let np = pairs.len() / 2;
+        for k in 0..np.min(t1.len()) {
+            let (i, j) = (pairs[2 * k] as usize, pairs[2 * k + 1] as usize);
+            if t1[k] != 1 || i >= cpu.len() || j >= cpu.len() {
+                continue;
+            }
+            if !is_poly(cpu.shape(i)) || !is_poly(cpu.shape(j)) {
+                continue;
+            }
+            gpu_touching += 1;
+            let (h0, h1) = (m0[2 * k], m1[2 * k]);
+            let (b0, b1) = (f32::from_bits(m0[2 * k + 1]), f32::from_bits(m1[2 * k + 1]));
+            // The remembered path leaves the margin less this step's bound (to rounding);
+            // a full test sets it anew.
+            let bound = 2.0 * axis_motion(&host, i, j);
+            let left = b0 - bound;
+            let near = (b1 - left).abs() <= 1e-3 * bound + 4.0 * f32::EPSILON * b0.abs();
+            if t0[k] == 1 && narrow::is_contact_hint(h0) && h1 == h0 && near {
+                gpu_kept += 1;
+            }
+        }
+    }
+    eprintln!(
+        "touching polyhedron pair-steps: GPU {gpu_touching}, of which {gpu_kept} ({:.0}%) took the remembered contact; CPU {cpu_touching}, of which {cpu_used} ({:.0}%)",
+        100.0 * gpu_kept as f64 / gpu_touching.max(1) as f64,
+        100.0 * cpu_used as f64 / cpu_touching.max(1) as f64,
+    );
+    assert!(
+        gpu_touching > 500,
+        "too few touching pair-steps: {gpu_touching}"
+    );
+    assert!(gpu_kept * 10 > gpu_touching, "{gpu_kept} of {gpu_touching}");
+    // The two executors take the remembered path alike (not bitwise: their rounding differs).
+    let diff = (gpu_kept as f64 - cpu_used as f64).abs();
+    assert!(
+        diff <= 0.1 * cpu_used as f64,
+        "GPU {gpu_kept}, CPU {cpu_used}"
+    );
+}

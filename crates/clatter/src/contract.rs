@@ -456,10 +456,27 @@ impl From<&crate::Wall> for WallRecord {
     }
 }
 
+/// What a touching polyhedron pair remembers of its contact, as both backends encode it in
+/// the pair's hint word ([`clatter_geom::narrow::SatHint`]; the CPU keeps it in
+/// `Springs::hints`, the GPU in `pair_memory`'s first word, the margin in the second): the
+/// reference face of A (`HINT_CONTACT | face`) or of B (`HINT_FACE_B | HINT_CONTACT |
+/// face`), or an edge contact (`HINT_EDGE_CONTACT`); `NO_HINT` when nothing is remembered.
+pub const PAIR_MEMORY_CONSTANTS: &[Constant] = {
+    use clatter_geom::narrow as n;
+    &[
+        Constant::U32("NO_HINT", n::NO_HINT),
+        Constant::U32("HINT_FACE_B", n::HINT_FACE_B),
+        Constant::U32("HINT_KIND", n::HINT_KIND),
+        Constant::U32("HINT_CONTACT", n::HINT_CONTACT),
+        Constant::U32("HINT_EDGE_CONTACT", n::HINT_EDGE_CONTACT),
+    ]
+};
+
 /// The WGSL declarations of every record above and of the law's constants.
 pub fn wgsl_records() -> String {
     [
         wgsl_constants(LAW_CONSTANTS),
+        wgsl_constants(PAIR_MEMORY_CONSTANTS),
         BodyState::wgsl(),
         BodyConsts::wgsl(),
         PairParams::wgsl(),

@@ -82,13 +82,19 @@ pub fn collide(a: &Shape, pa: &Pose, b: &Shape, pb: &Pose) -> Option<Manifold> {
 pub type SatHint = u32;
 /// No remembered axis.
 pub const NO_HINT: SatHint = u32::MAX;
-const HINT_FACE_A: u32 = 0;
-const HINT_FACE_B: u32 = 1 << 30;
+/// The kind bits of a hint naming a face of A (the face index below [`HINT_CONTACT`]).
+pub const HINT_FACE_A: u32 = 0;
+/// The kind bits of a hint naming a face of B.
+pub const HINT_FACE_B: u32 = 1 << 30;
 const HINT_EDGE: u32 = 2 << 30;
-const HINT_KIND: u32 = 3 << 30;
+/// The mask of a hint's kind bits ([`HINT_FACE_A`], [`HINT_FACE_B`], edges).
+pub const HINT_KIND: u32 = 3 << 30;
 /// Set in a face hint that names the reference face of a touching pair (not a separating
 /// axis). Face indices stay below this bit.
-const HINT_CONTACT: u32 = 1 << 29;
+pub const HINT_CONTACT: u32 = 1 << 29;
+/// The contact hint of a touching pair whose contact is an edge contact (its face index,
+/// `HINT_CONTACT - 1`, names no face).
+pub const HINT_EDGE_CONTACT: SatHint = HINT_FACE_A | HINT_CONTACT | (HINT_CONTACT - 1);
 
 /// Whether `hint` remembers the contact feature of a touching polyhedron pair (its `bound`
 /// is then the pair's decision margin) rather than a separating axis.

@@ -6,8 +6,8 @@ use glam::{Mat3, Vec3};
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
 use super::edges::{edge_axes_by_direction, edge_axes_gauss_map};
 use super::{
-    HINT_CONTACT, HINT_EDGE, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold, NO_HINT, SatHint,
-    is_contact_hint,
+    HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
+    NO_HINT, SatHint, is_contact_hint,
 };
 use crate::{ConvexPolyhedron, Pose};
 
@@ -216,9 +216,8 @@ fn remembered_face(
 
 /// The face index of [`HINT_EDGE_CONTACT`]: no face has it.
 const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
-/// The contact hint of an edge contact (its `bound` is the threshold the best edge axis
-/// must stay above, see [`remembered_edge`]).
-const HINT_EDGE_CONTACT: SatHint = HINT_FACE_A | HINT_CONTACT | EDGE_CONTACT;
+// The contact hint of an edge contact, `HINT_EDGE_CONTACT` (its `bound` is the threshold the
+// best edge axis must stay above, see `remembered_edge`).
 
 /// An edge contact found at an earlier step: the full edge-axis search again (the winning
 /// edge pair is then the full test's by construction), without the face axes, whose

@@ -43,8 +43,22 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     // The pieces in touch (the bodies themselves without composites).
     let pa = piece_at(si, piece_of(p.x), vec3<f32>(0.0), bi.orientation);
     let pb = piece_at(sj, piece_of(p.y), xj, bj.orientation);
+    // What the pair remembers of its contact if it touched (pair_memory), its margin less
+    // twice this step's bound on any axis's motion (CPU `remembered_narrow`).
+    var mem = vec2<u32>(NO_HINT, 0u);
+    if was == 1u {
+        mem = pair_memory[c];
+    }
+    nrw_mem_in = mem;
+    if mem.x != NO_HINT {
+        let left = bitcast<f32>(mem.y) - 2.0 * axis_motion_bound(i, j, xj);
+        nrw_mem_in = vec2<u32>(mem.x, bitcast<u32>(left));
+    }
     let m = collide(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
     if m.count > 0u {
+        if any(nrw_mem_out != mem) {
+            pair_memory[c] = nrw_mem_out;
+        }
         let params_ij = pair_table[si.material * params.num_materials + sj.material];
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE,
                            pa.is_sphere || pb.is_sphere);
@@ -63,6 +77,24 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     }
     release_pair(c, was);
     return false;
+}
+
+// An upper bound of how much the separation along any axis of the separating-axis test of
+// bodies i and j (j at offset xj) can have changed in the last step: the CPU's
+// `axis_motion_bound` (step/contacts.rs, see there why), the lever 3 (r_i + r_j) with
+// composites, else 2 (r_i + r_j), plus rounding.
+fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
+    let vi = abs(bodies[i].velocity.xyz);
+    let vj = abs(bodies[j].velocity.xyz);
+    let oi = abs(bodies[i].omega.xyz);
+    let oj = abs(bodies[j].omega.xyz);
+    let x = abs(xj);
+    let r = statics[i].radius + statics[j].radius;
+    let lever = select(2.0, 3.0, params.composites != 0u) * r;
+    let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * params.dt;
+    let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * params.dt;
+    let rounding = (x.x + x.y + x.z) * (1.0 / 8388608.0) + 4e-6 * r;
+    return (moved + turned * lever) * 1.00001 + rounding;
 }
 
 // Candidate pair c does not touch this step (`was`: its touching word before): zero spring

@@ -45,6 +45,10 @@ fn pair_apart(c: u32) -> bool {
     let i = body_of(p.x);
     let j = body_of(p.y);
     let was = touching[c];
+    if was == 1u && pair_memory[c].x != NO_HINT {
+        // Touching last step, with a remembered contact: contacts_full tries it first.
+        return false;
+    }
     nrw_hint_in = select(0u, was - 1u, was >= 2u);
     let pa = piece_at(statics[i], piece_of(p.x), vec3<f32>(0.0), bodies[i].orientation);
     let pb = piece_at(statics[j], piece_of(p.y), offset_of(i, j), bodies[j].orientation);

@@ -45,6 +45,15 @@ struct NrwShape {
 var<private> nrw_hint_in: u32 = 0u;
 var<private> nrw_hint_out: u32 = 0u;
 
+// What a touching polyhedron pair remembers of its contact, the twin of the CPU's hint word
+// and margin (clatter-geom narrow/sat.rs `polyhedron_polyhedron`): `collide` reads
+// nrw_mem_in (x: the contact hint, encoded as on the CPU, see contract.rs
+// PAIR_MEMORY_CONSTANTS; y: the bits of the margin, less this step's motion already) and
+// leaves in nrw_mem_out what the pair remembers after this step (x = NO_HINT: nothing).
+// The manifold is the full test's either way; only speed depends on it.
+var<private> nrw_mem_in: vec2<u32> = vec2<u32>(NO_HINT, 0u);
+var<private> nrw_mem_out: vec2<u32> = vec2<u32>(NO_HINT, 0u);
+
 fn nrw_hint(kind: u32, index: u32) -> u32 {
     return 1u + ((index << 2u) | kind);
 }
@@ -507,6 +516,7 @@ fn nrw_plane_pt(p: NrwShape, i: u32, n_local: vec3<f32>, centre_height: f32, n: 
 // Normal from a to b; count 0 when they do not overlap.
 fn collide(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
     nrw_hint_out = 0u;
+    nrw_mem_out = vec2<u32>(NO_HINT, 0u);
     let a = nrw_shape(sa);
     let b = nrw_shape(sb);
     if a.kind == 0u {
@@ -541,5 +551,5 @@ fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: 
     }
     let inv_a = quat_conj(qa);
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
-    return nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d)).separated;
+    return nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d), true).separated;
 }

@@ -341,48 +341,67 @@ fn nrw_clip_faces(refp: NrwShape, rf: u32, inc: NrwShape, inc_m: mat3x3<f32>, in
 
 // The separating-axis test of two polyhedra (B in A's frame by rot, inv_rot, t): the hinted
 // axis, A's face axes, B's face axes, then the edge axes; stops at the first axis that
-// separates them (and leaves it in nrw_hint_out).
+// separates them (and leaves it in nrw_hint_out). Without `faces`, the edge axes alone (a
+// remembered edge contact). `second_a` and `second_b` are the best of each body's other
+// faces (for the contact's margin).
 struct NrwSat {
     separated: bool,
     best_a: f32,
     best_af: u32,
+    second_a: f32,
     best_b: f32,
     best_bf: u32,
+    second_b: f32,
     e: NrwEdgeAxis,
 }
 
-fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwSat {
+// Below every separation (the CPU's f32::NEG_INFINITY as a start).
+const NRW_LOWEST: f32 = -3.4028235e38;
+
+fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, faces: bool) -> NrwSat {
     var r: NrwSat;
     r.separated = true;
-    if nrw_hint_in != 0u && nrw_hint_separates(a, b, rot, t, nrw_hint_in) {
-        nrw_hint_out = nrw_hint_in;
-        return r;
-    }
-    // Face axes of A.
-    for (var f = 0u; f < a.num_faces; f += 1u) {
-        let fc = nrw_face(a, f);
-        let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
-        if s > 0.0 {
-            nrw_hint_out = nrw_hint(0u, f);
+    r.best_a = NRW_LOWEST;
+    r.second_a = NRW_LOWEST;
+    r.best_b = NRW_LOWEST;
+    r.second_b = NRW_LOWEST;
+    if faces {
+        if nrw_hint_in != 0u && nrw_hint_separates(a, b, rot, t, nrw_hint_in) {
+            nrw_hint_out = nrw_hint_in;
             return r;
         }
-        if f == 0u || s > r.best_a {
-            r.best_a = s;
-            r.best_af = f;
+        // Face axes of A.
+        for (var f = 0u; f < a.num_faces; f += 1u) {
+            let fc = nrw_face(a, f);
+            let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
+            if s > 0.0 {
+                nrw_hint_out = nrw_hint(0u, f);
+                return r;
+            }
+            if f == 0u || s > r.best_a {
+                r.second_a = r.best_a;
+                r.best_a = s;
+                r.best_af = f;
+            } else if s > r.second_a {
+                r.second_a = s;
+            }
         }
-    }
-    // Face axes of B, in A's frame.
-    for (var f = 0u; f < b.num_faces; f += 1u) {
-        let fc = nrw_face(b, f);
-        let n = rot * fc.xyz;
-        let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
-        if s > 0.0 {
-            nrw_hint_out = nrw_hint(1u, f);
-            return r;
-        }
-        if f == 0u || s > r.best_b {
-            r.best_b = s;
-            r.best_bf = f;
+        // Face axes of B, in A's frame.
+        for (var f = 0u; f < b.num_faces; f += 1u) {
+            let fc = nrw_face(b, f);
+            let n = rot * fc.xyz;
+            let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
+            if s > 0.0 {
+                nrw_hint_out = nrw_hint(1u, f);
+                return r;
+            }
+            if f == 0u || s > r.best_b {
+                r.second_b = r.best_b;
+                r.best_b = s;
+                r.best_bf = f;
+            } else if s > r.second_b {
+                r.second_b = s;
+            }
         }
     }
     // Edge axes: the cheaper enumeration, by the CPU's cost rule.
@@ -401,8 +420,66 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
     return r;
 }
 
-// Two convex polyhedra: the full separating-axis test (CPU `polyhedron_polyhedron` without a
-// hint, i.e. `sat_full`).
+// The margin of the full test's decisions for a face contact (CPU `contact_margin`, see
+// there why): `best` the winning face's separation, `second` the best other face of its
+// body, `other` the best face of the other body, `edge` the best edge axis's separation,
+// `ref_b` whether the reference face is B's.
+fn nrw_contact_margin(best: f32, second: f32, other: f32, edge: f32, ref_b: bool, tol: f32) -> f32 {
+    var best_a = best;
+    var best_b = other;
+    var cross = best_a + tol - best_b;
+    if ref_b {
+        best_a = other;
+        best_b = best;
+        cross = best_b - best_a - tol;
+    }
+    let face_best = max(best_a, best_b);
+    let largest = max(face_best, edge);
+    return min(min(best - second, cross), face_best + tol - largest);
+}
+
+// Whether point p (in refp's frame) is at least delta inside every face plane of refp.
+fn nrw_inside(refp: NrwShape, p: vec3<f32>, delta: f32) -> bool {
+    for (var f = 0u; f < refp.num_faces; f += 1u) {
+        let fc = nrw_face(refp, f);
+        // (Written so that a NaN fails the test too.)
+        if !(dot(fc.xyz, p) - fc.w <= -delta) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// Whether the bodies certainly overlap by more than delta, for a face contact m in the
+// reference body's frame (CPU `overlap_certified`): the centroid of the incident points,
+// moved back along the normal, is delta inside the reference body.
+fn nrw_overlap_certified(refp: NrwShape, m: Manifold, delta: f32) -> bool {
+    var c = vec3<f32>(0.0);
+    for (var i = 0u; i < m.count; i += 1u) {
+        c += m.points[i].xyz - m.normal * (0.5 * m.points[i].w);
+    }
+    return nrw_inside(refp, c / f32(m.count), delta);
+}
+
+// Whether `hint` remembers the contact of a touching pair (CPU `is_contact_hint`; kind
+// 2 << 30 is the CPU's separating edge axis, never a contact).
+fn nrw_is_contact_hint(hint: u32) -> bool {
+    return hint != NO_HINT && (hint & HINT_KIND) != (2u << 30u) && (hint & HINT_CONTACT) != 0u;
+}
+
+// The paths of nrw_poly_poly: the full test, the remembered reference face clipped alone,
+// the edge axes alone for a remembered edge contact.
+const NRW_FULL: u32 = 0u;
+const NRW_FACE: u32 = 1u;
+const NRW_EDGE: u32 = 2u;
+
+// Two convex polyhedra (CPU `polyhedron_polyhedron`): what the pair remembers (nrw_mem_in)
+// first, while its margin lasts (the remembered face clipped alone if the overlap is
+// certain; the edge axes alone for an edge contact, while the best stays above the margin
+// and B's contact point is inside A), else the full separating-axis test; what the pair
+// remembers next is left in nrw_mem_out. Each path's decisions are the full test's, so the
+// manifold is too; one call site each for the clipping, the edge manifold and the axes (an
+// inlined copy could round differently under FMA contraction, and costs compile time).
 fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
     let d = xb - xa;
     let rs = a.radius + b.radius;
@@ -414,50 +491,115 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
     let inv_rot = transpose(rot);
     let t = quat_rotate(inv_a, d);
-    let sat = nrw_sat(a, b, rot, inv_rot, t);
-    if sat.separated {
-        return nrw_none();
-    }
-    let best_a = sat.best_a;
-    let best_af = sat.best_af;
-    let best_b = sat.best_b;
-    let best_bf = sat.best_bf;
-    let e = sat.e;
     let scale = max(a.radius, b.radius);
-    let face_best = max(best_a, best_b);
     let tol = 1e-3 * scale;
-    if e.found && e.s > face_best + tol {
-        let ev_a = nrw_edge(a, e.ea);
-        let ev_b = nrw_edge(b, e.eb);
-        let cl = nrw_segment_closest(nrw_vert(a, ev_a.x), nrw_vert(a, ev_a.y), nrw_bv(b, ev_b.x, rot, t), nrw_bv(b, ev_b.y, rot, t));
-        let mid = 0.5 * (cl[0] + cl[1]);
-        return nrw_single(quat_rotate(qa, e.axis), quat_rotate(qa, mid) + xa, -e.s);
+    // Rounding of the separations and the near-parallel edge axes left out (see sat.rs).
+    let eps = 1e-4 * scale;
+    // The overlap the remembered paths need: above the rounding of the separations.
+    let delta = 2e-5 * (a.radius + b.radius);
+    let hint = nrw_mem_in.x;
+    let margin = bitcast<f32>(nrw_mem_in.y);
+    let kind = hint & HINT_KIND;
+    let face = hint & ~(HINT_KIND | HINT_CONTACT);
+    var mode = NRW_FULL;
+    if nrw_is_contact_hint(hint) {
+        if hint == HINT_EDGE_CONTACT {
+            mode = NRW_EDGE;
+        } else if margin > 0.0 && ((kind == HINT_FACE_B && face < b.num_faces) || (kind != HINT_FACE_B && face < a.num_faces)) {
+            mode = NRW_FACE;
+        }
     }
-    // Face contact: prefer A's face unless B's is clearly better. One call site for the
-    // clipping (each inlined copy of its private array costs compile time).
-    let b_ref = best_b > best_a + tol;
-    var refp = a;
-    var inc = b;
-    var rf = best_af;
-    var inc_m = rot;
-    var xr = xa;
-    var qr = qa;
-    if b_ref {
-        // Reference face on B: B's frame, A incident with vertices inv_rot * (v - t).
-        refp = b;
-        inc = a;
-        rf = best_bf;
-        inc_m = inv_rot;
-        xr = xb;
-        qr = qb;
-    }
-    var m = nrw_clip_faces(refp, rf, inc, inc_m, t, b_ref, inc_m);
-    if m.count == 0u {
+    // At most two passes: a remembered path, then the full test if it cannot decide.
+    for (var attempt = 0u; attempt < 2u; attempt += 1u) {
+        var b_ref = kind == HINT_FACE_B;
+        var rf = face;
+        var keep = vec2<u32>(hint, nrw_mem_in.y);
+        if mode != NRW_FACE {
+            let sat = nrw_sat(a, b, rot, inv_rot, t, mode == NRW_FULL);
+            if sat.separated {
+                if mode == NRW_EDGE {
+                    mode = NRW_FULL;
+                    continue;
+                }
+                return nrw_none();
+            }
+            let e = sat.e;
+            let face_best = max(sat.best_a, sat.best_b);
+            // An edge contact: the full test's rule, or the remembered edge's margin.
+            var edge_wins = e.found && e.s > face_best + tol;
+            if mode == NRW_EDGE {
+                edge_wins = e.found && e.s + margin > 0.0;
+            }
+            if edge_wins {
+                let ev_a = nrw_edge(a, e.ea);
+                let ev_b = nrw_edge(b, e.eb);
+                let cl = nrw_segment_closest(nrw_vert(a, ev_a.x), nrw_vert(a, ev_a.y), nrw_bv(b, ev_b.x, rot, t), nrw_bv(b, ev_b.y, rot, t));
+                if mode == NRW_EDGE && !nrw_inside(a, cl[1], delta) {
+                    mode = NRW_FULL;
+                    continue;
+                }
+                if mode == NRW_FULL {
+                    // Remembered with the bound the edge must stay above.
+                    keep = vec2<u32>(HINT_EDGE_CONTACT, bitcast<u32>(-(face_best + tol) - eps));
+                }
+                nrw_mem_out = keep;
+                let mid = 0.5 * (cl[0] + cl[1]);
+                return nrw_single(quat_rotate(qa, e.axis), quat_rotate(qa, mid) + xa, -e.s);
+            }
+            if mode == NRW_EDGE {
+                mode = NRW_FULL;
+                continue;
+            }
+            // Face contact: prefer A's face unless B's is clearly better.
+            b_ref = sat.best_b > sat.best_a + tol;
+            var best = sat.best_a;
+            var second = sat.second_a;
+            var other = sat.best_b;
+            rf = sat.best_af;
+            var kind_now = 0u;
+            if b_ref {
+                best = sat.best_b;
+                second = sat.second_b;
+                other = sat.best_a;
+                rf = sat.best_bf;
+                kind_now = HINT_FACE_B;
+            }
+            let edge = select(face_best, e.s, e.found);
+            let m_now = nrw_contact_margin(best, second, other, edge, b_ref, tol) - eps;
+            keep = vec2<u32>(NO_HINT, 0u);
+            if m_now > 0.0 {
+                keep = vec2<u32>(kind_now | HINT_CONTACT | rf, bitcast<u32>(m_now));
+            }
+        }
+        // One call site for the clipping.
+        var refp = a;
+        var inc = b;
+        var inc_m = rot;
+        var xr = xa;
+        var qr = qa;
+        if b_ref {
+            // Reference face on B: B's frame, A incident with vertices inv_rot * (v - t).
+            refp = b;
+            inc = a;
+            inc_m = inv_rot;
+            xr = xb;
+            qr = qb;
+        }
+        var m = nrw_clip_faces(refp, rf, inc, inc_m, t, b_ref, inc_m);
+        if mode == NRW_FACE && (m.count == 0u || !nrw_overlap_certified(refp, m, delta)) {
+            mode = NRW_FULL;
+            continue;
+        }
+        if m.count == 0u {
+            return m;
+        }
+        nrw_mem_out = keep;
+        m = nrw_to_world(m, xr, qr);
+        if b_ref {
+            m.normal = -m.normal;
+        }
         return m;
     }
-    m = nrw_to_world(m, xr, qr);
-    if b_ref {
-        m.normal = -m.normal;
-    }
-    return m;
+    // Not reached: the second pass is the full test, which returns.
+    return nrw_none();
 }

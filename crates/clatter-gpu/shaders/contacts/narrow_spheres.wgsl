@@ -10,6 +10,9 @@ const NRW_HDR: u32 = 12u;
 // The separating-axis hint of narrow.wgsl: spheres need none, always 0.
 var<private> nrw_hint_in: u32 = 0u;
 var<private> nrw_hint_out: u32 = 0u;
+// The contact memory of narrow.wgsl: spheres remember nothing.
+var<private> nrw_mem_in: vec2<u32> = vec2<u32>(NO_HINT, 0u);
+var<private> nrw_mem_out: vec2<u32> = vec2<u32>(NO_HINT, 0u);
 
 struct Manifold {
     normal: vec3<f32>,

@@ -1,5 +1,7 @@
 // Batch narrow-phase queries (src/narrow.rs): one invocation per query record, writing one
-// Manifold. Concatenated after common.wgsl and narrow.wgsl.
+// Manifold. Concatenated after common.wgsl and narrow.wgsl. A pair query reads what the pair
+// remembers in `memory` (narrow.wgsl nrw_mem_in: the contact hint and the margin's bits) and
+// leaves there what it remembers after (nrw_mem_out).
 
 // A query: shape indices and mode in `shapes` (x = shape a / the body's shape, y = shape b,
 // z = 0 for a shape pair, 1 for a wall plane). Pair: a at (xa, qa), b at (xb, qb).
@@ -14,6 +16,7 @@ struct NarrowQuery {
 
 @group(0) @binding(0) var<storage, read> queries: array<NarrowQuery>;
 @group(0) @binding(1) var<storage, read_write> manifolds: array<Manifold>;
+@group(0) @binding(2) var<storage, read_write> memory: array<vec2<u32>>;
 
 const BATCH_WG: u32 = 64u;
 
@@ -31,6 +34,8 @@ fn narrow_batch(
     if qr.shapes.z == 1u {
         manifolds[i] = collide_plane(qr.xa.xyz, qr.xa.w, qr.shapes.x, qr.xb.xyz, qr.qb);
     } else {
+        nrw_mem_in = memory[i];
         manifolds[i] = collide(qr.shapes.x, qr.xa.xyz, qr.qa, qr.shapes.y, qr.xb.xyz, qr.qb);
+        memory[i] = nrw_mem_out;
     }
 }

@@ -135,7 +135,7 @@ impl GpuWorld {
 
     /// Reads a named stage buffer (for the stage-by-stage tests): `keys`, `sorted`,
     /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`,
-    /// `mesh`.
+    /// `mesh`, `touching`, `pair_memory`.
     pub fn debug_buffer(&self, name: &str) -> Result<Vec<u8>, GpuError> {
         const STAGE_BUFFERS: &[&str] = &[
             "keys",
@@ -150,6 +150,8 @@ impl GpuWorld {
             "grid",
             "status",
             "mesh",
+            "touching",
+            "pair_memory",
         ];
         let Some(b) = STAGE_BUFFERS
             .contains(&name)
