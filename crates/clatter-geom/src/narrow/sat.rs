@@ -29,15 +29,16 @@ pub(super) struct SoaPoints {
 
 impl SoaPoints {
     fn fill(&mut self, pts: &[Vec3]) {
-        self.x.clear();
-        self.y.clear();
-        self.z.clear();
-        let pad = pts.len().next_multiple_of(4);
-        for k in 0..pad {
-            let v = pts[if k < pts.len() { k } else { 0 }];
-            self.x.push(v.x);
-            self.y.push(v.y);
-            self.z.push(v.z);
+        let n = pts.len();
+        let pad = n.next_multiple_of(4);
+        // Sized once, then written in place (no capacity check per point).
+        for c in [&mut self.x, &mut self.y, &mut self.z] {
+            c.resize(pad, 0.0);
+        }
+        let lanes = self.x.iter_mut().zip(&mut self.y).zip(&mut self.z);
+        for (k, ((x, y), z)) in lanes.enumerate() {
+            let v = pts[if k < n { k } else { 0 }];
+            (*x, *y, *z) = (v.x, v.y, v.z);
         }
     }
 
