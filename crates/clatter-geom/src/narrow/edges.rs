@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use super::sat::{EdgeAxis, SoaPoints};
+use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
 
@@ -40,13 +40,30 @@ pub(super) fn edge_axes_gauss_map(
             t2[eb * nfa + ka] = f.normal.dot(arc);
         }
     }
+    // B's edges by face, as bit sets (when B has at most 64 edges and faces).
+    let mut by_face = [0u64; 64];
+    let use_bits = neb <= 64 && nfb <= 64;
+    if use_bits {
+        for (eb, &[fb0, fb1]) in b.edge_faces.iter().enumerate() {
+            by_face[fb0 as usize] |= 1 << eb;
+            by_face[fb1 as usize] |= 1 << eb;
+        }
+    }
     let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
         let [fa0, fa1] = a.edge_faces[ea];
         let row1 = &t1[ea * nfb..(ea + 1) * nfb];
         let pa0 = a.vertices[a0 as usize];
         let da = a.vertices[a1 as usize] - pa0;
-        for (eb, &[fb0, fb1]) in b.edge_faces.iter().enumerate() {
+        // Only the edges that may cross, in increasing order (the same edges meet the
+        // tests below in the same order).
+        let visit = if use_bits {
+            EdgeSet::Bits(crossing_candidates(row1, &by_face))
+        } else {
+            EdgeSet::All(0..neb)
+        };
+        for eb in visit {
+            let [fb0, fb1] = b.edge_faces[eb];
             let cba = row1[fb0 as usize];
             let dba = row1[fb1 as usize];
             if cba * dba >= 0.0 {
@@ -85,6 +102,50 @@ pub(super) fn edge_axes_gauss_map(
     Some(best_e)
 }
 
+/// Edges of B to visit, in increasing order: a bit set, or all of them.
+enum EdgeSet {
+    Bits(u64),
+    All(std::ops::Range<usize>),
+}
+
+impl Iterator for EdgeSet {
+    type Item = usize;
+
+    #[inline]
+    fn next(&mut self) -> Option<usize> {
+        match self {
+            EdgeSet::Bits(bits) => {
+                if *bits == 0 {
+                    return None;
+                }
+                let e = bits.trailing_zeros() as usize;
+                *bits &= *bits - 1;
+                Some(e)
+            }
+            EdgeSet::All(range) => range.next(),
+        }
+    }
+}
+
+/// The edges of B (bits of `by_face`'s sets) whose two faces' products `row` (one per face
+/// of B) may have a negative product: one face's strictly positive and the other's strictly
+/// negative (the edges in exactly one positive face and exactly one negative face), or either
+/// neither (zero or NaN). Every edge left out has `row[fb0] * row[fb1] >= 0` (the same strict
+/// signs give a positive product or a zero one), so it fails the Gauss-map test anyway.
+fn crossing_candidates(row: &[f32], by_face: &[u64; 64]) -> u64 {
+    let (mut pos, mut neg, mut other) = (0u64, 0u64, 0u64);
+    for (&v, &edges) in row.iter().zip(by_face) {
+        if v > 0.0 {
+            pos ^= edges;
+        } else if v < 0.0 {
+            neg ^= edges;
+        } else {
+            other |= edges;
+        }
+    }
+    (pos & neg) | other
+}
+
 /// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
 /// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
 /// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
@@ -100,6 +161,7 @@ pub(super) fn edge_axes_by_direction(
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
         for (ib, ub) in b.edge_dirs.iter().enumerate() {
             let axis = ua.cross(rot * *ub);
@@ -108,8 +170,20 @@ pub(super) fn edge_axes_by_direction(
                 continue;
             }
             let axis = axis / len2.sqrt();
-            let (min_a, max_a) = (a_local.min_along(axis), a_local.max_along(axis));
-            let (min_b, max_b) = (b_soa.min_along(axis), b_soa.max_along(axis));
+            // The first 4 points of each body first: their extents lie inside the bodies'
+            // (and rounding is monotonic), so when they already overlap by more than the best
+            // axis so far, so do the bodies, and the axis cannot win (nor separate: `best`
+            // is not positive). Exact: no decision changes.
+            let (mut ext_a, mut ext_b) = (Extent::new(), Extent::new());
+            a_local.extent(axis, 0..head_a, &mut ext_a);
+            b_soa.extent(axis, 0..head_b, &mut ext_b);
+            if ext_b.min() - ext_a.max() <= best.0 && ext_a.min() - ext_b.max() <= best.0 {
+                continue;
+            }
+            a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
+            b_soa.extent(axis, head_b..b_soa.chunks(), &mut ext_b);
+            let (min_a, max_a) = (ext_a.min(), ext_a.max());
+            let (min_b, max_b) = (ext_b.min(), ext_b.max());
             // Separation pushing B along +axis, and along -axis; keep the larger.
             let (s, axis) = if min_b - max_a >= min_a - max_b {
                 (min_b - max_a, axis)

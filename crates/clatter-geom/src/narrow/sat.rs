@@ -29,22 +29,41 @@ pub(super) struct SoaPoints {
 
 impl SoaPoints {
     fn fill(&mut self, pts: &[Vec3]) {
-        self.x.clear();
-        self.y.clear();
-        self.z.clear();
-        let pad = pts.len().next_multiple_of(4);
-        for k in 0..pad {
-            let v = pts[if k < pts.len() { k } else { 0 }];
-            self.x.push(v.x);
-            self.y.push(v.y);
-            self.z.push(v.z);
+        let n = pts.len();
+        let pad = n.next_multiple_of(4);
+        // Sized once, then written in place (no capacity check per point).
+        for c in [&mut self.x, &mut self.y, &mut self.z] {
+            c.resize(pad, 0.0);
+        }
+        let lanes = self.x.iter_mut().zip(&mut self.y).zip(&mut self.z);
+        for (k, ((x, y), z)) in lanes.enumerate() {
+            let v = pts[if k < n { k } else { 0 }];
+            (*x, *y, *z) = (v.x, v.y, v.z);
         }
     }
 
-    /// Largest projection on `n`.
+    /// The number of 4-point chunks (the padded length over 4).
     #[inline]
-    pub(super) fn max_along(&self, n: Vec3) -> f32 {
-        -self.min_along(-n)
+    pub(super) fn chunks(&self) -> usize {
+        self.x.len() / 4
+    }
+
+    /// Feeds chunks `range` of the points' projections on `n` into `e` (see [`Extent`]).
+    #[inline(always)]
+    pub(super) fn extent(&self, n: Vec3, range: std::ops::Range<usize>, e: &mut Extent) {
+        for c in range {
+            let r = 4 * c..4 * c + 4;
+            let (xs, ys, zs) = (&self.x[r.clone()], &self.y[r.clone()], &self.z[r]);
+            for k in 0..4 {
+                // The products of `min_along(n)` and, negated, those of `min_along(-n)`
+                // (`(-a) * b == -(a * b)` bitwise), summed in the same order.
+                let (p, q, s) = (n.x * xs[k], n.y * ys[k], n.z * zs[k]);
+                let d = p + q + s;
+                let dn = -p - q - s;
+                e.lo[k] = if d < e.lo[k] { d } else { e.lo[k] };
+                e.lo_neg[k] = if dn < e.lo_neg[k] { dn } else { e.lo_neg[k] };
+            }
+        }
     }
 
     /// Smallest projection on `n`.
@@ -65,6 +84,46 @@ impl SoaPoints {
         let a = if m[0] < m[1] { m[0] } else { m[1] };
         let b = if m[2] < m[3] { m[2] } else { m[3] };
         if a < b { a } else { b }
+    }
+}
+
+/// The smallest and largest projections of some points on an axis, accumulated chunk by
+/// chunk in the lanes of [`SoaPoints::min_along`]: fed all the chunks, [`Extent::min`] is
+/// bitwise `min_along(n)` and [`Extent::max`] bitwise `-min_along(-n)`; fed some, they bound
+/// those from inside (a minimum no smaller, a maximum no larger).
+pub(super) struct Extent {
+    lo: [f32; 4],
+    lo_neg: [f32; 4],
+}
+
+impl Extent {
+    /// Nothing fed yet.
+    #[inline]
+    pub(super) fn new() -> Self {
+        Self {
+            lo: [f32::INFINITY; 4],
+            lo_neg: [f32::INFINITY; 4],
+        }
+    }
+
+    /// The lanes reduced as [`SoaPoints::min_along`] does.
+    #[inline]
+    fn reduce(m: [f32; 4]) -> f32 {
+        let a = if m[0] < m[1] { m[0] } else { m[1] };
+        let b = if m[2] < m[3] { m[2] } else { m[3] };
+        if a < b { a } else { b }
+    }
+
+    /// Smallest projection fed.
+    #[inline]
+    pub(super) fn min(&self) -> f32 {
+        Self::reduce(self.lo)
+    }
+
+    /// Largest projection fed.
+    #[inline]
+    pub(super) fn max(&self) -> f32 {
+        -Self::reduce(self.lo_neg)
     }
 }
 
