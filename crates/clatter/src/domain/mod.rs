@@ -26,6 +26,7 @@
 //!   local broad phase carries them as one process does.
 
 mod comm;
+mod gather;
 mod rows;
 
 pub use comm::{Comm, ThreadComm};
@@ -37,7 +38,7 @@ use crate::mesh_boundary::MESH_SLOTS;
 use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
-use rows::{ContactRow, Reader, SpringRow, Writer};
+use rows::{Reader, SpringRow, Writer};
 
 /// The slabs are cut again at a rebuild only when the fullest rank would own more than this
 /// fraction above the mean number of bodies per rank (10%) with the slabs it has: recutting
@@ -212,14 +213,11 @@ impl Domain {
         let world = &self.template;
         let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
         let slabs = Slabs::balanced(&built, ranks, world.periodic.as_ref());
-        let near = |x: DVec3, s: usize| {
-            s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
-        };
         let mut ids = Vec::new();
         let mut ghost = Vec::new();
         for (i, &x) in world.rebuild_position.iter().enumerate() {
             let owned = slabs.owner(x) == rank;
-            if owned || near(x, rank) {
+            if owned || self.near(&slabs, x, rank) {
                 ids.push(i as u32);
                 ghost.push(!owned);
             }
@@ -306,20 +304,8 @@ impl Domain {
         }
         local.set_needs_rebuild(false);
         // Who sends what every step, from the rebuild positions (both sides agree).
-        let mut send = vec![Vec::new(); ranks];
-        let mut recv = vec![Vec::new(); ranks];
-        for (i, &g) in ids.iter().enumerate() {
-            let x = world.rebuild_position[g as usize];
-            if local.is_ghost(i) {
-                recv[slabs.owner(x)].push(i as u32);
-            } else {
-                for (s, list) in send.iter_mut().enumerate() {
-                    if near(x, s) {
-                        list.push(i as u32);
-                    }
-                }
-            }
-        }
+        let (send, recv) =
+            self.exchange_lists(&local, &slabs, |i| world.rebuild_position[ids[i] as usize]);
         self.local = local;
         self.ids = ids;
         self.send = send;
@@ -406,216 +392,6 @@ impl Domain {
         comm.sum_u64(self.owned_touching() as u64) as usize
     }
 
-    /// The whole world (collective; on every rank): the template with every body's current
-    /// state, the contact list with all it carries (springs, forces, touching flags,
-    /// separating-axis hints, separation bounds), the positions (and, with composites, the
-    /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
-    /// due, each body's mesh contact slots: bitwise the world one process would have (its
-    /// checkpoint is the same bytes). The mesh candidates are not sent: they are found again
-    /// at the rebuild's poses and time, as restoring a checkpoint finds them.
-    pub fn gather(&self, comm: &dyn Comm) -> World {
-        self.gather_with(comm, true)
-    }
-
-    /// [`Domain::gather`] without the contact list (which is left empty): every body's state
-    /// for what is computed from the bodies alone (energies, momentum, discharged mass),
-    /// at a fraction of the traffic.
-    pub fn gather_bodies(&self, comm: &dyn Comm) -> World {
-        self.gather_with(comm, false)
-    }
-
-    /// [`Domain::gather`], with or without the contact list.
-    fn gather_with(&self, comm: &dyn Comm, with_contacts: bool) -> World {
-        let local = &self.local;
-        let mut w = Writer::default();
-        self.write_bodies(&mut w);
-        if with_contacts {
-            self.write_contacts(&mut w);
-        } else {
-            w.u32(0);
-            w.u32(0);
-        }
-        let mut world = self.template.clone();
-        let n = world.len();
-        let composites = world.has_composites();
-        let mut pairs = Vec::new();
-        let mut walls = Vec::new();
-        let mut any_built = false;
-        let slots = if world.boundaries.is_empty() {
-            0
-        } else {
-            MESH_SLOTS
-        };
-        let mut mesh_slots = world.mesh_slots().to_vec();
-        for m in comm.all_gather(&w.0) {
-            let mut r = Reader::new(&m);
-            for _ in 0..r.u32() {
-                let id = r.u32() as usize;
-                r.state(&mut world.state, id);
-                let x = r.dvec3();
-                let q = r.quat();
-                if r.u32() != 0 {
-                    any_built = true;
-                    if world.rebuild_position.len() != n {
-                        world.rebuild_position = vec![DVec3::ZERO; n];
-                        if composites {
-                            world.rebuild_orientation = vec![glam::Quat::IDENTITY; n];
-                        }
-                    }
-                    world.rebuild_position[id] = x;
-                    if composites {
-                        world.rebuild_orientation[id] = q;
-                    }
-                }
-                for k in 0..slots {
-                    mesh_slots[id * slots + k] = r.slot();
-                }
-            }
-            for _ in 0..r.u32() {
-                pairs.push(ContactRow::read(&mut r, true));
-            }
-            for _ in 0..r.u32() {
-                walls.push(ContactRow::read(&mut r, false));
-            }
-        }
-        pairs.sort_unstable_by_key(|c| (c.key, c.piece));
-        walls.sort_unstable_by_key(|c| (c.key, c.piece));
-        let all = || pairs.iter().chain(&walls);
-        let springs = ContactSprings {
-            history: all().map(|c| c.history).collect(),
-            twist: all().map(|c| c.twist).collect(),
-            forces: all().map(|c| c.force).collect(),
-            touching: all().map(|c| c.touching).collect(),
-            hints: pairs.iter().map(|c| c.hint).collect(),
-            separation_bound: pairs.iter().map(|c| c.bound).collect(),
-        };
-        let pieces: Vec<u32> = all().map(|c| c.piece).collect();
-        let (history, twist) = (springs.history.clone(), springs.twist.clone());
-        let (pair_keys, wall_keys) = (
-            pairs.iter().map(|c| c.key).collect(),
-            walls.iter().map(|c| c.key).collect(),
-        );
-        world.contacts = if composites {
-            Contacts::with_pieces(n, pair_keys, wall_keys, pieces, history, twist)
-        } else {
-            Contacts::new(n, pair_keys, wall_keys, history, twist)
-        };
-        world
-            .contacts
-            .set_springs(springs)
-            .expect("one row per contact");
-        if !any_built {
-            world.rebuild_position.clear();
-            world.rebuild_orientation.clear();
-        }
-        if slots > 0 {
-            world
-                .set_mesh_slots(mesh_slots)
-                .expect("MESH_SLOTS slots per body");
-            if with_contacts && any_built {
-                // The mesh candidates, found again where the last rebuild found them (the
-                // bodies at their rebuild poses, the meshes at the rebuild time), as a
-                // restored checkpoint finds them.
-                let (x, q) = (
-                    world.state.position.clone(),
-                    world.state.orientation.clone(),
-                );
-                world.state.position.clone_from(&world.rebuild_position);
-                if composites {
-                    world
-                        .state
-                        .orientation
-                        .clone_from(&world.rebuild_orientation);
-                }
-                world.time = local.mesh.rebuild_time;
-                mesh_contacts::rebuild(&mut world);
-                world.state.position = x;
-                world.state.orientation = q;
-            }
-            world.mesh.rebuild_time = local.mesh.rebuild_time;
-        }
-        world.step_count = local.step_count;
-        world.time = local.time;
-        world.rebuilds = local.rebuilds;
-        world.set_needs_rebuild(local.needs_rebuild());
-        world
-    }
-
-    /// The owned bodies for [`Domain::gather`]: id, state, and the pose at the last rebuild.
-    fn write_bodies(&self, w: &mut Writer) {
-        let local = &self.local;
-        let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
-        let built = local.rebuild_position.len() == local.len();
-        let turned = local.rebuild_orientation.len() == local.len();
-        w.u32(owned.len() as u32);
-        for &i in &owned {
-            w.u32(self.ids[i]);
-            w.state(&local.state, i);
-            w.dvec3(if built {
-                local.rebuild_position[i]
-            } else {
-                DVec3::ZERO
-            });
-            w.quat(if turned {
-                local.rebuild_orientation[i]
-            } else {
-                glam::Quat::IDENTITY
-            });
-            w.u32(built as u32);
-            for slot in local.mesh.body_slots(i) {
-                w.slot(slot);
-            }
-        }
-    }
-
-    /// This rank's contacts for [`Domain::gather`]: the body pairs whose first body it owns
-    /// (each pair is sent by one rank) and its bodies' wall contacts, with all they carry.
-    fn write_contacts(&self, w: &mut Writer) {
-        let local = &self.local;
-        let c = &local.contacts;
-        let sp = &c.springs;
-        let np = c.pairs.len();
-        let piece = |k: usize| {
-            if c.pieces.len() == c.len() {
-                c.pieces[k]
-            } else {
-                0
-            }
-        };
-        let mine: Vec<usize> = (0..np)
-            .filter(|&k| !local.is_ghost(c.pairs[k][0] as usize))
-            .collect();
-        w.u32(mine.len() as u32);
-        for k in mine {
-            let [a, b] = c.pairs[k];
-            ContactRow {
-                key: [self.ids[a as usize], self.ids[b as usize]],
-                piece: piece(k),
-                history: sp.history[k],
-                twist: sp.twist[k],
-                force: sp.forces[k],
-                touching: sp.touching[k],
-                hint: sp.hints[k],
-                bound: sp.separation_bound[k],
-            }
-            .write(w, true);
-        }
-        w.u32(c.wall_pairs.len() as u32);
-        for (k, &[a, wall]) in c.wall_pairs.iter().enumerate() {
-            ContactRow {
-                key: [self.ids[a as usize], wall],
-                piece: piece(np + k),
-                history: sp.history[np + k],
-                twist: sp.twist[np + k],
-                force: sp.forces[np + k],
-                touching: sp.touching[np + k],
-                hint: 0,
-                bound: 0.0,
-            }
-            .write(w, false);
-        }
-    }
-
     /// Touching contacts of this rank's share: body pairs whose first body it owns, and
     /// its bodies' wall contacts.
     fn owned_touching(&self) -> usize {
@@ -684,6 +460,39 @@ impl Domain {
     /// the rounding of the f32 pair test at the coordinate `c`.
     fn ghost_reach(&self, c: f64) -> f64 {
         self.reach as f64 * 1.01 + c.abs() * (1.0 / 1_048_576.0)
+    }
+
+    /// Whether a body at `x` is a ghost on rank `s`: not owned there, and within the ghost
+    /// reach of its slab.
+    fn near(&self, slabs: &Slabs, x: DVec3, s: usize) -> bool {
+        s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
+    }
+
+    /// Who sends what every step, found from the local bodies' positions `x(i)` at the
+    /// rebuild (sender and receiver find the same lists from the same positions and slabs):
+    /// by rank, the owned bodies sent there (those near its slab) and the ghosts received
+    /// from there (those it owns), in local ids.
+    fn exchange_lists(
+        &self,
+        local: &World,
+        slabs: &Slabs,
+        x: impl Fn(usize) -> DVec3,
+    ) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
+        let mut send = vec![Vec::new(); slabs.ranks()];
+        let mut recv = vec![Vec::new(); slabs.ranks()];
+        for i in 0..local.len() {
+            let x = x(i);
+            if local.is_ghost(i) {
+                recv[slabs.owner(x)].push(i as u32);
+            } else {
+                for (s, list) in send.iter_mut().enumerate() {
+                    if self.near(slabs, x, s) {
+                        list.push(i as u32);
+                    }
+                }
+            }
+        }
+        (send, recv)
     }
 
     /// The rebuild (collective): new slabs, bodies and springs moved to their new ranks, the
@@ -905,22 +714,7 @@ impl Domain {
         };
         broad::rebuild(&mut local);
         // Who sends what every step: both sides find it from the same positions and slabs.
-        let ranks = slabs.ranks();
-        let mut send = vec![Vec::new(); ranks];
-        let mut recv = vec![Vec::new(); ranks];
-        for i in 0..local.len() {
-            let x = local.state.position[i];
-            if local.is_ghost(i) {
-                recv[slabs.owner(x)].push(i as u32);
-            } else {
-                for (s, list) in send.iter_mut().enumerate() {
-                    if s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
-                    {
-                        list.push(i as u32);
-                    }
-                }
-            }
-        }
+        let (send, recv) = self.exchange_lists(&local, &slabs, |i| local.state.position[i]);
         self.local = local;
         self.ids = ids;
         self.send = send;
