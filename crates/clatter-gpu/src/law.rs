@@ -1,13 +1,12 @@
 //! The contact law on the GPU (`shaders/contacts/law.wgsl`) applied to a batch of contact states, so
 //! that tests can hold it against its twin, `clatter::law`, on thousands of random contacts.
 
+use crate::batch::{BatchBindings, run_batch};
+use crate::{GpuContext, GpuError};
 use clatter::contract::{ContactForce, PairContext};
 use clatter::law::BodyMotion;
 use clatter_geom::narrow::Manifold;
 use glam::Vec3;
-use wgpu::util::DeviceExt;
-
-use crate::{GpuContext, GpuError};
 
 clatter::gpu_record! {
     /// One contact state (`LawQuery` in law_batch.wgsl).
@@ -87,9 +86,6 @@ pub fn law_batch(
     ctx: &GpuContext,
     queries: &[LawQuery],
 ) -> Result<Vec<(ContactForce, [f32; 4])>, GpuError> {
-    if queries.is_empty() {
-        return Ok(Vec::new());
-    }
     let source = [
         clatter::contract::wgsl_records(),
         // The manifold as narrow.wgsl declares it (no shape bindings needed here).
@@ -99,62 +95,14 @@ pub fn law_batch(
         include_str!("../shaders/test/law_batch.wgsl").into(),
     ]
     .join("\n");
-    let device = &ctx.device;
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("law batch"),
-        source: wgpu::ShaderSource::Wgsl(source.into()),
-    });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some("law_batch"),
-        layout: None,
-        module: &module,
-        entry_point: Some("law_batch"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
     let records: Vec<LawQueryRecord> = queries.iter().map(LawQuery::record).collect();
-    let input = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some("law queries"),
-        contents: bytemuck::cast_slice(&records),
-        usage: wgpu::BufferUsages::STORAGE,
-    });
-    let out_size = (queries.len() * std::mem::size_of::<LawAnswerRecord>()) as u64;
-    let output = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("law answers"),
-        size: out_size,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("law batch"),
-        layout: &pipeline.get_bind_group_layout(0),
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: input.as_entire_binding(),
-            },
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: output.as_entire_binding(),
-            },
-        ],
-    });
-    let mut encoder = device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &group, &[]);
-        pass.dispatch_workgroups((queries.len() as u32).div_ceil(64), 1, 1);
-    }
-    if let Some(e) = pollster::block_on(scope.pop()) {
-        return Err(GpuError::Runtime {
-            adapter: ctx.adapter_name(),
-            message: format!("law batch: {e}"),
-        });
-    }
-    let bytes = crate::readback::read_buffers_after(ctx, encoder, &[(&output, 0, out_size)])?;
-    let answers: Vec<LawAnswerRecord> = bytemuck::pod_collect_to_vec(&bytes[0]);
+    let bindings = BatchBindings {
+        input: 0,
+        output: 1,
+        uniform: None,
+    };
+    let answers: Vec<LawAnswerRecord> =
+        run_batch(ctx, "law batch", source, "law_batch", &records, bindings)?;
     Ok(answers.iter().map(|a| (a.force, a.hist)).collect())
 }
 

@@ -15,6 +15,8 @@
 //! `clatter`'s Rust.
 
 pub mod bandwidth;
+#[cfg(feature = "test-harness")]
+mod batch;
 pub mod buffers;
 pub mod context;
 #[cfg(feature = "test-harness")]
