@@ -26,6 +26,12 @@ use crate::scene_io::load_scene;
 mod outputs;
 pub(crate) use outputs::Outputs;
 
+/// The default `--energy-every` of short runs: a sample costs a pass over every body (on the
+/// GPU a reduction and its dispatches), about a tenth of a step, so a sample every step would
+/// slow `run` by ~10% against `bench` on the same steps; one every 10 steps (as the blow-up
+/// checks) still draws the energy plot of a 1,000-step run from 100 points.
+const MIN_ENERGY_EVERY: u64 = 10;
+
 /// The full blow-up check (overlaps) and the snapshot of the last good state, every this many
 /// steps (and at every output step and the last step).
 pub const FULL_CHECK_EVERY: u64 = clatter_backend::FULL_CHECK_EVERY;
@@ -74,7 +80,8 @@ pub struct OutputArgs {
     /// end (`clatter resume` continues from it).
     #[arg(long, value_name = "T")]
     pub checkpoint_every: Option<f64>,
-    /// Sample energy.csv every N steps (default: about 1000 samples over the run).
+    /// Sample energy.csv every N steps (default: about 1000 samples over the run, at most
+    /// one every 10 steps).
     #[arg(long, value_name = "N")]
     pub energy_every: Option<u64>,
     /// Run the cheap blow-up checks (escape, energy growth, deep overlaps) every N steps
@@ -220,7 +227,9 @@ impl Resolved {
             output_every: self.output_every,
             contacts: self.contacts,
             checkpoint_every: self.checkpoint_every,
-            energy_every: self.energy_every.unwrap_or(end_step.div_ceil(1000).max(1)),
+            energy_every: self
+                .energy_every
+                .unwrap_or(end_step.div_ceil(1000).max(MIN_ENERGY_EVERY)),
             check_every: self.check_every,
             health,
             resumed: false,
