@@ -349,6 +349,12 @@ impl Domain {
             .count()
     }
 
+    /// Number of ghosts on this rank: bodies of other ranks within reach of its region,
+    /// whose states it receives every step (a measure of the communication volume).
+    pub fn ghosts(&self) -> usize {
+        self.local.len() - self.owned()
+    }
+
     /// Advances the world by one step on every rank (collective): bitwise the step
     /// [`World::step`] takes on the whole world. The stats count this rank's contacts (those
     /// whose first body it owns).
