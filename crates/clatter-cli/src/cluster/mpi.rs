@@ -166,6 +166,25 @@ impl Comm for MpiComm {
             .all_reduce_into(&x, &mut y, SystemOperation::min());
         y
     }
+
+    fn sum_u64s(&self, v: &mut [u64]) {
+        // One `Allreduce` (no buffer MPI sees is empty: see `padded`).
+        if v.is_empty() {
+            return;
+        }
+        let mine = v.to_vec();
+        self.world
+            .all_reduce_into(&mine[..], v, SystemOperation::sum());
+    }
+
+    fn max_f32s(&self, v: &mut [f32]) {
+        if v.is_empty() {
+            return;
+        }
+        let mine = v.to_vec();
+        self.world
+            .all_reduce_into(&mine[..], v, SystemOperation::max());
+    }
 }
 
 impl MpiComm {
