@@ -143,10 +143,10 @@ impl Bisection {
     /// share when `comm` is given (collective: every rank calls it with its owned bodies,
     /// and all find the same cuts from the summed histograms), every body when it is `None`.
     /// Each cut divides its node's bodies in the proportion of its ranks' halves (at a bin
-    /// edge of a [`BINS`]-bin histogram over their extent, refined inside the bin holding
-    /// the share while that is off by more than [`REFINE_TOLERANCE`], at most [`PASSES`]
-    /// passes in all), so each rank owns about
-    /// `n / ranks` bodies (more or fewer when bodies share a coordinate).
+    /// edge of a 1024-bin histogram over their extent, refined inside the bin holding the
+    /// share while that is off by more than 0.1% of the node's bodies, at most 4 passes in
+    /// all), so each rank owns about `n / ranks` bodies (more or fewer when bodies share a
+    /// coordinate).
     pub fn balanced(
         positions: &[Vec3],
         ranks: usize,

@@ -17,7 +17,8 @@ pub trait Comm {
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>>;
     /// [`Comm::all_to_all`] when this rank knows how many bytes each rank sends it
     /// (`recv_len[r]`): the per-step exchange of ghost states, whose sizes follow from the
-    /// ghost lists. A transport may then skip exchanging the sizes.
+    /// ghost lists. A transport may then skip exchanging the sizes, and talk only to the
+    /// ranks with something to send or receive (MPI: point to point).
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
         let got = self.all_to_all(send);
         debug_assert!(got.iter().map(Vec::len).eq(recv_len.iter().copied()));
