@@ -154,6 +154,7 @@ fn time(
     // Touching contacts per step over all ranks, summed as one process sums them.
     let contacts: usize = counts.totals(comm).iter().sum();
     let whole = domain.gather(comm);
+    report_loads(comm, &domain);
     let sps = args.steps as f64 / secs;
     Ok(Row {
         shape: plan.name,
@@ -176,4 +177,32 @@ fn time(
         pairs: None,
         copy_bandwidth_gb_s: None,
     })
+}
+
+/// Rank 0 says on stderr how many bodies each rank owns and holds as ghosts after the
+/// timed steps (collective): the balance of the decomposition and its communication volume
+/// (ghost states are what is sent every step), whatever the load of the machine.
+fn report_loads(comm: &MpiComm, domain: &Domain) {
+    let mut mine = Vec::with_capacity(16);
+    mine.extend((domain.owned() as u64).to_le_bytes());
+    mine.extend((domain.ghosts() as u64).to_le_bytes());
+    let all = comm.all_gather(&mine);
+    if comm.rank() == 0 {
+        let word = |m: &[u8], k: usize| {
+            m.get(8 * k..8 * k + 8)
+                .and_then(|b| b.try_into().ok())
+                .map_or(0, u64::from_le_bytes)
+        };
+        let list = |k: usize| {
+            all.iter()
+                .map(|m| word(m, k).to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        eprintln!(
+            "# per rank after the timed steps: owned {}; ghosts {}",
+            list(0),
+            list(1)
+        );
+    }
 }

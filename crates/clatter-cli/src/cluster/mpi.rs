@@ -124,11 +124,37 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
-        // One `Alltoallv`, without the exchange of sizes `all_to_all` needs.
-        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
-        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
-        let recv_counts: Vec<i32> = recv_len.iter().map(|&n| count(n + 1)).collect();
-        self.exchange(&send, &counts, &recv_counts)
+        // Point to point with the ranks that have something to send or receive (a box's
+        // neighbours; the sizes are known on both sides, so none is exchanged): the others
+        // are not involved, where an `Alltoallv` would touch every rank.
+        let me = self.rank();
+        let mut recv: Vec<Vec<u8>> = recv_len.iter().map(|&n| vec![0u8; n]).collect();
+        if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
+            mine.clone_from(m);
+        }
+        mpi::request::scope(|scope| {
+            let mut requests = Vec::new();
+            for (r, buf) in recv.iter_mut().enumerate() {
+                if r != me && !buf.is_empty() {
+                    let from = self.world.process_at_rank(r as mpi::Rank);
+                    requests.push(from.immediate_receive_into_with_tag(
+                        scope,
+                        &mut buf[..],
+                        FORWARD_TAG,
+                    ));
+                }
+            }
+            for (r, m) in send.iter().enumerate() {
+                if r != me && !m.is_empty() {
+                    let to = self.world.process_at_rank(r as mpi::Rank);
+                    requests.push(to.immediate_send_with_tag(scope, &m[..], FORWARD_TAG));
+                }
+            }
+            for request in requests {
+                request.wait();
+            }
+        });
+        recv
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
@@ -165,6 +191,25 @@ impl Comm for MpiComm {
         self.world
             .all_reduce_into(&x, &mut y, SystemOperation::min());
         y
+    }
+
+    fn sum_u64s(&self, v: &mut [u64]) {
+        // One `Allreduce` (no buffer MPI sees is empty: see `padded`).
+        if v.is_empty() {
+            return;
+        }
+        let mine = v.to_vec();
+        self.world
+            .all_reduce_into(&mine[..], v, SystemOperation::sum());
+    }
+
+    fn max_f32s(&self, v: &mut [f32]) {
+        if v.is_empty() {
+            return;
+        }
+        let mine = v.to_vec();
+        self.world
+            .all_reduce_into(&mine[..], v, SystemOperation::max());
     }
 }
 
@@ -511,6 +556,10 @@ fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
 /// Steps between the reductions of the per-step contact counts (`max_contacts`): 32 KiB a
 /// rank each time.
 const PEAK_EVERY: usize = 4096;
+
+/// The tag of the per-step ghost states sent point to point ([`Comm::all_to_all_known`]);
+/// every other message is a collective, which point-to-point messages never match.
+const FORWARD_TAG: mpi::Tag = 17;
 
 /// What the steps of an MPI run came to, for its summary.
 struct Ran {

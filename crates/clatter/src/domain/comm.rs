@@ -17,7 +17,8 @@ pub trait Comm {
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>>;
     /// [`Comm::all_to_all`] when this rank knows how many bytes each rank sends it
     /// (`recv_len[r]`): the per-step exchange of ghost states, whose sizes follow from the
-    /// ghost lists. A transport may then skip exchanging the sizes.
+    /// ghost lists. A transport may then skip exchanging the sizes, and talk only to the
+    /// ranks with something to send or receive (MPI: point to point).
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
         let got = self.all_to_all(send);
         debug_assert!(got.iter().map(Vec::len).eq(recv_len.iter().copied()));
@@ -30,6 +31,27 @@ pub trait Comm {
     fn max_f32(&self, x: f32) -> f32;
     /// The sum of every rank's `x`.
     fn sum_u64(&self, x: u64) -> u64;
+    /// The element-wise sum of every rank's `v` (all of the same length), into `v`: the
+    /// histograms of the bisection (integers, so the sum does not depend on the order).
+    fn sum_u64s(&self, v: &mut [u64]) {
+        let mine: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+        v.fill(0);
+        for m in self.all_gather(&mine) {
+            for (x, b) in v.iter_mut().zip(m.chunks_exact(8)) {
+                *x += u64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
+            }
+        }
+    }
+    /// The element-wise largest of every rank's `v` (all of the same length), into `v`.
+    fn max_f32s(&self, v: &mut [f32]) {
+        let mine: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
+        v.fill(f32::NEG_INFINITY);
+        for m in self.all_gather(&mine) {
+            for (x, b) in v.iter_mut().zip(m.chunks_exact(4)) {
+                *x = x.max(f32::from_le_bytes(b.try_into().unwrap_or([0; 4])));
+            }
+        }
+    }
     /// The smallest of every rank's `x`.
     fn min_u64(&self, x: u64) -> u64;
 }

@@ -1,12 +1,13 @@
 //! Domain decomposition: one world stepped by several ranks (MPI processes, or threads in
 //! tests), bitwise as one process steps it. See `docs/parallel.md` for the design; in short:
 //!
-//! - **Ownership**: space is cut into slabs along one axis ([`Slabs`], across the seam of a
-//!   periodic axis too), cut so that each rank owns as many bodies as the others (by
-//!   centre), and cut again at a broad-phase rebuild when the ranks' shares have drifted more
-//!   than [`REBALANCE_IMBALANCE`] from even.
+//! - **Ownership**: space is cut into one axis-aligned box per rank by recursive coordinate
+//!   bisection ([`Bisection`], across the seam of a periodic axis too), cut so that each
+//!   rank owns as many bodies as the others (by centre), from histograms of the bodies'
+//!   coordinates summed over the ranks, and cut again at a broad-phase rebuild when the
+//!   ranks' shares have drifted more than [`REBALANCE_IMBALANCE`] from even.
 //!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
-//!   of other ranks whose centres lie within `2 r_max + skin` of its slab (every partner of
+//!   of other ranks whose centres lie within `2 r_max + skin` of its box (every partner of
 //!   an owned body in the Verlet list), in ascending global id (scene order).
 //! - **The determinism rule**: because the local order is the global order restricted, the
 //!   local broad phase lists the pairs of an owned body in the same order as one process
@@ -20,119 +21,32 @@
 //!   them as ghosts (forward communication), then the largest displacement since the last
 //!   rebuild is reduced over ranks (max, exact) to decide the next rebuild, as one process
 //!   decides it.
-//! - **At rebuilds** (`Domain::migrate`): new slabs; each owner sends its bodies' states to
+//! - **At rebuilds** (`Domain::migrate`): new boxes (when the old ones are uneven); each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies; then the
 //!   local broad phase carries them as one process does.
 
+mod bisection;
 mod comm;
 mod gather;
 mod rows;
 
+pub use bisection::Bisection;
 pub use comm::{Comm, ThreadComm};
 
 use glam::{DVec3, Vec3};
 
 use crate::contact_list::{ContactSprings, Contacts};
 use crate::mesh_boundary::MESH_SLOTS;
-use crate::periodic::Periodic;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
 use rows::{Reader, SpringRow, Writer};
 
-/// The slabs are cut again at a rebuild only when the fullest rank would own more than this
-/// fraction above the mean number of bodies per rank (10%) with the slabs it has: recutting
+/// The boxes are cut again at a rebuild only when the fullest rank would own more than this
+/// fraction above the mean number of bodies per rank (10%) with the boxes it has: recutting
 /// moves bodies between ranks (states, springs, ghost lists) and that is wasted while the
 /// ranks are still about even. The threshold changes which rank steps a body, never the result.
 pub const REBALANCE_IMBALANCE: f64 = 0.10;
-
-/// Slabs along one axis: rank `r` owns the bodies whose centre (rounded to f32) has its
-/// `axis` coordinate in `[cuts[r - 1], cuts[r])` (unbounded at both ends).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Slabs {
-    /// 0, 1 or 2 (x, y, z).
-    pub axis: usize,
-    /// `ranks - 1` cut coordinates, ascending.
-    pub cuts: Vec<f32>,
-    /// The periodic box's `[min, max)` along `axis` when that axis is periodic: the first
-    /// and last slabs end there, and distances to a slab are taken across the seam too.
-    pub period: Option<(f64, f64)>,
-}
-
-impl Slabs {
-    /// Slabs for `ranks` ranks along the axis of the largest extent of `positions` (the
-    /// first such axis), cut at quantiles so that each rank owns `n / ranks` bodies (more
-    /// or fewer when bodies share a coordinate). Every rank computes it from the same
-    /// gathered positions, so all agree.
-    pub fn balanced(positions: &[Vec3], ranks: usize, periodic: Option<&Periodic>) -> Slabs {
-        let (lo, hi) = positions.iter().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
-        let extent = hi - lo;
-        let axis = if extent.x >= extent.y && extent.x >= extent.z {
-            0
-        } else if extent.y >= extent.z {
-            1
-        } else {
-            2
-        };
-        let mut c: Vec<f32> = positions.iter().map(|p| p[axis]).collect();
-        c.sort_unstable_by(f32::total_cmp);
-        let n = c.len();
-        let cuts = (1..ranks)
-            .map(|k| {
-                let at = k * n / ranks;
-                if at < n { c[at] } else { f32::INFINITY }
-            })
-            .collect();
-        let period = periodic
-            .filter(|p| p.axes[axis])
-            .map(|p| (p.min[axis] as f64, p.max[axis] as f64));
-        Slabs { axis, cuts, period }
-    }
-
-    /// How unevenly ranks owning `owned` bodies each share them: the most any rank owns over
-    /// the mean, minus one (0 when every rank owns as many; 0.1 when the fullest owns 10%
-    /// more than the mean).
-    pub fn imbalance(owned: &[u64]) -> f64 {
-        let total: u64 = owned.iter().sum();
-        if total == 0 {
-            return 0.0;
-        }
-        let most = owned.iter().copied().max().unwrap_or(0);
-        most as f64 * owned.len() as f64 / total as f64 - 1.0
-    }
-
-    /// Number of ranks.
-    pub fn ranks(&self) -> usize {
-        self.cuts.len() + 1
-    }
-
-    /// The rank that owns a body at `x`.
-    pub fn owner(&self, x: DVec3) -> usize {
-        let c = x.as_vec3()[self.axis];
-        self.cuts.partition_point(|&k| k <= c)
-    }
-
-    /// How far `x` is from rank `r`'s slab along the axis (0 inside; across the seam too
-    /// when the axis is periodic: the nearest of the images).
-    pub fn distance(&self, x: DVec3, r: usize) -> f64 {
-        let (start, end) = self.period.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
-        let lo = if r == 0 {
-            start
-        } else {
-            self.cuts[r - 1] as f64
-        };
-        let hi = self.cuts.get(r).map_or(end, |&c| c as f64);
-        let gap = |c: f64| (lo - c).max(c - hi).max(0.0);
-        let c = x[self.axis];
-        match self.period {
-            Some((a, b)) => gap(c).min(gap(c + (b - a))).min(gap(c - (b - a))),
-            None => gap(c),
-        }
-    }
-}
 
 /// One rank's part of a world stepped by a domain decomposition (see the module docs).
 pub struct Domain {
@@ -143,8 +57,8 @@ pub struct Domain {
     local: World,
     /// Global id of each local body, ascending.
     ids: Vec<u32>,
-    /// The slabs of the last rebuild (`None` before the first).
-    slabs: Option<Slabs>,
+    /// The boxes of the last rebuild (`None` before the first).
+    boxes: Option<Bisection>,
     /// Per rank: the local bodies it holds as ghosts (sent to it every step), ascending.
     send: Vec<Vec<u32>>,
     /// Per rank: the local ghosts it owns (received from it every step), ascending.
@@ -153,7 +67,7 @@ pub struct Domain {
     reach: f32,
     /// Bodies this rank handed to another at rebuilds (not counting the first distribution).
     handed_over: u64,
-    /// Rebuilds that cut new slabs (the first distribution included).
+    /// Rebuilds that cut new boxes (the first distribution included).
     recuts: u64,
 }
 
@@ -171,7 +85,7 @@ impl Domain {
             template: world,
             local: empty,
             ids: Vec::new(),
-            slabs: None,
+            boxes: None,
             send: vec![Vec::new(); ranks],
             recv: vec![Vec::new(); ranks],
             reach,
@@ -202,7 +116,7 @@ impl Domain {
     }
 
     /// Splits the template, whose contact list is current (built at `rebuild_position`),
-    /// between the ranks without a rebuild: the slabs, the owners and the ghosts are those a
+    /// between the ranks without a rebuild: the boxes, the owners and the ghosts are those a
     /// rebuild at the rebuild positions would have chosen (so every Verlet partner of an
     /// owned body is on its rank, as after [`Domain::migrate`]), and each rank's contact
     /// list is the whole list restricted to the pairs with an owned body and the owned
@@ -212,12 +126,12 @@ impl Domain {
     fn split_current(&mut self, rank: usize, ranks: usize) {
         let world = &self.template;
         let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
-        let slabs = Slabs::balanced(&built, ranks, world.periodic.as_ref());
+        let boxes = Bisection::balanced(&built, ranks, world.periodic.as_ref(), None);
         let mut ids = Vec::new();
         let mut ghost = Vec::new();
         for (i, &x) in world.rebuild_position.iter().enumerate() {
-            let owned = slabs.owner(x) == rank;
-            if owned || self.near(&slabs, x, rank) {
+            let owned = boxes.owner(x) == rank;
+            if owned || self.near(&boxes, x, rank) {
                 ids.push(i as u32);
                 ghost.push(!owned);
             }
@@ -305,12 +219,12 @@ impl Domain {
         local.set_needs_rebuild(false);
         // Who sends what every step, from the rebuild positions (both sides agree).
         let (send, recv) =
-            self.exchange_lists(&local, &slabs, |i| world.rebuild_position[ids[i] as usize]);
+            self.exchange_lists(&local, &boxes, |i| world.rebuild_position[ids[i] as usize]);
         self.local = local;
         self.ids = ids;
         self.send = send;
         self.recv = recv;
-        self.slabs = Some(slabs);
+        self.boxes = Some(boxes);
         self.recuts += 1;
     }
 
@@ -324,20 +238,20 @@ impl Domain {
         &self.ids
     }
 
-    /// The slabs of the last rebuild (`None` before the first step).
-    pub fn slabs(&self) -> Option<&Slabs> {
-        self.slabs.as_ref()
+    /// The boxes of the last rebuild (`None` before the first step of a new world).
+    pub fn boxes(&self) -> Option<&Bisection> {
+        self.boxes.as_ref()
     }
 
     /// How many bodies this rank has handed to another rank at rebuilds (bodies that crossed
-    /// a slab boundary, or a boundary that moved past them), not counting the first
+    /// a box boundary, or a boundary that moved past them), not counting the first
     /// distribution of a world.
     pub fn handed_over(&self) -> u64 {
         self.handed_over
     }
 
-    /// How many rebuilds cut new slabs (the first distribution included): the others kept
-    /// the slabs they had, whose bodies were still within [`REBALANCE_IMBALANCE`] of even.
+    /// How many rebuilds cut new boxes (the first distribution included): the others kept
+    /// the boxes they had, whose bodies were still within [`REBALANCE_IMBALANCE`] of even.
     pub fn recuts(&self) -> u64 {
         self.recuts
     }
@@ -347,6 +261,12 @@ impl Domain {
         (0..self.local.len())
             .filter(|&i| !self.local.is_ghost(i))
             .count()
+    }
+
+    /// Number of ghosts on this rank: bodies of other ranks within reach of its region,
+    /// whose states it receives every step (a measure of the communication volume).
+    pub fn ghosts(&self) -> usize {
+        self.local.len() - self.owned()
     }
 
     /// Advances the world by one step on every rank (collective): bitwise the step
@@ -456,37 +376,37 @@ impl Domain {
         }
     }
 
-    /// How far from a slab a body is a ghost there: the reach of a pair, with a margin for
-    /// the rounding of the f32 pair test at the coordinate `c`.
-    fn ghost_reach(&self, c: f64) -> f64 {
-        self.reach as f64 * 1.01 + c.abs() * (1.0 / 1_048_576.0)
+    /// How far from a box a body at `x` is a ghost there: the reach of a pair, with a
+    /// margin for the rounding of the f32 pair test at `x`'s coordinates.
+    fn ghost_reach(&self, x: DVec3) -> f64 {
+        self.reach as f64 * 1.01 + x.abs().max_element() * (1.0 / 1_048_576.0)
     }
 
     /// Whether a body at `x` is a ghost on rank `s`: not owned there, and within the ghost
-    /// reach of its slab.
-    fn near(&self, slabs: &Slabs, x: DVec3, s: usize) -> bool {
-        s != slabs.owner(x) && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis])
+    /// reach of its box.
+    fn near(&self, boxes: &Bisection, x: DVec3, s: usize) -> bool {
+        s != boxes.owner(x) && boxes.distance(x, s) < self.ghost_reach(x)
     }
 
     /// Who sends what every step, found from the local bodies' positions `x(i)` at the
-    /// rebuild (sender and receiver find the same lists from the same positions and slabs):
-    /// by rank, the owned bodies sent there (those near its slab) and the ghosts received
+    /// rebuild (sender and receiver find the same lists from the same positions and boxes):
+    /// by rank, the owned bodies sent there (those near its box) and the ghosts received
     /// from there (those it owns), in local ids.
     fn exchange_lists(
         &self,
         local: &World,
-        slabs: &Slabs,
+        boxes: &Bisection,
         x: impl Fn(usize) -> DVec3,
     ) -> (Vec<Vec<u32>>, Vec<Vec<u32>>) {
-        let mut send = vec![Vec::new(); slabs.ranks()];
-        let mut recv = vec![Vec::new(); slabs.ranks()];
+        let mut send = vec![Vec::new(); boxes.ranks()];
+        let mut recv = vec![Vec::new(); boxes.ranks()];
         for i in 0..local.len() {
             let x = x(i);
             if local.is_ghost(i) {
-                recv[slabs.owner(x)].push(i as u32);
+                recv[boxes.owner(x)].push(i as u32);
             } else {
                 for (s, list) in send.iter_mut().enumerate() {
-                    if self.near(slabs, x, s) {
+                    if self.near(boxes, x, s) {
                         list.push(i as u32);
                     }
                 }
@@ -495,45 +415,33 @@ impl Domain {
         (send, recv)
     }
 
-    /// The rebuild (collective): new slabs, bodies and springs moved to their new ranks, the
+    /// The rebuild (collective): new boxes (when needed), bodies and springs moved to their new ranks, the
     /// ghost lists found, then the local broad phase (which carries the springs).
     fn migrate(&mut self, comm: &dyn Comm) {
         let ranks = comm.size();
         let local = &self.local;
         let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
-        // 1. The slabs: the old ones while they are still about even (each rank counts its
-        //    bodies per old slab, and the counts are summed: `REBALANCE_IMBALANCE`), else
-        //    new ones from every owned body's position.
-        let kept = self.slabs.as_ref().filter(|old| {
-            let mut mine = Writer::default();
-            let mut counts = vec![0u32; ranks];
-            for &i in &owned {
-                counts[old.owner(local.state.position[i])] += 1;
-            }
-            counts.iter().for_each(|&c| mine.u32(c));
+        // 1. The boxes: the old ones while they are still about even (each rank counts its
+        //    bodies per old box, and the counts are summed: `REBALANCE_IMBALANCE`), else
+        //    new ones, cut from histograms of the owned bodies' coordinates summed over the
+        //    ranks (no rank sees another's positions).
+        let kept = self.boxes.as_ref().filter(|old| {
             let mut owned_by = vec![0u64; ranks];
-            for m in comm.all_gather(&mine.0) {
-                let mut r = Reader::new(&m);
-                owned_by.iter_mut().for_each(|n| *n += r.u32() as u64);
+            for &i in &owned {
+                owned_by[old.owner(local.state.position[i])] += 1;
             }
-            Slabs::imbalance(&owned_by) <= REBALANCE_IMBALANCE
+            comm.sum_u64s(&mut owned_by);
+            Bisection::imbalance(&owned_by) <= REBALANCE_IMBALANCE
         });
-        let slabs = match kept {
+        let boxes = match kept {
             Some(old) => old.clone(),
             None => {
-                let mut w = Writer::default();
-                for &i in &owned {
-                    w.vec3(local.state.position[i].as_vec3());
-                }
-                let mut positions = Vec::new();
-                for m in comm.all_gather(&w.0) {
-                    let mut r = Reader::new(&m);
-                    while !r.is_empty() {
-                        positions.push(r.vec3());
-                    }
-                }
+                let positions: Vec<Vec3> = owned
+                    .iter()
+                    .map(|&i| local.state.position[i].as_vec3())
+                    .collect();
                 self.recuts += 1;
-                Slabs::balanced(&positions, ranks, local.periodic.as_ref())
+                Bisection::balanced(&positions, ranks, local.periodic.as_ref(), Some(comm))
             }
         };
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
@@ -541,13 +449,13 @@ impl Domain {
         let mut new_owner = vec![usize::MAX; local.len()];
         for &i in &owned {
             let x = local.state.position[i];
-            let o = slabs.owner(x);
+            let o = boxes.owner(x);
             new_owner[i] = o;
-            if o != comm.rank() && self.slabs.is_some() {
+            if o != comm.rank() && self.boxes.is_some() {
                 self.handed_over += 1;
             }
             for (s, (n, w)) in bodies.iter_mut().enumerate() {
-                let ghost = s != o && slabs.distance(x, s) < self.ghost_reach(x[slabs.axis]);
+                let ghost = s != o && boxes.distance(x, s) < self.ghost_reach(x);
                 if s == o || ghost {
                     *n += 1;
                     w.u32(self.ids[i]);
@@ -625,12 +533,12 @@ impl Domain {
             })
             .collect();
         let got = comm.all_to_all(msgs);
-        self.install(&got, slabs);
+        self.install(&got, boxes);
     }
 
     /// Builds the new local world from the messages of a rebuild (by sending rank) and runs
     /// the local broad phase on it.
-    fn install(&mut self, got: &[Vec<u8>], slabs: Slabs) {
+    fn install(&mut self, got: &[Vec<u8>], boxes: Bisection) {
         // Mesh contact slots per body (none without boundaries).
         let slots = if self.template.boundaries.is_empty() {
             0
@@ -713,12 +621,12 @@ impl Domain {
             Contacts::new(local.len(), pairs, wall_list, history, twist)
         };
         broad::rebuild(&mut local);
-        // Who sends what every step: both sides find it from the same positions and slabs.
-        let (send, recv) = self.exchange_lists(&local, &slabs, |i| local.state.position[i]);
+        // Who sends what every step: both sides find it from the same positions and boxes.
+        let (send, recv) = self.exchange_lists(&local, &boxes, |i| local.state.position[i]);
         self.local = local;
         self.ids = ids;
         self.send = send;
         self.recv = recv;
-        self.slabs = Some(slabs);
+        self.boxes = Some(boxes);
     }
 }

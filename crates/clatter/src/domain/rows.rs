@@ -110,9 +110,6 @@ impl<'a> Reader<'a> {
     pub fn skip_state(&mut self) {
         self.at += STATE_BYTES;
     }
-    pub fn is_empty(&self) -> bool {
-        self.at >= self.bytes.len()
-    }
     pub fn u32(&mut self) -> u32 {
         u32::from_le_bytes(self.take())
     }
