@@ -72,9 +72,9 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(twist_pairs.par_chunks_mut(CHUNK))
                     .map(|((((p, h), f), t), c)| {
                         if plain {
-                            sphere_chunk::<true>(w, x, p, h, c, f, t)
+                            super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
                         } else {
-                            sphere_chunk::<false>(w, x, p, h, c, f, t)
+                            super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
                         }
                     })
                     .sum::<usize>();
@@ -113,14 +113,23 @@ pub(crate) fn run(world: &mut World) -> usize {
             }
             w.contacts
                 .wall_pairs
-                .par_iter()
-                .zip(hist_walls.par_iter_mut())
-                .zip(force_walls.par_iter_mut())
-                .zip(touch_walls.par_iter_mut())
-                .zip(twist_walls.par_iter_mut())
-                .with_min_len(CHUNK)
+                .par_chunks(CHUNK)
+                .zip(hist_walls.par_chunks_mut(CHUNK))
+                .zip(force_walls.par_chunks_mut(CHUNK))
+                .zip(touch_walls.par_chunks_mut(CHUNK))
+                .zip(twist_walls.par_chunks_mut(CHUNK))
                 .map(|((((p, h), f), t), tw)| {
-                    wall_pair::<false>(w, x, *p, 0, h, f, t, tw, plain) as usize
+                    super::vex(|| {
+                        let n = p.len();
+                        let (h, f, t, tw) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut tw[..n]);
+                        let mut touching = 0;
+                        for k in 0..n {
+                            touching += wall_pair::<false>(
+                                w, x, p[k], 0, &mut h[k], &mut f[k], &mut t[k], &mut tw[k], plain,
+                            ) as usize;
+                        }
+                        touching
+                    })
                 })
                 .sum::<usize>()
         },
