@@ -73,6 +73,8 @@ fn hertz<const PLAIN: bool>(p: &PairParams) -> bool {
 /// of the law ([`point_contact_force_in`]), which leave out the tests for the rest: the same
 /// operations on the same values, so the same bits as the general forms.
 #[inline]
+// Not `<= 0.0`: the law's tests are `> 0.0`, which a NaN fails too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub fn is_plain(p: &PairParams) -> bool {
     p.model != MODEL_HERTZ
         && p.cohesion_model == COHESION_NONE

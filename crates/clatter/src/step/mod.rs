@@ -40,7 +40,7 @@ pub fn avx2() -> bool {
 }
 
 /// Turns the AVX2 builds of the hot stages off (`false`), or back on where the CPU has
-/// AVX2 (`true`). The results are the same bits either way (see [`vex`]); this is for the
+/// AVX2 (`true`). The results are the same bits either way (see `vex`); this is for the
 /// tests that hold them to it, and for timing one against the other.
 pub fn set_avx2(on: bool) {
     let on = on && cpu_has_avx2();
