@@ -653,6 +653,81 @@ mod tests {
     }
 
     #[test]
+    fn the_plain_forms_give_the_same_bits_on_plain_pairs() {
+        let plain = params(ContactLaw::Linear { stiffness: 2.0e4 });
+        assert!(is_plain(&plain));
+        let hertz = params(ContactLaw::Hertz {
+            youngs_modulus: 1.0e7,
+            poisson_ratio: 0.3,
+        });
+        assert!(!is_plain(&hertz));
+        for (field, value) in [(0, 0.1), (1, 0.1), (2, 1.0)] {
+            let mut p = plain;
+            match field {
+                0 => p.rolling_friction = value,
+                1 => p.spinning_friction = value,
+                _ => p.cohesion_model = COHESION_DMT,
+            }
+            assert!(!is_plain(&p), "field {field}");
+        }
+        // Random one-point sphere contacts on the plain law: first steps, contacts inside,
+        // separating ones, sticking and sliding springs.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut vec = |scale: f32| Vec3::new(unit(), unit(), unit()) * scale;
+        for k in 0..20_000 {
+            let n = vec(1.0).try_normalize().unwrap_or(Vec3::Z);
+            let depth = (vec(1.0).x + 1.0) * 2e-4;
+            let c = PairContext {
+                params: plain,
+                m_eff: 0.01 * (1.5 + vec(1.0).y),
+                r_eff: 0.005,
+                share: SPHERE_POINT_SHARE,
+                dt: 3.3e-5,
+            };
+            let a = BodyMotion {
+                position: Vec3::ZERO,
+                velocity: vec(0.5),
+                omega: vec(20.0),
+            };
+            let b = BodyMotion {
+                position: n * 0.02,
+                velocity: vec(0.5),
+                omega: vec(20.0),
+            };
+            let cp = ContactPoint {
+                point: n * (0.01 - 0.5 * depth),
+                depth,
+            };
+            let history = vec(1e-4);
+            let coverage = match k % 3 {
+                0 => 0.0,
+                1 => -1.0,
+                _ => (vec(1.0).z + 1.0) * 1e-3,
+            };
+            let (mut h1, mut c1) = (history, coverage);
+            let (mut h2, mut c2) = (history, coverage);
+            let general = point_contact_force(&c, n, cp, &a, &b, &mut h1, &mut c1);
+            let fast = point_contact_force_in::<true>(&c, n, cp, &a, &b, &mut h2, &mut c2);
+            assert_eq!(
+                bytemuck::bytes_of(&general),
+                bytemuck::bytes_of(&fast),
+                "contact {k}"
+            );
+            assert_eq!(
+                h1.to_array().map(f32::to_bits),
+                h2.to_array().map(f32::to_bits)
+            );
+            assert_eq!(c1.to_bits(), c2.to_bits(), "contact {k}");
+        }
+    }
+
+    #[test]
     fn energy_and_depth_follow_the_spring() {
         for law in [
             ContactLaw::Linear { stiffness: 2.0e4 },
