@@ -5,7 +5,7 @@
 
 use std::fmt;
 
-use glam::{Quat, Vec3};
+use glam::{Quat, Vec3, Vec4};
 
 use crate::contract::ContactForce;
 use clatter_geom::narrow::{NO_HINT, SatHint};
@@ -247,25 +247,38 @@ impl Contacts {
     /// contact order (the same order whatever the thread count).
     #[inline]
     pub fn gather(&self, i: usize) -> (Vec3, Vec3) {
-        // Forces of non-touching contacts are zero, so no branch is needed.
+        // Forces of non-touching contacts are zero, so no branch is needed. Each vector is
+        // read with the float after it (`normal_force`, a pad) as one four-lane load and
+        // summed in four lanes: the first three lanes do the `Vec3` sums' operations in the
+        // same order (the same bits); the fourth is thrown away.
         let forces = &self.springs.forces;
-        let mut f = Vec3::ZERO;
-        let mut t = Vec3::ZERO;
+        let mut f = Vec4::ZERO;
+        let mut t = Vec4::ZERO;
         for c in &forces[self.pairs_as_a[i] as usize..self.pairs_as_a[i + 1] as usize] {
-            f -= c.force_b;
-            t += c.torque_a;
+            let [force_b, torque_a, _] = lanes(c);
+            f -= force_b;
+            t += torque_a;
         }
         for &k in &self.b_pairs[self.b_pair_start[i] as usize..self.b_pair_start[i + 1] as usize] {
-            let c = &forces[k as usize];
-            f += c.force_b;
-            t += c.torque_b;
+            let [force_b, _, torque_b] = lanes(&forces[k as usize]);
+            f += force_b;
+            t += torque_b;
         }
         for c in &forces[self.wall_contacts_of[i] as usize..self.wall_contacts_of[i + 1] as usize] {
-            f += c.force_b;
-            t += c.torque_b;
+            let [force_b, _, torque_b] = lanes(c);
+            f += force_b;
+            t += torque_b;
         }
-        (f, t)
+        (f.truncate(), t.truncate())
     }
+}
+
+/// A contact force's three vectors, each with the float stored after it as a fourth lane
+/// (`force_b` with `normal_force`, the torques with their pads).
+#[inline(always)]
+fn lanes(c: &ContactForce) -> [Vec4; 3] {
+    let words: &[[f32; 4]; 3] = bytemuck::cast_ref(c);
+    words.map(Vec4::from_array)
 }
 
 /// A world's contact list in a backend-neutral form (see [`crate::World::contact_state`]):

@@ -58,7 +58,34 @@ impl BodyMotion {
 /// (linear: `share k d`; Hertz: `share 4/3 E* sqrt(r_eff d) d`).
 #[inline(always)]
 pub fn spring(p: &PairParams, r_eff: f32, depth: f32, share: f32) -> (f32, f32) {
-    if p.model == MODEL_HERTZ {
+    spring_in::<false>(p, r_eff, depth, share)
+}
+
+/// Whether pair parameters `p` use the Hertz law; false without a look when the caller
+/// knows its pairs are `PLAIN` ([`is_plain`]).
+#[inline(always)]
+fn hertz<const PLAIN: bool>(p: &PairParams) -> bool {
+    !PLAIN && p.model == MODEL_HERTZ
+}
+
+/// Whether pair parameters `p` are the plain law: linear, without cohesion, rolling or
+/// spinning resistance. A stage whose pairs are all plain may call the `PLAIN = true` forms
+/// of the law ([`point_contact_force_in`]), which leave out the tests for the rest: the same
+/// operations on the same values, so the same bits as the general forms.
+#[inline]
+// Not `<= 0.0`: the law's tests are `> 0.0`, which a NaN fails too.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub fn is_plain(p: &PairParams) -> bool {
+    p.model != MODEL_HERTZ
+        && p.cohesion_model == COHESION_NONE
+        && !(p.rolling_friction > 0.0)
+        && !(p.spinning_friction > 0.0)
+}
+
+/// [`spring`], knowing the law is linear when `PLAIN`.
+#[inline(always)]
+fn spring_in<const PLAIN: bool>(p: &PairParams, r_eff: f32, depth: f32, share: f32) -> (f32, f32) {
+    if hertz::<PLAIN>(p) {
         let contact = (r_eff * depth.max(0.0)).sqrt();
         (
             share * 4.0 / 3.0 * p.stiffness * contact * depth,
@@ -81,8 +108,8 @@ fn damping(p: &PairParams, m_eff: f32, k: f32) -> f32 {
 /// `S_t = kt = 8 G* sqrt(R* d)`, the normal law's damping form applied to the tangential
 /// stiffness; linear: [`TANGENTIAL_DAMPING_RATIO`] times the normal damping `eta_n`.
 #[inline(always)]
-fn tangential_damping(c: &PairContext, kt: f32, eta_n: f32) -> f32 {
-    if c.params.model == MODEL_HERTZ {
+fn tangential_damping<const PLAIN: bool>(c: &PairContext, kt: f32, eta_n: f32) -> f32 {
+    if hertz::<PLAIN>(&c.params) {
         damping(&c.params, c.m_eff, kt)
     } else {
         TANGENTIAL_DAMPING_RATIO * eta_n
@@ -91,9 +118,9 @@ fn tangential_damping(c: &PairContext, kt: f32, eta_n: f32) -> f32 {
 
 /// Tangential stiffness of the pair's spring.
 #[inline(always)]
-fn tangential_stiffness(c: &PairContext, depth: f32, share_total: f32) -> f32 {
+fn tangential_stiffness<const PLAIN: bool>(c: &PairContext, depth: f32, share_total: f32) -> f32 {
     let p = &c.params;
-    if p.model == MODEL_HERTZ {
+    if hertz::<PLAIN>(p) {
         share_total * 8.0 * p.shear * (c.r_eff * depth.max(0.0)).sqrt()
     } else {
         LINEAR_TANGENTIAL_RATIO * p.stiffness
@@ -167,18 +194,36 @@ pub fn point_contact_force(
     history: &mut Vec3,
     coverage: &mut f32,
 ) -> ContactForce {
+    point_contact_force_in::<false>(c, n, cp, a, b, history, coverage)
+}
+
+/// [`point_contact_force`] for a caller that knows whether the pair's law is plain
+/// ([`is_plain`]): with `PLAIN = true` the tests for the Hertz law, cohesion, rolling and
+/// spinning resistance are left out (the same bits as [`point_contact_force`] for plain
+/// parameters; other parameters must use `PLAIN = false`).
+#[inline(always)]
+pub fn point_contact_force_in<const PLAIN: bool>(
+    c: &PairContext,
+    n: Vec3,
+    cp: ContactPoint,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    history: &mut Vec3,
+    coverage: &mut f32,
+) -> ContactForce {
+    debug_assert!(!PLAIN || is_plain(&c.params));
     let (p, point, depth) = (&c.params, cp.point, cp.depth);
     let vrel = b.point_velocity(point) - a.point_velocity(point);
-    let (fs, k) = spring(p, c.r_eff, depth, c.share);
+    let (fs, k) = spring_in::<PLAIN>(p, c.r_eff, depth, c.share);
     let eta = damping(p, c.m_eff, k);
     let fn_ = if c.share == SPHERE_POINT_SHARE {
-        resolved_normal_force(c, depth, -vrel.dot(n), (fs, k, eta), coverage)
+        resolved_normal_force_in::<PLAIN>(c, depth, -vrel.dot(n), (fs, k, eta), coverage)
     } else {
         *coverage = 0.0;
         fs - eta * vrel.dot(n)
     };
-    let kt = tangential_stiffness(c, depth, c.share);
-    let eta_t = tangential_damping(c, kt, eta);
+    let kt = tangential_stiffness::<PLAIN>(c, depth, c.share);
+    let eta_t = tangential_damping::<PLAIN>(c, kt, eta);
     let ft = tangential_law(c, kt, n, vrel, fn_, eta_t, history);
     let f = n * fn_ + ft;
     let mut out = ContactForce::new(
@@ -187,7 +232,7 @@ pub fn point_contact_force(
         (point - b.position).cross(f),
         fn_,
     );
-    adhesion_and_rolling(c, n, point, (a, b), fn_, &mut out);
+    adhesion_and_rolling::<PLAIN>(c, n, point, (a, b), fn_, &mut out);
     out
 }
 
@@ -235,6 +280,18 @@ pub fn resolved_normal_force(
     c: &PairContext,
     depth: f32,
     approach: f32,
+    forces: (f32, f32, f32),
+    coverage: &mut f32,
+) -> f32 {
+    resolved_normal_force_in::<false>(c, depth, approach, forces, coverage)
+}
+
+/// [`resolved_normal_force`], knowing the law is linear when `PLAIN`.
+#[inline(always)]
+fn resolved_normal_force_in<const PLAIN: bool>(
+    c: &PairContext,
+    depth: f32,
+    approach: f32,
     (spring_force, stiffness, eta): (f32, f32, f32),
     coverage: &mut f32,
 ) -> f32 {
@@ -254,11 +311,11 @@ pub fn resolved_normal_force(
     let g_start = if *coverage > 0.0 {
         *coverage
     } else if first {
-        dashpot_primitive(c, eta, x - dt * v)
+        dashpot_primitive::<PLAIN>(c, eta, x - dt * v)
     } else {
         0.0
     };
-    let g_x = eta * x / dashpot_exponent(&c.params);
+    let g_x = eta * x / dashpot_exponent::<PLAIN>(&c.params);
     if !first {
         // Inside the contact: the spring at `x` over the step (midpoint rule), the dashpot
         // from the covered end to `x1 = x + dt v+ / 2`, its primitive linearised at `x`
@@ -273,18 +330,18 @@ pub fn resolved_normal_force(
             return force;
         }
         // Separating within the step: this is the contact's last step.
-        return contact_edge(c, (x, v), (false, true), v_after, g_start, eta, coverage);
+        return contact_edge::<PLAIN>(c, (x, v), (false, true), v_after, g_start, eta, coverage);
     }
     let v_next = v - (fs + eta * v) * dt / (m_eff + 0.5 * eta * dt);
     let last = x + dt * v_next <= EDGE_SLACK * dt * v_next.abs();
-    contact_edge(c, (x, v), (true, last), v_next, g_start, eta, coverage)
+    contact_edge::<PLAIN>(c, (x, v), (true, last), v_next, g_start, eta, coverage)
 }
 
 /// The first or last step of a contact ([`resolved_normal_force`]): the spring over the part
 /// of the interval in contact, `v+` by three fixed-point iterations from `v_next` (three more
 /// as the last step if a first step separates after all).
 #[inline(never)]
-fn contact_edge(
+fn contact_edge<const PLAIN: bool>(
     c: &PairContext,
     (x, v): (f32, f32),
     (first, mut last): (bool, bool),
@@ -300,12 +357,12 @@ fn contact_edge(
         for _ in 0..3 {
             let back = if first { -dt } else { -0.5 * dt };
             let ahead = if last { dt } else { 0.5 * dt };
-            let spring_impulse =
-                spring_integral(c, x, v, back, 0.0) + spring_integral(c, x, v_next, 0.0, ahead);
+            let spring_impulse = spring_integral::<PLAIN>(c, x, v, back, 0.0)
+                + spring_integral::<PLAIN>(c, x, v_next, 0.0, ahead);
             g_end = if last {
                 0.0
             } else {
-                dashpot_primitive(c, eta, x + 0.5 * dt * v_next)
+                dashpot_primitive::<PLAIN>(c, eta, x + 0.5 * dt * v_next)
             };
             force = (spring_impulse + g_end - g_start) / dt;
             v_next = v - dt * force * inv_m;
@@ -328,19 +385,19 @@ fn contact_edge(
 /// Simpson's rule where it stays positive (exact for the linear law, within 1e-4 for Hertz
 /// over a step), the elastic energy over `|v|` where it crosses zero.
 #[inline(always)]
-fn spring_integral(c: &PairContext, x0: f32, v: f32, s0: f32, s1: f32) -> f32 {
+fn spring_integral<const PLAIN: bool>(c: &PairContext, x0: f32, v: f32, s0: f32, s1: f32) -> f32 {
     let (p, r_eff, share) = (&c.params, c.r_eff, c.share);
     let (a, b) = (x0 + v * s0, x0 + v * s1);
     if a > 0.0 && b > 0.0 {
         let mid = x0 + v * (0.5 * (s0 + s1));
         (s1 - s0) / 6.0
-            * (spring(p, r_eff, a, share).0
-                + 4.0 * spring(p, r_eff, mid, share).0
-                + spring(p, r_eff, b, share).0)
+            * (spring_in::<PLAIN>(p, r_eff, a, share).0
+                + 4.0 * spring_in::<PLAIN>(p, r_eff, mid, share).0
+                + spring_in::<PLAIN>(p, r_eff, b, share).0)
     } else if a > 0.0 || b > 0.0 {
         let top = a.max(b);
-        let exponent = if p.model == MODEL_HERTZ { 2.5 } else { 2.0 };
-        spring(p, r_eff, top, share).0 * top / exponent / v.abs()
+        let exponent = if hertz::<PLAIN>(p) { 2.5 } else { 2.0 };
+        spring_in::<PLAIN>(p, r_eff, top, share).0 * top / exponent / v.abs()
     } else {
         0.0
     }
@@ -348,23 +405,23 @@ fn spring_integral(c: &PairContext, x0: f32, v: f32, s0: f32, s1: f32) -> f32 {
 
 /// `1 + q` for the dashpot `eta ~ x^q` (q = 0 linear, 1/4 Hertz).
 #[inline(always)]
-fn dashpot_exponent(p: &PairParams) -> f32 {
-    if p.model == MODEL_HERTZ { 1.25 } else { 1.0 }
+fn dashpot_exponent<const PLAIN: bool>(p: &PairParams) -> f32 {
+    if hertz::<PLAIN>(p) { 1.25 } else { 1.0 }
 }
 
 /// The dashpot's primitive `G(x) = integral of eta from 0 to x = eta(x) x / (1 + q)` (0 for
 /// `x <= 0`). `eta_linear` is the linear law's (constant) damping, passed in to save its
 /// square root.
 #[inline(always)]
-fn dashpot_primitive(c: &PairContext, eta_linear: f32, x: f32) -> f32 {
+fn dashpot_primitive<const PLAIN: bool>(c: &PairContext, eta_linear: f32, x: f32) -> f32 {
     let p = &c.params;
     let x = x.max(0.0);
-    let eta = if p.model == MODEL_HERTZ {
-        damping(p, c.m_eff, spring(p, c.r_eff, x, c.share).1)
+    let eta = if hertz::<PLAIN>(p) {
+        damping(p, c.m_eff, spring_in::<PLAIN>(p, c.r_eff, x, c.share).1)
     } else {
         eta_linear
     };
-    eta * x / dashpot_exponent(p)
+    eta * x / dashpot_exponent::<PLAIN>(p)
 }
 
 /// The adhesive pull of a touching pair (DMT: `2 pi gamma R*`, N), 0 without cohesion.
@@ -431,7 +488,7 @@ pub fn spinning_torque(
 /// Adds adhesion (acting at `at`, along the normal) and rolling resistance to a contact's
 /// force; `normal_force` is the contact's spring-dashpot normal force (without adhesion).
 #[inline(always)]
-fn adhesion_and_rolling(
+fn adhesion_and_rolling<const PLAIN: bool>(
     c: &PairContext,
     n: Vec3,
     at: Vec3,
@@ -439,6 +496,10 @@ fn adhesion_and_rolling(
     normal_force: f32,
     out: &mut ContactForce,
 ) {
+    if PLAIN {
+        // None of the three (`is_plain`).
+        return;
+    }
     let p = &c.params;
     if p.cohesion_model != COHESION_NONE {
         let pull = adhesion(p, c.r_eff);
@@ -513,8 +574,8 @@ pub fn contact_force(
     }
     // One tangential spring for the whole patch, at its centroid.
     let share_total = share * pts.len() as f32;
-    let kt = tangential_stiffness(c, mean_depth, share_total);
-    let eta_t = tangential_damping(c, kt, eta_total);
+    let kt = tangential_stiffness::<false>(c, mean_depth, share_total);
+    let eta_t = tangential_damping::<false>(c, kt, eta_total);
     let vrel = b.point_velocity(centroid) - a.point_velocity(centroid);
     let ft = tangential_law(c, kt, n, vrel, out.normal_force, eta_t, history);
     out.force_b += ft;
@@ -544,7 +605,7 @@ pub fn contact_force(
         *twist = 0.0;
     }
     let normal_force = out.normal_force;
-    adhesion_and_rolling(c, n, centroid, (a, b), normal_force, &mut out);
+    adhesion_and_rolling::<false>(c, n, centroid, (a, b), normal_force, &mut out);
     out
 }
 
@@ -589,6 +650,81 @@ mod tests {
     fn params(law: ContactLaw) -> PairParams {
         let m = Material::new("m", 1000.0, law, 0.5, 0.3);
         PairParams::combine(&m, &m)
+    }
+
+    #[test]
+    fn the_plain_forms_give_the_same_bits_on_plain_pairs() {
+        let plain = params(ContactLaw::Linear { stiffness: 2.0e4 });
+        assert!(is_plain(&plain));
+        let hertz = params(ContactLaw::Hertz {
+            youngs_modulus: 1.0e7,
+            poisson_ratio: 0.3,
+        });
+        assert!(!is_plain(&hertz));
+        for (field, value) in [(0, 0.1), (1, 0.1), (2, 1.0)] {
+            let mut p = plain;
+            match field {
+                0 => p.rolling_friction = value,
+                1 => p.spinning_friction = value,
+                _ => p.cohesion_model = COHESION_DMT,
+            }
+            assert!(!is_plain(&p), "field {field}");
+        }
+        // Random one-point sphere contacts on the plain law: first steps, contacts inside,
+        // separating ones, sticking and sliding springs.
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut vec = |scale: f32| Vec3::new(unit(), unit(), unit()) * scale;
+        for k in 0..20_000 {
+            let n = vec(1.0).try_normalize().unwrap_or(Vec3::Z);
+            let depth = (vec(1.0).x + 1.0) * 2e-4;
+            let c = PairContext {
+                params: plain,
+                m_eff: 0.01 * (1.5 + vec(1.0).y),
+                r_eff: 0.005,
+                share: SPHERE_POINT_SHARE,
+                dt: 3.3e-5,
+            };
+            let a = BodyMotion {
+                position: Vec3::ZERO,
+                velocity: vec(0.5),
+                omega: vec(20.0),
+            };
+            let b = BodyMotion {
+                position: n * 0.02,
+                velocity: vec(0.5),
+                omega: vec(20.0),
+            };
+            let cp = ContactPoint {
+                point: n * (0.01 - 0.5 * depth),
+                depth,
+            };
+            let history = vec(1e-4);
+            let coverage = match k % 3 {
+                0 => 0.0,
+                1 => -1.0,
+                _ => (vec(1.0).z + 1.0) * 1e-3,
+            };
+            let (mut h1, mut c1) = (history, coverage);
+            let (mut h2, mut c2) = (history, coverage);
+            let general = point_contact_force(&c, n, cp, &a, &b, &mut h1, &mut c1);
+            let fast = point_contact_force_in::<true>(&c, n, cp, &a, &b, &mut h2, &mut c2);
+            assert_eq!(
+                bytemuck::bytes_of(&general),
+                bytemuck::bytes_of(&fast),
+                "contact {k}"
+            );
+            assert_eq!(
+                h1.to_array().map(f32::to_bits),
+                h2.to_array().map(f32::to_bits)
+            );
+            assert_eq!(c1.to_bits(), c2.to_bits(), "contact {k}");
+        }
     }
 
     #[test]

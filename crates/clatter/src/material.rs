@@ -347,4 +347,11 @@ impl Materials {
     pub fn table(&self) -> &[PairParams] {
         &self.table
     }
+
+    /// Whether every pair's law is plain ([`crate::law::is_plain`]: linear, without
+    /// cohesion, rolling or spinning resistance), so the contact stages may use the law's
+    /// plain forms.
+    pub fn all_plain(&self) -> bool {
+        self.table.iter().all(crate::law::is_plain)
+    }
 }

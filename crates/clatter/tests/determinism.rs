@@ -107,3 +107,68 @@ fn same_bits_for_1_2_3_threads_and_repeated_runs() {
         }
     }
 }
+
+/// A sphere pile (plain law) and a mixed pile, shaken as in [`run`], stepped on one thread.
+fn run_shape(shape: PileShape, n: usize, steps: usize) -> Run {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let mut desc = pile(shape, n, &PileParams::default());
+        for (i, b) in desc.bodies.iter_mut().enumerate() {
+            let f = i as f32;
+            b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
+            b.angular_velocity =
+                Vec3::new((f * 0.29).cos(), (f * 0.53).sin(), (f * 0.97).cos()) * 30.0;
+        }
+        let mut w = World::new(desc);
+        let mut contacts = Vec::with_capacity(steps);
+        for _ in 0..steps {
+            contacts.push(w.step().unwrap().contacts);
+        }
+        Run {
+            state: snapshot(&w),
+            contacts,
+            pairs: w.touching_pairs(),
+            rebuilds: w.rebuilds,
+        }
+    })
+}
+
+#[test]
+fn same_bits_with_and_without_the_avx2_builds() {
+    // The hot stages run AVX2 builds of the same arithmetic where the CPU has it
+    // (`step::vex`); turned off, they run the baseline x86-64 build. Both must give the
+    // same bits (other tests in this binary may run meanwhile: they see the same bits too).
+    if !clatter::step::avx2() {
+        eprintln!("this CPU has no AVX2 (or it is off): both runs take the same build");
+    }
+    for shape in [PileShape::Sphere, PileShape::Mixed] {
+        let (n, steps) = (600, 300);
+        clatter::step::set_avx2(false);
+        let baseline = run_shape(shape, n, steps);
+        clatter::step::set_avx2(true);
+        let avx2 = run_shape(shape, n, steps);
+        let total: usize = baseline.contacts.iter().sum();
+        assert!(
+            total > n * steps / 10,
+            "{shape:?}: the pile should be in contact"
+        );
+        assert_eq!(
+            avx2.contacts, baseline.contacts,
+            "{shape:?}: contact counts differ"
+        );
+        assert_eq!(
+            avx2.pairs, baseline.pairs,
+            "{shape:?}: touching pairs differ"
+        );
+        if let Some(k) = first_difference(&avx2.state, &baseline.state) {
+            panic!(
+                "{shape:?}: state differs first at body {}, word {}",
+                k / 16,
+                k % 16
+            );
+        }
+    }
+}

@@ -35,6 +35,8 @@ pub(crate) fn run(world: &mut World) -> usize {
     let (force_pairs, force_walls) = forces.split_at_mut(np);
     let (touch_pairs, touch_walls) = touching.split_at_mut(np);
     let (piece_pairs, piece_walls) = w.contacts.pieces.split_at(w.contacts.pieces.len().min(np));
+    // Every pair on the plain law: the law compiled without the tests for the others.
+    let plain = w.materials.all_plain();
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
     let (pairs_touching, walls_touching) = rayon::join(
         || {
@@ -69,14 +71,11 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(touch_pairs.par_chunks_mut(CHUNK))
                     .zip(twist_pairs.par_chunks_mut(CHUNK))
                     .map(|((((p, h), f), t), c)| {
-                        let n = p.len();
-                        let (h, f, t, c) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut c[..n]);
-                        (0..n)
-                            .map(|k| {
-                                sphere_pair(w, x, p[k], &mut h[k], &mut c[k], &mut f[k], &mut t[k])
-                                    as usize
-                            })
-                            .sum::<usize>()
+                        if plain {
+                            super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
+                        } else {
+                            super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
+                        }
                     })
                     .sum::<usize>();
             }
@@ -108,19 +107,30 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(twist_walls.par_iter_mut())
                     .with_min_len(CHUNK)
                     .map(|(((((p, pc), h), f), t), tw)| {
-                        wall_pair::<true>(w, x, *p, *pc, h, f, t, tw) as usize
+                        wall_pair::<true>(w, x, *p, *pc, h, f, t, tw, false) as usize
                     })
                     .sum::<usize>();
             }
             w.contacts
                 .wall_pairs
-                .par_iter()
-                .zip(hist_walls.par_iter_mut())
-                .zip(force_walls.par_iter_mut())
-                .zip(touch_walls.par_iter_mut())
-                .zip(twist_walls.par_iter_mut())
-                .with_min_len(CHUNK)
-                .map(|((((p, h), f), t), tw)| wall_pair::<false>(w, x, *p, 0, h, f, t, tw) as usize)
+                .par_chunks(CHUNK)
+                .zip(hist_walls.par_chunks_mut(CHUNK))
+                .zip(force_walls.par_chunks_mut(CHUNK))
+                .zip(touch_walls.par_chunks_mut(CHUNK))
+                .zip(twist_walls.par_chunks_mut(CHUNK))
+                .map(|((((p, h), f), t), tw)| {
+                    super::vex(|| {
+                        let n = p.len();
+                        let (h, f, t, tw) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut tw[..n]);
+                        let mut touching = 0;
+                        for k in 0..n {
+                            touching += wall_pair::<false>(
+                                w, x, p[k], 0, &mut h[k], &mut f[k], &mut t[k], &mut tw[k], plain,
+                            ) as usize;
+                        }
+                        touching
+                    })
+                })
                 .sum::<usize>()
         },
     );
@@ -128,9 +138,37 @@ pub(crate) fn run(world: &mut World) -> usize {
     pairs_touching + walls_touching
 }
 
-/// Two spheres (the common DEM case), without building a manifold.
+/// A chunk of sphere pairs with their springs, coverages, forces and touching flags (all
+/// slices of one length): the number that touch. `PLAIN`: every pair's law is plain
+/// ([`law::is_plain`]).
 #[inline]
-fn sphere_pair(
+fn sphere_chunk<const PLAIN: bool>(
+    w: &World,
+    x: &[Ds3A],
+    pairs: &[[u32; 2]],
+    hist: &mut [Vec3],
+    coverage: &mut [f32],
+    force: &mut [ContactForce],
+    touching: &mut [bool],
+) -> usize {
+    let n = pairs.len();
+    let (h, c, f, t) = (
+        &mut hist[..n],
+        &mut coverage[..n],
+        &mut force[..n],
+        &mut touching[..n],
+    );
+    (0..n)
+        .map(|k| {
+            sphere_pair::<PLAIN>(w, x, pairs[k], &mut h[k], &mut c[k], &mut f[k], &mut t[k])
+                as usize
+        })
+        .sum()
+}
+
+/// Two spheres (the common DEM case), without building a manifold.
+#[inline(always)]
+fn sphere_pair<const PLAIN: bool>(
     w: &World,
     x: &[Ds3A],
     [i, j]: [u32; 2],
@@ -155,7 +193,7 @@ fn sphere_pair(
             point: n * (ri - 0.5 * depth),
             depth,
         };
-        *force = law::point_contact_force(
+        *force = law::point_contact_force_in::<PLAIN>(
             &context,
             n,
             point,
@@ -235,7 +273,7 @@ fn law_side<const PIECES: bool>(w: &World, i: usize, piece: u32) -> (f32, bool) 
 /// same operations in the same order, so the same bits.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn sphere_wall(
+fn sphere_wall<const PLAIN: bool>(
     w: &World,
     i: usize,
     wall: &crate::world::Wall,
@@ -261,7 +299,7 @@ fn sphere_wall(
         let (r, sphere) = law_side::<false>(w, i, 0);
         let share = law::point_share(sphere, sphere);
         let context = pair_context(w, params, w.consts.mass[i], r, share);
-        *force = law::point_contact_force(
+        *force = law::point_contact_force_in::<PLAIN>(
             &context,
             n,
             cp,
@@ -297,7 +335,8 @@ pub(super) fn pair_context(
 }
 
 /// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
-/// rest). The per-piece form is what other static boundaries can reuse.
+/// rest). The per-piece form is what other static boundaries can reuse. `plain`: every
+/// pair's law is plain ([`law::is_plain`]).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn wall_pair<const PIECES: bool>(
@@ -309,20 +348,28 @@ fn wall_pair<const PIECES: bool>(
     force: &mut ContactForce,
     touching: &mut bool,
     twist: &mut f32,
+    plain: bool,
 ) -> bool {
     let (i, wall) = (i as usize, &w.walls[wall as usize]);
     // Body i at the origin, the plane shifted by its position (in f64).
+    let (plane, rest) = w.plane_in(x, i, &wall.plane);
+    if let (false, Shape::Sphere { radius }) = (PIECES, w.shape(i)) {
+        // A sphere needs no pose (nor its orientation read).
+        return if plain {
+            sphere_wall::<true>(
+                w, i, wall, &plane, *radius, rest, hist, force, touching, twist,
+            )
+        } else {
+            sphere_wall::<false>(
+                w, i, wall, &plane, *radius, rest, hist, force, touching, twist,
+            )
+        };
+    }
     let (shape, pose) = if PIECES {
         w.piece_at(i, piece, Vec3::ZERO)
     } else {
         (w.shape(i), w.local_pose(i))
     };
-    let (plane, rest) = w.plane_in(x, i, &wall.plane);
-    if let (false, Shape::Sphere { radius }) = (PIECES, shape) {
-        return sphere_wall(
-            w, i, wall, &plane, *radius, rest, hist, force, touching, twist,
-        );
-    }
     match narrow::collide_plane(&plane, shape, &pose).map(|m| World::add_rest(m, rest)) {
         Some(m) => {
             let params = w.pair_params(wall.material, w.consts.material[i]);

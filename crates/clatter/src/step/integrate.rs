@@ -50,53 +50,59 @@ pub(crate) fn run(world: &mut World) -> Moved {
         .zip(s.removed.par_chunks_mut(CHUNK))
         .enumerate()
         .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
-            let mut worst = 0.0f32;
-            // This chunk's pairs and rebuild positions (sliced once: no bounds test per body).
-            let first = chunk * CHUNK;
-            let pairs = &pairs[first..first + xs.len()];
-            let rebuild_position = &rebuild_position[first..first + xs.len()];
-            // Ghosts (`crate::domain`) are integrated by the rank that owns them; a world
-            // without ghosts (one process) has an empty list.
-            let ghost = ghost.get(first..first + xs.len()).unwrap_or(&[]);
-            for k in 0..xs.len() {
-                let i = chunk * CHUNK + k;
-                if gone[k] || (!ghost.is_empty() && ghost[k]) {
-                    continue;
+            super::vex(|| {
+                let mut worst = 0.0f32;
+                // This chunk's pairs and rebuild positions (sliced once: no bounds test per body).
+                let first = chunk * CHUNK;
+                let pairs = &pairs[first..first + xs.len()];
+                let rebuild_position = &rebuild_position[first..first + xs.len()];
+                // Ghosts (`crate::domain`) are integrated by the rank that owns them; a world
+                // without ghosts (one process) has an empty list.
+                let ghost = ghost.get(first..first + xs.len()).unwrap_or(&[]);
+                for k in 0..xs.len() {
+                    let i = chunk * CHUNK + k;
+                    if gone[k] || (!ghost.is_empty() && ghost[k]) {
+                        continue;
+                    }
+                    let (f, t) = contacts.gather(i);
+                    let (f, t) = match mesh {
+                        Some(m) => m.gather(i, f, t),
+                        None => (f, t),
+                    };
+                    let v = &mut vs[k];
+                    let x = &mut xs[k];
+                    *v += (f * consts.inv_mass[i] + gravity) * dt;
+                    // The displacement rounded once to f32, added to the precise position (bit
+                    // for bit the GPU's arithmetic, `crate::precise`): kept at any coordinate.
+                    let (next, moved) = precise::advance_a(
+                        periodic.as_ref(),
+                        pairs[k],
+                        *v * dt,
+                        rebuild_position[k],
+                    );
+                    *x = next;
+                    ls[k] += t * dt;
+                    ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
+                    qs[k] = rotate(qs[k], ws[k], &mut rs[k], dt);
+                    let d2 = moved.length_squared();
+                    // NaN or infinity anywhere in the state shows up in d2 or in q.
+                    let d2 = if d2.is_finite() && qs[k].w.is_finite() {
+                        d2
+                    } else {
+                        f32::INFINITY
+                    };
+                    // A removed body asks for a rebuild (which drops its pairs) with the
+                    // largest finite distance.
+                    let d2 = if has_sinks && d2.is_finite() && in_any(sinks, x.as_vec3()) {
+                        gone[k] = true;
+                        f32::MAX
+                    } else {
+                        d2
+                    };
+                    worst = if d2 > worst { d2 } else { worst };
                 }
-                let (f, t) = contacts.gather(i);
-                let (f, t) = match mesh {
-                    Some(m) => m.gather(i, f, t),
-                    None => (f, t),
-                };
-                let v = &mut vs[k];
-                let x = &mut xs[k];
-                *v += (f * consts.inv_mass[i] + gravity) * dt;
-                // The displacement rounded once to f32, added to the precise position (bit
-                // for bit the GPU's arithmetic, `crate::precise`): kept at any coordinate.
-                let (next, moved) =
-                    precise::advance_a(periodic.as_ref(), pairs[k], *v * dt, rebuild_position[k]);
-                *x = next;
-                ls[k] += t * dt;
-                ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
-                qs[k] = rotate(qs[k], ws[k], &mut rs[k], dt);
-                let d2 = moved.length_squared();
-                // NaN or infinity anywhere in the state shows up in d2 or in q.
-                let d2 = if d2.is_finite() && qs[k].w.is_finite() {
-                    d2
-                } else {
-                    f32::INFINITY
-                };
-                // A removed body asks for a rebuild (which drops its pairs) with the
-                // largest finite distance.
-                let d2 = if has_sinks && d2.is_finite() && in_any(sinks, x.as_vec3()) {
-                    gone[k] = true;
-                    f32::MAX
-                } else {
-                    d2
-                };
-                worst = if d2 > worst { d2 } else { worst };
-            }
-            worst
+                worst
+            })
         })
         .reduce(|| 0.0, f32::max);
     if worst == f32::INFINITY {

@@ -16,10 +16,70 @@ mod handover;
 pub mod integrate;
 pub mod mesh_contacts;
 
+use std::sync::atomic::{AtomicU8, Ordering};
+
 use crate::world::{SimError, StepStats, World};
 
 /// Items per parallel task in the per-contact and per-body stages.
 pub(crate) const CHUNK: usize = 1024;
+
+/// Whether the hot stages run their AVX2 builds ([`vex`]): 0 not decided yet, 1 no, 2 yes.
+static AVX2: AtomicU8 = AtomicU8::new(0);
+
+/// Whether the hot stages of the CPU step run their AVX2 builds: where the CPU has AVX2
+/// (x86-64), unless [`set_avx2`] turned them off.
+pub fn avx2() -> bool {
+    match AVX2.load(Ordering::Relaxed) {
+        0 => {
+            let on = cpu_has_avx2();
+            AVX2.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+            on
+        }
+        state => state == 2,
+    }
+}
+
+/// Turns the AVX2 builds of the hot stages off (`false`), or back on where the CPU has
+/// AVX2 (`true`). The results are the same bits either way (see `vex`); this is for the
+/// tests that hold them to it, and for timing one against the other.
+pub fn set_avx2(on: bool) {
+    let on = on && cpu_has_avx2();
+    AVX2.store(if on { 2 } else { 1 }, Ordering::Relaxed);
+}
+
+/// Whether this CPU has AVX2.
+fn cpu_has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Calls `f` compiled for AVX2 where the CPU has it ([`avx2`]): three-operand (VEX) forms
+/// of the same SSE arithmetic, without the register copies the two-operand forms need
+/// (about a quarter of the sphere pair loop's instructions). The same IEEE operations in
+/// the same order either way (Rust never fuses a multiply and an add, nor reorders float
+/// arithmetic, on its own, and calls no other maths here), so the same bits on any CPU.
+/// For the per-chunk bodies of the hot stages.
+#[inline(always)]
+pub(crate) fn vex<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx2")]
+        fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        if avx2() {
+            // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
+            return unsafe { with_avx2(f) };
+        }
+    }
+    f()
+}
 
 impl World {
     /// Rebuilds the broad phase now, from the current positions, carrying the springs of
