@@ -33,12 +33,17 @@ struct Run {
 /// box and given a shake: every body starts with a different velocity and spin so contacts
 /// form and break all the time.
 fn run(threads: usize, n: usize, steps: usize) -> Run {
+    run_pile(PileShape::Mixed, threads, n, steps)
+}
+
+/// [`run`] for a pile of any shape.
+fn run_pile(shape: PileShape, threads: usize, n: usize, steps: usize) -> Run {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        let mut desc = pile(PileShape::Mixed, n, &PileParams::default());
+        let mut desc = pile(shape, n, &PileParams::default());
         for (i, b) in desc.bodies.iter_mut().enumerate() {
             let f = i as f32;
             b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
@@ -108,34 +113,6 @@ fn same_bits_for_1_2_3_threads_and_repeated_runs() {
     }
 }
 
-/// A sphere pile (plain law) and a mixed pile, shaken as in [`run`], stepped on one thread.
-fn run_shape(shape: PileShape, n: usize, steps: usize) -> Run {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    pool.install(|| {
-        let mut desc = pile(shape, n, &PileParams::default());
-        for (i, b) in desc.bodies.iter_mut().enumerate() {
-            let f = i as f32;
-            b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 1.5;
-            b.angular_velocity =
-                Vec3::new((f * 0.29).cos(), (f * 0.53).sin(), (f * 0.97).cos()) * 30.0;
-        }
-        let mut w = World::new(desc);
-        let mut contacts = Vec::with_capacity(steps);
-        for _ in 0..steps {
-            contacts.push(w.step().unwrap().contacts);
-        }
-        Run {
-            state: snapshot(&w),
-            contacts,
-            pairs: w.touching_pairs(),
-            rebuilds: w.rebuilds,
-        }
-    })
-}
-
 #[test]
 fn same_bits_with_and_without_the_avx2_builds() {
     // The hot stages run AVX2 builds of the same arithmetic where the CPU has it
@@ -147,9 +124,9 @@ fn same_bits_with_and_without_the_avx2_builds() {
     for shape in [PileShape::Sphere, PileShape::Mixed] {
         let (n, steps) = (600, 300);
         clatter::step::set_avx2(false);
-        let baseline = run_shape(shape, n, steps);
+        let baseline = run_pile(shape, 1, n, steps);
         clatter::step::set_avx2(true);
-        let avx2 = run_shape(shape, n, steps);
+        let avx2 = run_pile(shape, 1, n, steps);
         let total: usize = baseline.contacts.iter().sum();
         assert!(
             total > n * steps / 10,
