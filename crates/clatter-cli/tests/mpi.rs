@@ -77,8 +77,8 @@ fn several_ranks_without_the_feature_is_an_error() {
 #[ignore = "SKIPPED: the runs under mpirun (1, 2, 3 ranks bitwise equal to one process) need `cargo test --release -p clatter-cli --features mpi --test mpi`"]
 fn runs_under_mpirun_need_the_mpi_feature() {}
 
-/// 300 spheres poured into a narrow box with a push sideways: they cross the slab
-/// boundaries (the slabs are cut along the box's long axis, x) many times.
+/// 300 spheres poured into a narrow box with a push sideways: they cross the rank
+/// boundaries (the first cut is across the box's long axis, x) many times.
 #[cfg(feature = "mpi")]
 const SPHERE_PILE: &str = r#"[simulation]
 steps = 6000

@@ -147,7 +147,7 @@ fn check(name: &str, world: World, steps: usize) -> u64 {
     handovers
 }
 
-/// A lattice of spheres shaken hard: bodies cross the slab boundaries many times.
+/// A lattice of spheres shaken hard: bodies cross the rank boundaries many times.
 #[test]
 fn sphere_pile_on_1_to_4_ranks_is_bitwise_one_process() {
     let mut desc = pile(PileShape::Sphere, 400, &PileParams::default());
@@ -269,7 +269,7 @@ fn a_world_gathered_on_3_ranks_continues_on_2_and_1_bitwise() {
 }
 
 /// Periodic boundaries (x and y): ghosts across the seam, a rank its own neighbour on one
-/// rank, the slabs ending at the box.
+/// rank, the outer boxes ending at the periodic box.
 #[test]
 fn periodic_scene_on_1_to_4_ranks_is_bitwise_one_process() {
     let handovers = check("periodic floor", scene_world("periodic-floor.toml"), 6000);
