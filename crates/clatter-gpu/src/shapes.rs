@@ -9,7 +9,8 @@
 //! - binding 1, `shape_u: array<u32>`: first a [`SHAPE_HEADER_WORDS`]-word header per shape
 //!   (kind, bounding radius, counts, offsets into both buffers), then per polyhedron the face
 //!   loops (`first`, `count` per face, absolute indices into `shape_u`), the concatenated
-//!   face vertex loops, the edges (`v0, v1, f0, f1` per edge) and each edge's direction index.
+//!   face vertex loops, the edges (`v0, v1, f0, f1` per edge), each edge's direction index,
+//!   and (shapes of at most 64 edges and faces) each face's edges as a 64-bit set.
 //!
 //! Composite shapes (clumps) have a header of kind 2 pointing at their piece records; each
 //! piece's own shape is packed as one more shape after the scene's (see `KIND_COMPOSITE`).
@@ -182,10 +183,31 @@ fn pack(shapes: &[PreparedShape]) -> Result<Packed, GpuError> {
                 }
                 words[h + 9] = to_u32(words.len(), "word offset")?;
                 words.extend_from_slice(&p.edge_dir_of);
+                // The edges of each face as a 64-bit set (two words, low first), for the
+                // Gauss-map pruning of the edge axes against this shape as B; 0 (none) when
+                // the shape has more than 64 edges or faces (the kernel then visits every edge).
+                if p.edges.len() <= 64 && p.faces.len() <= 64 {
+                    words[h + 10] = to_u32(words.len(), "word offset")?;
+                    words.extend_from_slice(&edge_sets_by_face(p));
+                }
             }
         }
     }
     Ok(Packed { floats, words })
+}
+
+/// The edges of each face of `p` as 64-bit sets, two words per face (low word first): bit `e`
+/// of face `f` is set when edge `e` borders face `f`. At most 64 edges and faces.
+fn edge_sets_by_face(p: &clatter_geom::ConvexPolyhedron) -> Vec<u32> {
+    let mut sets = vec![0u64; p.faces.len()];
+    for (e, faces) in p.edge_faces.iter().enumerate() {
+        for &f in faces {
+            sets[f as usize] |= 1 << e;
+        }
+    }
+    sets.iter()
+        .flat_map(|s| [*s as u32, (s >> 32) as u32])
+        .collect()
 }
 
 /// Keeps at least one element in each buffer (zero-sized bindings are invalid).
@@ -374,6 +396,19 @@ mod tests {
         assert_eq!(packed.words[eb + 6], p.edge_faces[1][0]);
         let db = packed.words[h + 9] as usize;
         assert_eq!(packed.words[db + 5], p.edge_dir_of[5]);
+        // Face f's edge set: exactly the edges that border f (a cube's face has 4).
+        let sb = packed.words[h + 10] as usize;
+        for f in 0..p.faces.len() {
+            let set = packed.words[sb + 2 * f] as u64 | (packed.words[sb + 2 * f + 1] as u64) << 32;
+            for (e, faces) in p.edge_faces.iter().enumerate() {
+                assert_eq!(
+                    set >> e & 1 == 1,
+                    faces.contains(&(f as u32)),
+                    "face {f} edge {e}"
+                );
+            }
+            assert_eq!(set.count_ones(), 4);
+        }
         let vb = packed.words[h + 6] as usize;
         let nv = p.vertices.len();
         assert_eq!(packed.floats[vb + nv + 2][3], p.faces[2].offset);

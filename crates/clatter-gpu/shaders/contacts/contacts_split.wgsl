@@ -7,25 +7,66 @@
 
 var<workgroup> wg_base: u32;
 
+// The pairs contacts_full runs are listed by class within each workgroup's share of the
+// list, so that neighbouring threads (one subgroup, which runs in lockstep) mostly run the
+// same shapes down the same path (full test, remembered face, remembered edge contact),
+// instead of every shape pair and path a subgroup's lanes happen to hold, one after the
+// other. A class is the path and the two bodies' shape indices (capped at SPLIT_SHAPES - 1).
+// Only which thread computes a pair changes, never its result.
+const SPLIT_SHAPES: u32 = 6u;
+const SPLIT_CLASSES: u32 = 3u * SPLIT_SHAPES * SPLIT_SHAPES;
+var<workgroup> wg_class_count: array<atomic<u32>, SPLIT_CLASSES>;
+var<workgroup> wg_class_at: array<u32, SPLIT_CLASSES>;
+
+// The class of candidate pair c (see SPLIT_CLASSES).
+fn pair_class(c: u32) -> u32 {
+    let p = pairs[c];
+    let sa = min(statics[body_of(p.x)].shape, SPLIT_SHAPES - 1u);
+    let sb = min(statics[body_of(p.y)].shape, SPLIT_SHAPES - 1u);
+    var path = 0u;
+    if touching[c] == 1u {
+        let h = pair_memory[c].x;
+        if h == HINT_EDGE_CONTACT {
+            path = 2u;
+        } else if h != NO_HINT {
+            path = 1u;
+        }
+    }
+    return (path * SPLIT_SHAPES + min(sa, sb)) * SPLIT_SHAPES + max(sa, sb);
+}
+
 @compute @workgroup_size(256)
 fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                 @builtin(local_invocation_index) lid: u32) {
+    for (var k = lid; k < SPLIT_CLASSES; k += WG) {
+        atomicStore(&wg_class_count[k], 0u);
+    }
+    // (halted_wg's uniform load is also the barrier after the clearing.)
     if halted_wg(lid) {
         return;
     }
     let c = thread_index(wid, nwg, lid);
     var needs = false;
+    var kind = 0u;
     if c < a_start[params.n] {
         needs = !pair_apart(c);
+        if needs {
+            kind = pair_class(c);
+        }
     }
-    // Append to the list: a slot in the workgroup, then one global atomic per workgroup.
-    var local = 0u;
+    // Append to the list: a rank within the class in the workgroup, the classes laid out one
+    // after the other, then one global atomic per workgroup.
+    var rank = 0u;
     if needs {
-        local = atomicAdd(&wg_sum, 1u);
+        rank = atomicAdd(&wg_class_count[kind], 1u);
     }
     workgroupBarrier();
     if lid == 0u {
-        let total = atomicLoad(&wg_sum);
+        var total = 0u;
+        for (var k = 0u; k < SPLIT_CLASSES; k++) {
+            wg_class_at[k] = total;
+            total += atomicLoad(&wg_class_count[k]);
+        }
         var base = 0u;
         if total > 0u {
             base = atomicAdd(&status[ST_WORK], total);
@@ -34,7 +75,7 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     }
     let base = workgroupUniformLoad(&wg_base);
     if needs {
-        new_pairs[base + local] = vec2<u32>(c, 0u);
+        new_pairs[base + wg_class_at[kind] + rank] = vec2<u32>(c, 0u);
     }
 }
 

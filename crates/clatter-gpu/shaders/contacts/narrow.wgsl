@@ -36,6 +36,7 @@ struct NrwShape {
     face_loop_base: u32, // shape_u: (first, count) of each face's vertex loop
     edge_base: u32, // shape_u: (v0, v1, f0, f1) per edge
     edge_dir_base: u32, // shape_u: direction index per edge
+    by_face_base: u32, // shape_u: each face's edges as a 64-bit set (2 words); 0 = none
 }
 
 // Separating-axis hint (GPU only): `collide` and `separated` test the axis in nrw_hint_in
@@ -118,6 +119,7 @@ fn nrw_shape(s: u32) -> NrwShape {
     r.face_loop_base = shape_u[h + 7u];
     r.edge_base = shape_u[h + 8u];
     r.edge_dir_base = shape_u[h + 9u];
+    r.by_face_base = shape_u[h + 10u];
     return r;
 }
 

@@ -114,8 +114,33 @@ struct NrwEdgeAxis {
     hint: u32,
 }
 
+// The edges of B (64-bit set, low word first) whose two faces' products with A's arc may
+// have a negative product (CPU `crossing_candidates`): one strictly positive and the other
+// strictly negative (the edges in exactly one positive face and exactly one negative face),
+// or either neither (zero or NaN). Every edge left out fails the Gauss-map test anyway.
+fn nrw_crossing_candidates(b: NrwShape, arc_a: vec3<f32>) -> vec2<u32> {
+    var pos = vec2<u32>(0u);
+    var neg = vec2<u32>(0u);
+    var other = vec2<u32>(0u);
+    for (var kb = 0u; kb < b.num_faces; kb += 1u) {
+        let v = -dot(nrw_face(b, kb).xyz, arc_a);
+        let at = b.by_face_base + 2u * kb;
+        let edges = vec2<u32>(shape_u[at], shape_u[at + 1u]);
+        if v > 0.0 {
+            pos ^= edges;
+        } else if v < 0.0 {
+            neg ^= edges;
+        } else {
+            other |= edges;
+        }
+    }
+    return (pos & neg) | other;
+}
+
 // Edge axes over edge pairs whose Gauss-map arcs cross (CPU `edge_axes_gauss_map`; the
-// CPU's two product tables are recomputed per pair).
+// CPU's two product tables are recomputed per pair). Where B has its edges by face as bit
+// sets, only the candidates of nrw_crossing_candidates are visited, in increasing order, so
+// the same edges meet the same tests in the same order as when every edge is visited.
 fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
     var r: NrwEdgeAxis;
     r.s = 0.0;
@@ -125,6 +150,7 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
     r.found = false;
     r.separated = false;
     r.hint = 0u;
+    let use_bits = b.by_face_base != 0u;
     for (var ea = 0u; ea < a.num_edges; ea += 1u) {
         let e_a = nrw_edge(a, ea);
         let arc_a = inv_rot * shape_f[a.arc_base + ea].xyz;
@@ -132,7 +158,31 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
         let da = nrw_vert(a, e_a.y) - pa0;
         let na0 = nrw_face(a, e_a.z).xyz;
         let na1 = nrw_face(a, e_a.w).xyz;
-        for (var eb = 0u; eb < b.num_edges; eb += 1u) {
+        var bits = vec2<u32>(0u);
+        if use_bits {
+            bits = nrw_crossing_candidates(b, arc_a);
+        }
+        var next = 0u;
+        loop {
+            // The next edge of B to visit: the lowest candidate bit, or every edge in turn.
+            var eb = 0u;
+            if use_bits {
+                if bits.x != 0u {
+                    eb = firstTrailingBit(bits.x);
+                    bits.x &= bits.x - 1u;
+                } else if bits.y != 0u {
+                    eb = 32u + firstTrailingBit(bits.y);
+                    bits.y &= bits.y - 1u;
+                } else {
+                    break;
+                }
+            } else {
+                if next >= b.num_edges {
+                    break;
+                }
+                eb = next;
+                next += 1u;
+            }
             let e_b = nrw_edge(b, eb);
             let cba = -dot(nrw_face(b, e_b.z).xyz, arc_a);
             let dba = -dot(nrw_face(b, e_b.w).xyz, arc_a);
