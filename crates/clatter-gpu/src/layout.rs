@@ -235,6 +235,13 @@ pub mod snapshot {
     }
 }
 
+/// Shape indices told apart by the classes of `contacts_place` (higher ones share the last).
+pub const SPLIT_SHAPES: usize = 6;
+/// Classes of the pairs `contacts_full` runs (contacts_split.wgsl `pair_class`): the path
+/// (full test, remembered face, remembered edge contact) and the unordered pair of the two
+/// bodies' shape indices, capped at `SPLIT_SHAPES - 1`.
+pub const SPLIT_CLASSES: usize = 3 * SPLIT_SHAPES * SPLIT_SHAPES;
+
 /// Words of the status buffer (`ST_*` in WGSL).
 pub mod status {
     /// Set by integrate: rebuild the pair list next step.
@@ -273,8 +280,12 @@ pub mod status {
     /// than the GPU's fixed per-body capacity (`crate::mesh`): the pipeline stops and the
     /// host reports it.
     pub const MESH_FULL: usize = 20;
+    /// Shader-internal: [`SPLIT_CLASSES`](super::SPLIT_CLASSES) words, per class the number of
+    /// pairs `contacts_sat` leaves for `contacts_full`, turned by `contacts_size` into the
+    /// class's next slot in the list `contacts_place` orders by class.
+    pub const CLASSES: usize = 21;
     /// Number of status words.
-    pub const LEN: usize = 21;
+    pub const LEN: usize = CLASSES + super::SPLIT_CLASSES;
 }
 
 /// Indirect-dispatch slots (`ARG_*` in WGSL); the scan levels' slots follow.
@@ -328,7 +339,10 @@ fn constants() -> Vec<Constant> {
         st("ST_CHECKED", status::CHECKED),
         st("ST_SAMPLES", status::SAMPLES),
         st("ST_MESH_FULL", status::MESH_FULL),
+        st("ST_CLASSES", status::CLASSES),
         st("ST_LEN", status::LEN),
+        st("SPLIT_SHAPES", SPLIT_SHAPES),
+        st("SPLIT_CLASSES", SPLIT_CLASSES),
         U32("MESH_SLOTS", clatter::mesh_boundary::MESH_SLOTS as u32),
         U32("MESH_HDR", crate::mesh::HEADER_WORDS as u32),
         U32("MESH_GLOBAL", crate::mesh::GLOBAL_WORDS as u32),

@@ -37,6 +37,7 @@ fn prepare() {
     }
     atomicStore(&status[ST_REBUILDING], rebuild);
     atomicStore(&status[ST_WORK], 0u);
+    clear_classes();
     write_step_args(stopped);
     // Rebuild-only dispatches: the template's size when rebuilding, else nothing.
     for (var s = 0u; s < params.num_args; s++) {
@@ -74,6 +75,7 @@ fn prepare_lean() {
     atomicStore(&status[ST_TOUCHING], 0u);
     atomicStore(&status[ST_REBUILDING], 0u);
     atomicStore(&status[ST_WORK], 0u);
+    clear_classes();
 }
 
 // The last kernel of every step: counts it, unless the pipeline stopped during it.
@@ -179,4 +181,11 @@ fn copy_cells(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nw
         return;
     }
     cell_start[c] = atomicLoad(&cell_count[c]);
+}
+
+// Zeroes contacts_sat's per-class counts (status words ST_CLASSES..), with ST_WORK.
+fn clear_classes() {
+    for (var k = 0u; k < SPLIT_CLASSES; k++) {
+        atomicStore(&status[ST_CLASSES + k], 0u);
+    }
 }

@@ -7,18 +7,18 @@
 
 var<workgroup> wg_base: u32;
 
-// The pairs contacts_full runs are listed by class within each workgroup's share of the
-// list, so that neighbouring threads (one subgroup, which runs in lockstep) mostly run the
-// same shapes down the same path (full test, remembered face, remembered edge contact),
-// instead of every shape pair and path a subgroup's lanes happen to hold, one after the
-// other. A class is the path and the two bodies' shape indices (capped at SPLIT_SHAPES - 1).
-// Only which thread computes a pair changes, never its result.
-const SPLIT_SHAPES: u32 = 6u;
-const SPLIT_CLASSES: u32 = 3u * SPLIT_SHAPES * SPLIT_SHAPES;
+// The pairs contacts_full runs are ordered by class (contacts_place), so that neighbouring
+// threads (one subgroup, which runs in lockstep) run the same shapes down the same path
+// (full test, remembered face, remembered edge contact), instead of every shape pair and
+// path a subgroup's lanes happen to hold, one after the other. A class is the path and the
+// unordered pair of the two bodies' shape indices, capped at SPLIT_SHAPES - 1 (SPLIT_SHAPES
+// and SPLIT_CLASSES come from src/layout.rs). Only which thread computes a pair changes,
+// never its result.
 var<workgroup> wg_class_count: array<atomic<u32>, SPLIT_CLASSES>;
 var<workgroup> wg_class_at: array<u32, SPLIT_CLASSES>;
 
-// The class of candidate pair c (see SPLIT_CLASSES).
+// The class of candidate pair c (see above). contacts_sat and contacts_place find the same
+// class: neither changes what it reads for a pair contacts_full runs.
 fn pair_class(c: u32) -> u32 {
     let p = pairs[c];
     let sa = min(statics[body_of(p.x)].shape, SPLIT_SHAPES - 1u);
@@ -35,13 +35,40 @@ fn pair_class(c: u32) -> u32 {
     return (path * SPLIT_SHAPES + min(sa, sb)) * SPLIT_SHAPES + max(sa, sb);
 }
 
-@compute @workgroup_size(256)
-fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                @builtin(local_invocation_index) lid: u32) {
+// Clears the workgroup's class counts; before halted_wg, whose uniform load is the barrier.
+fn clear_wg_classes(lid: u32) {
     for (var k = lid; k < SPLIT_CLASSES; k += WG) {
         atomicStore(&wg_class_count[k], 0u);
     }
-    // (halted_wg's uniform load is also the barrier after the clearing.)
+}
+
+// Counts this thread's pair (class `kind`, if `counted`) in the workgroup and adds the
+// workgroup's counts to the global ones from `word` (one atomic per class that has any);
+// the thread's slot among the workgroup's pairs of its class (0 when not counted), with
+// wg_class_at holding where the workgroup's share of each class starts in the global count.
+// Every thread of the workgroup must call it.
+fn count_classes(lid: u32, counted: bool, kind: u32, word: u32) -> u32 {
+    var rank = 0u;
+    if counted {
+        rank = atomicAdd(&wg_class_count[kind], 1u);
+    }
+    workgroupBarrier();
+    for (var k = lid; k < SPLIT_CLASSES; k += WG) {
+        let n = atomicLoad(&wg_class_count[k]);
+        var at = 0u;
+        if n > 0u {
+            at = atomicAdd(&status[word + k], n);
+        }
+        wg_class_at[k] = at;
+    }
+    workgroupBarrier();
+    return rank;
+}
+
+@compute @workgroup_size(256)
+fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                @builtin(local_invocation_index) lid: u32) {
+    clear_wg_classes(lid);
     if halted_wg(lid) {
         return;
     }
@@ -54,19 +81,16 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
             kind = pair_class(c);
         }
     }
-    // Append to the list: a rank within the class in the workgroup, the classes laid out one
-    // after the other, then one global atomic per workgroup.
-    var rank = 0u;
+    // The pairs' counts per class (for contacts_size), and the list in any order: a slot in
+    // the workgroup, then one global atomic per workgroup.
+    count_classes(lid, needs, kind, ST_CLASSES);
+    var local = 0u;
     if needs {
-        rank = atomicAdd(&wg_class_count[kind], 1u);
+        local = atomicAdd(&wg_sum, 1u);
     }
     workgroupBarrier();
     if lid == 0u {
-        var total = 0u;
-        for (var k = 0u; k < SPLIT_CLASSES; k++) {
-            wg_class_at[k] = total;
-            total += atomicLoad(&wg_class_count[k]);
-        }
+        let total = atomicLoad(&wg_sum);
         var base = 0u;
         if total > 0u {
             base = atomicAdd(&status[ST_WORK], total);
@@ -75,7 +99,7 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     }
     let base = workgroupUniformLoad(&wg_base);
     if needs {
-        new_pairs[base + wg_class_at[kind] + rank] = vec2<u32>(c, 0u);
+        new_pairs[base + local] = vec2<u32>(c, 0u);
     }
 }
 
@@ -107,6 +131,13 @@ fn contacts_size() {
         count = atomicLoad(&status[ST_WORK]);
     }
     write_args(ARG_WORK, (count + WG - 1u) / WG);
+    // Each class's count becomes where its pairs start in the ordered list.
+    var at = 0u;
+    for (var k = 0u; k < SPLIT_CLASSES; k++) {
+        let n = atomicLoad(&status[ST_CLASSES + k]);
+        atomicStore(&status[ST_CLASSES + k], at);
+        at += n;
+    }
 }
 
 @compute @workgroup_size(256)
@@ -117,8 +148,31 @@ fn contacts_full(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
     }
     let k = thread_index(wid, nwg, lid);
     var touched = 0u;
-    if k < atomicLoad(&status[ST_WORK]) && pair_contact(new_pairs[k].x, false) {
+    if k < atomicLoad(&status[ST_WORK]) && pair_contact(new_pairs[k].y, false) {
         touched = 1u;
     }
     add_status_wg(lid, ST_TOUCHING, touched);
+}
+
+// The list contacts_sat left (new_pairs[k].x, in any order) ordered by class into
+// new_pairs[..].y, which contacts_full reads: each class from where contacts_size put it.
+@compute @workgroup_size(256)
+fn contacts_place(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
+                  @builtin(local_invocation_index) lid: u32) {
+    clear_wg_classes(lid);
+    if halted_wg(lid) {
+        return;
+    }
+    let k = thread_index(wid, nwg, lid);
+    let listed = k < atomicLoad(&status[ST_WORK]);
+    var c = 0u;
+    var kind = 0u;
+    if listed {
+        c = new_pairs[k].x;
+        kind = pair_class(c);
+    }
+    let rank = count_classes(lid, listed, kind, ST_CLASSES);
+    if listed {
+        new_pairs[wg_class_at[kind] + rank].y = c;
+    }
 }

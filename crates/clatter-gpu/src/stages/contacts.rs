@@ -1,7 +1,8 @@
 //! Stage 2, **contacts**: narrow phase and contact law per candidate pair. Sphere-only scenes
 //! run one pass (`contacts`); scenes with polyhedra run two (contacts_split.wgsl):
-//! `contacts_sat` proves most pairs apart cheaply and lists the rest, `contacts_full` runs the
-//! full narrow phase and the law on that list only.
+//! `contacts_sat` proves most pairs apart cheaply and lists the rest, `contacts_place` orders
+//! that list by class (shape pair and path, so that a subgroup runs one kind), `contacts_full`
+//! runs the full narrow phase and the law on that list only.
 
 use super::Recorder;
 use crate::layout::arg;
@@ -38,6 +39,7 @@ pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelS
             vec![
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),
+                ("contacts", "contacts_place", Group2::None),
                 ("contacts", "contacts_full", Group2::None),
             ],
         )
@@ -51,6 +53,7 @@ pub(crate) fn record(r: &mut Recorder<'_>, spheres_only: bool) {
     } else {
         r.contact("contacts_sat", Size::Indirect(arg::PAIRS));
         r.contact("contacts_size", Size::Single);
+        r.contact("contacts_place", Size::Indirect(arg::WORK));
         r.contact("contacts_full", Size::Indirect(arg::WORK));
     }
 }
