@@ -286,6 +286,8 @@ pub mod status {
     pub const CLASSES: usize = 21;
     /// Number of status words.
     pub const LEN: usize = CLASSES + super::SPLIT_CLASSES;
+    // The snapshot keeps the words before the class counts (health.wgsl `snapshot_one`).
+    const _: () = assert!(CLASSES as u64 <= super::snapshot::STATUS);
 }
 
 /// Indirect-dispatch slots (`ARG_*` in WGSL); the scan levels' slots follow.

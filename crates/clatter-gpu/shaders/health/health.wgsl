@@ -209,7 +209,7 @@ fn snapshot_state(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
     let n = params.n;
     let slots = n * params.num_walls * params.max_pieces;
     let stride = nwg.x * WG;
-    let end = max(max(max(n, slots), snap_mesh_words(n)), max(params.pair_capacity, ST_LEN));
+    let end = max(max(max(n, slots), snap_mesh_words(n)), max(params.pair_capacity, ST_CLASSES));
     for (var i = thread_index(wid, nwg, lid); i < end; i += stride) {
         snapshot_one(i, n, slots);
     }
@@ -225,7 +225,9 @@ fn snap_mesh_words(n: u32) -> u32 {
 
 // Copies element `i` of every state buffer that has one.
 fn snapshot_one(i: u32, n: u32, slots: u32) {
-    if i < ST_LEN {
+    // The status words before the class counts (shader-internal, recounted every step),
+    // which fit the snapshot's status block (SNAP_STATUS words).
+    if i < ST_CLASSES {
         snapshot[i] = atomicLoad(&status[i]);
         if i == ST_HEALTH {
             snapshot[i] = 0u;
