@@ -78,6 +78,38 @@ fn nrw_max_a(a: NrwShape, n: vec3<f32>) -> f32 {
     return m;
 }
 
+// The extent `e` (min in x, max in y) widened by the projections on n of A's vertices
+// lo..hi (exact: the min and max of the same products in any grouping).
+fn nrw_extent_a(a: NrwShape, n: vec3<f32>, lo: u32, hi: u32, e: vec2<f32>) -> vec2<f32> {
+    var r = e;
+    for (var i = lo; i < hi; i += 1u) {
+        let d = dot(n, nrw_vert(a, i));
+        if d < r.x {
+            r.x = d;
+        }
+        if d > r.y {
+            r.y = d;
+        }
+    }
+    return r;
+}
+
+// nrw_extent_a for B's vertices lo..hi (in A's frame).
+fn nrw_extent_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>, lo: u32, hi: u32,
+                e: vec2<f32>) -> vec2<f32> {
+    var r = e;
+    for (var i = lo; i < hi; i += 1u) {
+        let d = dot(n, nrw_bv(b, i, rot, t));
+        if d < r.x {
+            r.x = d;
+        }
+        if d > r.y {
+            r.y = d;
+        }
+    }
+    return r;
+}
+
 // Smallest projection of B's vertices (in A's frame) on n.
 fn nrw_min_b(b: NrwShape, n: vec3<f32>, rot: mat3x3<f32>, t: vec3<f32>) -> f32 {
     var m = dot(n, nrw_bv(b, 0u, rot, t));
@@ -246,10 +278,34 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
                 continue;
             }
             let axis = ax / sqrt(len2);
-            let min_a = nrw_min_a(a, axis);
-            let max_a = nrw_max_a(a, axis);
-            let min_b = nrw_min_b(b, axis, rot, t);
-            let max_b = nrw_max_b(b, axis, rot, t);
+            // Both bodies' extents in one pass each, the first 4 vertices of each first
+            // (CPU `edge_axes_by_direction`): their extents lie inside the bodies' (the same
+            // products, from the one call site of each), so when they already overlap by
+            // more than the best axis so far, so do the bodies, and the axis can neither win
+            // nor separate (the best is not positive). Exact: no decision changes.
+            var ext_a = vec2<f32>(-NRW_LOWEST, NRW_LOWEST);
+            var ext_b = vec2<f32>(-NRW_LOWEST, NRW_LOWEST);
+            var skip = false;
+            for (var part = 0u; part < 2u; part += 1u) {
+                let head_a = min(4u, a.num_vertices);
+                let head_b = min(4u, b.num_vertices);
+                let rest = part == 1u;
+                ext_a = nrw_extent_a(a, axis, select(0u, head_a, rest),
+                                     select(head_a, a.num_vertices, rest), ext_a);
+                ext_b = nrw_extent_b(b, axis, rot, t, select(0u, head_b, rest),
+                                     select(head_b, b.num_vertices, rest), ext_b);
+                if !rest && r.found && ext_b.x - ext_a.y <= r.s && ext_a.x - ext_b.y <= r.s {
+                    skip = true;
+                    break;
+                }
+            }
+            if skip {
+                continue;
+            }
+            let min_a = ext_a.x;
+            let max_a = ext_a.y;
+            let min_b = ext_b.x;
+            let max_b = ext_b.y;
             var s = min_a - max_b;
             var sa = -axis;
             if min_b - max_a >= min_a - max_b {
