@@ -15,6 +15,8 @@ pub mod contacts;
 mod handover;
 pub mod integrate;
 pub mod mesh_contacts;
+#[cfg(target_arch = "x86_64")]
+mod sphere_lanes;
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
