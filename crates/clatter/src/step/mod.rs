@@ -14,6 +14,10 @@ pub mod broad;
 pub mod contacts;
 mod handover;
 pub mod integrate;
+#[cfg(target_arch = "x86_64")]
+mod integrate_lanes;
+#[cfg(target_arch = "x86_64")]
+mod lanes;
 pub mod mesh_contacts;
 #[cfg(target_arch = "x86_64")]
 mod sphere_lanes;
