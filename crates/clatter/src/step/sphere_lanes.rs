@@ -1,6 +1,6 @@
 //! The sphere pairs of the **contacts** stage eight at a time, one pair per lane of an AVX2
-//! register, on the plain law ([`law::is_plain`]): the offset of the two centres, the
-//! distance test and [`law::point_contact_force_in`]`::<true>` as [`super::contacts`]'s
+//! register, on the plain law ([`crate::law::is_plain`]): the offset of the two centres, the
+//! distance test and [`crate::law::point_contact_force_in`]`::<true>` as [`super::contacts`]'s
 //! `sphere_pair` computes them, with the same bits.
 //!
 //! Why the same bits: each lane does the scalar path's IEEE operations on the same values in
