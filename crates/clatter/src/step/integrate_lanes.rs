@@ -8,8 +8,8 @@
 //! term (`Quat::mul_quat`, `dot4`); [`crate::precise`]'s `ds_add_a`, `snap_a` and `join_a`
 //! lane for lane; branches become blends. The forces are gathered per body as before
 //! (`Contacts::gather4`). Groups the lanes do not cover go to the scalar `body`: a periodic
-//! box, mesh boundaries, ghosts or sinks in the world, a removed body in the group, a body
-//! whose inertia is not isotropic, and the chunk's last `len % 8` bodies.
+//! box, mesh boundaries or sinks in the world, a removed body or a ghost (another rank's) in
+//! the group, a body whose inertia is not isotropic, and the chunk's last `len % 8` bodies.
 
 use std::arch::x86_64::*;
 
@@ -288,8 +288,7 @@ impl Q8 {
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn chunk(c: &Ctx, mut b: Bodies) -> f32 {
     let n = b.xs.len();
-    let lanes_apply =
-        c.periodic.is_none() && c.mesh.is_none() && c.ghost.is_empty() && !c.has_sinks;
+    let lanes_apply = c.periodic.is_none() && c.mesh.is_none() && !c.has_sinks;
     let mut worst = 0.0f32;
     let mut k = 0;
     if lanes_apply {
@@ -318,8 +317,8 @@ pub(super) unsafe fn chunk(c: &Ctx, mut b: Bodies) -> f32 {
     worst
 }
 
-/// Bodies `k..k + 8` of the chunk in lanes; `None` (nothing written) where a body is removed
-/// or not isotropic. Returns the largest squared distance moved, infinite for a state no
+/// Bodies `k..k + 8` of the chunk in lanes; `None` (nothing written) where a body is removed,
+/// a ghost (another rank's) or not isotropic. Returns the largest squared distance moved, infinite for a state no
 /// longer finite.
 ///
 /// # Safety
@@ -330,7 +329,9 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let i = b.first + k;
     let r = i..i + 8;
     let kr = k..k + 8;
-    if b.gone[kr.clone()].iter().any(|&g| g) {
+    if b.gone[kr.clone()].iter().any(|&g| g)
+        || (!c.ghost.is_empty() && c.ghost[r.clone()].iter().any(|&g| g))
+    {
         return None;
     }
     // SAFETY (loads and stores below): AVX2, and arrays of 8.
@@ -535,6 +536,10 @@ mod tests {
             // not finite.
             s.position[3] = DVec3::new(1e-30, -2e-31, 0.05);
             s.velocity[n / 2] = Vec3::new(f32::NAN, 0.0, 0.0);
+        }
+        if odd {
+            // Other ranks' bodies here and there (`crate::domain`): not integrated here.
+            w.ghost = (0..n).map(|_| rng.random_bool(0.01)).collect();
         }
         // Rebuild positions a little off the current ones.
         for i in 0..n {
