@@ -247,6 +247,14 @@ impl Contacts {
     /// contact order (the same order whatever the thread count).
     #[inline]
     pub fn gather(&self, i: usize) -> (Vec3, Vec3) {
+        let (f, t) = self.gather4(i);
+        (f.truncate(), t.truncate())
+    }
+
+    /// [`Contacts::gather`] in four lanes: the first three are its force and torque, the
+    /// fourth is to be thrown away (for callers that keep the sums in SIMD registers).
+    #[inline(always)]
+    pub(crate) fn gather4(&self, i: usize) -> (Vec4, Vec4) {
         // Forces of non-touching contacts are zero, so no branch is needed. Each vector is
         // read with the float after it (`normal_force`, a pad) as one four-lane load and
         // summed in four lanes: the first three lanes do the `Vec3` sums' operations in the
@@ -269,7 +277,7 @@ impl Contacts {
             f += force_b;
             t += torque_b;
         }
-        (f.truncate(), t.truncate())
+        (f, t)
     }
 }
 

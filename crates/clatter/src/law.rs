@@ -242,13 +242,13 @@ const COVERED_TO_RELEASE: f32 = -1.0;
 
 /// The largest `(w dt)^2 + 2 zeta w dt` (`w^2 = k / m*`, `2 zeta w = eta / m*`) for which a
 /// contact is resolved within the step; the default step gives about 0.13 at e = 0.05.
-const RESOLVABLE: f32 = 1.0;
+pub(crate) const RESOLVABLE: f32 = 1.0;
 
 /// The fraction of a step's travel within which an overlap counts as zero when deciding
 /// whether a step is a contact's last (positions round to a few ulps; a contact called
 /// ended a sliver early only adds a sliver of spring force in the next step, one that ends
 /// unnoticed loses the rest of the step's damping).
-const EDGE_SLACK: f32 = 0.05;
+pub(crate) const EDGE_SLACK: f32 = 0.05;
 
 /// The normal force of a one-point contact resolved within the step, for a requested
 /// restitution met at the default step (`t_c / 50`) to about 0.1% whatever the phase at

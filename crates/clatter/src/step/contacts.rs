@@ -72,6 +72,13 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(twist_pairs.par_chunks_mut(CHUNK))
                     .map(|((((p, h), f), t), c)| {
                         if plain {
+                            #[cfg(target_arch = "x86_64")]
+                            if super::avx2() {
+                                // SAFETY: the CPU has AVX2.
+                                return unsafe {
+                                    super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
+                                };
+                            }
                             super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
                         } else {
                             super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
@@ -142,7 +149,7 @@ pub(crate) fn run(world: &mut World) -> usize {
 /// slices of one length): the number that touch. `PLAIN`: every pair's law is plain
 /// ([`law::is_plain`]).
 #[inline]
-fn sphere_chunk<const PLAIN: bool>(
+pub(super) fn sphere_chunk<const PLAIN: bool>(
     w: &World,
     x: &[Ds3A],
     pairs: &[[u32; 2]],
@@ -168,7 +175,7 @@ fn sphere_chunk<const PLAIN: bool>(
 
 /// Two spheres (the common DEM case), without building a manifold.
 #[inline(always)]
-fn sphere_pair<const PLAIN: bool>(
+pub(super) fn sphere_pair<const PLAIN: bool>(
     w: &World,
     x: &[Ds3A],
     [i, j]: [u32; 2],

@@ -5,12 +5,16 @@
 //! a sink after the update is removed (and asks for a rebuild, which drops its pairs);
 //! removed bodies and ghosts (another MPI rank's bodies) are skipped.
 
-use glam::{Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 use rayon::prelude::*;
 
 use super::CHUNK;
-use crate::precise;
-use crate::sink::in_any;
+use crate::bodies::BodyConstants;
+use crate::contact_list::Contacts;
+use crate::mesh_boundary::MeshContacts;
+use crate::periodic::Periodic;
+use crate::precise::{self, Ds3A};
+use crate::sink::{Sink, in_any};
 use crate::world::World;
 
 /// How far the bodies moved since the last rebuild.
@@ -23,6 +27,12 @@ pub(crate) enum Moved {
 
 /// Runs the stage on every body.
 pub(crate) fn run(world: &mut World) -> Moved {
+    run_in(world, super::avx2())
+}
+
+/// [`run`], in eight lanes where `lanes` (the CPU must then have AVX2) or body by body: the
+/// same bits.
+pub(super) fn run_in(world: &mut World, lanes: bool) -> Moved {
     let (dt, gravity) = (world.dt, world.gravity);
     let contacts = &world.contacts;
     let mesh = (!world.mesh.slots.is_empty()).then_some(&world.mesh);
@@ -37,6 +47,19 @@ pub(crate) fn run(world: &mut World) -> Moved {
     let has_sinks = !sinks.is_empty();
     debug_assert!(world.ghost.is_empty() || world.ghost.len() == world.state.position.len());
     let ghost = &world.ghost;
+    let ctx = Ctx {
+        dt,
+        gravity,
+        contacts,
+        mesh,
+        consts,
+        rebuild_position,
+        pairs,
+        periodic: periodic.as_ref(),
+        sinks,
+        has_sinks,
+        ghost,
+    };
     let s = &mut world.state;
     // Chunks of bodies, one task each; the loop body sees plain slices.
     let worst = s
@@ -50,55 +73,26 @@ pub(crate) fn run(world: &mut World) -> Moved {
         .zip(s.removed.par_chunks_mut(CHUNK))
         .enumerate()
         .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
+            let mut bodies = Bodies {
+                first: chunk * CHUNK,
+                xs,
+                vs,
+                qs,
+                ls,
+                ws,
+                rs,
+                gone,
+            };
+            #[cfg(target_arch = "x86_64")]
+            if lanes {
+                assert!(super::avx2());
+                // SAFETY: the CPU has AVX2.
+                return unsafe { super::integrate_lanes::chunk(&ctx, bodies) };
+            }
             super::vex(|| {
                 let mut worst = 0.0f32;
-                // This chunk's pairs and rebuild positions (sliced once: no bounds test per body).
-                let first = chunk * CHUNK;
-                let pairs = &pairs[first..first + xs.len()];
-                let rebuild_position = &rebuild_position[first..first + xs.len()];
-                // Ghosts (`crate::domain`) are integrated by the rank that owns them; a world
-                // without ghosts (one process) has an empty list.
-                let ghost = ghost.get(first..first + xs.len()).unwrap_or(&[]);
-                for k in 0..xs.len() {
-                    let i = chunk * CHUNK + k;
-                    if gone[k] || (!ghost.is_empty() && ghost[k]) {
-                        continue;
-                    }
-                    let (f, t) = contacts.gather(i);
-                    let (f, t) = match mesh {
-                        Some(m) => m.gather(i, f, t),
-                        None => (f, t),
-                    };
-                    let v = &mut vs[k];
-                    let x = &mut xs[k];
-                    *v += (f * consts.inv_mass[i] + gravity) * dt;
-                    // The displacement rounded once to f32, added to the precise position (bit
-                    // for bit the GPU's arithmetic, `crate::precise`): kept at any coordinate.
-                    let (next, moved) = precise::advance_a(
-                        periodic.as_ref(),
-                        pairs[k],
-                        *v * dt,
-                        rebuild_position[k],
-                    );
-                    *x = next;
-                    ls[k] += t * dt;
-                    ws[k] = angular_velocity(qs[k], ls[k], consts.inv_inertia[i]);
-                    qs[k] = rotate(qs[k], ws[k], &mut rs[k], dt);
-                    let d2 = moved.length_squared();
-                    // NaN or infinity anywhere in the state shows up in d2 or in q.
-                    let d2 = if d2.is_finite() && qs[k].w.is_finite() {
-                        d2
-                    } else {
-                        f32::INFINITY
-                    };
-                    // A removed body asks for a rebuild (which drops its pairs) with the
-                    // largest finite distance.
-                    let d2 = if has_sinks && d2.is_finite() && in_any(sinks, x.as_vec3()) {
-                        gone[k] = true;
-                        f32::MAX
-                    } else {
-                        d2
-                    };
+                for k in 0..bodies.xs.len() {
+                    let d2 = body(&ctx, &mut bodies, k);
                     worst = if d2 > worst { d2 } else { worst };
                 }
                 worst
@@ -112,10 +106,82 @@ pub(crate) fn run(world: &mut World) -> Moved {
     }
 }
 
+/// What every chunk of the stage shares.
+pub(super) struct Ctx<'a> {
+    pub(super) dt: f32,
+    pub(super) gravity: Vec3,
+    pub(super) contacts: &'a Contacts,
+    pub(super) mesh: Option<&'a MeshContacts>,
+    pub(super) consts: &'a BodyConstants,
+    pub(super) rebuild_position: &'a [DVec3],
+    /// The positions as pairs, split by the contact stage this step.
+    pub(super) pairs: &'a [Ds3A],
+    pub(super) periodic: Option<&'a Periodic>,
+    pub(super) sinks: &'a [Sink],
+    pub(super) has_sinks: bool,
+    /// Ghosts (`crate::domain`) are integrated by the rank that owns them; a world without
+    /// ghosts (one process) has an empty list.
+    pub(super) ghost: &'a [bool],
+}
+
+/// One chunk's bodies (from body `first` on): the state the stage updates.
+pub(super) struct Bodies<'a> {
+    pub(super) first: usize,
+    pub(super) xs: &'a mut [DVec3],
+    pub(super) vs: &'a mut [Vec3],
+    pub(super) qs: &'a mut [Quat],
+    pub(super) ls: &'a mut [Vec3],
+    pub(super) ws: &'a mut [Vec3],
+    pub(super) rs: &'a mut [Quat],
+    pub(super) gone: &'a mut [bool],
+}
+
+/// Body `k` of the chunk: its forces gathered, then the update. Returns the squared distance
+/// it has moved from its rebuild position (0 for a body skipped, infinite for a state no
+/// longer finite, `f32::MAX` for one a sink took).
+#[inline(always)]
+pub(super) fn body(c: &Ctx, b: &mut Bodies, k: usize) -> f32 {
+    let i = b.first + k;
+    if b.gone[k] || (!c.ghost.is_empty() && c.ghost[i]) {
+        return 0.0;
+    }
+    let (f, t) = c.contacts.gather(i);
+    let (f, t) = match c.mesh {
+        Some(m) => m.gather(i, f, t),
+        None => (f, t),
+    };
+    let v = &mut b.vs[k];
+    let x = &mut b.xs[k];
+    *v += (f * c.consts.inv_mass[i] + c.gravity) * c.dt;
+    // The displacement rounded once to f32, added to the precise position (bit for bit the
+    // GPU's arithmetic, `crate::precise`): kept at any coordinate.
+    let (next, moved) =
+        precise::advance_a(c.periodic, c.pairs[i], *v * c.dt, c.rebuild_position[i]);
+    *x = next;
+    b.ls[k] += t * c.dt;
+    b.ws[k] = angular_velocity(b.qs[k], b.ls[k], c.consts.inv_inertia[i]);
+    b.qs[k] = rotate(b.qs[k], b.ws[k], &mut b.rs[k], c.dt);
+    let d2 = moved.length_squared();
+    // NaN or infinity anywhere in the state shows up in d2 or in q.
+    let d2 = if d2.is_finite() && b.qs[k].w.is_finite() {
+        d2
+    } else {
+        f32::INFINITY
+    };
+    // A removed body asks for a rebuild (which drops its pairs) with the largest finite
+    // distance.
+    if c.has_sinks && d2.is_finite() && in_any(c.sinks, x.as_vec3()) {
+        b.gone[k] = true;
+        f32::MAX
+    } else {
+        d2
+    }
+}
+
 /// Angular velocity from angular momentum `l` with the world-space inverse inertia
 /// `R I^-1 R^T`.
 #[inline(always)]
-fn angular_velocity(q: Quat, l: Vec3, inv_inertia: Vec3) -> Vec3 {
+pub(super) fn angular_velocity(q: Quat, l: Vec3, inv_inertia: Vec3) -> Vec3 {
     if inv_inertia.x == inv_inertia.y && inv_inertia.y == inv_inertia.z {
         // Spheres, cubes, Platonic solids: isotropic, no frame change needed.
         l * inv_inertia.x
@@ -129,7 +195,7 @@ fn angular_velocity(q: Quat, l: Vec3, inv_inertia: Vec3) -> Vec3 {
 /// compensation (`residual` keeps what rounding lost), renormalised only when |q| drifted
 /// by more than a few ulps (one Newton step of 1/sqrt around 1).
 #[inline(always)]
-fn rotate(q: Quat, w: Vec3, residual: &mut Quat, dt: f32) -> Quat {
+pub(super) fn rotate(q: Quat, w: Vec3, residual: &mut Quat, dt: f32) -> Quat {
     let h = 0.5 * dt;
     let dq = Quat::from_xyzw(w.x * h, w.y * h, w.z * h, 0.0) * q;
     let y = dq - *residual;

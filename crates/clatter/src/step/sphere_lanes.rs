@@ -1,0 +1,651 @@
+//! The sphere pairs of the **contacts** stage eight at a time, one pair per lane of an AVX2
+//! register, on the plain law ([`crate::law::is_plain`]): the offset of the two centres, the
+//! distance test and [`crate::law::point_contact_force_in`]`::<true>` as [`super::contacts`]'s
+//! `sphere_pair` computes them, with the same bits.
+//!
+//! Why the same bits: each lane does the scalar path's IEEE operations on the same values in
+//! the same order (no fused multiply-add; square roots and divisions are correctly rounded
+//! in both), and every branch of the scalar path becomes a comparison and a blend that picks
+//! the value that branch would have produced. `max(x, c)` against a constant `c` that is not
+//! NaN is `x > c ? x : c` in both (`vmaxps` with `c` second, as LLVM lowers Rust's `max`
+//! there). What lanes do not cover they hand back to the scalar code: a contact's first step
+//! and its last (the in-step normal law's fixed-point iterations), a step too long for the
+//! contact (the explicit law), the released contacts of an all-apart group, and the chunk's
+//! last `len % 8` pairs.
+//!
+//! A contact that does not touch holds a zero force (the gather, `Contacts::gather`, relies
+//! on it too), so lanes that neither touch nor touched store zeros; their springs are kept.
+
+use std::arch::x86_64::*;
+use std::mem::offset_of;
+
+use glam::Vec3;
+
+use super::contacts::sphere_pair;
+use super::lanes::{F8, M8, V3, gather, gather_vec3, load_vec3, store_vec3};
+use crate::contract::{
+    ContactForce, LINEAR_TANGENTIAL_RATIO, PairParams, TANGENTIAL_DAMPING_RATIO,
+};
+use crate::law::{EDGE_SLACK, RESOLVABLE};
+use crate::precise::Ds3A;
+use crate::world::World;
+
+/// Eight [`ContactForce`]s from their fields in lanes: `f` the force on b and `fn_` the
+/// normal force, `ta` and `tb` the torques (pads zero).
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn store_forces(f: V3, fn_: F8, ta: V3, tb: V3, out: &mut [ContactForce; 8]) {
+    let zero = _mm256_setzero_ps();
+    // Per group of four fields, a 4x8 transpose: `r[l]` holds lanes l (low half) and l + 4
+    // (high half) of the four.
+    let transpose = |a: __m256, b: __m256, c: __m256, d: __m256| {
+        let (t0, t1) = (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+        let (t2, t3) = (_mm256_unpacklo_ps(c, d), _mm256_unpackhi_ps(c, d));
+        [
+            _mm256_shuffle_ps::<0x44>(t0, t2),
+            _mm256_shuffle_ps::<0xEE>(t0, t2),
+            _mm256_shuffle_ps::<0x44>(t1, t3),
+            _mm256_shuffle_ps::<0xEE>(t1, t3),
+        ]
+    };
+    let g = [
+        transpose(f.x.0, f.y.0, f.z.0, fn_.0),
+        transpose(ta.x.0, ta.y.0, ta.z.0, zero),
+        transpose(tb.x.0, tb.y.0, tb.z.0, zero),
+    ];
+    // Records l and l + 1 (l = 0, 2) are the 96 bytes `g0 g1 g2` of lane l then of lane
+    // l + 1; lanes l + 4 and l + 5 are the high halves.
+    let p = out.as_mut_ptr() as *mut f32;
+    for (l, r) in [(0usize, 0usize), (2, 2)] {
+        let (lo, hi) = (l * 12, (l + 4) * 12);
+        let (u, v) = (r, r + 1);
+        let pieces = [(g[0][u], g[1][u]), (g[2][u], g[0][v]), (g[1][v], g[2][v])];
+        for (s, (a, b)) in pieces.into_iter().enumerate() {
+            // SAFETY: 96 `f32`s from `p`, written within them.
+            unsafe {
+                _mm256_storeu_ps(p.add(lo + 8 * s), _mm256_permute2f128_ps::<0x20>(a, b));
+                _mm256_storeu_ps(p.add(hi + 8 * s), _mm256_permute2f128_ps::<0x31>(a, b));
+            }
+        }
+    }
+}
+
+/// What every group of a chunk shares: the bodies' data, the table of pair parameters and
+/// the step.
+struct Bodies<'a> {
+    x: &'a [Ds3A],
+    radius: &'a [f32],
+    mass: &'a [f32],
+    material: &'a [u32],
+    velocity: &'a [Vec3],
+    omega: &'a [Vec3],
+    table: &'a [PairParams],
+    materials: usize,
+    /// The periodic box's length per axis (0 where not periodic), if any.
+    periodic: Option<Vec3>,
+    dt: f32,
+}
+
+/// The body-pair chunk's sphere pairs on the plain law (what `sphere_chunk::<true>` does),
+/// eight pairs at a time; returns the number that touch. The scalar code does the rest of
+/// the chunk (`pairs.len() % 8`) and the lanes this path leaves to it (see the module docs).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn sphere_chunk(
+    w: &World,
+    x: &[Ds3A],
+    pairs: &[[u32; 2]],
+    hist: &mut [Vec3],
+    coverage: &mut [f32],
+    force: &mut [ContactForce],
+    touching: &mut [bool],
+) -> usize {
+    let n = pairs.len();
+    let (hist, coverage, force, touching) = (
+        &mut hist[..n],
+        &mut coverage[..n],
+        &mut force[..n],
+        &mut touching[..n],
+    );
+    let bodies = Bodies {
+        x,
+        radius: &w.consts.radius,
+        mass: &w.consts.mass,
+        material: &w.consts.material,
+        velocity: &w.state.velocity,
+        omega: &w.state.omega,
+        table: w.materials.table(),
+        materials: w.materials.len(),
+        periodic: w.periodic.as_ref().map(|p| p.length()),
+        dt: w.dt,
+    };
+    let nb = bodies.x.len();
+    // The gathers read without bounds checks: every array they read must cover every body.
+    assert!(
+        [
+            bodies.radius.len(),
+            bodies.mass.len(),
+            bodies.material.len()
+        ]
+        .into_iter()
+        .chain([bodies.velocity.len(), bodies.omega.len()])
+        .all(|len| len == nb)
+            && nb < (1 << 28)
+            && bodies.table.len() == bodies.materials * bodies.materials
+            && bodies.materials < (1 << 13)
+    );
+    let mut count = 0;
+    let groups = n / 8;
+    for g in 0..groups {
+        let k = 8 * g;
+        let r = k..k + 8;
+        // SAFETY: AVX2 (the caller's); each slice is 8 long.
+        count += unsafe {
+            group(
+                w,
+                &bodies,
+                pairs[r.clone()].try_into().unwrap(),
+                (&mut hist[r.clone()]).try_into().unwrap(),
+                (&mut coverage[r.clone()]).try_into().unwrap(),
+                (&mut force[r.clone()]).try_into().unwrap(),
+                (&mut touching[r]).try_into().unwrap(),
+            )
+        };
+    }
+    for k in 8 * groups..n {
+        count += sphere_pair::<true>(
+            w,
+            x,
+            pairs[k],
+            &mut hist[k],
+            &mut coverage[k],
+            &mut force[k],
+            &mut touching[k],
+        ) as usize;
+    }
+    count
+}
+
+/// `j`'s offset from `i` in lanes: `precise::offset_a` (the difference of the double-single
+/// pairs, `ds_sub_a`, moved to the nearest periodic image with `precise::nearest`).
+///
+/// # Safety
+/// AVX2; every index below `b.x.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
+    let base = b.x.as_ptr() as *const f32;
+    let (hi, lo) = (offset_of!(Ds3A, hi) / 4, offset_of!(Ds3A, lo) / 4);
+    let stride = (size_of::<Ds3A>() / 4) as i32;
+    let (ai, aj) = (
+        _mm256_mullo_epi32(i, _mm256_set1_epi32(stride)),
+        _mm256_mullo_epi32(j, _mm256_set1_epi32(stride)),
+    );
+    let (mut d_hi, mut d_lo) = ([F8::splat(0.0); 3], [F8::splat(0.0); 3]);
+    for c in 0..3 {
+        let (h, l) = (
+            _mm256_set1_epi32((hi + c) as i32),
+            _mm256_set1_epi32((lo + c) as i32),
+        );
+        // SAFETY: component c of the hi and lo parts of bodies i and j.
+        let (ih, il, jh, jl) = unsafe {
+            (
+                gather(base, _mm256_add_epi32(ai, h)),
+                gather(base, _mm256_add_epi32(ai, l)),
+                gather(base, _mm256_add_epi32(aj, h)),
+                gather(base, _mm256_add_epi32(aj, l)),
+            )
+        };
+        // `ds_sub_a(xj, xi)`.
+        let s = jh - ih;
+        let v = s - jh;
+        let e = ((jh - (s - v)) - (ih + v)) + (jl - il);
+        d_hi[c] = s + e;
+        d_lo[c] = e - (d_hi[c] - s);
+    }
+    if let Some(len) = b.periodic {
+        // `nearest`: each periodic axis's shift, then, where any axis shifts, `ds_add` of
+        // the shift (its low part 0) on all three.
+        let zero = F8::splat(0.0);
+        let mut any = zero.ne(zero);
+        let mut shifted = d_hi;
+        for c in 0..3 {
+            let len = len[c];
+            let shift = if len > 0.0 {
+                let up = d_hi[c].gt(F8::splat(0.5 * len));
+                let down = d_hi[c].lt(F8::splat(-0.5 * len));
+                F8::select(up, F8::splat(-len), F8::select(down, F8::splat(len), zero))
+            } else {
+                zero
+            };
+            any = any.or(shift.ne(zero));
+            let s = d_hi[c] + shift;
+            let v = s - d_hi[c];
+            let e = ((d_hi[c] - (s - v)) + (shift - v)) + (d_lo[c] + zero);
+            shifted[c] = s + e;
+        }
+        for c in 0..3 {
+            d_hi[c] = F8::select(any, shifted[c], d_hi[c]);
+        }
+    }
+    V3 {
+        x: d_hi[0],
+        y: d_hi[1],
+        z: d_hi[2],
+    }
+}
+
+/// Eight pairs (`pairs`, with their slots): the lanes' law, stored for the lanes it covers;
+/// the scalar `sphere_pair` for the others. Returns the number that touch.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn group(
+    w: &World,
+    b: &Bodies,
+    pairs: &[[u32; 2]; 8],
+    hist: &mut [Vec3; 8],
+    coverage: &mut [f32; 8],
+    force: &mut [ContactForce; 8],
+    touching: &mut [bool; 8],
+) -> usize {
+    // The pairs' bodies, i0 j0 i1 j1 ..., split into i0..i7 and j0..j7.
+    let p = pairs.as_ptr() as *const __m256i;
+    // SAFETY: 16 `u32`s from `p`.
+    let (lo, hi) = unsafe {
+        (
+            _mm256_castsi256_ps(_mm256_loadu_si256(p)),
+            _mm256_castsi256_ps(_mm256_loadu_si256(p.add(1))),
+        )
+    };
+    // The shuffles give i0 i1 i4 i5 i2 i3 i6 i7 (and j likewise): swap the middle 64 bits.
+    let order = |v: __m256| _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(v));
+    let i = order(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi));
+    let j = order(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi));
+    // Every index in bounds (unsigned) before anything is read through them.
+    let top = _mm256_set1_epi32(b.x.len() as i32 - 1);
+    let highest = _mm256_max_epu32(_mm256_max_epu32(i, j), top);
+    assert!(_mm256_movemask_epi8(_mm256_cmpeq_epi32(highest, top)) == -1);
+
+    // SAFETY (all gathers below): indices bounded above; the arrays cover every body
+    // (checked by `sphere_chunk`).
+    let d = unsafe { offset(b, i, j) };
+    let (ri, rj) = unsafe { (gather(b.radius.as_ptr(), i), gather(b.radius.as_ptr(), j)) };
+    let dist2 = d.length_squared();
+    let touch = dist2.lt((ri + rj) * (ri + rj));
+    // SAFETY: 8 bytes, each 0 or 1 (`bool`).
+    let was_bytes = unsafe { (touching.as_ptr() as *const u64).read_unaligned() };
+    let was = M8(_mm256_castsi256_ps(_mm256_cmpgt_epi32(
+        _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(was_bytes as i64)),
+        _mm256_setzero_si256(),
+    )));
+    let (touch_bits, was_bits) = (touch.bits(), was.bits());
+    if touch_bits == 0 {
+        // All apart: only releases, if any (rare), each as the scalar path does it.
+        for l in 0..8 {
+            if was_bits >> l & 1 != 0 {
+                sphere_pair::<true>(
+                    w,
+                    b.x,
+                    pairs[l],
+                    &mut hist[l],
+                    &mut coverage[l],
+                    &mut force[l],
+                    &mut touching[l],
+                );
+            }
+        }
+        return 0;
+    }
+
+    // `sphere_pair`'s geometry.
+    let zero = F8::splat(0.0);
+    let dist = dist2.sqrt();
+    let n = V3::select(dist.gt(zero), d / dist, V3::splat(Vec3::Z));
+    let depth = ri + rj - dist;
+    let (stiffness, damping_factor, friction) = unsafe { params(b, i, j) };
+    let (mi, mj) = unsafe { (gather(b.mass.as_ptr(), i), gather(b.mass.as_ptr(), j)) };
+    let m_eff = mi * mj / (mi + mj);
+    let point = n * (ri - F8::splat(0.5) * depth);
+
+    // `point_contact_force_in::<true>` with share 1, side a body i at the origin, side b
+    // body j at `d`.
+    let (vi, wi, vj, wj) = unsafe {
+        (
+            gather_vec3(b.velocity, i),
+            gather_vec3(b.omega, i),
+            gather_vec3(b.velocity, j),
+            gather_vec3(b.omega, j),
+        )
+    };
+    let vrel = (vj + wj.cross(point - d)) - (vi + wi.cross(point));
+    let (fs, k) = (stiffness * depth, stiffness);
+    let eta = damping_factor * (m_eff * k.max_const(0.0)).sqrt();
+    let dt = F8::splat(b.dt);
+    let vn = vrel.dot(n);
+
+    // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
+    let v = -vn;
+    let explicit = (dt * (dt * k + eta)).gt(F8::splat(RESOLVABLE) * m_eff);
+    // SAFETY: 8 `f32`s.
+    let cov = F8(unsafe { _mm256_loadu_ps(coverage.as_ptr()) });
+    let first = cov.eq(zero);
+    let g_start = F8::select(cov.gt(zero), cov, zero);
+    let g_x = eta * depth;
+    let half_eta = F8::splat(0.5) * eta;
+    let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
+    let per_mass = F8::splat(1.0) / (m_eff + half_eta * dt);
+    let v_after = v - impulse * per_mass;
+    let fn_ = impulse * per_mass * m_eff / dt;
+    let stays = (depth + dt * v_after).gt(F8::splat(EDGE_SLACK) * dt * v_after.abs());
+    let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
+    // Lanes left to the scalar path: first and last steps, and steps too long.
+    let scalar = touch.and(explicit.or(first)).or(stays.and_not(touch));
+    let done = scalar.and_not(touch);
+
+    // `tangential_law`.
+    let kt = F8::splat(LINEAR_TANGENTIAL_RATIO) * k;
+    let eta_t = F8::splat(TANGENTIAL_DAMPING_RATIO) * eta;
+    let vt = vrel - n * vn;
+    let h = unsafe { load_vec3(hist) };
+    let along = h.dot(n);
+    let old_len2 = h.length_squared();
+    let turned = h - n * along;
+    let new_len2 = turned.length_squared();
+    let rescaled = V3::select(
+        new_len2.gt(zero),
+        turned * (old_len2 / new_len2).sqrt(),
+        turned,
+    );
+    let xi = V3::select(along.ne(zero), rescaled, h) + vt * dt;
+    let cap = friction * fn_.max_const(0.0);
+    let cap2 = cap * cap;
+    let spring2 = kt * kt * xi.length_squared();
+    let xi = V3::select(spring2.gt(cap2), xi * (cap / spring2.sqrt()), xi);
+    let ft = xi * -kt - vt * eta_t;
+    let ft_len2 = ft.length_squared();
+    let ft = V3::select(ft_len2.gt(cap2), ft * (cap / ft_len2.sqrt()), ft);
+    let f = n * fn_ + ft;
+    let torque_a = f.cross(point);
+    let torque_b = (point - d).cross(f);
+
+    // Stores: the lanes' results where they hold; zeros where the contact is apart (a
+    // release, or one that did not touch before either, whose force is zero already);
+    // springs kept where nothing touches and in the scalar path's lanes (which read them).
+    let released = touch.and_not(was);
+    let h_out = V3::select(done, xi, V3::select(released, V3::splat(Vec3::ZERO), h));
+    let cov_out = F8::select(done, cov_after, F8::select(released, zero, cov));
+    let only = |v: V3| V3::select(done, v, V3::splat(Vec3::ZERO));
+    unsafe {
+        store_vec3(h_out, hist);
+        _mm256_storeu_ps(coverage.as_mut_ptr(), cov_out.0);
+        store_forces(
+            only(f),
+            F8::select(done, fn_, zero),
+            only(torque_a),
+            only(torque_b),
+            force,
+        );
+    }
+    let changed = touch_bits ^ was_bits;
+    if changed != 0 {
+        for (l, t) in touching.iter_mut().enumerate() {
+            *t = touch_bits >> l & 1 != 0;
+        }
+    }
+    let scalar_bits = scalar.bits();
+    if scalar_bits != 0 {
+        for l in 0..8 {
+            if scalar_bits >> l & 1 != 0 {
+                sphere_pair::<true>(
+                    w,
+                    b.x,
+                    pairs[l],
+                    &mut hist[l],
+                    &mut coverage[l],
+                    &mut force[l],
+                    &mut touching[l],
+                );
+            }
+        }
+    }
+    touch_bits.count_ones() as usize
+}
+
+/// The pair parameters' stiffness, damping factor and friction of bodies `i` and `j`'s
+/// materials, in lanes.
+///
+/// # Safety
+/// AVX2; indices below the bodies' count.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn params(b: &Bodies, i: __m256i, j: __m256i) -> (F8, F8, F8) {
+    if b.materials == 1 {
+        let p = &b.table[0];
+        return (
+            F8::splat(p.stiffness),
+            F8::splat(p.damping_factor),
+            F8::splat(p.friction),
+        );
+    }
+    let base = b.table.as_ptr() as *const f32;
+    // SAFETY: the caller's bounds; materials are below `b.materials` (checked).
+    let (ma, mb) = unsafe {
+        (
+            _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, i),
+            _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, j),
+        )
+    };
+    let nm = _mm256_set1_epi32(b.materials as i32);
+    let top = _mm256_set1_epi32(b.materials as i32 - 1);
+    let highest = _mm256_max_epu32(_mm256_max_epu32(ma, mb), top);
+    assert!(_mm256_movemask_epi8(_mm256_cmpeq_epi32(highest, top)) == -1);
+    let row = _mm256_add_epi32(_mm256_mullo_epi32(ma, nm), mb);
+    let at = _mm256_mullo_epi32(row, _mm256_set1_epi32((size_of::<PairParams>() / 4) as i32));
+    let field = |offset: usize| _mm256_add_epi32(at, _mm256_set1_epi32((offset / 4) as i32));
+    // SAFETY: rows below `materials^2`, fields inside a row.
+    unsafe {
+        (
+            gather(base, field(offset_of!(PairParams, stiffness))),
+            gather(base, field(offset_of!(PairParams, damping_factor))),
+            gather(base, field(offset_of!(PairParams, friction))),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact_list::ContactSprings;
+    use crate::geom::ShapeKind;
+    use crate::{BodyInit, ContactLaw, Material, Periodic, WorldDesc};
+    use glam::{DVec3, Quat};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// A dense random cloud of spheres of four sizes and one or three plain materials,
+    /// overlapping at random (some pairs exactly on top of each other), with velocities
+    /// and spins at random, some fast.
+    fn cloud(rng: &mut ChaCha8Rng, materials: usize, periodic: bool, dt: Option<f32>) -> World {
+        let side = 0.1f32;
+        let shapes = [0.004, 0.006, 0.008, 0.01]
+            .map(|radius| ShapeKind::Sphere { radius }.prepare().unwrap())
+            .to_vec();
+        let materials = [
+            (2.0e4, 0.3, 0.2, 1000.0),
+            (5.0e4, 0.5, 0.6, 2500.0),
+            (1.0e5, 0.9, 0.9, 7800.0),
+        ][..materials]
+            .iter()
+            .map(|&(k, e, mu, rho)| {
+                Material::new("m", rho, ContactLaw::Linear { stiffness: k }, e, mu)
+            })
+            .collect::<Vec<_>>();
+        let count = 700;
+        let mut bodies: Vec<BodyInit> = Vec::with_capacity(count);
+        for b in 0..count {
+            let fast = rng.random_bool(0.2);
+            let speed = if fast { 5.0 } else { 0.5 };
+            let mut position = DVec3::new(
+                rng.random_range(0.0..side as f64),
+                rng.random_range(0.0..side as f64),
+                rng.random_range(0.0..side as f64),
+            );
+            if b % 50 == 1 {
+                // Exactly on the last body: a pair at zero distance.
+                position = bodies[b - 1].position;
+            }
+            bodies.push(BodyInit {
+                shape: rng.random_range(0..4),
+                material: rng.random_range(0..materials.len() as u32),
+                position,
+                orientation: Quat::IDENTITY,
+                velocity: Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                ) * speed,
+                angular_velocity: Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                ) * 20.0
+                    * speed,
+            });
+        }
+        World::new(WorldDesc {
+            shapes,
+            materials,
+            walls: vec![],
+            bodies,
+            gravity: Vec3::ZERO,
+            dt,
+            skin: None,
+            periodic: periodic.then_some(Periodic {
+                min: Vec3::ZERO,
+                max: Vec3::splat(side),
+                axes: [true, true, false],
+            }),
+        })
+    }
+
+    /// Springs as a step may find them: touching or not, histories zero, small or past
+    /// the Coulomb cap, coverages of first steps (0), of released contacts (-1) and of
+    /// contacts under way; forces only where touching.
+    fn springs(rng: &mut ChaCha8Rng, n: usize) -> ContactSprings {
+        let mut s = ContactSprings::default();
+        for _ in 0..n {
+            let touching = rng.random_bool(0.5);
+            let scale = [0.0, 1e-7, 1e-5, 1e-3][rng.random_range(0..4)];
+            s.history.push(
+                Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                ) * scale,
+            );
+            s.twist.push(match rng.random_range(0..4) {
+                0 => 0.0,
+                1 => -1.0,
+                2 => rng.random_range(0.0..1e-6),
+                _ => rng.random_range(0.0..1e-2),
+            });
+            let mut f = ContactForce::default();
+            if touching {
+                f.force_b = Vec3::splat(rng.random_range(-1.0..1.0));
+                f.normal_force = 1.0;
+            }
+            s.forces.push(f);
+            s.touching.push(touching);
+        }
+        s
+    }
+
+    /// Every bit of contact `k`'s slots.
+    fn slot_bits(s: &ContactSprings, k: usize) -> Vec<u32> {
+        let mut bits: Vec<u32> = s.history[k].to_array().map(f32::to_bits).to_vec();
+        bits.push(s.twist[k].to_bits());
+        bits.extend(bytemuck::cast::<ContactForce, [u32; 12]>(s.forces[k]));
+        bits.push(s.touching[k] as u32);
+        bits
+    }
+
+    #[test]
+    fn the_lanes_give_the_scalar_bits() {
+        if !crate::step::avx2() {
+            eprintln!("no AVX2 here: nothing to compare");
+            return;
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(23);
+        let (mut pairs, mut touching, mut released, mut scalar_lanes) = (0, 0, 0, 0);
+        for case in 0..24 {
+            let materials = if case % 3 == 0 { 1 } else { 3 };
+            let periodic = case % 4 == 1;
+            // The automatic step, longer ones, and one too long for the in-step law.
+            let dt = [None, Some(2e-4), Some(2e-5), Some(3e-3)][case % 4];
+            let mut w = cloud(&mut rng, materials, periodic, dt);
+            assert!(w.materials.all_plain());
+            w.rebuild_contacts();
+            w.split_positions();
+            let np = w.contacts.pairs.len();
+            let before = springs(&mut rng, np);
+            let (mut a, mut b) = (before.clone(), before.clone());
+            let x = w.position_pairs.as_slice();
+            let pairs_k = &w.contacts.pairs;
+            let ta = super::super::contacts::sphere_chunk::<true>(
+                &w,
+                x,
+                pairs_k,
+                &mut a.history,
+                &mut a.twist,
+                &mut a.forces,
+                &mut a.touching,
+            );
+            // SAFETY: the CPU has AVX2 (checked above).
+            let tb = unsafe {
+                sphere_chunk(
+                    &w,
+                    x,
+                    pairs_k,
+                    &mut b.history,
+                    &mut b.twist,
+                    &mut b.forces,
+                    &mut b.touching,
+                )
+            };
+            assert_eq!(ta, tb, "case {case}: touching count");
+            for (k, pair) in pairs_k.iter().enumerate() {
+                assert_eq!(
+                    slot_bits(&a, k),
+                    slot_bits(&b, k),
+                    "case {case}, pair {k} {:?}: scalar {:?}, lanes {:?}",
+                    pair,
+                    (a.history[k], a.twist[k], a.forces[k], a.touching[k]),
+                    (b.history[k], b.twist[k], b.forces[k], b.touching[k]),
+                );
+                touching += a.touching[k] as usize;
+                released += (before.touching[k] && !a.touching[k]) as usize;
+                // First steps and contacts that end go to the scalar path.
+                scalar_lanes +=
+                    (a.touching[k] && (before.twist[k] == 0.0 || a.twist[k] == -1.0)) as usize;
+            }
+            pairs += np;
+        }
+        eprintln!("{pairs} {touching} {released} {scalar_lanes}");
+        // The cases cover what they should.
+        assert!(pairs > 50_000, "{pairs} pairs");
+        assert!(
+            touching > pairs / 5 && touching < pairs * 4 / 5,
+            "{touching} of {pairs}"
+        );
+        assert!(released > pairs / 10, "{released} released");
+        assert!(scalar_lanes > pairs / 20, "{scalar_lanes} scalar lanes");
+    }
+}
