@@ -6,6 +6,15 @@ use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
 
+/// Per-thread buffers of [`edge_axes_gauss_map`] (no allocation or zeroing per pair).
+#[derive(Default)]
+pub(super) struct GaussTables {
+    /// `t1[ea * nfb + kb]`: the product of B's face `kb`'s normal (negated) with A's arc `ea`.
+    t1: Vec<f32>,
+    /// B's edge arcs rotated into A's frame.
+    arcs_b: Vec<Vec3>,
+}
+
 /// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn edge_axes_gauss_map(
@@ -14,18 +23,22 @@ pub(super) fn edge_axes_gauss_map(
     rot: glam::Mat3,
     inv_rot: glam::Mat3,
     bv: &[Vec3],
-    tables: &mut Vec<f32>,
+    tables: &mut GaussTables,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
-    // of edge `ea` of A and of edge `eb` of -B must cross). The four arc/normal products of
-    // each pair come from two small tables instead of being recomputed per pair.
-    let (nfa, nfb) = (a.faces.len(), b.faces.len());
+    // of edge `ea` of A and of edge `eb` of -B must cross). The products of B's normals with
+    // A's arcs come from a table (each row is read whole); those of A's normals with B's arcs
+    // are taken per pair, from B's arcs rotated once, for the few pairs that pass the first
+    // test (the same products, so the same bits, as a table of them all).
+    let nfb = b.faces.len();
     let (nea, neb) = (a.edges.len(), b.edges.len());
-    tables.clear();
-    tables.resize(nea * nfb + neb * nfa, 0.0);
-    let (t1, t2) = tables.split_at_mut(nea * nfb);
+    let GaussTables { t1, arcs_b } = tables;
+    // Sized once, then written in place (every entry read is written first).
+    if t1.len() < nea * nfb {
+        t1.resize(nea * nfb, 0.0);
+    }
     // t1[ea][kb] = (-nb_kb) . arcA_ea, with B's normal rotated into A's frame.
     for (ea, arc) in a.edge_arcs.iter().enumerate() {
         let arc = inv_rot * *arc;
@@ -33,13 +46,10 @@ pub(super) fn edge_axes_gauss_map(
             t1[ea * nfb + kb] = -f.normal.dot(arc);
         }
     }
-    // t2[eb][ka] = na_ka . arcB_eb (arc rotated into A's frame).
-    for (eb, arc) in b.edge_arcs.iter().enumerate() {
-        let arc = rot * *arc;
-        for (ka, f) in a.faces.iter().enumerate() {
-            t2[eb * nfa + ka] = f.normal.dot(arc);
-        }
-    }
+    // B's arcs in A's frame: `na_ka . arcs_b[eb]` is the second test's product.
+    arcs_b.clear();
+    arcs_b.extend(b.edge_arcs.iter().map(|arc| rot * *arc));
+    let arcs_b: &[Vec3] = arcs_b;
     // B's edges by face, as bit sets (when B has at most 64 edges and faces).
     let mut by_face = [0u64; 64];
     let use_bits = neb <= 64 && nfb <= 64;
@@ -52,6 +62,7 @@ pub(super) fn edge_axes_gauss_map(
     let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
         let [fa0, fa1] = a.edge_faces[ea];
+        let (na0, na1) = (a.faces[fa0 as usize].normal, a.faces[fa1 as usize].normal);
         let row1 = &t1[ea * nfb..(ea + 1) * nfb];
         let pa0 = a.vertices[a0 as usize];
         let da = a.vertices[a1 as usize] - pa0;
@@ -69,8 +80,8 @@ pub(super) fn edge_axes_gauss_map(
             if cba * dba >= 0.0 {
                 continue;
             }
-            let adc = t2[eb * nfa + fa0 as usize];
-            let bdc = t2[eb * nfa + fa1 as usize];
+            let adc = na0.dot(arcs_b[eb]);
+            let bdc = na1.dot(arcs_b[eb]);
             if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
                 continue;
             }
@@ -149,6 +160,9 @@ fn crossing_candidates(row: &[f32], by_face: &[u64; 64]) -> u64 {
 /// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
 /// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
 /// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
+///
+/// `floor` (not positive): axes whose separation is at most `floor` may be skipped (the
+/// caller ignores a best axis not above it); an axis above it is found as without it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn edge_axes_by_direction(
     a: &ConvexPolyhedron,
@@ -157,6 +171,7 @@ pub(super) fn edge_axes_by_direction(
     a_local: &SoaPoints,
     b_soa: &SoaPoints,
     bv: &[Vec3],
+    floor: f32,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
@@ -172,12 +187,15 @@ pub(super) fn edge_axes_by_direction(
             let axis = axis / len2.sqrt();
             // The first 4 points of each body first: their extents lie inside the bodies'
             // (and rounding is monotonic), so when they already overlap by more than the best
-            // axis so far, so do the bodies, and the axis cannot win (nor separate: `best`
-            // is not positive). Exact: no decision changes.
+            // axis so far, so do the bodies, and the axis cannot win (the first of equals
+            // wins) nor separate (`best` is not positive); nor matter when they overlap by
+            // at least `-floor` (its separation is at most `floor`, not positive either).
+            // Exact: an axis above `floor` meets the same decisions.
             let (mut ext_a, mut ext_b) = (Extent::new(), Extent::new());
             a_local.extent(axis, 0..head_a, &mut ext_a);
             b_soa.extent(axis, 0..head_b, &mut ext_b);
-            if ext_b.min() - ext_a.max() <= best.0 && ext_a.min() - ext_b.max() <= best.0 {
+            let low = if floor > best.0 { floor } else { best.0 };
+            if ext_b.min() - ext_a.max() <= low && ext_a.min() - ext_b.max() <= low {
                 continue;
             }
             a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
