@@ -157,10 +157,11 @@ impl Iterator for EdgeSet {
 }
 
 /// The edges of B (bits of `by_face`'s sets) whose two faces' products `row` (one per face
-/// of B, 4 per entry, `nfb` of them, at most 64) may have a negative product: one face's strictly positive and the other's strictly
-/// negative (the edges in exactly one positive face and exactly one negative face), or either
-/// neither (zero or NaN). Every edge left out has `row[fb0] * row[fb1] >= 0` (the same strict
-/// signs give a positive product or a zero one), so it fails the Gauss-map test anyway.
+/// of B, 4 per entry, `nfb` of them, at most 64) may have a negative product: one face's
+/// strictly positive and the other's strictly negative (the edges in exactly one positive
+/// face and exactly one negative face), or either neither (zero or NaN). Every edge left out
+/// has `row[fb0] * row[fb1] >= 0` (the same strict signs give a positive product or a zero
+/// one), so it fails the Gauss-map test anyway.
 fn crossing_candidates(row: &[Vec4], nfb: usize, by_face: &[u64; 64]) -> u64 {
     // The faces by sign, as bit sets (4 at a time), then their edges.
     let (mut plus, mut minus) = (0u64, 0u64);
