@@ -6,7 +6,8 @@ use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
 
-/// Per-thread buffers of [`edge_axes_gauss_map`] (no allocation or zeroing per pair).
+/// Per-thread buffers of [`edge_axes_gauss_map`] and [`edge_axes_by_direction`] (no
+/// allocation or zeroing per pair).
 #[derive(Default)]
 pub(super) struct GaussTables {
     /// B's face normals (in B's frame), 4 faces per entry: x, y, z lanes (the padding lanes
@@ -19,6 +20,8 @@ pub(super) struct GaussTables {
     row_f: Vec<f32>,
     /// B's edge arcs rotated into A's frame.
     arcs_b: Vec<Vec3>,
+    /// B's edge directions rotated into A's frame (by direction).
+    dirs_b: Vec<Vec3>,
 }
 
 /// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
@@ -45,6 +48,7 @@ pub(super) fn edge_axes_gauss_map(
         row,
         row_f,
         arcs_b,
+        ..
     } = tables;
     normals_b.clear();
     normals_b.extend(b.faces.chunks(4).map(|fs| {
@@ -203,14 +207,20 @@ pub(super) fn edge_axes_by_direction(
     b_soa: &SoaPoints,
     bv: &[Vec3],
     floor: f32,
+    tables: &mut GaussTables,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    // B's directions rotated once (the same products as per pair, so the same bits).
+    let dirs_b = &mut tables.dirs_b;
+    dirs_b.clear();
+    dirs_b.extend(b.edge_dirs.iter().map(|ub| rot * *ub));
+    let dirs_b: &[Vec3] = dirs_b;
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
-        for (ib, ub) in b.edge_dirs.iter().enumerate() {
-            let axis = ua.cross(rot * *ub);
+        for (ib, &wb) in dirs_b.iter().enumerate() {
+            let axis = ua.cross(wb);
             let len2 = axis.length_squared();
             if len2 < 1e-10 {
                 continue;

@@ -358,6 +358,7 @@ fn edge_search(
             b_soa,
             bv,
             floor,
+            tables,
             &mut hint,
             &mut separation,
         )
