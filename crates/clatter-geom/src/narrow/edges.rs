@@ -1,10 +1,28 @@
 //! The edge-edge axes of the separating-axis test, by Gauss-map pruning or by edge direction.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
+
+/// Per-thread buffers of [`edge_axes_gauss_map`] and [`edge_axes_by_direction`] (no
+/// allocation or zeroing per pair).
+#[derive(Default)]
+pub(super) struct GaussTables {
+    /// B's face normals (in B's frame), 4 faces per entry: x, y, z lanes (the padding lanes
+    /// are zero).
+    normals_b: Vec<[Vec4; 3]>,
+    /// For the current edge `ea` of A: the product of each face `kb` of B's normal (negated)
+    /// with A's arc `ea`, 4 faces per entry (the padding lanes unused) ...
+    row: Vec<Vec4>,
+    /// ... and the same, one per face (`row_f[kb]`).
+    row_f: Vec<f32>,
+    /// B's edge arcs rotated into A's frame.
+    arcs_b: Vec<Vec3>,
+    /// B's edge directions rotated into A's frame (by direction).
+    dirs_b: Vec<Vec3>,
+}
 
 /// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
 #[allow(clippy::too_many_arguments)]
@@ -14,32 +32,37 @@ pub(super) fn edge_axes_gauss_map(
     rot: glam::Mat3,
     inv_rot: glam::Mat3,
     bv: &[Vec3],
-    tables: &mut Vec<f32>,
+    tables: &mut GaussTables,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
-    // of edge `ea` of A and of edge `eb` of -B must cross). The four arc/normal products of
-    // each pair come from two small tables instead of being recomputed per pair.
-    let (nfa, nfb) = (a.faces.len(), b.faces.len());
-    let (nea, neb) = (a.edges.len(), b.edges.len());
-    tables.clear();
-    tables.resize(nea * nfb + neb * nfa, 0.0);
-    let (t1, t2) = tables.split_at_mut(nea * nfb);
-    // t1[ea][kb] = (-nb_kb) . arcA_ea, with B's normal rotated into A's frame.
-    for (ea, arc) in a.edge_arcs.iter().enumerate() {
-        let arc = inv_rot * *arc;
-        for (kb, f) in b.faces.iter().enumerate() {
-            t1[ea * nfb + kb] = -f.normal.dot(arc);
-        }
-    }
-    // t2[eb][ka] = na_ka . arcB_eb (arc rotated into A's frame).
-    for (eb, arc) in b.edge_arcs.iter().enumerate() {
-        let arc = rot * *arc;
-        for (ka, f) in a.faces.iter().enumerate() {
-            t2[eb * nfa + ka] = f.normal.dot(arc);
-        }
-    }
+    // of edge `ea` of A and of edge `eb` of -B must cross). The products of B's normals with
+    // A's arc `ea` are taken a row at a time, 4 faces at once (each row is read whole);
+    // those of A's normals with B's arcs per pair, from B's arcs rotated once, for the few
+    // pairs that pass the first test. The same products as one at a time, so the same bits.
+    let nfb = b.faces.len();
+    let neb = b.edges.len();
+    let GaussTables {
+        normals_b,
+        row,
+        row_f,
+        arcs_b,
+        ..
+    } = tables;
+    normals_b.clear();
+    normals_b.extend(b.faces.chunks(4).map(|fs| {
+        let lane = |c: fn(Vec3) -> f32| {
+            Vec4::from_array([0, 1, 2, 3].map(|k| fs.get(k).map_or(0.0, |f| c(f.normal))))
+        };
+        [lane(|n| n.x), lane(|n| n.y), lane(|n| n.z)]
+    }));
+    row.resize(normals_b.len(), Vec4::ZERO);
+    row_f.resize(4 * normals_b.len(), 0.0);
+    // B's arcs in A's frame: `na_ka . arcs_b[eb]` is the second test's product.
+    arcs_b.clear();
+    arcs_b.extend(b.edge_arcs.iter().map(|arc| rot * *arc));
+    let arcs_b: &[Vec3] = arcs_b;
     // B's edges by face, as bit sets (when B has at most 64 edges and faces).
     let mut by_face = [0u64; 64];
     let use_bits = neb <= 64 && nfb <= 64;
@@ -52,13 +75,23 @@ pub(super) fn edge_axes_gauss_map(
     let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
         let [fa0, fa1] = a.edge_faces[ea];
-        let row1 = &t1[ea * nfb..(ea + 1) * nfb];
+        let (na0, na1) = (a.faces[fa0 as usize].normal, a.faces[fa1 as usize].normal);
+        // (-nb_kb) . arcA_ea, with A's arc rotated into B's frame, 4 faces at a time: the
+        // products and sums of `Vec3::dot` in its order, so the same bits.
+        let arc = inv_rot * a.edge_arcs[ea];
+        let (ax, ay, az) = (Vec4::splat(arc.x), Vec4::splat(arc.y), Vec4::splat(arc.z));
+        let lanes = normals_b.iter().zip(row.iter_mut());
+        for (([nx, ny, nz], r), rf) in lanes.zip(row_f.chunks_exact_mut(4)) {
+            *r = -(*nx * ax + *ny * ay + *nz * az);
+            r.write_to_slice(rf);
+        }
+        let (row4, row1): (&[Vec4], &[f32]) = (row, row_f);
         let pa0 = a.vertices[a0 as usize];
         let da = a.vertices[a1 as usize] - pa0;
         // Only the edges that may cross, in increasing order (the same edges meet the
         // tests below in the same order).
         let visit = if use_bits {
-            EdgeSet::Bits(crossing_candidates(row1, &by_face))
+            EdgeSet::Bits(crossing_candidates(row4, nfb, &by_face))
         } else {
             EdgeSet::All(0..neb)
         };
@@ -69,8 +102,8 @@ pub(super) fn edge_axes_gauss_map(
             if cba * dba >= 0.0 {
                 continue;
             }
-            let adc = t2[eb * nfa + fa0 as usize];
-            let bdc = t2[eb * nfa + fa1 as usize];
+            let adc = na0.dot(arcs_b[eb]);
+            let bdc = na1.dot(arcs_b[eb]);
             if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
                 continue;
             }
@@ -128,27 +161,43 @@ impl Iterator for EdgeSet {
 }
 
 /// The edges of B (bits of `by_face`'s sets) whose two faces' products `row` (one per face
-/// of B) may have a negative product: one face's strictly positive and the other's strictly
-/// negative (the edges in exactly one positive face and exactly one negative face), or either
-/// neither (zero or NaN). Every edge left out has `row[fb0] * row[fb1] >= 0` (the same strict
-/// signs give a positive product or a zero one), so it fails the Gauss-map test anyway.
-fn crossing_candidates(row: &[f32], by_face: &[u64; 64]) -> u64 {
-    let (mut pos, mut neg, mut other) = (0u64, 0u64, 0u64);
-    for (&v, &edges) in row.iter().zip(by_face) {
-        if v > 0.0 {
-            pos ^= edges;
-        } else if v < 0.0 {
-            neg ^= edges;
-        } else {
-            other |= edges;
-        }
+/// of B, 4 per entry, `nfb` of them, at most 64) may have a negative product: one face's
+/// strictly positive and the other's strictly negative (the edges in exactly one positive
+/// face and exactly one negative face), or either neither (zero or NaN). Every edge left out
+/// has `row[fb0] * row[fb1] >= 0` (the same strict signs give a positive product or a zero
+/// one), so it fails the Gauss-map test anyway.
+fn crossing_candidates(row: &[Vec4], nfb: usize, by_face: &[u64; 64]) -> u64 {
+    // The faces by sign, as bit sets (4 at a time), then their edges.
+    let (mut plus, mut minus) = (0u64, 0u64);
+    for (c, v) in row.iter().enumerate().take(16) {
+        plus |= (v.cmpgt(Vec4::ZERO).bitmask() as u64) << (4 * c);
+        minus |= (v.cmplt(Vec4::ZERO).bitmask() as u64) << (4 * c);
     }
-    (pos & neg) | other
+    let all = if nfb >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << nfb) - 1
+    };
+    let (plus, minus) = (plus & all, minus & all);
+    let edges_of = |mut faces: u64, join: fn(u64, u64) -> u64| {
+        let mut edges = 0u64;
+        while faces != 0 {
+            edges = join(edges, by_face[faces.trailing_zeros() as usize]);
+            faces &= faces - 1;
+        }
+        edges
+    };
+    let xor = |x: u64, y: u64| x ^ y;
+    let or = |x: u64, y: u64| x | y;
+    (edges_of(plus, xor) & edges_of(minus, xor)) | edges_of(all & !(plus | minus), or)
 }
 
 /// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
 /// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
 /// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
+///
+/// `floor` (not positive): axes whose separation is at most `floor` may be skipped (the
+/// caller ignores a best axis not above it); an axis above it is found as without it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn edge_axes_by_direction(
     a: &ConvexPolyhedron,
@@ -157,14 +206,21 @@ pub(super) fn edge_axes_by_direction(
     a_local: &SoaPoints,
     b_soa: &SoaPoints,
     bv: &[Vec3],
+    floor: f32,
+    tables: &mut GaussTables,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    // B's directions rotated once (the same products as per pair, so the same bits).
+    let dirs_b = &mut tables.dirs_b;
+    dirs_b.clear();
+    dirs_b.extend(b.edge_dirs.iter().map(|ub| rot * *ub));
+    let dirs_b: &[Vec3] = dirs_b;
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
-        for (ib, ub) in b.edge_dirs.iter().enumerate() {
-            let axis = ua.cross(rot * *ub);
+        for (ib, &wb) in dirs_b.iter().enumerate() {
+            let axis = ua.cross(wb);
             let len2 = axis.length_squared();
             if len2 < 1e-10 {
                 continue;
@@ -172,12 +228,15 @@ pub(super) fn edge_axes_by_direction(
             let axis = axis / len2.sqrt();
             // The first 4 points of each body first: their extents lie inside the bodies'
             // (and rounding is monotonic), so when they already overlap by more than the best
-            // axis so far, so do the bodies, and the axis cannot win (nor separate: `best`
-            // is not positive). Exact: no decision changes.
+            // axis so far, so do the bodies, and the axis cannot win (the first of equals
+            // wins) nor separate (`best` is not positive); nor matter when they overlap by
+            // at least `-floor` (its separation is at most `floor`, not positive either).
+            // Exact: an axis above `floor` meets the same decisions.
             let (mut ext_a, mut ext_b) = (Extent::new(), Extent::new());
             a_local.extent(axis, 0..head_a, &mut ext_a);
             b_soa.extent(axis, 0..head_b, &mut ext_b);
-            if ext_b.min() - ext_a.max() <= best.0 && ext_a.min() - ext_b.max() <= best.0 {
+            let low = if floor > best.0 { floor } else { best.0 };
+            if ext_b.min() - ext_a.max() <= low && ext_a.min() - ext_b.max() <= low {
                 continue;
             }
             a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);

@@ -4,7 +4,7 @@
 use glam::{Mat3, Vec3};
 
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
-use super::edges::{edge_axes_by_direction, edge_axes_gauss_map};
+use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::{
     HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
     NO_HINT, SatHint, is_contact_hint,
@@ -303,13 +303,20 @@ fn remembered_edge(
         tables,
         ..
     } = sc;
+    // (Written so that a NaN returns too.) With no margin left the search cannot keep the
+    // edge: a best edge axis is never positive (a positive one separates, and the full test
+    // must run), so `best_e + margin > 0` fails.
+    if margin.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
     if edges_by_direction(a, b) {
         b_soa.fill(bv);
         a_local.fill(&a.vertices);
     }
-    let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables).ok()?;
+    // Axes at or below `-margin` fail the test below whether they win or not: left out.
+    let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin).ok()?;
     // (Written so that a NaN fails the test too.)
     if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
@@ -325,6 +332,12 @@ fn remembered_edge(
 
 /// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
 /// pair), or `Err((hint, separation))` when an edge axis separates the bodies.
+///
+/// `floor` (not positive) is a level the caller does not care below: axes whose separation
+/// is at most `floor` may be left out unevaluated (see [`edge_axes_by_direction`]). When
+/// the best axis is above `floor` it is returned exactly as with no floor (the same pair,
+/// the first of equals, the same floats); else some axis at or below `floor` is.
+#[allow(clippy::too_many_arguments)]
 fn edge_search(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
@@ -332,7 +345,8 @@ fn edge_search(
     bv: &[Vec3],
     a_local: &SoaPoints,
     b_soa: &SoaPoints,
-    tables: &mut Vec<f32>,
+    tables: &mut GaussTables,
+    floor: f32,
 ) -> Result<EdgeAxis, (SatHint, f32)> {
     let (mut hint, mut separation) = (NO_HINT, 0.0);
     let found = if edges_by_direction(a, b) {
@@ -343,6 +357,8 @@ fn edge_search(
             a_local,
             b_soa,
             bv,
+            floor,
+            tables,
             &mut hint,
             &mut separation,
         )
@@ -451,7 +467,7 @@ struct Scratch {
     bv: Vec<Vec3>,
     b_soa: SoaPoints,
     a_local: SoaPoints,
-    tables: Vec<f32>,
+    tables: GaussTables,
     clip: ClipBuffers,
 }
 
@@ -522,7 +538,10 @@ fn sat_full(
         }
     }
     let rel = Relative { rot, inv_rot, t };
-    let best_e = match edge_search(a, b, &rel, bv, a_local, b_soa, tables) {
+    // Edge axes at or below the best face axis change no decision below (nor the margin:
+    // `contact_margin` takes the larger of the two), so the search may leave them out.
+    let face_best = best_a.0.max(best_b.0);
+    let best_e = match edge_search(a, b, &rel, bv, a_local, b_soa, tables, face_best) {
         Ok(e) => e,
         Err((h, s)) => {
             *hint = h;
@@ -532,7 +551,6 @@ fn sat_full(
     };
     let scale = a.radius.max(b.radius);
     *hint = NO_HINT;
-    let face_best = best_a.0.max(best_b.0);
     let tol = 1e-3 * scale;
     // Rounding of the separations (a few ulps of the bodies' size) and the near-parallel
     // edge axes left out (sine below 1e-5, over edges shorter than the diameter).
