@@ -659,11 +659,13 @@ impl World {
     /// where they were removed (a constant), so that taking a body out never looks like
     /// energy appearing to the blow-up checks.
     pub fn potential_energy(&self) -> f64 {
-        (0..self.len())
-            .map(|i| {
-                -(self.consts.mass[i] as f64) * self.gravity.as_dvec3().dot(self.state.position[i])
-            })
-            .sum()
+        (0..self.len()).map(|i| self.body_potential_energy(i)).sum()
+    }
+
+    /// Body `i`'s gravitational potential energy relative to the origin, J (a removed body's
+    /// where it was removed).
+    pub fn body_potential_energy(&self, i: usize) -> f64 {
+        -(self.consts.mass[i] as f64) * self.gravity.as_dvec3().dot(self.state.position[i])
     }
 
     /// Total linear momentum of the bodies still in the simulation, kg m/s (summed in f64).

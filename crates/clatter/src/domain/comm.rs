@@ -26,19 +26,28 @@ pub trait Comm {
     }
     /// Every rank's `mine`, by rank, on every rank.
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>>;
+    /// Every rank's `mine`, by rank, on rank 0 only (the others get nothing): the last good
+    /// state gathered for `last_good.ckpt` at a blow-up.
+    fn gather_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let mut send = vec![Vec::new(); self.size()];
+        send[0] = mine.to_vec();
+        self.all_to_all(send)
+    }
     /// The largest of every rank's `x` (max is exact, so the result does not depend on the
     /// order of reduction).
     fn max_f32(&self, x: f32) -> f32;
     /// The sum of every rank's `x`.
     fn sum_u64(&self, x: u64) -> u64;
     /// The element-wise sum of every rank's `v` (all of the same length), into `v`: the
-    /// histograms of the bisection (integers, so the sum does not depend on the order).
+    /// histograms of the bisection, the exact energy sums of the blow-up checks (integers,
+    /// so the sum does not depend on the order). The sums wrap modulo `2^64`, as MPI's sum
+    /// of unsigned integers does (the energy sums rely on it for their negative limbs).
     fn sum_u64s(&self, v: &mut [u64]) {
         let mine: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
         v.fill(0);
         for m in self.all_gather(&mine) {
             for (x, b) in v.iter_mut().zip(m.chunks_exact(8)) {
-                *x += u64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
+                *x = x.wrapping_add(u64::from_le_bytes(b.try_into().unwrap_or([0; 8])));
             }
         }
     }

@@ -27,12 +27,14 @@
 //!   local broad phase carries them as one process does.
 
 mod bisection;
+mod check;
 mod comm;
 mod gather;
 mod rows;
 
 pub use bisection::Bisection;
 pub use comm::{Comm, ThreadComm};
+pub use gather::Share;
 
 use glam::{DVec3, Vec3};
 
@@ -226,6 +228,12 @@ impl Domain {
         self.recv = recv;
         self.boxes = Some(boxes);
         self.recuts += 1;
+    }
+
+    /// The world as it was given to [`Domain::new`], on every rank (its states are those of
+    /// the start, never updated): the last good state of a run until its first full check.
+    pub fn initial(&self) -> &World {
+        &self.template
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
