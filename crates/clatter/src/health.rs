@@ -35,8 +35,8 @@ use rayon::prelude::*;
 
 use crate::broad::{self, Grid};
 use crate::contact_list::Partner;
-use crate::law::{self, ContactForce};
 use crate::exact_sum::ExactSum;
+use crate::law::{self, ContactForce};
 use crate::world::{SimError, World};
 use clatter_geom::narrow::{self, Manifold};
 
@@ -837,7 +837,10 @@ pub(crate) fn fastest(world: &World) -> (f64, Option<usize>) {
     (0..world.len())
         .filter(|&i| !world.is_ghost(i))
         .map(|i| (world.body_kinetic_energy(i), Some(i)))
-        .fold((f64::NEG_INFINITY, None), |a, b| if b.0 > a.0 { b } else { a })
+        .fold(
+            (f64::NEG_INFINITY, None),
+            |a, b| if b.0 > a.0 { b } else { a },
+        )
 }
 
 /// The first of `world`'s own bodies (lowest index) entirely on the solid side of a wall.

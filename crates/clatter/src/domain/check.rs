@@ -12,8 +12,8 @@ use super::rows::{Reader, Writer};
 use crate::contact_list::Partner;
 use crate::exact_sum::ExactSum;
 use crate::health::{
-    BlowUp, BlowUpKind, Health, OVERLAP_LIMIT, energy_grows, escape_of, fastest,
-    first_escaped, first_non_finite,
+    BlowUp, BlowUpKind, Health, OVERLAP_LIMIT, energy_grows, escape_of, fastest, first_escaped,
+    first_non_finite,
 };
 
 /// No body (in a reduced minimum of scene ids).
@@ -171,12 +171,15 @@ impl Domain {
             return Ok(());
         };
         let mine = (0..candidates.len()).find(|&k| key(k) == worst);
-        Err(self.report(comm, mine.map(|k| {
-            let c = &candidates[k].1;
-            let i = c.body as usize;
-            let kind = health.deep_overlap(world, c, ratios[k]);
-            health.blow_up(world, kind, i, self.ids[i] as usize, true)
-        })))
+        Err(self.report(
+            comm,
+            mine.map(|k| {
+                let c = &candidates[k].1;
+                let i = c.body as usize;
+                let kind = health.deep_overlap(world, c, ratios[k]);
+                health.blow_up(world, kind, i, self.ids[i] as usize, true)
+            }),
+        ))
     }
 
     /// The blow-up of body `body` (a scene id), written by the rank that owns it from its
