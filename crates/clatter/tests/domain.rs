@@ -851,7 +851,11 @@ fn a_blow_up_on_rank_2_is_one_process_blow_up() {
     for (rank, (b, ckpt, owns)) in got.iter().enumerate() {
         assert_eq!(b, &want, "rank {rank}: one process's blow-up");
         assert_eq!(*owns, rank == 2, "rank {rank}: body 0 is rank 2's");
-        assert_eq!(ckpt.is_some(), rank == 0, "the last good state on rank 0 only");
+        assert_eq!(
+            ckpt.is_some(),
+            rank == 0,
+            "the last good state on rank 0 only"
+        );
     }
     assert!(
         got[0].1.as_ref() == Some(&want_good),
@@ -901,7 +905,10 @@ fn a_check_step_receives_bytes_independent_of_the_world() {
         let bytes = check_bytes(&world, 20);
         eprintln!("{n} spheres on 3 ranks, bytes received per rank (check, gather): {bytes:?}");
         for &(check, gather) in &bytes {
-            assert!(check < 8 * 1024, "{n} bodies: a check receives {check} bytes");
+            assert!(
+                check < 8 * 1024,
+                "{n} bodies: a check receives {check} bytes"
+            );
             assert!(
                 gather > 100 * n as u64,
                 "{n} bodies: a gather receives every body ({gather} bytes)"
@@ -925,4 +932,77 @@ fn bytes_of_a_check_step_on_the_default_scene() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/default.toml");
     let world = Scene::load(&path).expect("default scene").world();
     eprintln!("default scene, 3 ranks: {:?}", check_bytes(&world, 2000));
+}
+
+/// Rebuilds that keep their boxes move bodies and springs point to point between ranks
+/// whose boxes are near (`Comm::exchange_with`), and only they: on the shaken sphere pile
+/// on 3 and 4 ranks every rebuild but those that cut boxes goes point to point (the guard
+/// that falls back to an all-to-all never fires), with the result bitwise one process's
+/// (the tests above). And the peers found from the distance between boxes hold every body:
+/// no box is farther from another than any of its bodies was at the last rebuild (brute
+/// force over the bodies, at every step).
+#[test]
+fn rebuilds_with_kept_boxes_go_point_to_point() {
+    let mut desc = pile(PileShape::Sphere, 400, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
+    }
+    let world = World::new(desc);
+    let reference = one_process(world.clone(), 600);
+    for ranks in [3, 4] {
+        let got: Vec<(u64, u64, u64, End)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = ThreadComm::group(ranks)
+                .into_iter()
+                .map(|comm| {
+                    let w = world.clone();
+                    scope.spawn(move || {
+                        let mut d = Domain::new(w, comm.rank(), comm.size());
+                        for _ in 0..600 {
+                            d.step(&comm).expect("ranks step");
+                            let boxes = d.boxes().cloned().expect("cut at the first step");
+                            let local = d.local();
+                            for i in (0..local.len()).filter(|&i| !local.is_ghost(i)) {
+                                let x = local.rebuild_position()[i];
+                                for s in 0..comm.size() {
+                                    assert!(
+                                        boxes.box_distance(comm.rank(), s)
+                                            <= boxes.distance(x, s) + 1e-6,
+                                        "a box nearer than its body"
+                                    );
+                                }
+                            }
+                        }
+                        let g = d.gather(&comm);
+                        let end = End {
+                            state: snapshot(&g),
+                            checkpoint: g.checkpoint_bytes("test", "", &[]),
+                            contacts: d.contact_count(&comm),
+                            rebuilds: g.rebuilds,
+                            step: g.step_count,
+                        };
+                        (d.sparse_migrations(), d.recuts(), g.rebuilds, end)
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("rank thread"))
+                .collect()
+        });
+        let (sparse, recuts, rebuilds, end) = &got[0];
+        eprintln!(
+            "{ranks} ranks: {rebuilds} rebuilds, {recuts} cut boxes, {sparse} point to point"
+        );
+        assert!(
+            *sparse > 10,
+            "{ranks} ranks: {sparse} point-to-point rebuilds"
+        );
+        assert_eq!(
+            sparse + recuts,
+            *rebuilds,
+            "{ranks} ranks: every kept-box rebuild sparse"
+        );
+        assert!(end == &reference, "{ranks} ranks: bitwise one process");
+    }
 }

@@ -24,6 +24,42 @@ pub trait Comm {
         debug_assert!(got.iter().map(Vec::len).eq(recv_len.iter().copied()));
         got
     }
+    /// Sends `send[r]` to each rank `r` that `peers[r]` names (every other message must be
+    /// empty) and returns what each peer sent here: the bodies and springs of a rebuild
+    /// that kept its boxes, between neighbouring ranks. `peers` must be symmetric (rank `r`
+    /// names `s` when `s` names `r`). The sizes go first, point to point between the peers
+    /// (8 bytes each way), then the messages ([`Comm::all_to_all_known`]): no rank outside
+    /// the peers is involved.
+    fn exchange_with(&self, send: Vec<Vec<u8>>, peers: &[bool]) -> Vec<Vec<u8>> {
+        let me = self.rank();
+        debug_assert!(send.iter().zip(peers).all(|(m, &p)| p || m.is_empty()));
+        let other = |r: usize| r != me && peers.get(r).copied().unwrap_or(false);
+        let sizes: Vec<Vec<u8>> = send
+            .iter()
+            .enumerate()
+            .map(|(r, m)| {
+                if other(r) {
+                    (m.len() as u64).to_le_bytes().to_vec()
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect();
+        let size_len: Vec<usize> = (0..send.len())
+            .map(|r| if other(r) { 8 } else { 0 })
+            .collect();
+        let got = self.all_to_all_known(sizes, &size_len);
+        let len: Vec<usize> = got
+            .iter()
+            .enumerate()
+            .map(|(r, b)| match b.get(..8) {
+                Some(b) if other(r) => u64::from_le_bytes(b.try_into().unwrap_or([0; 8])) as usize,
+                _ if r == me => send[me].len(),
+                _ => 0,
+            })
+            .collect();
+        self.all_to_all_known(send, &len)
+    }
     /// Every rank's `mine`, by rank, on every rank.
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>>;
     /// Every rank's `mine`, by rank, on rank 0 only (the others get nothing): the last good
