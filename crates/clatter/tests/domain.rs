@@ -1006,3 +1006,63 @@ fn rebuilds_with_kept_boxes_go_point_to_point() {
         assert!(end == &reference, "{ranks} ranks: bitwise one process");
     }
 }
+
+/// The totals of `energy.csv` and `discharge.csv` reduced over ranks (`Domain::totals`,
+/// exact sums of each rank's bodies) are bitwise one process's (`World::kinetic_energy`,
+/// `potential_energy`, `momentum`, `discharged`), on the sink scene (bodies removed) on 2
+/// and 3 ranks.
+#[test]
+fn totals_on_ranks_are_one_process_totals() {
+    let world = scene_world("sink-floor.toml");
+    let steps = 3000;
+    let mut w = world.clone();
+    for _ in 0..steps {
+        w.step().expect("one process steps");
+    }
+    let d = w.discharged();
+    assert!(d.count > 0, "bodies should be removed by then");
+    let want = [
+        w.kinetic_energy(),
+        w.potential_energy(),
+        w.momentum()[0],
+        w.momentum()[1],
+        w.momentum()[2],
+        d.mass,
+    ]
+    .map(f64::to_bits);
+    for ranks in [2, 3] {
+        let got: Vec<clatter::domain::Totals> = std::thread::scope(|scope| {
+            let handles: Vec<_> = ThreadComm::group(ranks)
+                .into_iter()
+                .map(|comm| {
+                    let w = world.clone();
+                    scope.spawn(move || {
+                        let mut d = Domain::new(w, comm.rank(), comm.size());
+                        for _ in 0..steps {
+                            d.step(&comm).expect("ranks step");
+                        }
+                        d.totals(&comm)
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("rank thread"))
+                .collect()
+        });
+        for t in &got {
+            let bits = [
+                t.kinetic,
+                t.potential,
+                t.momentum[0],
+                t.momentum[1],
+                t.momentum[2],
+                t.removed_mass,
+            ]
+            .map(f64::to_bits);
+            assert_eq!(bits, want, "{ranks} ranks: the totals");
+            assert_eq!(t.removed, d.count, "{ranks} ranks: removed bodies");
+            assert_eq!(t.step, w.step_count);
+        }
+    }
+}

@@ -472,15 +472,19 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
             }
             _ => false,
         };
-        if plan.out.is_some() && (frame || sample || checkpoint) {
-            let whole = if frame || checkpoint {
-                domain.gather(comm)
-            } else {
-                domain.gather_bodies(comm)
-            };
+        if plan.out.is_some() && (frame || checkpoint) {
+            let whole = domain.gather(comm);
             let written = outputs
                 .as_mut()
                 .map_or(Ok(()), |o| o.after_step(&plan, &whole, frame));
+            comm.agree(written)?;
+        } else if plan.out.is_some() && sample {
+            // An energy sample alone: the totals reduced over the ranks (exact sums, a few
+            // KiB whatever the number of bodies), bitwise one process's.
+            let totals = domain.totals(comm);
+            let written = outputs
+                .as_mut()
+                .map_or(Ok(()), |o| o.sample_totals(&totals));
             comm.agree(written)?;
         }
         if let Some(l) = &mut thermo {
@@ -547,14 +551,15 @@ impl LastGood {
 }
 
 /// What a progress line reports (collective): the step, the time, the whole world's kinetic
-/// energy (summed in scene order, as one process sums it) and touching contacts.
+/// energy (reduced exactly, as one process sums it: [`Domain::totals`]) and touching
+/// contacts.
 fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
     let contacts = domain.contact_count(comm);
-    let whole = domain.gather_bodies(comm);
+    let totals = domain.totals(comm);
     Sample {
-        step: whole.step_count,
-        time: whole.time,
-        kinetic: whole.kinetic_energy(),
+        step: totals.step,
+        time: totals.time,
+        kinetic: totals.kinetic,
         contacts,
     }
 }

@@ -31,10 +31,12 @@ mod check;
 mod comm;
 mod gather;
 mod rows;
+mod totals;
 
 pub use bisection::Bisection;
 pub use comm::{Comm, ThreadComm};
 pub use gather::Share;
+pub use totals::Totals;
 
 use glam::{DVec3, Vec3};
 
