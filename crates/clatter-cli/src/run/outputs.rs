@@ -119,6 +119,7 @@ impl Outputs {
     /// The energy and discharge rows of a step whose totals were reduced over MPI ranks
     /// (`clatter::domain::Domain::totals`, bitwise one process's): what [`Outputs::after_step`]
     /// writes at a sample step with no frame or checkpoint, without the world.
+    #[cfg(feature = "mpi")]
     pub(crate) fn sample_totals(&mut self, t: &clatter::domain::Totals) -> anyhow::Result<()> {
         if let Some(e) = &mut self.energy {
             e.record(t.step, t.time, t.kinetic, t.potential, t.momentum)?;

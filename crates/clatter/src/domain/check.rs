@@ -116,8 +116,9 @@ impl Domain {
             .iter()
             .filter(|r| !r.is_nan())
             .fold(f32::NEG_INFINITY, |a, &b| a.max(b));
+        // Never NaN: the largest of the ratios that are not.
         let deepest = comm.max_f32(deepest);
-        if !(deepest > OVERLAP_LIMIT) {
+        if deepest <= OVERLAP_LIMIT {
             return Ok(());
         }
         // Past the limit somewhere: which contact, in one process's order.
