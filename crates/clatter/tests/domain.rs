@@ -863,9 +863,11 @@ fn a_blow_up_on_rank_2_is_one_process_blow_up() {
     );
 }
 
-/// Bytes received by each rank of 3 for one full check and for one gather of the whole
-/// world (what a check step cost before the checks were distributed), after `steps` steps.
-fn check_bytes(world: &World, steps: usize) -> Vec<(u64, u64)> {
+/// Bytes received by each rank of 3, after `steps` steps, for what a check step and an
+/// energy sample cost now and before: (a full check, the gather of the whole world the
+/// check step did before, the totals of an energy sample, the gather of every body's state
+/// the sample did before).
+fn check_bytes(world: &World, steps: usize) -> Vec<[u64; 4]> {
     let health = clatter::Health::new(world);
     std::thread::scope(|scope| {
         let handles: Vec<_> = ThreadComm::group(3)
@@ -882,7 +884,11 @@ fn check_bytes(world: &World, steps: usize) -> Vec<(u64, u64)> {
                     d.check(&health, &comm, true).expect("healthy");
                     let check = comm.take();
                     let _ = d.gather(&comm);
-                    (check, comm.take())
+                    let gather = comm.take();
+                    let _ = d.totals(&comm);
+                    let totals = comm.take();
+                    let _ = d.gather_bodies(&comm);
+                    [check, gather, totals, comm.take()]
                 })
             })
             .collect();
@@ -893,33 +899,40 @@ fn check_bytes(world: &World, steps: usize) -> Vec<(u64, u64)> {
     })
 }
 
-/// A check step receives a fixed number of bytes per rank, whatever the number of bodies
-/// (the exact energy sums and a few minima and maxima), where the gather of the whole
-/// world it replaced received every body (and contact) on every rank: counted through the
-/// transport on piles of 2,000 and 8,000 spheres on 3 ranks.
+/// A check step and an energy sample receive a fixed number of bytes per rank, whatever
+/// the number of bodies (exact sums and a few minima and maxima), where the gathers they
+/// replaced received every body (and contact) on every rank: counted through the transport
+/// on piles of 2,000 and 8,000 spheres on 3 ranks.
 #[test]
 fn a_check_step_receives_bytes_independent_of_the_world() {
     let mut sizes = Vec::new();
     for n in [2000, 8000] {
         let world = World::new(pile(PileShape::Sphere, n, &PileParams::default()));
         let bytes = check_bytes(&world, 20);
-        eprintln!("{n} spheres on 3 ranks, bytes received per rank (check, gather): {bytes:?}");
-        for &(check, gather) in &bytes {
+        eprintln!(
+            "{n} spheres on 3 ranks, bytes received per rank [check, gather, totals, gather_bodies]: {bytes:?}"
+        );
+        for &[check, gather, totals, bodies] in &bytes {
             assert!(
                 check < 8 * 1024,
                 "{n} bodies: a check receives {check} bytes"
             );
             assert!(
-                gather > 100 * n as u64,
-                "{n} bodies: a gather receives every body ({gather} bytes)"
+                totals < 16 * 1024,
+                "{n} bodies: a sample receives {totals} bytes"
+            );
+            assert!(
+                gather > 100 * n as u64 && bodies > 90 * n as u64,
+                "{n} bodies: a gather receives every body ({gather}, {bodies} bytes)"
             );
         }
         sizes.push(bytes);
     }
+    let fixed = |b: &Vec<[u64; 4]>| b.iter().map(|b| [b[0], b[2]]).collect::<Vec<_>>();
     assert_eq!(
-        sizes[0].iter().map(|b| b.0).collect::<Vec<_>>(),
-        sizes[1].iter().map(|b| b.0).collect::<Vec<_>>(),
-        "a check's bytes do not grow with the bodies"
+        fixed(&sizes[0]),
+        fixed(&sizes[1]),
+        "a check's and a sample's bytes do not grow with the bodies"
     );
 }
 

@@ -23,8 +23,12 @@
 //!   decides it.
 //! - **At rebuilds** (`Domain::migrate`): new boxes (when the old ones are uneven); each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
-//!   (tangential, twisting) of their contacts to the new owners of their bodies; then the
-//!   local broad phase carries them as one process does.
+//!   (tangential, twisting) of their contacts to the new owners of their bodies (point to
+//!   point between neighbouring boxes when the boxes were kept, an all-to-all when they
+//!   were cut again); then the local broad phase carries them as one process does.
+//! - **Check steps** ([`Domain::check`], [`Domain::totals`]): the blow-up checks and the
+//!   energy samples reduce each rank's exact sums and extremes, never a body's state; the
+//!   last good state stays in shares on the ranks ([`Domain::share`]) until a blow-up.
 
 mod bisection;
 mod check;
