@@ -369,7 +369,8 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     };
     comm.agree(initial)?;
     // Rank 0's files (the frame series, energy.csv, discharge.csv, checkpoints) are one
-    // process's `Outputs`, fed the gathered world at the steps they are due.
+    // process's `Outputs`, fed the gathered world at the frame and checkpoint steps, and
+    // the totals reduced over the ranks at the other energy sample steps.
     let outputs = if rank == 0 {
         Outputs::create(&plan, &world, start_step).map(Some)
     } else {
@@ -460,8 +461,8 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
                 }
             }
         }
-        // What one process writes after this step (`run/outputs.rs`): the state is gathered
-        // when something is due, with the contacts for a frame or a checkpoint.
+        // What one process writes after this step (`run/outputs.rs`): the world is gathered
+        // for a frame or a checkpoint; an energy sample alone needs only the totals.
         let frame = plan.output_every.is_some_and(|n| s.is_multiple_of(n));
         let sample = s.is_multiple_of(plan.energy_every);
         let time = domain.local().time;

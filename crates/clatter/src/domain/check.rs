@@ -38,7 +38,7 @@ impl Domain {
     /// 4. the lowest id of an escaped body (a minimum);
     /// 5. the deepest overlap ratio of each rank's contacts (a maximum, NaNs left out), and
     ///    when it is past the limit, which contact has it, the first in one process's order
-    ///    (an all-gather of 40 bytes a rank).
+    ///    (an all-gather of 48 bytes a rank).
     ///
     /// The rank that owns the body (or contact) blamed writes the report (its cause is
     /// found from the body's state) and every rank receives it (an all-gather).
