@@ -147,19 +147,18 @@ impl DischargeSeries {
 
     /// Writes the row of the world's current step (once per step).
     pub fn sample(&mut self, world: &World) -> anyhow::Result<()> {
-        if self.last == Some(world.step_count) {
+        let d = world.discharged();
+        self.record(world.step_count, world.time, d.count, d.mass)
+    }
+
+    /// Writes a row computed elsewhere (an MPI run's totals reduced over the ranks,
+    /// `clatter::domain::Totals`); a second row of the same step is dropped.
+    pub fn record(&mut self, step: u64, time: f64, count: u64, mass: f64) -> anyhow::Result<()> {
+        if self.last == Some(step) {
             return Ok(());
         }
-        let d = world.discharged();
-        writeln!(
-            self.file.writer(),
-            "{},{},{},{}",
-            world.step_count,
-            world.time,
-            d.count,
-            d.mass
-        )?;
-        self.last = Some(world.step_count);
+        writeln!(self.file.writer(), "{step},{time},{count},{mass}")?;
+        self.last = Some(step);
         Ok(())
     }
 

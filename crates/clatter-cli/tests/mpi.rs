@@ -464,6 +464,57 @@ fn blow_ups_stop_every_rank_as_one_process_stops() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A blow-up found by a rank other than 0: a sphere shot at the +x wall from the far end of
+/// a pile (x = 0.25 m, where the pile ends at 0.2 m; on 3 ranks the first cut is at the 2/3
+/// quantile of x, so rank 2 owns it) overlaps the wall by most of its radius about 280
+/// steps in, past two full checks (so the last good state is the ranks' kept shares, not
+/// the start). On 3 ranks: one process's message (naming that body and wall, with the cause
+/// found from its state on its rank), exit status 3, last_good.ckpt and energy.csv.
+#[cfg(feature = "mpi")]
+#[test]
+fn blow_up_on_a_body_of_rank_2_is_one_process_blow_up() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("blow-up-rank-2");
+    let scene = dir.join("shot.toml");
+    let shot = SPHERE_PILE.replace("max = [0.29, 0.04, 0.19]", "max = [0.2, 0.04, 0.19]")
+        + "\n[[body]]\nshape = \"ball\"\nmaterial = \"m\"\nposition = [0.25, 0.025, 0.15]\nvelocity = [8.0, 0.0, 0.0]\n";
+    std::fs::write(&scene, shot).expect("write the scene");
+    let (one, three) = (dir.join("one"), dir.join("three"));
+    let s = scene.display().to_string();
+    let (o, t) = (one.display().to_string(), three.display().to_string());
+    let o1 = clatter(&[&"run", &s, &"--backend", &"cpu", &"--quiet", &"--out", &o]);
+    let o3 = mpirun(3, &["run", &s, "--quiet", "--out", &t]);
+    assert_eq!(o1.status.code(), Some(3), "one process\n{}", text(&o1));
+    assert_eq!(o3.status.code(), Some(3), "3 ranks\n{}", text(&o3));
+    let error = |o: &Output| {
+        String::from_utf8_lossy(&o.stderr)
+            .lines()
+            .find(|l| l.starts_with("error:"))
+            .map(String::from)
+    };
+    let message = error(&o1).unwrap_or_default();
+    assert!(
+        message.contains("body 0 and wall 1 overlap"),
+        "the shot sphere (body 0: `[[body]]`s come before groups) on the +x wall: {message}"
+    );
+    assert_eq!(error(&o1), error(&o3), "the same message");
+    let stderr = String::from_utf8_lossy(&o3.stderr);
+    assert!(
+        stderr.contains("the last good state (step 300,"),
+        "kept at the full check of step 300: {stderr}"
+    );
+    for file in ["last_good.ckpt", "energy.csv"] {
+        assert!(
+            std::fs::read(one.join(file)).expect("one process's file")
+                == std::fs::read(three.join(file)).expect("3 ranks' file"),
+            "{file} differs"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// More ranks than bodies, a missing scene file and options not carried yet: one clear
 /// error (from rank 0), every rank stopped, no hang.
 #[cfg(feature = "mpi")]

@@ -35,6 +35,7 @@ use rayon::prelude::*;
 
 use crate::broad::{self, Grid};
 use crate::contact_list::Partner;
+use crate::exact_sum::ExactSum;
 use crate::law::{self, ContactForce};
 use crate::world::{SimError, World};
 use clatter_geom::narrow::{self, Manifold};
@@ -359,13 +360,13 @@ pub const SPACINGS_PER_OVERLAP: f64 = 4.0;
 /// of the stored positions at its coordinate, so the contact force jumps between zero and
 /// many times the weight. Rare with double-precision positions (it needs coordinates of
 /// about 1e6 m for a millimetre grain), but the message then says so.
-fn float_spacing_cause(world: &World, body: usize) -> Option<String> {
-    let x = *world.state.position.get(body)?;
-    let weight = world.consts.mass[body] * world.gravity.length();
+fn float_spacing_cause(world: &World, i: usize, body: usize) -> Option<String> {
+    let x = *world.state.position.get(i)?;
+    let weight = world.consts.mass[i] * world.gravity.length();
     if weight.is_nan() || weight <= 0.0 || !x.is_finite() {
         return None;
     }
-    let (params, r_eff, share) = law_of(world, body as u32, Partner::Body(body as u32));
+    let (params, r_eff, share) = law_of(world, i as u32, Partner::Body(i as u32));
     let depth = law::depth_at_force(&params, r_eff, weight, share) as f64;
     let spacing = x.abs().max_element() * POSITION_EPSILON;
     (depth < SPACINGS_PER_OVERLAP * spacing).then(|| {
@@ -535,113 +536,137 @@ impl Health {
     }
 
     /// The checks during the run: escape and energy growth, and with `full` also the overlap
-    /// depth of every touching contact.
+    /// depth of every touching contact. On a decomposed world each rank checks its own
+    /// bodies and contacts and the verdicts are reduced ([`crate::domain::Domain::check`]):
+    /// the stages below are the ones it reduces, so it finds the same blow-up.
     pub fn check(&self, world: &World, full: bool) -> Result<(), BlowUp> {
-        let fail = |kind, body| {
-            Err(BlowUp {
-                kind,
-                body,
-                step: world.step_count,
-                time: world.time,
-                cause: self.likely_cause(world, body),
-            })
-        };
-        // Energies; a NaN or infinity anywhere in the state shows up in their sums.
-        let kinetic = world.kinetic_energy();
-        let potential = world.potential_energy();
-        if !(kinetic.is_finite() && potential.is_finite()) {
-            let bad = (0..world.len()).find(|&i| !world.state.is_finite(i));
-            if let Some(i) = bad {
-                return fail(BlowUpKind::NonFinite, i);
-            }
+        // Energies, summed exactly (so ranks find the same totals from their shares); a NaN
+        // or infinity anywhere in the state shows up in their sums.
+        let (ke, pe) = self.energy_sums(world);
+        let (kinetic, potential) = (ke.value(), pe.value());
+        if !(kinetic.is_finite() && potential.is_finite())
+            && let Some(i) = first_non_finite(world)
+        {
+            return Err(self.blow_up(world, BlowUpKind::NonFinite, i, i, false));
         }
         let available = self.budget - potential;
-        if !kinetic.is_finite() || kinetic > ENERGY_FACTOR * available.max(0.0) {
-            let (body, body_kinetic) = (0..world.len())
-                .map(|i| (i, world.body_kinetic_energy(i)))
-                .fold((0, f64::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
-            return fail(
-                BlowUpKind::EnergyGrowth {
-                    kinetic,
-                    available,
-                    body_kinetic,
-                },
-                body,
-            );
+        if energy_grows(kinetic, available) {
+            let (body_kinetic, i) = fastest(world);
+            let i = i.unwrap_or(0);
+            let kind = BlowUpKind::EnergyGrowth {
+                kinetic,
+                available,
+                body_kinetic,
+            };
+            return Err(self.blow_up(world, kind, i, i, false));
         }
-        // Escape: per wall, how many bodies are entirely behind it (a count has no loop-carried
-        // float dependency, unlike a running minimum); only when some are, which body.
-        // Bodies removed by a sink are out of the simulation and are not looked at.
-        let (x, r) = (&world.state.position, &world.consts.radius);
-        let gone = &world.state.removed;
-        let escaped = world.walls.iter().any(|w| {
-            let (n, o) = (w.plane.normal.as_dvec3(), w.plane.offset as f64);
-            x.iter()
-                .zip(r)
-                .zip(gone)
-                .map(|((x, r), g)| (!g & (n.dot(*x) - o < -(*r as f64))) as u32)
-                .sum::<u32>()
-                > 0
-        });
-        let escaped = escaped
-            .then(|| {
-                (0..world.len())
-                    .find(|&i| !gone[i] && world.walls.iter().any(|w| wall_height(w, x[i]) < -r[i]))
-            })
-            .flatten();
-        if let Some(i) = escaped {
-            let (wall, h) = world
-                .walls
-                .iter()
-                .enumerate()
-                .map(|(k, w)| (k as u32, wall_height(w, world.state.position[i])))
-                .fold((0, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
-            return fail(BlowUpKind::Escaped { wall, distance: -h }, i);
+        if let Some(i) = first_escaped(world) {
+            return Err(self.blow_up(world, escape_of(world, i), i, i, false));
         }
-        // Deep overlaps: every touching contact in a full check, otherwise those whose last
-        // force implies a deep overlap.
-        let contacts = if full {
-            touching_contacts(world)
-        } else {
-            let c = world.contacts.springs();
-            (0..c.touching.len())
-                .filter(|&k| {
-                    c.touching[k]
-                        && c.forces[k].normal_force.abs() > self.force_floor
-                        && estimated_depth(world, k) > OVERLAP_LIMIT * self.smallest_size(world, k)
-                })
-                .filter_map(|k| contact_report(world, k))
-                .chain(mesh_reports(world, |i| self.deep_mesh_slot(world, i)))
-                .collect()
-        };
+        let contacts = self.overlap_candidates(world, full);
+        if let Some((ratio, c)) = worst_overlap(contacts.iter().map(|(_, c)| c), |c| {
+            self.overlap_ratio(world, c)
+        }) && ratio > OVERLAP_LIMIT
         {
-            let mut worst: Option<(f32, &ContactReport)> = None;
-            for c in &contacts {
-                let ratio = c.manifold.max_depth() / self.contact_size(world, c);
-                if worst.is_none_or(|(r, _)| ratio > r) {
-                    worst = Some((ratio, c));
-                }
-            }
-            if let Some((ratio, c)) = worst
-                && ratio > OVERLAP_LIMIT
-            {
-                let size = self.contact_size(world, c);
-                let body = c.body as usize;
-                return Err(BlowUp {
-                    kind: BlowUpKind::DeepOverlap {
-                        other: c.other,
-                        depth: ratio * size,
-                        size,
-                        limit: OVERLAP_LIMIT,
-                    },
-                    body,
-                    step: world.step_count,
-                    time: world.time,
-                    cause: self.cause(world, body, true),
-                });
-            }
+            let i = c.body as usize;
+            return Err(self.blow_up(world, self.deep_overlap(world, c, ratio), i, i, true));
         }
         Ok(())
+    }
+
+    /// The exact sums of the kinetic and the potential energy of the bodies `world` owns
+    /// (all but its ghosts; [`World::kinetic_energy`]'s and [`World::potential_energy`]'s
+    /// terms, summed exactly rather than in order).
+    pub(crate) fn energy_sums(&self, world: &World) -> (ExactSum, ExactSum) {
+        let (mut ke, mut pe) = (ExactSum::default(), ExactSum::default());
+        for i in (0..world.len()).filter(|&i| !world.is_ghost(i)) {
+            ke.add(world.body_kinetic_energy(i));
+            pe.add(world.body_potential_energy(i));
+        }
+        (ke, pe)
+    }
+
+    /// A blow-up of body `i` of `world` (named `body`: its scene id), found now.
+    pub(crate) fn blow_up(
+        &self,
+        world: &World,
+        kind: BlowUpKind,
+        i: usize,
+        body: usize,
+        overlap: bool,
+    ) -> BlowUp {
+        BlowUp {
+            kind,
+            body,
+            step: world.step_count,
+            time: world.time,
+            cause: self.cause(world, i, body, overlap),
+        }
+    }
+
+    /// The contacts the overlap check looks at, in contact-list order then the mesh
+    /// contacts by body, each with its order within its kind (`0` body pairs, `1` walls,
+    /// `2` meshes) and its piece (for a mesh contact, its rank among its body's): every
+    /// touching contact of `world`'s own bodies in a full check, otherwise those whose last
+    /// force implies a deep overlap. A body pair belongs to its first body.
+    pub(crate) fn overlap_candidates(
+        &self,
+        world: &World,
+        full: bool,
+    ) -> Vec<((u8, u32), ContactReport)> {
+        let c = world.contacts.springs();
+        let np = world.contacts.pairs.len();
+        let pieces = &world.contacts.pieces;
+        let piece = |k: usize| {
+            if pieces.len() == world.contacts.len() {
+                pieces[k]
+            } else {
+                0
+            }
+        };
+        let mine = |k: usize| !world.is_ghost(world.contacts.partners(k).0 as usize);
+        let suspect = |k: usize| {
+            full || (c.forces[k].normal_force.abs() > self.force_floor
+                && estimated_depth(world, k) > OVERLAP_LIMIT * self.smallest_size(world, k))
+        };
+        let mut out: Vec<((u8, u32), ContactReport)> = (0..c.touching.len())
+            .into_par_iter()
+            .with_min_len(256)
+            .filter(|&k| c.touching[k] && mine(k) && suspect(k))
+            .filter_map(|k| Some((((k >= np) as u8, piece(k)), contact_report(world, k)?)))
+            .collect();
+        let reports = mesh_reports(world, |i| {
+            !world.is_ghost(i)
+                && if full {
+                    world.mesh.body_slots(i).iter().any(|s| s.touching)
+                } else {
+                    self.deep_mesh_slot(world, i)
+                }
+        });
+        let mut seq = 0;
+        let mut last = None;
+        for r in reports {
+            seq = if last == Some(r.body) { seq + 1 } else { 0 };
+            last = Some(r.body);
+            out.push(((2, seq), r));
+        }
+        out
+    }
+
+    /// A contact's overlap over the size it is compared with.
+    pub(crate) fn overlap_ratio(&self, world: &World, c: &ContactReport) -> f32 {
+        c.manifold.max_depth() / self.contact_size(world, c)
+    }
+
+    /// The deep overlap of contact `c`, whose ratio is `ratio`.
+    pub(crate) fn deep_overlap(&self, world: &World, c: &ContactReport, ratio: f32) -> BlowUpKind {
+        let size = self.contact_size(world, c);
+        BlowUpKind::DeepOverlap {
+            other: c.other,
+            depth: ratio * size,
+            size,
+            limit: OVERLAP_LIMIT,
+        }
     }
 
     /// The report for a step that failed with a non-finite state.
@@ -661,13 +686,14 @@ impl Health {
     /// Why a run probably blew up, in words: the time step against the stiffness, initial
     /// overlaps, bodies too fast for the time step.
     pub fn likely_cause(&self, world: &World, body: usize) -> String {
-        self.cause(world, body, false)
+        self.cause(world, body, body, false)
     }
 
-    fn cause(&self, world: &World, body: usize, overlap: bool) -> String {
+    /// The likely cause for body `i` of `world`, named `body` (its scene id).
+    fn cause(&self, world: &World, i: usize, body: usize, overlap: bool) -> String {
         let dt = world.dt as f64;
         let mut causes = Vec::new();
-        if let Some(c) = float_spacing_cause(world, body) {
+        if let Some(c) = float_spacing_cause(world, i, body) {
             causes.push(c);
         }
         if self.t_c.is_finite() && dt > self.stable_dt {
@@ -698,7 +724,7 @@ impl Health {
             let m = world
                 .materials
                 .list()
-                .get(world.consts.material.get(body).copied().unwrap_or(0) as usize);
+                .get(world.consts.material.get(i).copied().unwrap_or(0) as usize);
             causes.push(format!(
                 "the contacts are too soft for the load (weight, pressure or impact speed) on body {body}{}: raise the stiffness (youngs_modulus for Hertz), or lower the speeds",
                 m.map_or(String::new(), |m| format!(" (material `{}`)", m.name))
@@ -792,6 +818,83 @@ impl Health {
             })
             .sum()
     }
+}
+
+/// Whether a kinetic energy is past what the run can have: more than [`ENERGY_FACTOR`] times
+/// the energy `available` (or not finite).
+pub(crate) fn energy_grows(kinetic: f64, available: f64) -> bool {
+    !kinetic.is_finite() || kinetic > ENERGY_FACTOR * available.max(0.0)
+}
+
+/// The first of `world`'s own bodies (lowest index) with a non-finite state.
+pub(crate) fn first_non_finite(world: &World) -> Option<usize> {
+    (0..world.len()).find(|&i| !world.is_ghost(i) && !world.state.is_finite(i))
+}
+
+/// The fastest of `world`'s own bodies: its kinetic energy and index (the first of equals;
+/// `-inf` and none when no body's energy is above `-inf`, NaNs never win).
+pub(crate) fn fastest(world: &World) -> (f64, Option<usize>) {
+    (0..world.len())
+        .filter(|&i| !world.is_ghost(i))
+        .map(|i| (world.body_kinetic_energy(i), Some(i)))
+        .fold(
+            (f64::NEG_INFINITY, None),
+            |a, b| if b.0 > a.0 { b } else { a },
+        )
+}
+
+/// The first of `world`'s own bodies (lowest index) entirely on the solid side of a wall.
+/// Per wall, how many bodies are behind it first (a count has no loop-carried float
+/// dependency, unlike a running minimum); only when some are, which body. Bodies removed by
+/// a sink are out of the simulation and are not looked at.
+pub(crate) fn first_escaped(world: &World) -> Option<usize> {
+    let (x, r) = (&world.state.position, &world.consts.radius);
+    let gone = &world.state.removed;
+    let ghost = |i: usize| world.is_ghost(i);
+    let escaped = world.walls.iter().any(|w| {
+        let (n, o) = (w.plane.normal.as_dvec3(), w.plane.offset as f64);
+        x.iter()
+            .zip(r)
+            .zip(gone)
+            .enumerate()
+            .map(|(i, ((x, r), g))| (!g & !ghost(i) & (n.dot(*x) - o < -(*r as f64))) as u32)
+            .sum::<u32>()
+            > 0
+    });
+    if !escaped {
+        return None;
+    }
+    (0..world.len()).find(|&i| {
+        !gone[i] && !ghost(i) && world.walls.iter().any(|w| wall_height(w, x[i]) < -r[i])
+    })
+}
+
+/// The escape of body `i` of `world`: the wall it is deepest behind (the first of equals).
+pub(crate) fn escape_of(world: &World, i: usize) -> BlowUpKind {
+    let (wall, h) = world
+        .walls
+        .iter()
+        .enumerate()
+        .map(|(k, w)| (k as u32, wall_height(w, world.state.position[i])))
+        .fold((0, f32::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+    BlowUpKind::Escaped { wall, distance: -h }
+}
+
+/// The deepest of `contacts` by `ratio` and its ratio, as one pass in order finds it: the
+/// first contact is taken, then each deeper one (so the first of equals, and a NaN first
+/// ratio stays: it is not past the limit).
+pub(crate) fn worst_overlap<'a>(
+    contacts: impl Iterator<Item = &'a ContactReport>,
+    ratio: impl Fn(&ContactReport) -> f32,
+) -> Option<(f32, &'a ContactReport)> {
+    let mut worst: Option<(f32, &ContactReport)> = None;
+    for c in contacts {
+        let r = ratio(c);
+        if worst.is_none_or(|(w, _)| r > w) {
+            worst = Some((r, c));
+        }
+    }
+    worst
 }
 
 /// How far `x` is in front of wall `w` (`n . x - d`, in f64, then rounded).

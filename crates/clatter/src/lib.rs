@@ -22,6 +22,7 @@ pub mod bodies;
 pub mod contact_list;
 pub mod contract;
 pub mod domain;
+pub mod exact_sum;
 pub mod health;
 pub mod io;
 pub mod law;

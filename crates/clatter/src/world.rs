@@ -9,6 +9,7 @@ use thiserror::Error;
 
 use crate::bodies::{BodyConstants, BodyStates};
 use crate::contact_list::{ContactState, Contacts};
+use crate::exact_sum::ExactSum;
 use crate::law::{BodyMotion, ContactForce};
 use crate::material::{Material, Materials, PairParams};
 use crate::mesh_boundary::{Boundary, MESH_SLOTS, MeshContacts, MeshSlot};
@@ -627,17 +628,14 @@ impl World {
         self.state.removed[i]
     }
 
-    /// The bodies removed by sinks so far: how many, and their mass summed in f64 in body
-    /// order (exact, the same on every backend and thread count).
+    /// The bodies removed by sinks so far: how many, and their mass (summed exactly,
+    /// [`ExactSum`]: the same on every backend, thread and rank count).
     pub fn discharged(&self) -> Discharged {
-        let mut d = Discharged::default();
-        for i in 0..self.len() {
-            if self.state.removed[i] {
-                d.count += 1;
-                d.mass += self.consts.mass[i] as f64;
-            }
+        let removed = (0..self.len()).filter(|&i| self.state.removed[i]);
+        Discharged {
+            count: removed.clone().count() as u64,
+            mass: ExactSum::of(removed.map(|i| self.consts.mass[i] as f64)).value(),
         }
-        d
     }
 
     /// Body `i`'s kinetic energy, translational plus rotational, J (0 for a removed body).
@@ -650,33 +648,40 @@ impl World {
             + 0.5 * self.state.omega[i].dot(self.state.angular_momentum[i]) as f64
     }
 
-    /// Total kinetic energy, translational plus rotational, J.
+    /// Total kinetic energy, translational plus rotational, J: the bodies' energies summed
+    /// exactly ([`ExactSum`]), so ranks that each sum their own bodies find the same total.
     pub fn kinetic_energy(&self) -> f64 {
-        (0..self.len()).map(|i| self.body_kinetic_energy(i)).sum()
+        ExactSum::of((0..self.len()).map(|i| self.body_kinetic_energy(i))).value()
     }
 
     /// Total gravitational potential energy relative to the origin, J. Removed bodies count
     /// where they were removed (a constant), so that taking a body out never looks like
-    /// energy appearing to the blow-up checks.
+    /// energy appearing to the blow-up checks. Summed exactly, as [`World::kinetic_energy`].
     pub fn potential_energy(&self) -> f64 {
-        (0..self.len())
-            .map(|i| {
-                -(self.consts.mass[i] as f64) * self.gravity.as_dvec3().dot(self.state.position[i])
-            })
-            .sum()
+        ExactSum::of((0..self.len()).map(|i| self.body_potential_energy(i))).value()
     }
 
-    /// Total linear momentum of the bodies still in the simulation, kg m/s (summed in f64).
+    /// Body `i`'s gravitational potential energy relative to the origin, J (a removed body's
+    /// where it was removed).
+    pub fn body_potential_energy(&self, i: usize) -> f64 {
+        -(self.consts.mass[i] as f64) * self.gravity.as_dvec3().dot(self.state.position[i])
+    }
+
+    /// Total linear momentum of the bodies still in the simulation, kg m/s (each
+    /// component's terms summed exactly, as [`World::kinetic_energy`]).
     pub fn momentum(&self) -> [f64; 3] {
-        let mut p = [0.0f64; 3];
-        for i in 0..self.len() {
-            if self.state.removed[i] {
-                continue;
-            }
+        let p = self.momentum_sums((0..self.len()).filter(|&i| !self.state.removed[i]));
+        p.map(|s| s.value())
+    }
+
+    /// The exact sums of the momentum components of `bodies` (those not removed).
+    pub fn momentum_sums(&self, bodies: impl Iterator<Item = usize>) -> [ExactSum; 3] {
+        let mut p: [ExactSum; 3] = Default::default();
+        for i in bodies.filter(|&i| !self.state.removed[i]) {
             let m = self.state.velocity[i] * self.consts.mass[i];
-            p[0] += m.x as f64;
-            p[1] += m.y as f64;
-            p[2] += m.z as f64;
+            p[0].add(m.x as f64);
+            p[1].add(m.y as f64);
+            p[2].add(m.z as f64);
         }
         p
     }

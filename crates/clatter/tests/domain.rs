@@ -682,3 +682,400 @@ fn ghosts_hold_every_partner_within_reach() {
         }
     }
 }
+
+/// [`ThreadComm`] with the bytes this rank receives counted. Every collective goes through
+/// `all_to_all` here (the reductions as all-gathers of their operands), so a reduction is
+/// counted as `ranks` times its operand, as a naive transport receives it.
+struct Counted {
+    inner: ThreadComm,
+    received: std::cell::Cell<u64>,
+}
+
+impl Counted {
+    fn new(inner: ThreadComm) -> Counted {
+        Counted {
+            inner,
+            received: std::cell::Cell::new(0),
+        }
+    }
+
+    /// Bytes received since the last call.
+    fn take(&self) -> u64 {
+        self.received.replace(0)
+    }
+
+    fn gathered_u64s(&self, x: u64) -> impl Iterator<Item = u64> {
+        self.all_gather(&x.to_le_bytes())
+            .into_iter()
+            .map(|b| u64::from_le_bytes(b[..8].try_into().expect("8 bytes")))
+    }
+}
+
+impl Comm for Counted {
+    fn rank(&self) -> usize {
+        self.inner.rank()
+    }
+    fn size(&self) -> usize {
+        self.inner.size()
+    }
+    fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        let got = self.inner.all_to_all(send);
+        let n: usize = got.iter().map(Vec::len).sum();
+        self.received.set(self.received.get() + n as u64);
+        got
+    }
+    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        self.all_to_all(vec![mine.to_vec(); self.size()])
+    }
+    fn max_f32(&self, x: f32) -> f32 {
+        self.all_gather(&x.to_le_bytes())
+            .iter()
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .fold(f32::NEG_INFINITY, f32::max)
+    }
+    fn sum_u64(&self, x: u64) -> u64 {
+        self.gathered_u64s(x).sum()
+    }
+    fn min_u64(&self, x: u64) -> u64 {
+        self.gathered_u64s(x).min().unwrap_or(x)
+    }
+}
+
+/// The pile of `mpi.rs`'s rank-2 blow-up: 300 spheres in x < 0.2 m and one (body 0, the
+/// scene's `[[body]]` before its group) at x = 0.25 m shot at the +x wall, which it
+/// overlaps by more than half its radius about 300 steps in.
+const SHOT: &str = r#"[simulation]
+steps = 6000
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 2.0e3
+restitution = 0.5
+friction = 0.5
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.3, 0.05, 0.2]
+material = "m"
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.005 }
+
+[[body]]
+shape = "ball"
+material = "m"
+position = [0.25, 0.025, 0.15]
+velocity = [8.0, 0.0, 0.0]
+
+[[group]]
+shape = "ball"
+material = "m"
+random = { min = [0.01, 0.01, 0.01], max = [0.2, 0.04, 0.19], count = 300, seed = 7 }
+velocity = [1.5, 0.0, -0.5]
+"#;
+
+/// The steps of `clatter run`'s checks: the cheap check every 10 steps, the full one every
+/// 100 (which keeps the last good state).
+const CHECK_EVERY: u64 = 10;
+const FULL_CHECK_EVERY: u64 = 100;
+
+/// A blow-up on a body owned by rank 2 of 3 (a deep overlap with a wall, found by that rank
+/// alone): every rank reports one process's blow-up (kind, body, numbers, the cause found
+/// from the body's state), and the last good state gathered from the shares the ranks kept
+/// at the last full check is one process's, checkpoint byte for byte.
+#[test]
+fn a_blow_up_on_rank_2_is_one_process_blow_up() {
+    let world = Scene::parse(SHOT, "shot.toml").expect("parses").world();
+    let health = clatter::Health::new(&world);
+    let (want, want_good) = {
+        let mut w = world.clone();
+        let mut good = w.clone();
+        loop {
+            w.step().expect("finite");
+            let s = w.step_count;
+            let full = s.is_multiple_of(FULL_CHECK_EVERY);
+            if full || s.is_multiple_of(CHECK_EVERY) {
+                match health.check(&w, full) {
+                    Ok(()) if full => good = w.clone(),
+                    Ok(()) => {}
+                    Err(b) => break (b, good.checkpoint_bytes("test", "", &[])),
+                }
+            }
+            assert!(s < 2000, "the shot should blow up");
+        }
+    };
+    assert!(
+        want.to_string().contains("body 0 and wall 1 overlap") && want.step > FULL_CHECK_EVERY,
+        "{want}"
+    );
+    let got: Vec<_> = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group(3)
+            .into_iter()
+            .map(|comm| {
+                let (w, health) = (world.clone(), health.clone());
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size());
+                    let mut kept = None;
+                    loop {
+                        d.step(&comm).expect("finite");
+                        let s = d.local().step_count;
+                        let full = s.is_multiple_of(FULL_CHECK_EVERY);
+                        if full || s.is_multiple_of(CHECK_EVERY) {
+                            match d.check(&health, &comm, full) {
+                                Ok(()) if full => kept = Some(d.share()),
+                                Ok(()) => {}
+                                Err(b) => {
+                                    let kept = kept.expect("a full check passed");
+                                    let good = d.gather_kept(&kept, &comm);
+                                    let owns = d.ids().iter().enumerate().any(|(i, &g)| {
+                                        g as usize == b.body && !d.local().is_ghost(i)
+                                    });
+                                    let ckpt = good.map(|g| g.checkpoint_bytes("test", "", &[]));
+                                    break (b, ckpt, owns);
+                                }
+                            }
+                        }
+                    }
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect()
+    });
+    for (rank, (b, ckpt, owns)) in got.iter().enumerate() {
+        assert_eq!(b, &want, "rank {rank}: one process's blow-up");
+        assert_eq!(*owns, rank == 2, "rank {rank}: body 0 is rank 2's");
+        assert_eq!(
+            ckpt.is_some(),
+            rank == 0,
+            "the last good state on rank 0 only"
+        );
+    }
+    assert!(
+        got[0].1.as_ref() == Some(&want_good),
+        "the last good state gathered from the shares is one process's"
+    );
+}
+
+/// Bytes received by each rank of 3, after `steps` steps, for what a check step and an
+/// energy sample cost now and before: (a full check, the gather of the whole world the
+/// check step did before, the totals of an energy sample, the gather of every body's state
+/// the sample did before).
+fn check_bytes(world: &World, steps: usize) -> Vec<[u64; 4]> {
+    let health = clatter::Health::new(world);
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group(3)
+            .into_iter()
+            .map(|comm| {
+                let (w, health) = (world.clone(), health.clone());
+                scope.spawn(move || {
+                    let comm = Counted::new(comm);
+                    let mut d = Domain::new(w, comm.rank(), comm.size());
+                    for _ in 0..steps {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    comm.take();
+                    d.check(&health, &comm, true).expect("healthy");
+                    let check = comm.take();
+                    let _ = d.gather(&comm);
+                    let gather = comm.take();
+                    let _ = d.totals(&comm);
+                    let totals = comm.take();
+                    let _ = d.gather_bodies(&comm);
+                    [check, gather, totals, comm.take()]
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect()
+    })
+}
+
+/// A check step and an energy sample receive a fixed number of bytes per rank, whatever
+/// the number of bodies (exact sums and a few minima and maxima), where the gathers they
+/// replaced received every body (and contact) on every rank: counted through the transport
+/// on piles of 2,000 and 8,000 spheres on 3 ranks.
+#[test]
+fn a_check_step_receives_bytes_independent_of_the_world() {
+    let mut sizes = Vec::new();
+    for n in [2000, 8000] {
+        let world = World::new(pile(PileShape::Sphere, n, &PileParams::default()));
+        let bytes = check_bytes(&world, 20);
+        eprintln!(
+            "{n} spheres on 3 ranks, bytes received per rank [check, gather, totals, gather_bodies]: {bytes:?}"
+        );
+        for &[check, gather, totals, bodies] in &bytes {
+            assert!(
+                check < 8 * 1024,
+                "{n} bodies: a check receives {check} bytes"
+            );
+            assert!(
+                totals < 16 * 1024,
+                "{n} bodies: a sample receives {totals} bytes"
+            );
+            assert!(
+                gather > 100 * n as u64 && bodies > 90 * n as u64,
+                "{n} bodies: a gather receives every body ({gather}, {bodies} bytes)"
+            );
+        }
+        sizes.push(bytes);
+    }
+    let fixed = |b: &Vec<[u64; 4]>| b.iter().map(|b| [b[0], b[2]]).collect::<Vec<_>>();
+    assert_eq!(
+        fixed(&sizes[0]),
+        fixed(&sizes[1]),
+        "a check's and a sample's bytes do not grow with the bodies"
+    );
+}
+
+/// The numbers of BENCHMARKS.md's "Blow-up checks on ranks": bytes per rank of a check step
+/// and of a gather on the default scene (after 2000 steps, with its contacts) on 2 and 3
+/// ranks. Run by hand: `cargo test --release -p clatter --test domain -- --ignored bytes`.
+#[test]
+#[ignore]
+fn bytes_of_a_check_step_on_the_default_scene() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/default.toml");
+    let world = Scene::load(&path).expect("default scene").world();
+    eprintln!("default scene, 3 ranks: {:?}", check_bytes(&world, 2000));
+}
+
+/// Rebuilds that keep their boxes move bodies and springs point to point between ranks
+/// whose boxes are near (`Comm::exchange_with`), and only they: on the shaken sphere pile
+/// on 3 and 4 ranks every rebuild but those that cut boxes goes point to point (the guard
+/// that falls back to an all-to-all never fires), with the result bitwise one process's
+/// (the tests above). And the peers found from the distance between boxes hold every body:
+/// no box is farther from another than any of its bodies was at the last rebuild (brute
+/// force over the bodies, at every step).
+#[test]
+fn rebuilds_with_kept_boxes_go_point_to_point() {
+    let mut desc = pile(PileShape::Sphere, 400, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
+    }
+    let world = World::new(desc);
+    let reference = one_process(world.clone(), 600);
+    for ranks in [3, 4] {
+        let got: Vec<(u64, u64, u64, End)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = ThreadComm::group(ranks)
+                .into_iter()
+                .map(|comm| {
+                    let w = world.clone();
+                    scope.spawn(move || {
+                        let mut d = Domain::new(w, comm.rank(), comm.size());
+                        for _ in 0..600 {
+                            d.step(&comm).expect("ranks step");
+                            let boxes = d.boxes().cloned().expect("cut at the first step");
+                            let local = d.local();
+                            for i in (0..local.len()).filter(|&i| !local.is_ghost(i)) {
+                                let x = local.rebuild_position()[i];
+                                for s in 0..comm.size() {
+                                    assert!(
+                                        boxes.box_distance(comm.rank(), s)
+                                            <= boxes.distance(x, s) + 1e-6,
+                                        "a box nearer than its body"
+                                    );
+                                }
+                            }
+                        }
+                        let g = d.gather(&comm);
+                        let end = End {
+                            state: snapshot(&g),
+                            checkpoint: g.checkpoint_bytes("test", "", &[]),
+                            contacts: d.contact_count(&comm),
+                            rebuilds: g.rebuilds,
+                            step: g.step_count,
+                        };
+                        (d.sparse_migrations(), d.recuts(), g.rebuilds, end)
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("rank thread"))
+                .collect()
+        });
+        let (sparse, recuts, rebuilds, end) = &got[0];
+        eprintln!(
+            "{ranks} ranks: {rebuilds} rebuilds, {recuts} cut boxes, {sparse} point to point"
+        );
+        assert!(
+            *sparse > 10,
+            "{ranks} ranks: {sparse} point-to-point rebuilds"
+        );
+        assert_eq!(
+            sparse + recuts,
+            *rebuilds,
+            "{ranks} ranks: every kept-box rebuild sparse"
+        );
+        assert!(end == &reference, "{ranks} ranks: bitwise one process");
+    }
+}
+
+/// The totals of `energy.csv` and `discharge.csv` reduced over ranks (`Domain::totals`,
+/// exact sums of each rank's bodies) are bitwise one process's (`World::kinetic_energy`,
+/// `potential_energy`, `momentum`, `discharged`), on the sink scene (bodies removed) on 2
+/// and 3 ranks.
+#[test]
+fn totals_on_ranks_are_one_process_totals() {
+    let world = scene_world("sink-floor.toml");
+    let steps = 3000;
+    let mut w = world.clone();
+    for _ in 0..steps {
+        w.step().expect("one process steps");
+    }
+    let d = w.discharged();
+    assert!(d.count > 0, "bodies should be removed by then");
+    let want = [
+        w.kinetic_energy(),
+        w.potential_energy(),
+        w.momentum()[0],
+        w.momentum()[1],
+        w.momentum()[2],
+        d.mass,
+    ]
+    .map(f64::to_bits);
+    for ranks in [2, 3] {
+        let got: Vec<clatter::domain::Totals> = std::thread::scope(|scope| {
+            let handles: Vec<_> = ThreadComm::group(ranks)
+                .into_iter()
+                .map(|comm| {
+                    let w = world.clone();
+                    scope.spawn(move || {
+                        let mut d = Domain::new(w, comm.rank(), comm.size());
+                        for _ in 0..steps {
+                            d.step(&comm).expect("ranks step");
+                        }
+                        d.totals(&comm)
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("rank thread"))
+                .collect()
+        });
+        for t in &got {
+            let bits = [
+                t.kinetic,
+                t.potential,
+                t.momentum[0],
+                t.momentum[1],
+                t.momentum[2],
+                t.removed_mass,
+            ]
+            .map(f64::to_bits);
+            assert_eq!(bits, want, "{ranks} ranks: the totals");
+            assert_eq!(t.removed, d.count, "{ranks} ranks: removed bodies");
+            assert_eq!(t.step, w.step_count);
+        }
+    }
+}

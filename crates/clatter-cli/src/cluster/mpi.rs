@@ -7,7 +7,7 @@ use std::io::Write;
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::domain::{Comm, Domain};
+use clatter::domain::{Comm, Domain, Share};
 use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -350,29 +350,27 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let start_step = world.step_count;
     let steps = plan.end_step.saturating_sub(start_step);
     let (bodies, walls, dt) = (world.len(), world.walls.len(), world.dt);
-    let mut last_good = (rank == 0).then(|| world.clone());
-    if let Some(good) = &last_good {
+    if rank == 0 {
         if !plan.resumed {
             for w in &plan.scene.warnings {
                 eprintln!("warning: {w}");
             }
         }
-        for w in plan.health.warnings(good) {
+        for w in plan.health.warnings(&world) {
             eprintln!("warning: {w}");
         }
     }
-    // The blow-up checks run on rank 0 on the gathered world, at one process's steps, so
-    // they stop the same runs with the same messages; rank 0 keeps the last good state.
-    let initial = match &last_good {
-        Some(good) if !plan.resumed => plan
-            .health
-            .check_initial(good)
-            .map_err(|b| blown_up(&plan, b, good, None)),
-        _ => Ok(()),
+    let initial = if rank == 0 && !plan.resumed {
+        plan.health
+            .check_initial(&world)
+            .map_err(|b| blown_up(&plan, b, &world, None))
+    } else {
+        Ok(())
     };
     comm.agree(initial)?;
     // Rank 0's files (the frame series, energy.csv, discharge.csv, checkpoints) are one
-    // process's `Outputs`, fed the gathered world at the steps they are due.
+    // process's `Outputs`, fed the gathered world at the frame and checkpoint steps, and
+    // the totals reduced over the ranks at the other energy sample steps.
     let outputs = if rank == 0 {
         Outputs::create(&plan, &world, start_step).map(Some)
     } else {
@@ -380,6 +378,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     };
     let mut outputs = comm.agree(outputs)?;
     let mut domain = Domain::new(world, rank, ranks);
+    let mut last_good = LastGood::Start;
     let loud = rank == 0 && !plan.quiet;
 
     if loud {
@@ -433,48 +432,37 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         }
         if let Err(e) = stepped {
             bar.finish_and_clear();
-            // Every rank has the same error (the body is named by its scene id).
-            return Err(match &last_good {
-                Some(good) => {
-                    let b = plan.health.non_finite(good, &e);
-                    blown_up(
-                        &plan,
-                        b,
-                        good,
-                        outputs.as_mut().and_then(|o| o.energy.take()),
-                    )
-                }
+            // Every rank has the same error (the body is named by its scene id); the cause
+            // is found from the last good state, as one process finds it.
+            let good = last_good.world(&domain, comm);
+            let energy = outputs.as_mut().and_then(|o| o.energy.take());
+            return Err(match good {
+                Some(good) => blown_up(&plan, plan.health.non_finite(&good, &e), &good, energy),
                 None => Quiet(crate::report::BLOW_UP_EXIT).into(),
             });
         }
         let s = domain.local().step_count;
         let full = s.is_multiple_of(FULL_CHECK_EVERY) || s == plan.end_step;
         if full || s.is_multiple_of(plan.check_every) {
-            let whole = domain.gather(comm);
-            let checked = match &mut last_good {
-                Some(good) => match plan.health.check(&whole, full) {
-                    Ok(()) => {
-                        if full {
-                            *good = whole;
-                        }
-                        Ok(())
-                    }
-                    Err(b) => {
-                        bar.finish_and_clear();
-                        Err(blown_up(
-                            &plan,
-                            b,
-                            good,
-                            outputs.as_mut().and_then(|o| o.energy.take()),
-                        ))
-                    }
-                },
-                None => Ok(()),
-            };
-            comm.agree(checked)?;
+            // Each rank checks its own bodies and contacts; the verdict is reduced, the same
+            // on every rank (`Domain::check`). A full check that passes keeps each rank's
+            // share as the last good state.
+            match domain.check(&plan.health, comm, full) {
+                Ok(()) if full => last_good = LastGood::Kept(domain.share()),
+                Ok(()) => {}
+                Err(b) => {
+                    bar.finish_and_clear();
+                    let good = last_good.world(&domain, comm);
+                    let energy = outputs.as_mut().and_then(|o| o.energy.take());
+                    return Err(match good {
+                        Some(good) => blown_up(&plan, b, &good, energy),
+                        None => Quiet(crate::report::BLOW_UP_EXIT).into(),
+                    });
+                }
+            }
         }
-        // What one process writes after this step (`run/outputs.rs`): the state is gathered
-        // when something is due, with the contacts for a frame or a checkpoint.
+        // What one process writes after this step (`run/outputs.rs`): the world is gathered
+        // for a frame or a checkpoint; an energy sample alone needs only the totals.
         let frame = plan.output_every.is_some_and(|n| s.is_multiple_of(n));
         let sample = s.is_multiple_of(plan.energy_every);
         let time = domain.local().time;
@@ -485,15 +473,19 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
             }
             _ => false,
         };
-        if plan.out.is_some() && (frame || sample || checkpoint) {
-            let whole = if frame || checkpoint {
-                domain.gather(comm)
-            } else {
-                domain.gather_bodies(comm)
-            };
+        if plan.out.is_some() && (frame || checkpoint) {
+            let whole = domain.gather(comm);
             let written = outputs
                 .as_mut()
                 .map_or(Ok(()), |o| o.after_step(&plan, &whole, frame));
+            comm.agree(written)?;
+        } else if plan.out.is_some() && sample {
+            // An energy sample alone: the totals reduced over the ranks (exact sums, a few
+            // KiB whatever the number of bodies), bitwise one process's.
+            let totals = domain.totals(comm);
+            let written = outputs
+                .as_mut()
+                .map_or(Ok(()), |o| o.sample_totals(&totals));
             comm.agree(written)?;
         }
         if let Some(l) = &mut thermo {
@@ -540,15 +532,35 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     comm.agree(finished)
 }
 
+/// The last good state of a run on ranks: the world at the start (which every rank has,
+/// [`Domain::initial`]) until a full check passes, then each rank's share of the world at
+/// the last full check that passed (O(its bodies), kept without a message).
+enum LastGood {
+    Start,
+    Kept(Share),
+}
+
+impl LastGood {
+    /// The whole last good state on rank 0 (collective; `None` on the other ranks): only
+    /// at a blow-up are the shares gathered, to rank 0 alone.
+    fn world(&self, domain: &Domain, comm: &MpiComm) -> Option<World> {
+        match self {
+            LastGood::Start => (comm.rank() == 0).then(|| domain.initial().clone()),
+            LastGood::Kept(share) => domain.gather_kept(share, comm),
+        }
+    }
+}
+
 /// What a progress line reports (collective): the step, the time, the whole world's kinetic
-/// energy (summed in scene order, as one process sums it) and touching contacts.
+/// energy (reduced exactly, as one process sums it: [`Domain::totals`]) and touching
+/// contacts.
 fn progress_sample(comm: &MpiComm, domain: &Domain) -> Sample {
     let contacts = domain.contact_count(comm);
-    let whole = domain.gather_bodies(comm);
+    let totals = domain.totals(comm);
     Sample {
-        step: whole.step_count,
-        time: whole.time,
-        kinetic: whole.kinetic_energy(),
+        step: totals.step,
+        time: totals.time,
+        kinetic: totals.kinetic,
         contacts,
     }
 }

@@ -116,6 +116,20 @@ impl Outputs {
         Ok(())
     }
 
+    /// The energy and discharge rows of a step whose totals were reduced over MPI ranks
+    /// (`clatter::domain::Domain::totals`, bitwise one process's): what [`Outputs::after_step`]
+    /// writes at a sample step with no frame or checkpoint, without the world.
+    #[cfg(feature = "mpi")]
+    pub(crate) fn sample_totals(&mut self, t: &clatter::domain::Totals) -> anyhow::Result<()> {
+        if let Some(e) = &mut self.energy {
+            e.record(t.step, t.time, t.kinetic, t.potential, t.momentum)?;
+        }
+        if let Some(d) = &mut self.discharge {
+            d.record(t.step, t.time, t.removed, t.removed_mass)?;
+        }
+        Ok(())
+    }
+
     /// The last step: a VTK frame, an energy sample and a checkpoint even off the period;
     /// commits the series and writes final.csv.
     pub(crate) fn finish(mut self, plan: &Plan, dir: &Path, world: &World) -> anyhow::Result<()> {

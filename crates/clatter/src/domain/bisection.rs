@@ -372,6 +372,27 @@ impl Bisection {
         r0
     }
 
+    /// How far rank `r`'s box is from rank `s`'s (0 when they touch): along a periodic
+    /// axis, between the nearest images. Never more than [`Bisection::distance`] from any
+    /// point of `r`'s box to `s`'s.
+    pub fn box_distance(&self, r: usize, s: usize) -> f64 {
+        let (a, b) = (&self.boxes[r], &self.boxes[s]);
+        let mut d2 = 0.0;
+        for k in 0..3 {
+            let gap = |shift: f64| {
+                (b[k][0] + shift - a[k][1])
+                    .max(a[k][0] - b[k][1] - shift)
+                    .max(0.0)
+            };
+            let g = match self.period[k] {
+                Some((p, q)) => gap(0.0).min(gap(q - p)).min(gap(p - q)),
+                None => gap(0.0),
+            };
+            d2 += g * g;
+        }
+        d2.sqrt()
+    }
+
     /// How far `x` is from rank `r`'s box (0 inside): along a periodic axis, from the
     /// nearest of `x`'s images.
     pub fn distance(&self, x: DVec3, r: usize) -> f64 {

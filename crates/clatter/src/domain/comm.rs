@@ -24,21 +24,66 @@ pub trait Comm {
         debug_assert!(got.iter().map(Vec::len).eq(recv_len.iter().copied()));
         got
     }
+    /// Sends `send[r]` to each rank `r` that `peers[r]` names (every other message must be
+    /// empty) and returns what each peer sent here: the bodies and springs of a rebuild
+    /// that kept its boxes, between neighbouring ranks. `peers` must be symmetric (rank `r`
+    /// names `s` when `s` names `r`). The sizes go first, point to point between the peers
+    /// (8 bytes each way), then the messages ([`Comm::all_to_all_known`]): no rank outside
+    /// the peers is involved.
+    fn exchange_with(&self, send: Vec<Vec<u8>>, peers: &[bool]) -> Vec<Vec<u8>> {
+        let me = self.rank();
+        debug_assert!(send.iter().zip(peers).all(|(m, &p)| p || m.is_empty()));
+        let other = |r: usize| r != me && peers.get(r).copied().unwrap_or(false);
+        let sizes: Vec<Vec<u8>> = send
+            .iter()
+            .enumerate()
+            .map(|(r, m)| {
+                if other(r) {
+                    (m.len() as u64).to_le_bytes().to_vec()
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect();
+        let size_len: Vec<usize> = (0..send.len())
+            .map(|r| if other(r) { 8 } else { 0 })
+            .collect();
+        let got = self.all_to_all_known(sizes, &size_len);
+        let len: Vec<usize> = got
+            .iter()
+            .enumerate()
+            .map(|(r, b)| match b.get(..8) {
+                Some(b) if other(r) => u64::from_le_bytes(b.try_into().unwrap_or([0; 8])) as usize,
+                _ if r == me => send[me].len(),
+                _ => 0,
+            })
+            .collect();
+        self.all_to_all_known(send, &len)
+    }
     /// Every rank's `mine`, by rank, on every rank.
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>>;
+    /// Every rank's `mine`, by rank, on rank 0 only (the others get nothing): the last good
+    /// state gathered for `last_good.ckpt` at a blow-up.
+    fn gather_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        let mut send = vec![Vec::new(); self.size()];
+        send[0] = mine.to_vec();
+        self.all_to_all(send)
+    }
     /// The largest of every rank's `x` (max is exact, so the result does not depend on the
     /// order of reduction).
     fn max_f32(&self, x: f32) -> f32;
     /// The sum of every rank's `x`.
     fn sum_u64(&self, x: u64) -> u64;
     /// The element-wise sum of every rank's `v` (all of the same length), into `v`: the
-    /// histograms of the bisection (integers, so the sum does not depend on the order).
+    /// histograms of the bisection, the exact energy sums of the blow-up checks (integers,
+    /// so the sum does not depend on the order). The sums wrap modulo `2^64`, as MPI's sum
+    /// of unsigned integers does (the energy sums rely on it for their negative limbs).
     fn sum_u64s(&self, v: &mut [u64]) {
         let mine: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
         v.fill(0);
         for m in self.all_gather(&mine) {
             for (x, b) in v.iter_mut().zip(m.chunks_exact(8)) {
-                *x += u64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
+                *x = x.wrapping_add(u64::from_le_bytes(b.try_into().unwrap_or([0; 8])));
             }
         }
     }

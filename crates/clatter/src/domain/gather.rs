@@ -12,6 +12,26 @@ use crate::mesh_boundary::MESH_SLOTS;
 use crate::step::mesh_contacts;
 use crate::world::World;
 
+/// One rank's share of the whole world at one step ([`Domain::share`]): its owned bodies
+/// and contacts as [`Domain::gather`] sends them, and the clock.
+#[derive(Debug, Clone)]
+pub struct Share {
+    bytes: Vec<u8>,
+    with_contacts: bool,
+    step_count: u64,
+    time: f64,
+    rebuilds: u64,
+    needs_rebuild: bool,
+    mesh_rebuild_time: f64,
+}
+
+impl Share {
+    /// The step it was taken at.
+    pub fn step(&self) -> u64 {
+        self.step_count
+    }
+}
+
 impl Domain {
     /// The whole world (collective; on every rank): the template with every body's current
     /// state, the contact list with all it carries (springs, forces, touching flags,
@@ -31,9 +51,24 @@ impl Domain {
         self.gather_with(comm, false)
     }
 
-    /// [`Domain::gather`], with or without the contact list.
-    fn gather_with(&self, comm: &dyn Comm, with_contacts: bool) -> World {
-        let local = &self.local;
+    /// This rank's share of the whole world as it is now: what [`Domain::gather`] sends
+    /// (its owned bodies and its contacts) and the clock. The blow-up checks keep it at
+    /// each full check as the rank's part of the last good state (O(its bodies), no
+    /// message); [`Domain::gather_kept`] puts the shares together when a blow-up needs them.
+    pub fn share(&self) -> Share {
+        self.share_with(true)
+    }
+
+    /// The world whose shares every rank kept ([`Domain::share`], at the same step) on rank
+    /// 0 (collective; `None` on the other ranks): bitwise the world [`Domain::gather`] gave
+    /// then. Only rank 0 receives the shares (a gather, not an all-gather).
+    pub fn gather_kept(&self, share: &Share, comm: &dyn Comm) -> Option<World> {
+        let got = comm.gather_to_root(&share.bytes);
+        (comm.rank() == 0).then(|| self.assemble(share, got))
+    }
+
+    /// [`Domain::share`], with or without the contacts.
+    fn share_with(&self, with_contacts: bool) -> Share {
         let mut w = Writer::default();
         self.write_bodies(&mut w);
         if with_contacts {
@@ -42,6 +77,29 @@ impl Domain {
             w.u32(0);
             w.u32(0);
         }
+        let local = &self.local;
+        Share {
+            bytes: w.0,
+            with_contacts,
+            step_count: local.step_count,
+            time: local.time,
+            rebuilds: local.rebuilds,
+            needs_rebuild: local.needs_rebuild(),
+            mesh_rebuild_time: local.mesh.rebuild_time,
+        }
+    }
+
+    /// [`Domain::gather`], with or without the contact list.
+    fn gather_with(&self, comm: &dyn Comm, with_contacts: bool) -> World {
+        let share = self.share_with(with_contacts);
+        let got = comm.all_gather(&share.bytes);
+        self.assemble(&share, got)
+    }
+
+    /// The whole world from every rank's share (`got`, by rank; `share` is this rank's, for
+    /// the clock, which is the same on every rank).
+    fn assemble(&self, share: &Share, got: Vec<Vec<u8>>) -> World {
+        let with_contacts = share.with_contacts;
         let mut world = self.template.clone();
         let n = world.len();
         let composites = world.has_composites();
@@ -54,7 +112,7 @@ impl Domain {
             MESH_SLOTS
         };
         let mut mesh_slots = world.mesh_slots().to_vec();
-        for m in comm.all_gather(&w.0) {
+        for m in got {
             let mut r = Reader::new(&m);
             for _ in 0..r.u32() {
                 let id = r.u32() as usize;
@@ -134,17 +192,17 @@ impl Domain {
                         .orientation
                         .clone_from(&world.rebuild_orientation);
                 }
-                world.time = local.mesh.rebuild_time;
+                world.time = share.mesh_rebuild_time;
                 mesh_contacts::rebuild(&mut world);
                 world.state.position = x;
                 world.state.orientation = q;
             }
-            world.mesh.rebuild_time = local.mesh.rebuild_time;
+            world.mesh.rebuild_time = share.mesh_rebuild_time;
         }
-        world.step_count = local.step_count;
-        world.time = local.time;
-        world.rebuilds = local.rebuilds;
-        world.set_needs_rebuild(local.needs_rebuild());
+        world.step_count = share.step_count;
+        world.time = share.time;
+        world.rebuilds = share.rebuilds;
+        world.set_needs_rebuild(share.needs_rebuild);
         world
     }
 

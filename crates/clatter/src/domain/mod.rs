@@ -23,16 +23,24 @@
 //!   decides it.
 //! - **At rebuilds** (`Domain::migrate`): new boxes (when the old ones are uneven); each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
-//!   (tangential, twisting) of their contacts to the new owners of their bodies; then the
-//!   local broad phase carries them as one process does.
+//!   (tangential, twisting) of their contacts to the new owners of their bodies (point to
+//!   point between neighbouring boxes when the boxes were kept, an all-to-all when they
+//!   were cut again); then the local broad phase carries them as one process does.
+//! - **Check steps** ([`Domain::check`], [`Domain::totals`]): the blow-up checks and the
+//!   energy samples reduce each rank's exact sums and extremes, never a body's state; the
+//!   last good state stays in shares on the ranks ([`Domain::share`]) until a blow-up.
 
 mod bisection;
+mod check;
 mod comm;
 mod gather;
 mod rows;
+mod totals;
 
 pub use bisection::Bisection;
 pub use comm::{Comm, ThreadComm};
+pub use gather::Share;
+pub use totals::Totals;
 
 use glam::{DVec3, Vec3};
 
@@ -69,6 +77,12 @@ pub struct Domain {
     handed_over: u64,
     /// Rebuilds that cut new boxes (the first distribution included).
     recuts: u64,
+    /// The largest squared displacement of any body since the last rebuild, as the last
+    /// step reduced it (infinite before a step): bounds how far a body has left its box.
+    moved: f32,
+    /// Rebuilds whose bodies and springs went point to point (the boxes were kept), and
+    /// those that went through an all-to-all (new boxes).
+    sparse_migrations: u64,
 }
 
 impl Domain {
@@ -91,6 +105,8 @@ impl Domain {
             reach,
             handed_over: 0,
             recuts: 0,
+            moved: f32::INFINITY,
+            sparse_migrations: 0,
         };
         let w = &domain.template;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
@@ -228,6 +244,12 @@ impl Domain {
         self.recuts += 1;
     }
 
+    /// The world as it was given to [`Domain::new`], on every rank (its states are those of
+    /// the start, never updated): the last good state of a run until its first full check.
+    pub fn initial(&self) -> &World {
+        &self.template
+    }
+
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
     pub fn local(&self) -> &World {
         &self.local
@@ -288,6 +310,7 @@ impl Domain {
             integrate::Moved::Farthest(d2) => d2.max(broad::composite_moved(&self.local)),
         };
         let d2 = comm.max_f32(d2);
+        self.moved = d2;
         if d2 == f32::INFINITY {
             return Err(self.non_finite_error(comm));
         }
@@ -433,6 +456,7 @@ impl Domain {
             comm.sum_u64s(&mut owned_by);
             Bisection::imbalance(&owned_by) <= REBALANCE_IMBALANCE
         });
+        let kept_boxes = kept.is_some();
         let boxes = match kept {
             Some(old) => old.clone(),
             None => {
@@ -517,11 +541,16 @@ impl Domain {
             }
             .write(&mut walls[d].1);
         }
-        let msgs = bodies
+        let msgs: Vec<Vec<u8>> = bodies
             .into_iter()
             .zip(springs)
             .zip(walls)
             .map(|(((nb, b), (ns, s)), (nw, w))| {
+                if nb + ns + nw == 0 {
+                    // Nothing for that rank: no message (the point-to-point exchange then
+                    // skips it).
+                    return Vec::new();
+                }
                 let mut m = Writer::default();
                 m.u32(nb);
                 m.0.extend(b.0);
@@ -532,8 +561,58 @@ impl Domain {
                 m.0
             })
             .collect();
-        let got = comm.all_to_all(msgs);
+        // 4. The exchange: point to point with the ranks whose boxes are near this one's
+        //    when the boxes were kept (a body then is near its old box), an all-to-all when
+        //    they were cut again (bodies may go anywhere).
+        let peers = if kept_boxes {
+            self.peers(comm, &boxes, &msgs)
+        } else {
+            None
+        };
+        let got = match peers {
+            Some(peers) => {
+                self.sparse_migrations += 1;
+                comm.exchange_with(msgs, &peers)
+            }
+            None => comm.all_to_all(msgs),
+        };
         self.install(&got, boxes);
+    }
+
+    /// The ranks a rebuild with kept boxes exchanges with (collective; every rank finds the
+    /// same symmetric relation): those whose boxes are within a body's ghost reach plus the
+    /// farthest any body has moved since the last rebuild (`moved`, reduced exactly) of
+    /// this rank's box. Every body was in its owner's box at the last rebuild (its centre
+    /// rounded to f32: the margin covers it), so its new owner and the ranks it is a ghost
+    /// on are among them. `None` (an all-to-all then) when some rank has a message for a
+    /// rank outside its peers after all (one all-reduce says so): a guard, never expected.
+    fn peers(&self, comm: &dyn Comm, boxes: &Bisection, msgs: &[Vec<u8>]) -> Option<Vec<bool>> {
+        let me = comm.rank();
+        // The largest coordinate of any owned body, for the rounding margin of the reach.
+        let local = &self.local;
+        let mut far = [(0..local.len())
+            .filter(|&i| !local.is_ghost(i))
+            .map(|i| local.state.position[i].abs().max_element() as f32)
+            .fold(0.0f32, f32::max)];
+        comm.max_f32s(&mut far);
+        let moved = (self.moved as f64).sqrt();
+        let margin = far[0] as f64 * 1.001;
+        let within = self.reach as f64 * 1.01 + 2.0 * margin / 1_048_576.0 + moved * 1.000_001;
+        let peers: Vec<bool> = (0..boxes.ranks())
+            .map(|s| s == me || boxes.box_distance(me, s) < within + margin * 1e-6)
+            .collect();
+        let stray = msgs
+            .iter()
+            .zip(&peers)
+            .any(|(m, &peer)| !peer && !m.is_empty());
+        let stray = comm.max_f32(if stray { 1.0 } else { 0.0 });
+        (within.is_finite() && stray == 0.0).then_some(peers)
+    }
+
+    /// Rebuilds whose bodies went point to point between neighbouring ranks (the boxes were
+    /// kept); the others (the first distribution, new boxes) used an all-to-all.
+    pub fn sparse_migrations(&self) -> u64 {
+        self.sparse_migrations
     }
 
     /// Builds the new local world from the messages of a rebuild (by sending rank) and runs
@@ -549,7 +628,7 @@ impl Domain {
         let mut entries = Vec::new();
         let mut pair_rows = Vec::new();
         let mut wall_rows = Vec::new();
-        for (from, m) in got.iter().enumerate() {
+        for (from, m) in got.iter().enumerate().filter(|(_, m)| !m.is_empty()) {
             let mut r = Reader::new(m);
             for _ in 0..r.u32() {
                 let id = r.u32();

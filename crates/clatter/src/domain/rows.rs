@@ -27,6 +27,11 @@ impl Writer {
     pub fn f32(&mut self, x: f32) {
         self.0.extend_from_slice(&x.to_le_bytes());
     }
+    /// `b` with its length before it.
+    pub fn bytes(&mut self, b: &[u8]) {
+        self.u32(b.len() as u32);
+        self.0.extend_from_slice(b);
+    }
     pub fn f64(&mut self, x: f64) {
         self.0.extend_from_slice(&x.to_le_bytes());
     }
@@ -118,6 +123,13 @@ impl<'a> Reader<'a> {
     }
     pub fn f64(&mut self) -> f64 {
         f64::from_le_bytes(self.take())
+    }
+    /// Bytes written by [`Writer::bytes`].
+    pub fn bytes(&mut self) -> &'a [u8] {
+        let n = self.u32() as usize;
+        let b = &self.bytes[self.at..self.at + n];
+        self.at += n;
+        b
     }
     pub fn vec3(&mut self) -> Vec3 {
         Vec3::new(self.f32(), self.f32(), self.f32())
