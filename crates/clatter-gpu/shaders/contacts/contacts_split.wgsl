@@ -27,7 +27,8 @@ fn pair_class(c: u32) -> u32 {
     if touching[c] == 1u {
         let h = pair_memory[c].x;
         if h == HINT_EDGE_CONTACT {
-            path = 2u;
+            // An edge contact with no margin left runs the full test (narrow_poly.wgsl).
+            path = select(0u, 2u, bitcast<f32>(pair_memory[c].y) > 0.0);
         } else if h != NO_HINT {
             path = 1u;
         }

@@ -553,5 +553,5 @@ fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: 
     }
     let inv_a = quat_conj(qa);
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
-    return nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d), true).separated;
+    return nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d), true, 0.0).separated;
 }

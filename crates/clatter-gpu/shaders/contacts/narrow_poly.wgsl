@@ -257,8 +257,10 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
 }
 
 // Edge axes over pairs of unique edge directions, projecting both bodies (CPU
-// `edge_axes_by_direction`), then the supporting edges of the best pair.
-fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
+// `edge_axes_by_direction`), then the supporting edges of the best pair. `floor` (not
+// positive): axes whose separation is at most `floor` may be skipped (the caller ignores a
+// best axis not above it); an axis above it is found as without it.
+fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>, floor: f32) -> NrwEdgeAxis {
     var r: NrwEdgeAxis;
     r.s = 0.0;
     r.ea = 0u;
@@ -282,7 +284,8 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
             // (CPU `edge_axes_by_direction`): their extents lie inside the bodies' (the same
             // products, from the one call site of each), so when they already overlap by
             // more than the best axis so far, so do the bodies, and the axis can neither win
-            // nor separate (the best is not positive). Exact: no decision changes.
+            // nor separate (the best is not positive); nor matter when they overlap by at
+            // least `-floor`. Exact: an axis above `floor` meets the same decisions.
             var ext_a = vec2<f32>(-NRW_LOWEST, NRW_LOWEST);
             var ext_b = vec2<f32>(-NRW_LOWEST, NRW_LOWEST);
             var skip = false;
@@ -294,7 +297,8 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
                                      select(head_a, a.num_vertices, rest), ext_a);
                 ext_b = nrw_extent_b(b, axis, rot, t, select(0u, head_b, rest),
                                      select(head_b, b.num_vertices, rest), ext_b);
-                if !rest && r.found && ext_b.x - ext_a.y <= r.s && ext_a.x - ext_b.y <= r.s {
+                let low = select(floor, max(floor, r.s), r.found);
+                if !rest && ext_b.x - ext_a.y <= low && ext_a.x - ext_b.y <= low {
                     skip = true;
                     break;
                 }
@@ -464,7 +468,7 @@ struct NrwSat {
 // Below every separation (the CPU's f32::NEG_INFINITY as a start).
 const NRW_LOWEST: f32 = -3.4028235e38;
 
-fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, faces: bool) -> NrwSat {
+fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, faces: bool, floor_in: f32) -> NrwSat {
     var r: NrwSat;
     r.separated = true;
     r.best_a = NRW_LOWEST;
@@ -514,7 +518,13 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
     let cost_dirs = a.num_dirs * b.num_dirs * (a.num_vertices + b.num_vertices);
     let cost_tables = a.num_edges * b.num_faces + b.num_edges * a.num_faces + a.num_edges * b.num_edges;
     if cost_dirs <= 2u * cost_tables {
-        r.e = nrw_edge_axes_by_direction(a, b, rot, t);
+        // Edge axes at or below the best face axis (or, without the face axes, the caller's
+        // `floor_in`) change no decision (CPU `edge_search`'s floor).
+        var floor = floor_in;
+        if faces {
+            floor = max(r.best_a, r.best_b);
+        }
+        r.e = nrw_edge_axes_by_direction(a, b, rot, t, floor);
     } else {
         r.e = nrw_edge_axes_gauss_map(a, b, rot, inv_rot, t);
     }
@@ -610,7 +620,11 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
     var mode = NRW_FULL;
     if nrw_is_contact_hint(hint) {
         if hint == HINT_EDGE_CONTACT {
-            mode = NRW_EDGE;
+            // With no margin left the edge search cannot keep the edge (its best axis is
+            // never positive): the full test (CPU `remembered_edge`).
+            if margin > 0.0 {
+                mode = NRW_EDGE;
+            }
         } else if margin > 0.0 && ((kind == HINT_FACE_B && face < b.num_faces) || (kind != HINT_FACE_B && face < a.num_faces)) {
             mode = NRW_FACE;
         }
@@ -621,7 +635,8 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
         var rf = face;
         var keep = vec2<u32>(hint, nrw_mem_in.y);
         if mode != NRW_FACE {
-            let sat = nrw_sat(a, b, rot, inv_rot, t, mode == NRW_FULL);
+            // Without the face axes, edge axes at or below `-margin` fail the edge test.
+            let sat = nrw_sat(a, b, rot, inv_rot, t, mode == NRW_FULL, -margin);
             if sat.separated {
                 if mode == NRW_EDGE {
                     mode = NRW_FULL;
