@@ -341,15 +341,25 @@ impl Domain {
         let c = &self.local.contacts;
         let np = c.pairs.len();
         let t = &c.springs.touching;
-        let pairs = (0..np)
-            .filter(|&k| t[k] && !self.local.is_ghost(c.pairs[k][0] as usize))
-            .count();
-        let mesh = (0..self.local.len())
-            .filter(|&i| !self.local.is_ghost(i))
-            .flat_map(|i| self.local.mesh.body_slots(i))
-            .filter(|s| s.touching)
-            .count();
-        pairs + t[np..].iter().filter(|&&x| x).count() + mesh
+        let ghost = &self.local.ghost;
+        // Counted every step (the step's stats): flags summed without branches.
+        let pairs: usize = c
+            .pairs
+            .iter()
+            .zip(&t[..np])
+            .map(|(p, &tk)| (tk & !ghost.get(p[0] as usize).copied().unwrap_or(false)) as usize)
+            .sum();
+        let walls: usize = t[np..].iter().map(|&x| x as usize).sum();
+        let mesh = if self.local.mesh_slots().is_empty() {
+            0
+        } else {
+            (0..self.local.len())
+                .filter(|&i| !self.local.is_ghost(i))
+                .flat_map(|i| self.local.mesh.body_slots(i))
+                .filter(|s| s.touching)
+                .count()
+        };
+        pairs + walls + mesh
     }
 
     /// The error of a step that left some body non-finite: the lowest such global id, as

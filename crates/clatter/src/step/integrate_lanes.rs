@@ -8,8 +8,10 @@
 //! term (`Quat::mul_quat`, `dot4`); [`crate::precise`]'s `ds_add_a`, `snap_a` and `join_a`
 //! lane for lane; branches become blends. The forces are gathered per body as before
 //! (`Contacts::gather4`). Groups the lanes do not cover go to the scalar `body`: a periodic
-//! box, mesh boundaries or sinks in the world, a removed body or a ghost (another rank's) in
-//! the group, a body whose inertia is not isotropic, and the chunk's last `len % 8` bodies.
+//! box, mesh boundaries or sinks in the world, a removed body in the group, a body whose
+//! inertia is not isotropic, and the chunk's last `len % 8` bodies. A ghost (another rank's
+//! body, which this rank does not integrate) runs in its lane with the others and gets its
+//! state back after.
 
 use std::arch::x86_64::*;
 
@@ -317,9 +319,9 @@ pub(super) unsafe fn chunk(c: &Ctx, mut b: Bodies) -> f32 {
     worst
 }
 
-/// Bodies `k..k + 8` of the chunk in lanes; `None` (nothing written) where a body is removed,
-/// a ghost (another rank's) or not isotropic. Returns the largest squared distance moved, infinite for a state no
-/// longer finite.
+/// Bodies `k..k + 8` of the chunk in lanes; `None` (nothing written) where a body is removed
+/// or not isotropic; ghosts (another rank's bodies) left as they were. Returns the largest
+/// squared distance moved, infinite for a state no longer finite.
 ///
 /// # Safety
 /// AVX2.
@@ -329,11 +331,18 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let i = b.first + k;
     let r = i..i + 8;
     let kr = k..k + 8;
-    if b.gone[kr.clone()].iter().any(|&g| g)
-        || (!c.ghost.is_empty() && c.ghost[r.clone()].iter().any(|&g| g))
-    {
+    if b.gone[kr.clone()].iter().any(|&g| g) {
         return None;
     }
+    // Ghosts (other ranks' bodies) are not integrated here: their lanes are computed with
+    // the others (each lane is independent) and their state put back after, so groups that
+    // mix ghosts with owned bodies (ghosts come in global id order) still run in lanes.
+    let ghosts = if c.ghost.is_empty() {
+        0
+    } else {
+        (0..8).fold(0u32, |m, l| m | (c.ghost[i + l] as u32) << l)
+    };
+    let kept = (ghosts != 0).then(|| Kept::take(b, k));
     // SAFETY (loads and stores below): AVX2, and arrays of 8.
     let inv_inertia = unsafe { load_vec3(c.consts.inv_inertia[r.clone()].try_into().unwrap()) };
     // `angular_velocity`'s test, per lane: `x == y && y == z`.
@@ -442,11 +451,59 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let d2 = F8::select(finite(d2).and(finite(q.w)), d2, F8::splat(f32::INFINITY));
     let mut lanes = [0.0f32; 8];
     unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), d2.0) };
+    if let Some(kept) = kept {
+        kept.put_back(b, k, ghosts);
+        // A ghost has not moved here (as the scalar `body` returns for it).
+        for (l, d2) in lanes.iter_mut().enumerate() {
+            if ghosts >> l & 1 != 0 {
+                *d2 = 0.0;
+            }
+        }
+    }
     Some(
         lanes
             .into_iter()
             .fold(0.0, |worst, d2| if d2 > worst { d2 } else { worst }),
     )
+}
+
+/// The states a group of eight bodies writes, kept to put the ghosts' back.
+struct Kept {
+    xs: [DVec3; 8],
+    vs: [Vec3; 8],
+    qs: [Quat; 8],
+    ls: [Vec3; 8],
+    ws: [Vec3; 8],
+    rs: [Quat; 8],
+}
+
+impl Kept {
+    /// Bodies `k..k + 8` of the chunk's states.
+    fn take(b: &Bodies, k: usize) -> Kept {
+        let kr = k..k + 8;
+        Kept {
+            xs: b.xs[kr.clone()].try_into().unwrap(),
+            vs: b.vs[kr.clone()].try_into().unwrap(),
+            qs: b.qs[kr.clone()].try_into().unwrap(),
+            ls: b.ls[kr.clone()].try_into().unwrap(),
+            ws: b.ws[kr.clone()].try_into().unwrap(),
+            rs: b.rs[kr].try_into().unwrap(),
+        }
+    }
+
+    /// The kept states of the lanes in `lanes` (lane l in bit l) written back.
+    fn put_back(&self, b: &mut Bodies, k: usize, lanes: u32) {
+        for l in 0..8 {
+            if lanes >> l & 1 != 0 {
+                b.xs[k + l] = self.xs[l];
+                b.vs[k + l] = self.vs[l];
+                b.qs[k + l] = self.qs[l];
+                b.ls[k + l] = self.ls[l];
+                b.ws[k + l] = self.ws[l];
+                b.rs[k + l] = self.rs[l];
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -538,8 +595,9 @@ mod tests {
             s.velocity[n / 2] = Vec3::new(f32::NAN, 0.0, 0.0);
         }
         if odd {
-            // Other ranks' bodies here and there (`crate::domain`): not integrated here.
-            w.ghost = (0..n).map(|_| rng.random_bool(0.01)).collect();
+            // Other ranks' bodies here and there (`crate::domain`): not integrated here (a third
+            // of the groups hold one; their lanes run with the others and are put back).
+            w.ghost = (0..n).map(|_| rng.random_bool(0.05)).collect();
         }
         // Rebuild positions a little off the current ones.
         for i in 0..n {
