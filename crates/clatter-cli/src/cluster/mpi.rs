@@ -4,6 +4,7 @@
 //! one process writes). [`MpiComm`] is the domain's transport over rsmpi.
 
 use std::io::Write;
+use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -16,7 +17,7 @@ use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 
-use super::{Invocation, Quiet};
+use super::{Invocation, Quiet, exit_status};
 use crate::backend::Backend;
 use crate::log::{Sample, Thermo};
 use crate::output::AtomicFile;
@@ -243,39 +244,10 @@ impl MpiComm {
         buf
     }
 
-    /// `result` as every rank's outcome of a step all ranks take together: rank 0's error
-    /// (or the first failing rank's, said by rank 0) stops every rank. Collective.
+    /// `result` as every rank's outcome of a step all ranks take together
+    /// ([`super::agree`]). Collective.
     pub(super) fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
-        // An error travels as its exit status and its message.
-        let mine = match &result {
-            Ok(_) => Vec::new(),
-            Err(e) => {
-                let mut m = vec![exit_status(e)];
-                m.extend(format!("{e:#}").into_bytes());
-                m
-            }
-        };
-        let all = self.all_gather(&mine);
-        let first = all.iter().position(|m| !m.is_empty());
-        match (result, first) {
-            (Ok(v), None) => Ok(v),
-            (r, Some(k)) if self.rank() == 0 => Err(r.err().unwrap_or_else(|| {
-                anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k][1..]))
-            })),
-            (_, Some(k)) => Err(Quiet(all[k][0]).into()),
-            (_, None) => unreachable!("an error is a message"),
-        }
-    }
-}
-
-/// The exit status `main` gives `e`: a blow-up's, or 1.
-fn exit_status(e: &anyhow::Error) -> u8 {
-    if e.is::<crate::report::BlownUp>() {
-        crate::report::BLOW_UP_EXIT
-    } else if let Some(q) = e.downcast_ref::<Quiet>() {
-        q.0
-    } else {
-        1
+        super::agree(self, result)
     }
 }
 
@@ -285,18 +257,30 @@ fn exit_status(e: &anyhow::Error) -> u8 {
 /// returns [`Quiet`] with the exit status.
 pub fn run(invocation: Invocation) -> anyhow::Result<()> {
     let universe = mpi::initialize().context("MPI could not be initialised")?;
-    let comm = MpiComm {
+    let comm = Rc::new(MpiComm {
         world: universe.world(),
-    };
+    });
     let result = match invocation {
         Invocation::Bench(args) => super::bench::bench(&comm, args),
+        Invocation::Validate(args) => {
+            let ranks: Rc<dyn Comm> = comm.clone();
+            crate::validate::validate_on(args, Some(ranks)).and_then(|passed| {
+                if passed {
+                    Ok(())
+                } else {
+                    Err(crate::validate::Failed.into())
+                }
+            })
+        }
         other => run_on(&comm, other),
     };
     let result = match result {
         Ok(()) => Ok(()),
         Err(e) => {
             let status = exit_status(&e);
-            if !e.is::<Quiet>() {
+            // A failed row is in the table rank 0 printed; an error of another rank was
+            // said by rank 0.
+            if !e.is::<Quiet>() && !e.is::<crate::validate::Failed>() {
                 eprintln!("error: {e:#}");
             }
             Err(Quiet(status).into())
@@ -338,7 +322,11 @@ fn start(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<(Plan, World)
             let ckpt = comm.agree(Checkpoint::from_bytes(&bytes).with_context(what))?;
             comm.agree(resume_plan(args, ckpt))
         }
-        Invocation::Bench(_) => unreachable!("`clatter bench` on ranks is `super::bench`"),
+        Invocation::Bench(_) | Invocation::Validate(_) => {
+            unreachable!(
+                "`clatter bench` and `validate` on ranks are `super::bench` and `crate::validate`"
+            )
+        }
     }
 }
 
