@@ -552,6 +552,62 @@ fn histogram_cuts_balance_random_piles() {
     }
 }
 
+/// The ranks a body is a ghost on and a rank's peers, found by walking the cut tree
+/// (`Bisection::within`, `Bisection::boxes_within`), are exactly those found by testing
+/// every rank's box (brute force), on 1 to 64 ranks, in open space and periodic along x and
+/// y, for points inside, between and far outside the boxes and reaches from a hair to
+/// everything.
+#[test]
+fn ranks_within_reach_from_the_cut_tree_are_the_brute_force_ranks() {
+    use clatter::Periodic;
+    use clatter::domain::Bisection;
+    let mut u = uniform(29);
+    let pts: Vec<Vec3> = (0..4000)
+        .map(|_| {
+            let (x, y, h) = (u(), u(), u());
+            Vec3::new(x * 2.0, y, 0.5 * h * h)
+        })
+        .collect();
+    let periodic = Periodic {
+        min: Vec3::new(0.0, 0.0, -1.0),
+        max: Vec3::new(2.0, 1.0, 1.0),
+        axes: [true, true, false],
+    };
+    let mut checked = 0usize;
+    for p in [None, Some(&periodic)] {
+        for ranks in [1, 2, 3, 4, 5, 7, 8, 16, 33, 64] {
+            let b = Bisection::balanced(&pts, ranks, p, None);
+            for reach in [1e-4, 0.01, 0.05, 0.2, 1.0, 10.0, f64::INFINITY] {
+                for k in 0..200 {
+                    // Inside the pile, and (every fourth) far around it.
+                    let spread = if k % 4 == 0 { 6.0 } else { 1.0 };
+                    let mut c = |lo: f32, w: f32| (lo + (u() - 0.5) * w * spread) as f64;
+                    let x = glam::DVec3::new(c(1.0, 2.0), c(0.5, 1.0), c(0.25, 0.5));
+                    let brute: Vec<usize> =
+                        (0..ranks).filter(|&r| b.distance(x, r) < reach).collect();
+                    assert_eq!(
+                        b.within(x, reach),
+                        brute,
+                        "{ranks} ranks, {p:?}, {x}, {reach}"
+                    );
+                    checked += brute.len();
+                }
+                for r in 0..ranks {
+                    let brute: Vec<usize> = (0..ranks)
+                        .filter(|&s| b.box_distance(r, s) < reach)
+                        .collect();
+                    assert_eq!(
+                        b.boxes_within(r, reach),
+                        brute,
+                        "{ranks} ranks, {p:?}, rank {r}, {reach}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(checked > 10_000, "the points found ranks ({checked})");
+}
+
 /// Random spheres and cubes, in a closed box or periodic along x and y.
 fn random_world(periodic: bool) -> World {
     let bounds = if periodic {

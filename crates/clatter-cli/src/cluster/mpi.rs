@@ -365,8 +365,9 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         Ok(None)
     };
     let mut outputs = comm.agree(outputs)?;
+    // The last good state until the first full check: the start, kept by rank 0 alone.
+    let mut last_good = LastGood::Start((rank == 0).then(|| world.clone()));
     let mut domain = Domain::new(world, rank, ranks);
-    let mut last_good = LastGood::Start;
     let loud = rank == 0 && !plan.quiet;
 
     if loud {
@@ -520,11 +521,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     comm.agree(finished)
 }
 
-/// The last good state of a run on ranks: the world at the start (which every rank has,
-/// [`Domain::initial`]) until a full check passes, then each rank's share of the world at
-/// the last full check that passed (O(its bodies), kept without a message).
+/// The last good state of a run on ranks: the world at the start (kept by rank 0 alone,
+/// which writes `last_good.ckpt`; `None` on the others) until a full check passes, then each
+/// rank's share of the world at the last full check that passed (O(its bodies), kept
+/// without a message).
 enum LastGood {
-    Start,
+    Start(Option<World>),
     Kept(Share),
 }
 
@@ -533,7 +535,7 @@ impl LastGood {
     /// at a blow-up are the shares gathered, to rank 0 alone.
     fn world(&self, domain: &Domain, comm: &MpiComm) -> Option<World> {
         match self {
-            LastGood::Start => (comm.rank() == 0).then(|| domain.initial().clone()),
+            LastGood::Start(world) => world.clone(),
             LastGood::Kept(share) => domain.gather_kept(share, comm),
         }
     }
