@@ -608,6 +608,92 @@ fn ranks_within_reach_from_the_cut_tree_are_the_brute_force_ranks() {
     assert!(checked > 10_000, "the points found ranks ({checked})");
 }
 
+/// Messages longer than a transport's limit go in rounds (`Rounds`, as over MPI, whose
+/// counts are `int`): on threads whose messages may not pass 40 or 256 bytes a round (every
+/// round checked), an all-to-all of random lengths (empty ones, and ones of many rounds)
+/// delivers every message whole, and a sphere pile stepped on 3 ranks ends bitwise as one
+/// process's (its ghost states, rebuilds and gathers all cut into pieces).
+#[test]
+fn messages_over_the_limit_go_in_rounds_bitwise() {
+    let mut u = uniform(41);
+    let lens: Vec<Vec<usize>> = (0..4)
+        .map(|_| {
+            (0..4)
+                .map(|_| match (u() * 4.0) as u32 {
+                    0 => 0,
+                    1 => 1 + (u() * 9.0) as usize,
+                    _ => (u() * 900.0) as usize,
+                })
+                .collect()
+        })
+        .collect();
+    let message = |from: usize, to: usize| -> Vec<u8> {
+        (0..lens[from][to])
+            .map(|k| (k * 31 + from * 7 + to * 3) as u8)
+            .collect()
+    };
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group_limited(4, 40)
+            .into_iter()
+            .map(|comm| {
+                let message = &message;
+                scope.spawn(move || {
+                    let me = comm.rank();
+                    let got = comm.all_to_all((0..4).map(|to| message(me, to)).collect());
+                    for (from, m) in got.iter().enumerate() {
+                        assert_eq!(*m, message(from, me), "{from} to {me}");
+                    }
+                    let all = comm.all_gather(&message(me, (me + 1) % 4));
+                    for (from, m) in all.iter().enumerate() {
+                        assert_eq!(*m, message(from, (from + 1) % 4), "gathered from {from}");
+                    }
+                })
+            })
+            .collect();
+        for h in handles {
+            h.join().expect("rank thread");
+        }
+    });
+    let mut desc = pile(PileShape::Sphere, 200, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
+    }
+    let world = World::new(desc);
+    let steps = 200;
+    let want = one_process(world.clone(), steps);
+    let ends: Vec<End> = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group_limited(3, 256)
+            .into_iter()
+            .map(|comm| {
+                let w = world.clone();
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size());
+                    for _ in 0..steps {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    let contacts = d.contact_count(&comm);
+                    let g = d.gather(&comm);
+                    End {
+                        state: snapshot(&g),
+                        checkpoint: g.checkpoint_bytes("test", "", &[]),
+                        contacts,
+                        rebuilds: g.rebuilds,
+                        step: g.step_count,
+                    }
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect()
+    });
+    for e in &ends {
+        assert_eq!(*e, want, "3 ranks under a 256-byte limit");
+    }
+}
+
 /// Random spheres and cubes, in a closed box or periodic along x and y.
 fn random_world(periodic: bool) -> World {
     let bounds = if periodic {

@@ -8,7 +8,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::domain::{Comm, Domain, Share};
+use clatter::domain::{Comm, Domain, Rounds, Share};
 use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -27,6 +27,31 @@ use crate::scene_io::load_scene;
 /// [`Comm`] over an MPI communicator.
 pub struct MpiComm {
     pub(super) world: SimpleCommunicator,
+    /// The most bytes one collective round or point-to-point message carries: longer
+    /// messages go in [`Rounds`] (MPI counts and offsets are `int`).
+    limit: usize,
+}
+
+/// The most bytes an MPI message or a round of a collective carries ([`MpiComm`]): 1 GiB,
+/// well within `int` counts and offsets (with the one byte of padding per message).
+const MESSAGE_LIMIT: usize = 1 << 30;
+
+/// The environment variable that lowers [`MESSAGE_LIMIT`] (bytes; for the tests of the
+/// splitting, which cannot send gigabytes).
+pub const MESSAGE_LIMIT_VAR: &str = "CLATTER_MPI_MESSAGE_LIMIT";
+
+impl MpiComm {
+    /// The transport over `world`, with [`MESSAGE_LIMIT`] or the smaller limit that
+    /// [`MESSAGE_LIMIT_VAR`] sets (at least 8 bytes a rank, so that the lengths go in one
+    /// round).
+    pub fn new(world: SimpleCommunicator) -> MpiComm {
+        let ranks = world.size().max(1) as usize;
+        let limit = std::env::var(MESSAGE_LIMIT_VAR)
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .map_or(MESSAGE_LIMIT, |l| l.clamp(8 * ranks, MESSAGE_LIMIT));
+        MpiComm { world, limit }
+    }
 }
 
 /// Touching contacts per step, counted by each rank for its share (the domain step's
@@ -116,12 +141,29 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
-        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
-        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
-        let mut recv_counts = vec![0i32; counts.len()];
+        // The lengths, then as many rounds as the longest message any rank sends needs
+        // (one `Alltoallv` each; almost always one).
+        let lens: Vec<u64> = send.iter().map(|m| m.len() as u64).collect();
+        let mut recv_lens = vec![0u64; lens.len()];
+        self.world.all_to_all_into(&lens[..], &mut recv_lens[..]);
+        let recv_len: Vec<usize> = recv_lens.iter().map(|&n| n as usize).collect();
+        let rounds = Rounds::new(self.limit, self.size());
+        let mine = send
+            .iter()
+            .map(Vec::len)
+            .chain(recv_len.iter().copied())
+            .map(|n| rounds.needed(n) as u64)
+            .max()
+            .unwrap_or(1);
+        let mut n = 0u64;
         self.world
-            .all_to_all_into(&counts[..], &mut recv_counts[..]);
-        self.exchange(&send, &counts, &recv_counts)
+            .all_reduce_into(&mine, &mut n, SystemOperation::max());
+        rounds.exchange(&send, &recv_len, n as usize, |pieces, lens| {
+            let pieces: Vec<Vec<u8>> = pieces.iter().map(|m| padded(m)).collect();
+            let counts: Vec<i32> = pieces.iter().map(|m| count(m.len())).collect();
+            let recv_counts: Vec<i32> = lens.iter().map(|&l| count(l + 1)).collect();
+            self.exchange(&pieces, &counts, &recv_counts)
+        })
     }
 
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
@@ -133,22 +175,29 @@ impl Comm for MpiComm {
         if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
             mine.clone_from(m);
         }
+        // A message longer than the limit goes in pieces, received in the order sent (MPI
+        // does not let messages of one tag between two ranks overtake each other).
+        let piece = self.limit;
         mpi::request::scope(|scope| {
             let mut requests = Vec::new();
             for (r, buf) in recv.iter_mut().enumerate() {
                 if r != me && !buf.is_empty() {
                     let from = self.world.process_at_rank(r as mpi::Rank);
-                    requests.push(from.immediate_receive_into_with_tag(
-                        scope,
-                        &mut buf[..],
-                        FORWARD_TAG,
-                    ));
+                    for chunk in buf.chunks_mut(piece) {
+                        requests.push(from.immediate_receive_into_with_tag(
+                            scope,
+                            chunk,
+                            FORWARD_TAG,
+                        ));
+                    }
                 }
             }
             for (r, m) in send.iter().enumerate() {
                 if r != me && !m.is_empty() {
                     let to = self.world.process_at_rank(r as mpi::Rank);
-                    requests.push(to.immediate_send_with_tag(scope, &m[..], FORWARD_TAG));
+                    for chunk in m.chunks(piece) {
+                        requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
+                    }
                 }
             }
             for request in requests {
@@ -159,18 +208,39 @@ impl Comm for MpiComm {
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
-        let mine = &padded(mine)[..];
-        let mut counts = vec![0i32; self.size()];
+        // Every rank learns every length, so all take the same rounds (one
+        // `Allgatherv` each; almost always one) without another collective.
+        let mut lens = vec![0u64; self.size()];
         self.world
-            .all_gather_into(&count(mine.len()), &mut counts[..]);
-        let total: usize = counts.iter().map(|&c| c as usize).sum();
-        let mut buf = vec![0u8; total];
-        let d = displacements(&counts);
-        {
-            let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
-            self.world.all_gather_varcount_into(mine, &mut recvp);
+            .all_gather_into(&(mine.len() as u64), &mut lens[..]);
+        let rounds = Rounds::new(self.limit, self.size());
+        let n = lens
+            .iter()
+            .map(|&l| rounds.needed(l as usize))
+            .max()
+            .unwrap_or(1);
+        let mut got: Vec<Vec<u8>> = lens
+            .iter()
+            .map(|&l| Vec::with_capacity(l as usize))
+            .collect();
+        for k in 0..n {
+            let piece = padded(rounds.piece(mine, k));
+            let counts: Vec<i32> = lens
+                .iter()
+                .map(|&l| count(rounds.piece_len(l as usize, k) + 1))
+                .collect();
+            let total: usize = counts.iter().map(|&c| c as usize).sum();
+            let mut buf = vec![0u8; total];
+            let d = displacements(&counts);
+            {
+                let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
+                self.world.all_gather_varcount_into(&piece[..], &mut recvp);
+            }
+            for (g, p) in got.iter_mut().zip(split(&buf, &counts)) {
+                g.extend_from_slice(&p);
+            }
         }
-        split(&buf, &counts)
+        got
     }
 
     fn max_f32(&self, x: f32) -> f32 {
@@ -240,7 +310,9 @@ impl MpiComm {
         } else {
             vec![0u8; len as usize]
         };
-        root.broadcast_into(&mut buf[..]);
+        for chunk in buf.chunks_mut(self.limit) {
+            root.broadcast_into(chunk);
+        }
         buf
     }
 
@@ -257,9 +329,7 @@ impl MpiComm {
 /// returns [`Quiet`] with the exit status.
 pub fn run(invocation: Invocation) -> anyhow::Result<()> {
     let universe = mpi::initialize().context("MPI could not be initialised")?;
-    let comm = Rc::new(MpiComm {
-        world: universe.world(),
-    });
+    let comm = Rc::new(MpiComm::new(universe.world()));
     let result = match invocation {
         Invocation::Bench(args) => super::bench::bench(&comm, args),
         Invocation::Validate(args) => {
@@ -366,7 +436,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     };
     let mut outputs = comm.agree(outputs)?;
     // The last good state until the first full check: the start, kept by rank 0 alone.
-    let mut last_good = LastGood::Start((rank == 0).then(|| world.clone()));
+    let mut last_good = LastGood::Start((rank == 0).then(|| Box::new(world.clone())));
     let mut domain = Domain::new(world, rank, ranks);
     let loud = rank == 0 && !plan.quiet;
 
@@ -526,7 +596,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
 /// rank's share of the world at the last full check that passed (O(its bodies), kept
 /// without a message).
 enum LastGood {
-    Start(Option<World>),
+    Start(Option<Box<World>>),
     Kept(Share),
 }
 
@@ -535,7 +605,7 @@ impl LastGood {
     /// at a blow-up are the shares gathered, to rank 0 alone.
     fn world(&self, domain: &Domain, comm: &MpiComm) -> Option<World> {
         match self {
-            LastGood::Start(world) => world.clone(),
+            LastGood::Start(world) => world.as_deref().cloned(),
             LastGood::Kept(share) => domain.gather_kept(share, comm),
         }
     }

@@ -39,7 +39,7 @@ mod rows;
 mod totals;
 
 pub use bisection::Bisection;
-pub use comm::{Comm, ThreadComm};
+pub use comm::{Comm, Rounds, ThreadComm};
 pub use gather::Share;
 pub use totals::Totals;
 
