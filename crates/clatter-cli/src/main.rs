@@ -60,8 +60,9 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        // Under mpirun (docs/parallel.md): `run`, `resume` and `bench` step the world on the
-        // ranks; `render`, `view` and `validate` refuse several ranks.
+        // Under mpirun (docs/parallel.md): `run`, `resume`, `bench` and `validate` (the checks
+        // that can be split: `--only pile`) step the world on the ranks; `render` and `view`
+        // refuse several ranks.
         Command::Run(args) => {
             args.pipeline
                 .init_threads()
@@ -103,19 +104,22 @@ fn main() -> ExitCode {
             .and_then(|_| cluster::single_rank_only("view"))
             .and_then(|_| render::view(args)),
         Command::Query { input } => query::run(&input),
-        Command::Validate(args) => args
-            .pipeline
-            .init_threads()
-            .and_then(|_| cluster::single_rank_only("validate"))
-            .and_then(|_| {
-                validate::validate(args).and_then(|passed| {
-                    if passed {
-                        Ok(())
-                    } else {
-                        Err(validate::Failed.into())
+        Command::Validate(args) => {
+            args.pipeline
+                .init_threads()
+                .and_then(|_| match cluster::launched() {
+                    Some(ranks) if cluster::wanted(ranks) => {
+                        cluster::run(cluster::Invocation::Validate(args), ranks)
                     }
+                    _ => validate::validate(args).and_then(|passed| {
+                        if passed {
+                            Ok(())
+                        } else {
+                            Err(validate::Failed.into())
+                        }
+                    }),
                 })
-            }),
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

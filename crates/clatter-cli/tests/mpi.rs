@@ -4,7 +4,9 @@
 //! checkpoint written on 3 ranks byte for byte one process's, resumed on 2 ranks and on one
 //! process; every output file (frames, VTK, contacts) one process's; blow-ups stopped as one
 //! process stops them; `clatter bench` on 2 and 3 ranks timing the same steps as one process
-//! (the same rows but for the timings); bad rank counts and a build without MPI give errors, not hangs.
+//! (the same rows but for the timings); `clatter validate --only pile` on 1, 2 and 3 ranks
+//! with one process's row, validation.json and plot; bad rank counts and a build without
+//! MPI give errors, not hangs.
 //!
 //! The runs under mpirun need the binary built with the feature:
 //! `cargo test --release -p clatter-cli --features mpi --test mpi`. Without it they are
@@ -52,11 +54,12 @@ fn output_within(mut cmd: Command, limit: Duration) -> Output {
 #[cfg(not(feature = "mpi"))]
 #[test]
 fn several_ranks_without_the_feature_is_an_error() {
-    let cases: [&[&str]; 2] = [
+    let cases: [&[&str]; 3] = [
         &["run", "--steps", "1", "--quiet"],
         &[
             "bench", "--pile", "lattice", "--bodies", "64", "--steps", "1",
         ],
+        &["validate", "--only", "pile", "--quick"],
     ];
     for args in cases {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_clatter"));
@@ -112,7 +115,16 @@ velocity = [1.5, 0.0, -0.5]
 /// (containers).
 #[cfg(feature = "mpi")]
 fn mpirun(ranks: usize, args: &[&str]) -> Output {
+    mpirun_with(ranks, &[], args)
+}
+
+/// [`mpirun`] with environment variables set on every rank (`-x NAME=VALUE`, Open MPI's).
+#[cfg(feature = "mpi")]
+fn mpirun_with(ranks: usize, env: &[(&str, &str)], args: &[&str]) -> Output {
     let mut cmd = Command::new("mpirun");
+    for (name, value) in env {
+        cmd.arg("-x").arg(format!("{name}={value}"));
+    }
     cmd.args(["--oversubscribe", "-np", &ranks.to_string()])
         .arg(env!("CARGO_BIN_EXE_clatter"))
         .args(args)
@@ -231,6 +243,88 @@ fn sphere_pile_on_1_2_3_ranks_is_bitwise_one_process() {
     let scene = dir.join("pile.toml");
     std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
     bitwise_on_ranks("pile", Some(&scene), "6000");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Messages over the transport's limit go in pieces (MPI counts are `int`: a message of 2
+/// GiB or more is split): with the limit lowered to 4 KiB (`CLATTER_MPI_MESSAGE_LIMIT`), the
+/// sphere pile on 3 ranks, whose first distribution, ghost exchanges and gathers then all
+/// take several pieces or rounds, still ends bitwise as one process's (final.csv,
+/// energy.csv), and so does a checkpoint broadcast in pieces and resumed on 2 ranks.
+#[cfg(feature = "mpi")]
+#[test]
+fn messages_over_the_limit_are_split_bitwise() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("limit");
+    let scene = dir.join("pile.toml");
+    std::fs::write(&scene, SPHERE_PILE).expect("write the scene");
+    let s = scene.display().to_string();
+    let one = dir.join("one");
+    let one_s = one.display().to_string();
+    let o = clatter(&[
+        &"run",
+        &s,
+        &"--steps",
+        &"1500",
+        &"--quiet",
+        &"--backend",
+        &"cpu",
+        &"--out",
+        &one_s,
+    ]);
+    assert_ok(&o, "the run without MPI");
+    let limited = [("CLATTER_MPI_MESSAGE_LIMIT", "4096")];
+    let out = dir.join("ranks3");
+    let out_s = out.display().to_string();
+    let a = [
+        "run",
+        &s,
+        "--steps",
+        "1500",
+        "--quiet",
+        "--out",
+        &out_s,
+        "--checkpoint-every",
+        "0.01",
+    ];
+    let o = mpirun_with(3, &limited, &a);
+    assert_ok(&o, "3 ranks under a 4 KiB limit");
+    for file in ["final.csv", "energy.csv"] {
+        assert!(
+            read(&out.join(file)) == read(&one.join(file)),
+            "{file} under a 4 KiB limit differs from one process's"
+        );
+    }
+    let ckpt = out.join("checkpoint.ckpt");
+    let resumed = dir.join("resumed");
+    let resumed_s = resumed.display().to_string();
+    let ckpt_s = ckpt.display().to_string();
+    let o = mpirun_with(
+        2,
+        &limited,
+        &[
+            "resume", &ckpt_s, "--steps", "300", "--quiet", "--out", &resumed_s,
+        ],
+    );
+    assert_ok(&o, "resumed on 2 ranks under a 4 KiB limit");
+    let o = clatter(&[
+        &"run",
+        &s,
+        &"--steps",
+        &"1800",
+        &"--quiet",
+        &"--backend",
+        &"cpu",
+        &"--out",
+        &one_s,
+    ]);
+    assert_ok(&o, "the longer run without MPI");
+    assert!(
+        read(&resumed.join("final.csv")) == read(&one.join("final.csv")),
+        "resumed under a 4 KiB limit: final.csv differs from one process's"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -680,6 +774,110 @@ fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
             err.matches("error:").count(),
             1,
             "{extra}: one message:\n{}",
+            text(&o)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `validation.json` without what names the rank count (`backend`, `ranks`).
+#[cfg(feature = "mpi")]
+fn validation_rows(dir: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&read(&dir.join("validation.json"))).expect("validation.json");
+    let o = v.as_object_mut().expect("an object");
+    o.remove("backend");
+    o.remove("ranks");
+    v
+}
+
+/// `mpirun -np N clatter validate --only pile` (the poured pile, its 490 spheres falling
+/// through the rank boundaries) on 1, 2 and 3 ranks: the same table row, `validation.json`
+/// (the measured packing fraction to the bit) and kinetic-energy plot as one process, the
+/// table printed once; the checks too small to split are refused with one error.
+#[cfg(feature = "mpi")]
+#[test]
+fn validate_only_pile_on_1_2_3_ranks_is_one_process_validation() {
+    if !have_mpirun() {
+        return;
+    }
+    let dir = test_dir("validate");
+    let one = dir.join("one");
+    let one_s = one.display().to_string();
+    let args = ["validate", "--only", "pile", "--quick", "--quiet", "--out"];
+    let mut a: Vec<&str> = args.to_vec();
+    a.extend([one_s.as_str(), "--backend", "cpu"]);
+    let a: Vec<&dyn AsRef<std::ffi::OsStr>> = a.iter().map(|s| s as _).collect();
+    let o = clatter(&a);
+    assert_ok(&o, "validate --only pile without MPI");
+    let row = |o: &Output| -> String {
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let rows: Vec<&str> = out
+            .lines()
+            .filter(|l| l.starts_with("poured-pile"))
+            .collect();
+        assert_eq!(rows.len(), 1, "one table row:\n{}", text(o));
+        rows[0].to_string()
+    };
+    let want_row = row(&o);
+    assert!(want_row.ends_with("pass"), "{want_row}");
+    let want = validation_rows(&one);
+    assert_eq!(want["rows_total"], 1);
+    for ranks in 1..=3 {
+        let out = dir.join(format!("ranks{ranks}"));
+        let out_s = out.display().to_string();
+        let mut a: Vec<&str> = args.to_vec();
+        a.push(&out_s);
+        let o = mpirun(ranks, &a);
+        assert_ok(&o, &format!("validate --only pile on {ranks} ranks"));
+        assert_eq!(row(&o), want_row, "the row on {ranks} ranks");
+        assert_eq!(
+            String::from_utf8_lossy(&o.stdout)
+                .matches("validation passed")
+                .count(),
+            1,
+            "one verdict:\n{}",
+            text(&o)
+        );
+        assert_eq!(
+            validation_rows(&out),
+            want,
+            "validation.json on {ranks} ranks"
+        );
+        let json: serde_json::Value =
+            serde_json::from_str(&read(&out.join("validation.json"))).expect("json");
+        assert_eq!(json["ranks"], ranks);
+        assert!(
+            std::fs::read(out.join("poured-pile.svg")).ok()
+                == std::fs::read(one.join("poured-pile.svg")).ok(),
+            "the kinetic energy plot on {ranks} ranks differs from one process's"
+        );
+    }
+    for (extra, message) in [
+        (vec!["--quick"], "runs only poured-pile (`--only pile`)"),
+        (
+            vec!["--only", "pile,chung-ooi-1"],
+            "chung-ooi-1 has one to a few dozen bodies",
+        ),
+        (
+            vec!["--only", "pile", "--backend", "gpu"],
+            "uses the CPU pipeline",
+        ),
+    ] {
+        let mut a = vec!["validate"];
+        a.extend(&extra);
+        let o = mpirun(2, &a);
+        assert!(!o.status.success(), "{extra:?} should fail:\n{}", text(&o));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(message),
+            "{extra:?}: want {message:?}:\n{}",
+            text(&o)
+        );
+        assert_eq!(
+            err.matches("error:").count(),
+            1,
+            "{extra:?}: one message:\n{}",
             text(&o)
         );
     }

@@ -552,6 +552,148 @@ fn histogram_cuts_balance_random_piles() {
     }
 }
 
+/// The ranks a body is a ghost on and a rank's peers, found by walking the cut tree
+/// (`Bisection::within`, `Bisection::boxes_within`), are exactly those found by testing
+/// every rank's box (brute force), on 1 to 64 ranks, in open space and periodic along x and
+/// y, for points inside, between and far outside the boxes and reaches from a hair to
+/// everything.
+#[test]
+fn ranks_within_reach_from_the_cut_tree_are_the_brute_force_ranks() {
+    use clatter::Periodic;
+    use clatter::domain::Bisection;
+    let mut u = uniform(29);
+    let pts: Vec<Vec3> = (0..4000)
+        .map(|_| {
+            let (x, y, h) = (u(), u(), u());
+            Vec3::new(x * 2.0, y, 0.5 * h * h)
+        })
+        .collect();
+    let periodic = Periodic {
+        min: Vec3::new(0.0, 0.0, -1.0),
+        max: Vec3::new(2.0, 1.0, 1.0),
+        axes: [true, true, false],
+    };
+    let mut checked = 0usize;
+    for p in [None, Some(&periodic)] {
+        for ranks in [1, 2, 3, 4, 5, 7, 8, 16, 33, 64] {
+            let b = Bisection::balanced(&pts, ranks, p, None);
+            for reach in [1e-4, 0.01, 0.05, 0.2, 1.0, 10.0, f64::INFINITY] {
+                for k in 0..200 {
+                    // Inside the pile, and (every fourth) far around it.
+                    let spread = if k % 4 == 0 { 6.0 } else { 1.0 };
+                    let mut c = |lo: f32, w: f32| (lo + (u() - 0.5) * w * spread) as f64;
+                    let x = glam::DVec3::new(c(1.0, 2.0), c(0.5, 1.0), c(0.25, 0.5));
+                    let brute: Vec<usize> =
+                        (0..ranks).filter(|&r| b.distance(x, r) < reach).collect();
+                    assert_eq!(
+                        b.within(x, reach),
+                        brute,
+                        "{ranks} ranks, {p:?}, {x}, {reach}"
+                    );
+                    checked += brute.len();
+                }
+                for r in 0..ranks {
+                    let brute: Vec<usize> = (0..ranks)
+                        .filter(|&s| b.box_distance(r, s) < reach)
+                        .collect();
+                    assert_eq!(
+                        b.boxes_within(r, reach),
+                        brute,
+                        "{ranks} ranks, {p:?}, rank {r}, {reach}"
+                    );
+                }
+            }
+        }
+    }
+    assert!(checked > 10_000, "the points found ranks ({checked})");
+}
+
+/// Messages longer than a transport's limit go in rounds (`Rounds`, as over MPI, whose
+/// counts are `int`): on threads whose messages may not pass 40 or 256 bytes a round (every
+/// round checked), an all-to-all of random lengths (empty ones, and ones of many rounds)
+/// delivers every message whole, and a sphere pile stepped on 3 ranks ends bitwise as one
+/// process's (its ghost states, rebuilds and gathers all cut into pieces).
+#[test]
+fn messages_over_the_limit_go_in_rounds_bitwise() {
+    let mut u = uniform(41);
+    let lens: Vec<Vec<usize>> = (0..4)
+        .map(|_| {
+            (0..4)
+                .map(|_| match (u() * 4.0) as u32 {
+                    0 => 0,
+                    1 => 1 + (u() * 9.0) as usize,
+                    _ => (u() * 900.0) as usize,
+                })
+                .collect()
+        })
+        .collect();
+    let message = |from: usize, to: usize| -> Vec<u8> {
+        (0..lens[from][to])
+            .map(|k| (k * 31 + from * 7 + to * 3) as u8)
+            .collect()
+    };
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group_limited(4, 40)
+            .into_iter()
+            .map(|comm| {
+                let message = &message;
+                scope.spawn(move || {
+                    let me = comm.rank();
+                    let got = comm.all_to_all((0..4).map(|to| message(me, to)).collect());
+                    for (from, m) in got.iter().enumerate() {
+                        assert_eq!(*m, message(from, me), "{from} to {me}");
+                    }
+                    let all = comm.all_gather(&message(me, (me + 1) % 4));
+                    for (from, m) in all.iter().enumerate() {
+                        assert_eq!(*m, message(from, (from + 1) % 4), "gathered from {from}");
+                    }
+                })
+            })
+            .collect();
+        for h in handles {
+            h.join().expect("rank thread");
+        }
+    });
+    let mut desc = pile(PileShape::Sphere, 200, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
+    }
+    let world = World::new(desc);
+    let steps = 200;
+    let want = one_process(world.clone(), steps);
+    let ends: Vec<End> = std::thread::scope(|scope| {
+        let handles: Vec<_> = ThreadComm::group_limited(3, 256)
+            .into_iter()
+            .map(|comm| {
+                let w = world.clone();
+                scope.spawn(move || {
+                    let mut d = Domain::new(w, comm.rank(), comm.size());
+                    for _ in 0..steps {
+                        d.step(&comm).expect("ranks step");
+                    }
+                    let contacts = d.contact_count(&comm);
+                    let g = d.gather(&comm);
+                    End {
+                        state: snapshot(&g),
+                        checkpoint: g.checkpoint_bytes("test", "", &[]),
+                        contacts,
+                        rebuilds: g.rebuilds,
+                        step: g.step_count,
+                    }
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("rank thread"))
+            .collect()
+    });
+    for e in &ends {
+        assert_eq!(*e, want, "3 ranks under a 256-byte limit");
+    }
+}
+
 /// Random spheres and cubes, in a closed box or periodic along x and y.
 fn random_world(periodic: bool) -> World {
     let bounds = if periodic {

@@ -153,8 +153,8 @@ fn time(
     let secs = started.elapsed().as_secs_f64();
     // Touching contacts per step over all ranks, summed as one process sums them.
     let contacts: usize = counts.totals(comm).iter().sum();
-    let whole = domain.gather(comm);
     report_loads(comm, &domain);
+    let whole = domain.gather(comm);
     let sps = args.steps as f64 / secs;
     Ok(Row {
         shape: plan.name,
@@ -181,11 +181,14 @@ fn time(
 
 /// Rank 0 says on stderr how many bodies each rank owns and holds as ghosts after the
 /// timed steps (collective): the balance of the decomposition and its communication volume
-/// (ghost states are what is sent every step), whatever the load of the machine.
+/// (ghost states are what is sent every step), whatever the load of the machine; and each
+/// rank's resident memory then (before the pile is gathered for the row), in MiB, where the
+/// system says it (`VmRSS` of /proc/self/status; 0 elsewhere).
 fn report_loads(comm: &MpiComm, domain: &Domain) {
-    let mut mine = Vec::with_capacity(16);
+    let mut mine = Vec::with_capacity(24);
     mine.extend((domain.owned() as u64).to_le_bytes());
     mine.extend((domain.ghosts() as u64).to_le_bytes());
+    mine.extend(resident_kib().to_le_bytes());
     let all = comm.all_gather(&mine);
     if comm.rank() == 0 {
         let word = |m: &[u8], k: usize| {
@@ -199,10 +202,28 @@ fn report_loads(comm: &MpiComm, domain: &Domain) {
                 .collect::<Vec<_>>()
                 .join(" ")
         };
+        let mib = all
+            .iter()
+            .map(|m| format!("{:.1}", word(m, 2) as f64 / 1024.0))
+            .collect::<Vec<_>>()
+            .join(" ");
         eprintln!(
-            "# per rank after the timed steps: owned {}; ghosts {}",
+            "# per rank after the timed steps: owned {}; ghosts {}; resident MiB {mib}",
             list(0),
             list(1)
         );
     }
+}
+
+/// This process's resident memory in KiB (`VmRSS` of /proc/self/status), 0 where there is
+/// no such file.
+fn resident_kib() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("VmRSS:"))
+                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        })
+        .unwrap_or(0)
 }

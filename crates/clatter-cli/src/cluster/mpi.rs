@@ -4,10 +4,11 @@
 //! one process writes). [`MpiComm`] is the domain's transport over rsmpi.
 
 use std::io::Write;
+use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::domain::{Comm, Domain, Share};
+use clatter::domain::{Comm, Domain, Rounds, Share};
 use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -16,7 +17,7 @@ use mpi::datatype::{Partition, PartitionMut};
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 
-use super::{Invocation, Quiet};
+use super::{Invocation, Quiet, exit_status};
 use crate::backend::Backend;
 use crate::log::{Sample, Thermo};
 use crate::output::AtomicFile;
@@ -26,6 +27,31 @@ use crate::scene_io::load_scene;
 /// [`Comm`] over an MPI communicator.
 pub struct MpiComm {
     pub(super) world: SimpleCommunicator,
+    /// The most bytes one collective round or point-to-point message carries: longer
+    /// messages go in [`Rounds`] (MPI counts and offsets are `int`).
+    limit: usize,
+}
+
+/// The most bytes an MPI message or a round of a collective carries ([`MpiComm`]): 1 GiB,
+/// well within `int` counts and offsets (with the one byte of padding per message).
+const MESSAGE_LIMIT: usize = 1 << 30;
+
+/// The environment variable that lowers [`MESSAGE_LIMIT`] (bytes; for the tests of the
+/// splitting, which cannot send gigabytes).
+pub const MESSAGE_LIMIT_VAR: &str = "CLATTER_MPI_MESSAGE_LIMIT";
+
+impl MpiComm {
+    /// The transport over `world`, with [`MESSAGE_LIMIT`] or the smaller limit that
+    /// [`MESSAGE_LIMIT_VAR`] sets (at least 8 bytes a rank, so that the lengths go in one
+    /// round).
+    pub fn new(world: SimpleCommunicator) -> MpiComm {
+        let ranks = world.size().max(1) as usize;
+        let limit = std::env::var(MESSAGE_LIMIT_VAR)
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .map_or(MESSAGE_LIMIT, |l| l.clamp(8 * ranks, MESSAGE_LIMIT));
+        MpiComm { world, limit }
+    }
 }
 
 /// Touching contacts per step, counted by each rank for its share (the domain step's
@@ -115,12 +141,29 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
-        let send: Vec<Vec<u8>> = send.iter().map(|m| padded(m)).collect();
-        let counts: Vec<i32> = send.iter().map(|m| count(m.len())).collect();
-        let mut recv_counts = vec![0i32; counts.len()];
+        // The lengths, then as many rounds as the longest message any rank sends needs
+        // (one `Alltoallv` each; almost always one).
+        let lens: Vec<u64> = send.iter().map(|m| m.len() as u64).collect();
+        let mut recv_lens = vec![0u64; lens.len()];
+        self.world.all_to_all_into(&lens[..], &mut recv_lens[..]);
+        let recv_len: Vec<usize> = recv_lens.iter().map(|&n| n as usize).collect();
+        let rounds = Rounds::new(self.limit, self.size());
+        let mine = send
+            .iter()
+            .map(Vec::len)
+            .chain(recv_len.iter().copied())
+            .map(|n| rounds.needed(n) as u64)
+            .max()
+            .unwrap_or(1);
+        let mut n = 0u64;
         self.world
-            .all_to_all_into(&counts[..], &mut recv_counts[..]);
-        self.exchange(&send, &counts, &recv_counts)
+            .all_reduce_into(&mine, &mut n, SystemOperation::max());
+        rounds.exchange(&send, &recv_len, n as usize, |pieces, lens| {
+            let pieces: Vec<Vec<u8>> = pieces.iter().map(|m| padded(m)).collect();
+            let counts: Vec<i32> = pieces.iter().map(|m| count(m.len())).collect();
+            let recv_counts: Vec<i32> = lens.iter().map(|&l| count(l + 1)).collect();
+            self.exchange(&pieces, &counts, &recv_counts)
+        })
     }
 
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
@@ -132,22 +175,29 @@ impl Comm for MpiComm {
         if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
             mine.clone_from(m);
         }
+        // A message longer than the limit goes in pieces, received in the order sent (MPI
+        // does not let messages of one tag between two ranks overtake each other).
+        let piece = self.limit;
         mpi::request::scope(|scope| {
             let mut requests = Vec::new();
             for (r, buf) in recv.iter_mut().enumerate() {
                 if r != me && !buf.is_empty() {
                     let from = self.world.process_at_rank(r as mpi::Rank);
-                    requests.push(from.immediate_receive_into_with_tag(
-                        scope,
-                        &mut buf[..],
-                        FORWARD_TAG,
-                    ));
+                    for chunk in buf.chunks_mut(piece) {
+                        requests.push(from.immediate_receive_into_with_tag(
+                            scope,
+                            chunk,
+                            FORWARD_TAG,
+                        ));
+                    }
                 }
             }
             for (r, m) in send.iter().enumerate() {
                 if r != me && !m.is_empty() {
                     let to = self.world.process_at_rank(r as mpi::Rank);
-                    requests.push(to.immediate_send_with_tag(scope, &m[..], FORWARD_TAG));
+                    for chunk in m.chunks(piece) {
+                        requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
+                    }
                 }
             }
             for request in requests {
@@ -158,18 +208,39 @@ impl Comm for MpiComm {
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
-        let mine = &padded(mine)[..];
-        let mut counts = vec![0i32; self.size()];
+        // Every rank learns every length, so all take the same rounds (one
+        // `Allgatherv` each; almost always one) without another collective.
+        let mut lens = vec![0u64; self.size()];
         self.world
-            .all_gather_into(&count(mine.len()), &mut counts[..]);
-        let total: usize = counts.iter().map(|&c| c as usize).sum();
-        let mut buf = vec![0u8; total];
-        let d = displacements(&counts);
-        {
-            let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
-            self.world.all_gather_varcount_into(mine, &mut recvp);
+            .all_gather_into(&(mine.len() as u64), &mut lens[..]);
+        let rounds = Rounds::new(self.limit, self.size());
+        let n = lens
+            .iter()
+            .map(|&l| rounds.needed(l as usize))
+            .max()
+            .unwrap_or(1);
+        let mut got: Vec<Vec<u8>> = lens
+            .iter()
+            .map(|&l| Vec::with_capacity(l as usize))
+            .collect();
+        for k in 0..n {
+            let piece = padded(rounds.piece(mine, k));
+            let counts: Vec<i32> = lens
+                .iter()
+                .map(|&l| count(rounds.piece_len(l as usize, k) + 1))
+                .collect();
+            let total: usize = counts.iter().map(|&c| c as usize).sum();
+            let mut buf = vec![0u8; total];
+            let d = displacements(&counts);
+            {
+                let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
+                self.world.all_gather_varcount_into(&piece[..], &mut recvp);
+            }
+            for (g, p) in got.iter_mut().zip(split(&buf, &counts)) {
+                g.extend_from_slice(&p);
+            }
         }
-        split(&buf, &counts)
+        got
     }
 
     fn max_f32(&self, x: f32) -> f32 {
@@ -239,43 +310,16 @@ impl MpiComm {
         } else {
             vec![0u8; len as usize]
         };
-        root.broadcast_into(&mut buf[..]);
+        for chunk in buf.chunks_mut(self.limit) {
+            root.broadcast_into(chunk);
+        }
         buf
     }
 
-    /// `result` as every rank's outcome of a step all ranks take together: rank 0's error
-    /// (or the first failing rank's, said by rank 0) stops every rank. Collective.
+    /// `result` as every rank's outcome of a step all ranks take together
+    /// ([`super::agree`]). Collective.
     pub(super) fn agree<T>(&self, result: anyhow::Result<T>) -> anyhow::Result<T> {
-        // An error travels as its exit status and its message.
-        let mine = match &result {
-            Ok(_) => Vec::new(),
-            Err(e) => {
-                let mut m = vec![exit_status(e)];
-                m.extend(format!("{e:#}").into_bytes());
-                m
-            }
-        };
-        let all = self.all_gather(&mine);
-        let first = all.iter().position(|m| !m.is_empty());
-        match (result, first) {
-            (Ok(v), None) => Ok(v),
-            (r, Some(k)) if self.rank() == 0 => Err(r.err().unwrap_or_else(|| {
-                anyhow::anyhow!("rank {k}: {}", String::from_utf8_lossy(&all[k][1..]))
-            })),
-            (_, Some(k)) => Err(Quiet(all[k][0]).into()),
-            (_, None) => unreachable!("an error is a message"),
-        }
-    }
-}
-
-/// The exit status `main` gives `e`: a blow-up's, or 1.
-fn exit_status(e: &anyhow::Error) -> u8 {
-    if e.is::<crate::report::BlownUp>() {
-        crate::report::BLOW_UP_EXIT
-    } else if let Some(q) = e.downcast_ref::<Quiet>() {
-        q.0
-    } else {
-        1
+        super::agree(self, result)
     }
 }
 
@@ -285,18 +329,28 @@ fn exit_status(e: &anyhow::Error) -> u8 {
 /// returns [`Quiet`] with the exit status.
 pub fn run(invocation: Invocation) -> anyhow::Result<()> {
     let universe = mpi::initialize().context("MPI could not be initialised")?;
-    let comm = MpiComm {
-        world: universe.world(),
-    };
+    let comm = Rc::new(MpiComm::new(universe.world()));
     let result = match invocation {
         Invocation::Bench(args) => super::bench::bench(&comm, args),
+        Invocation::Validate(args) => {
+            let ranks: Rc<dyn Comm> = comm.clone();
+            crate::validate::validate_on(args, Some(ranks)).and_then(|passed| {
+                if passed {
+                    Ok(())
+                } else {
+                    Err(crate::validate::Failed.into())
+                }
+            })
+        }
         other => run_on(&comm, other),
     };
     let result = match result {
         Ok(()) => Ok(()),
         Err(e) => {
             let status = exit_status(&e);
-            if !e.is::<Quiet>() {
+            // A failed row is in the table rank 0 printed; an error of another rank was
+            // said by rank 0.
+            if !e.is::<Quiet>() && !e.is::<crate::validate::Failed>() {
                 eprintln!("error: {e:#}");
             }
             Err(Quiet(status).into())
@@ -338,7 +392,11 @@ fn start(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<(Plan, World)
             let ckpt = comm.agree(Checkpoint::from_bytes(&bytes).with_context(what))?;
             comm.agree(resume_plan(args, ckpt))
         }
-        Invocation::Bench(_) => unreachable!("`clatter bench` on ranks is `super::bench`"),
+        Invocation::Bench(_) | Invocation::Validate(_) => {
+            unreachable!(
+                "`clatter bench` and `validate` on ranks are `super::bench` and `crate::validate`"
+            )
+        }
     }
 }
 
@@ -377,8 +435,9 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         Ok(None)
     };
     let mut outputs = comm.agree(outputs)?;
+    // The last good state until the first full check: the start, kept by rank 0 alone.
+    let mut last_good = LastGood::Start((rank == 0).then(|| Box::new(world.clone())));
     let mut domain = Domain::new(world, rank, ranks);
-    let mut last_good = LastGood::Start;
     let loud = rank == 0 && !plan.quiet;
 
     if loud {
@@ -532,11 +591,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     comm.agree(finished)
 }
 
-/// The last good state of a run on ranks: the world at the start (which every rank has,
-/// [`Domain::initial`]) until a full check passes, then each rank's share of the world at
-/// the last full check that passed (O(its bodies), kept without a message).
+/// The last good state of a run on ranks: the world at the start (kept by rank 0 alone,
+/// which writes `last_good.ckpt`; `None` on the others) until a full check passes, then each
+/// rank's share of the world at the last full check that passed (O(its bodies), kept
+/// without a message).
 enum LastGood {
-    Start,
+    Start(Option<Box<World>>),
     Kept(Share),
 }
 
@@ -545,7 +605,7 @@ impl LastGood {
     /// at a blow-up are the shares gathered, to rank 0 alone.
     fn world(&self, domain: &Domain, comm: &MpiComm) -> Option<World> {
         match self {
-            LastGood::Start => (comm.rank() == 0).then(|| domain.initial().clone()),
+            LastGood::Start(world) => world.as_deref().cloned(),
             LastGood::Kept(share) => domain.gather_kept(share, comm),
         }
     }

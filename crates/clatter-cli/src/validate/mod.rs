@@ -13,6 +13,7 @@ mod mfix;
 mod mfix_stack_roll;
 mod mindlin;
 mod pile;
+mod ranks;
 mod reference;
 mod restitution;
 mod sphere_floor;
@@ -20,11 +21,13 @@ mod sphere_floor;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
+use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Context as _;
 use clatter::World;
+use clatter::domain::Comm;
 use clatter_backend::{Device, Readback, Stepper};
 use clatter_gpu::GpuContext;
 
@@ -275,6 +278,9 @@ pub struct Ctx {
     gpu: Option<Arc<GpuContext>>,
     quiet: bool,
     log: Option<Arc<SuiteLog>>,
+    /// The MPI ranks the suite runs on (`None`: one process): the checks of
+    /// [`ranks::ON_RANKS`] step their worlds decomposed over them ([`Ctx::spread`]).
+    ranks: Option<Rc<dyn Comm>>,
 }
 
 /// A world and the pipeline that steps it.
@@ -319,8 +325,12 @@ impl Sim {
 }
 
 impl Ctx {
-    /// A world ready to step on the chosen backend.
+    /// A world ready to step on the chosen backend (one process: on MPI ranks only the
+    /// checks of [`ranks::ON_RANKS`] run, through [`Ctx::spread`]).
     pub fn sim(&self, world: World) -> anyhow::Result<Sim> {
+        if self.ranks.is_some() {
+            anyhow::bail!("this check does not run on MPI ranks");
+        }
         let stepper = match &self.gpu {
             None => Stepper::Cpu,
             Some(ctx) => {
@@ -402,7 +412,7 @@ fn checks() -> Vec<(&'static str, CheckFn)> {
         ("energy-gas", conservation::energy_gas),
         ("momentum-periodic", conservation::momentum_periodic),
         ("symmetric-top", conservation::symmetric_top),
-        ("poured-pile", pile::check),
+        (pile::NAME, pile::check),
     ]
 }
 
@@ -435,15 +445,37 @@ fn validation_gpu(backend: Backend, quiet: bool) -> anyhow::Result<Option<Arc<Gp
     })
 }
 
-/// Runs the suite; `Ok(true)` when every row passes.
+/// Runs the suite on one process; `Ok(true)` when every row passes.
 pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
+    validate_on(args, None)
+}
+
+/// Runs the suite, on one process (`ranks` `None`) or on MPI ranks (collective: the checks
+/// of [`ranks::ON_RANKS`] only, their worlds decomposed over the ranks; every rank finds
+/// the same rows, bitwise one process's, and rank 0 prints them and writes the files; an
+/// error on any rank stops all, said once by rank 0); `Ok(true)` when every row passes.
+pub fn validate_on(args: ValidateArgs, ranks: Option<Rc<dyn Comm>>) -> anyhow::Result<bool> {
     let started = Instant::now();
-    let gpu = validation_gpu(args.pipeline.backend, args.progress.quiet)?;
-    let backend = match &gpu {
-        Some(ctx) => format!("gpu ({})", ctx.adapter_name()),
-        None => "cpu".to_string(),
+    let lead = ranks.as_ref().is_none_or(|c| c.rank() == 0);
+    let quiet = args.progress.quiet || !lead;
+    let gpu = match &ranks {
+        None => validation_gpu(args.pipeline.backend, quiet)?,
+        Some(comm) if args.pipeline.backend == Backend::Gpu => {
+            return crate::cluster::agree(
+                &**comm,
+                Err(anyhow::anyhow!(
+                    "--backend gpu: `clatter validate` on several MPI ranks uses the CPU pipeline (docs/parallel.md)"
+                )),
+            );
+        }
+        Some(_) => None,
     };
-    if !args.progress.quiet {
+    let backend = match (&gpu, &ranks) {
+        (Some(ctx), _) => format!("gpu ({})", ctx.adapter_name()),
+        (None, Some(comm)) => format!("cpu on {} MPI ranks", comm.size()),
+        (None, None) => "cpu".to_string(),
+    };
+    if !quiet {
         eprintln!(
             "clatter validate: backend {backend}, {} suite",
             if args.quick { "quick" } else { "full" }
@@ -455,26 +487,22 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
     let ctx = Ctx {
         quick: args.quick,
         gpu,
-        quiet: args.progress.quiet,
-        log: args.progress.lines().map(|every| {
+        quiet,
+        log: args.progress.lines().filter(|_| lead).map(|every| {
             Arc::new(SuiteLog::new(
                 every,
                 names.iter().filter(|&&n| chosen(n)).count(),
             ))
         }),
+        ranks,
     };
-    if let Some(o) = args
-        .only
-        .iter()
-        .find(|o| !names.iter().any(|n| n.contains(o.as_str())))
-    {
-        anyhow::bail!(
-            "--only {o}: no check's name contains it; the checks are {}",
-            names.join(", ")
-        );
-    }
-    if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()))?;
+    ctx.agree(suite_refused(&args, &names, &ctx))?;
+    if let Some(dir) = args.out.as_ref().filter(|_| lead) {
+        let made =
+            std::fs::create_dir_all(dir).with_context(|| format!("create {}", dir.display()));
+        ctx.agree(made)?;
+    } else {
+        ctx.agree(Ok(()))?;
     }
     let mut rows: Vec<Row> = Vec::new();
     let mut timings = Vec::new();
@@ -485,16 +513,16 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
         let t0 = Instant::now();
         match &ctx.log {
             Some(l) => l.begin(name),
-            None if !args.progress.quiet => eprintln!("{name} ..."),
+            None if !quiet => eprintln!("{name} ..."),
             None => {}
         }
-        let outcome = check(&ctx).with_context(|| format!("check {name}"))?;
+        let outcome = ctx.agree(check(&ctx).with_context(|| format!("check {name}")))?;
         let secs = t0.elapsed().as_secs_f64();
         let failed = outcome.rows.iter().filter(|r| r.fails()).count();
         let differ = outcome.rows.iter().filter(|r| r.differs()).count();
         match &ctx.log {
             Some(l) => l.end(outcome.rows.len(), failed, differ),
-            None if !args.progress.quiet => eprintln!(
+            None if !quiet => eprintln!(
                 "{name}: {}, {failed} failed{} ({secs:.1} s)",
                 counted(outcome.rows.len(), "row"),
                 if differ > 0 {
@@ -506,68 +534,136 @@ pub fn validate(args: ValidateArgs) -> anyhow::Result<bool> {
             None => {}
         }
         timings.push((name, secs));
-        if let Some(dir) = &args.out {
-            for (file, svg) in &outcome.plots {
-                let mut f = AtomicFile::create(&dir.join(file))?;
-                f.writer().write_all(svg.as_bytes())?;
-                f.commit()?;
-            }
-        }
+        let plots = match args.out.as_ref().filter(|_| lead) {
+            Some(dir) => write_plots(dir, &outcome.plots),
+            None => Ok(()),
+        };
+        ctx.agree(plots)?;
         rows.extend(outcome.rows);
     }
-    let table = table(&rows);
-    print!("{table}");
-    let failed: Vec<&Row> = rows.iter().filter(|r| r.fails()).collect();
-    let differ: Vec<&Row> = rows.iter().filter(|r| r.differs()).collect();
-    let total = started.elapsed().as_secs_f64();
-    if let Some(dir) = &args.out {
-        let json = serde_json::json!({
-            "clatter_version": env!("CARGO_PKG_VERSION"),
-            "backend": backend,
-            "suite": if args.quick { "quick" } else { "full" },
-            "passed": failed.is_empty(),
-            "rows_total": rows.len(),
-            "rows_failed": failed.len(),
-            "rows_known_differences": differ.len(),
-            "checks": timings.iter().map(|(n, _)| *n).collect::<Vec<_>>(),
-            "rows": rows.iter().map(|r| serde_json::json!({
-                "check": r.check,
-                "case": r.case,
-                "quantity": r.quantity,
-                "expected": r.expected,
-                "measured": r.measured,
-                "error": r.error,
-                "error_kind": r.kind.name(),
-                "tolerance": r.tolerance,
-                "pass": r.pass(),
-                "known_difference": r.known,
-                "truth": r.truth,
-                "dt": r.dt,
-            })).collect::<Vec<_>>(),
-        });
-        let mut f = AtomicFile::create(&dir.join("validation.json"))?;
-        writeln!(f.writer(), "{}", serde_json::to_string_pretty(&json)?)?;
+    let passed = !rows.iter().any(Row::fails);
+    if lead {
+        let verdict = Verdict {
+            rows: &rows,
+            timings: &timings,
+            backend: &backend,
+            ranks: ctx.ranks.as_ref().map(|c| c.size()),
+            total: started.elapsed().as_secs_f64(),
+        };
+        ctx.agree(verdict.report(&args))?;
+    } else {
+        ctx.agree(Ok(()))?;
+    }
+    Ok(passed)
+}
+
+/// Why the suite asked for cannot run: an `--only` name that names no check, or checks
+/// that do not run on MPI ranks when it runs on ranks.
+fn suite_refused(args: &ValidateArgs, names: &[&str], ctx: &Ctx) -> anyhow::Result<()> {
+    if let Some(o) = args
+        .only
+        .iter()
+        .find(|o| !names.iter().any(|n| n.contains(o.as_str())))
+    {
+        anyhow::bail!(
+            "--only {o}: no check's name contains it; the checks are {}",
+            names.join(", ")
+        );
+    }
+    if let Some(comm) = &ctx.ranks {
+        let chosen: Vec<&str> = names
+            .iter()
+            .copied()
+            .filter(|n| args.only.is_empty() || args.only.iter().any(|o| n.contains(o.as_str())))
+            .collect();
+        if let Some(why) = ranks::refused(&chosen, comm.size()) {
+            anyhow::bail!(why);
+        }
+    }
+    Ok(())
+}
+
+/// Writes a check's plots into `dir`.
+fn write_plots(dir: &std::path::Path, plots: &[(String, String)]) -> anyhow::Result<()> {
+    for (file, svg) in plots {
+        let mut f = AtomicFile::create(&dir.join(file))?;
+        f.writer().write_all(svg.as_bytes())?;
         f.commit()?;
     }
-    if failed.is_empty() {
-        println!(
-            "validation passed: {} in {} ({total:.1} s){}",
-            counted(rows.len(), "row"),
-            counted(timings.len(), "check"),
-            differences(&differ)
-        );
-    } else {
-        let mut checks: Vec<&str> = failed.iter().map(|r| r.check.as_str()).collect();
-        checks.dedup();
-        println!(
-            "validation FAILED: {} of {} failed, in {} ({total:.1} s){}",
-            failed.len(),
-            counted(rows.len(), "row"),
-            checks.join(", "),
-            differences(&differ)
-        );
+    Ok(())
+}
+
+/// The suite's outcome, for the table, `validation.json` and the verdict line.
+struct Verdict<'a> {
+    rows: &'a [Row],
+    timings: &'a [(&'static str, f64)],
+    backend: &'a str,
+    /// The MPI ranks it ran on (`None`: one process).
+    ranks: Option<usize>,
+    /// Seconds the suite took.
+    total: f64,
+}
+
+impl Verdict<'_> {
+    /// Prints the table and the verdict, and writes `validation.json` with `--out`.
+    fn report(&self, args: &ValidateArgs) -> anyhow::Result<()> {
+        let rows = self.rows;
+        print!("{}", table(rows));
+        let failed: Vec<&Row> = rows.iter().filter(|r| r.fails()).collect();
+        let differ: Vec<&Row> = rows.iter().filter(|r| r.differs()).collect();
+        if let Some(dir) = &args.out {
+            let mut json = serde_json::json!({
+                "clatter_version": env!("CARGO_PKG_VERSION"),
+                "backend": self.backend,
+                "suite": if args.quick { "quick" } else { "full" },
+                "passed": failed.is_empty(),
+                "rows_total": rows.len(),
+                "rows_failed": failed.len(),
+                "rows_known_differences": differ.len(),
+                "checks": self.timings.iter().map(|(n, _)| *n).collect::<Vec<_>>(),
+                "rows": rows.iter().map(|r| serde_json::json!({
+                    "check": r.check,
+                    "case": r.case,
+                    "quantity": r.quantity,
+                    "expected": r.expected,
+                    "measured": r.measured,
+                    "error": r.error,
+                    "error_kind": r.kind.name(),
+                    "tolerance": r.tolerance,
+                    "pass": r.pass(),
+                    "known_difference": r.known,
+                    "truth": r.truth,
+                    "dt": r.dt,
+                })).collect::<Vec<_>>(),
+            });
+            if let Some(n) = self.ranks {
+                json["ranks"] = n.into();
+            }
+            let mut f = AtomicFile::create(&dir.join("validation.json"))?;
+            writeln!(f.writer(), "{}", serde_json::to_string_pretty(&json)?)?;
+            f.commit()?;
+        }
+        let total = self.total;
+        if failed.is_empty() {
+            println!(
+                "validation passed: {} in {} ({total:.1} s){}",
+                counted(rows.len(), "row"),
+                counted(self.timings.len(), "check"),
+                differences(&differ)
+            );
+        } else {
+            let mut checks: Vec<&str> = failed.iter().map(|r| r.check.as_str()).collect();
+            checks.dedup();
+            println!(
+                "validation FAILED: {} of {} failed, in {} ({total:.1} s){}",
+                failed.len(),
+                counted(rows.len(), "row"),
+                checks.join(", "),
+                differences(&differ)
+            );
+        }
+        Ok(())
     }
-    Ok(failed.is_empty())
 }
 
 /// The verdict's note on the rows that differ from published data as documented, or "".

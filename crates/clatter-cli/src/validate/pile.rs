@@ -20,11 +20,16 @@ use super::{Ctx, Outcome, Row};
 use crate::plot::{Panel, Series, chart};
 
 const R: f32 = 0.005;
+
+/// The check's name (it runs on MPI ranks too: [`super::ranks::ON_RANKS`]).
+pub const NAME: &str = "poured-pile";
 const G: f32 = 9.81;
 
-/// The check.
+/// The check. Its world is stepped as a [`super::ranks::Spread`]: on MPI ranks, decomposed
+/// over them, bitwise as one process steps it (the kinetic energy of each chunk and the
+/// positions at the end are reduced and gathered), so the row is one process's.
 pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
-    let name = "poured-pile";
+    let name = NAME;
     let d = 2.0 * R;
     let (cells, layers) = if ctx.quick {
         (7usize, 10usize)
@@ -80,12 +85,12 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
         "{name}: {n} spheres, {seconds:.2} s ({} steps)",
         chunks * chunk_steps
     ));
-    let mut sim = ctx.sim(w)?;
+    let mut sim = ctx.spread(w)?;
     let (mut t, mut ke) = (Vec::new(), Vec::new());
     for chunk in 1..=chunks {
         sim.step(chunk_steps)?;
-        t.push(sim.world.time);
-        ke.push(sim.world.kinetic_energy().max(1e-30));
+        t.push(sim.time());
+        ke.push(sim.kinetic_energy().max(1e-30));
         ctx.progress(&format!(
             "{name}: t = {:.2} s of {seconds:.2}, kinetic energy {:.2e} J",
             (chunk * chunk_steps) as f64 * dt,
@@ -93,13 +98,7 @@ pub fn check(ctx: &Ctx) -> anyhow::Result<Outcome> {
         ));
     }
     // The measurement volume.
-    let p: Vec<Vec3> = sim
-        .world
-        .state
-        .position
-        .iter()
-        .map(|x| x.as_vec3())
-        .collect();
+    let p: Vec<Vec3> = sim.positions().iter().map(|x| x.as_vec3()).collect();
     let mut heights: Vec<f32> = p.iter().map(|q| q.z).collect();
     heights.sort_by(f32::total_cmp);
     let surface = heights[(0.95 * (n - 1) as f64) as usize];

@@ -396,7 +396,14 @@ impl Bisection {
     /// How far `x` is from rank `r`'s box (0 inside): along a periodic axis, from the
     /// nearest of `x`'s images.
     pub fn distance(&self, x: DVec3, r: usize) -> f64 {
-        let b = &self.boxes[r];
+        self.point_to(x, &self.boxes[r])
+    }
+
+    /// How far `x` is from the box `b` (0 inside), with the nearest images along the
+    /// periodic axes. Monotone in the box: a box inside `b` is never nearer (in floating
+    /// point too: each step is a monotone rounding), so a subtree of the cuts whose box is
+    /// out of reach has no rank within reach.
+    fn point_to(&self, x: DVec3, b: &[[f64; 2]; 3]) -> f64 {
         let mut d2 = 0.0;
         for a in 0..3 {
             let [lo, hi] = b[a];
@@ -409,5 +416,89 @@ impl Bisection {
             d2 += g * g;
         }
         d2.sqrt()
+    }
+
+    /// How far rank `r`'s box is from the box `b` (0 when they touch), with the nearest
+    /// images along the periodic axes; monotone in `b` as [`Bisection::point_to`] is.
+    fn box_to(&self, r: usize, b: &[[f64; 2]; 3]) -> f64 {
+        let a = &self.boxes[r];
+        let mut d2 = 0.0;
+        for k in 0..3 {
+            let gap = |shift: f64| {
+                (b[k][0] + shift - a[k][1])
+                    .max(a[k][0] - b[k][1] - shift)
+                    .max(0.0)
+            };
+            let g = match self.period[k] {
+                Some((p, q)) => gap(0.0).min(gap(q - p)).min(gap(p - q)),
+                None => gap(0.0),
+            };
+            d2 += g * g;
+        }
+        d2.sqrt()
+    }
+
+    /// The ranks, ascending, whose boxes are nearer `x` than `reach`
+    /// ([`Bisection::distance`]` < reach`): the ranks a body at `x` is a ghost on (but its
+    /// owner), found by walking the cuts from the root and leaving out every subtree whose
+    /// box is out of reach, O(log ranks + the ranks found) for a reach smaller than the
+    /// boxes, where testing every rank's box is O(ranks). The same ranks as that test, bit
+    /// for bit (each rank found is tested with [`Bisection::distance`]).
+    pub fn within(&self, x: DVec3, reach: f64) -> Vec<usize> {
+        let mut found = Vec::new();
+        self.walk(
+            |b| self.point_to(x, b) < reach,
+            |r| {
+                if self.distance(x, r) < reach {
+                    found.push(r);
+                }
+            },
+        );
+        found
+    }
+
+    /// The ranks, ascending, whose boxes are nearer rank `r`'s box than `reach`
+    /// ([`Bisection::box_distance`]` < reach`; `r` itself included), found by walking the
+    /// cuts as [`Bisection::within`] does: the same ranks as testing every box.
+    pub fn boxes_within(&self, r: usize, reach: f64) -> Vec<usize> {
+        let mut found = Vec::new();
+        self.walk(
+            |b| self.box_to(r, b) < reach,
+            |s| {
+                if self.box_distance(r, s) < reach {
+                    found.push(s);
+                }
+            },
+        );
+        found
+    }
+
+    /// Walks the cuts depth first, the first half before the second (so ranks come
+    /// ascending), entering a node only when `enter` takes its box, and calls `leaf` for
+    /// each rank reached.
+    fn walk(&self, enter: impl Fn(&[[f64; 2]; 3]) -> bool, mut leaf: impl FnMut(usize)) {
+        let outer: [[f64; 2]; 3] = std::array::from_fn(|a| match self.period[a] {
+            Some((lo, hi)) => [lo, hi],
+            None => [f64::NEG_INFINITY, f64::INFINITY],
+        });
+        // (node, first rank, ranks, box)
+        let mut stack = vec![(0usize, 0usize, self.ranks(), outer)];
+        while let Some((node, r0, n, b)) = stack.pop() {
+            if !enter(&b) {
+                continue;
+            }
+            if n == 1 {
+                leaf(r0);
+                continue;
+            }
+            let (axis, cut) = self.cuts[node];
+            let first = n.div_ceil(2);
+            let (mut low, mut high) = (b, b);
+            low[axis][1] = cut as f64;
+            high[axis][0] = cut as f64;
+            // The second half first onto the stack, so the first half comes off first.
+            stack.push((node + first, r0 + first, n - first, high));
+            stack.push((node + 1, r0, first, low));
+        }
     }
 }

@@ -101,11 +101,75 @@ pub trait Comm {
     fn min_u64(&self, x: u64) -> u64;
 }
 
+/// How a transport whose messages are limited to `limit` bytes (MPI counts are `int`: under
+/// 2 GiB) sends larger ones: in rounds, each message cut into pieces of at most
+/// `limit / ranks` bytes (so that a round's messages together, which an `Alltoallv` puts in
+/// one buffer with `int` offsets, stay within `limit` too). Every rank must take the same
+/// number of rounds ([`Rounds::needed`] of the longest message any rank sends or receives).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Rounds {
+    /// The most bytes of one message in one round.
+    pub piece: usize,
+}
+
+impl Rounds {
+    /// The rounds for `ranks` ranks under a limit of `limit` bytes a round (at least one
+    /// byte a piece).
+    pub fn new(limit: usize, ranks: usize) -> Rounds {
+        Rounds {
+            piece: (limit / ranks.max(1)).max(1),
+        }
+    }
+
+    /// Rounds needed for a message of `len` bytes (one at least, for the empty ones).
+    pub fn needed(&self, len: usize) -> usize {
+        len.div_ceil(self.piece).max(1)
+    }
+
+    /// Round `k`'s piece of `m`: bytes `k * piece..(k + 1) * piece` (empty past its end).
+    pub fn piece<'a>(&self, m: &'a [u8], k: usize) -> &'a [u8] {
+        let lo = k.saturating_mul(self.piece).min(m.len());
+        &m[lo..lo + self.piece_len(m.len(), k)]
+    }
+
+    /// The length of round `k`'s piece of a message of `len` bytes.
+    pub fn piece_len(&self, len: usize, k: usize) -> usize {
+        len.min((k + 1).saturating_mul(self.piece))
+            .saturating_sub(k.saturating_mul(self.piece))
+    }
+
+    /// An exchange of `send[r]` to each rank `r` whose messages from each rank `r` are
+    /// `recv_len[r]` bytes long, in `rounds` rounds (the same on every rank) of `round`
+    /// (an exchange of the pieces, given with the lengths of the pieces it receives); the
+    /// pieces received are joined back into whole messages.
+    pub fn exchange(
+        &self,
+        send: &[Vec<u8>],
+        recv_len: &[usize],
+        rounds: usize,
+        mut round: impl FnMut(Vec<Vec<u8>>, &[usize]) -> Vec<Vec<u8>>,
+    ) -> Vec<Vec<u8>> {
+        let mut got: Vec<Vec<u8>> = recv_len.iter().map(|&n| Vec::with_capacity(n)).collect();
+        for k in 0..rounds {
+            let pieces = send.iter().map(|m| self.piece(m, k).to_vec()).collect();
+            let lens: Vec<usize> = recv_len.iter().map(|&n| self.piece_len(n, k)).collect();
+            for (g, p) in got.iter_mut().zip(round(pieces, &lens)) {
+                g.extend_from_slice(&p);
+            }
+        }
+        got
+    }
+}
+
 /// The ranks of one process, one thread each (for tests): [`ThreadComm::group`] makes `n`
-/// handles, each to be moved into its own thread.
+/// handles, each to be moved into its own thread. With [`ThreadComm::group_limited`], no
+/// message between threads is longer than a limit: longer ones go in [`Rounds`], as over
+/// MPI (where the limit is `int`'s), so the splitting is tested with a small limit.
 pub struct ThreadComm {
     rank: usize,
     shared: Arc<Shared>,
+    /// The longest message passed in one piece (`usize::MAX`: any).
+    limit: usize,
 }
 
 struct Shared {
@@ -118,6 +182,12 @@ struct Shared {
 impl ThreadComm {
     /// `n` ranks, one handle per rank.
     pub fn group(n: usize) -> Vec<ThreadComm> {
+        Self::group_limited(n, usize::MAX)
+    }
+
+    /// `n` ranks whose messages pass in pieces of at most `limit` bytes a round (every
+    /// piece is checked: a longer one panics).
+    pub fn group_limited(n: usize, limit: usize) -> Vec<ThreadComm> {
         let shared = Arc::new(Shared {
             size: n,
             barrier: Barrier::new(n),
@@ -127,8 +197,31 @@ impl ThreadComm {
             .map(|rank| ThreadComm {
                 rank,
                 shared: shared.clone(),
+                limit,
             })
             .collect()
+    }
+
+    /// One exchange through the mailbox: `send[r]` to rank `r`, the messages to this rank
+    /// back. A round's messages together may not pass the limit.
+    fn post(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        assert_eq!(send.len(), self.shared.size, "one message per rank");
+        let total: usize = send.iter().map(Vec::len).sum();
+        assert!(
+            self.limit == usize::MAX || total <= self.limit,
+            "{total} bytes in one round, over the limit of {}",
+            self.limit
+        );
+        self.lock()[self.rank] = send;
+        self.shared.barrier.wait();
+        let got = {
+            let mut mail = self.lock();
+            (0..self.shared.size)
+                .map(|from| std::mem::take(&mut mail[from][self.rank]))
+                .collect()
+        };
+        self.shared.barrier.wait();
+        got
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Vec<Vec<u8>>>> {
@@ -147,17 +240,40 @@ impl Comm for ThreadComm {
     }
 
     fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
-        assert_eq!(send.len(), self.shared.size, "one message per rank");
-        self.lock()[self.rank] = send;
-        self.shared.barrier.wait();
-        let got = {
-            let mut mail = self.lock();
-            (0..self.shared.size)
-                .map(|from| std::mem::take(&mut mail[from][self.rank]))
-                .collect()
-        };
-        self.shared.barrier.wait();
-        got
+        if self.limit == usize::MAX {
+            return self.post(send);
+        }
+        // The lengths first (8 bytes each), then the rounds every rank agrees on (the most
+        // any rank needs), then the pieces.
+        let size = self.shared.size;
+        let rounds = Rounds::new(self.limit, size);
+        let lens = self.post(
+            send.iter()
+                .map(|m| (m.len() as u64).to_le_bytes().to_vec())
+                .collect(),
+        );
+        let recv_len: Vec<usize> = lens
+            .iter()
+            .map(|b| u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8])) as usize)
+            .collect();
+        let mine = send
+            .iter()
+            .map(Vec::len)
+            .chain(recv_len.iter().copied())
+            .map(|n| rounds.needed(n))
+            .max()
+            .unwrap_or(1) as u64;
+        let all = self.post(vec![mine.to_le_bytes().to_vec(); size]);
+        let n = all
+            .iter()
+            .map(|b| u64::from_le_bytes(b[..8].try_into().unwrap_or([0; 8])))
+            .max()
+            .unwrap_or(1) as usize;
+        rounds.exchange(&send, &recv_len, n, |pieces, lens| {
+            let got = self.post(pieces);
+            debug_assert!(got.iter().map(Vec::len).eq(lens.iter().copied()));
+            got
+        })
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {

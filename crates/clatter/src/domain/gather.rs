@@ -4,9 +4,9 @@
 
 use glam::DVec3;
 
-use super::Domain;
 use super::comm::Comm;
 use super::rows::{ContactRow, Reader, Writer};
+use super::{Domain, carry};
 use crate::contact_list::{ContactSprings, Contacts};
 use crate::mesh_boundary::MESH_SLOTS;
 use crate::step::mesh_contacts;
@@ -33,8 +33,8 @@ impl Share {
 }
 
 impl Domain {
-    /// The whole world (collective; on every rank): the template with every body's current
-    /// state, the contact list with all it carries (springs, forces, touching flags,
+    /// The whole world (collective; on every rank): the skeleton with every body's current
+    /// state and constants (sent by its owner), the contact list with all it carries (springs, forces, touching flags,
     /// separating-axis hints, separation bounds), the positions (and, with composites, the
     /// orientations) it was built at, the clock, the rebuild count and whether a rebuild is
     /// due, each body's mesh contact slots: bitwise the world one process would have (its
@@ -100,8 +100,8 @@ impl Domain {
     /// the clock, which is the same on every rank).
     fn assemble(&self, share: &Share, got: Vec<Vec<u8>>) -> World {
         let with_contacts = share.with_contacts;
-        let mut world = self.template.clone();
-        let n = world.len();
+        let n = self.bodies;
+        let mut world = carry::blank(&self.skeleton, n, Vec::new());
         let composites = world.has_composites();
         let mut pairs = Vec::new();
         let mut walls = Vec::new();
@@ -117,6 +117,7 @@ impl Domain {
             for _ in 0..r.u32() {
                 let id = r.u32() as usize;
                 r.state(&mut world.state, id);
+                r.consts(&mut world, id);
                 let x = r.dvec3();
                 let q = r.quat();
                 if r.u32() != 0 {
@@ -206,7 +207,8 @@ impl Domain {
         world
     }
 
-    /// The owned bodies for [`Domain::gather`]: id, state, and the pose at the last rebuild.
+    /// The owned bodies for [`Domain::gather`]: id, state, constants, and the pose at the
+    /// last rebuild.
     fn write_bodies(&self, w: &mut Writer) {
         let local = &self.local;
         let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
@@ -216,6 +218,7 @@ impl Domain {
         for &i in &owned {
             w.u32(self.ids[i]);
             w.state(&local.state, i);
+            w.consts(local, i);
             w.dvec3(if built {
                 local.rebuild_position[i]
             } else {

@@ -31,6 +31,7 @@
 //!   last good state stays in shares on the ranks ([`Domain::share`]) until a blow-up.
 
 mod bisection;
+mod carry;
 mod check;
 mod comm;
 mod gather;
@@ -38,7 +39,7 @@ mod rows;
 mod totals;
 
 pub use bisection::Bisection;
-pub use comm::{Comm, ThreadComm};
+pub use comm::{Comm, Rounds, ThreadComm};
 pub use gather::Share;
 pub use totals::Totals;
 
@@ -58,9 +59,12 @@ pub const REBALANCE_IMBALANCE: f64 = 0.10;
 
 /// One rank's part of a world stepped by a domain decomposition (see the module docs).
 pub struct Domain {
-    /// The whole world as it was given: shapes, materials, walls and every body's constants
-    /// (its states are not kept current; [`Domain::gather`] fills them in).
-    template: World,
+    /// The world's setting without its bodies (shapes, materials, walls, mesh boundaries,
+    /// sinks, `dt`, skin, code paths): what the local world and the gathered world are
+    /// built on. Bodies carry their constants ([`carry`]), so no rank keeps every body's.
+    skeleton: World,
+    /// The whole world's number of bodies.
+    bodies: usize,
     /// This rank's bodies and ghosts, in ascending global id.
     local: World,
     /// Global id of each local body, ascending.
@@ -94,9 +98,11 @@ impl Domain {
     /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
     pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
         let reach = 2.0 * world.consts.max_radius() + world.skin;
+        let skeleton = world.subset(&[], Vec::new());
         let empty = world.subset(&[], Vec::new());
         let mut domain = Domain {
-            template: world,
+            skeleton,
+            bodies: world.len(),
             local: empty,
             ids: Vec::new(),
             boxes: None,
@@ -108,18 +114,17 @@ impl Domain {
             moved: f32::INFINITY,
             sparse_migrations: 0,
         };
-        let w = &domain.template;
+        let w = &world;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
         if current {
             // A world with a current contact list (a resumed checkpoint, a cached pile):
             // split as it stands, so every rank steps its share from the first step.
-            domain.split_current(rank, ranks);
+            domain.split_current(&world, rank, ranks);
         } else {
             // A new world: rank 0 takes it whole, and the first step's rebuild distributes
             // it.
-            let world = &domain.template;
             let (ids, local) = if rank == 0 {
-                ((0..world.len() as u32).collect(), world.clone())
+                ((0..world.len() as u32).collect(), world)
             } else {
                 let mut empty = world.subset(&[], Vec::new());
                 empty.set_needs_rebuild(world.needs_rebuild());
@@ -131,7 +136,7 @@ impl Domain {
         domain
     }
 
-    /// Splits the template, whose contact list is current (built at `rebuild_position`),
+    /// Splits `world` (given whole to every rank), whose contact list is current (built at `rebuild_position`),
     /// between the ranks without a rebuild: the boxes, the owners and the ghosts are those a
     /// rebuild at the rebuild positions would have chosen (so every Verlet partner of an
     /// owned body is on its rank, as after [`Domain::migrate`]), and each rank's contact
@@ -139,8 +144,7 @@ impl Domain {
     /// bodies' wall contacts, with everything they carry (springs, forces, touching flags,
     /// hints, bounds): in ascending global id, so in the one-process order. The mesh
     /// candidates are found again at the rebuild poses and time.
-    fn split_current(&mut self, rank: usize, ranks: usize) {
-        let world = &self.template;
+    fn split_current(&mut self, world: &World, rank: usize, ranks: usize) {
         let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
         let boxes = Bisection::balanced(&built, ranks, world.periodic.as_ref(), None);
         let mut ids = Vec::new();
@@ -242,12 +246,6 @@ impl Domain {
         self.recv = recv;
         self.boxes = Some(boxes);
         self.recuts += 1;
-    }
-
-    /// The world as it was given to [`Domain::new`], on every rank (its states are those of
-    /// the start, never updated): the last good state of a run until its first full check.
-    pub fn initial(&self) -> &World {
-        &self.template
     }
 
     /// This rank's world: the bodies it owns and its ghosts, in ascending global id.
@@ -438,9 +436,10 @@ impl Domain {
             if local.is_ghost(i) {
                 recv[boxes.owner(x)].push(i as u32);
             } else {
-                for (s, list) in send.iter_mut().enumerate() {
-                    if self.near(boxes, x, s) {
-                        list.push(i as u32);
+                let o = boxes.owner(x);
+                for s in boxes.within(x, self.ghost_reach(x)) {
+                    if s != o {
+                        send[s].push(i as u32);
                     }
                 }
             }
@@ -488,16 +487,21 @@ impl Domain {
             if o != comm.rank() && self.boxes.is_some() {
                 self.handed_over += 1;
             }
-            for (s, (n, w)) in bodies.iter_mut().enumerate() {
-                let ghost = s != o && boxes.distance(x, s) < self.ghost_reach(x);
-                if s == o || ghost {
-                    *n += 1;
-                    w.u32(self.ids[i]);
-                    w.u32((s == o) as u32);
-                    w.state(&local.state, i);
-                    for slot in local.mesh.body_slots(i) {
-                        w.slot(slot);
-                    }
+            // The owner, and the ranks within the ghost reach (the cut tree walked, not
+            // every rank's box tested).
+            let mut to = boxes.within(x, self.ghost_reach(x));
+            if !to.contains(&o) {
+                to.push(o);
+            }
+            for s in to {
+                let (n, w) = &mut bodies[s];
+                *n += 1;
+                w.u32(self.ids[i]);
+                w.u32((s == o) as u32);
+                w.state(&local.state, i);
+                w.consts(local, i);
+                for slot in local.mesh.body_slots(i) {
+                    w.slot(slot);
                 }
             }
         }
@@ -608,9 +612,11 @@ impl Domain {
         let moved = (self.moved as f64).sqrt();
         let margin = far[0] as f64 * 1.001;
         let within = self.reach as f64 * 1.01 + 2.0 * margin / 1_048_576.0 + moved * 1.000_001;
-        let peers: Vec<bool> = (0..boxes.ranks())
-            .map(|s| s == me || boxes.box_distance(me, s) < within + margin * 1e-6)
-            .collect();
+        let mut peers = vec![false; boxes.ranks()];
+        peers[me] = true;
+        for s in boxes.boxes_within(me, within + margin * 1e-6) {
+            peers[s] = true;
+        }
         let stray = msgs
             .iter()
             .zip(&peers)
@@ -629,7 +635,7 @@ impl Domain {
     /// the local broad phase on it.
     fn install(&mut self, got: &[Vec<u8>], boxes: Bisection) {
         // Mesh contact slots per body (none without boundaries).
-        let slots = if self.template.boundaries.is_empty() {
+        let slots = if self.skeleton.boundaries.is_empty() {
             0
         } else {
             MESH_SLOTS
@@ -645,6 +651,7 @@ impl Domain {
                 let owned = r.u32() != 0;
                 entries.push((id, owned, from, r.position()));
                 r.skip_state();
+                r.skip_consts();
                 r.skip_slots(slots);
             }
             for _ in 0..r.u32() {
@@ -657,11 +664,12 @@ impl Domain {
         entries.sort_unstable_by_key(|e| e.0);
         let ids: Vec<u32> = entries.iter().map(|e| e.0).collect();
         let ghost: Vec<bool> = entries.iter().map(|e| !e.1).collect();
-        let mut local = self.template.subset(&ids, ghost);
+        let mut local = carry::blank(&self.skeleton, ids.len(), ghost);
         let mut mesh_slots = Vec::with_capacity(entries.len() * slots);
         for (i, &(_, _, from, at)) in entries.iter().enumerate() {
             let mut r = Reader::at(&got[from], at);
             r.state(&mut local.state, i);
+            r.consts(&mut local, i);
             mesh_slots.extend((0..slots).map(|_| r.slot()));
         }
         if slots > 0 {

@@ -8,10 +8,15 @@ use glam::{DVec3, Quat, Vec3};
 use crate::bodies::BodyStates;
 use crate::contract::ContactForce;
 use crate::mesh_boundary::MeshSlot;
+use crate::world::World;
 
 /// The size of a state written by [`Writer::state`]: position (3 f64), velocity,
 /// orientation, its residual, angular momentum, angular velocity (f32) and the removed flag.
 pub(crate) const STATE_BYTES: usize = 24 + 12 + 16 + 16 + 12 + 12 + 4;
+
+/// The size of a body's constants written by [`Writer::consts`]: shape, material, sphere
+/// flag, mass, inertia, inverse mass and inertia, bounding and equivalent radius, reach.
+pub(crate) const CONST_BYTES: usize = 4 * 14;
 
 /// The size of a mesh contact slot written by [`Writer::slot`].
 pub(crate) const SLOT_BYTES: usize = 12 + 12 + 12 + 4 + 40;
@@ -69,6 +74,22 @@ impl Writer {
         self.vec3(m.history);
         self.f32(m.twist);
         self.force(&m.force);
+    }
+
+    /// Body `i`'s constants (what the step reads of it besides its state: they travel with
+    /// the body, so no rank keeps every body's), bit for bit.
+    pub fn consts(&mut self, w: &World, i: usize) {
+        let c = &w.consts;
+        self.u32(c.shape[i]);
+        self.u32(c.material[i]);
+        self.u32(c.is_sphere[i] as u32);
+        self.f32(c.mass[i]);
+        self.vec3(c.inertia[i]);
+        self.f32(c.inv_mass[i]);
+        self.vec3(c.inv_inertia[i]);
+        self.f32(c.radius[i]);
+        self.f32(c.equivalent_radius[i]);
+        self.f32(w.reach.get(i).copied().unwrap_or(0.0));
     }
 
     /// Body `i`'s state.
@@ -164,6 +185,28 @@ impl<'a> Reader<'a> {
             twist: self.f32(),
             force: self.force(),
         }
+    }
+    /// Constants written by [`Writer::consts`], into body `i` of `w` (whose reach is kept
+    /// only in a world with composites, as [`World::new`] keeps it).
+    pub fn consts(&mut self, w: &mut World, i: usize) {
+        let c = &mut w.consts;
+        c.shape[i] = self.u32();
+        c.material[i] = self.u32();
+        c.is_sphere[i] = self.u32() != 0;
+        c.mass[i] = self.f32();
+        c.inertia[i] = self.vec3();
+        c.inv_mass[i] = self.f32();
+        c.inv_inertia[i] = self.vec3();
+        c.radius[i] = self.f32();
+        c.equivalent_radius[i] = self.f32();
+        let reach = self.f32();
+        if let Some(r) = w.reach.get_mut(i) {
+            *r = reach;
+        }
+    }
+    /// Skips constants written by [`Writer::consts`].
+    pub fn skip_consts(&mut self) {
+        self.at += CONST_BYTES;
     }
     /// Skips `n` slots.
     pub fn skip_slots(&mut self, n: usize) {
