@@ -523,7 +523,8 @@ fn pile_pairs_remember_their_contacts_on_the_gpu() {
     }
     let mut gpu = GpuWorld::new(ctx, &cpu).expect("scene fits");
     let mut host = cpu.clone();
-    // The CPU's `axis_motion_bound` (no composites) on the state the GPU step starts from.
+    // The GPU's `axis_motion_bound` (no composites: the CPU's first form, 1-norms and the
+    // lever `2 (r_i + r_j)`) on the state the GPU step starts from.
     let axis_motion = |w: &World, i: usize, j: usize| {
         let l1 = |v: Vec3| v.x.abs() + v.y.abs() + v.z.abs();
         let s = &w.state;
