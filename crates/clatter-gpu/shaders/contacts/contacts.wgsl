@@ -81,27 +81,19 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
 
 // An upper bound of how much the separation along any axis of the separating-axis test of
 // bodies i and j (j at offset xj) can have changed in the last step: the CPU's
-// `axis_motion_bound` (step/contacts.rs, see there why): with composites, 1-norms and the
-// lever 3 (r_i + r_j); else the norms themselves and the lever |xj| + moved + max(r_i, r_j);
-// plus rounding.
+// `axis_motion_bound` (step/contacts.rs, see there why) in its looser first form (1-norms,
+// the lever 3 (r_i + r_j) with composites, else 2 (r_i + r_j)), plus rounding.
 fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
+    let vi = abs(bodies[i].velocity.xyz);
+    let vj = abs(bodies[j].velocity.xyz);
+    let oi = abs(bodies[i].omega.xyz);
+    let oj = abs(bodies[j].omega.xyz);
     let x = abs(xj);
-    let ri = statics[i].radius;
-    let rj = statics[j].radius;
-    let r = ri + rj;
+    let r = statics[i].radius + statics[j].radius;
+    let lever = select(2.0, 3.0, params.composites != 0u) * r;
+    let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * params.dt;
+    let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * params.dt;
     let rounding = (x.x + x.y + x.z) * (1.0 / 8388608.0) + 4e-6 * r;
-    if (params.composites != 0u) {
-        let vi = abs(bodies[i].velocity.xyz);
-        let vj = abs(bodies[j].velocity.xyz);
-        let oi = abs(bodies[i].omega.xyz);
-        let oj = abs(bodies[j].omega.xyz);
-        let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * params.dt;
-        let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * params.dt;
-        return (moved + turned * 3.0 * r) * 1.00001 + rounding;
-    }
-    let moved = (length(bodies[i].velocity.xyz) + length(bodies[j].velocity.xyz)) * params.dt;
-    let turned = (length(bodies[i].omega.xyz) + length(bodies[j].omega.xyz)) * params.dt;
-    let lever = length(xj) + moved + max(ri, rj);
     return (moved + turned * lever) * 1.00001 + rounding;
 }
 
