@@ -523,7 +523,8 @@ fn pile_pairs_remember_their_contacts_on_the_gpu() {
     }
     let mut gpu = GpuWorld::new(ctx, &cpu).expect("scene fits");
     let mut host = cpu.clone();
-    // The CPU's `axis_motion_bound` (no composites) on the state the GPU step starts from.
+    // The GPU's `axis_motion_bound` (no composites: the CPU's first form, 1-norms and the
+    // lever `2 (r_i + r_j)`) on the state the GPU step starts from.
     let axis_motion = |w: &World, i: usize, j: usize| {
         let l1 = |v: Vec3| v.x.abs() + v.y.abs() + v.z.abs();
         let s = &w.state;
@@ -597,10 +598,11 @@ fn pile_pairs_remember_their_contacts_on_the_gpu() {
         "too few touching pair-steps: {gpu_touching}"
     );
     assert!(gpu_kept * 10 > gpu_touching, "{gpu_kept} of {gpu_touching}");
-    // The two executors take the remembered path alike (not bitwise: their rounding differs).
-    let diff = (gpu_kept as f64 - cpu_used as f64).abs();
+    // The GPU's motion bound is the CPU's first, looser form (porting the CPU's tighter one
+    // changes the GPU's results in the last bits: branch `poly3-gpu-bound`), so the GPU keeps
+    // its contact no more often than the CPU (within a tenth: their rounding differs).
     assert!(
-        diff <= 0.1 * cpu_used as f64,
+        gpu_kept as f64 <= 1.1 * cpu_used as f64,
         "GPU {gpu_kept}, CPU {cpu_used}"
     );
 }

@@ -163,12 +163,19 @@ pub fn polyhedron_polyhedron(
     let rot = glam::Mat3::from_quat(rot_q);
     let inv_rot = rot.transpose();
     let t = inv_a * d;
+    // An edge search already made at these poses, if any (see `remembered_edge`).
+    let mut searched = None;
     if is_contact_hint(*hint) {
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
         let rel = Relative { rot, inv_rot, t };
         let found = if face == EDGE_CONTACT {
-            // The full edge search again, without the face axes.
-            SCRATCH.with_borrow_mut(|sc| remembered_edge(a, pa, b, &rel, sc, margin))
+            // The full edge search again, without the face axes; when it fails, its answer
+            // (if it is the search's without a floor) serves the full test below.
+            SCRATCH
+                .with_borrow_mut(|sc| remembered_edge(a, pa, b, &rel, sc, margin))
+                .map_err(|e| searched = e)
+                .ok()
+                .map(Some)
         } else if margin > 0.0 {
             // The full test would choose the remembered face again: clip it alone.
             SCRATCH.with_borrow_mut(|sc| {
@@ -230,7 +237,8 @@ pub fn polyhedron_polyhedron(
             return None;
         }
     }
-    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, rot, inv_rot, t, sc, hint, bound))
+    let rel = Relative { rot, inv_rot, t };
+    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, &rel, sc, searched, hint, bound))
 }
 
 /// B's rotation and offset in A's frame.
@@ -280,7 +288,9 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 
 /// An edge contact found at an earlier step: the full edge-axis search again (the winning
 /// edge pair is then the full test's by construction), without the face axes, whose
-/// decisions are known otherwise. `None` when the full test must run.
+/// decisions are known otherwise. `Err` when the full test must run, with the search's
+/// answer when it is the one a search without a floor gives (see [`exact_search`]): the
+/// full test takes it instead of searching again at the same poses.
 ///
 /// The full test keeps an edge contact when `best_e > face_best + tol`. The best face
 /// axis's separation moves by at most the bodies' motion bound per step (see
@@ -295,7 +305,7 @@ fn remembered_edge(
     rel: &Relative,
     sc: &mut Scratch,
     margin: f32,
-) -> Option<Option<Manifold>> {
+) -> Result<Manifold, Option<EdgeFound>> {
     let Scratch {
         bv,
         b_soa,
@@ -307,7 +317,7 @@ fn remembered_edge(
     // edge: a best edge axis is never positive (a positive one separates, and the full test
     // must run), so `best_e + margin > 0` fails.
     if margin.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return None;
+        return Err(None);
     }
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
@@ -316,10 +326,13 @@ fn remembered_edge(
         a_local.fill(&a.vertices);
     }
     // Axes at or below `-margin` fail the test below whether they win or not: left out.
-    let best_e = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin).ok()?;
+    let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin);
+    let exact = exact_search(a, b, &found, -margin);
+    let keep = |found: EdgeFound| if exact { Some(found) } else { None };
+    let best_e = found.map_err(|e| keep(Err(e)))?;
     // (Written so that a NaN fails the test too.)
     if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return None;
+        return Err(keep(Ok(best_e)));
     }
     let (m, qb) = edge_manifold(a, b, pa, bv, best_e);
     let delta = 2e-5 * (a.radius + b.radius);
@@ -327,7 +340,24 @@ fn remembered_edge(
         .faces
         .iter()
         .all(|f| f.normal.dot(qb) - f.offset <= -delta);
-    inside.then_some(Some(m))
+    if inside { Ok(m) } else { Err(keep(Ok(best_e))) }
+}
+
+/// An edge search's answer: the best edge axis, or the separating one (its hint and
+/// separation).
+type EdgeFound = Result<EdgeAxis, (SatHint, f32)>;
+
+/// Whether `found`, from [`edge_search`] with `floor`, is what the search gives with no
+/// floor, and so with any: the Gauss-map search takes no floor; by direction, a separating
+/// axis (positive, above any floor: every axis left out is at or below the floor, so none
+/// separates, and the first that does is the same), or a best axis above the floor
+/// (returned exactly as with no floor, see [`edge_search`]).
+fn exact_search(a: &ConvexPolyhedron, b: &ConvexPolyhedron, found: &EdgeFound, floor: f32) -> bool {
+    match found {
+        _ if !edges_by_direction(a, b) => true,
+        Err(_) => true,
+        Ok(e) => e.0 > floor,
+    }
 }
 
 /// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
@@ -475,17 +505,19 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
-/// The full separating-axis test with B at rotation `rot` and offset `t` in A's frame.
+/// The full separating-axis test with B at `rel` in A's frame. `searched`: the answer of an
+/// edge search with no floor at these poses, if one was made ([`remembered_edge`]), taken
+/// for the test's own (the same answer: a search with a floor only leaves out axes at or
+/// below it).
 #[allow(clippy::too_many_arguments)]
 fn sat_full(
     a: &ConvexPolyhedron,
     pa: &Pose,
     b: &ConvexPolyhedron,
     pb: &Pose,
-    rot: glam::Mat3,
-    inv_rot: glam::Mat3,
-    t: Vec3,
+    rel: &Relative,
     sc: &mut Scratch,
+    searched: Option<EdgeFound>,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<Manifold> {
@@ -496,6 +528,7 @@ fn sat_full(
         tables,
         clip,
     } = sc;
+    let Relative { rot, inv_rot, t } = *rel;
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rot * v + t));
     let bv: &[Vec3] = bv;
@@ -537,11 +570,14 @@ fn sat_full(
             second_b = s;
         }
     }
-    let rel = Relative { rot, inv_rot, t };
     // Edge axes at or below the best face axis change no decision below (nor the margin:
     // `contact_margin` takes the larger of the two), so the search may leave them out.
     let face_best = best_a.0.max(best_b.0);
-    let best_e = match edge_search(a, b, &rel, bv, a_local, b_soa, tables, face_best) {
+    let found = match searched {
+        Some(found) => found,
+        None => edge_search(a, b, rel, bv, a_local, b_soa, tables, face_best),
+    };
+    let best_e = match found {
         Ok(e) => e,
         Err((h, s)) => {
             *hint = h;

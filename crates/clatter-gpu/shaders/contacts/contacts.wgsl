@@ -81,8 +81,8 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
 
 // An upper bound of how much the separation along any axis of the separating-axis test of
 // bodies i and j (j at offset xj) can have changed in the last step: the CPU's
-// `axis_motion_bound` (step/contacts.rs, see there why), the lever 3 (r_i + r_j) with
-// composites, else 2 (r_i + r_j), plus rounding.
+// `axis_motion_bound` (step/contacts.rs, see there why) in its looser first form (1-norms,
+// the lever 3 (r_i + r_j) with composites, else 2 (r_i + r_j)), plus rounding.
 fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
     let vi = abs(bodies[i].velocity.xyz);
     let vj = abs(bodies[j].velocity.xyz);

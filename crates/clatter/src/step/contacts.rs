@@ -522,13 +522,14 @@ fn narrow_pair<const PIECES: bool>(
 }
 
 /// An upper bound of how far any point of body `i` moved in the last step, from its
-/// current velocities: `(|v|_1 + |w|_1 r) dt` (1-norms bound 2-norms without a square
-/// root), plus margins for rounding.
+/// current velocities: `(|v| + |w| r) dt` (a point at most `r` from the centre moves with
+/// it and turns by at most `|w| dt`), plus margins for rounding (the square roots'
+/// relative error is a few ulps, well inside the relative margin).
 #[inline]
 fn motion_bound(w: &World, i: usize) -> f32 {
-    let (v, om) = (w.state.velocity[i].abs(), w.state.omega[i].abs());
+    let (v, om) = (w.state.velocity[i].length(), w.state.omega[i].length());
     let r = w.consts.radius[i];
-    ((v.x + v.y + v.z) + (om.x + om.y + om.z) * r) * w.dt * 1.000_001 + 1e-6 * r
+    (v + om * r) * w.dt * 1.000_001 + 1e-6 * r
 }
 
 /// An upper bound of how much the separation along any axis of the separating-axis test
@@ -538,31 +539,43 @@ fn motion_bound(w: &World, i: usize) -> f32 {
 /// projection of B's vertices in A's frame, less a constant; so it moves no more than those
 /// vertices do (and likewise for B's faces with A's vertices in B's frame; the largest
 /// separation along any direction too, which bounds the edge axes: see
-/// `clatter_geom::narrow`). B's vertex in A's frame is `y = R_a^T (x_b + R_b p - x_a)` with
-/// `|p| <= r_b`. Over the step, `x_a`, `x_b` move by at most `|v| dt` (the step that
-/// brought them here: semi-implicit Euler moves by the current velocity), and `R_a`, `R_b`
-/// turn by angles `th <= |w| dt`. Then `|y' - y| <= |dx_a| + |dx_b| + th_b r_b + th_a |x_b +
-/// R_b p - x_a|`, exactly (`|(R'^T - R^T) z| <= th |z|`), and the pair touched last step, so
-/// its centres were closer than `r_a + r_b` and the last lever is below `r_a + 2 r_b`. Both
-/// frames together: `(|v_a| + |v_b|) dt + (|w_a| + |w_b|) dt 2 (r_a + r_b)`, with 1-norms
-/// bounding 2-norms without a square root. A piece of a composite also moves with its
-/// offset from the body's centre, at most `r` (the body's bounding radius, which is also
-/// above the pieces'): the lever grows to `3 (r_a + r_b)`.
+/// `clatter_geom::narrow`). B's vertex in A's frame is `y = R_a^T z` with `z = x_b + R_b p -
+/// x_a` and `|p| <= r_b`. Over the step, `x_a`, `x_b` move by at most `|v| dt` (the step
+/// that brought them here: semi-implicit Euler moves by the current velocity), and `R_a`,
+/// `R_b` turn by angles `th <= |w| dt`. Then `y' - y = R_a'^T (z' - z) + (R_a'^T - R_a^T)
+/// z`, with `|z' - z| <= |dx_a| + |dx_b| + th_b r_b` and `|(R'^T - R^T) z| <= th_a |z|`
+/// exactly; `|z| <= |d_then| + r_b`, and the centres' distance then was at most `|d| +
+/// |dx_a| + |dx_b|` from the current offset `d`. So with `m = (|v_a| + |v_b|) dt` and `R =
+/// max(r_a, r_b)`, both frames' vertices move by at most `m + (th_a + th_b) (|d| + m +
+/// R)` (each frame's bound, `m + th_b r_b + th_a (|d| + m + r_b)` and its mirror, is below
+/// it). The plain path takes the norms themselves (square roots, rounded within the
+/// relative margin below).
+///
+/// A piece of a composite also moves with its offset from the body's centre, at most `r`
+/// (the body's bounding radius, which is also above the pieces'): there, with 1-norms
+/// bounding 2-norms and the pair touching last step (centres closer than `r_a + r_b`), the
+/// lever is `3 (r_a + r_b)`.
 ///
 /// Plus rounding: the positions' own (half an ulp per coordinate per step, bounded by
 /// `2^-23 |x|_1` for both bodies), the quaternions' renormalisation (a few ulps of a turn),
-/// and a relative margin on the products.
+/// and a relative margin on the products and square roots.
 #[inline]
 fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize, d: Vec3) -> f32 {
     let s = &w.state;
-    let (vi, vj) = (s.velocity[i].abs(), s.velocity[j].abs());
-    let (oi, oj) = (s.omega[i].abs(), s.omega[j].abs());
     // Body i sits at the origin of the pair's frame, j at `d` (see `World::offset_of`).
     let xj = d.abs();
-    let r = w.consts.radius[i] + w.consts.radius[j];
-    let lever = if PIECES { 3.0 * r } else { 2.0 * r };
-    let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * w.dt;
-    let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * w.dt;
+    let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
+    let r = ri + rj;
     let rounding = (xj.x + xj.y + xj.z) * (1.0 / 8_388_608.0) + 4e-6 * r;
+    if PIECES {
+        let (vi, vj) = (s.velocity[i].abs(), s.velocity[j].abs());
+        let (oi, oj) = (s.omega[i].abs(), s.omega[j].abs());
+        let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * w.dt;
+        let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * w.dt;
+        return (moved + turned * 3.0 * r) * 1.000_01 + rounding;
+    }
+    let moved = (s.velocity[i].length() + s.velocity[j].length()) * w.dt;
+    let turned = (s.omega[i].length() + s.omega[j].length()) * w.dt;
+    let lever = d.length() + moved + ri.max(rj);
     (moved + turned * lever) * 1.000_01 + rounding
 }
