@@ -376,21 +376,7 @@ impl Bisection {
     /// axis, between the nearest images. Never more than [`Bisection::distance`] from any
     /// point of `r`'s box to `s`'s.
     pub fn box_distance(&self, r: usize, s: usize) -> f64 {
-        let (a, b) = (&self.boxes[r], &self.boxes[s]);
-        let mut d2 = 0.0;
-        for k in 0..3 {
-            let gap = |shift: f64| {
-                (b[k][0] + shift - a[k][1])
-                    .max(a[k][0] - b[k][1] - shift)
-                    .max(0.0)
-            };
-            let g = match self.period[k] {
-                Some((p, q)) => gap(0.0).min(gap(q - p)).min(gap(p - q)),
-                None => gap(0.0),
-            };
-            d2 += g * g;
-        }
-        d2.sqrt()
+        self.box_to(r, &self.boxes[s])
     }
 
     /// How far `x` is from rank `r`'s box (0 inside): along a periodic axis, from the

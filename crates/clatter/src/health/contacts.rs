@@ -86,17 +86,7 @@ pub(super) fn contact_report(world: &World, k: usize) -> Option<ContactReport> {
     }
     let (body, other) = world.contacts.partners(k);
     // A body removed by a sink in the last step is still in the list until the rebuild.
-    if world.is_removed(body as usize)
-        || matches!(other, Partner::Body(j) if world.is_removed(j as usize))
-    {
-        return None;
-    }
-    Some(ContactReport {
-        body,
-        other,
-        manifold: collide(world, body, other)?,
-        force: springs.forces[k],
-    })
+    overlap_report(world, body, other, springs.forces[k])
 }
 
 /// The contact law's parameters, effective radius and point share of a contact.
@@ -149,20 +139,8 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
     let grid = Grid::around(&positions, 2.0 * world.consts.max_radius());
     let radii = &world.consts.radius;
     let pairs = broad::pairs_periodic(&grid, &positions, radii, 0.0, world.periodic.as_ref());
-    let report = |body: u32, other: Partner| {
-        // Bodies removed by a sink touch nothing.
-        if world.is_removed(body as usize)
-            || matches!(other, Partner::Body(j) if world.is_removed(j as usize))
-        {
-            return None;
-        }
-        Some(ContactReport {
-            body,
-            other,
-            manifold: collide(world, body, other)?,
-            force: ContactForce::default(),
-        })
-    };
+    let report =
+        |body: u32, other: Partner| overlap_report(world, body, other, ContactForce::default());
     let mut out: Vec<ContactReport> = pairs
         .par_iter()
         .with_min_len(256)
@@ -190,6 +168,27 @@ pub fn find_contacts(world: &World) -> Vec<ContactReport> {
         out.extend(meshes);
     }
     out
+}
+
+/// The report of `body` against `other` with `force` if they overlap at the current positions;
+/// `None` if not, or if either body was removed by a sink (removed bodies touch nothing).
+fn overlap_report(
+    world: &World,
+    body: u32,
+    other: Partner,
+    force: ContactForce,
+) -> Option<ContactReport> {
+    if world.is_removed(body as usize)
+        || matches!(other, Partner::Body(j) if world.is_removed(j as usize))
+    {
+        return None;
+    }
+    Some(ContactReport {
+        body,
+        other,
+        manifold: collide(world, body, other)?,
+        force,
+    })
 }
 
 /// The manifold of `body` and `other` at the current positions, relative to `body`'s
