@@ -53,11 +53,13 @@ pub fn bench(comm: &MpiComm, args: BenchArgs) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for &n in &plan.counts {
         let world = start(comm, &plan, n, &params, &args)?;
-        let row = time(comm, world, &plan, &params, &args)?;
-        if rank == 0 && !args.json {
-            bench::print_row(&row);
+        // The row is rank 0's (the other ranks get `None`).
+        if let Some(row) = time(comm, world, &plan, &params, &args)? {
+            if !args.json {
+                bench::print_row(&row);
+            }
+            rows.push(row);
         }
-        rows.push(row);
     }
     if rank == 0 && args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
@@ -107,15 +109,15 @@ fn start(
     comm.agree(restored)
 }
 
-/// The settle steps and the timed steps of one row on all ranks; the row (on every rank,
-/// printed by rank 0).
+/// The settle steps and the timed steps of one row on all ranks; the row on rank 0, which
+/// alone gathers the pile (`None` on the other ranks, which keep only their shares).
 fn time(
     comm: &MpiComm,
     world: World,
     plan: &bench::Plan,
     params: &PileParams,
     args: &BenchArgs,
-) -> anyhow::Result<Row> {
+) -> anyhow::Result<Option<Row>> {
     let (rank, ranks) = (comm.rank(), comm.size());
     let n = world.len();
     let mut domain = Domain::new(world, rank, ranks);
@@ -135,11 +137,9 @@ fn time(
     let mut settle = StepCounts::default();
     stepped(&mut domain, args.settle, &mut settle, "settling")?;
     if let Some(dir) = &args.emit_lammps {
-        let whole = domain.gather(comm);
-        let written = if rank == 0 {
-            bench::write_lammps(dir, &whole, params, args.steps)
-        } else {
-            Ok(())
+        let written = match domain.gather_root(comm) {
+            Some(whole) => bench::write_lammps(dir, &whole, params, args.steps),
+            None => Ok(()),
         };
         comm.agree(written)?;
     }
@@ -154,9 +154,11 @@ fn time(
     // Touching contacts per step over all ranks, summed as one process sums them.
     let contacts: usize = counts.totals(comm).iter().sum();
     report_loads(comm, &domain);
-    let whole = domain.gather(comm);
+    let Some(whole) = domain.gather_root(comm) else {
+        return Ok(None);
+    };
     let sps = args.steps as f64 / secs;
-    Ok(Row {
+    Ok(Some(Row {
         shape: plan.name,
         bodies: n,
         steps: args.steps,
@@ -176,7 +178,7 @@ fn time(
         kernels: Vec::new(),
         pairs: None,
         copy_bandwidth_gb_s: None,
-    })
+    }))
 }
 
 /// Rank 0 says on stderr how many bodies each rank owns and holds as ghosts after the

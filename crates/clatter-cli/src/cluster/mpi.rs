@@ -131,6 +131,59 @@ fn padded(m: &[u8]) -> Vec<u8> {
     p
 }
 
+impl MpiComm {
+    /// Every rank's `mine`, by rank: on every rank (`Allgatherv`), or on rank 0 alone
+    /// (`Gatherv`, the others get nothing and never hold more than their own message).
+    /// Every rank learns every length first, so all take the same rounds (almost always
+    /// one) without another collective.
+    fn gathered(&self, mine: &[u8], to_root: bool) -> Vec<Vec<u8>> {
+        let mut lens = vec![0u64; self.size()];
+        self.world
+            .all_gather_into(&(mine.len() as u64), &mut lens[..]);
+        let rounds = Rounds::new(self.limit, self.size());
+        let n = lens
+            .iter()
+            .map(|&l| rounds.needed(l as usize))
+            .max()
+            .unwrap_or(1);
+        let receives = !to_root || self.rank() == 0;
+        let mut got: Vec<Vec<u8>> = if receives {
+            lens.iter()
+                .map(|&l| Vec::with_capacity(l as usize))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let root = self.world.process_at_rank(0);
+        for k in 0..n {
+            let piece = padded(rounds.piece(mine, k));
+            if !receives {
+                root.gather_varcount_into(&piece[..]);
+                continue;
+            }
+            let counts: Vec<i32> = lens
+                .iter()
+                .map(|&l| count(rounds.piece_len(l as usize, k) + 1))
+                .collect();
+            let total: usize = counts.iter().map(|&c| c as usize).sum();
+            let mut buf = vec![0u8; total];
+            let d = displacements(&counts);
+            {
+                let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
+                if to_root {
+                    root.gather_varcount_into_root(&piece[..], &mut recvp);
+                } else {
+                    self.world.all_gather_varcount_into(&piece[..], &mut recvp);
+                }
+            }
+            for (g, p) in got.iter_mut().zip(split(&buf, &counts)) {
+                g.extend_from_slice(&p);
+            }
+        }
+        got
+    }
+}
+
 impl Comm for MpiComm {
     fn rank(&self) -> usize {
         self.world.rank() as usize
@@ -208,39 +261,11 @@ impl Comm for MpiComm {
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
-        // Every rank learns every length, so all take the same rounds (one
-        // `Allgatherv` each; almost always one) without another collective.
-        let mut lens = vec![0u64; self.size()];
-        self.world
-            .all_gather_into(&(mine.len() as u64), &mut lens[..]);
-        let rounds = Rounds::new(self.limit, self.size());
-        let n = lens
-            .iter()
-            .map(|&l| rounds.needed(l as usize))
-            .max()
-            .unwrap_or(1);
-        let mut got: Vec<Vec<u8>> = lens
-            .iter()
-            .map(|&l| Vec::with_capacity(l as usize))
-            .collect();
-        for k in 0..n {
-            let piece = padded(rounds.piece(mine, k));
-            let counts: Vec<i32> = lens
-                .iter()
-                .map(|&l| count(rounds.piece_len(l as usize, k) + 1))
-                .collect();
-            let total: usize = counts.iter().map(|&c| c as usize).sum();
-            let mut buf = vec![0u8; total];
-            let d = displacements(&counts);
-            {
-                let mut recvp = PartitionMut::new(&mut buf[..], &counts[..], &d[..]);
-                self.world.all_gather_varcount_into(&piece[..], &mut recvp);
-            }
-            for (g, p) in got.iter_mut().zip(split(&buf, &counts)) {
-                g.extend_from_slice(&p);
-            }
-        }
-        got
+        self.gathered(mine, false)
+    }
+
+    fn gather_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        self.gathered(mine, true)
     }
 
     fn max_f32(&self, x: f32) -> f32 {
@@ -533,10 +558,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
             _ => false,
         };
         if plan.out.is_some() && (frame || checkpoint) {
-            let whole = domain.gather(comm);
-            let written = outputs
-                .as_mut()
-                .map_or(Ok(()), |o| o.after_step(&plan, &whole, frame));
+            // Gathered on rank 0 alone: the other ranks keep only their shares.
+            let whole = domain.gather_root(comm);
+            let written = match (outputs.as_mut(), &whole) {
+                (Some(o), Some(whole)) => o.after_step(&plan, whole, frame),
+                _ => Ok(()),
+            };
             comm.agree(written)?;
         } else if plan.out.is_some() && sample {
             // An energy sample alone: the totals reduced over the ranks (exact sums, a few
@@ -573,7 +600,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         .totals(comm)
         .into_iter()
         .fold(max_contacts, usize::max);
-    let whole = domain.gather(comm);
+    let whole = domain.gather_root(comm);
     let ran = Ran {
         steps,
         start_step,
@@ -581,12 +608,12 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
         ranks,
         max_contacts,
     };
-    let finished = match (outputs, &plan.out) {
-        (Some(o), Some(dir)) => o
-            .finish(&plan, dir, &whole)
-            .and_then(|_| finish(&plan, &whole, &ran)),
-        (Some(_), None) => finish(&plan, &whole, &ran),
-        (None, _) => Ok(()),
+    let finished = match (outputs, &plan.out, &whole) {
+        (Some(o), Some(dir), Some(whole)) => o
+            .finish(&plan, dir, whole)
+            .and_then(|_| finish(&plan, whole, &ran)),
+        (Some(_), None, Some(whole)) => finish(&plan, whole, &ran),
+        _ => Ok(()),
     };
     comm.agree(finished)
 }

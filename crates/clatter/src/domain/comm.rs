@@ -62,8 +62,10 @@ pub trait Comm {
     }
     /// Every rank's `mine`, by rank, on every rank.
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>>;
-    /// Every rank's `mine`, by rank, on rank 0 only (the others get nothing): the last good
-    /// state gathered for `last_good.ckpt` at a blow-up.
+    /// Every rank's `mine`, by rank, on rank 0 only (the others get nothing): the world
+    /// rank 0 writes (frames, checkpoints, the end of a run, `last_good.ckpt` at a blow-up).
+    /// The default sends through [`Comm::all_to_all`]; a transport with a gather of its own
+    /// (MPI's `Gatherv`) should use it, so that no rank but 0 holds more than its message.
     fn gather_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         let mut send = vec![Vec::new(); self.size()];
         send[0] = mine.to_vec();

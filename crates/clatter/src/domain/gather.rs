@@ -44,6 +44,14 @@ impl Domain {
         self.gather_with(comm, true)
     }
 
+    /// [`Domain::gather`] on rank 0 alone (collective; `None` on the other ranks): the same
+    /// world, bitwise, but only rank 0 receives the shares (a gather, not an all-gather), so
+    /// the other ranks never hold more than their own share. For what only rank 0 writes
+    /// (frames, checkpoints, `final.csv`, the bench's row).
+    pub fn gather_root(&self, comm: &dyn Comm) -> Option<World> {
+        self.gather_kept(&self.share(), comm)
+    }
+
     /// [`Domain::gather`] without the contact list (which is left empty): every body's state
     /// for what is computed from the bodies alone (energies, momentum, discharged mass),
     /// at a fraction of the traffic.
