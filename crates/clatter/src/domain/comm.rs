@@ -3,7 +3,7 @@
 //! `mpi`); [`ThreadComm`] implements it over threads of one process, so the decomposition is
 //! tested bitwise by `cargo test` without an MPI installation.
 
-use std::sync::{Arc, Barrier, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 
 /// The collectives of a group of ranks. Every rank calls the same methods in the same order
 /// (they are collective: a rank that skips one leaves the others waiting).
@@ -176,7 +176,7 @@ pub struct ThreadComm {
 
 struct Shared {
     size: usize,
-    barrier: Barrier,
+    barrier: Gate,
     /// `mail[from][to]`.
     mail: Mutex<Vec<Vec<Vec<u8>>>>,
 }
@@ -192,7 +192,7 @@ impl ThreadComm {
     pub fn group_limited(n: usize, limit: usize) -> Vec<ThreadComm> {
         let shared = Arc::new(Shared {
             size: n,
-            barrier: Barrier::new(n),
+            barrier: Gate::new(n),
             mail: Mutex::new(vec![Vec::new(); n]),
         });
         (0..n)
@@ -229,6 +229,63 @@ impl ThreadComm {
     fn lock(&self) -> std::sync::MutexGuard<'_, Vec<Vec<Vec<u8>>>> {
         // A rank that panicked poisons the lock; the others then panic too (a test failure).
         self.shared.mail.lock().expect("a rank thread panicked")
+    }
+}
+
+impl Drop for ThreadComm {
+    /// A rank whose thread panics drops its handle while unwinding: the gate is broken, so
+    /// the ranks waiting for it there (or later) panic too instead of waiting forever, and a
+    /// failing test fails instead of hanging.
+    fn drop(&mut self) {
+        if std::thread::panicking() {
+            self.shared.barrier.break_open();
+        }
+    }
+}
+
+/// A barrier for [`ThreadComm`]'s ranks that a panicking rank breaks ([`Gate::break_open`]):
+/// `std::sync::Barrier` would keep the others waiting for it forever.
+struct Gate {
+    size: usize,
+    /// Ranks arrived in this generation, the generation, and whether a rank broke it.
+    state: Mutex<(usize, u64, bool)>,
+    turned: Condvar,
+}
+
+impl Gate {
+    fn new(size: usize) -> Gate {
+        Gate {
+            size,
+            state: Mutex::new((0, 0, false)),
+            turned: Condvar::new(),
+        }
+    }
+
+    /// Waits until every rank has arrived; panics if a rank panicked (before or meanwhile).
+    fn wait(&self) {
+        const BROKEN: &str = "another rank thread panicked";
+        let mut s = self.state.lock().expect(BROKEN);
+        assert!(!s.2, "{BROKEN}");
+        let generation = s.1;
+        s.0 += 1;
+        if s.0 == self.size {
+            s.0 = 0;
+            s.1 += 1;
+            self.turned.notify_all();
+            return;
+        }
+        while s.1 == generation {
+            s = self.turned.wait(s).expect(BROKEN);
+            assert!(!s.2, "{BROKEN}");
+        }
+    }
+
+    /// Marks the gate broken and wakes every waiting rank (which then panics).
+    fn break_open(&self) {
+        if let Ok(mut s) = self.state.lock() {
+            s.2 = true;
+        }
+        self.turned.notify_all();
     }
 }
 
