@@ -12,8 +12,10 @@ use crate::{ConvexPolyhedron, Pose, Shape};
 
 mod clip;
 mod edges;
+mod memory;
 mod sat;
 
+pub use memory::EdgeMemory;
 pub use sat::polyhedron_polyhedron;
 
 /// One point of a contact manifold.
@@ -137,6 +139,27 @@ pub fn collide_with_hint(
             *bound = 0.0;
             collide_convex(a, pa, b, pb)
         }
+    }
+}
+
+/// [`collide_with_hint`] with the pair's [`EdgeMemory`] as well (read and updated): the
+/// same manifold, hint and bound, bitwise; a polyhedron pair whose edge axes go by Gauss
+/// map then visits only the edge pairs the memory holds while B's rotation relative to A
+/// stays near the one it was recorded at.
+pub fn collide_with_memory(
+    a: &Shape,
+    pa: &Pose,
+    b: &Shape,
+    pb: &Pose,
+    hint: &mut SatHint,
+    bound: &mut f32,
+    memory: &mut EdgeMemory,
+) -> Option<Manifold> {
+    match (a, b) {
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
+            sat::polyhedron_pair(p, pa, q, pb, hint, bound, Some(memory))
+        }
+        _ => collide_with_hint(a, pa, b, pb, hint, bound),
     }
 }
 
