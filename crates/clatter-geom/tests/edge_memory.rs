@@ -1,5 +1,6 @@
-//! The Gauss-map edge search with a pair's [`EdgeMemory`] against the same search without
-//! it: polyhedron pairs stepped through time (turning slowly and fast, sliding, pressed
+//! The edge searches with a pair's [`EdgeMemory`] (the Gauss map's remembered edge pairs,
+//! the deep direction pairs left out by direction) against the same searches without it:
+//! polyhedron pairs stepped through time (turning slowly and fast, sliding, pressed
 //! together and pulled apart), every step's manifold, hint and bound compared bitwise.
 
 use clatter_geom::narrow::{self, EdgeMemory, NO_HINT};
@@ -33,6 +34,7 @@ impl Rng {
 fn shapes() -> Vec<PreparedShape> {
     let mut kinds: Vec<ShapeKind> = [
         RegularKind::Tetrahedron,
+        RegularKind::Cube,
         RegularKind::Octahedron,
         RegularKind::Dodecahedron,
         RegularKind::Icosahedron,

@@ -2,7 +2,7 @@
 
 use glam::{Quat, Vec3, Vec4};
 
-use super::memory::{EdgeMemory, TURN};
+use super::memory::{DeepPairs, EdgeMemory, TURN};
 use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
@@ -317,10 +317,22 @@ pub(super) fn edge_axes_by_direction(
     bv: &[Vec3],
     floor: f32,
     tables: &mut GaussTables,
+    memory: Option<(&mut EdgeMemory, Quat, Vec3)>,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    // The pairs a memory found deep, left out while they cannot reach the floor (see
+    // `DeepPairs`); a memory that serves none records this search.
+    let (skip, mut record) = match memory {
+        Some((m, q, t)) => match m.deep_pairs(a, b, q, t, floor) {
+            0 => (0, m.start_directions(a, b, q, t).then_some(m)),
+            deep => (deep, None),
+        },
+        None => (0, None),
+    };
+    let (level, ndb) = (DeepPairs::level(a, b), b.edge_dirs.len());
+    let mut deep = 0u128;
     // B's directions rotated once (the same products as per pair, so the same bits).
     let dirs_b = &mut tables.dirs_b;
     dirs_b.clear();
@@ -329,11 +341,17 @@ pub(super) fn edge_axes_by_direction(
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
         for (ib, &wb) in dirs_b.iter().enumerate() {
+            let bit = 1u128.checked_shl((ia * ndb + ib) as u32).unwrap_or(0);
+            if skip & bit != 0 {
+                continue;
+            }
             let axis = ua.cross(wb);
             let len2 = axis.length_squared();
             if len2 < 1e-10 {
                 continue;
             }
+            // Whether a recording may remember this pair as deep.
+            let rememberable = record.is_some() && DeepPairs::rememberable(len2);
             let axis = axis / len2.sqrt();
             // The first 4 points of each body first: their extents lie inside the bodies'
             // (and rounding is monotonic), so when they already overlap by more than the best
@@ -345,7 +363,12 @@ pub(super) fn edge_axes_by_direction(
             a_local.extent(axis, 0..head_a, &mut ext_a);
             b_soa.extent(axis, 0..head_b, &mut ext_b);
             let low = if floor > best.0 { floor } else { best.0 };
-            if ext_b.min() - ext_a.max() <= low && ext_a.min() - ext_b.max() <= low {
+            let (head_plus, head_minus) = (ext_b.min() - ext_a.max(), ext_a.min() - ext_b.max());
+            if head_plus <= low && head_minus <= low {
+                // (These bound the separations from above.)
+                if rememberable && head_plus <= level && head_minus <= level {
+                    deep |= bit;
+                }
                 continue;
             }
             a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
@@ -358,7 +381,13 @@ pub(super) fn edge_axes_by_direction(
             } else {
                 (min_a - max_b, -axis)
             };
+            if rememberable && s <= level {
+                deep |= bit;
+            }
             if s > 0.0 {
+                if let Some(m) = record {
+                    m.clear();
+                }
                 // Remember one concrete edge pair with these directions for the next step.
                 let ea = a
                     .edge_dir_of
@@ -380,6 +409,9 @@ pub(super) fn edge_axes_by_direction(
                 best = (s, ia, ib, axis);
             }
         }
+    }
+    if let Some(m) = record.take() {
+        m.finish_directions(a, b, deep);
     }
     if best.0 == f32::NEG_INFINITY {
         return Some(best);

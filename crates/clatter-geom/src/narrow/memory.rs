@@ -50,6 +50,13 @@ pub struct EdgeMemory {
     /// The pairs remembered, `[edge of A, edge of B]`, in increasing order.
     pairs: [[u8; 2]; CAPACITY],
     len: u8,
+    /// Whether this is a memory of the search by direction (see [`DeepPairs`]).
+    directions: bool,
+    /// By direction: B's offset in A's frame at the recorded search ...
+    offset: Vec3,
+    /// ... and the direction pairs found deep then, a bit per pair `ia * (B's directions)
+    /// + ib`.
+    deep: u128,
 }
 
 impl Default for EdgeMemory {
@@ -59,6 +66,9 @@ impl Default for EdgeMemory {
             rot: Quat::IDENTITY,
             pairs: [[0; 2]; CAPACITY],
             len: 0,
+            directions: false,
+            offset: Vec3::ZERO,
+            deep: 0,
         }
     }
 }
@@ -69,17 +79,20 @@ fn address(p: &ConvexPolyhedron) -> usize {
     p as *const ConvexPolyhedron as usize
 }
 
-/// Whether `q` is a unit quaternion up to rounding (the exactness argument needs it).
+/// Whether `q` is a unit quaternion up to rounding (the exactness argument needs it: the
+/// simulation's orientations are renormalised to a few ulps every step, and a relative
+/// rotation is a product of two; the matrices built from them are then rotations to
+/// within 1e-5 per entry).
 #[inline]
 fn unit(q: Quat) -> bool {
-    (q.length_squared() - 1.0).abs() < 1e-5
+    (q.length_squared() - 1.0).abs() < 4e-6
 }
 
 impl EdgeMemory {
     /// Whether this memory serves `a` and `b` at relative rotation `rot`.
     #[inline]
     pub(super) fn holds(&self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat) -> bool {
-        if self.shapes != [address(a), address(b)] || !unit(rot) {
+        if self.shapes != [address(a), address(b)] || self.directions || !unit(rot) {
             return false;
         }
         let turned = (self.rot.conjugate() * rot).xyz().length();
@@ -108,6 +121,7 @@ impl EdgeMemory {
             return false;
         }
         self.rot = rot;
+        self.directions = false;
         true
     }
 
@@ -191,5 +205,103 @@ impl EdgeMemory {
             }
         }
         Some(best_e)
+    }
+}
+
+/// How deep a direction pair of the search by direction must be found (its separation, or
+/// a bound of it from some of the points, at most this times the sum of the bodies' radii)
+/// to be remembered as deep.
+const DEEP: f32 = 0.1;
+
+/// The direction pairs of `edges::edge_axes_by_direction` that can be left out of a search:
+/// those a memory found deep (separation at most `-DEEP (r_a + r_b)`), while the most
+/// their separation can have grown since stays below the distance from there to the
+/// search's floor. A pair left out then has a separation at or below the floor, which the
+/// search may leave out anyway (it neither separates nor changes a best axis above the
+/// floor).
+///
+/// The bound: a direction pair's separation is `sigma(u) = min_B(u) - max_A(u)` (or the
+/// same along `-u`, whichever is larger) on the unit axis `u` along `ua x (R ub)`. With the
+/// vertices within `L = r_a + r_b + |t|` of A's centre, `sigma` moves by at most `L |du|`
+/// as the axis turns, and by at most the vertices' motion, `c r_b + |dt|`, as B moves in
+/// A's frame (`c = 2 sin(phi / 2)` for the angle `phi` turned, `dt` the offset's change).
+/// Only pairs with `|ua x wb| >= 0.19` at the recorded search are remembered, so the axis
+/// turns by at most `2 |d(ua x wb)| / 0.19 <= 11 c` (with `c` taken `4e-5` larger for the
+/// rotation matrices' rounding). Rounding of the separations (B's points rotated by those
+/// matrices, dot products of points within `L` of the origin with a unit axis, at both
+/// searches) is allowed as `1e-4 L`, several times more than it can be.
+pub(super) struct DeepPairs;
+
+impl DeepPairs {
+    /// The level below which a pair is remembered as deep.
+    #[inline]
+    pub(super) fn level(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> f32 {
+        -DEEP * (a.radius + b.radius)
+    }
+
+    /// Whether the pair's axis is far enough from parallel edges to be remembered
+    /// (`len2 = |ua x wb|^2`).
+    #[inline]
+    pub(super) fn rememberable(len2: f32) -> bool {
+        len2 >= 0.04
+    }
+}
+
+impl EdgeMemory {
+    /// The direction pairs that a search of `a` against `b` by direction, at relative
+    /// rotation `rot` and offset `t` with floor `floor`, may leave out (see [`DeepPairs`]):
+    /// 0 when the memory does not serve.
+    pub(super) fn deep_pairs(
+        &self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Quat,
+        t: Vec3,
+        floor: f32,
+    ) -> u128 {
+        if self.shapes != [address(a), address(b)] || !self.directions || !unit(rot) {
+            return 0;
+        }
+        let c = 2.0 * (self.rot.conjugate() * rot).xyz().length() + 4e-5;
+        let moved = (t - self.offset).length();
+        let lever = a.radius + b.radius + t.length() + moved;
+        let turned = 11.0 * c + 4e-5;
+        let grown = (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01;
+        // (Written so that a NaN serves nothing.)
+        if DeepPairs::level(a, b) + grown <= floor {
+            self.deep
+        } else {
+            0
+        }
+    }
+
+    /// Starts recording a search by direction of `a` against `b` at `rot` and offset `t`;
+    /// false when it cannot be remembered (more than 128 direction pairs, or not a unit
+    /// rotation).
+    pub(super) fn start_directions(
+        &mut self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Quat,
+        t: Vec3,
+    ) -> bool {
+        self.clear();
+        if a.edge_dirs.len() * b.edge_dirs.len() > 128 || !unit(rot) || !t.is_finite() {
+            return false;
+        }
+        (self.rot, self.offset, self.directions, self.deep) = (rot, t, true, 0);
+        true
+    }
+
+    /// Ends a recording by direction that went through every direction pair, with the
+    /// pairs found deep.
+    pub(super) fn finish_directions(
+        &mut self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        deep: u128,
+    ) {
+        self.deep = deep;
+        self.shapes = [address(a), address(b)];
     }
 }

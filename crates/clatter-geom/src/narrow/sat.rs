@@ -418,6 +418,7 @@ fn edge_search(
 ) -> Result<EdgeAxis, (SatHint, f32)> {
     let (mut hint, mut separation) = (NO_HINT, 0.0);
     let found = if edges_by_direction(a, b) {
+        let memory = memory.map(|m| (m, rel.q, rel.t));
         edge_axes_by_direction(
             a,
             b,
@@ -427,6 +428,7 @@ fn edge_search(
             bv,
             floor,
             tables,
+            memory,
             &mut hint,
             &mut separation,
         )

@@ -449,7 +449,8 @@ fn remembered_narrow<const PIECES: bool>(
 }
 
 /// The narrow phase of body pair `k` (contact `k < world.contacts.pairs().len()`) as the
-/// next step runs it, with what the pair remembers, without changing the world: the
+/// next step runs it, with what the pair remembers (its hint, bound and edge memory),
+/// without changing the world: the
 /// manifold (`None` too for a pair skipped as apart), and whether a remembered contact face
 /// stood in for the full separating-axis test. For tests that hold the remembering path
 /// against the full test ([`narrow::collide`]) on the same poses.
@@ -480,7 +481,10 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
             None,
         )
     } else {
-        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound, None)
+        // A copy of the pair's edge memory, as the step would use it.
+        let mut memory = world.edge_memory.get(k).cloned();
+        let memory = memory.as_mut();
+        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound, memory)
     };
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
