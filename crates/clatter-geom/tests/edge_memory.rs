@@ -27,7 +27,7 @@ impl Rng {
         }
     }
     fn rotation(&mut self) -> Quat {
-        Quat::from_axis_angle(self.unit(), self.next() * 6.283)
+        Quat::from_axis_angle(self.unit(), self.next() * std::f32::consts::TAU)
     }
 }
 
