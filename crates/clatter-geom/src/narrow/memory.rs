@@ -26,21 +26,28 @@ pub(super) const TURN: f32 = 0.02;
 /// turned), with room to spare.
 const ROUNDING: f32 = 1e-4;
 
-/// The edge pairs of a polyhedron pair `(a, b)` that can pass the Gauss-map tests of
-/// `edges::edge_axes_gauss_map` while B's rotation relative to A stays near `rot`.
+/// What the edge-axis search of a polyhedron pair `(a, b)` remembers, to do less at the
+/// next steps for the same answer, bitwise. Which of two kinds depends on how the pair's
+/// edge axes are searched:
 ///
-/// Why this is exact: the tests are signs of products `n . (R v)` of unit normals with
-/// arcs (of length at most 1) turned by the relative rotation `R` (or its transpose). A
-/// pair was left out only when one of the tests failed at `rot` with products at least
-/// [`TURN`] away from zero, each with the sign that fails it. A rotation by an angle `phi`
-/// moves a vector by at most `2 sin(phi / 2)` times its length, so while that, with the
-/// rounding, stays below [`TURN`], every product left out keeps its strict sign, and the
-/// test it failed still fails. The pairs kept are visited in the same order (by edge of A,
-/// then of B) through the same tests and arithmetic as the whole search (`EdgeOfA`), so
-/// the same pairs pass, and the best (or first separating) one is the same, bitwise.
+/// - **By Gauss map**: the edge pairs that can pass the Gauss-map tests of
+///   `edges::edge_axes_gauss_map` while B's rotation relative to A stays near `rot`. Why
+///   this is exact: the tests are signs of products `n . (R v)` of unit normals with arcs
+///   (of length at most 1) turned by the relative rotation `R` (or its transpose). A pair
+///   was left out only when one of the tests failed at `rot` with products at least `TURN`
+///   (0.02) away from zero, each with the sign that fails it. A rotation by an angle `phi`
+///   moves a vector by at most `2 sin(phi / 2)` times its length, so while that, with the
+///   rounding, stays below `TURN`, every product left out keeps its strict sign, and the
+///   test it failed still fails. The pairs kept are visited in the same order (by edge of
+///   A, then of B) through the same tests and arithmetic as the whole search (`EdgeOfA`),
+///   so the same pairs pass, and the best (or first separating) one is the same.
+/// - **By direction**: the direction pairs found deep, left out of later searches while
+///   they provably stay at or below the search's floor (see `DeepPairs`).
 ///
-/// The memory names its polyhedra by address: they are shared (`Arc`) and outlive the
-/// simulation's memories, so a memory of other polyhedra never passes for theirs.
+/// A memory names its polyhedra by address. The simulation keeps its memories beside the
+/// world's shapes (shared `Arc`s that live as long as the world), so no other polyhedron
+/// can take those addresses while a memory names them; a caller that frees polyhedra must
+/// drop (or [`EdgeMemory::default`]) the memories that name them.
 #[derive(Clone, Debug)]
 pub struct EdgeMemory {
     /// The addresses of A and B, 0 when nothing is remembered.
