@@ -5,6 +5,11 @@
 //! Polyhedron pairs use the separating-axis test on face normals and on the edge-edge axes
 //! that survive Gauss-map pruning (only edge pairs whose arcs cross can form a face of the
 //! Minkowski difference), then clip the incident face against the reference face's side planes.
+//!
+//! Between steps a pair may keep what its edge-axis search found ([`EdgeMemory`], through
+//! [`collide_with_memory`]): the edge pairs that can pass the Gauss-map tests near the
+//! rotation it was recorded at, or the direction pairs too deep to matter, so that later
+//! searches visit fewer pairs for the same answer, bitwise.
 
 use glam::Vec3;
 
