@@ -11,15 +11,15 @@ use super::edges::{EdgeOfA, separating_pair};
 use super::sat::EdgeAxis;
 use crate::ConvexPolyhedron;
 
-/// How many edge pairs one memory holds (a pair of icosahedra keeps about 30 at
-/// [`TURN`]); a search with more candidates is not remembered.
+/// How many edge pairs one memory holds (the default scene's searches keep fewer than 20 on
+/// average at [`TURN`]); a search with more candidates is not remembered.
 const CAPACITY: usize = 64;
 
 /// How far the Gauss-map tests' products must be from zero at the recorded rotation for a
 /// pair to be left out of the memory (the products are of unit normals with arcs of
 /// length at most 1). The memory holds while twice the sine of half the angle turned since
 /// (the largest move of a unit vector) stays below this, less [`ROUNDING`].
-pub(super) const TURN: f32 = 0.02;
+pub(super) const TURN: f32 = 0.01;
 
 /// The rounding allowed for: of each product, at the recorded rotation and now (a few ulps
 /// of the products, of the rotation matrices built from unit quaternions, and of the angle
@@ -35,7 +35,7 @@ const ROUNDING: f32 = 1e-4;
 ///   this is exact: the tests are signs of products `n . (R v)` of unit normals with arcs
 ///   (of length at most 1) turned by the relative rotation `R` (or its transpose). A pair
 ///   was left out only when one of the tests failed at `rot` with products at least `TURN`
-///   (0.02) away from zero, each with the sign that fails it. A rotation by an angle `phi`
+///   (0.01) away from zero, each with the sign that fails it. A rotation by an angle `phi`
 ///   moves a vector by at most `2 sin(phi / 2)` times its length, so while that, with the
 ///   rounding, stays below `TURN`, every product left out keeps its strict sign, and the
 ///   test it failed still fails. The pairs kept are visited in the same order (by edge of
