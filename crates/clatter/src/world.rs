@@ -133,6 +133,11 @@ pub struct World {
     /// stage starts ([`World::split_positions`]) and read by the contact stage and integrate:
     /// a pair's offset then needs no `f64` splits. Stale outside a step.
     pub(crate) position_pairs: Vec<precise::Ds3A>,
+    /// Per body pair (by contact slot), what its Gauss-map edge search remembers
+    /// ([`clatter_geom::narrow::EdgeMemory`]): a cache that changes no result (a memory
+    /// serves only the polyhedra and the rotation it was recorded for), so it is in no
+    /// checkpoint and need not follow its pair when the contact list is rebuilt.
+    pub(crate) edge_memory: Vec<clatter_geom::narrow::EdgeMemory>,
     needs_rebuild: bool,
     /// Per body, whether it is a ghost: a copy of a body another MPI rank owns
     /// ([`crate::domain`]), read by the contacts of this rank's bodies but never integrated,
@@ -225,6 +230,7 @@ impl World {
             rebuild_orientation: Vec::new(),
             rebuild_position: Vec::new(),
             position_pairs: Vec::new(),
+            edge_memory: Vec::new(),
             needs_rebuild: true,
             ghost: Vec::new(),
         };
@@ -324,6 +330,7 @@ impl World {
             needs_rebuild: true,
             ghost,
             position_pairs: Vec::new(),
+            edge_memory: Vec::new(),
         }
     }
 

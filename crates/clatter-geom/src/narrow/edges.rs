@@ -1,7 +1,8 @@
 //! The edge-edge axes of the separating-axis test, by Gauss-map pruning or by edge direction.
 
-use glam::{Vec3, Vec4};
+use glam::{Quat, Vec3, Vec4};
 
+use super::memory::{DeepPairs, EdgeMemory, TURN};
 use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
@@ -33,9 +34,19 @@ pub(super) fn edge_axes_gauss_map(
     inv_rot: glam::Mat3,
     bv: &[Vec3],
     tables: &mut GaussTables,
+    memory: Option<(&mut EdgeMemory, Quat)>,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
+    // A memory that holds at this rotation: its pairs alone (the same answer, see
+    // `EdgeMemory`); one that does not records this search.
+    let mut memory = match memory {
+        Some((m, q)) if m.holds(a, b, q) => {
+            return m.search(a, b, rot, inv_rot, bv, hint, separation);
+        }
+        Some((m, q)) => m.start(a, b, q).then_some(m),
+        None => None,
+    };
     // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
     // of edge `ea` of A and of edge `eb` of -B must cross). The products of B's normals with
     // A's arc `ea` are taken a row at a time, 4 faces at once (each row is read whole);
@@ -66,6 +77,9 @@ pub(super) fn edge_axes_gauss_map(
     // B's edges by face, as bit sets (when B has at most 64 edges and faces).
     let mut by_face = [0u64; 64];
     let use_bits = neb <= 64 && nfb <= 64;
+    if !use_bits {
+        memory = None;
+    }
     if use_bits {
         for (eb, &[fb0, fb1]) in b.edge_faces.iter().enumerate() {
             by_face[fb0 as usize] |= 1 << eb;
@@ -73,9 +87,8 @@ pub(super) fn edge_axes_gauss_map(
         }
     }
     let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
-    for (ea, &[a0, a1]) in a.edges.iter().enumerate() {
-        let [fa0, fa1] = a.edge_faces[ea];
-        let (na0, na1) = (a.faces[fa0 as usize].normal, a.faces[fa1 as usize].normal);
+    for ea in 0..a.edges.len() {
+        let side_a = EdgeOfA::new(a, ea);
         // (-nb_kb) . arcA_ea, with A's arc rotated into B's frame, 4 faces at a time: the
         // products and sums of `Vec3::dot` in its order, so the same bits.
         let arc = inv_rot * a.edge_arcs[ea];
@@ -86,45 +99,32 @@ pub(super) fn edge_axes_gauss_map(
             r.write_to_slice(rf);
         }
         let (row4, row1): (&[Vec4], &[f32]) = (row, row_f);
-        let pa0 = a.vertices[a0 as usize];
-        let da = a.vertices[a1 as usize] - pa0;
         // Only the edges that may cross, in increasing order (the same edges meet the
         // tests below in the same order).
-        let visit = if use_bits {
-            EdgeSet::Bits(crossing_candidates(row4, nfb, &by_face))
-        } else {
-            EdgeSet::All(0..neb)
+        let visit = match (&memory, use_bits) {
+            // Recording: the edges that may cross at any rotation the memory will serve
+            // (a superset of those below, so the same ones pass the tests).
+            (Some(_), _) => EdgeSet::Bits(lasting_candidates(row4, nfb, neb, &by_face)),
+            (None, true) => EdgeSet::Bits(crossing_candidates(row4, nfb, &by_face)),
+            (None, false) => EdgeSet::All(0..neb),
         };
         for eb in visit {
             let [fb0, fb1] = b.edge_faces[eb];
-            let cba = row1[fb0 as usize];
-            let dba = row1[fb1 as usize];
-            if cba * dba >= 0.0 {
-                continue;
-            }
-            let adc = na0.dot(arcs_b[eb]);
-            let bdc = na1.dot(arcs_b[eb]);
-            if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
-                continue;
-            }
-            let [b0, b1] = b.edges[eb];
-            let pb0 = bv[b0 as usize];
-            let db = bv[b1 as usize] - pb0;
-            let axis = da.cross(db);
-            let len2 = axis.length_squared();
-            if len2 < 1e-10 * da.length_squared() * db.length_squared() {
-                continue;
-            }
-            let mut axis = axis / len2.sqrt();
-            if axis.dot(pa0) < 0.0 {
-                axis = -axis;
-            }
-            let s = axis.dot(pb0 - pa0);
-            if s > 0.0 {
-                if ea < 0x8000 && eb < 0x8000 {
-                    *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+            let (cba, dba) = (row1[fb0 as usize], row1[fb1 as usize]);
+            if let Some(m) = memory.as_deref_mut() {
+                let arcs = [side_a.na0.dot(arcs_b[eb]), side_a.na1.dot(arcs_b[eb])];
+                if !m.record(ea, eb, cba, dba, arcs) {
+                    memory = None;
                 }
-                *separation = s;
+            }
+            let Some((s, axis)) = side_a.pair_axis(b, bv, eb, cba, dba, arcs_b[eb]) else {
+                continue;
+            };
+            if s > 0.0 {
+                if let Some(m) = memory {
+                    m.clear();
+                }
+                separating_pair(ea, eb, s, hint, separation);
                 return None;
             }
             if s > best_e.0 {
@@ -132,7 +132,116 @@ pub(super) fn edge_axes_gauss_map(
             }
         }
     }
+    if let Some(m) = memory {
+        m.finish(a, b);
+    }
     Some(best_e)
+}
+
+/// The edges of B (at most 64, bits of `by_face`'s sets; `neb` of them) that are not in
+/// two faces whose products `row` (see [`crossing_candidates`]) are both above
+/// [`TURN`] or both below `-TURN`: a superset of [`crossing_candidates`]' edges, and the
+/// edges that [`EdgeMemory::record`] would not leave out for their faces' signs.
+fn lasting_candidates(row: &[Vec4], nfb: usize, neb: usize, by_face: &[u64; 64]) -> u64 {
+    let (mut plus, mut minus) = (0u64, 0u64);
+    let (hi, lo) = (Vec4::splat(TURN), Vec4::splat(-TURN));
+    for (c, v) in row.iter().enumerate().take(16) {
+        plus |= (v.cmpgt(hi).bitmask() as u64) << (4 * c);
+        minus |= (v.cmplt(lo).bitmask() as u64) << (4 * c);
+    }
+    let mask = |n: usize| if n >= 64 { u64::MAX } else { (1u64 << n) - 1 };
+    let (plus, minus) = (plus & mask(nfb), minus & mask(nfb));
+    // Edges with both faces in `faces`: in some face of the set, and not in exactly one.
+    let both = |mut faces: u64| {
+        let (mut any, mut odd) = (0u64, 0u64);
+        while faces != 0 {
+            let edges = by_face[faces.trailing_zeros() as usize];
+            (any, odd) = (any | edges, odd ^ edges);
+            faces &= faces - 1;
+        }
+        any & !odd
+    };
+    mask(neb) & !(both(plus) | both(minus))
+}
+
+/// Records edge pair `(ea, eb)` as the separating axis found, with separation `s`.
+#[inline]
+pub(super) fn separating_pair(
+    ea: usize,
+    eb: usize,
+    s: f32,
+    hint: &mut SatHint,
+    separation: &mut f32,
+) {
+    if ea < 0x8000 && eb < 0x8000 {
+        *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+    }
+    *separation = s;
+}
+
+/// What the Gauss-map search takes of the current edge of A (in A's frame): its faces'
+/// normals, its first vertex and its direction.
+#[derive(Clone, Copy)]
+pub(super) struct EdgeOfA {
+    pub(super) na0: Vec3,
+    pub(super) na1: Vec3,
+    pub(super) pa0: Vec3,
+    pub(super) da: Vec3,
+}
+
+impl EdgeOfA {
+    /// Edge `ea` of `a`.
+    #[inline(always)]
+    pub(super) fn new(a: &ConvexPolyhedron, ea: usize) -> Self {
+        let [a0, a1] = a.edges[ea];
+        let [fa0, fa1] = a.edge_faces[ea];
+        let pa0 = a.vertices[a0 as usize];
+        EdgeOfA {
+            na0: a.faces[fa0 as usize].normal,
+            na1: a.faces[fa1 as usize].normal,
+            pa0,
+            da: a.vertices[a1 as usize] - pa0,
+        }
+    }
+
+    /// The Gauss-map tests of this edge against edge `eb` of B (`bv`: B's vertices in A's
+    /// frame), from the products `cba`, `dba` of B's two faces' normals (negated) with A's
+    /// arc and B's arc `arc_b` in A's frame; for a pair that passes them and is not
+    /// near-parallel, its separation and axis (pointing away from A's centre). Every path
+    /// of the search goes through here, so the same inputs give the same bits.
+    #[inline(always)]
+    pub(super) fn pair_axis(
+        &self,
+        b: &ConvexPolyhedron,
+        bv: &[Vec3],
+        eb: usize,
+        cba: f32,
+        dba: f32,
+        arc_b: Vec3,
+    ) -> Option<(f32, Vec3)> {
+        let EdgeOfA { na0, na1, pa0, da } = *self;
+        if cba * dba >= 0.0 {
+            return None;
+        }
+        let adc = na0.dot(arc_b);
+        let bdc = na1.dot(arc_b);
+        if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
+            return None;
+        }
+        let [b0, b1] = b.edges[eb];
+        let pb0 = bv[b0 as usize];
+        let db = bv[b1 as usize] - pb0;
+        let axis = da.cross(db);
+        let len2 = axis.length_squared();
+        if len2 < 1e-10 * da.length_squared() * db.length_squared() {
+            return None;
+        }
+        let mut axis = axis / len2.sqrt();
+        if axis.dot(pa0) < 0.0 {
+            axis = -axis;
+        }
+        Some((axis.dot(pb0 - pa0), axis))
+    }
 }
 
 /// Edges of B to visit, in increasing order: a bit set, or all of them.
@@ -208,10 +317,22 @@ pub(super) fn edge_axes_by_direction(
     bv: &[Vec3],
     floor: f32,
     tables: &mut GaussTables,
+    memory: Option<(&mut EdgeMemory, Quat, Vec3)>,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+    // The pairs a memory found deep, left out while they cannot reach the floor (see
+    // `DeepPairs`); a memory that serves none records this search.
+    let (skip, mut record) = match memory {
+        Some((m, q, t)) => match m.deep_pairs(a, b, q, t, floor) {
+            0 => (0, m.start_directions(a, b, q, t).then_some(m)),
+            deep => (deep, None),
+        },
+        None => (0, None),
+    };
+    let (level, ndb) = (DeepPairs::level(a, b), b.edge_dirs.len());
+    let mut deep = 0u128;
     // B's directions rotated once (the same products as per pair, so the same bits).
     let dirs_b = &mut tables.dirs_b;
     dirs_b.clear();
@@ -220,11 +341,17 @@ pub(super) fn edge_axes_by_direction(
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
         for (ib, &wb) in dirs_b.iter().enumerate() {
+            let bit = 1u128.checked_shl((ia * ndb + ib) as u32).unwrap_or(0);
+            if skip & bit != 0 {
+                continue;
+            }
             let axis = ua.cross(wb);
             let len2 = axis.length_squared();
             if len2 < 1e-10 {
                 continue;
             }
+            // Whether a recording may remember this pair as deep.
+            let rememberable = record.is_some() && DeepPairs::rememberable(len2);
             let axis = axis / len2.sqrt();
             // The first 4 points of each body first: their extents lie inside the bodies'
             // (and rounding is monotonic), so when they already overlap by more than the best
@@ -236,7 +363,12 @@ pub(super) fn edge_axes_by_direction(
             a_local.extent(axis, 0..head_a, &mut ext_a);
             b_soa.extent(axis, 0..head_b, &mut ext_b);
             let low = if floor > best.0 { floor } else { best.0 };
-            if ext_b.min() - ext_a.max() <= low && ext_a.min() - ext_b.max() <= low {
+            let (head_plus, head_minus) = (ext_b.min() - ext_a.max(), ext_a.min() - ext_b.max());
+            if head_plus <= low && head_minus <= low {
+                // (These bound the separations from above.)
+                if rememberable && head_plus <= level && head_minus <= level {
+                    deep |= bit;
+                }
                 continue;
             }
             a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
@@ -249,7 +381,13 @@ pub(super) fn edge_axes_by_direction(
             } else {
                 (min_a - max_b, -axis)
             };
+            if rememberable && s <= level {
+                deep |= bit;
+            }
             if s > 0.0 {
+                if let Some(m) = record {
+                    m.clear();
+                }
                 // Remember one concrete edge pair with these directions for the next step.
                 let ea = a
                     .edge_dir_of
@@ -271,6 +409,9 @@ pub(super) fn edge_axes_by_direction(
                 best = (s, ia, ib, axis);
             }
         }
+    }
+    if let Some(m) = record.take() {
+        m.finish_directions(a, b, deep);
     }
     if best.0 == f32::NEG_INFINITY {
         return Some(best);

@@ -5,6 +5,11 @@
 //! Polyhedron pairs use the separating-axis test on face normals and on the edge-edge axes
 //! that survive Gauss-map pruning (only edge pairs whose arcs cross can form a face of the
 //! Minkowski difference), then clip the incident face against the reference face's side planes.
+//!
+//! Between steps a pair may keep what its edge-axis search found ([`EdgeMemory`], through
+//! [`collide_with_memory`]): the edge pairs that can pass the Gauss-map tests near the
+//! rotation it was recorded at, or the direction pairs too deep to matter, so that later
+//! searches visit fewer pairs for the same answer, bitwise.
 
 use glam::Vec3;
 
@@ -12,8 +17,10 @@ use crate::{ConvexPolyhedron, Pose, Shape};
 
 mod clip;
 mod edges;
+mod memory;
 mod sat;
 
+pub use memory::EdgeMemory;
 pub use sat::polyhedron_polyhedron;
 
 /// One point of a contact manifold.
@@ -137,6 +144,27 @@ pub fn collide_with_hint(
             *bound = 0.0;
             collide_convex(a, pa, b, pb)
         }
+    }
+}
+
+/// [`collide_with_hint`] with the pair's [`EdgeMemory`] as well (read and updated): the
+/// same manifold, hint and bound, bitwise; a polyhedron pair whose edge axes go by Gauss
+/// map then visits only the edge pairs the memory holds while B's rotation relative to A
+/// stays near the one it was recorded at.
+pub fn collide_with_memory(
+    a: &Shape,
+    pa: &Pose,
+    b: &Shape,
+    pb: &Pose,
+    hint: &mut SatHint,
+    bound: &mut f32,
+    memory: &mut EdgeMemory,
+) -> Option<Manifold> {
+    match (a, b) {
+        (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
+            sat::polyhedron_pair(p, pa, q, pb, hint, bound, Some(memory))
+        }
+        _ => collide_with_hint(a, pa, b, pb, hint, bound),
     }
 }
 

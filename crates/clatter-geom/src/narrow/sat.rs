@@ -1,10 +1,11 @@
 //! The separating-axis test of two convex polyhedra: face axes of both bodies, then the
 //! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]).
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
+use super::memory::EdgeMemory;
 use super::{
     HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
     NO_HINT, SatHint, is_contact_hint,
@@ -145,6 +146,20 @@ pub fn polyhedron_polyhedron(
     hint: &mut SatHint,
     bound: &mut f32,
 ) -> Option<Manifold> {
+    polyhedron_pair(a, pa, b, pb, hint, bound, None)
+}
+
+/// [`polyhedron_polyhedron`] with the pair's [`EdgeMemory`], if it has one: the same
+/// answer, bitwise, with fewer edge pairs visited while the memory holds.
+pub(super) fn polyhedron_pair(
+    a: &ConvexPolyhedron,
+    pa: &Pose,
+    b: &ConvexPolyhedron,
+    pb: &Pose,
+    hint: &mut SatHint,
+    bound: &mut f32,
+    mut memory: Option<&mut EdgeMemory>,
+) -> Option<Manifold> {
     let margin = *bound;
     *bound = 0.0;
     let d = pb.position - pa.position;
@@ -163,16 +178,23 @@ pub fn polyhedron_polyhedron(
     let rot = glam::Mat3::from_quat(rot_q);
     let inv_rot = rot.transpose();
     let t = inv_a * d;
+    let rel = Relative {
+        rot,
+        inv_rot,
+        t,
+        q: rot_q,
+    };
     // An edge search already made at these poses, if any (see `remembered_edge`).
     let mut searched = None;
     if is_contact_hint(*hint) {
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
-        let rel = Relative { rot, inv_rot, t };
         let found = if face == EDGE_CONTACT {
             // The full edge search again, without the face axes; when it fails, its answer
             // (if it is the search's without a floor) serves the full test below.
             SCRATCH
-                .with_borrow_mut(|sc| remembered_edge(a, pa, b, &rel, sc, margin))
+                .with_borrow_mut(|sc| {
+                    remembered_edge(a, pa, b, &rel, sc, margin, memory.as_deref_mut())
+                })
                 .map_err(|e| searched = e)
                 .ok()
                 .map(Some)
@@ -237,8 +259,10 @@ pub fn polyhedron_polyhedron(
             return None;
         }
     }
-    let rel = Relative { rot, inv_rot, t };
-    SCRATCH.with_borrow_mut(|sc| sat_full(a, pa, b, pb, &rel, sc, searched, hint, bound))
+    SCRATCH.with_borrow_mut(|sc| {
+        let full = FullTest { searched, memory };
+        sat_full(a, pa, b, pb, &rel, sc, full, hint, bound)
+    })
 }
 
 /// B's rotation and offset in A's frame.
@@ -246,6 +270,16 @@ struct Relative {
     rot: Mat3,
     inv_rot: Mat3,
     t: Vec3,
+    /// `rot` as the quaternion it was built from.
+    q: Quat,
+}
+
+/// What [`sat_full`] may take instead of searching the edge axes itself: the answer of an
+/// edge search with no floor at the same poses, if one was made ([`remembered_edge`]),
+/// and the pair's [`EdgeMemory`].
+struct FullTest<'m> {
+    searched: Option<EdgeFound>,
+    memory: Option<&'m mut EdgeMemory>,
 }
 
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
@@ -263,7 +297,9 @@ fn remembered_face(
     kind: u32,
     face: usize,
 ) -> Option<Option<Manifold>> {
-    let Relative { rot, inv_rot, t } = *rel;
+    let Relative {
+        rot, inv_rot, t, ..
+    } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
     if kind == HINT_FACE_A {
@@ -305,6 +341,7 @@ fn remembered_edge(
     rel: &Relative,
     sc: &mut Scratch,
     margin: f32,
+    memory: Option<&mut EdgeMemory>,
 ) -> Result<Manifold, Option<EdgeFound>> {
     let Scratch {
         bv,
@@ -326,7 +363,7 @@ fn remembered_edge(
         a_local.fill(&a.vertices);
     }
     // Axes at or below `-margin` fail the test below whether they win or not: left out.
-    let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin);
+    let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin, memory);
     let exact = exact_search(a, b, &found, -margin);
     let keep = |found: EdgeFound| if exact { Some(found) } else { None };
     let best_e = found.map_err(|e| keep(Err(e)))?;
@@ -377,9 +414,11 @@ fn edge_search(
     b_soa: &SoaPoints,
     tables: &mut GaussTables,
     floor: f32,
+    memory: Option<&mut EdgeMemory>,
 ) -> Result<EdgeAxis, (SatHint, f32)> {
     let (mut hint, mut separation) = (NO_HINT, 0.0);
     let found = if edges_by_direction(a, b) {
+        let memory = memory.map(|m| (m, rel.q, rel.t));
         edge_axes_by_direction(
             a,
             b,
@@ -389,12 +428,24 @@ fn edge_search(
             bv,
             floor,
             tables,
+            memory,
             &mut hint,
             &mut separation,
         )
     } else {
         let (rot, inv_rot) = (rel.rot, rel.inv_rot);
-        edge_axes_gauss_map(a, b, rot, inv_rot, bv, tables, &mut hint, &mut separation)
+        let memory = memory.map(|m| (m, rel.q));
+        edge_axes_gauss_map(
+            a,
+            b,
+            rot,
+            inv_rot,
+            bv,
+            tables,
+            memory,
+            &mut hint,
+            &mut separation,
+        )
     };
     found.ok_or((hint, separation))
 }
@@ -517,7 +568,7 @@ fn sat_full(
     pb: &Pose,
     rel: &Relative,
     sc: &mut Scratch,
-    searched: Option<EdgeFound>,
+    full: FullTest,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<Manifold> {
@@ -528,7 +579,9 @@ fn sat_full(
         tables,
         clip,
     } = sc;
-    let Relative { rot, inv_rot, t } = *rel;
+    let Relative {
+        rot, inv_rot, t, ..
+    } = *rel;
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rot * v + t));
     let bv: &[Vec3] = bv;
@@ -573,9 +626,19 @@ fn sat_full(
     // Edge axes at or below the best face axis change no decision below (nor the margin:
     // `contact_margin` takes the larger of the two), so the search may leave them out.
     let face_best = best_a.0.max(best_b.0);
-    let found = match searched {
+    let found = match full.searched {
         Some(found) => found,
-        None => edge_search(a, b, rel, bv, a_local, b_soa, tables, face_best),
+        None => edge_search(
+            a,
+            b,
+            rel,
+            bv,
+            a_local,
+            b_soa,
+            tables,
+            face_best,
+            full.memory,
+        ),
     };
     let best_e = match found {
         Ok(e) => e,

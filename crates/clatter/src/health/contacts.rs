@@ -7,7 +7,7 @@ use crate::broad::{self, Grid};
 use crate::contact_list::Partner;
 use crate::law::{self, ContactForce};
 use crate::world::World;
-use clatter_geom::narrow::{self, Manifold};
+use clatter_geom::narrow::{self, EdgeMemory, Manifold, NO_HINT};
 /// One contact at the current positions: who touches whom, the manifold (normal from `other`
 /// towards `body` for walls, from `body` towards `other` for body pairs, as
 /// [`narrow::collide`] returns it), and the force of the last step.
@@ -86,7 +86,9 @@ pub(super) fn contact_report(world: &World, k: usize) -> Option<ContactReport> {
     }
     let (body, other) = world.contacts.partners(k);
     // A body removed by a sink in the last step is still in the list until the rebuild.
-    overlap_report(world, body, other, springs.forces[k])
+    // A copy of the pair's edge memory, if it has one, makes the test cheaper, not different.
+    let memory = world.edge_memory.get(k).cloned();
+    overlap_report_with(world, body, other, springs.forces[k], memory)
 }
 
 /// The contact law's parameters, effective radius and point share of a contact.
@@ -178,6 +180,18 @@ fn overlap_report(
     other: Partner,
     force: ContactForce,
 ) -> Option<ContactReport> {
+    overlap_report_with(world, body, other, force, None)
+}
+
+/// [`overlap_report`] with an edge memory for the pair's test (see
+/// [`narrow::collide_with_memory`]: the same manifold, bitwise).
+fn overlap_report_with(
+    world: &World,
+    body: u32,
+    other: Partner,
+    force: ContactForce,
+    memory: Option<EdgeMemory>,
+) -> Option<ContactReport> {
     if world.is_removed(body as usize)
         || matches!(other, Partner::Body(j) if world.is_removed(j as usize))
     {
@@ -186,22 +200,38 @@ fn overlap_report(
     Some(ContactReport {
         body,
         other,
-        manifold: collide(world, body, other)?,
+        manifold: collide(world, body, other, memory)?,
         force,
     })
 }
 
 /// The manifold of `body` and `other` at the current positions, relative to `body`'s
 /// position (as the contacts stage finds it: see [`World::offset_of`]).
-fn collide(world: &World, body: u32, other: Partner) -> Option<Manifold> {
+fn collide(
+    world: &World,
+    body: u32,
+    other: Partner,
+    memory: Option<EdgeMemory>,
+) -> Option<Manifold> {
     let i = body as usize;
     match other {
-        Partner::Body(j) => narrow::collide(
-            world.shape(i),
-            &world.local_pose(i),
-            world.shape(j as usize),
-            &world.pose_from(i, j as usize),
-        ),
+        Partner::Body(j) => {
+            let (si, pi) = (world.shape(i), world.local_pose(i));
+            let (sj, pj) = (world.shape(j as usize), world.pose_from(i, j as usize));
+            match memory {
+                // The full test (no hint, no bound), with the memory's shortcut.
+                Some(mut m) => narrow::collide_with_memory(
+                    si,
+                    &pi,
+                    sj,
+                    &pj,
+                    &mut NO_HINT.clone(),
+                    &mut 0.0,
+                    &mut m,
+                ),
+                None => narrow::collide(si, &pi, sj, &pj),
+            }
+        }
         Partner::Wall(w) => {
             let (plane, rest) = world.plane_from(i, &world.walls[w as usize].plane);
             narrow::collide_plane(&plane, world.shape(i), &world.local_pose(i))

@@ -7,6 +7,7 @@
 //! once. Output is sorted by `(i, j)`, independent of the thread count.
 
 use clatter_geom::Shape;
+use clatter_geom::narrow::EdgeMemory;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -225,8 +226,15 @@ pub(crate) fn rebuild(world: &mut World) {
         super::mesh_contacts::rebuild(world);
         return;
     }
+    let old_memory = std::mem::take(&mut world.edge_memory);
     let old = &world.contacts;
     let np_old = old.pairs.len();
+    // (Empty in worlds whose contact stage keeps none: spheres only.)
+    let memory = if old_memory.is_empty() {
+        old_memory
+    } else {
+        carry_memory(&old.pairs, old_memory, &pairs)
+    };
     let springs = &old.springs;
     let (mut history, mut twist) = carry_springs(
         &old.pairs,
@@ -244,7 +252,31 @@ pub(crate) fn rebuild(world: &mut World) {
     twist.extend(wall_twist);
     let contacts = Contacts::new(world.len(), pairs, wall_pairs, history, twist);
     world.install_contacts(contacts);
+    world.edge_memory = memory;
     super::mesh_contacts::rebuild(world);
+}
+
+/// The edge memories of the body pairs `new` (sorted) taken from those of the pairs `old`
+/// (sorted, with `memory` per pair where there is one), a fresh one for a new pair. Only
+/// a saving: a memory serves only the polyhedra and rotation it was recorded for, so which
+/// slot holds it changes no result.
+fn carry_memory(
+    old: &[[u32; 2]],
+    mut memory: Vec<EdgeMemory>,
+    new: &[[u32; 2]],
+) -> Vec<EdgeMemory> {
+    let mut out = Vec::with_capacity(new.len());
+    let mut k = 0;
+    for p in new {
+        while k < old.len() && old[k] < *p {
+            k += 1;
+        }
+        let kept = (k < old.len() && old[k] == *p)
+            .then(|| memory.get_mut(k))
+            .flatten();
+        out.push(kept.map(std::mem::take).unwrap_or_default());
+    }
+    out
 }
 
 /// The contact list of a world with composite bodies: each body pair (and body-wall pair)

@@ -11,7 +11,7 @@ use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::material::PairParams;
 use crate::precise::{Ds3A, PositionPairs};
 use crate::world::World;
-use clatter_geom::narrow::{self, ContactPoint, Manifold, SatHint};
+use clatter_geom::narrow::{self, ContactPoint, EdgeMemory, Manifold, SatHint};
 use clatter_geom::{Pose, Shape};
 
 /// Runs the stage; returns the number of contacts that touch.
@@ -19,6 +19,11 @@ pub(crate) fn run(world: &mut World) -> usize {
     // Each body's position split into its pair once, for every contact it takes part in.
     world.split_positions();
     let mut springs = std::mem::take(&mut world.contacts.springs);
+    // The plain body-pair path's edge memories, one per body pair (see `World::edge_memory`).
+    let mut memory = std::mem::take(&mut world.edge_memory);
+    if !world.has_composites() && !world.spheres_only() {
+        memory.resize(world.contacts.pairs.len(), EdgeMemory::default());
+    }
     let w = &*world;
     let x = w.position_pairs.as_slice();
     let np = w.contacts.pairs.len();
@@ -55,7 +60,8 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(separation_bound.par_iter_mut())
                     .with_min_len(CHUNK)
                     .map(|(((((((p, pc), h), f), t), hn), tw), b)| {
-                        body_pair::<true>(w, x, *p, *pc, h, f, t, hn, tw, b) as usize
+                        let memo = None;
+                        body_pair::<true>(w, x, *p, *pc, h, f, t, hn, tw, b, memo) as usize
                     })
                     .sum::<usize>();
             }
@@ -95,9 +101,10 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(hints.par_iter_mut())
                 .zip(twist_pairs.par_iter_mut())
                 .zip(separation_bound.par_iter_mut())
+                .zip(memory.par_iter_mut())
                 .with_min_len(CHUNK)
-                .map(|((((((p, h), f), t), hn), tw), b)| {
-                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b) as usize
+                .map(|(((((((p, h), f), t), hn), tw), b), m)| {
+                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b, Some(m)) as usize
                 })
                 .sum::<usize>()
         },
@@ -142,6 +149,7 @@ pub(crate) fn run(world: &mut World) -> usize {
         },
     );
     world.contacts.springs = springs;
+    world.edge_memory = memory;
     pairs_touching + walls_touching
 }
 
@@ -234,8 +242,11 @@ fn body_pair<const PIECES: bool>(
     hint: &mut SatHint,
     twist: &mut f32,
     bound: &mut f32,
+    memory: Option<&mut EdgeMemory>,
 ) -> bool {
-    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, [i, j], pieces, hint, bound) else {
+    let pair = [i, j];
+    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, pair, pieces, hint, bound, memory)
+    else {
         return *touching;
     };
     let (i, j) = (i as usize, j as usize);
@@ -412,6 +423,7 @@ fn remembered_narrow<const PIECES: bool>(
     pieces: u32,
     hint: &mut SatHint,
     bound: &mut f32,
+    memory: Option<&mut EdgeMemory>,
 ) -> Option<(Vec3, Option<Manifold>)> {
     let (i, j) = (i as usize, j as usize);
     let remembered_face = narrow::is_contact_hint(*hint);
@@ -430,11 +442,15 @@ fn remembered_narrow<const PIECES: bool>(
         *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d);
     }
     let (pa, pb) = piece_ids(pieces);
-    Some((d, narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound)))
+    Some((
+        d,
+        narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound, memory),
+    ))
 }
 
 /// The narrow phase of body pair `k` (contact `k < world.contacts.pairs().len()`) as the
-/// next step runs it, with what the pair remembers, without changing the world: the
+/// next step runs it, with what the pair remembers (its hint, bound and edge memory),
+/// without changing the world: the
 /// manifold (`None` too for a pair skipped as apart), and whether a remembered contact face
 /// stood in for the full separating-axis test. For tests that hold the remembering path
 /// against the full test ([`narrow::collide`]) on the same poses.
@@ -455,9 +471,20 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
     };
     let before = narrow::is_contact_hint(hint).then_some((hint, left));
     let found = if composites {
-        remembered_narrow::<true>(world, x, c.pairs[k], c.pieces[k], &mut hint, &mut bound)
+        remembered_narrow::<true>(
+            world,
+            x,
+            c.pairs[k],
+            c.pieces[k],
+            &mut hint,
+            &mut bound,
+            None,
+        )
     } else {
-        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound)
+        // A copy of the pair's edge memory, as the step would use it.
+        let mut memory = world.edge_memory.get(k).cloned();
+        let memory = memory.as_mut();
+        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound, memory)
     };
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
@@ -493,6 +520,7 @@ fn narrow_pair<const PIECES: bool>(
     pb: u32,
     hint: &mut SatHint,
     bound: &mut f32,
+    memory: Option<&mut EdgeMemory>,
 ) -> Option<Manifold> {
     if !PIECES {
         // The plain path (no composites in the world).
@@ -500,14 +528,13 @@ fn narrow_pair<const PIECES: bool>(
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
                 narrow::sphere_sphere(Vec3::ZERO, *ri, d, *rj)
             }
-            (si, sj) => narrow::collide_with_hint(
-                si,
-                &w.local_pose(i),
-                sj,
-                &Pose::new(d, w.state.orientation[j]),
-                hint,
-                bound,
-            ),
+            (si, sj) => {
+                let (pi, pj) = (w.local_pose(i), Pose::new(d, w.state.orientation[j]));
+                match memory {
+                    Some(m) => narrow::collide_with_memory(si, &pi, sj, &pj, hint, bound, m),
+                    None => narrow::collide_with_hint(si, &pi, sj, &pj, hint, bound),
+                }
+            }
         };
     }
     // Body i at the origin, j at its offset (see `World::offset_of`).

@@ -1,0 +1,314 @@
+//! What a polyhedron pair remembers of its Gauss-map edge search between steps: the edge
+//! pairs that can pass the Gauss-map tests at any relative rotation near the one of the
+//! last full search. While the rotation stays near, the search visits those pairs alone,
+//! through the same tests in the same order, so it finds bitwise what the whole search
+//! finds (see [`EdgeMemory`]).
+
+use glam::{Mat3, Quat, Vec3};
+
+use super::SatHint;
+use super::edges::{EdgeOfA, separating_pair};
+use super::sat::EdgeAxis;
+use crate::ConvexPolyhedron;
+
+/// How many edge pairs one memory holds (the default scene's searches keep fewer than 20 on
+/// average at [`TURN`]); a search with more candidates is not remembered.
+const CAPACITY: usize = 64;
+
+/// How far the Gauss-map tests' products must be from zero at the recorded rotation for a
+/// pair to be left out of the memory (the products are of unit normals with arcs of
+/// length at most 1). The memory holds while twice the sine of half the angle turned since
+/// (the largest move of a unit vector) stays below this, less [`ROUNDING`].
+pub(super) const TURN: f32 = 0.01;
+
+/// The rounding allowed for: of each product, at the recorded rotation and now (a few ulps
+/// of the products, of the rotation matrices built from unit quaternions, and of the angle
+/// turned), with room to spare.
+const ROUNDING: f32 = 1e-4;
+
+/// What the edge-axis search of a polyhedron pair `(a, b)` remembers, to do less at the
+/// next steps for the same answer, bitwise. Which of two kinds depends on how the pair's
+/// edge axes are searched:
+///
+/// - **By Gauss map**: the edge pairs that can pass the Gauss-map tests of
+///   `edges::edge_axes_gauss_map` while B's rotation relative to A stays near `rot`. Why
+///   this is exact: the tests are signs of products `n . (R v)` of unit normals with arcs
+///   (of length at most 1) turned by the relative rotation `R` (or its transpose). A pair
+///   was left out only when one of the tests failed at `rot` with products at least `TURN`
+///   (0.01) away from zero, each with the sign that fails it. A rotation by an angle `phi`
+///   moves a vector by at most `2 sin(phi / 2)` times its length, so while that, with the
+///   rounding, stays below `TURN`, every product left out keeps its strict sign, and the
+///   test it failed still fails. The pairs kept are visited in the same order (by edge of
+///   A, then of B) through the same tests and arithmetic as the whole search (`EdgeOfA`),
+///   so the same pairs pass, and the best (or first separating) one is the same.
+/// - **By direction**: the direction pairs found deep, left out of later searches while
+///   they provably stay at or below the search's floor (see `DeepPairs`).
+///
+/// A memory names its polyhedra by address. The simulation keeps its memories beside the
+/// world's shapes (shared `Arc`s that live as long as the world), so no other polyhedron
+/// can take those addresses while a memory names them; a caller that frees polyhedra must
+/// drop (or [`EdgeMemory::default`]) the memories that name them.
+#[derive(Clone, Debug)]
+pub struct EdgeMemory {
+    /// The addresses of A and B, 0 when nothing is remembered.
+    shapes: [usize; 2],
+    /// B's rotation relative to A at the recorded search.
+    rot: Quat,
+    /// The pairs remembered, `[edge of A, edge of B]`, in increasing order.
+    pairs: [[u8; 2]; CAPACITY],
+    len: u8,
+    /// Whether this is a memory of the search by direction (see [`DeepPairs`]).
+    directions: bool,
+    /// By direction: B's offset in A's frame at the recorded search ...
+    offset: Vec3,
+    /// ... and the direction pairs found deep then, a bit per pair `ia * (B's directions)
+    /// + ib`.
+    deep: u128,
+}
+
+impl Default for EdgeMemory {
+    fn default() -> Self {
+        EdgeMemory {
+            shapes: [0; 2],
+            rot: Quat::IDENTITY,
+            pairs: [[0; 2]; CAPACITY],
+            len: 0,
+            directions: false,
+            offset: Vec3::ZERO,
+            deep: 0,
+        }
+    }
+}
+
+/// The identity of a polyhedron as a memory records it.
+#[inline]
+fn address(p: &ConvexPolyhedron) -> usize {
+    p as *const ConvexPolyhedron as usize
+}
+
+/// Whether `q` is a unit quaternion up to rounding (the exactness argument needs it: the
+/// simulation's orientations are renormalised to a few ulps every step, and a relative
+/// rotation is a product of two; the matrices built from them are then rotations to
+/// within 1e-5 per entry).
+#[inline]
+fn unit(q: Quat) -> bool {
+    (q.length_squared() - 1.0).abs() < 4e-6
+}
+
+impl EdgeMemory {
+    /// Whether this memory serves `a` and `b` at relative rotation `rot`.
+    #[inline]
+    pub(super) fn holds(&self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat) -> bool {
+        if self.shapes != [address(a), address(b)] || self.directions || !unit(rot) {
+            return false;
+        }
+        let turned = (self.rot.conjugate() * rot).xyz().length();
+        // (Written so that a NaN fails too.)
+        2.0 * turned + ROUNDING < TURN
+    }
+
+    /// Whether it holds the pairs of a finished search (for tests and statistics).
+    pub fn remembers(&self) -> bool {
+        self.shapes != [0; 2]
+    }
+
+    /// Forgets what it holds.
+    #[inline]
+    pub(super) fn clear(&mut self) {
+        self.shapes = [0; 2];
+        self.len = 0;
+    }
+
+    /// Starts recording the search of `a` against `b` at `rot`; false when this pair of
+    /// polyhedra cannot be remembered (too many edges to name in a byte, or not a unit
+    /// rotation).
+    pub(super) fn start(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat) -> bool {
+        self.clear();
+        if a.edges.len() > 256 || b.edges.len() > 64 || !unit(rot) {
+            return false;
+        }
+        self.rot = rot;
+        self.directions = false;
+        true
+    }
+
+    /// Records pair `(ea, eb)` unless the Gauss-map tests fail for it by more than [`TURN`]
+    /// (`cba`, `dba`, `adc`, `bdc` as `edges::EdgeOfA::pair_axis` takes and computes
+    /// them); false when the memory is full (the recording is then abandoned).
+    #[inline]
+    pub(super) fn record(
+        &mut self,
+        ea: usize,
+        eb: usize,
+        cba: f32,
+        dba: f32,
+        arcs: [f32; 2],
+    ) -> bool {
+        let [adc, bdc] = arcs;
+        let apart = |x: f32, y: f32| (x > TURN && y > TURN) || (x < -TURN && y < -TURN);
+        // The first test fails for products of one strict sign, the second for `adc` and
+        // `bdc` of one sign, or `cba` and `bdc` of opposite signs.
+        if apart(cba, dba) || apart(adc, bdc) || apart(cba, -bdc) {
+            return true;
+        }
+        let len = self.len as usize;
+        if len == CAPACITY {
+            self.clear();
+            return false;
+        }
+        self.pairs[len] = [ea as u8, eb as u8];
+        self.len += 1;
+        true
+    }
+
+    /// Ends a recording of `a` against `b` that went through every edge pair.
+    pub(super) fn finish(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron) {
+        self.shapes = [address(a), address(b)];
+    }
+
+    /// The Gauss-map edge search over the remembered pairs alone (see [`EdgeMemory`]):
+    /// the best edge axis, or `None` with the separating one in `hint` and `separation`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn search(
+        &self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Mat3,
+        inv_rot: Mat3,
+        bv: &[Vec3],
+        hint: &mut SatHint,
+        separation: &mut f32,
+    ) -> Option<EdgeAxis> {
+        let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+        let mut current = None;
+        for &[ea, eb] in &self.pairs[..self.len as usize] {
+            let (ea, eb) = (ea as usize, eb as usize);
+            let (side_a, arc) = match current {
+                Some((e, side_a, arc)) if e == ea => (side_a, arc),
+                _ => {
+                    let next = (EdgeOfA::new(a, ea), inv_rot * a.edge_arcs[ea]);
+                    current = Some((ea, next.0, next.1));
+                    next
+                }
+            };
+            let [fb0, fb1] = b.edge_faces[eb];
+            // The products of the whole search's rows (`-(n . arc)` summed in `dot`'s
+            // order) and of its rotated arcs of B.
+            let product = |f: u32| {
+                let n = b.faces[f as usize].normal;
+                -(n.x * arc.x + n.y * arc.y + n.z * arc.z)
+            };
+            let arc_b = rot * b.edge_arcs[eb];
+            let found = side_a.pair_axis(b, bv, eb, product(fb0), product(fb1), arc_b);
+            let Some((s, axis)) = found else {
+                continue;
+            };
+            if s > 0.0 {
+                separating_pair(ea, eb, s, hint, separation);
+                return None;
+            }
+            if s > best_e.0 {
+                best_e = (s, ea, eb, axis);
+            }
+        }
+        Some(best_e)
+    }
+}
+
+/// How deep a direction pair of the search by direction must be found (its separation, or
+/// a bound of it from some of the points, at most this times the sum of the bodies' radii)
+/// to be remembered as deep.
+const DEEP: f32 = 0.1;
+
+/// The direction pairs of `edges::edge_axes_by_direction` that can be left out of a search:
+/// those a memory found deep (separation at most `-DEEP (r_a + r_b)`), while the most
+/// their separation can have grown since stays below the distance from there to the
+/// search's floor. A pair left out then has a separation at or below the floor, which the
+/// search may leave out anyway (it neither separates nor changes a best axis above the
+/// floor).
+///
+/// The bound: a direction pair's separation is `sigma(u) = min_B(u) - max_A(u)` (or the
+/// same along `-u`, whichever is larger) on the unit axis `u` along `ua x (R ub)`. With the
+/// vertices within `L = r_a + r_b + |t|` of A's centre, `sigma` moves by at most `L |du|`
+/// as the axis turns, and by at most the vertices' motion, `c r_b + |dt|`, as B moves in
+/// A's frame (`c = 2 sin(phi / 2)` for the angle `phi` turned, `dt` the offset's change).
+/// Only pairs with `|ua x wb| >= 0.19` at the recorded search are remembered, so the axis
+/// turns by at most `2 |d(ua x wb)| / 0.19 <= 11 c` (with `c` taken `4e-5` larger for the
+/// rotation matrices' rounding). Rounding of the separations (B's points rotated by those
+/// matrices, dot products of points within `L` of the origin with a unit axis, at both
+/// searches) is allowed as `1e-4 L`, several times more than it can be.
+pub(super) struct DeepPairs;
+
+impl DeepPairs {
+    /// The level below which a pair is remembered as deep.
+    #[inline]
+    pub(super) fn level(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> f32 {
+        -DEEP * (a.radius + b.radius)
+    }
+
+    /// Whether the pair's axis is far enough from parallel edges to be remembered
+    /// (`len2 = |ua x wb|^2`).
+    #[inline]
+    pub(super) fn rememberable(len2: f32) -> bool {
+        len2 >= 0.04
+    }
+}
+
+impl EdgeMemory {
+    /// The direction pairs that a search of `a` against `b` by direction, at relative
+    /// rotation `rot` and offset `t` with floor `floor`, may leave out (see [`DeepPairs`]):
+    /// 0 when the memory does not serve.
+    pub(super) fn deep_pairs(
+        &self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Quat,
+        t: Vec3,
+        floor: f32,
+    ) -> u128 {
+        if self.shapes != [address(a), address(b)] || !self.directions || !unit(rot) {
+            return 0;
+        }
+        let c = 2.0 * (self.rot.conjugate() * rot).xyz().length() + 4e-5;
+        let moved = (t - self.offset).length();
+        let lever = a.radius + b.radius + t.length() + moved;
+        let turned = 11.0 * c + 4e-5;
+        let grown = (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01;
+        // (Written so that a NaN serves nothing.)
+        if DeepPairs::level(a, b) + grown <= floor {
+            self.deep
+        } else {
+            0
+        }
+    }
+
+    /// Starts recording a search by direction of `a` against `b` at `rot` and offset `t`;
+    /// false when it cannot be remembered (more than 128 direction pairs, or not a unit
+    /// rotation).
+    pub(super) fn start_directions(
+        &mut self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Quat,
+        t: Vec3,
+    ) -> bool {
+        self.clear();
+        if a.edge_dirs.len() * b.edge_dirs.len() > 128 || !unit(rot) || !t.is_finite() {
+            return false;
+        }
+        (self.rot, self.offset, self.directions, self.deep) = (rot, t, true, 0);
+        true
+    }
+
+    /// Ends a recording by direction that went through every direction pair, with the
+    /// pairs found deep.
+    pub(super) fn finish_directions(
+        &mut self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        deep: u128,
+    ) {
+        self.deep = deep;
+        self.shapes = [address(a), address(b)];
+    }
+}
