@@ -24,6 +24,8 @@ pub mod integrate;
 mod integrate_lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod law_lanes;
 pub mod mesh_contacts;
 #[cfg(target_arch = "x86_64")]
 mod sphere_lanes;
