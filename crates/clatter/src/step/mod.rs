@@ -29,6 +29,8 @@ mod law_lanes;
 pub mod mesh_contacts;
 #[cfg(target_arch = "x86_64")]
 mod sphere_lanes;
+#[cfg(target_arch = "x86_64")]
+mod wall_lanes;
 
 use std::sync::atomic::{AtomicU8, Ordering};
 

@@ -30,18 +30,53 @@ use crate::world::World;
 
 /// What every group of a chunk shares: the bodies' data, the table of pair parameters and
 /// the step.
-struct Bodies<'a> {
-    x: &'a [Ds3A],
-    radius: &'a [f32],
-    mass: &'a [f32],
-    material: &'a [u32],
-    velocity: &'a [Vec3],
-    omega: &'a [Vec3],
-    table: &'a [PairParams],
-    materials: usize,
+pub(super) struct Bodies<'a> {
+    pub(super) x: &'a [Ds3A],
+    pub(super) radius: &'a [f32],
+    pub(super) mass: &'a [f32],
+    pub(super) material: &'a [u32],
+    pub(super) velocity: &'a [Vec3],
+    pub(super) omega: &'a [Vec3],
+    pub(super) table: &'a [PairParams],
+    pub(super) materials: usize,
     /// The periodic box's length per axis (0 where not periodic), if any.
-    periodic: Option<Vec3>,
-    dt: f32,
+    pub(super) periodic: Option<Vec3>,
+    pub(super) dt: f32,
+}
+
+impl<'a> Bodies<'a> {
+    /// The world's bodies with their split positions `x`. Panics unless every array the
+    /// lanes' gathers read (without bounds checks) covers every body, and the indices fit
+    /// the gathers' 32-bit offsets.
+    pub(super) fn of(w: &'a World, x: &'a [Ds3A]) -> Bodies<'a> {
+        let bodies = Bodies {
+            x,
+            radius: &w.consts.radius,
+            mass: &w.consts.mass,
+            material: &w.consts.material,
+            velocity: &w.state.velocity,
+            omega: &w.state.omega,
+            table: w.materials.table(),
+            materials: w.materials.len(),
+            periodic: w.periodic.as_ref().map(|p| p.length()),
+            dt: w.dt,
+        };
+        let nb = bodies.x.len();
+        assert!(
+            [
+                bodies.radius.len(),
+                bodies.mass.len(),
+                bodies.material.len()
+            ]
+            .into_iter()
+            .chain([bodies.velocity.len(), bodies.omega.len()])
+            .all(|len| len == nb)
+                && nb < (1 << 28)
+                && bodies.table.len() == bodies.materials * bodies.materials
+                && bodies.materials < (1 << 13)
+        );
+        bodies
+    }
 }
 
 /// The body-pair chunk's sphere pairs on the plain law (what `sphere_chunk::<true>` does),
@@ -67,33 +102,7 @@ pub(super) unsafe fn sphere_chunk(
         &mut force[..n],
         &mut touching[..n],
     );
-    let bodies = Bodies {
-        x,
-        radius: &w.consts.radius,
-        mass: &w.consts.mass,
-        material: &w.consts.material,
-        velocity: &w.state.velocity,
-        omega: &w.state.omega,
-        table: w.materials.table(),
-        materials: w.materials.len(),
-        periodic: w.periodic.as_ref().map(|p| p.length()),
-        dt: w.dt,
-    };
-    let nb = bodies.x.len();
-    // The gathers read without bounds checks: every array they read must cover every body.
-    assert!(
-        [
-            bodies.radius.len(),
-            bodies.mass.len(),
-            bodies.material.len()
-        ]
-        .into_iter()
-        .chain([bodies.velocity.len(), bodies.omega.len()])
-        .all(|len| len == nb)
-            && nb < (1 << 28)
-            && bodies.table.len() == bodies.materials * bodies.materials
-            && bodies.materials < (1 << 13)
-    );
+    let bodies = Bodies::of(w, x);
     let mut count = 0;
     let groups = n / 8;
     for g in 0..groups {
@@ -339,14 +348,34 @@ unsafe fn params(b: &Bodies, i: __m256i, j: __m256i) -> (F8, F8, F8) {
             F8::splat(p.friction),
         );
     }
-    let base = b.table.as_ptr() as *const f32;
-    // SAFETY: the caller's bounds; materials are below `b.materials` (checked).
+    // SAFETY: the caller's bounds.
     let (ma, mb) = unsafe {
         (
             _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, i),
             _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, j),
         )
     };
+    // SAFETY: AVX2.
+    unsafe { params_of(b, ma, mb) }
+}
+
+/// The pair parameters' stiffness, damping factor and friction of materials `ma` (row)
+/// and `mb` (column), in lanes. Panics unless every material is below the table's count.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn params_of(b: &Bodies, ma: __m256i, mb: __m256i) -> (F8, F8, F8) {
+    if b.materials == 1 {
+        let p = &b.table[0];
+        return (
+            F8::splat(p.stiffness),
+            F8::splat(p.damping_factor),
+            F8::splat(p.friction),
+        );
+    }
+    let base = b.table.as_ptr() as *const f32;
     let nm = _mm256_set1_epi32(b.materials as i32);
     let top = _mm256_set1_epi32(b.materials as i32 - 1);
     let highest = _mm256_max_epu32(_mm256_max_epu32(ma, mb), top);
