@@ -104,19 +104,26 @@ fn scalar(
     )
 }
 
+/// `precise::ds_add1` in lanes: the double-single sum of `a` and `b`.
+#[inline(always)]
+fn ds_add(a: (F8, F8), b: (F8, F8)) -> (F8, F8) {
+    let s = a.0 + b.0;
+    let v = s - a.0;
+    let e = ((a.0 - (s - v)) + (b.0 - v)) + (a.1 + b.1);
+    let hi = s + e;
+    (hi, e - (hi - s))
+}
+
 /// `precise::plane_offset_a` in lanes: the offset of the plane `n . y = d` as seen from the
 /// split positions `hi`, `lo` (the products exact by Dekker's `two_prod`, summed in
 /// double-single), and the rest below f32.
-#[inline(always)]
-fn plane_offset(n: V3, d: F8, hi: [F8; 3], lo: V3) -> (F8, F8) {
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn plane_offset(n: V3, d: F8, hi: [F8; 3], lo: V3) -> (F8, F8) {
     let split = F8::splat(4097.0);
-    let add = |a: (F8, F8), b: (F8, F8)| {
-        let s = a.0 + b.0;
-        let v = s - a.0;
-        let e = ((a.0 - (s - v)) + (b.0 - v)) + (a.1 + b.1);
-        let hi = s + e;
-        (hi, e - (hi - s))
-    };
     let mut s = (d, F8::splat(0.0));
     for (a, b) in [n.x, n.y, n.z].into_iter().zip(hi) {
         // `two_prod(a, b)`.
@@ -128,9 +135,9 @@ fn plane_offset(n: V3, d: F8, hi: [F8; 3], lo: V3) -> (F8, F8) {
         let bh = cb - (cb - b);
         let bl = b - bh;
         let e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
-        s = add(s, (-p, -e));
+        s = ds_add(s, (-p, -e));
     }
-    add(s, (-n.dot(lo), F8::splat(0.0)))
+    ds_add(s, (-n.dot(lo), F8::splat(0.0)))
 }
 
 /// Eight wall pairs (`pairs`, `[sphere, wall]`, with their slots): the lanes' law, stored
@@ -173,7 +180,7 @@ unsafe fn group(
     // body (`Bodies::of`), the walls' every wall.
     let (n, d, wall_material) = unsafe { walls(&w.walls, k) };
     let (x_hi, x_lo) = unsafe { position(b.x, i) };
-    let (offset, rest) = plane_offset(n, d, x_hi, x_lo);
+    let (offset, rest) = unsafe { plane_offset(n, d, x_hi, x_lo) };
 
     // `sphere_wall`: the sphere at the origin, the plane shifted by its position.
     let zero = F8::splat(0.0);
