@@ -135,6 +135,67 @@ pub(super) unsafe fn sphere_chunk(
     count
 }
 
+/// The split positions of bodies `idx` in lanes: rows 0 to 2 the high parts' components,
+/// rows 4 to 6 the low parts' (rows 3 and 7 the pads). Each body's 32 bytes are one load,
+/// and the eight are transposed: fewer cycles than a gather per row.
+///
+/// # Safety
+/// AVX2; every `idx[l] < x.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn split_positions(x: &[Ds3A], idx: __m256i) -> [F8; 8] {
+    const {
+        assert!(size_of::<Ds3A>() == 32 && offset_of!(Ds3A, hi) == 0);
+        assert!(offset_of!(Ds3A, lo) == 16);
+    }
+    let mut ids = [0u32; 8];
+    // SAFETY: 8 `u32`s.
+    unsafe { _mm256_storeu_si256(ids.as_mut_ptr() as *mut __m256i, idx) };
+    let base = x.as_ptr() as *const f32;
+    let mut r = [_mm256_setzero_ps(); 8];
+    for (r, k) in r.iter_mut().zip(ids) {
+        // SAFETY: the 32 bytes of body `k < x.len()` (the caller's).
+        *r = unsafe { _mm256_loadu_ps(base.add(8 * k as usize)) };
+    }
+    // An 8x8 transpose: pairs of rows interleaved, then quarters, then halves.
+    let (t0, t1) = (
+        _mm256_unpacklo_ps(r[0], r[1]),
+        _mm256_unpackhi_ps(r[0], r[1]),
+    );
+    let (t2, t3) = (
+        _mm256_unpacklo_ps(r[2], r[3]),
+        _mm256_unpackhi_ps(r[2], r[3]),
+    );
+    let (t4, t5) = (
+        _mm256_unpacklo_ps(r[4], r[5]),
+        _mm256_unpackhi_ps(r[4], r[5]),
+    );
+    let (t6, t7) = (
+        _mm256_unpacklo_ps(r[6], r[7]),
+        _mm256_unpackhi_ps(r[6], r[7]),
+    );
+    let s = [
+        _mm256_shuffle_ps::<0x44>(t0, t2),
+        _mm256_shuffle_ps::<0xEE>(t0, t2),
+        _mm256_shuffle_ps::<0x44>(t1, t3),
+        _mm256_shuffle_ps::<0xEE>(t1, t3),
+        _mm256_shuffle_ps::<0x44>(t4, t6),
+        _mm256_shuffle_ps::<0xEE>(t4, t6),
+        _mm256_shuffle_ps::<0x44>(t5, t7),
+        _mm256_shuffle_ps::<0xEE>(t5, t7),
+    ];
+    [
+        F8(_mm256_permute2f128_ps::<0x20>(s[0], s[4])),
+        F8(_mm256_permute2f128_ps::<0x20>(s[1], s[5])),
+        F8(_mm256_permute2f128_ps::<0x20>(s[2], s[6])),
+        F8(_mm256_permute2f128_ps::<0x20>(s[3], s[7])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[0], s[4])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[1], s[5])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[2], s[6])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[3], s[7])),
+    ]
+}
+
 /// `j`'s offset from `i` in lanes: `precise::offset_a` (the difference of the double-single
 /// pairs, `ds_sub_a`, moved to the nearest periodic image with `precise::nearest`).
 ///
@@ -143,28 +204,11 @@ pub(super) unsafe fn sphere_chunk(
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
-    let base = b.x.as_ptr() as *const f32;
-    let (hi, lo) = (offset_of!(Ds3A, hi) / 4, offset_of!(Ds3A, lo) / 4);
-    let stride = (size_of::<Ds3A>() / 4) as i32;
-    let (ai, aj) = (
-        _mm256_mullo_epi32(i, _mm256_set1_epi32(stride)),
-        _mm256_mullo_epi32(j, _mm256_set1_epi32(stride)),
-    );
+    // SAFETY: the caller's bounds.
+    let (xi, xj) = unsafe { (split_positions(b.x, i), split_positions(b.x, j)) };
     let (mut d_hi, mut d_lo) = ([F8::splat(0.0); 3], [F8::splat(0.0); 3]);
     for c in 0..3 {
-        let (h, l) = (
-            _mm256_set1_epi32((hi + c) as i32),
-            _mm256_set1_epi32((lo + c) as i32),
-        );
-        // SAFETY: component c of the hi and lo parts of bodies i and j.
-        let (ih, il, jh, jl) = unsafe {
-            (
-                gather(base, _mm256_add_epi32(ai, h)),
-                gather(base, _mm256_add_epi32(ai, l)),
-                gather(base, _mm256_add_epi32(aj, h)),
-                gather(base, _mm256_add_epi32(aj, l)),
-            )
-        };
+        let (ih, il, jh, jl) = (xi[c], xi[4 + c], xj[c], xj[4 + c]);
         // `ds_sub_a(xj, xi)`.
         let s = jh - ih;
         let v = s - jh;

@@ -17,7 +17,7 @@ use glam::Vec3;
 use super::contacts::wall_pair;
 use super::lanes::{F8, M8, V3, gather, gather_vec3};
 use super::law_lanes::{Contact8, law, store, was_touching};
-use super::sphere_lanes::{Bodies, params_of};
+use super::sphere_lanes::{Bodies, params_of, split_positions};
 use crate::contract::ContactForce;
 use crate::precise::Ds3A;
 use crate::world::{Wall, World};
@@ -179,7 +179,15 @@ unsafe fn group(
     // SAFETY (all gathers below): indices bounded above; the bodies' arrays cover every
     // body (`Bodies::of`), the walls' every wall.
     let (n, d, wall_material) = unsafe { walls(&w.walls, k) };
-    let (x_hi, x_lo) = unsafe { position(b.x, i) };
+    let xi = unsafe { split_positions(b.x, i) };
+    let (x_hi, x_lo) = (
+        [xi[0], xi[1], xi[2]],
+        V3 {
+            x: xi[4],
+            y: xi[5],
+            z: xi[6],
+        },
+    );
     let (offset, rest) = unsafe { plane_offset(n, d, x_hi, x_lo) };
 
     // `sphere_wall`: the sphere at the origin, the plane shifted by its position.
@@ -264,29 +272,6 @@ unsafe fn walls(walls: &[Wall], k: __m256i) -> (V3, F8, __m256i) {
             _mm256_i32gather_epi32::<4>(base as *const i32, field(offset_of!(Wall, material))),
         )
     }
-}
-
-/// The split positions of bodies `i`: the high parts per axis and the low parts.
-///
-/// # Safety
-/// AVX2; every `i[l] < x.len()`.
-#[inline]
-#[target_feature(enable = "avx2")]
-unsafe fn position(x: &[Ds3A], i: __m256i) -> ([F8; 3], V3) {
-    let base = x.as_ptr() as *const f32;
-    let at = _mm256_mullo_epi32(i, _mm256_set1_epi32((size_of::<Ds3A>() / 4) as i32));
-    let (hi, lo) = (offset_of!(Ds3A, hi) / 4, offset_of!(Ds3A, lo) / 4);
-    // SAFETY: components of bodies below `x.len()` (the caller's).
-    let c =
-        |at0: usize| unsafe { gather(base, _mm256_add_epi32(at, _mm256_set1_epi32(at0 as i32))) };
-    (
-        [c(hi), c(hi + 1), c(hi + 2)],
-        V3 {
-            x: c(lo),
-            y: c(lo + 1),
-            z: c(lo + 2),
-        },
-    )
 }
 
 #[cfg(test)]
