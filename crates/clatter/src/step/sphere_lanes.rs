@@ -22,7 +22,7 @@ use std::mem::offset_of;
 use glam::Vec3;
 
 use super::contacts::sphere_pair;
-use super::lanes::{F8, V3, gather, gather_vec3};
+use super::lanes::{F8, V3, gather, load_vec3_at};
 use super::law_lanes::{Contact8, law, store, was_touching};
 use crate::contract::{ContactForce, PairParams};
 use crate::precise::Ds3A;
@@ -323,10 +323,10 @@ unsafe fn group(
     // body j at `d`.
     let (vi, wi, vj, wj) = unsafe {
         (
-            gather_vec3(b.velocity, i),
-            gather_vec3(b.omega, i),
-            gather_vec3(b.velocity, j),
-            gather_vec3(b.omega, j),
+            load_vec3_at(b.velocity, i),
+            load_vec3_at(b.omega, i),
+            load_vec3_at(b.velocity, j),
+            load_vec3_at(b.omega, j),
         )
     };
     let vrel = (vj + wj.cross(point - d)) - (vi + wi.cross(point));

@@ -15,7 +15,7 @@ use std::mem::offset_of;
 use glam::Vec3;
 
 use super::contacts::wall_pair;
-use super::lanes::{F8, M8, V3, gather, gather_vec3};
+use super::lanes::{F8, M8, V3, gather, load_vec3_at};
 use super::law_lanes::{Contact8, law, store, was_touching};
 use super::sphere_lanes::{Bodies, params_of, split_positions};
 use crate::contract::ContactForce;
@@ -215,8 +215,8 @@ unsafe fn group(
     let (stiffness, damping_factor, friction) = unsafe { params_of(b, wall_material, mb) };
     let (v, om, m_eff) = unsafe {
         (
-            gather_vec3(b.velocity, i),
-            gather_vec3(b.omega, i),
+            load_vec3_at(b.velocity, i),
+            load_vec3_at(b.omega, i),
             gather(b.mass.as_ptr(), i),
         )
     };
