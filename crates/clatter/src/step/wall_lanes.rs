@@ -72,8 +72,8 @@ pub(super) unsafe fn wall_chunk(
             )
         };
     }
-    for k in 8 * groups..n {
-        count += scalar(w, x, pairs[k], k, hist, coverage, force, touching) as usize;
+    for (k, &pair) in pairs.iter().enumerate().skip(8 * groups) {
+        count += scalar(w, x, pair, k, hist, coverage, force, touching) as usize;
     }
     count
 }
@@ -202,9 +202,9 @@ unsafe fn group(
     let (touch_bits, was_bits) = (touch.bits(), was.bits());
     if touch_bits == 0 {
         // All apart: only releases, if any (rare), each as the scalar path does it.
-        for l in 0..8 {
+        for (l, &pair) in pairs.iter().enumerate() {
             if was_bits >> l & 1 != 0 {
-                scalar(w, b.x, pairs[l], l, hist, coverage, force, touching);
+                scalar(w, b.x, pair, l, hist, coverage, force, touching);
             }
         }
         return 0;
@@ -239,9 +239,9 @@ unsafe fn group(
     unsafe { store(&out, touch, was, torques, hist, coverage, force, touching) };
     let scalar_bits = out.scalar.bits();
     if scalar_bits != 0 {
-        for l in 0..8 {
+        for (l, &pair) in pairs.iter().enumerate() {
             if scalar_bits >> l & 1 != 0 {
-                scalar(w, b.x, pairs[l], l, hist, coverage, force, touching);
+                scalar(w, b.x, pair, l, hist, coverage, force, touching);
             }
         }
     }
@@ -316,7 +316,7 @@ mod tests {
             DVec3::new(100.0, -3.0, 7.5),
             DVec3::splat(-1e4),
         ][case % 3];
-        let nm = if case % 2 == 0 { 1 } else { 3 };
+        let nm = if case.is_multiple_of(2) { 1 } else { 3 };
         let dt = [None, Some(2e-4), Some(2e-5), Some(3e-3)][case % 4];
         let shapes = [0.004, 0.006, 0.008, 0.01]
             .map(|radius| ShapeKind::Sphere { radius }.prepare().unwrap())
