@@ -133,6 +133,11 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(touch_walls.par_chunks_mut(CHUNK))
                 .zip(twist_walls.par_chunks_mut(CHUNK))
                 .map(|((((p, h), f), t), tw)| {
+                    #[cfg(target_arch = "x86_64")]
+                    if plain && w.spheres_only() && super::avx2() {
+                        // SAFETY: the CPU has AVX2.
+                        return unsafe { super::wall_lanes::wall_chunk(w, x, p, h, tw, f, t) };
+                    }
                     super::vex(|| {
                         let n = p.len();
                         let (h, f, t, tw) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut tw[..n]);
@@ -357,7 +362,7 @@ pub(super) fn pair_context(
 /// pair's law is plain ([`law::is_plain`]).
 #[inline]
 #[allow(clippy::too_many_arguments)]
-fn wall_pair<const PIECES: bool>(
+pub(super) fn wall_pair<const PIECES: bool>(
     w: &World,
     x: &[Ds3A],
     [i, wall]: [u32; 2],

@@ -267,6 +267,51 @@ pub(super) unsafe fn gather_vec3(v: &[Vec3], idx: __m256i) -> V3 {
     }
 }
 
+/// [`gather_vec3`] by plain loads: each `v[idx[l]]` read as one 16-byte load (with the
+/// float after it, thrown away) and the eight transposed, which takes fewer cycles than
+/// three gathers. Where an index is the last one (no float after it), the gathers.
+///
+/// # Safety
+/// AVX2; every `idx[l] < v.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn load_vec3_at(v: &[Vec3], idx: __m256i) -> V3 {
+    let top = _mm256_set1_epi32(v.len() as i32 - 2);
+    let below_last = _mm256_cmpeq_epi32(_mm256_max_epu32(idx, top), top);
+    if v.len() < 2 || _mm256_movemask_epi8(below_last) != -1 {
+        // SAFETY: the caller's.
+        return unsafe { gather_vec3(v, idx) };
+    }
+    let mut ids = [0u32; 8];
+    // SAFETY: 8 `u32`s.
+    unsafe { _mm256_storeu_si256(ids.as_mut_ptr() as *mut __m256i, idx) };
+    let base = v.as_ptr() as *const f32;
+    let mut r = [_mm256_setzero_ps(); 4];
+    for (l, r) in r.iter_mut().enumerate() {
+        // SAFETY: 16 bytes from `v[k]`, `k + 1 < v.len()` (checked above).
+        *r = unsafe {
+            _mm256_insertf128_ps::<1>(
+                _mm256_castps128_ps256(_mm_loadu_ps(base.add(3 * ids[l] as usize))),
+                _mm_loadu_ps(base.add(3 * ids[l + 4] as usize)),
+            )
+        };
+    }
+    // Lanes l and l + 4 of each row hold bodies l and l + 4: a 4x4 transpose per half.
+    let (t0, t1) = (
+        _mm256_unpacklo_ps(r[0], r[1]),
+        _mm256_unpackhi_ps(r[0], r[1]),
+    );
+    let (t2, t3) = (
+        _mm256_unpacklo_ps(r[2], r[3]),
+        _mm256_unpackhi_ps(r[2], r[3]),
+    );
+    V3 {
+        x: F8(_mm256_shuffle_ps::<0x44>(t0, t2)),
+        y: F8(_mm256_shuffle_ps::<0xEE>(t0, t2)),
+        z: F8(_mm256_shuffle_ps::<0x44>(t1, t3)),
+    }
+}
+
 /// Eight contiguous `Vec3`s (24 `f32`s) split into lanes. The inverse of [`store_vec3`].
 ///
 /// # Safety

@@ -10,11 +10,11 @@
 //! Every stage is parallel (rayon) and sums in an order that does not depend on the thread
 //! count, so results are bitwise the same for any number of threads.
 //!
-//! Where the CPU has AVX2 ([`avx2`]), the two hottest loops run eight at a time, one item
-//! per lane of a register, with the scalar code's bits (`lanes`' operations): the sphere
-//! pairs on the plain law (`sphere_lanes`) and the body update after the gather
-//! (`integrate_lanes`). What they do not cover runs the scalar code, compiled for AVX2
-//! too (`vex`).
+//! Where the CPU has AVX2 ([`avx2`]), the hottest loops run eight at a time, one item per
+//! lane of a register, with the scalar code's bits (`lanes`' operations): the sphere pairs
+//! (`sphere_lanes`) and the sphere-wall pairs (`wall_lanes`) on the plain law (their law
+//! and stores: `law_lanes`), and the body update after the gather (`integrate_lanes`).
+//! What they do not cover runs the scalar code, compiled for AVX2 too (`vex`).
 
 pub mod broad;
 pub mod contacts;
@@ -24,9 +24,13 @@ pub mod integrate;
 mod integrate_lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod law_lanes;
 pub mod mesh_contacts;
 #[cfg(target_arch = "x86_64")]
 mod sphere_lanes;
+#[cfg(target_arch = "x86_64")]
+mod wall_lanes;
 
 use std::sync::atomic::{AtomicU8, Ordering};
 

@@ -22,71 +22,61 @@ use std::mem::offset_of;
 use glam::Vec3;
 
 use super::contacts::sphere_pair;
-use super::lanes::{F8, M8, V3, gather, gather_vec3, load_vec3, store_vec3};
-use crate::contract::{
-    ContactForce, LINEAR_TANGENTIAL_RATIO, PairParams, TANGENTIAL_DAMPING_RATIO,
-};
-use crate::law::{EDGE_SLACK, RESOLVABLE};
+use super::lanes::{F8, V3, gather, load_vec3_at};
+use super::law_lanes::{Contact8, law, store, was_touching};
+use crate::contract::{ContactForce, PairParams};
 use crate::precise::Ds3A;
 use crate::world::World;
 
-/// Eight [`ContactForce`]s from their fields in lanes: `f` the force on b and `fn_` the
-/// normal force, `ta` and `tb` the torques (pads zero).
-///
-/// # Safety
-/// AVX2.
-#[inline]
-#[target_feature(enable = "avx2")]
-unsafe fn store_forces(f: V3, fn_: F8, ta: V3, tb: V3, out: &mut [ContactForce; 8]) {
-    let zero = _mm256_setzero_ps();
-    // Per group of four fields, a 4x8 transpose: `r[l]` holds lanes l (low half) and l + 4
-    // (high half) of the four.
-    let transpose = |a: __m256, b: __m256, c: __m256, d: __m256| {
-        let (t0, t1) = (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
-        let (t2, t3) = (_mm256_unpacklo_ps(c, d), _mm256_unpackhi_ps(c, d));
-        [
-            _mm256_shuffle_ps::<0x44>(t0, t2),
-            _mm256_shuffle_ps::<0xEE>(t0, t2),
-            _mm256_shuffle_ps::<0x44>(t1, t3),
-            _mm256_shuffle_ps::<0xEE>(t1, t3),
-        ]
-    };
-    let g = [
-        transpose(f.x.0, f.y.0, f.z.0, fn_.0),
-        transpose(ta.x.0, ta.y.0, ta.z.0, zero),
-        transpose(tb.x.0, tb.y.0, tb.z.0, zero),
-    ];
-    // Records l and l + 1 (l = 0, 2) are the 96 bytes `g0 g1 g2` of lane l then of lane
-    // l + 1; lanes l + 4 and l + 5 are the high halves.
-    let p = out.as_mut_ptr() as *mut f32;
-    for (l, r) in [(0usize, 0usize), (2, 2)] {
-        let (lo, hi) = (l * 12, (l + 4) * 12);
-        let (u, v) = (r, r + 1);
-        let pieces = [(g[0][u], g[1][u]), (g[2][u], g[0][v]), (g[1][v], g[2][v])];
-        for (s, (a, b)) in pieces.into_iter().enumerate() {
-            // SAFETY: 96 `f32`s from `p`, written within them.
-            unsafe {
-                _mm256_storeu_ps(p.add(lo + 8 * s), _mm256_permute2f128_ps::<0x20>(a, b));
-                _mm256_storeu_ps(p.add(hi + 8 * s), _mm256_permute2f128_ps::<0x31>(a, b));
-            }
-        }
-    }
-}
-
 /// What every group of a chunk shares: the bodies' data, the table of pair parameters and
 /// the step.
-struct Bodies<'a> {
-    x: &'a [Ds3A],
-    radius: &'a [f32],
-    mass: &'a [f32],
-    material: &'a [u32],
-    velocity: &'a [Vec3],
-    omega: &'a [Vec3],
-    table: &'a [PairParams],
-    materials: usize,
+pub(super) struct Bodies<'a> {
+    pub(super) x: &'a [Ds3A],
+    pub(super) radius: &'a [f32],
+    pub(super) mass: &'a [f32],
+    pub(super) material: &'a [u32],
+    pub(super) velocity: &'a [Vec3],
+    pub(super) omega: &'a [Vec3],
+    pub(super) table: &'a [PairParams],
+    pub(super) materials: usize,
     /// The periodic box's length per axis (0 where not periodic), if any.
-    periodic: Option<Vec3>,
-    dt: f32,
+    pub(super) periodic: Option<Vec3>,
+    pub(super) dt: f32,
+}
+
+impl<'a> Bodies<'a> {
+    /// The world's bodies with their split positions `x`. Panics unless every array the
+    /// lanes' gathers read (without bounds checks) covers every body, and the indices fit
+    /// the gathers' 32-bit offsets.
+    pub(super) fn of(w: &'a World, x: &'a [Ds3A]) -> Bodies<'a> {
+        let bodies = Bodies {
+            x,
+            radius: &w.consts.radius,
+            mass: &w.consts.mass,
+            material: &w.consts.material,
+            velocity: &w.state.velocity,
+            omega: &w.state.omega,
+            table: w.materials.table(),
+            materials: w.materials.len(),
+            periodic: w.periodic.as_ref().map(|p| p.length()),
+            dt: w.dt,
+        };
+        let nb = bodies.x.len();
+        assert!(
+            [
+                bodies.radius.len(),
+                bodies.mass.len(),
+                bodies.material.len()
+            ]
+            .into_iter()
+            .chain([bodies.velocity.len(), bodies.omega.len()])
+            .all(|len| len == nb)
+                && nb < (1 << 28)
+                && bodies.table.len() == bodies.materials * bodies.materials
+                && bodies.materials < (1 << 13)
+        );
+        bodies
+    }
 }
 
 /// The body-pair chunk's sphere pairs on the plain law (what `sphere_chunk::<true>` does),
@@ -112,33 +102,7 @@ pub(super) unsafe fn sphere_chunk(
         &mut force[..n],
         &mut touching[..n],
     );
-    let bodies = Bodies {
-        x,
-        radius: &w.consts.radius,
-        mass: &w.consts.mass,
-        material: &w.consts.material,
-        velocity: &w.state.velocity,
-        omega: &w.state.omega,
-        table: w.materials.table(),
-        materials: w.materials.len(),
-        periodic: w.periodic.as_ref().map(|p| p.length()),
-        dt: w.dt,
-    };
-    let nb = bodies.x.len();
-    // The gathers read without bounds checks: every array they read must cover every body.
-    assert!(
-        [
-            bodies.radius.len(),
-            bodies.mass.len(),
-            bodies.material.len()
-        ]
-        .into_iter()
-        .chain([bodies.velocity.len(), bodies.omega.len()])
-        .all(|len| len == nb)
-            && nb < (1 << 28)
-            && bodies.table.len() == bodies.materials * bodies.materials
-            && bodies.materials < (1 << 13)
-    );
+    let bodies = Bodies::of(w, x);
     let mut count = 0;
     let groups = n / 8;
     for g in 0..groups {
@@ -171,6 +135,67 @@ pub(super) unsafe fn sphere_chunk(
     count
 }
 
+/// The split positions of bodies `idx` in lanes: rows 0 to 2 the high parts' components,
+/// rows 4 to 6 the low parts' (rows 3 and 7 the pads). Each body's 32 bytes are one load,
+/// and the eight are transposed: fewer cycles than a gather per row.
+///
+/// # Safety
+/// AVX2; every `idx[l] < x.len()`.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn split_positions(x: &[Ds3A], idx: __m256i) -> [F8; 8] {
+    const {
+        assert!(size_of::<Ds3A>() == 32 && offset_of!(Ds3A, hi) == 0);
+        assert!(offset_of!(Ds3A, lo) == 16);
+    }
+    let mut ids = [0u32; 8];
+    // SAFETY: 8 `u32`s.
+    unsafe { _mm256_storeu_si256(ids.as_mut_ptr() as *mut __m256i, idx) };
+    let base = x.as_ptr() as *const f32;
+    let mut r = [_mm256_setzero_ps(); 8];
+    for (r, k) in r.iter_mut().zip(ids) {
+        // SAFETY: the 32 bytes of body `k < x.len()` (the caller's).
+        *r = unsafe { _mm256_loadu_ps(base.add(8 * k as usize)) };
+    }
+    // An 8x8 transpose: pairs of rows interleaved, then quarters, then halves.
+    let (t0, t1) = (
+        _mm256_unpacklo_ps(r[0], r[1]),
+        _mm256_unpackhi_ps(r[0], r[1]),
+    );
+    let (t2, t3) = (
+        _mm256_unpacklo_ps(r[2], r[3]),
+        _mm256_unpackhi_ps(r[2], r[3]),
+    );
+    let (t4, t5) = (
+        _mm256_unpacklo_ps(r[4], r[5]),
+        _mm256_unpackhi_ps(r[4], r[5]),
+    );
+    let (t6, t7) = (
+        _mm256_unpacklo_ps(r[6], r[7]),
+        _mm256_unpackhi_ps(r[6], r[7]),
+    );
+    let s = [
+        _mm256_shuffle_ps::<0x44>(t0, t2),
+        _mm256_shuffle_ps::<0xEE>(t0, t2),
+        _mm256_shuffle_ps::<0x44>(t1, t3),
+        _mm256_shuffle_ps::<0xEE>(t1, t3),
+        _mm256_shuffle_ps::<0x44>(t4, t6),
+        _mm256_shuffle_ps::<0xEE>(t4, t6),
+        _mm256_shuffle_ps::<0x44>(t5, t7),
+        _mm256_shuffle_ps::<0xEE>(t5, t7),
+    ];
+    [
+        F8(_mm256_permute2f128_ps::<0x20>(s[0], s[4])),
+        F8(_mm256_permute2f128_ps::<0x20>(s[1], s[5])),
+        F8(_mm256_permute2f128_ps::<0x20>(s[2], s[6])),
+        F8(_mm256_permute2f128_ps::<0x20>(s[3], s[7])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[0], s[4])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[1], s[5])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[2], s[6])),
+        F8(_mm256_permute2f128_ps::<0x31>(s[3], s[7])),
+    ]
+}
+
 /// `j`'s offset from `i` in lanes: `precise::offset_a` (the difference of the double-single
 /// pairs, `ds_sub_a`, moved to the nearest periodic image with `precise::nearest`).
 ///
@@ -179,28 +204,11 @@ pub(super) unsafe fn sphere_chunk(
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
-    let base = b.x.as_ptr() as *const f32;
-    let (hi, lo) = (offset_of!(Ds3A, hi) / 4, offset_of!(Ds3A, lo) / 4);
-    let stride = (size_of::<Ds3A>() / 4) as i32;
-    let (ai, aj) = (
-        _mm256_mullo_epi32(i, _mm256_set1_epi32(stride)),
-        _mm256_mullo_epi32(j, _mm256_set1_epi32(stride)),
-    );
+    // SAFETY: the caller's bounds.
+    let (xi, xj) = unsafe { (split_positions(b.x, i), split_positions(b.x, j)) };
     let (mut d_hi, mut d_lo) = ([F8::splat(0.0); 3], [F8::splat(0.0); 3]);
     for c in 0..3 {
-        let (h, l) = (
-            _mm256_set1_epi32((hi + c) as i32),
-            _mm256_set1_epi32((lo + c) as i32),
-        );
-        // SAFETY: component c of the hi and lo parts of bodies i and j.
-        let (ih, il, jh, jl) = unsafe {
-            (
-                gather(base, _mm256_add_epi32(ai, h)),
-                gather(base, _mm256_add_epi32(ai, l)),
-                gather(base, _mm256_add_epi32(aj, h)),
-                gather(base, _mm256_add_epi32(aj, l)),
-            )
-        };
+        let (ih, il, jh, jl) = (xi[c], xi[4 + c], xj[c], xj[4 + c]);
         // `ds_sub_a(xj, xi)`.
         let s = jh - ih;
         let v = s - jh;
@@ -280,12 +288,8 @@ unsafe fn group(
     let (ri, rj) = unsafe { (gather(b.radius.as_ptr(), i), gather(b.radius.as_ptr(), j)) };
     let dist2 = d.length_squared();
     let touch = dist2.lt((ri + rj) * (ri + rj));
-    // SAFETY: 8 bytes, each 0 or 1 (`bool`).
-    let was_bytes = unsafe { (touching.as_ptr() as *const u64).read_unaligned() };
-    let was = M8(_mm256_castsi256_ps(_mm256_cmpgt_epi32(
-        _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(was_bytes as i64)),
-        _mm256_setzero_si256(),
-    )));
+    // SAFETY: AVX2 (this function's).
+    let was = unsafe { was_touching(touching) };
     let (touch_bits, was_bits) = (touch.bits(), was.bits());
     if touch_bits == 0 {
         // All apart: only releases, if any (rare), each as the scalar path does it.
@@ -319,87 +323,40 @@ unsafe fn group(
     // body j at `d`.
     let (vi, wi, vj, wj) = unsafe {
         (
-            gather_vec3(b.velocity, i),
-            gather_vec3(b.omega, i),
-            gather_vec3(b.velocity, j),
-            gather_vec3(b.omega, j),
+            load_vec3_at(b.velocity, i),
+            load_vec3_at(b.omega, i),
+            load_vec3_at(b.velocity, j),
+            load_vec3_at(b.omega, j),
         )
     };
     let vrel = (vj + wj.cross(point - d)) - (vi + wi.cross(point));
-    let (fs, k) = (stiffness * depth, stiffness);
-    let eta = damping_factor * (m_eff * k.max_const(0.0)).sqrt();
-    let dt = F8::splat(b.dt);
-    let vn = vrel.dot(n);
-
-    // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
-    let v = -vn;
-    let explicit = (dt * (dt * k + eta)).gt(F8::splat(RESOLVABLE) * m_eff);
-    // SAFETY: 8 `f32`s.
-    let cov = F8(unsafe { _mm256_loadu_ps(coverage.as_ptr()) });
-    let first = cov.eq(zero);
-    let g_start = F8::select(cov.gt(zero), cov, zero);
-    let g_x = eta * depth;
-    let half_eta = F8::splat(0.5) * eta;
-    let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
-    let per_mass = F8::splat(1.0) / (m_eff + half_eta * dt);
-    let v_after = v - impulse * per_mass;
-    let fn_ = impulse * per_mass * m_eff / dt;
-    let stays = (depth + dt * v_after).gt(F8::splat(EDGE_SLACK) * dt * v_after.abs());
-    let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
-    // Lanes left to the scalar path: first and last steps, and steps too long.
-    let scalar = touch.and(explicit.or(first)).or(stays.and_not(touch));
-    let done = scalar.and_not(touch);
-
-    // `tangential_law`.
-    let kt = F8::splat(LINEAR_TANGENTIAL_RATIO) * k;
-    let eta_t = F8::splat(TANGENTIAL_DAMPING_RATIO) * eta;
-    let vt = vrel - n * vn;
-    let h = unsafe { load_vec3(hist) };
-    let along = h.dot(n);
-    let old_len2 = h.length_squared();
-    let turned = h - n * along;
-    let new_len2 = turned.length_squared();
-    let rescaled = V3::select(
-        new_len2.gt(zero),
-        turned * (old_len2 / new_len2).sqrt(),
-        turned,
-    );
-    let xi = V3::select(along.ne(zero), rescaled, h) + vt * dt;
-    let cap = friction * fn_.max_const(0.0);
-    let cap2 = cap * cap;
-    let spring2 = kt * kt * xi.length_squared();
-    let xi = V3::select(spring2.gt(cap2), xi * (cap / spring2.sqrt()), xi);
-    let ft = xi * -kt - vt * eta_t;
-    let ft_len2 = ft.length_squared();
-    let ft = V3::select(ft_len2.gt(cap2), ft * (cap / ft_len2.sqrt()), ft);
-    let f = n * fn_ + ft;
-    let torque_a = f.cross(point);
-    let torque_b = (point - d).cross(f);
-
-    // Stores: the lanes' results where they hold; zeros where the contact is apart (a
-    // release, or one that did not touch before either, whose force is zero already);
-    // springs kept where nothing touches and in the scalar path's lanes (which read them).
-    let released = touch.and_not(was);
-    let h_out = V3::select(done, xi, V3::select(released, V3::splat(Vec3::ZERO), h));
-    let cov_out = F8::select(done, cov_after, F8::select(released, zero, cov));
-    let only = |v: V3| V3::select(done, v, V3::splat(Vec3::ZERO));
+    let contact = Contact8 {
+        n,
+        depth,
+        vrel,
+        stiffness,
+        damping_factor,
+        friction,
+        m_eff,
+    };
+    // SAFETY: AVX2 (this function's).
+    let out = unsafe { law(&contact, touch, touch.and_not(touch), b.dt, hist, coverage) };
+    let torque_a = out.f.cross(point);
+    let torque_b = (point - d).cross(out.f);
+    // SAFETY: AVX2 (this function's).
     unsafe {
-        store_vec3(h_out, hist);
-        _mm256_storeu_ps(coverage.as_mut_ptr(), cov_out.0);
-        store_forces(
-            only(f),
-            F8::select(done, fn_, zero),
-            only(torque_a),
-            only(torque_b),
+        store(
+            &out,
+            touch,
+            was,
+            (torque_a, torque_b),
+            hist,
+            coverage,
             force,
-        );
-    }
-    let changed = touch_bits ^ was_bits;
-    if changed != 0 {
-        for (l, t) in touching.iter_mut().enumerate() {
-            *t = touch_bits >> l & 1 != 0;
-        }
-    }
+            touching,
+        )
+    };
+    let scalar = out.scalar;
     let scalar_bits = scalar.bits();
     if scalar_bits != 0 {
         for l in 0..8 {
@@ -435,14 +392,34 @@ unsafe fn params(b: &Bodies, i: __m256i, j: __m256i) -> (F8, F8, F8) {
             F8::splat(p.friction),
         );
     }
-    let base = b.table.as_ptr() as *const f32;
-    // SAFETY: the caller's bounds; materials are below `b.materials` (checked).
+    // SAFETY: the caller's bounds.
     let (ma, mb) = unsafe {
         (
             _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, i),
             _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, j),
         )
     };
+    // SAFETY: AVX2.
+    unsafe { params_of(b, ma, mb) }
+}
+
+/// The pair parameters' stiffness, damping factor and friction of materials `ma` (row)
+/// and `mb` (column), in lanes. Panics unless every material is below the table's count.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn params_of(b: &Bodies, ma: __m256i, mb: __m256i) -> (F8, F8, F8) {
+    if b.materials == 1 {
+        let p = &b.table[0];
+        return (
+            F8::splat(p.stiffness),
+            F8::splat(p.damping_factor),
+            F8::splat(p.friction),
+        );
+    }
+    let base = b.table.as_ptr() as *const f32;
     let nm = _mm256_set1_epi32(b.materials as i32);
     let top = _mm256_set1_epi32(b.materials as i32 - 1);
     let highest = _mm256_max_epu32(_mm256_max_epu32(ma, mb), top);

@@ -1,0 +1,231 @@
+//! The plain law of one-point sphere contacts eight at a time, one contact per lane
+//! ([`crate::law::point_contact_force_in`]`::<true>` with share 1 inside a contact, as
+//! [`super::sphere_lanes`] and [`super::wall_lanes`] use it), and the stores of its
+//! results into the contacts' slots. Each lane does the scalar law's IEEE operations on the
+//! same values in the same order, so the same bits (see [`super::sphere_lanes`]).
+
+use std::arch::x86_64::*;
+
+use glam::Vec3;
+
+use super::lanes::{F8, M8, V3, load_vec3, store_vec3};
+use crate::contract::{ContactForce, LINEAR_TANGENTIAL_RATIO, TANGENTIAL_DAMPING_RATIO};
+use crate::law::{EDGE_SLACK, RESOLVABLE};
+
+/// What the law takes of eight contacts: the normal `n` (from side a to side b), the
+/// overlap `depth`, the relative velocity `vrel` of b's contact point against a's, the pair
+/// parameters and the effective mass.
+pub(super) struct Contact8 {
+    pub(super) n: V3,
+    pub(super) depth: F8,
+    pub(super) vrel: V3,
+    pub(super) stiffness: F8,
+    pub(super) damping_factor: F8,
+    pub(super) friction: F8,
+    pub(super) m_eff: F8,
+}
+
+/// The law's results in lanes: the force on b `f`, the normal force `fn_`, the new spring
+/// `xi` and coverage `cov_after`, the springs and coverages read (`h`, `cov`), the lanes
+/// left to the scalar code (`scalar`) and those the lanes' results hold for (`done`).
+pub(super) struct Law8 {
+    pub(super) f: V3,
+    pub(super) fn_: F8,
+    pub(super) xi: V3,
+    pub(super) cov_after: F8,
+    pub(super) h: V3,
+    pub(super) cov: F8,
+    pub(super) scalar: M8,
+    pub(super) done: M8,
+}
+
+/// The law on eight contacts (`touch`: the lanes that touch now; `forced`: touching lanes
+/// to leave to the scalar code whatever the law says), with their springs `hist` and
+/// coverages `coverage` as stored; nothing is written.
+///
+/// Lanes left to the scalar code: a contact's first and last steps (the in-step normal
+/// law's fixed-point iterations), steps too long for the contact (the explicit law), and
+/// `forced`.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn law(
+    c: &Contact8,
+    touch: M8,
+    forced: M8,
+    dt: f32,
+    hist: &[Vec3; 8],
+    coverage: &[f32; 8],
+) -> Law8 {
+    let zero = F8::splat(0.0);
+    let (n, depth, vrel, m_eff) = (c.n, c.depth, c.vrel, c.m_eff);
+    let (fs, k) = (c.stiffness * depth, c.stiffness);
+    let eta = c.damping_factor * (m_eff * k.max_const(0.0)).sqrt();
+    let dt = F8::splat(dt);
+    let vn = vrel.dot(n);
+
+    // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
+    let v = -vn;
+    let explicit = (dt * (dt * k + eta)).gt(F8::splat(RESOLVABLE) * m_eff);
+    // SAFETY: 8 `f32`s.
+    let cov = F8(unsafe { _mm256_loadu_ps(coverage.as_ptr()) });
+    let first = cov.eq(zero);
+    let g_start = F8::select(cov.gt(zero), cov, zero);
+    let g_x = eta * depth;
+    let half_eta = F8::splat(0.5) * eta;
+    let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
+    let per_mass = F8::splat(1.0) / (m_eff + half_eta * dt);
+    let v_after = v - impulse * per_mass;
+    let fn_ = impulse * per_mass * m_eff / dt;
+    let stays = (depth + dt * v_after).gt(F8::splat(EDGE_SLACK) * dt * v_after.abs());
+    let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
+    let scalar = touch
+        .and(explicit.or(first).or(forced))
+        .or(stays.and_not(touch));
+    let done = scalar.and_not(touch);
+
+    // `tangential_law`.
+    let kt = F8::splat(LINEAR_TANGENTIAL_RATIO) * k;
+    let eta_t = F8::splat(TANGENTIAL_DAMPING_RATIO) * eta;
+    let vt = vrel - n * vn;
+    // SAFETY: AVX2.
+    let h = unsafe { load_vec3(hist) };
+    let along = h.dot(n);
+    let old_len2 = h.length_squared();
+    let turned = h - n * along;
+    let new_len2 = turned.length_squared();
+    let rescaled = V3::select(
+        new_len2.gt(zero),
+        turned * (old_len2 / new_len2).sqrt(),
+        turned,
+    );
+    let xi = V3::select(along.ne(zero), rescaled, h) + vt * dt;
+    let cap = c.friction * fn_.max_const(0.0);
+    let cap2 = cap * cap;
+    let spring2 = kt * kt * xi.length_squared();
+    let xi = V3::select(spring2.gt(cap2), xi * (cap / spring2.sqrt()), xi);
+    let ft = xi * -kt - vt * eta_t;
+    let ft_len2 = ft.length_squared();
+    let ft = V3::select(ft_len2.gt(cap2), ft * (cap / ft_len2.sqrt()), ft);
+    Law8 {
+        f: n * fn_ + ft,
+        fn_,
+        xi,
+        cov_after,
+        h,
+        cov,
+        scalar,
+        done,
+    }
+}
+
+/// Stores the law's results (`torques`: on a and on b) in eight contacts' slots: the
+/// lanes' results where they hold; zeros where the contact is apart (a release, or one
+/// that did not touch before either, whose force is zero already); springs kept where
+/// nothing touches and in the scalar code's lanes (which read them). The touching flags
+/// become `touch`; `was` is what they held.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
+pub(super) unsafe fn store(
+    out: &Law8,
+    touch: M8,
+    was: M8,
+    (torque_a, torque_b): (V3, V3),
+    hist: &mut [Vec3; 8],
+    coverage: &mut [f32; 8],
+    force: &mut [ContactForce; 8],
+    touching: &mut [bool; 8],
+) {
+    let zero = F8::splat(0.0);
+    let done = out.done;
+    let released = touch.and_not(was);
+    let h_out = V3::select(
+        done,
+        out.xi,
+        V3::select(released, V3::splat(Vec3::ZERO), out.h),
+    );
+    let cov_out = F8::select(done, out.cov_after, F8::select(released, zero, out.cov));
+    let only = |v: V3| V3::select(done, v, V3::splat(Vec3::ZERO));
+    // SAFETY: AVX2; 8 slots each.
+    unsafe {
+        store_vec3(h_out, hist);
+        _mm256_storeu_ps(coverage.as_mut_ptr(), cov_out.0);
+        store_forces(
+            only(out.f),
+            F8::select(done, out.fn_, zero),
+            only(torque_a),
+            only(torque_b),
+            force,
+        );
+    }
+    let (touch_bits, was_bits) = (touch.bits(), was.bits());
+    if touch_bits ^ was_bits != 0 {
+        for (l, t) in touching.iter_mut().enumerate() {
+            *t = touch_bits >> l & 1 != 0;
+        }
+    }
+}
+
+/// The touching flags of eight contacts as lane masks.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn was_touching(touching: &[bool; 8]) -> M8 {
+    // SAFETY: 8 bytes, each 0 or 1 (`bool`).
+    let bytes = unsafe { (touching.as_ptr() as *const u64).read_unaligned() };
+    M8(_mm256_castsi256_ps(_mm256_cmpgt_epi32(
+        _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(bytes as i64)),
+        _mm256_setzero_si256(),
+    )))
+}
+
+/// Eight [`ContactForce`]s from their fields in lanes: `f` the force on b and `fn_` the
+/// normal force, `ta` and `tb` the torques (pads zero).
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn store_forces(f: V3, fn_: F8, ta: V3, tb: V3, out: &mut [ContactForce; 8]) {
+    let zero = _mm256_setzero_ps();
+    // Per group of four fields, a 4x8 transpose: `r[l]` holds lanes l (low half) and l + 4
+    // (high half) of the four.
+    let transpose = |a: __m256, b: __m256, c: __m256, d: __m256| {
+        let (t0, t1) = (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+        let (t2, t3) = (_mm256_unpacklo_ps(c, d), _mm256_unpackhi_ps(c, d));
+        [
+            _mm256_shuffle_ps::<0x44>(t0, t2),
+            _mm256_shuffle_ps::<0xEE>(t0, t2),
+            _mm256_shuffle_ps::<0x44>(t1, t3),
+            _mm256_shuffle_ps::<0xEE>(t1, t3),
+        ]
+    };
+    let g = [
+        transpose(f.x.0, f.y.0, f.z.0, fn_.0),
+        transpose(ta.x.0, ta.y.0, ta.z.0, zero),
+        transpose(tb.x.0, tb.y.0, tb.z.0, zero),
+    ];
+    // Records l and l + 1 (l = 0, 2) are the 96 bytes `g0 g1 g2` of lane l then of lane
+    // l + 1; lanes l + 4 and l + 5 are the high halves.
+    let p = out.as_mut_ptr() as *mut f32;
+    for (l, r) in [(0usize, 0usize), (2, 2)] {
+        let (lo, hi) = (l * 12, (l + 4) * 12);
+        let (u, v) = (r, r + 1);
+        let pieces = [(g[0][u], g[1][u]), (g[2][u], g[0][v]), (g[1][v], g[2][v])];
+        for (s, (a, b)) in pieces.into_iter().enumerate() {
+            // SAFETY: 96 `f32`s from `p`, written within them.
+            unsafe {
+                _mm256_storeu_ps(p.add(lo + 8 * s), _mm256_permute2f128_ps::<0x20>(a, b));
+                _mm256_storeu_ps(p.add(hi + 8 * s), _mm256_permute2f128_ps::<0x31>(a, b));
+            }
+        }
+    }
+}
