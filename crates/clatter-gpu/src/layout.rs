@@ -61,8 +61,11 @@ clatter::gpu_record! {
         /// Where the boundaries' headers start in `shape_u` (`crate::mesh::HEADER_WORDS`
         /// words each).
         pub mesh_base: u32,
-        /// Unused.
-        pub pad0: u32,
+        /// 1 to ignore what touching polyhedron pairs remember (`pair_memory`), so that
+        /// every contact comes from the full separating-axis test: a check, never needed for
+        /// results, which are bitwise the same either way (`CLATTER_GPU_FULL_TEST=1`, see
+        /// docs/gpu.md).
+        pub full_test: u32,
         /// Unused.
         pub pad1: u32,
         /// Unused.

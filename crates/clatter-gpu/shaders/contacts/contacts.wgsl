@@ -46,7 +46,7 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     // What the pair remembers of its contact if it touched (pair_memory), its margin less
     // twice this step's bound on any axis's motion (CPU `remembered_narrow`).
     var mem = vec2<u32>(NO_HINT, 0u);
-    if was == 1u {
+    if was == 1u && params.full_test == 0u {
         mem = pair_memory[c];
     }
     nrw_mem_in = mem;
@@ -56,7 +56,10 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
     }
     let m = collide(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
     if m.count > 0u {
-        if any(nrw_mem_out != mem) {
+        // Written when it changed; a pair that did not touch last step may hold a word of
+        // an earlier contact (or of the pair in this slot before a rebuild), which must not
+        // survive as this contact's, so it is always written then.
+        if was != 1u || any(nrw_mem_out != mem) {
             pair_memory[c] = nrw_mem_out;
         }
         let params_ij = pair_table[si.material * params.num_materials + sj.material];
@@ -81,19 +84,27 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
 
 // An upper bound of how much the separation along any axis of the separating-axis test of
 // bodies i and j (j at offset xj) can have changed in the last step: the CPU's
-// `axis_motion_bound` (step/contacts.rs, see there why) in its looser first form (1-norms,
-// the lever 3 (r_i + r_j) with composites, else 2 (r_i + r_j)), plus rounding.
+// `axis_motion_bound` (step/contacts.rs, see there why): with composites, 1-norms and the
+// lever 3 (r_i + r_j); else the norms themselves and the lever |xj| + moved + max(r_i, r_j);
+// plus rounding.
 fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
-    let vi = abs(bodies[i].velocity.xyz);
-    let vj = abs(bodies[j].velocity.xyz);
-    let oi = abs(bodies[i].omega.xyz);
-    let oj = abs(bodies[j].omega.xyz);
     let x = abs(xj);
-    let r = statics[i].radius + statics[j].radius;
-    let lever = select(2.0, 3.0, params.composites != 0u) * r;
-    let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * params.dt;
-    let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * params.dt;
+    let ri = statics[i].radius;
+    let rj = statics[j].radius;
+    let r = ri + rj;
     let rounding = (x.x + x.y + x.z) * (1.0 / 8388608.0) + 4e-6 * r;
+    if (params.composites != 0u) {
+        let vi = abs(bodies[i].velocity.xyz);
+        let vj = abs(bodies[j].velocity.xyz);
+        let oi = abs(bodies[i].omega.xyz);
+        let oj = abs(bodies[j].omega.xyz);
+        let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * params.dt;
+        let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * params.dt;
+        return (moved + turned * 3.0 * r) * 1.00001 + rounding;
+    }
+    let moved = (length(bodies[i].velocity.xyz) + length(bodies[j].velocity.xyz)) * params.dt;
+    let turned = (length(bodies[i].omega.xyz) + length(bodies[j].omega.xyz)) * params.dt;
+    let lever = length(xj) + moved + max(ri, rj);
     return (moved + turned * lever) * 1.00001 + rounding;
 }
 

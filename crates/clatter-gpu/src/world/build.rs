@@ -145,8 +145,15 @@ fn scene_params(world: &World, capacity: u64, mesh_base: u32) -> Params {
         composites: world.has_composites() as u32,
         num_boundaries: world.boundaries.len() as u32,
         mesh_base,
+        full_test: full_test_only() as u32,
         ..Default::default()
     }
+}
+
+/// Whether `CLATTER_GPU_FULL_TEST` is set (to anything but empty or `0`): touching
+/// polyhedron pairs then ignore their remembered contact ([`Params::full_test`]).
+fn full_test_only() -> bool {
+    std::env::var_os("CLATTER_GPU_FULL_TEST").is_some_and(|v| !v.is_empty() && v != "0")
 }
 
 /// The sizes to allocate the buffers for.

@@ -233,6 +233,17 @@ impl GpuWorld {
         self.lean_enabled = on;
     }
 
+    /// Whether touching polyhedron pairs ignore what they remember of their contact, so
+    /// that every contact comes from the full separating-axis test ([`Params::full_test`];
+    /// off by default, or on with `CLATTER_GPU_FULL_TEST=1`). Results do not depend on it,
+    /// only speed: the tests turn it on to check that, bitwise.
+    pub fn set_full_test(&mut self, on: bool) {
+        self.params.full_test = on as u32;
+        self.ctx
+            .queue
+            .write_buffer(&self.bufs[Buf::Params], 0, bytemuck::bytes_of(&self.params));
+    }
+
     /// How many times a lean step found a rebuild due and was run again in full.
     pub fn stalls(&self) -> u64 {
         self.stalls

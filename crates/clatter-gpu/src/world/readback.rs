@@ -165,6 +165,24 @@ impl GpuWorld {
         self.read_buffer(b, 0, b.size())
     }
 
+    /// Overwrites the pair memory (`pair_memory`, two words per pair slot: hint, margin
+    /// bits) from the start: for the test that words left in slots of pairs that do not
+    /// touch (from an earlier contact, or another pair before a rebuild) change nothing.
+    #[cfg(feature = "test-harness")]
+    pub fn debug_write_pair_memory(&self, words: &[u32]) -> Result<(), GpuError> {
+        let b = &self.bufs[Buf::PairMemory];
+        let bytes: &[u8] = bytemuck::cast_slice(words);
+        if bytes.len() as u64 > b.size() {
+            return Err(GpuError::Unsupported(format!(
+                "{} bytes of pair memory, the buffer holds {}",
+                bytes.len(),
+                b.size()
+            )));
+        }
+        self.context().queue.write_buffer(b, 0, bytes);
+        Ok(())
+    }
+
     /// The simulated time after `g` GPU steps: the CPU's sum of `dt`, continued from the
     /// last call's when it can be.
     pub(super) fn time_after(&self, g: u64) -> f64 {
