@@ -229,3 +229,27 @@ unsafe fn store_forces(f: V3, fn_: F8, ta: V3, tb: V3, out: &mut [ContactForce; 
         }
     }
 }
+
+/// Eight pairs' indices, `a0 b0 a1 b1 ...`, split into `a0..a7` and `b0..b7` (the first and
+/// second index of each pair: two bodies, or a sphere and a wall).
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn split_pairs(pairs: &[[u32; 2]; 8]) -> (__m256i, __m256i) {
+    let p = pairs.as_ptr() as *const __m256i;
+    // SAFETY: 16 `u32`s from `p`.
+    let (lo, hi) = unsafe {
+        (
+            _mm256_castsi256_ps(_mm256_loadu_si256(p)),
+            _mm256_castsi256_ps(_mm256_loadu_si256(p.add(1))),
+        )
+    };
+    // The shuffles give a0 a1 a4 a5 a2 a3 a6 a7 (and b likewise): swap the middle 64 bits.
+    let order = |v: __m256| _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(v));
+    (
+        order(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi)),
+        order(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi)),
+    )
+}

@@ -23,7 +23,7 @@ use glam::Vec3;
 
 use super::contacts::sphere_pair;
 use super::lanes::{F8, V3, gather, load_vec3_at};
-use super::law_lanes::{Contact8, law, store, was_touching};
+use super::law_lanes::{Contact8, law, split_pairs, store, was_touching};
 use crate::contract::{ContactForce, PairParams};
 use crate::precise::Ds3A;
 use crate::world::World;
@@ -265,18 +265,8 @@ unsafe fn group(
     touching: &mut [bool; 8],
 ) -> usize {
     // The pairs' bodies, i0 j0 i1 j1 ..., split into i0..i7 and j0..j7.
-    let p = pairs.as_ptr() as *const __m256i;
-    // SAFETY: 16 `u32`s from `p`.
-    let (lo, hi) = unsafe {
-        (
-            _mm256_castsi256_ps(_mm256_loadu_si256(p)),
-            _mm256_castsi256_ps(_mm256_loadu_si256(p.add(1))),
-        )
-    };
-    // The shuffles give i0 i1 i4 i5 i2 i3 i6 i7 (and j likewise): swap the middle 64 bits.
-    let order = |v: __m256| _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(v));
-    let i = order(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi));
-    let j = order(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi));
+    // SAFETY: AVX2 (this function's).
+    let (i, j) = unsafe { split_pairs(pairs) };
     // Every index in bounds (unsigned) before anything is read through them.
     let top = _mm256_set1_epi32(b.x.len() as i32 - 1);
     let highest = _mm256_max_epu32(_mm256_max_epu32(i, j), top);

@@ -16,7 +16,7 @@ use glam::Vec3;
 
 use super::contacts::wall_pair;
 use super::lanes::{F8, M8, V3, gather, load_vec3_at};
-use super::law_lanes::{Contact8, law, store, was_touching};
+use super::law_lanes::{Contact8, law, split_pairs, store, was_touching};
 use super::sphere_lanes::{Bodies, params_of, split_positions};
 use crate::contract::ContactForce;
 use crate::precise::Ds3A;
@@ -158,17 +158,8 @@ unsafe fn group(
     touching: &mut [bool; 8],
 ) -> usize {
     // The pairs' spheres and walls, i0 k0 i1 k1 ..., split into i0..i7 and k0..k7.
-    let p = pairs.as_ptr() as *const __m256i;
-    // SAFETY: 16 `u32`s from `p`.
-    let (lo, hi) = unsafe {
-        (
-            _mm256_castsi256_ps(_mm256_loadu_si256(p)),
-            _mm256_castsi256_ps(_mm256_loadu_si256(p.add(1))),
-        )
-    };
-    let order = |v: __m256| _mm256_permute4x64_epi64::<0b11_01_10_00>(_mm256_castps_si256(v));
-    let i = order(_mm256_shuffle_ps::<0b10_00_10_00>(lo, hi));
-    let k = order(_mm256_shuffle_ps::<0b11_01_11_01>(lo, hi));
+    // SAFETY: AVX2 (this function's).
+    let (i, k) = unsafe { split_pairs(pairs) };
     // Every index in bounds (unsigned) before anything is read through them.
     let bounded = |v: __m256i, len: usize| {
         let top = _mm256_set1_epi32(len as i32 - 1);
