@@ -55,18 +55,26 @@ pub(super) fn clip_faces(
         let v1 = refp.vertices[rl[(k + 1) % rl.len()] as usize];
         let side = (v1 - v0).cross(n); // outward for a CCW loop
         let off = side.dot(v0);
+        // Each corner's distance is computed once (the same expression for it as the start
+        // and as the end of an edge, so the same bits), and the loop closes on the first.
         tmp.clear();
-        for i in 0..poly.len() {
-            let p = poly[i];
-            let q = poly[(i + 1) % poly.len()];
-            let dp = side.dot(p) - off;
-            let dq = side.dot(q) - off;
+        let Some(&first) = poly.first() else {
+            break;
+        };
+        let d_first = side.dot(first) - off;
+        let (mut p, mut dp) = (first, d_first);
+        for i in 1..=poly.len() {
+            let (q, dq) = match poly.get(i) {
+                Some(&q) => (q, side.dot(q) - off),
+                None => (first, d_first),
+            };
             if dp <= 0.0 {
                 tmp.push(p);
             }
             if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
                 tmp.push(p + (q - p) * (dp / (dp - dq)));
             }
+            (p, dp) = (q, dq);
         }
         std::mem::swap(poly, tmp);
         if poly.is_empty() {

@@ -164,6 +164,18 @@ fn lasting_candidates(row: &[Vec4], nfb: usize, neb: usize, by_face: &[u64; 64])
     mask(neb) & !(both(plus) | both(minus))
 }
 
+/// Records direction pair `k` in a recording memory at the level of its separation bound
+/// `s` (see [`DeepPairs`]), if it is deep enough for one; `radii`: the bodies' radii summed.
+#[inline]
+fn remember_depth(memory: Option<&mut EdgeMemory>, k: usize, s: f32, radii: f32) {
+    if let Some(m) = memory {
+        let code = DeepPairs::code(s, radii);
+        if code != 0 {
+            m.record_depth(k, code);
+        }
+    }
+}
+
 /// Records edge pair `(ea, eb)` as the separating axis found, with separation `s`.
 #[inline]
 pub(super) fn separating_pair(
@@ -331,8 +343,7 @@ pub(super) fn edge_axes_by_direction(
         },
         None => (0, None),
     };
-    let (level, ndb) = (DeepPairs::level(a, b), b.edge_dirs.len());
-    let mut deep = 0u128;
+    let (radii, ndb) = (a.radius + b.radius, b.edge_dirs.len());
     // B's directions rotated once (the same products as per pair, so the same bits).
     let dirs_b = &mut tables.dirs_b;
     dirs_b.clear();
@@ -341,7 +352,8 @@ pub(super) fn edge_axes_by_direction(
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
         for (ib, &wb) in dirs_b.iter().enumerate() {
-            let bit = 1u128.checked_shl((ia * ndb + ib) as u32).unwrap_or(0);
+            let k = ia * ndb + ib;
+            let bit = 1u128.checked_shl(k as u32).unwrap_or(0);
             if skip & bit != 0 {
                 continue;
             }
@@ -366,8 +378,9 @@ pub(super) fn edge_axes_by_direction(
             let (head_plus, head_minus) = (ext_b.min() - ext_a.max(), ext_a.min() - ext_b.max());
             if head_plus <= low && head_minus <= low {
                 // (These bound the separations from above.)
-                if rememberable && head_plus <= level && head_minus <= level {
-                    deep |= bit;
+                if rememberable {
+                    let bound = if head_plus >= head_minus { head_plus } else { head_minus };
+                    remember_depth(record.as_deref_mut(), k, bound, radii);
                 }
                 continue;
             }
@@ -381,8 +394,8 @@ pub(super) fn edge_axes_by_direction(
             } else {
                 (min_a - max_b, -axis)
             };
-            if rememberable && s <= level {
-                deep |= bit;
+            if rememberable {
+                remember_depth(record.as_deref_mut(), k, s, radii);
             }
             if s > 0.0 {
                 if let Some(m) = record {
@@ -411,7 +424,7 @@ pub(super) fn edge_axes_by_direction(
         }
     }
     if let Some(m) = record.take() {
-        m.finish_directions(a, b, deep);
+        m.finish_directions(a, b);
     }
     if best.0 == f32::NEG_INFINITY {
         return Some(best);

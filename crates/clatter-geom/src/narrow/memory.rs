@@ -54,15 +54,17 @@ pub struct EdgeMemory {
     shapes: [usize; 2],
     /// B's rotation relative to A at the recorded search.
     rot: Quat,
-    /// The pairs remembered, `[edge of A, edge of B]`, in increasing order.
+    /// By Gauss map, the pairs remembered, `[edge of A, edge of B]`, in increasing order; by
+    /// direction, the level code of each direction pair in `deep` (see [`DeepPairs`]), one
+    /// byte per pair.
     pairs: [[u8; 2]; CAPACITY],
     len: u8,
     /// Whether this is a memory of the search by direction (see [`DeepPairs`]).
     directions: bool,
     /// By direction: B's offset in A's frame at the recorded search ...
     offset: Vec3,
-    /// ... and the direction pairs found deep then, a bit per pair `ia * (B's directions)
-    /// + ib`.
+    /// ... and the direction pairs remembered at some depth then, a bit per pair `ia * (B's
+    /// directions) + ib` (their levels in `pairs`).
     deep: u128,
 }
 
@@ -215,17 +217,19 @@ impl EdgeMemory {
     }
 }
 
-/// How deep a direction pair of the search by direction must be found (its separation, or
-/// a bound of it from some of the points, at most this times the sum of the bodies' radii)
-/// to be remembered as deep.
-const DEEP: f32 = 0.1;
+/// How many depth levels a direction pair can be remembered at (see [`DeepPairs`]): level
+/// `c` (1 to `LEVELS`) is `-(r_a + r_b) 2^-(c + 1)`, from a quarter of the radii's sum
+/// down to about `2.4e-4` of it (shallower levels are never left out: the rounding allowed
+/// for, `1e-4` of the bodies' reach, is already of that size).
+const LEVELS: u8 = 11;
 
 /// The direction pairs of `edges::edge_axes_by_direction` that can be left out of a search:
-/// those a memory found deep (separation at most `-DEEP (r_a + r_b)`), while the most
-/// their separation can have grown since stays below the distance from there to the
-/// search's floor. A pair left out then has a separation at or below the floor, which the
-/// search may leave out anyway (it neither separates nor changes a best axis above the
-/// floor).
+/// each direction pair found at some depth (its separation, or an upper bound of it from
+/// some of the points, at most a level of [`LEVELS`]) is remembered with the shallowest
+/// level it is below, and left out of later searches while that level plus the most its
+/// separation can have grown since stays at or below the search's floor. A pair left out
+/// then has a separation at or below the floor, which the search may leave out anyway (it
+/// neither separates nor changes a best axis above the floor).
 ///
 /// The bound: a direction pair's separation is `sigma(u) = min_B(u) - max_A(u)` (or the
 /// same along `-u`, whichever is larger) on the unit axis `u` along `ua x (R ub)`. With the
@@ -240,10 +244,29 @@ const DEEP: f32 = 0.1;
 pub(super) struct DeepPairs;
 
 impl DeepPairs {
-    /// The level below which a pair is remembered as deep.
+    /// Level `code` (1 to [`LEVELS`]) for bodies whose radii sum to `r`: `-r 2^-(code +
+    /// 1)`, exact in floats (a power of two times `r`).
     #[inline]
-    pub(super) fn level(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> f32 {
-        -DEEP * (a.radius + b.radius)
+    fn level(code: u8, r: f32) -> f32 {
+        -(r * f32::from_bits((126 - code as u32) << 23))
+    }
+
+    /// The level code of a direction pair whose separation is at most `s` (the computed
+    /// separation, or an upper bound of it from some of the points), for bodies whose
+    /// radii sum to `r`: the shallowest level at or above `s`, or 0 (not remembered) when
+    /// `s` is above every level (or NaN).
+    #[inline]
+    pub(super) fn code(s: f32, r: f32) -> u8 {
+        // Deeper pairs meet the first levels' tests (written so that a NaN gets 0).
+        let mut code = 0;
+        for c in (1..=LEVELS).rev() {
+            if Self::level(c, r) >= s {
+                code = c;
+            } else {
+                break;
+            }
+        }
+        code
     }
 
     /// Whether the pair's axis is far enough from parallel edges to be remembered
@@ -257,7 +280,8 @@ impl DeepPairs {
 impl EdgeMemory {
     /// The direction pairs that a search of `a` against `b` by direction, at relative
     /// rotation `rot` and offset `t` with floor `floor`, may leave out (see [`DeepPairs`]):
-    /// 0 when the memory does not serve.
+    /// 0 when the memory does not serve (or serves fewer than half the pairs it
+    /// remembers: a new recording is then worth its cost).
     pub(super) fn deep_pairs(
         &self,
         a: &ConvexPolyhedron,
@@ -274,11 +298,29 @@ impl EdgeMemory {
         let lever = a.radius + b.radius + t.length() + moved;
         let turned = 11.0 * c + 4e-5;
         let grown = (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01;
-        // (Written so that a NaN serves nothing.)
-        if DeepPairs::level(a, b) + grown <= floor {
-            self.deep
-        } else {
+        // The deepest levels that still reach no higher than the floor: codes 1 to `top`
+        // (levels rise with the code). (Written so that a NaN serves nothing.)
+        let r = a.radius + b.radius;
+        let mut top = 0;
+        while top < LEVELS && DeepPairs::level(top + 1, r) + grown <= floor {
+            top += 1;
+        }
+        if top == 0 {
+            return 0;
+        }
+        let codes = self.pairs.as_flattened();
+        let (mut bits, mut served) = (self.deep, 0u128);
+        while bits != 0 {
+            let k = bits.trailing_zeros();
+            if codes[k as usize] <= top {
+                served |= 1 << k;
+            }
+            bits &= bits - 1;
+        }
+        if 2 * served.count_ones() < self.deep.count_ones() {
             0
+        } else {
+            served
         }
     }
 
@@ -300,15 +342,16 @@ impl EdgeMemory {
         true
     }
 
-    /// Ends a recording by direction that went through every direction pair, with the
-    /// pairs found deep.
-    pub(super) fn finish_directions(
-        &mut self,
-        a: &ConvexPolyhedron,
-        b: &ConvexPolyhedron,
-        deep: u128,
-    ) {
-        self.deep = deep;
+    /// Records direction pair `k` (`ia * (B's directions) + ib`, below 128) at level
+    /// `code` ([`DeepPairs::code`], not 0).
+    #[inline]
+    pub(super) fn record_depth(&mut self, k: usize, code: u8) {
+        self.pairs.as_flattened_mut()[k] = code;
+        self.deep |= 1 << k;
+    }
+
+    /// Ends a recording by direction that went through every direction pair.
+    pub(super) fn finish_directions(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron) {
         self.shapes = [address(a), address(b)];
     }
 }
