@@ -52,7 +52,7 @@ pub(super) fn clip_faces(
     let rl = refp.face_loop(rf);
     for k in 0..rl.len() {
         let v0 = refp.vertices[rl[k] as usize];
-        let v1 = refp.vertices[rl[(k + 1) % rl.len()] as usize];
+        let v1 = refp.vertices[rl[if k + 1 < rl.len() { k + 1 } else { 0 }] as usize];
         let side = (v1 - v0).cross(n); // outward for a CCW loop
         let off = side.dot(v0);
         // Each corner's distance is computed once (the same expression for it as the start

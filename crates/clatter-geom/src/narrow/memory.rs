@@ -355,3 +355,31 @@ impl EdgeMemory {
         self.shapes = [address(a), address(b)];
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{DeepPairs, LEVELS};
+
+    /// The level codes against the levels written out as `-r / 2^(c + 1)` in f64: the code
+    /// is the smallest (deepest level) whose level is still at or above the separation, so
+    /// the level bounds the separation from above as tightly as the levels allow.
+    #[test]
+    fn depth_codes_name_the_deepest_level_above_the_separation() {
+        let level = |c: u8, r: f32| -(r as f64) / 2f64.powi(c as i32 + 1);
+        for r in [0.02f32, 0.013, 1.0, 7.5] {
+            let mut s = -2.0 * r;
+            while s < 0.0 {
+                let code = DeepPairs::code(s, r);
+                // The smallest code whose level is at or above `s`, by scanning them all.
+                let want = (1..=LEVELS).find(|&c| level(c, r) >= s as f64).unwrap_or(0);
+                assert_eq!(code, want, "r {r}, s {s}");
+                if code != 0 {
+                    assert!(DeepPairs::level(code, r) as f64 == level(code, r));
+                }
+                s += r * 1.37e-3;
+            }
+            assert_eq!(DeepPairs::code(f32::NAN, r), 0);
+            assert_eq!(DeepPairs::code(0.0, r), 0);
+        }
+    }
+}

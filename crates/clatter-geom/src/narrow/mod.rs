@@ -243,10 +243,12 @@ fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3) -> Vec3 {
     let face = p.faces[f];
     let lp = p.face_loop(f);
     let proj = x - face.normal * (face.normal.dot(x) - face.offset);
+    // The loop's next corner without a division (`(k + 1) % len`).
+    let next = |k: usize| if k + 1 < lp.len() { k + 1 } else { 0 };
     let mut inside = true;
     for k in 0..lp.len() {
         let a = p.vertices[lp[k] as usize];
-        let b = p.vertices[lp[(k + 1) % lp.len()] as usize];
+        let b = p.vertices[lp[next(k)] as usize];
         if (b - a).cross(proj - a).dot(face.normal) < 0.0 {
             inside = false;
             break;
@@ -259,7 +261,7 @@ fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3) -> Vec3 {
     let mut best_d = f32::INFINITY;
     for k in 0..lp.len() {
         let a = p.vertices[lp[k] as usize];
-        let b = p.vertices[lp[(k + 1) % lp.len()] as usize];
+        let b = p.vertices[lp[next(k)] as usize];
         let q = closest_on_segment(a, b, x);
         let d = (q - x).length_squared();
         if d < best_d {
