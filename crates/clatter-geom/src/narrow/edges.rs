@@ -379,7 +379,11 @@ pub(super) fn edge_axes_by_direction(
             if head_plus <= low && head_minus <= low {
                 // (These bound the separations from above.)
                 if rememberable {
-                    let bound = if head_plus >= head_minus { head_plus } else { head_minus };
+                    let bound = if head_plus >= head_minus {
+                        head_plus
+                    } else {
+                        head_minus
+                    };
                     remember_depth(record.as_deref_mut(), k, bound, radii);
                 }
                 continue;
