@@ -280,8 +280,9 @@ impl DeepPairs {
 impl EdgeMemory {
     /// The direction pairs that a search of `a` against `b` by direction, at relative
     /// rotation `rot` and offset `t` with floor `floor`, may leave out (see [`DeepPairs`]):
-    /// 0 when the memory does not serve (or serves fewer than half the pairs it
-    /// remembers: a new recording is then worth its cost).
+    /// 0 when the memory does not serve (the search then records anew). (Recording anew
+    /// once fewer than half the remembered pairs were served cost more instructions on the
+    /// settled cube and mixed piles than serving them to the last.)
     pub(super) fn deep_pairs(
         &self,
         a: &ConvexPolyhedron,
@@ -317,11 +318,7 @@ impl EdgeMemory {
             }
             bits &= bits - 1;
         }
-        if 2 * served.count_ones() < self.deep.count_ones() {
-            0
-        } else {
-            served
-        }
+        served
     }
 
     /// Starts recording a search by direction of `a` against `b` at `rot` and offset `t`;
