@@ -340,13 +340,32 @@ impl Domain {
         let np = c.pairs.len();
         let t = &c.springs.touching;
         let ghost = &self.local.ghost;
-        // Counted every step (the step's stats): flags summed without branches.
-        let pairs: usize = c
-            .pairs
-            .iter()
-            .zip(&t[..np])
-            .map(|(p, &tk)| (tk & !ghost.get(p[0] as usize).copied().unwrap_or(false)) as usize)
-            .sum();
+        // Counted every step (the step's stats): every pair's flag summed without branches
+        // (bytes, which vectorise), less the pairs whose first body is a ghost: pairs sort
+        // by their first body, so a ghost's are one range of the list (`pairs_as_a`), and
+        // only the ghosts' ranges are read, not the pairs' first bodies one by one.
+        let all: usize = t[..np].iter().map(|&tk| tk as usize).sum();
+        let of_ghosts: usize = if ghost.is_empty() {
+            0
+        } else if c.pairs_as_a.len() != ghost.len() + 1 {
+            // No ranges (no list built for these bodies): pair by pair.
+            c.pairs
+                .iter()
+                .zip(&t[..np])
+                .map(|(p, &tk)| (tk & ghost.get(p[0] as usize).copied().unwrap_or(false)) as usize)
+                .sum()
+        } else {
+            ghost
+                .iter()
+                .enumerate()
+                .filter(|&(_, &g)| g)
+                .map(|(i, _)| {
+                    let r = c.pairs_as_a[i] as usize..c.pairs_as_a[i + 1] as usize;
+                    t[r].iter().map(|&tk| tk as usize).sum::<usize>()
+                })
+                .sum()
+        };
+        let pairs = all - of_ghosts;
         let walls: usize = t[np..].iter().map(|&x| x as usize).sum();
         let mesh = if self.local.mesh_slots().is_empty() {
             0
