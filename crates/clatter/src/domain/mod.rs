@@ -340,14 +340,40 @@ impl Domain {
         let np = c.pairs.len();
         let t = &c.springs.touching;
         let ghost = &self.local.ghost;
-        // Counted every step (the step's stats): flags summed without branches.
-        let pairs: usize = c
-            .pairs
-            .iter()
-            .zip(&t[..np])
-            .map(|(p, &tk)| (tk & !ghost.get(p[0] as usize).copied().unwrap_or(false)) as usize)
-            .sum();
-        let walls: usize = t[np..].iter().map(|&x| x as usize).sum();
+        // Counted every step (the step's stats): every pair's flag summed without branches
+        // (bytes widened to `u32`, which vectorise), less the pairs whose first body is a
+        // ghost: pairs sort by their first body, so a ghost's are one range of the list
+        // (`pairs_as_a`), and only the ghosts' ranges (the lists received every step) are
+        // read, not every pair's first body.
+        let all = t[..np].iter().map(|&tk| tk as u32).sum::<u32>() as usize;
+        let of_ghosts: usize = if ghost.is_empty() {
+            0
+        } else if c.pairs_as_a.len() != ghost.len() + 1 {
+            // No ranges (no list built for these bodies): pair by pair.
+            c.pairs
+                .iter()
+                .zip(&t[..np])
+                .map(|(p, &tk)| (tk & ghost.get(p[0] as usize).copied().unwrap_or(false)) as usize)
+                .sum()
+        } else {
+            // Every ghost is received from its one owner: each is in one list.
+            debug_assert_eq!(
+                self.recv.iter().map(Vec::len).sum::<usize>(),
+                ghost.iter().filter(|&&g| g).count()
+            );
+            self.recv
+                .iter()
+                .flatten()
+                .map(|&g| {
+                    let g = g as usize;
+                    debug_assert!(ghost[g]);
+                    let r = c.pairs_as_a[g] as usize..c.pairs_as_a[g + 1] as usize;
+                    t[r].iter().map(|&tk| tk as usize).sum::<usize>()
+                })
+                .sum()
+        };
+        let pairs = all - of_ghosts;
+        let walls = t[np..].iter().map(|&x| x as u32).sum::<u32>() as usize;
         let mesh = if self.local.mesh_slots().is_empty() {
             0
         } else {
@@ -387,7 +413,7 @@ impl Domain {
             .send
             .iter()
             .map(|list| {
-                let mut w = Writer::default();
+                let mut w = Writer(Vec::with_capacity(list.len() * rows::STATE_BYTES));
                 for &i in list {
                     w.state(&self.local.state, i as usize);
                 }

@@ -92,18 +92,49 @@ impl Writer {
         self.f32(w.reach.get(i).copied().unwrap_or(0.0));
     }
 
-    /// Body `i`'s state.
+    /// Body `i`'s state: the fields of [`STATE_BYTES`] in order, assembled in a fixed-size
+    /// record and appended at once (ghost states go out every step: one capacity check
+    /// per state, not one per field).
     pub fn state(&mut self, s: &BodyStates, i: usize) {
+        let mut r = Record::default();
         let x = s.position[i];
-        self.f64(x.x);
-        self.f64(x.y);
-        self.f64(x.z);
-        self.vec3(s.velocity[i]);
-        self.quat(s.orientation[i]);
-        self.quat(s.orientation_residual[i]);
-        self.vec3(s.angular_momentum[i]);
-        self.vec3(s.omega[i]);
-        self.u32(s.removed[i] as u32);
+        for c in [x.x, x.y, x.z] {
+            r.put(c.to_le_bytes());
+        }
+        let (v, q, r0) = (s.velocity[i], s.orientation[i], s.orientation_residual[i]);
+        let (l, w) = (s.angular_momentum[i], s.omega[i]);
+        let floats = [
+            v.x, v.y, v.z, q.x, q.y, q.z, q.w, r0.x, r0.y, r0.z, r0.w, l.x, l.y, l.z, w.x, w.y, w.z,
+        ];
+        for f in floats {
+            r.put(f.to_le_bytes());
+        }
+        r.put((s.removed[i] as u32).to_le_bytes());
+        debug_assert_eq!(r.at, STATE_BYTES);
+        self.0.extend_from_slice(&r.bytes);
+    }
+}
+
+/// A state's bytes as [`Writer::state`] assembles them.
+struct Record {
+    bytes: [u8; STATE_BYTES],
+    at: usize,
+}
+
+impl Default for Record {
+    fn default() -> Self {
+        Record {
+            bytes: [0; STATE_BYTES],
+            at: 0,
+        }
+    }
+}
+
+impl Record {
+    #[inline(always)]
+    fn put<const N: usize>(&mut self, b: [u8; N]) {
+        self.bytes[self.at..self.at + N].copy_from_slice(&b);
+        self.at += N;
     }
 }
 
@@ -213,8 +244,19 @@ impl<'a> Reader<'a> {
         self.at += n * SLOT_BYTES;
     }
 
-    /// A state written by [`Writer::state`], into body `i` of `s`.
+    /// A state written by [`Writer::state`], into body `i` of `s`. The record is taken
+    /// whole (one bounds check) and its fields read at fixed offsets.
     pub fn state(&mut self, s: &mut BodyStates, i: usize) {
+        let record: &[u8; STATE_BYTES] = self.bytes[self.at..self.at + STATE_BYTES]
+            .try_into()
+            .expect("a whole state");
+        self.at += STATE_BYTES;
+        Reader::new(record).fields(s, i);
+    }
+
+    /// [`Reader::state`]'s fields, from a reader of the record alone.
+    #[inline(always)]
+    fn fields(&mut self, s: &mut BodyStates, i: usize) {
         s.position[i] = DVec3::new(self.f64(), self.f64(), self.f64());
         s.velocity[i] = self.vec3();
         s.orientation[i] = self.quat();
