@@ -197,7 +197,9 @@ impl ContactVariant {
         if meshes {
             return max;
         }
-        (2 * longest_face as u32 + 4).next_power_of_two().clamp(16, max)
+        (2 * longest_face as u32 + 4)
+            .next_power_of_two()
+            .clamp(16, max)
     }
 }
 

@@ -377,9 +377,15 @@ mod tests {
         // points: every size holds twice the longest face, with 4 to spare.
         for longest in 0..=MAX_FACE_VERTICES {
             let clip = ContactVariant::clip_points(longest, false) as usize;
-            assert!(clip >= 2 * longest + 4 || clip == MAX_CLIP_POINTS, "{longest}: {clip}");
+            assert!(
+                clip >= 2 * longest + 4 || clip == MAX_CLIP_POINTS,
+                "{longest}: {clip}"
+            );
             assert!(clip.is_power_of_two() && (16..=MAX_CLIP_POINTS).contains(&clip));
-            assert_eq!(ContactVariant::clip_points(longest, true) as usize, MAX_CLIP_POINTS);
+            assert_eq!(
+                ContactVariant::clip_points(longest, true) as usize,
+                MAX_CLIP_POINTS
+            );
         }
         assert_eq!(ContactVariant::clip_points(4, false), 16);
         assert_eq!(ContactVariant::clip_points(7, false), 32);
