@@ -154,6 +154,23 @@ impl GpuContext {
         self.adapter_info.device_type == wgpu::DeviceType::Cpu
     }
 
+    /// Into how many contiguous runs of workgroups the adapter splits a dispatch
+    /// ([`crate::layout::Params::deal`]): on a CPU rasteriser (Mesa's lavapipe and
+    /// llvmpipe) one run per thread of its pool, which has `LP_NUM_THREADS` threads, by
+    /// default one per CPU (at most 32); 1 on a real GPU. Only how evenly the adapter's
+    /// threads share the work depends on it, never a result.
+    pub fn workgroup_runs(&self) -> u32 {
+        if !self.is_software() {
+            return 1;
+        }
+        let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let threads = std::env::var("LP_NUM_THREADS")
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+            .unwrap_or(cpus);
+        threads.clamp(1, 32) as u32
+    }
+
     /// The first error wgpu reported since the last call (validation, out of memory, device
     /// lost), as a [`GpuError::Runtime`].
     pub fn take_error(&self) -> Result<(), GpuError> {

@@ -66,8 +66,14 @@ clatter::gpu_record! {
         /// results, which are bitwise the same either way (`CLATTER_GPU_FULL_TEST=1`, see
         /// docs/gpu.md).
         pub full_test: u32,
-        /// Unused.
-        pub pad1: u32,
+        /// Into how many contiguous ranges the adapter splits a dispatch's workgroups, one
+        /// per thread: lavapipe and llvmpipe hand each of their threads one run of
+        /// consecutive workgroups; 1 on a real GPU, which schedules workgroups as they
+        /// finish. The per-item kernels deal their items over these ranges (`dealt_item`,
+        /// status.wgsl) so that each thread gets its share of every part of a list, not one
+        /// part of it (the pairs of one class, the bodies near the floor). Only which
+        /// thread computes an item changes, never its result.
+        pub deal: u32,
         /// Unused.
         pub pad2: u32,
     }

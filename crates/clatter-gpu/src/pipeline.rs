@@ -153,7 +153,7 @@ pub(crate) struct Compiled {
     pub layouts: [wgpu::BindGroupLayout; 3],
     pub base: Kernels,
     /// By [`ContactVariant::index`].
-    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 6],
+    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 6 * CLIP_SIZES],
 }
 
 /// Which contact kernel set a world uses.
@@ -165,17 +165,58 @@ pub(crate) struct ContactVariant {
     pub meshes: bool,
     /// Some body is a composite (never a sphere-only scene: a composite is not a sphere).
     pub composites: bool,
+    /// Points each clipping buffer holds (`NRW_MAX_CLIP`): [`ContactVariant::clip_points`].
+    pub clip: u32,
 }
+
+/// The clipping buffer sizes compiled: 16, 32 and 64 points.
+const CLIP_SIZES: usize = 3;
 
 impl ContactVariant {
     /// Its slot in [`Compiled::contact_sets`].
     pub fn index(self) -> usize {
-        if self.composites {
+        let base = if self.composites {
             4 + self.meshes as usize
         } else {
             self.spheres_only as usize + 2 * self.meshes as usize
-        }
+        };
+        let size = (self.clip.max(16) / 16).trailing_zeros() as usize;
+        base * CLIP_SIZES + size.min(CLIP_SIZES - 1)
     }
+
+    /// Points per clipping buffer for a scene whose longest polyhedron face has
+    /// `longest_face` vertices: twice that (a convex face clipped by another's k edges gains
+    /// at most k points) plus 4 to spare for rounding on nearly degenerate polygons,
+    /// rounded up to a power of two from 16 to
+    /// [`MAX_CLIP_POINTS`](crate::shapes::MAX_CLIP_POINTS), which scenes with meshes keep
+    /// (their fallback manifold collects a body's vertices). Every buffer is zero-filled on
+    /// every call (WGSL's rule for local variables), which lavapipe pays in full: most
+    /// scenes' faces have 3 to 6 vertices, a quarter of the largest size.
+    pub fn clip_points(longest_face: usize, meshes: bool) -> u32 {
+        let max = crate::shapes::MAX_CLIP_POINTS as u32;
+        if meshes {
+            return max;
+        }
+        (2 * longest_face as u32 + 4)
+            .next_power_of_two()
+            .clamp(16, max)
+    }
+}
+
+/// The narrow phase's text with clipping buffers of `clip` points (narrow.wgsl declares
+/// [`MAX_CLIP_POINTS`](crate::shapes::MAX_CLIP_POINTS); the test `wgsl_constants_match` in
+/// shapes.rs checks both declarations replaced here).
+pub(crate) fn narrow_source(clip: u32) -> String {
+    let max = crate::shapes::MAX_CLIP_POINTS;
+    NARROW
+        .replace(
+            &format!("const NRW_MAX_CLIP: u32 = {max}u;"),
+            &format!("const NRW_MAX_CLIP: u32 = {clip}u;"),
+        )
+        .replace(
+            &format!("array<vec4<f32>, {max}>"),
+            &format!("array<vec4<f32>, {clip}>"),
+        )
 }
 
 impl Compiled {

@@ -75,6 +75,22 @@ pub struct GpuShapes {
     pub words: wgpu::Buffer,
     /// Number of shapes uploaded; valid shape indices are `0..count`.
     pub count: usize,
+    /// The most vertices of any polyhedron face, composite pieces included (0 without
+    /// polyhedra): sizes the contact kernels' clipping buffers
+    /// ([`ContactVariant::clip_points`](crate::pipeline::ContactVariant::clip_points)).
+    pub longest_face: usize,
+}
+
+/// The most vertices of any face of `shapes`' polyhedra and composite pieces.
+fn longest_face(shapes: &[PreparedShape]) -> usize {
+    fn of(shape: &Shape) -> usize {
+        match shape {
+            Shape::Polyhedron(p) => p.faces.iter().map(|f| f.count as usize).max().unwrap_or(0),
+            Shape::Composite(c) => c.pieces.iter().map(|p| of(&p.shape)).max().unwrap_or(0),
+            _ => 0,
+        }
+    }
+    shapes.iter().map(|p| of(&p.shape)).max().unwrap_or(0)
 }
 
 /// The packed contents of the two buffers, built on the host.
@@ -293,6 +309,7 @@ impl GpuShapes {
                 floats,
                 words,
                 count: shapes.len(),
+                longest_face: longest_face(shapes),
             },
             mesh_base,
         ))
@@ -354,10 +371,36 @@ mod tests {
     use clatter_geom::{RegularKind, ShapeKind};
 
     #[test]
+    fn clip_buffers_hold_a_clipped_face() {
+        use crate::pipeline::ContactVariant;
+        // A face of n vertices clipped by another's m <= n edges ends with at most n + m
+        // points: every size holds twice the longest face, with 4 to spare.
+        for longest in 0..=MAX_FACE_VERTICES {
+            let clip = ContactVariant::clip_points(longest, false) as usize;
+            assert!(
+                clip >= 2 * longest + 4 || clip == MAX_CLIP_POINTS,
+                "{longest}: {clip}"
+            );
+            assert!(clip.is_power_of_two() && (16..=MAX_CLIP_POINTS).contains(&clip));
+            assert_eq!(
+                ContactVariant::clip_points(longest, true) as usize,
+                MAX_CLIP_POINTS
+            );
+        }
+        assert_eq!(ContactVariant::clip_points(4, false), 16);
+        assert_eq!(ContactVariant::clip_points(7, false), 32);
+    }
+
+    #[test]
     fn wgsl_constants_match() {
         let wgsl = crate::pipeline::NARROW;
         assert!(wgsl.contains(&format!("const NRW_MAX_CLIP: u32 = {MAX_CLIP_POINTS}u;")));
         assert!(wgsl.contains(&format!("array<vec4<f32>, {MAX_CLIP_POINTS}>")));
+        // The smaller clipping buffers replace both declarations.
+        let small = crate::pipeline::narrow_source(16);
+        assert!(small.contains("const NRW_MAX_CLIP: u32 = 16u;"));
+        assert!(small.contains("alias NrwBuf = array<vec4<f32>, 16>;"));
+        assert!(!small.contains(&format!("{MAX_CLIP_POINTS}u;")));
         assert!(wgsl.contains(&format!("const NRW_HDR: u32 = {SHAPE_HEADER_WORDS}u;")));
         let pieces = include_str!("../shaders/contacts/pieces.wgsl");
         assert!(pieces.contains(&format!("const PIECE_SHIFT: u32 = {PIECE_SHIFT}u;")));

@@ -21,8 +21,8 @@ fn unordered(u: u32) -> f32 {
 // dispatch later in its step (pairs_total).
 fn write_step_args(stopped: bool) {
     let pairs = atomicLoad(&status[ST_PAIRS]);
-    write_args(ARG_PAIRS, select((pairs + WG - 1u) / WG, 0u, stopped));
-    write_args(ARG_STEP_BODIES, select((params.n + WG - 1u) / WG, 0u, stopped));
+    write_args(ARG_PAIRS, select(dealt_groups(pairs), 0u, stopped));
+    write_args(ARG_STEP_BODIES, select(dealt_groups(params.n), 0u, stopped));
 }
 
 @compute @workgroup_size(1)

@@ -154,7 +154,7 @@ fn pairs_total() {
     atomicStore(&status[ST_PAIRS], total);
     write_args(ARG_PAIRS_NEW, (total + WG - 1u) / WG);
     write_args(ARG_COMMIT, (max(total, params.n + 1u) + WG - 1u) / WG);
-    write_args(ARG_PAIRS, (total + WG - 1u) / WG);
+    write_args(ARG_PAIRS, dealt_groups(total));
 }
 
 @compute @workgroup_size(256)

@@ -7,6 +7,42 @@ fn thread_index(wid: vec3<u32>, nwg: vec3<u32>, lid: u32) -> u32 {
     return (wid.y * nwg.x + wid.x) * WG + lid;
 }
 
+// Dealt dispatches (contacts_sat, contacts_full, integrate; the sphere scenes' contacts):
+// lavapipe and llvmpipe hand each of their `params.deal` threads one run of consecutive
+// workgroups of a dispatch (a real GPU, deal 1, takes workgroups as they come). A list in
+// order (pairs by class, bodies by cell, whose cost runs with their kind and with their
+// height in a pile) would give one thread the costly part. So the list is cut into chunks
+// of DEAL_CHUNK consecutive items (one NVIDIA warp, four of lavapipe's 8-lane subgroups:
+// neighbours still run together), and chunk q goes to run q mod deal: every run gets every
+// deal-th chunk. With deal 1 this is thread_index. Only which thread computes an item
+// changes, never its result.
+const DEAL_CHUNK: u32 = 32u;
+
+// Workgroups per run for `count` items: ceil(count / (deal * WG)).
+fn dealt_per_run(count: u32) -> u32 {
+    let per = max(params.deal, 1u) * WG;
+    return count / per + select(0u, 1u, count % per != 0u);
+}
+
+// Workgroups of a dealt dispatch over `count` items (a multiple of the runs).
+fn dealt_groups(count: u32) -> u32 {
+    return dealt_per_run(count) * max(params.deal, 1u);
+}
+
+// The item (of `count`) a thread of a dealt dispatch of at least dealt_groups(count)
+// workgroups runs; `count` or more: none.
+fn dealt_item(wid: vec3<u32>, nwg: vec3<u32>, lid: u32, count: u32) -> u32 {
+    let runs = max(params.deal, 1u);
+    let per_run = dealt_per_run(count);
+    let g = wid.y * nwg.x + wid.x;
+    if g >= per_run * runs {
+        return count;
+    }
+    // Run `g / per_run`, its workgroup `g % per_run`, the chunk within that workgroup.
+    let p = (g % per_run) * (WG / DEAL_CHUNK) + lid / DEAL_CHUNK;
+    return (p * runs + g / per_run) * DEAL_CHUNK + lid % DEAL_CHUNK;
+}
+
 // Whether the pipeline is stopped (pair overflow, a non-finite body, or a rebuild due in a
 // lean step): nothing runs until the host acts, so the state stays at the start of the step
 // that could not be done. A health alarm (health.wgsl) stops it after the step it checked.

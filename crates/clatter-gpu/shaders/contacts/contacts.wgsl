@@ -16,7 +16,7 @@ fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg:
     if halted_wg(lid) {
         return;
     }
-    let c = thread_index(wid, nwg, lid);
+    let c = dealt_item(wid, nwg, lid, a_start[params.n]);
     var touched = 0u;
     if c < a_start[params.n] && pair_contact(c, true) {
         touched = 1u;

@@ -73,7 +73,7 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     if halted_wg(lid) {
         return;
     }
-    let c = thread_index(wid, nwg, lid);
+    let c = dealt_item(wid, nwg, lid, a_start[params.n]);
     var needs = false;
     var kind = 0u;
     if c < a_start[params.n] {
@@ -131,7 +131,7 @@ fn contacts_size() {
     if !halted() {
         count = atomicLoad(&status[ST_WORK]);
     }
-    write_args(ARG_WORK, (count + WG - 1u) / WG);
+    write_args(ARG_WORK, dealt_groups(count));
     // Each class's count becomes where its pairs start in the ordered list.
     var at = 0u;
     for (var k = 0u; k < SPLIT_CLASSES; k++) {
@@ -147,9 +147,10 @@ fn contacts_full(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
     if halted_wg(lid) {
         return;
     }
-    let k = thread_index(wid, nwg, lid);
+    let count = atomicLoad(&status[ST_WORK]);
+    let k = dealt_item(wid, nwg, lid, count);
     var touched = 0u;
-    if k < atomicLoad(&status[ST_WORK]) && pair_contact(new_pairs[k].y, false) {
+    if k < count && pair_contact(new_pairs[k].y, false) {
         touched = 1u;
     }
     add_status_wg(lid, ST_TOUCHING, touched);

@@ -14,7 +14,7 @@ fn integrate(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg
     if halted_wg(lid) {
         return;
     }
-    let i = thread_index(wid, nwg, lid);
+    let i = dealt_item(wid, nwg, lid, params.n);
     var touched = 0u;
     if i < params.n {
         touched = integrate_body(i);
@@ -32,6 +32,24 @@ fn in_sink(x: vec3<f32>) -> bool {
         }
     }
     return false;
+}
+
+// Bit k set for wall w0 + k (of the next 32) when body i may touch it or touched it last
+// step: a wall left out has the body's bounding sphere on its outer side, where
+// `collide_plane` (narrow.wgsl) finds no contact by the same comparison, and a released
+// slot, so its `wall_contact` would change nothing.
+fn walls_in_reach(i: u32, w0: u32) -> u32 {
+    let radius = shape_radius(statics[i].shape);
+    var bits = 0u;
+    for (var k = 0u; k < min(params.num_walls - w0, 32u); k++) {
+        let w = w0 + k;
+        let wall = walls[w];
+        let centre_height = -plane_offset_from(i, wall.plane.xyz, wall.plane.w).x;
+        if !(centre_height >= radius) || wall_touched(wall_slot(i, w, 0u)) {
+            bits |= 1u << k;
+        }
+    }
+    return bits;
 }
 
 // Body i: wall contacts, gather, update. Returns the number of walls it touches.
@@ -64,12 +82,22 @@ fn integrate_body(i: u32) -> u32 {
     // Walls in the CPU's order: by wall, then piece (COMPOSITES: see pieces.wgsl).
     let st = statics[i];
     if !COMPOSITES {
-        for (var w = 0u; w < params.num_walls; w++) {
-            let r = wall_contact(i, w, 0u);
-            if r.touching {
-                f += r.force.force_b;
-                t += r.force.torque_b;
-                touched += 1u;
+        // Only the walls the body may reach or touched last step (its slot to release), in
+        // the same order, 32 at a time. A loop, not a branch around each wall: lavapipe
+        // runs a subgroup's lanes in lockstep and a branch's body for every lane, so a
+        // wall's whole contact would cost every body; a loop ends when no lane has a wall
+        // left.
+        for (var w0 = 0u; w0 < params.num_walls; w0 += 32u) {
+            var left = walls_in_reach(i, w0);
+            while left != 0u {
+                let w = w0 + firstTrailingBit(left);
+                left &= left - 1u;
+                let r = wall_contact(i, w, 0u);
+                if r.touching {
+                    f += r.force.force_b;
+                    t += r.force.torque_b;
+                    touched += 1u;
+                }
             }
         }
     } else {

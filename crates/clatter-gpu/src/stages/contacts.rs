@@ -13,7 +13,7 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelSpec>) {
     use pipeline::{
         ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE, MESH_POLY, MESH_SPHERES,
-        NARROW, NARROW_SPHERES, PIECES,
+        NARROW_SPHERES, PIECES,
     };
     let with = pipeline::composites_const(variant.composites);
     // The mesh contacts (called by integrate) only in scenes with meshes.
@@ -31,7 +31,8 @@ pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelS
             vec![("contacts", "contacts", Group2::None)],
         )
     } else {
-        let mut parts = vec![with, ARGS, NARROW, PIECES, LAW, CONTACTS, CONTACTS_SPLIT];
+        let narrow = pipeline::narrow_source(variant.clip);
+        let mut parts = vec![with, ARGS, &narrow, PIECES, LAW, CONTACTS, CONTACTS_SPLIT];
         parts.extend_from_slice(mesh);
         parts.push(INTEGRATE);
         (

@@ -49,6 +49,7 @@ impl GpuWorld {
         Self::check_fits(&ctx, world.len() as u64, capacity, wall_slots as u64)?;
         check_mesh_fits(&ctx, world)?;
         let mut params = scene_params(world, capacity, mesh_base);
+        params.deal = ctx.workgroup_runs();
         let compiled = Compiled::get(&ctx)?;
         let contents = Contents::of(world, &state, capacity, wall_slots);
         let dims = dims_of(world, &params);

@@ -50,6 +50,7 @@ impl Plan {
             spheres_only,
             meshes: params.num_boundaries > 0,
             composites: params.composites != 0,
+            clip: ContactVariant::clip_points(shapes.longest_face, params.num_boundaries > 0),
         };
         let contacts = compiled.contacts(ctx, variant)?;
         let scans = Scans::new(
