@@ -77,7 +77,7 @@ pub struct GpuShapes {
     pub count: usize,
     /// The most vertices of any polyhedron face, composite pieces included (0 without
     /// polyhedra): sizes the contact kernels' clipping buffers
-    /// ([`ContactVariant::clip_points`](crate::pipeline::ContactVariant::clip_points)).
+    /// (`pipeline::ContactVariant::clip_points`).
     pub longest_face: usize,
 }
 
