@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# Device run (the `device` tool's machine, an H100 or H200 with 16 cores): the GPU targets of
+# issue 23 (`run.sh gpu`), then the MPI scaling rows of issue 25 beside LAMMPS (`run.sh mpi`).
+# Made by scripts/device/pack.sh (copied to .devrun/dev.sh); the device tool's command is
+# `bash .devrun/dev.sh gpu` with carry [".gl", ".devrun"]. Each stage has its own timeout;
+# the logs go to $OUT/all.log and a summary to $OUT/summary.txt (at most 8 files come back).
+# MPI: the machine's own Open MPI is used when it has one (it had 4.1.6); unpacking the
+# carried Debian 4.1.4 over it crashed mpirun, so that is only the fallback.
+# Every stage has its own timeout and logs under $OUT; a summary is printed as it goes.
+set -u
+T0=$(date +%s)
+el() { echo "[$(( $(date +%s) - T0 )) s]"; }
+log() { echo "$(el) $*" | tee -a $OUT/summary.txt; }
+root=$PWD
+L=/tmp/logs; mkdir -p $L
+for f in .gl/*.deb; do dpkg -x $f /; done; ldconfig
+mkdir -p /opt/cl
+tar -xJf .devrun/bins.tar.xz -C /opt/cl || python3 -c "import tarfile;tarfile.open('.devrun/bins.tar.xz').extractall('/opt/cl')"
+if [ ! -e /work/main ]; then mkdir -p /work; ln -s "$root" /work/main; fi
+if ! ls /usr/share/vulkan/icd.d/*nvidia* /etc/vulkan/icd.d/*nvidia* >/dev/null 2>&1; then
+  export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+fi
+nvidia-smi --query-gpu=name,clocks.max.sm,clocks.max.mem,memory.total --format=csv | tee -a $OUT/summary.txt
+nproc | tee -a $OUT/summary.txt
+C=/opt/cl/clatter
+PC=/tmp/pc
+G="$C bench --backend gpu --pile-cache $PC"
+stage() { # name timeout cmd...
+  local name=$1 t=$2; shift 2
+  local s=$(date +%s.%N)
+  timeout $t "$@" > $L/$name.log 2>&1
+  local rc=$?
+  local e=$(python3 -c "import sys;print(round($(date +%s.%N)-$s,2))")
+  log "$name rc=$rc ${e}s"
+  { echo "===== $name rc=$rc ${e}s: $*"; cat $L/$name.log; } >> $OUT/all.log
+  grep -vE "^#   step|^$" $L/$name.log | grep -v '^ *"' | tail -n 8 | sed 's/^/    /' | tee -a $OUT/summary.txt
+}
+if [ "${1:-gpu}" = gpu ]; then
+# 1. H100 targets (issue 23).
+stage mixed80k 260 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --settle 200
+stage mixed80k_prof 60 $G --shape mixed --pile poured --bodies 80000 --steps 300 --settle 0 --profile --profile-steps 100
+stage mixed1M_lat 90 $G --shape mixed --pile lattice --bodies 1048576 --steps 200 --settle 100
+stage sph4M_lat 90 $G --shape sphere --pile lattice --bodies 4194304 --steps 500 --settle 200
+stage default_bench 60 $G --scene default --settle 0 --steps 5000
+stage default_run 60 $C run --backend gpu --steps 5000 -q --out /tmp/run1
+stage default_prof 60 $G --scene default --settle 10000 --steps 500 --profile --profile-steps 200
+# 2. GPU correctness on the H100.
+for t in stages memory_steps; do CI=1 stage test_$t 90 /opt/cl/$t --test-threads 4; done
+log "gpu part done"; exit 0; fi
+# 3. MPI scaling (issue 25), 1 thread per rank.
+W=${W:-16384 32768 65536 131072 262144}; S=${S:-65536}; MX=${MX:-16384}; NPS=${NPS:-1 2 4 8 16}
+{ echo "== probe"; command -v mpirun mpiexec orterun prterun; mpirun --version 2>&1 | head -3; ls /usr/lib/x86_64-linux-gnu/pmix2/lib/pmix 2>&1 | head -20; ldconfig -p | grep -E "libmpi\.so|libpmix|libhwloc|libevent_core"; cat /etc/os-release | head -2; } 2>&1 | tee -a $OUT/summary.txt
+mkdir -p /opt/or && tar -xJf .devrun/ompi.tar.xz -C /opt/or
+MODE=ours
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+if command -v mpirun >/dev/null && timeout 30 mpirun --allow-run-as-root --oversubscribe -np 2 true; then
+  MODE=system; mkdir -p /opt/need
+  for f in /opt/or/opt/dl/lib/*; do n=$(basename $f); ldconfig -p | grep -q "^[[:space:]]*$n " || ln -sf $f /opt/need/$n; done
+  ln -sf /opt/or/usr/lib/x86_64-linux-gnu/liblammps.so.0 /opt/need/liblammps.so.0
+  export LD_LIBRARY_PATH=/opt/need; LMP=/opt/or/usr/bin/lmp
+  M="mpirun --allow-run-as-root --oversubscribe --bind-to core -x LD_LIBRARY_PATH"
+  timeout 60 $M -np 2 /opt/cl/clatter-mpi bench --shape sphere --pile lattice --bodies 1024 --steps 10 --settle 0 --threads 1 > /tmp/logs/sys_try.log 2>&1 || { MODE=ours; tail -5 /tmp/logs/sys_try.log | tee -a $OUT/summary.txt; }
+fi
+if [ $MODE = ours ]; then
+  tar -xJf .devrun/ompi.tar.xz -C /
+  export LD_LIBRARY_PATH=/opt/dl/lib PMIX_MCA_gds=hash PMIX_MCA_preg=native; LMP=lmp
+  M="mpirun --oversubscribe --bind-to core --mca btl self,vader --mca pml ob1 -x LD_LIBRARY_PATH -x PMIX_MCA_gds -x PMIX_MCA_preg"
+fi
+log "MPI mode $MODE"
+CM=/opt/cl/clatter-mpi
+stage mpi_hello 30 $M -np 2 $CM bench --shape sphere --pile lattice --bodies 1024 --steps 10 --settle 0 --threads 1
+grep -q "MPI ranks" $L/mpi_hello.log || { log "MPI does not start; stopping"; exit 0; }
+stage sph_pour 120 $G --shape sphere --pile poured --bodies $(echo $W | tr " " ,) --steps 10 --settle 0
+for n in $W; do
+  mkdir -p /tmp/l$n
+  stage emit$n 60 $C bench --shape sphere --bodies $n --steps 500 --settle 0 --threads 16 --pile-cache $PC --emit-lammps /tmp/l$n
+done
+run_pair() { # np bodies
+  local np=$1 n=$2
+  stage c_np${np}_n$n 120 $M -np $np $CM bench --backend cpu --shape sphere --bodies $n --steps 500 --settle 0 --threads 1 --pile-cache $PC --json > /dev/null
+  grep -h steps_per_s $L/c_np${np}_n$n.log | sed "s/^/clatter np $np n $n /" | tee -a $OUT/summary.txt
+  (cd /tmp/l$n && timeout 120 $M -np $np $LMP -in in.pile -log l$np.log > /dev/null 2>&1; grep "^Loop time" l$np.log | tail -1 | awk -v np=$np -v n=$n '{print "lammps np", np, "n", n, $9/$4, "steps/s"}' | tee -a $OUT/summary.txt)
+}
+for np in $NPS; do run_pair $np $S; done
+i=0; for n in $W; do np=$((1<<i)); i=$((i+1)); [ $n = $S ] && continue; run_pair $np $n; done
+for np in 1 4 16; do stage m_np${np} 120 $M -np $np $CM bench --backend cpu --shape mixed --pile lattice --bodies $MX --steps 100 --settle 0 --threads 1 --pile-cache $PC --json; grep -h steps_per_s $L/m_np${np}.log | tee -a $OUT/summary.txt; done
+log "done"
