@@ -191,7 +191,9 @@ fn host_depth_ratio(world: &World, floor: f32) -> f32 {
     let mut worst = 0.0f32;
     for k in 0..springs.touching.len() {
         let f = springs.forces[k].normal_force;
-        if !springs.touching[k] || !(f.abs() > floor) {
+        // Not `<= floor`: a NaN force fails the host's `> floor` too.
+        if !springs.touching[k] || f.abs().partial_cmp(&floor) != Some(std::cmp::Ordering::Greater)
+        {
             continue;
         }
         let (i, other) = world.contacts.partners(k);
