@@ -21,4 +21,4 @@ pub use backend::{
     BackendChoice, BackendError, Choice, Chosen, Device, DeviceError, Fallback, Readback,
     StepError, Stepped, Stepper, choose,
 };
-pub use watch::{CHECK_EVERY, FULL_CHECK_EVERY, Watch, WatchError};
+pub use watch::{CHECK_EVERY, FULL_CHECK_EVERY, GPU_OVERLAP_MARGIN, Watch, WatchError};

@@ -23,6 +23,12 @@ use crate::backend::{Readback, StepError, Stepped, Stepper};
 /// many steps.
 pub const FULL_CHECK_EVERY: u64 = 100;
 
+/// The GPU's deep-overlap alarm looks at contacts whose force means an overlap deeper than
+/// this fraction of the host's [`OVERLAP_LIMIT`](clatter::health::OVERLAP_LIMIT): a margin
+/// below the host's own test for the f32 arithmetic on either side, and few enough alarms
+/// that a pour does not stop the pipeline at every check step (`HealthSetup::overlap_limit`).
+pub const GPU_OVERLAP_MARGIN: f32 = 0.9;
+
 /// The cheap checks run every this many steps unless asked otherwise (`--check-every`).
 pub const CHECK_EVERY: u64 = 10;
 
@@ -110,6 +116,7 @@ impl Watch {
                 budget: self.health.baseline(),
                 alarm_factor: 0.5 * clatter::health::ENERGY_FACTOR,
                 force_floor: self.health.force_floor(),
+                overlap_limit: GPU_OVERLAP_MARGIN * clatter::health::OVERLAP_LIMIT,
             },
         );
     }

@@ -123,10 +123,14 @@ clatter::gpu_record! {
         /// The kinetic energy above this multiple of the available energy raises the alarm
         /// (below the host's factor: the GPU's f32 sums only say when to look).
         pub alarm_factor: f32,
-        /// A touching contact with a normal force above this may be deep: the alarm.
+        /// A touching contact with a normal force above this may be deep: the alarm, when
+        /// its force also passes `overlap_limit`'s test.
         pub force_floor: f32,
-        /// Unused.
-        pub pad0: u32,
+        /// A touching contact raises the alarm only when its normal force, all on one point
+        /// of its law, means an overlap deeper than this fraction of the smaller body's
+        /// volume-equivalent radius (the host's `OVERLAP_LIMIT` with a margin for f32,
+        /// `HealthSetup::overlap_limit`); 0: the force floor alone decides.
+        pub overlap_limit: f32,
         /// Unused.
         pub pad1: u32,
         /// Unused.

@@ -576,6 +576,7 @@ fn the_last_good_state_keeps_the_mesh_slots_and_resumes_on_the_cpu() {
             budget: h.baseline(),
             alarm_factor: 0.5 * ENERGY_FACTOR,
             force_floor: h.force_floor(),
+            overlap_limit: 0.9 * clatter::health::OVERLAP_LIMIT,
         },
     );
     let report = gpu.step(4600).unwrap();

@@ -59,6 +59,7 @@ fn setup(world: &World, energy_every: u64) -> HealthSetup {
         budget: h.baseline(),
         alarm_factor: 0.5 * ENERGY_FACTOR,
         force_floor: h.force_floor(),
+        overlap_limit: 0.9 * clatter::health::OVERLAP_LIMIT,
     }
 }
 
@@ -171,4 +172,117 @@ fn an_escaping_body_stops_the_pipeline_at_the_check_step() {
     let h = Health::new(&world(&text));
     let err = h.check(&w, false).expect_err("the host finds the escape");
     assert!(err.to_string().contains("escaped through wall 1"), "{err}");
+}
+
+/// How deep the host's cheap check thinks `world`'s deepest contact may be: the largest
+/// `law::depth_at_force` over `OVERLAP_LIMIT` times the smaller body's size, over the touching
+/// contacts above the force floor (the contacts `Health::check` measures when it is above 1),
+/// from the law functions and the scene's shapes, not from the GPU.
+fn host_depth_ratio(world: &World, floor: f32) -> f32 {
+    use clatter::Partner;
+    use clatter::health::OVERLAP_LIMIT;
+    use clatter::law;
+    let c = &world.consts;
+    let size = |i: usize| {
+        let v = world.shapes[c.shape[i] as usize].volume;
+        (3.0 * v / (4.0 * std::f32::consts::PI)).cbrt().max(1e-12)
+    };
+    let springs = world.contacts.springs();
+    let mut worst = 0.0f32;
+    for k in 0..springs.touching.len() {
+        let f = springs.forces[k].normal_force;
+        // Not `<= floor`: a NaN force fails the host's `> floor` too.
+        if !springs.touching[k] || f.abs().partial_cmp(&floor) != Some(std::cmp::Ordering::Greater)
+        {
+            continue;
+        }
+        let (i, other) = world.contacts.partners(k);
+        let i = i as usize;
+        let (p, r_eff, share, s) = match other {
+            Partner::Body(j) => {
+                let j = j as usize;
+                let (ri, rj) = (c.equivalent_radius[i], c.equivalent_radius[j]);
+                (
+                    *world.pair_params(c.material[i], c.material[j]),
+                    ri * rj / (ri + rj),
+                    law::point_share(c.is_sphere[i], c.is_sphere[j]),
+                    size(i).min(size(j)),
+                )
+            }
+            Partner::Wall(w) => (
+                *world.pair_params(world.walls[w as usize].material, c.material[i]),
+                c.equivalent_radius[i],
+                law::point_share(c.is_sphere[i], c.is_sphere[i]),
+                size(i),
+            ),
+            Partner::Boundary(_) => continue,
+        };
+        worst = worst.max(law::depth_at_force(&p, r_eff, f, share) / (OVERLAP_LIMIT * s));
+    }
+    worst
+}
+
+/// The GPU's deep-overlap alarm fires at every check step where the host's cheap check would
+/// measure a contact (its force, all on one point, means an overlap beyond the limit), and
+/// not where every such estimate is below the GPU's margin: soft spheres and a cube land on
+/// the floor one after the other, so each contact's estimate rises through the limit and
+/// falls back.
+#[test]
+fn the_overlap_alarm_fires_where_the_host_would_look() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut text = String::from(
+        "[simulation]\nsteps = 400\ndt = 1.0e-4\ngravity = [0.0, 0.0, 0.0]\n\n[[material]]\nname = \"m\"\ndensity = 1000.0\nstiffness = 300.0\nrestitution = 0.5\n\n[[shape]]\nname = \"ball\"\nsphere = { radius = 0.01 }\n\n[[shape]]\nname = \"cube\"\nbox = { half_extents = [0.008, 0.008, 0.008] }\n\n[container]\nmin = [0.0, 0.0, 0.0]\nmax = [0.2, 0.2, 0.3]\nmaterial = \"m\"\n",
+    );
+    // (shape, half height, speed, landing time): one contact at a time.
+    let drops = [
+        ("ball", 0.01, 1.0, 0.005),
+        ("cube", 0.008, 0.6, 0.04),
+        ("ball", 0.01, 2.5, 0.075),
+    ];
+    for (k, (shape, half, v, t)) in drops.iter().enumerate() {
+        let x = 0.04 + 0.05 * k as f64;
+        text.push_str(&format!(
+            "\n[[body]]\nshape = \"{shape}\"\nmaterial = \"m\"\nposition = [{x}, 0.1, {}]\nvelocity = [0.0, 0.0, {}]\n",
+            half + v * t,
+            -v
+        ));
+    }
+    let start = world(&text);
+    let h = Health::new(&start);
+    let mut gpu = GpuWorld::new(ctx, &start).expect("fits");
+    gpu.set_health(&start, setup(&start, 0));
+    let mut w = start.clone();
+    let (mut must, mut calm) = (0, 0);
+    for _ in 0..110 {
+        let report = gpu.step_into(10, &mut w).expect("steps");
+        assert!(report.bad_body.is_none());
+        w.set_contact_state(gpu.contact_state().expect("reads"));
+        assert_eq!(w.step_count % 10, 0, "stopped at a check step");
+        let ratio = host_depth_ratio(&w, h.force_floor());
+        if ratio > 1.0 {
+            must += 1;
+            assert!(
+                report.alarm,
+                "step {}: the host would measure a contact (depth estimate {ratio} of the limit) but the GPU raised no alarm",
+                w.step_count
+            );
+        } else if ratio > 0.0 && ratio < 0.85 {
+            // A contact above the force floor that the host would not measure.
+            calm += 1;
+            assert!(
+                !report.alarm,
+                "step {}: an alarm with every depth estimate below the margin ({ratio} of the limit)",
+                w.step_count
+            );
+        }
+        if report.alarm {
+            gpu.clear_alarm().expect("clears");
+        }
+    }
+    assert!(
+        must > 0 && calm > 0,
+        "the estimates crossed the limit ({must} check steps) and stayed above the force floor but below the limit ({calm})"
+    );
 }

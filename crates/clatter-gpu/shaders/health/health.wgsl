@@ -53,6 +53,27 @@ fn health_gate() {
     write_args(ARG_SNAPSHOT, select(0u, SNAPSHOT_GROUPS, snap));
 }
 
+// The body index in a pair-list word (pieces.wgsl `body_of`, not included here).
+const PAIR_BODY_MASK: u32 = 0x3ffffffu;
+
+// Whether a touching contact's normal force `f` may mean an overlap deeper than the limit:
+// the host's cheap check (crates/clatter/src/health) looks closer at a contact whose force is
+// above the floor and, all on one point of its law (`p`, `r_eff`, `share`), means an overlap
+// deeper than OVERLAP_LIMIT times `size` (`law::depth_at_force`); here the same with
+// `overlap_limit` a little below OVERLAP_LIMIT, compared as forces (`spring` at that depth),
+// so that f32 never misses one the host would look at.
+fn deep_force(f: f32, p: PairParams, r_eff: f32, share: f32, size: f32) -> bool {
+    if !(abs(f) > health_params.force_floor) {
+        return false;
+    }
+    let d = health_params.overlap_limit * size;
+    var at_limit = share * p.stiffness * d;
+    if p.model == MODEL_HERTZ {
+        at_limit = share * 4.0 / 3.0 * p.stiffness * sqrt(r_eff * max(d, 0.0)) * d;
+    }
+    return abs(f) > at_limit;
+}
+
 // Tree reduction of red_a/red_b in workgroup memory: always the same pairs, in the same order.
 fn reduce_tree(lid: u32) {
     for (var half = WG / 2u; half > 0u; half = half / 2u) {
@@ -105,15 +126,32 @@ fn health_bodies(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups)
         // Contacts whose last normal force may mean a deep overlap: the pairs where i is
         // side a, and i's wall slots.
         var suspect = false;
+        let si = statics[i];
+        let size_i = max(si.equivalent_radius, 1e-12);
         for (var k = a_start[i]; k < a_start[i + 1u]; k++) {
-            if touching[k] == 1u && abs(forces[k].normal_force) > health_params.force_floor {
-                suspect = true;
+            if touching[k] == 1u {
+                let sj = statics[pairs[k].y & PAIR_BODY_MASK];
+                let ri = si.equivalent_radius;
+                let rj = sj.equivalent_radius;
+                let p = pair_table[si.material * params.num_materials + sj.material];
+                let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE,
+                                   si.is_sphere != 0u || sj.is_sphere != 0u);
+                let size = min(size_i, max(rj, 1e-12));
+                if deep_force(forces[k].normal_force, p, ri * rj / (ri + rj), share, size) {
+                    suspect = true;
+                }
             }
         }
         let slots = params.num_walls * params.max_pieces;
+        let wall_share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE, si.is_sphere != 0u);
         for (var t = i * slots; t < (i + 1u) * slots; t++) {
-            if wall_forces[t].touching != 0u && abs(wall_forces[t].normal_force) > health_params.force_floor {
-                suspect = true;
+            if wall_forces[t].touching != 0u {
+                let w = (t - i * slots) / params.max_pieces;
+                let p = pair_table[walls[w].material * params.num_materials + si.material];
+                if deep_force(wall_forces[t].normal_force, p, si.equivalent_radius, wall_share,
+                              size_i) {
+                    suspect = true;
+                }
             }
         }
         if suspect {

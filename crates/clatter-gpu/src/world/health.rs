@@ -51,6 +51,7 @@ impl GpuWorld {
             budget: (setup.budget - reference_energy) as f32,
             alarm_factor: setup.alarm_factor as f32,
             force_floor: setup.force_floor,
+            overlap_limit: setup.overlap_limit,
             ..Default::default()
         };
         self.ctx

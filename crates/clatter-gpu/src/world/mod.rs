@@ -101,8 +101,16 @@ pub struct HealthSetup {
     /// miss what the host would find).
     pub alarm_factor: f64,
     /// A touching contact whose normal force is above this stops the pipeline for the host's
-    /// check (`clatter::health::Health::force_floor`), N.
+    /// check (`clatter::health::Health::force_floor`), N...
     pub force_floor: f32,
+    /// ... when that force, all on one point of the contact's law, also means an overlap
+    /// deeper than this fraction of the smaller body's volume-equivalent radius: the test
+    /// the host's cheap check makes before it measures a contact
+    /// (`clatter::health::Health::check`, `law::depth_at_force` against
+    /// `clatter::health::OVERLAP_LIMIT`), so give a little less than `OVERLAP_LIMIT` (f32
+    /// rounding). Without it (0) every contact above the floor stops the pipeline, which in
+    /// a pour of soft bodies is every check step: a wait for the host each time.
+    pub overlap_limit: f32,
 }
 
 /// The checks as set up on the GPU.
