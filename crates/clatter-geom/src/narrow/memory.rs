@@ -7,7 +7,7 @@
 use glam::{Mat3, Quat, Vec3};
 
 use super::SatHint;
-use super::sphere::KnownFaces;
+use super::sphere::SphereMemory;
 use super::edges::{EdgeOfA, separating_pair};
 use super::sat::EdgeAxis;
 use crate::ConvexPolyhedron;
@@ -66,19 +66,10 @@ pub struct EdgeMemory {
     offset: Vec3,
     /// ... and the direction pairs remembered at some depth then, a bit per pair `ia * (B's
     /// directions) + ib` (their levels in `pairs`).
-    ///
-    /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
-    /// the sphere's centre in the polyhedron's frame at the recording in `offset`, the faces
-    /// with a positive separation then in `deep` (see `super::sphere`).
     deep: u128,
-    /// The sphere kind: the positive faces whose projection fell inside their loop ...
-    inside: u128,
-    /// ... the squares of the distances the centre may move from `offset` while the
-    /// positive faces (or, with none, the face of the largest separation) and, second, the
-    /// faces inside stay what they were, less rounding ...
-    margin2: [f32; 2],
-    /// ... and the face of the largest separation.
-    best: u8,
+    /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
+    /// what the sphere's faces, edges and margins are (see `super::sphere`).
+    sphere: SphereMemory,
 }
 
 /// The second shape address of a memory of the sphere kind (no polyhedron lives at 1).
@@ -94,9 +85,7 @@ impl Default for EdgeMemory {
             directions: false,
             offset: Vec3::ZERO,
             deep: 0,
-            inside: 0,
-            margin2: [0.0; 2],
-            best: 0,
+            sphere: SphereMemory::default(),
         }
     }
 }
@@ -128,58 +117,21 @@ impl EdgeMemory {
         2.0 * turned + ROUNDING < TURN
     }
 
-    /// What a memory of the sphere kind knows of the sphere's centre `c` in polyhedron `p`'s
-    /// frame (see `super::sphere`): `None` unless it was recorded for `p` and the centre has
-    /// moved less than its margin since. The squared distance is taken with a relative
-    /// margin for its rounding (the margins already allow for the rest).
+    /// The memory of the sphere kind, if this is one recorded for a sphere against `p`.
     #[inline]
-    pub(super) fn sphere_faces(&self, p: &ConvexPolyhedron, c: Vec3) -> Option<KnownFaces> {
-        if self.shapes != [address(p), SPHERE] {
-            return None;
-        }
-        let moved2 = (c - self.offset).length_squared() * 1.001;
-        // (Written so that a NaN fails too.)
-        if !(moved2 < self.margin2[0]) {
-            return None;
-        }
-        Some(KnownFaces {
-            best: self.best as usize,
-            positive: self.deep,
-            inside: (moved2 < self.margin2[1]).then_some(self.inside),
-        })
+    pub(super) fn sphere(&self, p: &ConvexPolyhedron) -> Option<&SphereMemory> {
+        (self.shapes == [address(p), SPHERE]).then_some(&self.sphere)
     }
 
-    /// Records a sphere's centre `c` in polyhedron `p`'s frame (at most 128 faces) with
-    /// the full computation's decisions there: the face of the largest separation `best`,
-    /// the faces with a positive one `positive` and the margin (a distance, rounding taken
-    /// off) within which they hold; the positive faces whose projection fell inside their
-    /// loop `inside` and their margin. Nothing is remembered without a positive margin.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn record_sphere(
-        &mut self,
-        p: &ConvexPolyhedron,
-        c: Vec3,
-        best: usize,
-        positive: u128,
-        margin: f32,
-        inside: u128,
-        inside_margin: f32,
-    ) {
+    /// Keeps `record`, a sphere's memory against `p` (forgets what it held: nothing is kept
+    /// when the record has no radius).
+    #[inline]
+    pub(super) fn record_sphere(&mut self, p: &ConvexPolyhedron, record: SphereMemory) {
         self.clear();
-        if !(margin > 0.0) || p.faces.len() > 128 {
-            return;
+        if record.remembers() {
+            self.shapes = [address(p), SPHERE];
+            self.sphere = record;
         }
-        self.shapes = [address(p), SPHERE];
-        self.offset = c;
-        self.deep = positive;
-        self.best = best as u8;
-        self.inside = inside;
-        let inside2 = if inside_margin > 0.0 {
-            inside_margin * inside_margin
-        } else {
-            0.0
-        };
-        self.margin2 = [margin * margin, inside2];
     }
 
     /// Whether it holds the pairs of a finished search (for tests and statistics).

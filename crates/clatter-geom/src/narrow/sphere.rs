@@ -1,21 +1,28 @@
 //! A sphere against a convex polyhedron: from scratch, or with what the pair remembers from
-//! earlier steps ([`EdgeMemory`]'s sphere kind) for the same manifold, bitwise.
+//! earlier steps ([`SphereMemory`], kept in the pair's [`EdgeMemory`]) for the same
+//! manifold and bound, bitwise.
 //!
 //! The full computation, in the polyhedron's frame with the sphere's centre at `c`: each
 //! face's separation `s_i = n_i . c - o_i`; the largest decides between the centre inside
-//! (push out through that face) and outside; outside, the closest point of each face with
-//! `s_i > 0` (its plane's projection when that falls inside the face's loop, else the
-//! closest point of its edges) and the nearest of them, in face order.
+//! (push out through that face) and outside; outside, each face with `s_i > 0` gives a
+//! candidate (its plane's projection when that falls inside the face's loop, else the
+//! nearest of its edges' closest points, first in loop order on a tie) and the nearest
+//! candidate wins (first in face order on a tie).
 //!
-//! What a pair remembers, and why the answer is the same: at a recording (a full
-//! computation at centre `c0`) the faces with `s_i > 0`, or, with the centre inside, the
-//! face of the largest separation; the faces whose projection fell inside their loop; and
-//! the margins of those decisions. Each `s_i` is linear in `c` with a unit gradient, and each
-//! in-loop test `(b - a) x (proj - a) . n` linear with a gradient of length at most `|b -
-//! a|`; so while the centre stays within a margin of `c0` (less what rounding may move
-//! each computed value, at both ends), every decision comes out the same, and the work
-//! left (the separations of the remembered faces, in the same order, with the same
-//! arithmetic) gives the same bits.
+//! What a pair remembers, and why the answer is the same bits: a recording (a full
+//! computation at centre `c0`) keeps the faces with `s_i > 0` (or, with the centre inside,
+//! the face of the largest separation), and of those the faces whose candidate may still
+//! win, each with what its candidate needs: the projection (known to fall inside its loop),
+//! the edges whose closest points may still be the nearest (the projection known to fall
+//! outside), or the full face test. Every decision is a comparison of quantities that move
+//! by at most `|c - c0|` in exact arithmetic: the separations (unit gradients), the in-loop
+//! tests `(b - a) x (proj - a) . n` over `|b - a|` (gradients `n x (b - a)` over `|b - a|`),
+//! and the distances to a segment or a face (1-Lipschitz). Each is kept out of the
+//! remembered work only with a margin of at least [`SphereMemory`]'s radius `mu` plus
+//! [`ROUNDING`] (twice that for a comparison of two distances); so while the centre stays
+//! within `mu` of `c0`, each left-out face or edge would have lost its comparison (strictly:
+//! it was not the first of the nearest), each known in-loop test comes out the same, and
+//! the remembered work runs the same arithmetic on the same candidates in the same order.
 
 use glam::Vec3;
 
@@ -23,10 +30,64 @@ use super::{EdgeMemory, Manifold};
 use crate::{ConvexPolyhedron, Pose};
 
 /// The rounding allowed for, as a fraction of the pair's reach (the polyhedron's bounding
-/// radius plus the sphere's): of each separation and in-loop test at both ends of a
-/// comparison (a few ulps of values at most a few reaches: about 1e-5 of the reach) and of
-/// the centre in the polyhedron's frame, with room to spare.
+/// radius plus the sphere's): of the centre in the polyhedron's frame, and of each
+/// separation, in-loop test and distance at both ends of a comparison (a few ulps of
+/// values of at most a few reaches: about 1e-5 of the reach), with room to spare. Also
+/// taken off an apart pair's bound.
 const ROUNDING: f32 = 1e-4;
+
+/// The largest radius a memory is recorded with, as a fraction of the reach: larger keeps
+/// more faces and edges within its margins, smaller records more often.
+const RADIUS: f32 = 0.01;
+
+/// How many faces' candidates a memory keeps (more: it keeps none, and the recorded faces
+/// go through the full face test).
+const KEPT: usize = 8;
+
+/// How a kept face's candidate is found.
+const MODE_FULL: u8 = 0;
+const MODE_INSIDE: u8 = 1;
+const MODE_EDGES: u8 = 2;
+
+/// What a sphere-polyhedron pair remembers (see the module's notes): valid while the
+/// sphere's centre in the polyhedron's frame stays within `mu` of `centre`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct SphereMemory {
+    /// The centre at the recording.
+    centre: Vec3,
+    /// `mu^2` (0: nothing remembered).
+    mu2: f32,
+    /// The face of the largest separation (used with the centre inside).
+    best: u8,
+    /// The faces with a positive separation (none: the centre was inside).
+    positive: u128,
+    /// Whether `kept` holds the outside case's candidates (not when the pair was found
+    /// apart by a face's plane: the candidates were not computed).
+    candidates: bool,
+    /// How many faces are kept ...
+    len: u8,
+    /// ... which (in increasing order) ...
+    face: [u8; KEPT],
+    /// ... how each finds its candidate ...
+    mode: [u8; KEPT],
+    /// ... and, by edges, which edges of its loop (bit `k`: from corner `k`).
+    edges: [u32; KEPT],
+}
+
+impl SphereMemory {
+    /// Whether a recording kept anything.
+    #[inline]
+    pub(super) fn remembers(&self) -> bool {
+        self.mu2 > 0.0
+    }
+
+    /// Whether it holds at centre `c` (its squared distance taken with a relative margin
+    /// for its rounding; written so that a NaN fails too).
+    #[inline]
+    pub(super) fn holds(&self, c: Vec3) -> bool {
+        (c - self.centre).length_squared() * 1.001 < self.mu2
+    }
+}
 
 /// Sphere `a` (centre, radius) against polyhedron `b` at `pose`; normal from sphere to polyhedron.
 pub fn sphere_polyhedron(
@@ -37,6 +98,10 @@ pub fn sphere_polyhedron(
 ) -> Option<Manifold> {
     sphere_polyhedron_with(centre, radius, p, pose, &mut 0.0, None)
 }
+
+/// A result in the polyhedron's frame: the surface point, the normal (from the sphere
+/// towards the polyhedron) and the depth.
+type Local = Option<(Vec3, Vec3, f32)>;
 
 /// [`sphere_polyhedron`] with the pair's `bound` and, if it has one, its memory (read and
 /// updated): the same manifold, bitwise. On return `bound` is, for a pair found apart, a
@@ -60,35 +125,30 @@ pub(super) fn sphere_polyhedron_with(
         return None;
     }
     let found = match memory {
-        None => sphere_full(c, radius, p, bound, &mut Record::default()),
+        None => sphere_full(c, radius, p, bound, None),
         Some(m) => {
-            if let Some(found) = m.sphere_faces(p, c).and_then(|k| sphere_known(c, radius, p, bound, k)) {
-                found
-            } else {
-                // Record again.
-                m.clear();
-                let mut record = Record {
-                    on: p.faces.len() <= 128,
-                    ..Default::default()
-                };
-                let found = sphere_full(c, radius, p, bound, &mut record);
-                if record.on {
-                    let slack = ROUNDING * reach;
-                    m.record_sphere(
-                        p,
-                        c,
-                        record.best,
-                        record.positive,
-                        record.margin - slack,
-                        record.inside,
-                        record.inside_margin - slack,
-                    );
+            let known = m
+                .sphere(p)
+                .filter(|s| s.holds(c))
+                .and_then(|s| sphere_known(c, radius, p, bound, s));
+            match known {
+                Some(found) => found,
+                None => {
+                    // Record again.
+                    let mut record = SphereMemory::default();
+                    let on = p.faces.len() <= 128;
+                    let found = sphere_full(c, radius, p, bound, on.then_some(&mut record));
+                    m.record_sphere(p, record);
+                    found
                 }
-                found
             }
         }
     };
-    found.map(|(surface, n_local, depth)| to_world(c, radius, surface, n_local, depth, pose))
+    found.map(|(surface, n_local, depth)| {
+        let deepest = c + n_local * radius;
+        let mid = 0.5 * (surface + deepest);
+        Manifold::single(pose.rotation * n_local, pose.transform_point(mid), depth)
+    })
 }
 
 /// The bound of a pair apart by `gap` (a distance computed in floats): the gap less the
@@ -99,163 +159,159 @@ fn apart(gap: f32, reach: f32) -> f32 {
     if b > 0.0 { b } else { 0.0 }
 }
 
-/// The manifold from the local closest point, normal and depth.
-#[inline]
-fn to_world(
-    c: Vec3,
-    radius: f32,
-    surface: Vec3,
-    n_local: Vec3,
-    depth: f32,
-    pose: &Pose,
-) -> Manifold {
-    let deepest = c + n_local * radius;
-    let mid = 0.5 * (surface + deepest);
-    Manifold::single(pose.rotation * n_local, pose.transform_point(mid), depth)
-}
-
-/// What a full computation finds for the memory (when `on`).
-#[derive(Default)]
-struct Record {
-    on: bool,
-    /// The face of the largest separation.
-    best: usize,
-    /// The faces with a positive separation.
-    positive: u128,
-    /// Outside: the smallest |separation| of any face; inside: half the gap between the
-    /// largest separation and the next.
-    margin: f32,
-    /// The positive faces whose projection fell inside their loop ...
-    inside: u128,
-    /// ... and the smallest in-loop test of theirs over its edge's length.
-    inside_margin: f32,
-}
-
-/// What the memory knows at the current centre: the faces with a positive separation
-/// (none: the centre is inside, and `best` has the largest separation) and which of them
-/// take their plane's projection.
-#[derive(Clone, Copy)]
-pub(super) struct KnownFaces {
-    pub(super) best: usize,
-    pub(super) positive: u128,
-    /// `None` when the in-loop tests must run.
-    pub(super) inside: Option<u128>,
-}
-
-/// The full computation in the polyhedron's frame: the surface point, the normal (local,
-/// from the sphere towards the polyhedron) and the depth; `None` when apart (then `bound`
-/// as [`sphere_polyhedron_with`] says). Fills `record` when it is on.
+/// The full computation; `None` when apart (then `bound` as [`sphere_polyhedron_with`]
+/// says). With `record`, also what a memory keeps (`mu2` left 0 when nothing can be kept).
 #[inline]
 fn sphere_full(
     c: Vec3,
     radius: f32,
     p: &ConvexPolyhedron,
     bound: &mut f32,
-    record: &mut Record,
-) -> Option<(Vec3, Vec3, f32)> {
+    record: Option<&mut SphereMemory>,
+) -> Local {
+    let reach = p.radius + radius;
     let mut best_face = 0;
     let mut best_sep = f32::NEG_INFINITY;
-    if record.on {
-        // The same loop, with the next largest separation, the smallest magnitude and the
-        // positive faces kept.
-        let mut second = f32::NEG_INFINITY;
-        let mut least = f32::INFINITY;
+    let Some(rec) = record else {
         for (i, f) in p.faces.iter().enumerate() {
             let s = f.normal.dot(c) - f.offset;
             if s > best_sep {
-                second = best_sep;
                 best_sep = s;
                 best_face = i;
-            } else if s > second {
-                second = s;
-            }
-            least = least.min(s.abs());
-            if s > 0.0 {
-                record.positive |= 1 << i;
-            }
-            // (A NaN never remembers.)
-            if s.is_nan() {
-                least = 0.0;
             }
         }
-        record.best = best_face;
-        record.margin = if best_sep > 0.0 {
-            least
-        } else {
-            0.5 * (best_sep - second)
-        };
-    } else {
+        if best_sep >= radius {
+            *bound = apart(best_sep - radius, reach);
+            return None;
+        }
+        if best_sep <= 0.0 {
+            return Some(inside(c, radius, p, best_face, best_sep));
+        }
+        let mut q = c;
+        let mut best_d2 = f32::INFINITY;
         for (i, f) in p.faces.iter().enumerate() {
-            let s = f.normal.dot(c) - f.offset;
-            if s > best_sep {
-                best_sep = s;
-                best_face = i;
+            if f.normal.dot(c) - f.offset > 0.0 {
+                let cand = closest_on_face(p, i, c);
+                let d2 = (cand - c).length_squared();
+                if d2 < best_d2 {
+                    best_d2 = d2;
+                    q = cand;
+                }
             }
+        }
+        return outside(c, radius, p, bound, q, best_d2, best_face);
+    };
+    // The same loop, with the next largest separation, the smallest magnitude and the
+    // positive faces kept.
+    let mut second = f32::NEG_INFINITY;
+    let mut least = f32::INFINITY;
+    let mut nan = false;
+    for (i, f) in p.faces.iter().enumerate() {
+        let s = f.normal.dot(c) - f.offset;
+        if s > best_sep {
+            second = best_sep;
+            best_sep = s;
+            best_face = i;
+        } else if s > second {
+            second = s;
+        }
+        let a = s.abs();
+        least = if a < least { a } else { least };
+        nan |= s.is_nan();
+        if s > 0.0 {
+            rec.positive |= 1 << i;
         }
     }
+    let slack = ROUNDING * reach;
+    rec.centre = c;
+    rec.best = best_face as u8;
+    // The radius: the separations keep their signs (outside) or the largest stays the
+    // largest (inside: both sides of each comparison move).
+    let mu = if best_sep > 0.0 {
+        least.min(RADIUS * reach) - slack
+    } else {
+        0.5 * (best_sep - second) - slack
+    };
+    if nan || !(mu > 0.0) {
+        // Nothing kept; the computation goes on as without a memory.
+        return sphere_full(c, radius, p, bound, None);
+    }
+    rec.mu2 = mu * mu;
     if best_sep >= radius {
-        *bound = apart(best_sep - radius, p.radius + radius);
+        *bound = apart(best_sep - radius, reach);
         return None;
     }
     if best_sep <= 0.0 {
-        // Centre inside: push out through the nearest face.
-        let n = p.faces[best_face].normal;
-        return Some((c - n * best_sep, -n, radius - best_sep));
+        return Some(inside(c, radius, p, best_face, best_sep));
     }
+    // Outside: each positive face's candidate, recorded.
+    let tol = mu + slack;
     let mut q = c;
     let mut best_d2 = f32::INFINITY;
-    let mut inside_margin = f32::INFINITY;
+    let mut cands = [(0u8, 0.0f32, MODE_FULL, 0u32); 16];
+    let mut n = 0;
     for (i, f) in p.faces.iter().enumerate() {
         if f.normal.dot(c) - f.offset > 0.0 {
-            let cand = if record.on {
-                let (cand, m) = closest_on_face_recording(p, i, c);
-                if let Some(m) = m {
-                    record.inside |= 1 << i;
-                    inside_margin = inside_margin.min(m);
-                }
-                cand
-            } else {
-                closest_on_face(p, i, c, false)
-            };
+            let (cand, mode, edges) = closest_on_face_recording(p, i, c, tol);
             let d2 = (cand - c).length_squared();
             if d2 < best_d2 {
                 best_d2 = d2;
                 q = cand;
             }
+            if n < cands.len() {
+                cands[n] = (i as u8, d2, mode, edges);
+            }
+            n += 1;
         }
     }
-    record.inside_margin = inside_margin;
+    // The faces whose candidate may still be the nearest.
+    if n <= cands.len() {
+        let near = best_d2.sqrt() + 2.0 * tol;
+        let mut kept = 0;
+        for &(i, d2, mode, edges) in &cands[..n] {
+            // (Written so that a NaN keeps the face.)
+            if d2.sqrt() > near {
+                continue;
+            }
+            if kept == KEPT {
+                kept = usize::MAX;
+                break;
+            }
+            (rec.face[kept], rec.mode[kept], rec.edges[kept]) = (i, mode, edges);
+            kept += 1;
+        }
+        if kept <= KEPT {
+            rec.len = kept as u8;
+            rec.candidates = true;
+        }
+    }
     outside(c, radius, p, bound, q, best_d2, best_face)
 }
 
-/// The computation with the faces known ([`KnownFaces`]): the same results as
+/// The computation with what `m` remembers (it holds at `c`): the same results as
 /// [`sphere_full`], bitwise; `None` when the memory cannot decide (the centre was inside
-/// and its nearest face's separation has turned positive).
+/// and its face's separation has turned positive; found apart by a face's plane and now
+/// not).
 #[inline]
-#[allow(clippy::option_option)]
 fn sphere_known(
     c: Vec3,
     radius: f32,
     p: &ConvexPolyhedron,
     bound: &mut f32,
-    k: KnownFaces,
-) -> Option<Option<(Vec3, Vec3, f32)>> {
-    if k.positive == 0 {
-        // Inside, the largest separation's face known; when its separation has turned
-        // positive, the full computation decides.
-        let f = p.faces[k.best];
+    m: &SphereMemory,
+) -> Option<Local> {
+    if m.positive == 0 {
+        // Inside, the largest separation's face known.
+        let best = m.best as usize;
+        let f = p.faces[best];
         let best_sep = f.normal.dot(c) - f.offset;
-        if best_sep <= 0.0 {
-            let n = f.normal;
-            return Some(Some((c - n * best_sep, -n, radius - best_sep)));
-        }
-        return None;
+        return (best_sep <= 0.0).then(|| Some(inside(c, radius, p, best, best_sep)));
     }
     // Outside: the largest separation is among the positive faces (the rest are at most 0),
     // first in face order on a tie as in the full loop.
     let mut best_face = 0;
     let mut best_sep = f32::NEG_INFINITY;
-    let mut bits = k.positive;
+    let mut bits = m.positive;
     while bits != 0 {
         let i = bits.trailing_zeros() as usize;
         bits &= bits - 1;
@@ -270,14 +326,18 @@ fn sphere_known(
         *bound = apart(best_sep - radius, p.radius + radius);
         return Some(None);
     }
+    if !m.candidates {
+        return None;
+    }
     let mut q = c;
     let mut best_d2 = f32::INFINITY;
-    let mut bits = k.positive;
-    while bits != 0 {
-        let i = bits.trailing_zeros() as usize;
-        bits &= bits - 1;
-        let inside = k.inside.is_some_and(|m| m & (1 << i) != 0);
-        let cand = closest_on_face(p, i, c, inside);
+    for k in 0..m.len as usize {
+        let i = m.face[k] as usize;
+        let cand = match m.mode[k] {
+            MODE_INSIDE => projection(p, i, c),
+            MODE_EDGES => closest_on_kept_edges(p, i, c, projection(p, i, c), m.edges[k]),
+            _ => closest_on_face(p, i, c),
+        };
         let d2 = (cand - c).length_squared();
         if d2 < best_d2 {
             best_d2 = d2;
@@ -285,6 +345,13 @@ fn sphere_known(
         }
     }
     Some(outside(c, radius, p, bound, q, best_d2, best_face))
+}
+
+/// The centre inside: pushed out through face `f` of separation `sep`.
+#[inline]
+fn inside(c: Vec3, radius: f32, p: &ConvexPolyhedron, f: usize, sep: f32) -> (Vec3, Vec3, f32) {
+    let n = p.faces[f].normal;
+    (c - n * sep, -n, radius - sep)
 }
 
 /// The end of the outside case: the nearest point `q` at squared distance `best_d2`.
@@ -297,7 +364,7 @@ fn outside(
     q: Vec3,
     best_d2: f32,
     best_face: usize,
-) -> Option<(Vec3, Vec3, f32)> {
+) -> Local {
     let dist = best_d2.sqrt();
     if dist >= radius {
         *bound = apart(dist - radius, p.radius + radius);
@@ -324,14 +391,10 @@ fn next(k: usize, len: usize) -> usize {
     if k + 1 < len { k + 1 } else { 0 }
 }
 
-/// Closest point of a convex polygon (a face loop of `p`) to `x`, all in `p`'s local frame;
-/// `inside`: the projection is known to fall inside the loop (the tests are left out).
+/// Closest point of a convex polygon (a face loop of `p`) to `x`, all in `p`'s local frame.
 #[inline]
-fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3, inside: bool) -> Vec3 {
+fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3) -> Vec3 {
     let proj = projection(p, f, x);
-    if inside {
-        return proj;
-    }
     let n = p.faces[f].normal;
     let lp = p.face_loop(f);
     let mut inside = true;
@@ -349,42 +412,94 @@ fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3, inside: bool) -> Vec
     closest_on_edges(p, f, x, proj)
 }
 
-/// [`closest_on_face`] (the same bits) with, when the projection falls inside the loop, the
-/// smallest of its in-loop tests over the length of the test's edge (`None` if not inside
-/// or not a positive finite number).
-fn closest_on_face_recording(p: &ConvexPolyhedron, f: usize, x: Vec3) -> (Vec3, Option<f32>) {
+/// [`closest_on_face`] (the same bits) with how a memory of radius `tol - ROUNDING reach`
+/// finds it again: `MODE_INSIDE` when every in-loop test over its edge's length is above
+/// `tol`, `MODE_EDGES` when one is below `-tol`, with the edges whose distance to `x` is
+/// within `2 tol` of the nearest's (any loop of more than 32 corners, or a NaN:
+/// `MODE_FULL`).
+fn closest_on_face_recording(p: &ConvexPolyhedron, f: usize, x: Vec3, tol: f32) -> (Vec3, u8, u32) {
     let proj = projection(p, f, x);
     let n = p.faces[f].normal;
     let lp = p.face_loop(f);
+    // Every test (the full loop stops at the first negative one: the same verdict).
     let mut inside = true;
     let mut least = f32::INFINITY;
+    let mut nan = false;
     for k in 0..lp.len() {
         let a = p.vertices[lp[k] as usize];
         let b = p.vertices[lp[next(k, lp.len())] as usize];
         let e = (b - a).cross(proj - a).dot(n);
         if e < 0.0 {
             inside = false;
-            break;
         }
         let m = e / (b - a).length();
         least = if m < least { m } else { least };
-        if !m.is_finite() {
-            least = 0.0;
-        }
+        nan |= m.is_nan();
     }
     if inside {
-        return (proj, (least > 0.0 && least.is_finite()).then_some(least));
+        let mode = if !nan && least > tol { MODE_INSIDE } else { MODE_FULL };
+        return (proj, mode, 0);
     }
-    (closest_on_edges(p, f, x, proj), None)
+    if nan || !(least < -tol) || lp.len() > 32 {
+        return (closest_on_edges(p, f, x, proj), MODE_FULL, 0);
+    }
+    // The edges, as `closest_on_edges` takes them, with their distances kept.
+    let mut dist = [0.0f32; 32];
+    let mut best = proj;
+    let mut best_d = f32::INFINITY;
+    for k in 0..lp.len() {
+        let a = p.vertices[lp[k] as usize];
+        let b = p.vertices[lp[next(k, lp.len())] as usize];
+        let q = closest_on_segment(a, b, x);
+        let d = (q - x).length_squared();
+        if d < best_d {
+            best_d = d;
+            best = q;
+        }
+        dist[k] = d;
+    }
+    let near = best_d.sqrt() + 2.0 * tol;
+    let mut edges = 0u32;
+    for (k, d) in dist[..lp.len()].iter().enumerate() {
+        // (Written so that a NaN keeps the edge.)
+        if !(d.sqrt() > near) {
+            edges |= 1 << k;
+        }
+    }
+    (best, MODE_EDGES, edges)
 }
 
-/// The closest point to `x` of face `f`'s edges (`proj` when the loop has none).
+/// The closest point to `x` of face `f`'s edges, in loop order, the first on a tie (`proj`
+/// when there is none).
 #[inline]
 fn closest_on_edges(p: &ConvexPolyhedron, f: usize, x: Vec3, proj: Vec3) -> Vec3 {
     let lp = p.face_loop(f);
     let mut best = proj;
     let mut best_d = f32::INFINITY;
     for k in 0..lp.len() {
+        let a = p.vertices[lp[k] as usize];
+        let b = p.vertices[lp[next(k, lp.len())] as usize];
+        let q = closest_on_segment(a, b, x);
+        let d = (q - x).length_squared();
+        if d < best_d {
+            best_d = d;
+            best = q;
+        }
+    }
+    best
+}
+
+/// [`closest_on_edges`] over the edges in `edges` alone (bit `k`: the edge from corner `k`,
+/// all below the loop's length), in the same order with the same arithmetic.
+#[inline]
+fn closest_on_kept_edges(p: &ConvexPolyhedron, f: usize, x: Vec3, proj: Vec3, edges: u32) -> Vec3 {
+    let lp = p.face_loop(f);
+    let mut best = proj;
+    let mut best_d = f32::INFINITY;
+    let mut bits = edges;
+    while bits != 0 {
+        let k = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
         let a = p.vertices[lp[k] as usize];
         let b = p.vertices[lp[next(k, lp.len())] as usize];
         let q = closest_on_segment(a, b, x);
