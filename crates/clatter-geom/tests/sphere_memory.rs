@@ -118,7 +118,8 @@ fn run_pair(
         let before = format!("{memory:?}");
         let (mut hint_m, mut hint) = (NO_HINT, NO_HINT);
         let mut bound = 0.0f32;
-        let with = narrow::collide_with_memory(a, pa, b, pb, &mut hint_m, &mut bound_m, &mut memory);
+        let with =
+            narrow::collide_with_memory(a, pa, b, pb, &mut hint_m, &mut bound_m, &mut memory);
         let without = narrow::collide_with_hint(a, pa, b, pb, &mut hint, &mut bound);
         let full = narrow::collide(a, pa, b, pb);
         let bits = |m: &Option<narrow::Manifold>| {
@@ -134,7 +135,11 @@ fn run_pair(
         };
         assert_eq!(bits(&with), bits(&full), "step {k}: manifolds differ");
         assert_eq!(bits(&without), bits(&full), "step {k}: manifolds differ");
-        assert_eq!(bound_m.to_bits(), bound.to_bits(), "step {k}: bounds differ");
+        assert_eq!(
+            bound_m.to_bits(),
+            bound.to_bits(),
+            "step {k}: bounds differ"
+        );
         assert_eq!((hint_m, hint), (NO_HINT, NO_HINT));
         // Served: a record that the call left as it was (a new recording takes the new
         // centre).
@@ -148,7 +153,10 @@ fn run_pair(
             let step = (centre_s - cs).length() + (centre_p - cp).length() + angle * rp;
             let moved = moved + step * 1.001;
             if moved < b0 {
-                assert!(full.is_none(), "step {k}: apart by {b0}, moved {moved}: {full:?}");
+                assert!(
+                    full.is_none(),
+                    "step {k}: apart by {b0}, moved {moved}: {full:?}"
+                );
                 tally.bound_checked += 1;
                 apart = Some((b0, moved));
             } else {
@@ -210,8 +218,21 @@ fn the_memory_changes_no_answer() {
     assert!(tally.steps >= 20_000, "{} pair-steps", tally.steps);
     // Both sides of the comparison covered: touching and apart, with the memory held
     // over most steps, and the apart bound exercised.
-    assert!(tally.touching * 4 > tally.steps, "{} touching", tally.touching);
+    assert!(
+        tally.touching * 4 > tally.steps,
+        "{} touching",
+        tally.touching
+    );
     assert!(tally.apart * 10 > tally.steps, "{} apart", tally.apart);
-    assert!(tally.held * 2 > tally.steps, "held {} of {}", tally.held, tally.steps);
-    assert!(tally.bound_checked > 100, "{} bound checks", tally.bound_checked);
+    assert!(
+        tally.held * 2 > tally.steps,
+        "held {} of {}",
+        tally.held,
+        tally.steps
+    );
+    assert!(
+        tally.bound_checked > 100,
+        "{} bound checks",
+        tally.bound_checked
+    );
 }

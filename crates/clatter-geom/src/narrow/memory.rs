@@ -7,9 +7,9 @@
 use glam::{Mat3, Quat, Vec3};
 
 use super::SatHint;
-use super::sphere::SphereMemory;
 use super::edges::{EdgeOfA, separating_pair};
 use super::sat::EdgeAxis;
+use super::sphere::SphereMemory;
 use crate::ConvexPolyhedron;
 
 /// How many edge pairs one memory holds (the default scene's searches keep fewer than 20 on

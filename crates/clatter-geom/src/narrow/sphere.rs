@@ -232,7 +232,7 @@ fn sphere_full(
     } else {
         0.5 * (best_sep - second) - slack
     };
-    if nan || !(mu > 0.0) {
+    if nan || mu.is_nan() || mu <= 0.0 {
         // Nothing kept; the computation goes on as without a memory.
         return sphere_full(c, radius, p, bound, None);
     }
@@ -437,10 +437,14 @@ fn closest_on_face_recording(p: &ConvexPolyhedron, f: usize, x: Vec3, tol: f32) 
         nan |= m.is_nan();
     }
     if inside {
-        let mode = if !nan && least > tol { MODE_INSIDE } else { MODE_FULL };
+        let mode = if !nan && least > tol {
+            MODE_INSIDE
+        } else {
+            MODE_FULL
+        };
         return (proj, mode, 0);
     }
-    if nan || !(least < -tol) || lp.len() > 32 {
+    if nan || least >= -tol || lp.len() > 32 {
         return (closest_on_edges(p, f, x, proj), MODE_FULL, 0);
     }
     // The edges, as `closest_on_edges` takes them, with their distances kept.
@@ -462,7 +466,7 @@ fn closest_on_face_recording(p: &ConvexPolyhedron, f: usize, x: Vec3, tol: f32) 
     let mut edges = 0u32;
     for (k, d) in dist[..lp.len()].iter().enumerate() {
         // (Written so that a NaN keeps the edge.)
-        if !(d.sqrt() > near) {
+        if d.sqrt().partial_cmp(&near) != Some(std::cmp::Ordering::Greater) {
             edges |= 1 << k;
         }
     }
