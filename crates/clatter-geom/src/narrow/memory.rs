@@ -45,6 +45,10 @@ const ROUNDING: f32 = 1e-4;
 /// - **By direction**: the direction pairs found deep, left out of later searches while
 ///   they provably stay at or below the search's floor (see `DeepPairs`).
 ///
+/// A sphere against a polyhedron keeps a third kind in the same slot: the faces and edges
+/// whose candidates may still be the nearest while the sphere's centre stays near where it
+/// was recorded (see `super::sphere`).
+///
 /// A memory names its polyhedra by address. The simulation keeps its memories beside the
 /// world's shapes (shared `Arc`s that live as long as the world), so no other polyhedron
 /// can take those addresses while a memory names them; a caller that frees polyhedra must

@@ -9,7 +9,9 @@
 //! Between steps a pair may keep what its edge-axis search found ([`EdgeMemory`], through
 //! [`collide_with_memory`]): the edge pairs that can pass the Gauss-map tests near the
 //! rotation it was recorded at, or the direction pairs too deep to matter, so that later
-//! searches visit fewer pairs for the same answer, bitwise.
+//! searches visit fewer pairs for the same answer, bitwise. A sphere against a polyhedron
+//! keeps there the faces and edges that may still give its closest point (see `sphere`),
+//! and, found apart, gives a bound of the distance so that the caller can skip it.
 
 use glam::Vec3;
 
@@ -159,7 +161,9 @@ pub fn collide_with_hint(
 /// [`collide_with_hint`] with the pair's [`EdgeMemory`] as well (read and updated): the
 /// same manifold, hint and bound, bitwise; a polyhedron pair whose edge axes go by Gauss
 /// map then visits only the edge pairs the memory holds while B's rotation relative to A
-/// stays near the one it was recorded at.
+/// stays near the one it was recorded at, and a sphere against a polyhedron only the faces
+/// and edges that may still give its closest point while its centre stays near the one it
+/// was recorded at.
 pub fn collide_with_memory(
     a: &Shape,
     pa: &Pose,
