@@ -9,6 +9,7 @@ use glam::{Mat3, Quat, Vec3};
 use super::SatHint;
 use super::edges::{EdgeOfA, separating_pair};
 use super::sat::EdgeAxis;
+use super::sphere::SphereMemory;
 use crate::ConvexPolyhedron;
 
 /// How many edge pairs one memory holds (the default scene's searches keep fewer than 20 on
@@ -44,6 +45,10 @@ const ROUNDING: f32 = 1e-4;
 /// - **By direction**: the direction pairs found deep, left out of later searches while
 ///   they provably stay at or below the search's floor (see `DeepPairs`).
 ///
+/// A sphere against a polyhedron keeps a third kind in the same slot: the faces and edges
+/// whose candidates may still be the nearest while the sphere's centre stays near where it
+/// was recorded (see `super::sphere`).
+///
 /// A memory names its polyhedra by address. The simulation keeps its memories beside the
 /// world's shapes (shared `Arc`s that live as long as the world), so no other polyhedron
 /// can take those addresses while a memory names them; a caller that frees polyhedra must
@@ -66,7 +71,13 @@ pub struct EdgeMemory {
     /// ... and the direction pairs remembered at some depth then, a bit per pair `ia * (B's
     /// directions) + ib` (their levels in `pairs`).
     deep: u128,
+    /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
+    /// what the sphere's faces, edges and margins are (see `super::sphere`).
+    sphere: SphereMemory,
 }
+
+/// The second shape address of a memory of the sphere kind (no polyhedron lives at 1).
+const SPHERE: usize = 1;
 
 impl Default for EdgeMemory {
     fn default() -> Self {
@@ -78,6 +89,7 @@ impl Default for EdgeMemory {
             directions: false,
             offset: Vec3::ZERO,
             deep: 0,
+            sphere: SphereMemory::default(),
         }
     }
 }
@@ -107,6 +119,23 @@ impl EdgeMemory {
         let turned = (self.rot.conjugate() * rot).xyz().length();
         // (Written so that a NaN fails too.)
         2.0 * turned + ROUNDING < TURN
+    }
+
+    /// The memory of the sphere kind, if this is one recorded for a sphere against `p`.
+    #[inline]
+    pub(super) fn sphere(&self, p: &ConvexPolyhedron) -> Option<&SphereMemory> {
+        (self.shapes == [address(p), SPHERE]).then_some(&self.sphere)
+    }
+
+    /// Keeps `record`, a sphere's memory against `p` (forgets what it held: nothing is kept
+    /// when the record has no radius).
+    #[inline]
+    pub(super) fn record_sphere(&mut self, p: &ConvexPolyhedron, record: SphereMemory) {
+        self.clear();
+        if record.remembers() {
+            self.shapes = [address(p), SPHERE];
+            self.sphere = record;
+        }
     }
 
     /// Whether it holds the pairs of a finished search (for tests and statistics).

@@ -9,19 +9,23 @@
 //! Between steps a pair may keep what its edge-axis search found ([`EdgeMemory`], through
 //! [`collide_with_memory`]): the edge pairs that can pass the Gauss-map tests near the
 //! rotation it was recorded at, or the direction pairs too deep to matter, so that later
-//! searches visit fewer pairs for the same answer, bitwise.
+//! searches visit fewer pairs for the same answer, bitwise. A sphere against a polyhedron
+//! keeps there the faces and edges that may still give its closest point (see `sphere`),
+//! and, found apart, gives a bound of the distance so that the caller can skip it.
 
 use glam::Vec3;
 
-use crate::{ConvexPolyhedron, Pose, Shape};
+use crate::{Pose, Shape};
 
 mod clip;
 mod edges;
 mod memory;
 mod sat;
+mod sphere;
 
 pub use memory::EdgeMemory;
 pub use sat::polyhedron_polyhedron;
+pub use sphere::sphere_polyhedron;
 
 /// One point of a contact manifold.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -140,6 +144,13 @@ pub fn collide_with_hint(
             *bound = 0.0;
             deepest_piece_contact(a, pa, b, pb)
         }
+        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+            sphere::sphere_polyhedron_with(pa.position, *radius, p, pb, bound, None)
+        }
+        (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+            sphere::sphere_polyhedron_with(pb.position, *radius, p, pa, bound, None)
+                .map(Manifold::flipped)
+        }
         _ => {
             *bound = 0.0;
             collide_convex(a, pa, b, pb)
@@ -150,7 +161,9 @@ pub fn collide_with_hint(
 /// [`collide_with_hint`] with the pair's [`EdgeMemory`] as well (read and updated): the
 /// same manifold, hint and bound, bitwise; a polyhedron pair whose edge axes go by Gauss
 /// map then visits only the edge pairs the memory holds while B's rotation relative to A
-/// stays near the one it was recorded at.
+/// stays near the one it was recorded at, and a sphere against a polyhedron only the faces
+/// and edges that may still give its closest point while its centre stays near the one it
+/// was recorded at.
 pub fn collide_with_memory(
     a: &Shape,
     pa: &Pose,
@@ -163,6 +176,13 @@ pub fn collide_with_memory(
     match (a, b) {
         (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
             sat::polyhedron_pair(p, pa, q, pb, hint, bound, Some(memory))
+        }
+        (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
+            sphere::sphere_polyhedron_with(pa.position, *radius, p, pb, bound, Some(memory))
+        }
+        (Shape::Polyhedron(p), Shape::Sphere { radius }) => {
+            sphere::sphere_polyhedron_with(pb.position, *radius, p, pa, bound, Some(memory))
+                .map(Manifold::flipped)
         }
         _ => collide_with_hint(a, pa, b, pb, hint, bound),
     }
@@ -234,110 +254,6 @@ pub fn sphere_sphere(ca: Vec3, ra: f32, cb: Vec3, rb: f32) -> Option<Manifold> {
     Some(Manifold::single(
         normal,
         ca + normal * (ra - 0.5 * depth),
-        depth,
-    ))
-}
-
-/// Closest point of a convex polygon (a face loop of `p`) to `x`, all in `p`'s local frame.
-fn closest_on_face(p: &ConvexPolyhedron, f: usize, x: Vec3) -> Vec3 {
-    let face = p.faces[f];
-    let lp = p.face_loop(f);
-    let proj = x - face.normal * (face.normal.dot(x) - face.offset);
-    // The loop's next corner without a division (`(k + 1) % len`).
-    let next = |k: usize| if k + 1 < lp.len() { k + 1 } else { 0 };
-    let mut inside = true;
-    for k in 0..lp.len() {
-        let a = p.vertices[lp[k] as usize];
-        let b = p.vertices[lp[next(k)] as usize];
-        if (b - a).cross(proj - a).dot(face.normal) < 0.0 {
-            inside = false;
-            break;
-        }
-    }
-    if inside {
-        return proj;
-    }
-    let mut best = proj;
-    let mut best_d = f32::INFINITY;
-    for k in 0..lp.len() {
-        let a = p.vertices[lp[k] as usize];
-        let b = p.vertices[lp[next(k)] as usize];
-        let q = closest_on_segment(a, b, x);
-        let d = (q - x).length_squared();
-        if d < best_d {
-            best_d = d;
-            best = q;
-        }
-    }
-    best
-}
-
-#[inline]
-fn closest_on_segment(a: Vec3, b: Vec3, x: Vec3) -> Vec3 {
-    let ab = b - a;
-    let len2 = ab.length_squared();
-    if len2 <= 0.0 {
-        return a;
-    }
-    a + ab * ((x - a).dot(ab) / len2).clamp(0.0, 1.0)
-}
-
-/// Sphere `a` (centre, radius) against polyhedron `b` at `pose`; normal from sphere to polyhedron.
-pub fn sphere_polyhedron(
-    centre: Vec3,
-    radius: f32,
-    p: &ConvexPolyhedron,
-    pose: &Pose,
-) -> Option<Manifold> {
-    let c = pose.inverse_transform_point(centre);
-    if c.length_squared() >= (p.radius + radius) * (p.radius + radius) {
-        return None;
-    }
-    let mut best_face = 0;
-    let mut best_sep = f32::NEG_INFINITY;
-    for (i, f) in p.faces.iter().enumerate() {
-        let s = f.normal.dot(c) - f.offset;
-        if s > best_sep {
-            best_sep = s;
-            best_face = i;
-        }
-    }
-    if best_sep >= radius {
-        return None;
-    }
-    let (surface, n_local, depth) = if best_sep <= 0.0 {
-        // Centre inside: push out through the nearest face.
-        let n = p.faces[best_face].normal;
-        (c - n * best_sep, -n, radius - best_sep)
-    } else {
-        let mut q = c;
-        let mut best_d2 = f32::INFINITY;
-        for (i, f) in p.faces.iter().enumerate() {
-            if f.normal.dot(c) - f.offset > 0.0 {
-                let cand = closest_on_face(p, i, c);
-                let d2 = (cand - c).length_squared();
-                if d2 < best_d2 {
-                    best_d2 = d2;
-                    q = cand;
-                }
-            }
-        }
-        let dist = best_d2.sqrt();
-        if dist >= radius {
-            return None;
-        }
-        let n = if dist > 1e-12 {
-            (q - c) / dist
-        } else {
-            -p.faces[best_face].normal
-        };
-        (q, n, radius - dist)
-    };
-    let deepest = c + n_local * radius;
-    let mid = 0.5 * (surface + deepest);
-    Some(Manifold::single(
-        pose.rotation * n_local,
-        pose.transform_point(mid),
         depth,
     ))
 }
