@@ -35,6 +35,15 @@ stage() { # name timeout cmd...
   { echo "===== $name rc=$rc ${e}s: $*"; cat $L/$name.log; } >> $OUT/all.log
   grep -vE "^#   step|^$" $L/$name.log | grep -v '^ *"' | tail -n 8 | sed 's/^/    /' | tee -a $OUT/summary.txt
 }
+if [ "${1:-gpu}" = final ]; then
+# A short re-check after fixes: the 4M-sphere row, run against bench, the GPU tests.
+stage sph4M_lat 120 $G --shape sphere --pile lattice --bodies 4194304 --steps 500 --settle 200
+stage default_bench 60 $G --scene default --settle 0 --steps 5000
+stage default_run 60 $C run --backend gpu --steps 5000 -q --out /tmp/run1
+stage default_run_sparse 60 $C run --backend gpu --steps 5000 -q --energy-every 1000 --check-every 1000 --out /tmp/run2
+for t in stages memory_steps; do CI=1 stage test_$t 90 /opt/cl/$t --test-threads 4; done
+log "final gpu part done"; set -- mixmpi
+fi
 if [ "${1:-gpu}" = gpu ]; then
 # 1. H100 targets (issue 23).
 stage mixed80k 260 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --settle 200
@@ -47,7 +56,8 @@ stage default_prof 60 $G --scene default --settle 10000 --steps 500 --profile --
 # 2. GPU correctness on the H100.
 for t in stages memory_steps; do CI=1 stage test_$t 90 /opt/cl/$t --test-threads 4; done
 log "gpu part done"; exit 0; fi
-# 3. MPI scaling (issue 25), 1 thread per rank.
+# 3. MPI scaling (issue 25), 1 thread per rank (`mpi`), or only the poured mixed pile (`mixmpi`).
+MODE_ARG=${1:-mpi}
 W=${W:-16384 32768 65536 131072 262144}; S=${S:-65536}; MX=${MX:-16384}; NPS=${NPS:-1 2 4 8 16}
 { echo "== probe"; command -v mpirun mpiexec orterun prterun; mpirun --version 2>&1 | head -3; ls /usr/lib/x86_64-linux-gnu/pmix2/lib/pmix 2>&1 | head -20; ldconfig -p | grep -E "libmpi\.so|libpmix|libhwloc|libevent_core"; cat /etc/os-release | head -2; } 2>&1 | tee -a $OUT/summary.txt
 mkdir -p /opt/or && tar -xJf .devrun/ompi.tar.xz -C /opt/or
@@ -70,6 +80,11 @@ log "MPI mode $MODE"
 CM=/opt/cl/clatter-mpi
 stage mpi_hello 30 $M -np 2 $CM bench --shape sphere --pile lattice --bodies 1024 --steps 10 --settle 0 --threads 1
 grep -q "MPI ranks" $L/mpi_hello.log || { log "MPI does not start; stopping"; exit 0; }
+if [ "$MODE_ARG" = mixmpi ]; then
+  stage mix_pour 150 $G --shape mixed --pile poured --bodies $MX --steps 10 --settle 0
+  for np in 1 4 16; do stage mp_np${np} 120 $M -np $np $CM bench --backend cpu --shape mixed --bodies $MX --steps 100 --settle 0 --threads 1 --pile-cache $PC --json; grep -h -E "steps_per_s|contacts_per_body" $L/mp_np${np}.log | sed "s/^/mixed poured np $np /" | tee -a $OUT/summary.txt; done
+  log "done"; exit 0
+fi
 stage sph_pour 120 $G --shape sphere --pile poured --bodies $(echo $W | tr " " ,) --steps 10 --settle 0
 for n in $W; do
   mkdir -p /tmp/l$n
