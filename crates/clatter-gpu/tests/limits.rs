@@ -52,7 +52,8 @@ fn scenes_within_the_limits_are_accepted() {
 /// one). On a device whose storage bindings are lowered to 1 MiB, 4,096 spheres need
 /// 32,768 pair slots of 48-byte forces, 1,572,864 bytes; 384 bytes a body allow
 /// floor(2^20 / 384) = 2,730 bodies. The world of 2,730 spheres is then built and stepped on
-/// the same device: the estimate is one that fits.
+/// the same device: the estimate is one that fits. A device whose buffers (not bindings) are
+/// lowered to 1 MiB refuses the 4,096 with the same error.
 #[test]
 fn a_world_too_large_for_the_device_is_an_error_not_a_panic() {
     use clatter::World;
@@ -86,6 +87,13 @@ fn a_world_too_large_for_the_device_is_an_error_not_a_panic() {
             assert!(advice.contains("about 2730 bodies"), "{advice}");
         }
         other => panic!("expected TooLarge, got {other:?}"),
+    }
+    // The same with the largest buffer lowered instead of the largest binding (NVIDIA's
+    // case: there the buffer itself is refused, and `create_buffer_init` panicked on it).
+    let small = GpuContext::with_limits(|l| l.max_buffer_size = 1 << 20).expect("device");
+    match GpuWorld::new(Arc::new(small), &world) {
+        Ok(_) => panic!("4,096 spheres cannot fit 1 MiB buffers"),
+        Err(e) => assert_eq!(e.to_string(), err.to_string()),
     }
     let world = World::new(pile(PileShape::Sphere, 2730, &params));
     let mut gpu = GpuWorld::new(ctx, &world).expect("the estimate fits");
