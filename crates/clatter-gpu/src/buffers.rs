@@ -167,8 +167,8 @@ fn first_oversize(limits: &wgpu::Limits, dims: &Dims) -> Option<(&'static Bindin
     })
 }
 
-/// `dims` scaled to `bodies` bodies: the cells and the pair capacity in proportion (at
-/// least one pair per body less than before rounds down).
+/// `dims` scaled to `bodies` bodies: the cells and the pair capacity in proportion (rounded
+/// down), the rest as they are.
 fn scaled(dims: &Dims, bodies: u64) -> Dims {
     let per = |x: u64| (x as u128 * bodies as u128 / dims.bodies.max(1) as u128) as u64;
     Dims {
