@@ -43,8 +43,11 @@ pub enum Count {
     RebuildSlots,
     /// The energy log's slots plus one per workgroup of bodies.
     HealthSlots,
-    /// The snapshot's words (`layout::snapshot::words`).
+    /// The `snapshot` buffer's words: status and bodies (`layout::snapshot::words`).
     SnapshotWords,
+    /// The words of the snapshot's copy of the `mesh` buffer (`layout::snapshot::mesh_words`:
+    /// none without mesh boundaries).
+    SnapshotMeshWords,
     /// The mesh boundaries' state words (`crate::mesh::state_words`).
     MeshWords,
 }
@@ -106,13 +109,99 @@ impl Binding {
             Count::HealthSlots => {
                 crate::layout::HEALTH_LOG as u64 + d.bodies.div_ceil(crate::layout::WG as u64)
             }
-            Count::SnapshotWords => {
-                crate::layout::snapshot::words(d.bodies, d.walls * d.pieces, d.boundaries, d.pairs)
-            }
+            Count::SnapshotWords => crate::layout::snapshot::words(d.bodies),
+            Count::SnapshotMeshWords => crate::layout::snapshot::mesh_words(d.bodies, d.boundaries),
             Count::MeshWords => crate::mesh::state_words(d.bodies, d.boundaries),
         };
         (n * self.element).max(64)
     }
+}
+
+/// A group-0 buffer that a scene needs larger than the adapter allows: found by
+/// [`check_sizes`] before any buffer is allocated (wgpu would report it only as an invalid
+/// buffer, and `create_buffer_init` would panic on it).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Oversize {
+    /// The buffer's WGSL name.
+    pub name: &'static str,
+    /// Bytes it needs.
+    pub bytes: u64,
+    /// Bytes the adapter allows for it (one binding of its kind, and one buffer).
+    pub limit: u64,
+    /// About how many bodies would fit: the most for which every buffer is within the limits,
+    /// the other sizes scaled with the bodies (pairs per body as asked).
+    pub bodies_that_fit: u64,
+}
+
+impl Oversize {
+    /// The error to report, for the adapter named `adapter`.
+    pub fn into_error(self, adapter: &str) -> crate::GpuError {
+        crate::GpuError::TooLarge {
+            adapter: adapter.to_string(),
+            what: format!("largest buffer, `{}`", self.name),
+            need: format!("{} bytes", self.bytes),
+            limit: format!("{} bytes", self.limit),
+            advice: format!(
+                "about {} bodies would fit; use fewer bodies, or --backend cpu",
+                self.bodies_that_fit
+            ),
+        }
+    }
+}
+
+/// The most bytes the adapter with `limits` allows for a buffer accessed as `access`: one
+/// binding of that kind, and one buffer.
+pub fn limit_for(limits: &wgpu::Limits, access: Access) -> u64 {
+    let binding = match access {
+        Access::Uniform => limits.max_uniform_buffer_binding_size,
+        Access::Read | Access::ReadWrite => limits.max_storage_buffer_binding_size,
+    };
+    binding.min(limits.max_buffer_size)
+}
+
+/// The first group-0 buffer larger than `limits` allow for `dims`, if any.
+fn first_oversize(limits: &wgpu::Limits, dims: &Dims) -> Option<(&'static Binding, u64, u64)> {
+    BUFFERS.iter().find_map(|b| {
+        let (bytes, limit) = (b.size(dims), limit_for(limits, b.access));
+        (bytes > limit).then_some((b, bytes, limit))
+    })
+}
+
+/// `dims` scaled to `bodies` bodies: the cells and the pair capacity in proportion (rounded
+/// down), the rest as they are.
+fn scaled(dims: &Dims, bodies: u64) -> Dims {
+    let per = |x: u64| (x as u128 * bodies as u128 / dims.bodies.max(1) as u128) as u64;
+    Dims {
+        bodies,
+        cells: per(dims.cells),
+        pairs: per(dims.pairs),
+        ..*dims
+    }
+}
+
+/// Checks every group-0 buffer's size for `dims` against the adapter's `limits` (the
+/// largest storage or uniform binding, and the largest buffer), so that a scene too large is
+/// refused with the buffer's name, its size and the limit before anything is allocated.
+pub fn check_sizes(limits: &wgpu::Limits, dims: &Dims) -> Result<(), Oversize> {
+    let Some((b, bytes, limit)) = first_oversize(limits, dims) else {
+        return Ok(());
+    };
+    // Every size grows with the bodies: the most that fit, by bisection.
+    let (mut lo, mut hi) = (0u64, dims.bodies);
+    while lo + 1 < hi {
+        let mid = lo + (hi - lo) / 2;
+        if first_oversize(limits, &scaled(dims, mid)).is_none() {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Err(Oversize {
+        name: b.name,
+        bytes,
+        limit,
+        bodies_that_fit: lo,
+    })
 }
 
 macro_rules! buffers {
@@ -209,11 +298,81 @@ buffers! {
     /// The energy log (a ring of `HEALTH_LOG` samples, status word `SAMPLES` counts them),
     /// then the checks' sums per workgroup of bodies (summed by `health_reduce`).
     Health = "health", ReadWrite, "array<HealthRecord>", size_of::<crate::layout::HealthRecord>(), HealthSlots;
-    /// The last good state (`snapshot` in health.wgsl), as words: see `layout::snapshot`.
-    Snapshot = "snapshot", ReadWrite, "array<u32>", size_of::<u32>(), SnapshotWords, keep;
+    /// The last good state (health.wgsl `snapshot_state`, see `layout::snapshot`): the
+    /// status words and the bodies, as words.
+    Snapshot = "snapshot", ReadWrite, "array<u32>", size_of::<u32>(), SnapshotWords;
+    /// The last good state's copy of `mesh`.
+    SnapshotMesh = "snapshot_mesh", ReadWrite, "array<u32>", size_of::<u32>(), SnapshotMeshWords;
+    /// The last good state's copy of `wall_hist`.
+    SnapshotWallHist = "snapshot_wall_hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), WallSlots;
+    /// The last good state's copy of `wall_forces`.
+    SnapshotWallForces = "snapshot_wall_forces", ReadWrite, "array<WallForce>", size_of::<crate::layout::WallForce>(), WallSlots;
+    /// The last good state's pair entries, springs and touching words, as words
+    /// (`layout::snapshot::PAIR` per pair).
+    SnapshotPairs = "snapshot_pairs", ReadWrite, "array<u32>", crate::layout::snapshot::PAIR as usize * size_of::<u32>(), Pairs, keep;
+    /// The last good state's copy of `forces`.
+    SnapshotForces = "snapshot_forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), Pairs, keep;
 }
 
-/// The `@binding` declarations of group 0.
+/// The buffers of the last good state: bound only in the group 0 of `snapshot_state`
+/// ([`SNAPSHOT_KERNEL`]), not in the group 0 every other kernel shares. That one has 28
+/// storage buffers, and with the shapes' 2 and a group 2's 2 it meets lavapipe's limit of 32
+/// storage buffers a shader stage: the last good state's 6 would not fit beside them.
+pub const SNAPSHOT_ONLY: &[Buf] = &[
+    Buf::Snapshot,
+    Buf::SnapshotMesh,
+    Buf::SnapshotWallHist,
+    Buf::SnapshotWallForces,
+    Buf::SnapshotPairs,
+    Buf::SnapshotForces,
+];
+
+/// The group 0 of `snapshot_state` (health.wgsl): what it copies, the status and the
+/// parameters it reads, and the buffers of the last good state, at their bindings in
+/// [`BUFFERS`].
+pub const SNAPSHOT_KERNEL: &[Buf] = &[
+    Buf::Params,
+    Buf::Bodies,
+    Buf::Status,
+    Buf::RebuildPos,
+    Buf::Pairs,
+    Buf::Hist,
+    Buf::Touching,
+    Buf::Forces,
+    Buf::WallHist,
+    Buf::WallForces,
+    Buf::Mesh,
+    Buf::HealthParams,
+    Buf::Snapshot,
+    Buf::SnapshotMesh,
+    Buf::SnapshotWallHist,
+    Buf::SnapshotWallForces,
+    Buf::SnapshotPairs,
+    Buf::SnapshotForces,
+];
+
+/// Which group 0 a bind group layout or bind group is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Group0 {
+    /// The one every kernel but `snapshot_state` shares: every buffer but [`SNAPSHOT_ONLY`].
+    Shared,
+    /// `snapshot_state`'s: [`SNAPSHOT_KERNEL`].
+    Snapshot,
+}
+
+impl Group0 {
+    /// Whether binding `k` is in this group 0.
+    fn has(self, k: usize) -> bool {
+        let b = buf_at(k);
+        match self {
+            Group0::Shared => !SNAPSHOT_ONLY.contains(&b),
+            Group0::Snapshot => SNAPSHOT_KERNEL.contains(&b),
+        }
+    }
+}
+
+/// The `@binding` declarations of group 0 (both group 0s: each kernel uses only those of
+/// its own).
 pub fn wgsl_bindings() -> String {
     BUFFERS
         .iter()
@@ -229,11 +388,12 @@ pub fn wgsl_bindings() -> String {
         .collect()
 }
 
-/// The bind group layout entries of group 0.
-pub fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+/// The bind group layout entries of group 0 `which`.
+pub fn layout_entries(which: Group0) -> Vec<wgpu::BindGroupLayoutEntry> {
     BUFFERS
         .iter()
         .enumerate()
+        .filter(|&(k, _)| which.has(k))
         .map(|(k, b)| wgpu::BindGroupLayoutEntry {
             binding: k as u32,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -289,12 +449,14 @@ fn usage(b: &Binding) -> wgpu::BufferUsages {
 
 impl Buffers {
     /// Allocates every buffer for `dims`; `init(buf)` gives a buffer's initial bytes (zeroed
-    /// where it returns `None`; padded to the table's size).
+    /// where it returns `None`; padded to the table's size). Allocates nothing, and returns
+    /// the first buffer too large, when one is larger than the device's limits allow.
     pub fn new(
         device: &wgpu::Device,
         dims: &Dims,
         mut init: impl FnMut(Buf) -> Option<Vec<u8>>,
-    ) -> Buffers {
+    ) -> Result<Buffers, Oversize> {
+        check_sizes(&device.limits(), dims)?;
         let list = BUFFERS
             .iter()
             .enumerate()
@@ -320,14 +482,21 @@ impl Buffers {
                 }
             })
             .collect();
-        Buffers { list }
+        Ok(Buffers { list })
     }
 
     /// Reallocates the pair-sized buffers for `dims` (a larger pair capacity), copying the
-    /// contents of those marked `keep_on_grow` in `encoder`.
-    pub fn grow(&mut self, device: &wgpu::Device, dims: &Dims, encoder: &mut wgpu::CommandEncoder) {
+    /// contents of those marked `keep_on_grow` in `encoder`. Changes nothing, and returns the
+    /// first buffer too large, when one is larger than the device's limits allow.
+    pub fn grow(
+        &mut self,
+        device: &wgpu::Device,
+        dims: &Dims,
+        encoder: &mut wgpu::CommandEncoder,
+    ) -> Result<(), Oversize> {
+        check_sizes(&device.limits(), dims)?;
         for (k, b) in BUFFERS.iter().enumerate() {
-            if b.count != Count::Pairs && b.count != Count::SnapshotWords {
+            if b.count != Count::Pairs {
                 continue;
             }
             let new = device.create_buffer(&wgpu::BufferDescriptor {
@@ -342,18 +511,21 @@ impl Buffers {
             }
             self.list[k] = new;
         }
+        Ok(())
     }
 
-    /// The group-0 bind group over every buffer.
+    /// The bind group of group 0 `which` (`layout` made from its [`layout_entries`]).
     pub fn bind_group(
         &self,
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
+        which: Group0,
     ) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = self
             .list
             .iter()
             .enumerate()
+            .filter(|&(k, _)| which.has(k))
             .map(|(k, b)| wgpu::BindGroupEntry {
                 binding: k as u32,
                 resource: b.as_entire_binding(),

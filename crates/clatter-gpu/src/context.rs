@@ -73,7 +73,24 @@ impl GpuContext {
         pollster::block_on(Self::new_async())
     }
 
+    /// [`GpuContext::new`] on a device whose limits `lower` lowers from the adapter's own:
+    /// what a scene does on a device with less room (e.g. the tests of scenes too large).
+    pub fn with_limits(lower: impl FnOnce(&mut wgpu::Limits)) -> Result<GpuContext, GpuError> {
+        pollster::block_on(async {
+            let adapter = Self::adapter().await?;
+            let mut limits = adapter.limits();
+            lower(&mut limits);
+            Self::from_adapter_with_limits(adapter, limits).await
+        })
+    }
+
     async fn new_async() -> Result<GpuContext, GpuError> {
+        let adapter = Self::adapter().await?;
+        Self::from_adapter(adapter).await
+    }
+
+    /// The adapter [`GpuContext::new`] opens.
+    async fn adapter() -> Result<wgpu::Adapter, GpuError> {
         quiet_device_select();
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::from_env().unwrap_or(desc.backends);
@@ -93,13 +110,21 @@ impl GpuContext {
                 .await
                 .map_err(|e| GpuError::NoAdapter(e.to_string()))?,
         };
-        Self::from_adapter(adapter).await
+        Ok(adapter)
     }
 
     /// Opens a device on `adapter` with its own limits.
     pub async fn from_adapter(adapter: wgpu::Adapter) -> Result<GpuContext, GpuError> {
-        let adapter_info = adapter.get_info();
         let limits = adapter.limits();
+        Self::from_adapter_with_limits(adapter, limits).await
+    }
+
+    /// Opens a device on `adapter` with `limits` (at most the adapter's own).
+    async fn from_adapter_with_limits(
+        adapter: wgpu::Adapter,
+        limits: wgpu::Limits,
+    ) -> Result<GpuContext, GpuError> {
+        let adapter_info = adapter.get_info();
         let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let mut required_features = wgpu::Features::empty();
         if timestamps {

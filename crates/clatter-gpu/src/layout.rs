@@ -206,21 +206,25 @@ impl WallForce {
 /// one batch.
 pub const HEALTH_LOG: u32 = 128;
 
-/// The last good state in the `snapshot` buffer, as 32-bit words: the status words, then per
-/// body its state, rebuild position and orientation, then the body-wall slots, then a copy of
-/// the `mesh` buffer (the mesh slots and clocks, in scenes with mesh boundaries), then per
-/// pair its entry (`pair`, springs, touching flag, force), so that a larger pair capacity
-/// only extends the buffer.
+/// The last good state, kept in six buffers so that none is larger per element than the
+/// largest buffer it copies (each must fit the adapter's storage-binding limit, 2 GiB - 1 on
+/// Vulkan through wgpu; one buffer of everything needed 4.6 GB at 4,194,304 spheres):
+/// - `snapshot`: the status words, then per body its state, rebuild position and
+///   orientation and the low part of its position ([`words`](snapshot::words));
+/// - `snapshot_mesh`: a copy of the `mesh` buffer (scenes with mesh boundaries only,
+///   [`mesh_words`](snapshot::mesh_words));
+/// - `snapshot_wall_hist`, `snapshot_wall_forces`: copies of `wall_hist` and `wall_forces`;
+/// - `snapshot_pairs`: per pair its entry, springs and touching word
+///   ([`PAIR`](snapshot::PAIR) words, so that a larger pair capacity only extends it);
+/// - `snapshot_forces`: a copy of `forces`.
 pub mod snapshot {
     /// Words of the status block.
     pub const STATUS: u64 = 32;
     /// Words per body: state (24), rebuild position (4), rebuild orientation (4: with
     /// composites only, see `RebuildSlots`), the low part of the position (4).
     pub const BODY: u64 = 36;
-    /// Words per body-wall slot: springs (4), force (12), touching (1).
-    pub const SLOT: u64 = 17;
-    /// Words per pair: bodies (2), springs (4), touching (1), force (12).
-    pub const PAIR: u64 = 19;
+    /// Words per pair in `snapshot_pairs`: bodies (2), springs (4), touching (1).
+    pub const PAIR: u64 = 7;
 
     /// Words of the copy of the `mesh` buffer for `bodies` and `boundaries` (none without
     /// boundaries).
@@ -232,19 +236,9 @@ pub mod snapshot {
         }
     }
 
-    /// The first word of the copy of the `mesh` buffer.
-    pub fn mesh_at(bodies: u64, walls: u64) -> u64 {
-        STATUS + BODY * bodies + SLOT * bodies * walls
-    }
-
-    /// The first word of the pair entries.
-    pub fn pairs_at(bodies: u64, walls: u64, boundaries: u64) -> u64 {
-        mesh_at(bodies, walls) + mesh_words(bodies, boundaries)
-    }
-
-    /// Words of the whole snapshot.
-    pub fn words(bodies: u64, walls: u64, boundaries: u64, pairs: u64) -> u64 {
-        pairs_at(bodies, walls, boundaries) + PAIR * pairs
+    /// Words of the `snapshot` buffer (status and bodies).
+    pub fn words(bodies: u64) -> u64 {
+        STATUS + BODY * bodies
     }
 }
 
@@ -381,7 +375,6 @@ fn constants() -> Vec<Constant> {
         Constant::F32("TURN_C2", clatter::turn::COS[2]),
         U32("SNAP_STATUS", snapshot::STATUS as u32),
         U32("SNAP_BODY", snapshot::BODY as u32),
-        U32("SNAP_SLOT", snapshot::SLOT as u32),
         U32("SNAP_PAIR", snapshot::PAIR as u32),
         U32("HEALTH_LOG", HEALTH_LOG),
         U32("ARG_BODIES_REBUILD", arg::BODIES_REBUILD),

@@ -95,6 +95,10 @@ pub(crate) enum Group2 {
     Args,
     /// A scan level (data, sums).
     Scan,
+    /// No group 2, and a group 0 of its own (`buffers::Group0::Snapshot`) instead of the
+    /// shared one, and no group 1: `snapshot_state`, which binds the last good state's
+    /// buffers.
+    Snapshot,
 }
 
 /// How a kernel is dispatched.
@@ -150,7 +154,9 @@ impl Kernels {
 /// narrow phase, scenes without mesh boundaries the mesh contacts, scenes without composites
 /// the piece code): see [`ContactVariant`].
 pub(crate) struct Compiled {
-    pub layouts: [wgpu::BindGroupLayout; 3],
+    /// Group 0 (shared), group 1 (shapes), group 2 (scan or args), and the group 0 of
+    /// `snapshot_state` ([`Group2::Snapshot`]).
+    pub layouts: [wgpu::BindGroupLayout; 4],
     pub base: Kernels,
     /// By [`ContactVariant::index`].
     pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 6 * CLIP_SIZES],
@@ -246,7 +252,7 @@ impl Compiled {
         let layouts = [
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("simulation"),
-                entries: &crate::buffers::layout_entries(),
+                entries: &crate::buffers::layout_entries(crate::buffers::Group0::Shared),
             }),
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("shapes"),
@@ -256,6 +262,10 @@ impl Compiled {
             device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("scan or args"),
                 entries: &[storage(0), storage(1)],
+            }),
+            device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("snapshot"),
+                entries: &crate::buffers::layout_entries(crate::buffers::Group0::Snapshot),
             }),
         ];
         let (modules, kernels) = crate::stages::base_kernels();
@@ -296,7 +306,7 @@ impl Compiled {
 /// Compiles `kernels` from `modules` (name, source).
 pub(crate) fn compile(
     ctx: &GpuContext,
-    layouts: &[wgpu::BindGroupLayout; 3],
+    layouts: &[wgpu::BindGroupLayout; 4],
     modules: &[(&str, String)],
     kernels: &[KernelSpec],
 ) -> Result<Kernels, GpuError> {
@@ -309,6 +319,11 @@ pub(crate) fn compile(
     let with_g2 = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("with group 2"),
         bind_group_layouts: &[Some(&layouts[0]), Some(&layouts[1]), Some(&layouts[2])],
+        immediate_size: 0,
+    });
+    let snapshot = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("snapshot"),
+        bind_group_layouts: &[Some(&layouts[3])],
         immediate_size: 0,
     });
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
@@ -333,10 +348,10 @@ pub(crate) fn compile(
             .find(|(n, _)| *n == module)
             .expect("module listed")
             .1;
-        let layout = if group2 == Group2::None {
-            &base
-        } else {
-            &with_g2
+        let layout = match group2 {
+            Group2::None => &base,
+            Group2::Args | Group2::Scan => &with_g2,
+            Group2::Snapshot => &snapshot,
         };
         out.pipelines.push(
             device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

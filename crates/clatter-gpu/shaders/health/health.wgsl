@@ -223,12 +223,6 @@ fn snap4(at: u32, v: vec4<f32>) {
     snapshot[at + 3u] = w.w;
 }
 
-fn snap_force(at: u32, f: ContactForce) {
-    snap4(at, vec4<f32>(f.force_b, f.normal_force));
-    snap4(at + 4u, vec4<f32>(f.torque_a, f.pad0));
-    snap4(at + 8u, vec4<f32>(f.torque_b, f.pad1));
-}
-
 // The last good state: every state buffer copied (a grid-stride loop over bodies, pairs and
 // wall slots) after a snapshot step whose checks passed.
 @compute @workgroup_size(256)
@@ -261,7 +255,8 @@ fn snap_mesh_words(n: u32) -> u32 {
     return MESH_GLOBAL + MESH_BSTATE * params.num_boundaries + (MESH_SLOTS * MESH_SLOT + 1u) * n;
 }
 
-// Copies element `i` of every state buffer that has one.
+// Copies element `i` of every state buffer that has one (the buffers of the last good
+// state: src/layout.rs `snapshot`).
 fn snapshot_one(i: u32, n: u32, slots: u32) {
     // The status words before the class counts (shader-internal, recounted every step),
     // which fit the snapshot's status block (SNAP_STATUS words).
@@ -286,25 +281,23 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
         }
         snap4(at + 32u, s.position_lo);
     }
-    let mesh_at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * slots;
-    let mesh_words = snap_mesh_words(n);
-    if i < mesh_words {
-        snapshot[mesh_at + i] = mesh[i];
+    if i < snap_mesh_words(n) {
+        snapshot_mesh[i] = mesh[i];
     }
     if i < slots {
-        let at = SNAP_STATUS + SNAP_BODY * n + SNAP_SLOT * i;
-        snap4(at, wall_hist[i]);
-        let wf = wall_forces[i];
-        snap_force(at + 4u, ContactForce(wf.force_b, wf.normal_force, wf.torque_a, 0.0, wf.torque_b,
-                                         0.0));
-        snapshot[at + 16u] = wf.touching;
+        snapshot_wall_hist[i] = wall_hist[i];
+        snapshot_wall_forces[i] = wall_forces[i];
     }
     if i < params.pair_capacity {
-        let at = mesh_at + mesh_words + SNAP_PAIR * i;
-        snapshot[at] = pairs[i].x;
-        snapshot[at + 1u] = pairs[i].y;
-        snap4(at + 2u, hist[i]);
-        snapshot[at + 6u] = touching[i];
-        snap_force(at + 7u, forces[i]);
+        let at = SNAP_PAIR * i;
+        snapshot_pairs[at] = pairs[i].x;
+        snapshot_pairs[at + 1u] = pairs[i].y;
+        let h = bitcast<vec4<u32>>(hist[i]);
+        snapshot_pairs[at + 2u] = h.x;
+        snapshot_pairs[at + 3u] = h.y;
+        snapshot_pairs[at + 4u] = h.z;
+        snapshot_pairs[at + 5u] = h.w;
+        snapshot_pairs[at + 6u] = touching[i];
+        snapshot_forces[i] = forces[i];
     }
 }

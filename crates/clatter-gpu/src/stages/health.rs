@@ -16,7 +16,7 @@ pub(crate) const KERNELS: &[KernelSpec] = &[
     ("health", "health_gate", Group2::Args),
     ("health", "health_bodies", Group2::None),
     ("health", "health_reduce", Group2::None),
-    ("health", "snapshot_state", Group2::None),
+    ("health", "snapshot_state", Group2::Snapshot),
 ];
 
 /// The health module's source.

@@ -11,7 +11,7 @@ use clatter::contract::BodyState;
 
 use super::{BATCH, ENCODERS, GpuWorld, Plan, StepReport};
 use crate::GpuError;
-use crate::buffers::Buf;
+use crate::buffers::{Buf, Dims};
 use crate::layout::{HEALTH_LOG, status};
 use crate::readback::{Pending, submit_read};
 
@@ -304,9 +304,17 @@ impl GpuWorld {
         let capacity = (needed + needed / 2).max(self.params.pair_capacity as u64 * 2);
         Self::check_fits(&self.ctx, self.n as u64, capacity, self.wall_slots as u64)?;
         let device = &self.ctx.device;
-        self.dims.pairs = capacity;
+        let dims = Dims {
+            pairs: capacity,
+            ..self.dims
+        };
+        let too_large = |e: crate::buffers::Oversize| e.into_error(&self.ctx.adapter_name());
+        crate::buffers::check_sizes(&self.ctx.limits, &dims).map_err(too_large)?;
         let mut encoder = device.create_command_encoder(&Default::default());
-        self.bufs.grow(device, &self.dims, &mut encoder);
+        self.bufs
+            .grow(device, &dims, &mut encoder)
+            .map_err(too_large)?;
+        self.dims = dims;
         // Resume: clear the overflow, ask for the rebuild again.
         let mut st = self.last_status;
         st[status::OVERFLOW] = 0;

@@ -46,14 +46,19 @@ impl GpuWorld {
         let capacity = (world.len() as u64 * PAIRS_PER_BODY)
             .max(state.pairs.len() as u64 + world.len() as u64)
             .max(1024);
-        Self::check_fits(&ctx, world.len() as u64, capacity, wall_slots as u64)?;
-        check_mesh_fits(&ctx, world)?;
         let mut params = scene_params(world, capacity, mesh_base);
         params.deal = ctx.workgroup_runs();
+        let dims = dims_of(world, &params, capacity);
+        // Every buffer within the device's limits before any is allocated.
+        let too_large = |e: crate::buffers::Oversize| e.into_error(&ctx.adapter_name());
+        crate::buffers::check_sizes(&ctx.limits, &dims).map_err(too_large)?;
+        Self::check_fits(&ctx, world.len() as u64, capacity, wall_slots as u64)?;
+        check_mesh_fits(&ctx, world)?;
         let compiled = Compiled::get(&ctx)?;
         let contents = Contents::of(world, &state, capacity, wall_slots);
-        let dims = dims_of(world, &params);
-        let bufs = contents.upload(&ctx.device, &dims, &params, world);
+        let bufs = contents
+            .upload(&ctx.device, &dims, &params, world)
+            .map_err(too_large)?;
         let plan = Plan::new(&ctx, &compiled, &bufs, &shapes, &mut params)?;
         let w = GpuWorld {
             bufs,
@@ -157,12 +162,13 @@ fn full_test_only() -> bool {
     std::env::var_os("CLATTER_GPU_FULL_TEST").is_some_and(|v| !v.is_empty() && v != "0")
 }
 
-/// The sizes to allocate the buffers for.
-fn dims_of(world: &World, params: &Params) -> Dims {
+/// The sizes to allocate the buffers for (counted in 64 bits from the scene, not from
+/// `params`' 32-bit fields, so that a scene too large for those is refused by size).
+fn dims_of(world: &World, params: &Params, capacity: u64) -> Dims {
     Dims {
         bodies: world.len() as u64,
-        cells: params.max_cells as u64,
-        pairs: params.pair_capacity as u64,
+        cells: max_cells(world.len() as u64),
+        pairs: capacity,
         materials: world.materials.len() as u64,
         walls: params.num_walls as u64,
         sinks: world.sinks.len() as u64,
@@ -193,14 +199,15 @@ impl Contents {
         }
     }
 
-    /// Allocates the buffers for `dims` with these contents (the others zeroed).
+    /// Allocates the buffers for `dims` with these contents (the others zeroed), or names
+    /// the first buffer larger than the device allows.
     fn upload(
         &self,
         device: &wgpu::Device,
         dims: &Dims,
         params: &Params,
         world: &World,
-    ) -> Buffers {
+    ) -> Result<Buffers, crate::buffers::Oversize> {
         let table = world.materials.table();
         let c = &self.carried;
         let bytes = |b: &[u8]| Some(b.to_vec());

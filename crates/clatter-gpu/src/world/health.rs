@@ -10,7 +10,8 @@ use super::readback::decode_pairs;
 use super::{EnergySample, GpuWorld, Health, HealthSetup};
 use crate::GpuError;
 use crate::buffers::Buf;
-use crate::layout::{HEALTH_LOG, HealthParams, HealthRecord, status};
+use crate::layout::{HEALTH_LOG, HealthParams, HealthRecord, WallForce, status};
+use crate::readback::read_buffers;
 
 impl GpuWorld {
     /// Turns on the blow-up checks and energy samples on the GPU for a run starting from
@@ -111,9 +112,8 @@ impl GpuWorld {
     /// Returns false, leaving `world` alone, when no snapshot was taken yet.
     pub fn read_last_good(&self, world: &mut World) -> Result<bool, GpuError> {
         use crate::layout::snapshot as snap;
-        let buf = &self.bufs[Buf::Snapshot];
         let st: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read_buffer(
-            buf,
+            &self.bufs[Buf::Snapshot],
             0,
             Buf::Snapshot.bytes(snap::STATUS),
         )?);
@@ -123,57 +123,78 @@ impl GpuWorld {
         let (n, walls) = (self.n as u64, self.wall_slots as u64);
         let nb = self.params.num_boundaries as u64;
         let np = (st[status::PAIRS] as u64).min(self.params.pair_capacity as u64);
-        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&self.read_buffer(
-            buf,
-            0,
-            Buf::Snapshot.bytes(snap::words(n, walls, nb, np)),
-        )?);
-        let f4 = |at: usize| -> [f32; 4] { std::array::from_fn(|k| f32::from_bits(words[at + k])) };
-        let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-        let force = |at: usize| {
-            let (a, b, c) = (f4(at), f4(at + 4), f4(at + 8));
-            ContactForce {
-                force_b: v3(a),
-                normal_force: a[3],
-                torque_a: v3(b),
-                pad0: b[3],
-                torque_b: v3(c),
-                pad1: c[3],
-            }
+        let slots = n * walls;
+        let b = |x: Buf| &self.bufs[x];
+        let mut parts = read_buffers(
+            &self.ctx,
+            &[
+                (b(Buf::Snapshot), 0, Buf::Snapshot.bytes(snap::words(n))),
+                (b(Buf::SnapshotPairs), 0, Buf::SnapshotPairs.bytes(np)),
+                (b(Buf::SnapshotForces), 0, Buf::SnapshotForces.bytes(np)),
+                (
+                    b(Buf::SnapshotWallHist),
+                    0,
+                    Buf::SnapshotWallHist.bytes(slots),
+                ),
+                (
+                    b(Buf::SnapshotWallForces),
+                    0,
+                    Buf::SnapshotWallForces.bytes(slots),
+                ),
+                (
+                    b(Buf::SnapshotMesh),
+                    0,
+                    Buf::SnapshotMesh.bytes(snap::mesh_words(n, nb)),
+                ),
+            ],
+        )?
+        .into_iter();
+        let mut next = || parts.next().unwrap_or_default();
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&next());
+        let pair_words: Vec<u32> = bytemuck::pod_collect_to_vec(&next());
+        let forces: Vec<ContactForce> = bytemuck::pod_collect_to_vec(&next());
+        let wall_hist: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&next());
+        let wf: Vec<WallForce> = bytemuck::pod_collect_to_vec(&next());
+        let mesh: Vec<u32> = bytemuck::pod_collect_to_vec(&next());
+        let (wall_forces, wall_touching) = wf.iter().map(WallForce::split).unzip();
+        let f4 = |w: &[u32], at: usize| -> [f32; 4] {
+            std::array::from_fn(|k| f32::from_bits(w[at + k]))
         };
+        let v3 = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
         let body_at = |i: u64| (snap::STATUS + snap::BODY * i) as usize;
         for i in 0..n {
             let at = body_at(i);
             let s = BodyState {
-                position: f4(at),
-                velocity: f4(at + 4),
-                orientation: f4(at + 8),
-                residual: f4(at + 12),
-                angular_momentum: f4(at + 16),
-                omega: f4(at + 20),
-                position_lo: f4(at + 32),
+                position: f4(&words, at),
+                velocity: f4(&words, at + 4),
+                orientation: f4(&words, at + 8),
+                residual: f4(&words, at + 12),
+                angular_momentum: f4(&words, at + 16),
+                omega: f4(&words, at + 20),
+                position_lo: f4(&words, at + 32),
             };
             world.state.set_record(i as usize, &s);
         }
-        let slot_at = |k: u64| (snap::STATUS + snap::BODY * n + snap::SLOT * k) as usize;
-        let pair_at = |k: u64| (snap::pairs_at(n, walls, nb) + snap::PAIR * k) as usize;
-        let slots = n * walls;
-        let hist: Vec<[f32; 4]> = (0..np).map(|k| f4(pair_at(k) + 2)).collect();
-        let wall_hist: Vec<[f32; 4]> = (0..slots).map(|k| f4(slot_at(k))).collect();
+        let pair_at = |k: u64| (snap::PAIR * k) as usize;
+        let hist: Vec<[f32; 4]> = (0..np).map(|k| f4(&pair_words, pair_at(k) + 2)).collect();
         let (pairs, pieces) = decode_pairs(
             (0..np)
-                .map(|k| [words[pair_at(k)], words[pair_at(k) + 1]])
+                .map(|k| [pair_words[pair_at(k)], pair_words[pair_at(k) + 1]])
                 .collect(),
             self.params.composites != 0,
         );
         let state = ContactState {
             rebuild_position: if st[status::REBUILDS] > 0 {
-                (0..n).map(|i| v3(f4(body_at(i) + 24)).as_dvec3()).collect()
+                (0..n)
+                    .map(|i| v3(f4(&words, body_at(i) + 24)).as_dvec3())
+                    .collect()
             } else {
                 Vec::new()
             },
             rebuild_orientation: if st[status::REBUILDS] > 0 && self.params.composites != 0 {
-                (0..n).map(|i| quat_of(f4(body_at(i) + 28))).collect()
+                (0..n)
+                    .map(|i| quat_of(f4(&words, body_at(i) + 28)))
+                    .collect()
             } else {
                 Vec::new()
             },
@@ -181,17 +202,12 @@ impl GpuWorld {
             pieces,
             history: hist.iter().map(|&h| v3(h)).collect(),
             twist: hist.iter().map(|h| h[3]).collect(),
-            touching: (0..np).map(|k| words[pair_at(k) + 6] == 1).collect(),
-            forces: (0..np).map(|k| force(pair_at(k) + 7)).collect(),
+            touching: (0..np).map(|k| pair_words[pair_at(k) + 6] == 1).collect(),
+            forces,
             wall_history: wall_hist.iter().map(|&h| v3(h)).collect(),
             wall_twist: wall_hist.iter().map(|h| h[3]).collect(),
-            wall_touching: (0..slots).map(|k| words[slot_at(k) + 16] != 0).collect(),
-            wall_forces: (0..slots)
-                .map(|k| ContactForce {
-                    pad0: 0.0,
-                    ..force(slot_at(k) + 4)
-                })
-                .collect(),
+            wall_touching,
+            wall_forces,
         };
         let back = (self.gpu_steps as u32).wrapping_sub(st[status::STEPS]) as u64;
         let g = self.gpu_steps.saturating_sub(back);
@@ -204,9 +220,7 @@ impl GpuWorld {
         world.set_contact_state(state);
         if nb > 0 {
             // The mesh slots and the step of their last rebuild, as `read_mesh_into`.
-            let at = snap::mesh_at(n, walls) as usize;
-            let mesh = &words[at..at + snap::mesh_words(n, nb) as usize];
-            let (slots, rebuild_step) = crate::mesh::read_slots(mesh, n as usize, nb as usize);
+            let (slots, rebuild_step) = crate::mesh::read_slots(&mesh, n as usize, nb as usize);
             let back = st[status::STEPS].wrapping_sub(rebuild_step) as u64;
             let rebuild_time = self.time_after(g.saturating_sub(back));
             world

@@ -284,3 +284,95 @@ impl GpuWorld {
         self.last_status[status::REBUILDS] as u64
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::buffers::{Access, BUFFERS, check_sizes};
+
+    /// The limits wgpu 30 reports for an NVIDIA GPU on Vulkan, as far as the buffers go:
+    /// one storage binding at most 2 GiB - 1 (wgpu-hal caps the driver's
+    /// `maxStorageBufferRange`, 4 GiB - 1, at `i32::MAX`), one buffer at most the driver's
+    /// `maxMemoryAllocationSize` (about 4 GiB), uniforms 64 KiB.
+    fn nvidia_like() -> wgpu::Limits {
+        wgpu::Limits {
+            max_storage_buffer_binding_size: (1 << 31) - 1,
+            max_buffer_size: 0xffe0_0000,
+            max_uniform_buffer_binding_size: 1 << 16,
+            ..wgpu::Limits::default()
+        }
+    }
+
+    /// The buffers of `clatter bench --shape sphere --pile lattice --bodies n`: five walls,
+    /// one material, the initial pair capacity.
+    fn sphere_lattice(n: u64) -> Dims {
+        Dims {
+            bodies: n,
+            cells: max_cells(n),
+            pairs: n * PAIRS_PER_BODY,
+            materials: 1,
+            walls: 5,
+            sinks: 0,
+            pieces: 1,
+            composites: false,
+            boundaries: 0,
+        }
+    }
+
+    /// 4,194,304 spheres fit an 80 GB NVIDIA card again: every group-0 buffer within the
+    /// binding and buffer limits, and all of them together well within its memory. The one
+    /// `snapshot` buffer of the last good state that they replace (status, then 36 words a
+    /// body, 17 a body-wall slot, 19 a pair) needed 4.58 GB, over both limits: the panic of
+    /// 2026-11-27.
+    #[test]
+    fn four_million_spheres_fit_nvidia_limits() {
+        let n = 4_194_304u64;
+        let d = sphere_lattice(n);
+        let limits = nvidia_like();
+        let mut total = 0;
+        for b in BUFFERS {
+            let size = b.size(&d);
+            let limit = match b.access {
+                Access::Uniform => 1 << 16,
+                _ => (1u64 << 31) - 1,
+            };
+            eprintln!("{:>22} {size:>14} bytes", b.name);
+            assert!(size <= limit, "{}: {size} bytes over {limit}", b.name);
+            total += size;
+        }
+        eprintln!("{:>22} {total:>14} bytes", "total");
+        assert!(total < 40_000_000_000, "{total}");
+        check_sizes(&limits, &d).expect("every buffer fits");
+        let old_snapshot = 4 * (32 + 36 * n + 17 * 5 * n + 19 * 8 * n);
+        assert_eq!(old_snapshot, 4_580_180_096);
+        assert!(old_snapshot > limits.max_buffer_size);
+    }
+
+    /// A scene too large for the limits is an error naming the first buffer over them, its
+    /// size, the limit and about how many bodies would fit: here WebGPU's default limits
+    /// (128 MiB a storage binding), where the pair forces (48 bytes a pair, 8 pairs a body:
+    /// 384 bytes a body, the most of any buffer) allow floor(2^27 / 384) = 349,525 bodies.
+    #[test]
+    fn too_large_for_the_limits_names_the_buffer_and_what_fits() {
+        let n = 4_194_304u64;
+        let limits = wgpu::Limits::default();
+        let err = check_sizes(&limits, &sphere_lattice(n)).expect_err("too large");
+        assert_eq!(err.name, "bodies");
+        assert_eq!(err.bytes, 112 * n);
+        assert_eq!(err.limit, 128 << 20);
+        assert_eq!(err.bodies_that_fit, 349_525);
+        check_sizes(&limits, &sphere_lattice(349_525)).expect("fits");
+        let over = check_sizes(&limits, &sphere_lattice(349_526)).expect_err("one more");
+        assert_eq!((over.name, over.bytes), ("forces", 384 * 349_526));
+        let msg = err.into_error("test adapter").to_string();
+        for part in [
+            "`bodies`",
+            "469762048 bytes",
+            "134217728 bytes",
+            "about 349525 bodies",
+            "test adapter",
+        ] {
+            assert!(msg.contains(part), "{part} not in: {msg}");
+        }
+    }
+}

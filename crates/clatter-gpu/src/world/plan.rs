@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use wgpu::util::DeviceExt;
 
-use crate::buffers::{Buf, Buffers};
+use crate::buffers::{Buf, Buffers, Group0};
 use crate::layout::Params;
 use crate::pipeline::{Compiled, ContactVariant, Dispatch, Group2, KernelSet, Kernels, Size};
 use crate::shapes::GpuShapes;
@@ -25,6 +25,8 @@ pub(super) struct Plan {
     /// Indirect dispatch arguments.
     args: wgpu::Buffer,
     group0: wgpu::BindGroup,
+    /// The group 0 of `snapshot_state` (`buffers::Group0::Snapshot`).
+    snapshot_group0: wgpu::BindGroup,
     group1: wgpu::BindGroup,
     args_group: wgpu::BindGroup,
     pub(super) ops: Vec<Dispatch>,
@@ -95,7 +97,8 @@ impl Plan {
         Ok(Plan {
             compiled: compiled.clone(),
             contacts: variant,
-            group0: bufs.bind_group(device, &layouts[0]),
+            group0: bufs.bind_group(device, &layouts[0], Group0::Shared),
+            snapshot_group0: bufs.bind_group(device, &layouts[3], Group0::Snapshot),
             group1: device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("shapes"),
                 layout: &layouts[1],
@@ -138,12 +141,17 @@ impl Plan {
             Group2::None => {}
             Group2::Args => pass.set_bind_group(2, &self.args_group, &[]),
             Group2::Scan => pass.set_bind_group(2, &self.scans.bind_groups[op.scan_level], &[]),
+            Group2::Snapshot => pass.set_bind_group(0, &self.snapshot_group0, &[]),
         }
         match op.size {
             Size::Single => pass.dispatch_workgroups(1, 1, 1),
             Size::Indirect(slot) => {
                 pass.dispatch_workgroups_indirect(&self.args, slot as u64 * ARGS_BYTES)
             }
+        }
+        if set.group2[op.pipeline] == Group2::Snapshot {
+            // The shared group 0 back for the next kernel.
+            self.bind(pass);
         }
     }
 }
