@@ -6,57 +6,15 @@
 //! bodies have moved less than it, the full computation still finds them apart.
 
 use clatter_geom::narrow::{self, EdgeMemory, NO_HINT};
-use clatter_geom::{Pose, PreparedShape, RegularKind, Shape, ShapeKind};
+use clatter_geom::{Pose, PreparedShape, Shape};
 use glam::{Quat, Vec3};
 
-/// A small deterministic generator (xorshift), so the test needs no dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - 1.0;
-            let l = v.length();
-            if l > 0.1 && l < 1.0 {
-                return v / l;
-            }
-        }
-    }
-    fn rotation(&mut self) -> Quat {
-        Quat::from_axis_angle(self.unit(), self.next() * std::f32::consts::TAU)
-    }
-}
+mod common;
+use common::Rng;
 
 /// The Platonic solids and a hull of scattered points (as a mesh hull would be).
 fn polyhedra() -> Vec<PreparedShape> {
-    let mut kinds: Vec<ShapeKind> = [
-        RegularKind::Tetrahedron,
-        RegularKind::Cube,
-        RegularKind::Octahedron,
-        RegularKind::Dodecahedron,
-        RegularKind::Icosahedron,
-    ]
-    .into_iter()
-    .map(|kind| ShapeKind::Regular { kind, radius: 1.0 })
-    .collect();
-    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    let points = (0..20)
-        .map(|_| {
-            let v = rng.unit() * (0.8 + 0.2 * rng.next());
-            [v.x as f64, v.y as f64, 0.7 * v.z as f64]
-        })
-        .collect();
-    kinds.push(ShapeKind::Convex { points });
-    kinds
-        .iter()
-        .map(|k| k.prepare().expect("valid shape"))
-        .collect()
+    common::solids_and_hull(20)
 }
 
 /// What one pair's run saw.
