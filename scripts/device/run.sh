@@ -94,6 +94,7 @@ run_pair() { # np bodies
   local np=$1 n=$2
   stage c_np${np}_n$n 120 $M -np $np $CM bench --backend cpu --shape sphere --bodies $n --steps 500 --settle 0 --threads 1 --pile-cache $PC --json > /dev/null
   grep -h steps_per_s $L/c_np${np}_n$n.log | sed "s/^/clatter np $np n $n /" | tee -a $OUT/summary.txt
+  grep -h "^# per rank, ms" $L/c_np${np}_n$n.log | sed "s/^/clatter np $np n $n /" | tee -a $OUT/summary.txt
   (cd /tmp/l$n && timeout 120 $M -np $np $LMP -in in.pile -log l$np.log > /dev/null 2>&1; grep "^Loop time" l$np.log | tail -1 | awk -v np=$np -v n=$n '{print "lammps np", np, "n", n, $9/$4, "steps/s"}' | tee -a $OUT/summary.txt)
 }
 for np in $NPS; do run_pair $np $S; done

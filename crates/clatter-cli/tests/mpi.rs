@@ -758,6 +758,31 @@ fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
     assert_eq!(out.matches("# clatter bench").count(), 1, "{}", text(&o));
     assert!(out.contains("2 MPI ranks x"), "{}", text(&o));
     assert!(out.contains("cpu on 2 MPI ranks"), "{}", text(&o));
+    // Each rank's time split: one line, one number per rank in each list; the work and the
+    // collectives add up to the rank's own steps.
+    let err = String::from_utf8_lossy(&o.stderr);
+    let split: Vec<&str> = err
+        .lines()
+        .filter_map(|l| l.strip_prefix("# per rank, ms per timed step: "))
+        .collect();
+    assert_eq!(split.len(), 1, "{}", text(&o));
+    let lists: Vec<Vec<f64>> = split[0]
+        .split("; ")
+        .map(|part| {
+            part.split_whitespace()
+                .filter_map(|w| w.parse::<f64>().ok())
+                .collect()
+        })
+        .collect();
+    assert_eq!(lists.len(), 5, "{}", split[0]);
+    assert!(lists.iter().all(|l| l.len() == 2), "{}", split[0]);
+    for r in 0..2 {
+        let own = lists[0][r];
+        assert!(own > 0.0, "{}", split[0]);
+        let parts: f64 = lists[1..].iter().map(|l| l[r]).sum();
+        assert!((parts - own).abs() <= 0.005, "rank {r}: {}", split[0]);
+        assert!(lists[1..].iter().all(|l| l[r] >= -0.0005), "{}", split[0]);
+    }
     for (extra, message) in [
         ("--backend=gpu", "times the CPU pipeline"),
         ("--render", "run `clatter bench` without mpirun"),

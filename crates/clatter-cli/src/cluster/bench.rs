@@ -8,9 +8,11 @@
 //! barriers, so it is the slowest rank's. Rank 0 gathers the whole pile after the timed
 //! steps and prints the row: its contacts, pairs, rebuilds and kinetic energy are one
 //! process's (bitwise), only the timings differ. The GPU pipeline, `--render` and
-//! `--profile` are refused (one process only).
+//! `--profile` are refused (one process only). Rank 0 also says, per rank, the time of its own
+//! steps and of the collectives within them ([`Timed`]).
 
-use std::time::Instant;
+use std::cell::Cell;
+use std::time::{Duration, Instant};
 
 use clatter::domain::{Comm, Domain};
 use clatter::pile::PileParams;
@@ -121,21 +123,22 @@ fn time(
     let (rank, ranks) = (comm.rank(), comm.size());
     let n = world.len();
     let mut domain = Domain::new(world, rank, ranks);
-    let stepped = |domain: &mut Domain, steps: u64, counts: &mut StepCounts, when| {
-        for _ in 0..steps {
-            match domain.step(comm) {
-                Ok(s) => counts.push(s.contacts),
-                // Every rank has the same error: rank 0 says it.
-                Err(e) if rank == 0 => {
-                    return Err(bench::blew_up(when)(clatter_backend::StepError::Sim(e)));
+    let stepped =
+        |domain: &mut Domain, on: &dyn Comm, steps: u64, counts: &mut StepCounts, when| {
+            for _ in 0..steps {
+                match domain.step(on) {
+                    Ok(s) => counts.push(s.contacts),
+                    // Every rank has the same error: rank 0 says it.
+                    Err(e) if rank == 0 => {
+                        return Err(bench::blew_up(when)(clatter_backend::StepError::Sim(e)));
+                    }
+                    Err(_) => return Err(super::Quiet(1).into()),
                 }
-                Err(_) => return Err(super::Quiet(1).into()),
             }
-        }
-        Ok(())
-    };
+            Ok(())
+        };
     let mut settle = StepCounts::default();
-    stepped(&mut domain, args.settle, &mut settle, "settling")?;
+    stepped(&mut domain, comm, args.settle, &mut settle, "settling")?;
     if let Some(dir) = &args.emit_lammps {
         let written = match domain.gather_root(comm) {
             Some(whole) => bench::write_lammps(dir, &whole, params, args.steps),
@@ -146,14 +149,18 @@ fn time(
     let rebuilds_before = domain.local().rebuilds;
     let mut counts = StepCounts::default();
     // The slowest rank's wall time: every rank starts together and waits for the last.
+    // Each rank also times its own steps and the collectives within them.
+    let timed = Timed::new(comm);
     comm.world.barrier();
     let started = Instant::now();
-    stepped(&mut domain, args.steps, &mut counts, "timing")?;
+    stepped(&mut domain, &timed, args.steps, &mut counts, "timing")?;
+    let own = started.elapsed();
     comm.world.barrier();
     let secs = started.elapsed().as_secs_f64();
     // Touching contacts per step over all ranks, summed as one process sums them.
     let contacts: usize = counts.totals(comm).iter().sum();
     report_loads(comm, &domain);
+    report_times(comm, &timed, own, args.steps);
     let Some(whole) = domain.gather_root(comm) else {
         return Ok(None);
     };
@@ -228,4 +235,129 @@ fn resident_kib() -> u64 {
                 .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
         })
         .unwrap_or(0)
+}
+
+/// What a rank spent in the collectives of the timed steps, by kind: the states of the
+/// ghosts sent every step (`forward`), the reductions of every step (the largest
+/// displacement, the blow-up checks), and the rest (a rebuild's migration and its lists).
+#[derive(Default)]
+struct Spent {
+    forward: Cell<Duration>,
+    reduce: Cell<Duration>,
+    rebuild: Cell<Duration>,
+}
+
+/// `comm` with a clock around each collective: a rank's step time split into its own work
+/// and its time in communication (the waiting for slower ranks included), so that the loss
+/// at many ranks can be told apart (the machine's cores slowing each other, or ranks
+/// waiting). Each call goes to the same method of `comm`, so the steps are unchanged.
+struct Timed<'a> {
+    comm: &'a MpiComm,
+    spent: Spent,
+}
+
+impl<'a> Timed<'a> {
+    fn new(comm: &'a MpiComm) -> Self {
+        Timed {
+            comm,
+            spent: Spent::default(),
+        }
+    }
+
+    /// `f`'s result, its time added to `slot`.
+    fn clocked<T>(&self, slot: &Cell<Duration>, f: impl FnOnce() -> T) -> T {
+        let t = Instant::now();
+        let out = f();
+        slot.set(slot.get() + t.elapsed());
+        out
+    }
+}
+
+impl Comm for Timed<'_> {
+    fn rank(&self) -> usize {
+        self.comm.rank()
+    }
+    fn size(&self) -> usize {
+        self.comm.size()
+    }
+    fn all_to_all(&self, send: Vec<Vec<u8>>) -> Vec<Vec<u8>> {
+        self.clocked(&self.spent.rebuild, || self.comm.all_to_all(send))
+    }
+    fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
+        self.clocked(&self.spent.forward, || {
+            self.comm.all_to_all_known(send, recv_len)
+        })
+    }
+    fn exchange_with(&self, send: Vec<Vec<u8>>, peers: &[bool]) -> Vec<Vec<u8>> {
+        self.clocked(&self.spent.rebuild, || self.comm.exchange_with(send, peers))
+    }
+    fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        self.clocked(&self.spent.rebuild, || self.comm.all_gather(mine))
+    }
+    fn gather_to_root(&self, mine: &[u8]) -> Vec<Vec<u8>> {
+        self.clocked(&self.spent.rebuild, || self.comm.gather_to_root(mine))
+    }
+    fn max_f32(&self, x: f32) -> f32 {
+        self.clocked(&self.spent.reduce, || self.comm.max_f32(x))
+    }
+    fn sum_u64(&self, x: u64) -> u64 {
+        self.clocked(&self.spent.reduce, || self.comm.sum_u64(x))
+    }
+    fn sum_u64s(&self, v: &mut [u64]) {
+        self.clocked(&self.spent.reduce, || self.comm.sum_u64s(v))
+    }
+    fn max_f32s(&self, v: &mut [f32]) {
+        self.clocked(&self.spent.reduce, || self.comm.max_f32s(v))
+    }
+    fn min_u64(&self, x: u64) -> u64 {
+        self.clocked(&self.spent.reduce, || self.comm.min_u64(x))
+    }
+}
+
+/// Rank 0 says on stderr, per rank, the milliseconds per timed step of the rank's own steps
+/// (to its last step, before the closing barrier) and of its collectives within them
+/// (collective): work is the first less the others. At many ranks on one machine this tells
+/// whether the ranks wait for each other (communication grows) or the cores slow each
+/// other (work grows over one rank's).
+fn report_times(comm: &MpiComm, timed: &Timed, own: Duration, steps: u64) {
+    let per_step = |d: Duration| 1e3 * d.as_secs_f64() / steps.max(1) as f64;
+    let spent = &timed.spent;
+    let mine: Vec<u8> = [
+        own,
+        spent.forward.get(),
+        spent.reduce.get(),
+        spent.rebuild.get(),
+    ]
+    .iter()
+    .flat_map(|&d| per_step(d).to_le_bytes())
+    .collect();
+    let all = comm.all_gather(&mine);
+    if comm.rank() == 0 {
+        let list = |k: usize, work: bool| {
+            all.iter()
+                .map(|m| {
+                    let at = |j: usize| {
+                        m.get(8 * j..8 * j + 8)
+                            .and_then(|b| b.try_into().ok())
+                            .map_or(0.0, f64::from_le_bytes)
+                    };
+                    let v = if work {
+                        at(0) - at(1) - at(2) - at(3)
+                    } else {
+                        at(k)
+                    };
+                    format!("{v:.3}")
+                })
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        eprintln!(
+            "# per rank, ms per timed step: own steps {}; of which work {}; ghost states sent {}; reductions {}; rebuild exchanges {}",
+            list(0, false),
+            list(0, true),
+            list(1, false),
+            list(2, false),
+            list(3, false)
+        );
+    }
 }
