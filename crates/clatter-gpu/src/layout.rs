@@ -321,16 +321,19 @@ pub mod arg {
     /// `integrate`, every step (zero while the pipeline is stopped).
     pub const STEP_BODIES: u32 = 6;
     /// `health_bodies`: every body on the steps a check or an energy sample is due, else
-    /// nothing (written each step by `health_gate`).
+    /// nothing (written each step by `end_step_gate`).
     pub const HEALTH: u32 = 7;
-    /// `snapshot_state`: its grid on snapshot steps, else nothing (`health_gate`).
+    /// `snapshot_state`: its grid on snapshot steps, else nothing (`end_step_gate`).
     pub const SNAPSHOT: u32 = 8;
     /// `contacts_full_spheres`: the pairs with a sphere body of the ordered list.
     pub const FULL_SPHERES: u32 = 9;
     /// `contacts_full_poly`: the other pairs of the ordered list.
     pub const FULL_POLY: u32 = 10;
+    /// `health_reduce`: one workgroup on the steps a check or an energy sample is due, else
+    /// nothing (`end_step_gate`).
+    pub const HEALTH_REDUCE: u32 = 11;
     /// The first scan-level slot.
-    pub const FIRST_SCAN: u32 = 11;
+    pub const FIRST_SCAN: u32 = 12;
 }
 
 /// Threads per workgroup of every kernel (`WG`).
@@ -401,6 +404,7 @@ fn constants() -> Vec<Constant> {
         U32("ARG_STEP_BODIES", arg::STEP_BODIES),
         U32("ARG_HEALTH", arg::HEALTH),
         U32("ARG_SNAPSHOT", arg::SNAPSHOT),
+        U32("ARG_HEALTH_REDUCE", arg::HEALTH_REDUCE),
         U32("SNAPSHOT_GROUPS", crate::stages::health::SNAPSHOT_GROUPS),
         U32("ARG_SCAN0", arg::FIRST_SCAN),
     ]
