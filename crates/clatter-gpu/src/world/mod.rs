@@ -418,12 +418,19 @@ lattice = { min = [0.03, 0.03, 0.0675], max = [0.12, 0.12, 0.1], spacing = 0.019
                 let c = listed[2 * k + 1] as usize;
                 assert!(seen.insert(c), "pair {c} listed twice");
                 let has = sphere_body(pairs[2 * c]) || sphere_body(pairs[2 * c + 1]);
-                assert_eq!(has, k < spheres, "entry {k} (pair {c}) of {work}, {spheres} first");
+                assert_eq!(
+                    has,
+                    k < spheres,
+                    "entry {k} (pair {c}) of {work}, {spheres} first"
+                );
                 with_sphere += has as usize;
                 polyhedra += !has as usize;
             }
             // Every kind is there: cube-cube, ball-cube and ball-ball pairs all overlap.
-            assert!(with_sphere > 0 && polyhedra > 0, "{with_sphere} {polyhedra}");
+            assert!(
+                with_sphere > 0 && polyhedra > 0,
+                "{with_sphere} {polyhedra}"
+            );
         }
     }
 
