@@ -202,7 +202,8 @@ fn gpu_bench_profile_times_every_kernel() {
         "scan",
         "count_pairs",
         "contacts_sat",
-        "contacts_full",
+        "contacts_full_spheres",
+        "contacts_full_poly",
         "integrate",
     ] {
         assert!(names.contains(&stage), "{stage} not timed: {names:?}");

@@ -242,12 +242,16 @@ pub mod snapshot {
     }
 }
 
-/// Shape indices told apart by the classes of `contacts_place` (higher ones share the last).
+/// Shape keys told apart by the classes of `contacts_place`: key 0 is every sphere body,
+/// key 1 + s the polyhedron (or composite) shape s, higher ones sharing the last key.
 pub const SPLIT_SHAPES: usize = 6;
-/// Classes of the pairs `contacts_full` runs (contacts_split.wgsl `pair_class`): the path
-/// (full test, remembered face, remembered edge contact) and the unordered pair of the two
-/// bodies' shape indices, capped at `SPLIT_SHAPES - 1`.
+/// Classes of the pairs the full narrow phase runs (contacts_split.wgsl `pair_class`): the
+/// unordered pair of the two bodies' shape keys, then the path (full test, remembered face,
+/// remembered edge contact), so that the pairs with a sphere body (smaller key 0) come first.
 pub const SPLIT_CLASSES: usize = 3 * SPLIT_SHAPES * SPLIT_SHAPES;
+/// The classes of pairs with a sphere body: the first `SPHERE_CLASSES` classes, which
+/// `contacts_full_spheres` runs apart from the polyhedron pairs (`contacts_full_poly`).
+pub const SPHERE_CLASSES: usize = 3 * SPLIT_SHAPES;
 
 /// Words of the status buffer (`ST_*` in WGSL).
 pub mod status {
@@ -269,7 +273,7 @@ pub mod status {
     pub const REBUILDS: usize = 7;
     /// Pairs the last rebuild found (may exceed the capacity).
     pub const PAIRS_NEEDED: usize = 8;
-    /// Pairs `contacts_sat` left for `contacts_full` in the last step (polyhedron scenes).
+    /// Pairs `contacts_sat` left for the full narrow phase in the last step (polyhedron scenes).
     pub const WORK: usize = 9;
     /// Shader-internal: 6 words, the bounding box (min xyz, max xyz as order-preserving u32).
     pub const BBOX: usize = 10;
@@ -288,11 +292,14 @@ pub mod status {
     /// host reports it.
     pub const MESH_FULL: usize = 20;
     /// Shader-internal: [`SPLIT_CLASSES`](super::SPLIT_CLASSES) words, per class the number of
-    /// pairs `contacts_sat` leaves for `contacts_full`, turned by `contacts_size` into the
+    /// pairs `contacts_sat` leaves for the full narrow phase, turned by `contacts_size` into the
     /// class's next slot in the list `contacts_place` orders by class.
     pub const CLASSES: usize = 21;
+    /// Shader-internal: pairs with a sphere body in this step's ordered list (its first
+    /// range; `contacts_size`).
+    pub const FULL_SPHERES: usize = CLASSES + super::SPLIT_CLASSES;
     /// Number of status words.
-    pub const LEN: usize = CLASSES + super::SPLIT_CLASSES;
+    pub const LEN: usize = FULL_SPHERES + 1;
     // The snapshot keeps the words before the class counts (health.wgsl `snapshot_one`).
     const _: () = assert!(CLASSES as u64 <= super::snapshot::STATUS);
 }
@@ -309,17 +316,24 @@ pub mod arg {
     pub const PAIRS: u32 = 3;
     /// `max(new pairs, n + 1)`, during a rebuild.
     pub const COMMIT: u32 = 4;
-    /// `contacts_full`: the pairs `contacts_sat` could not separate.
+    /// `contacts_place`: the pairs `contacts_sat` could not separate.
     pub const WORK: u32 = 5;
     /// `integrate`, every step (zero while the pipeline is stopped).
     pub const STEP_BODIES: u32 = 6;
     /// `health_bodies`: every body on the steps a check or an energy sample is due, else
-    /// nothing (written each step by `health_gate`).
+    /// nothing (written each step by `end_step_gate`).
     pub const HEALTH: u32 = 7;
-    /// `snapshot_state`: its grid on snapshot steps, else nothing (`health_gate`).
+    /// `snapshot_state`: its grid on snapshot steps, else nothing (`end_step_gate`).
     pub const SNAPSHOT: u32 = 8;
+    /// `contacts_full_spheres`: the pairs with a sphere body of the ordered list.
+    pub const FULL_SPHERES: u32 = 9;
+    /// `contacts_full_poly`: the other pairs of the ordered list.
+    pub const FULL_POLY: u32 = 10;
+    /// `health_reduce`: one workgroup on the steps a check or an energy sample is due, else
+    /// nothing (`end_step_gate`).
+    pub const HEALTH_REDUCE: u32 = 11;
     /// The first scan-level slot.
-    pub const FIRST_SCAN: u32 = 9;
+    pub const FIRST_SCAN: u32 = 12;
 }
 
 /// Threads per workgroup of every kernel (`WG`).
@@ -349,9 +363,11 @@ fn constants() -> Vec<Constant> {
         st("ST_SAMPLES", status::SAMPLES),
         st("ST_MESH_FULL", status::MESH_FULL),
         st("ST_CLASSES", status::CLASSES),
+        st("ST_FULL_SPHERES", status::FULL_SPHERES),
         st("ST_LEN", status::LEN),
         st("SPLIT_SHAPES", SPLIT_SHAPES),
         st("SPLIT_CLASSES", SPLIT_CLASSES),
+        st("SPHERE_CLASSES", SPHERE_CLASSES),
         U32("MESH_SLOTS", clatter::mesh_boundary::MESH_SLOTS as u32),
         U32("MESH_HDR", crate::mesh::HEADER_WORDS as u32),
         U32("MESH_GLOBAL", crate::mesh::GLOBAL_WORDS as u32),
@@ -383,9 +399,12 @@ fn constants() -> Vec<Constant> {
         U32("ARG_PAIRS", arg::PAIRS),
         U32("ARG_COMMIT", arg::COMMIT),
         U32("ARG_WORK", arg::WORK),
+        U32("ARG_FULL_SPHERES", arg::FULL_SPHERES),
+        U32("ARG_FULL_POLY", arg::FULL_POLY),
         U32("ARG_STEP_BODIES", arg::STEP_BODIES),
         U32("ARG_HEALTH", arg::HEALTH),
         U32("ARG_SNAPSHOT", arg::SNAPSHOT),
+        U32("ARG_HEALTH_REDUCE", arg::HEALTH_REDUCE),
         U32("SNAPSHOT_GROUPS", crate::stages::health::SNAPSHOT_GROUPS),
         U32("ARG_SCAN0", arg::FIRST_SCAN),
     ]

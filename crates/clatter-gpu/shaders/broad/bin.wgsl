@@ -78,13 +78,11 @@ fn prepare_lean() {
     clear_classes();
 }
 
-// The last kernel of every step: counts it, unless the pipeline stopped during it.
+// The last kernel of every step without the blow-up checks (with them, health.wgsl
+// `end_step_gate`): counts it, unless the pipeline stopped during it.
 @compute @workgroup_size(1)
 fn end_step() {
-    if !halted() {
-        atomicAdd(&status[ST_STEPS], 1u);
-        mesh_advance();
-    }
+    count_step();
 }
 
 var<workgroup> wg_box: array<atomic<u32>, 6>;

@@ -74,6 +74,15 @@ fn mesh_advance() {
     }
 }
 
+// The end of a step (`end_step`, health.wgsl `end_step_gate`): counts it and moves the
+// clocks on, unless the pipeline stopped during it.
+fn count_step() {
+    if !halted() {
+        atomicAdd(&status[ST_STEPS], 1u);
+        mesh_advance();
+    }
+}
+
 // A rebuild at this step (prepare): the step count and each boundary's elapsed time.
 fn mesh_note_rebuild() {
     if params.num_boundaries == 0u {

@@ -18,16 +18,24 @@ fn contacts(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg:
     }
     let c = dealt_item(wid, nwg, lid, a_start[params.n]);
     var touched = 0u;
-    if c < a_start[params.n] && pair_contact(c, true) {
+    if c < a_start[params.n] && pair_contact(c, true, PAIR_ANY) {
         touched = 1u;
     }
     add_status_wg(lid, ST_TOUCHING, touched);
 }
 
+// Which narrow phase `pair_contact` runs (`collide_kind`, contacts_split.wgsl): every kind
+// (`collide`), only the pairs with a sphere, or only the pairs of two polyhedra (with
+// composites: any pair without a sphere body, so every kind). Each entry point passes a
+// literal, so the compiler keeps only that branch (contacts_split.wgsl).
+const PAIR_ANY: u32 = 0u;
+const PAIR_SPHERES: u32 = 1u;
+const PAIR_POLY: u32 = 2u;
+
 // Candidate pair c: manifold, contact law, spring; whether the pair touches. With `use_hint`
-// the pair's separating-axis hint is tried first (contacts_full skips it: contacts_sat has
-// just tried it).
-fn pair_contact(c: u32, use_hint: bool) -> bool {
+// the pair's separating-axis hint is tried first (contacts_full_* skip it: contacts_sat has
+// just tried it). `kind` (PAIR_*) is the narrow phase the pair needs.
+fn pair_contact(c: u32, use_hint: bool, kind: u32) -> bool {
     let p = pairs[c];
     let i = body_of(p.x);
     let j = body_of(p.y);
@@ -54,7 +62,7 @@ fn pair_contact(c: u32, use_hint: bool) -> bool {
         let left = bitcast<f32>(mem.y) - 2.0 * axis_motion_bound(i, j, xj);
         nrw_mem_in = vec2<u32>(mem.x, bitcast<u32>(left));
     }
-    let m = collide(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
+    let m = collide_kind(kind, pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
     if m.count > 0u {
         // Written when it changed; a pair that did not touch last step may hold a word of
         // an earlier contact (or of the pair in this slot before a rebuild), which must not

@@ -1,19 +1,24 @@
 // Stage **contacts** for scenes with polyhedra, in two passes (most candidate pairs in a
 // pile do not touch, and a GPU thread group waits for its slowest pair): `contacts_sat`
 // proves pairs apart cheaply (bounding spheres, separating axes, the pair's hint first) and
-// lists the rest in `new_pairs` (free outside a rebuild); `contacts_size` sizes the second
-// pass; `contacts_full` runs `pair_contact` (contacts.wgsl) on the list. Each pair writes
+// lists the rest in `new_pairs` (free outside a rebuild); `contacts_size` sizes the next
+// passes; `contacts_place` orders the list by class; `contacts_full_spheres` and
+// `contacts_full_poly` run `pair_contact` (contacts.wgsl) on its two ranges. Each pair writes
 // only its own slots, so the list's order does not change results.
 
 var<workgroup> wg_base: u32;
 
-// The pairs contacts_full runs are ordered by class (contacts_place), so that neighbouring
-// threads (one subgroup, which runs in lockstep) run the same shapes down the same path
-// (full test, remembered face, remembered edge contact), instead of every shape pair and
-// path a subgroup's lanes happen to hold, one after the other. A class is the path and the
-// unordered pair of the two bodies' shape indices, capped at SPLIT_SHAPES - 1 (SPLIT_SHAPES
-// and SPLIT_CLASSES come from src/layout.rs). Only which thread computes a pair changes,
-// never its result.
+// The pairs the full narrow phase runs are ordered by class (contacts_place), so that
+// neighbouring threads (one subgroup, which runs in lockstep) run the same shapes down the
+// same path (full test, remembered face, remembered edge contact), instead of every shape
+// pair and path a subgroup's lanes happen to hold, one after the other. A class is the
+// unordered pair of the two bodies' shape keys (0 for a sphere body, else 1 + the shape
+// index, capped at SPLIT_SHAPES - 1), then the path (SPLIT_SHAPES, SPLIT_CLASSES and
+// SPHERE_CLASSES come from src/layout.rs). The pairs with a sphere body (smaller key 0) are
+// the first SPHERE_CLASSES classes: contacts_full_spheres runs them and contacts_full_poly
+// the rest, each compiled with only its own narrow phase (contacts.wgsl `collide_kind`), so
+// that no subgroup mixes the sphere and the polyhedron code. Only which thread computes a
+// pair changes, never its result.
 var<workgroup> wg_class_count: array<atomic<u32>, SPLIT_CLASSES>;
 var<workgroup> wg_class_at: array<u32, SPLIT_CLASSES>;
 
@@ -21,8 +26,8 @@ var<workgroup> wg_class_at: array<u32, SPLIT_CLASSES>;
 // class: neither changes what it reads for a pair contacts_full runs.
 fn pair_class(c: u32) -> u32 {
     let p = pairs[c];
-    let sa = min(statics[body_of(p.x)].shape, SPLIT_SHAPES - 1u);
-    let sb = min(statics[body_of(p.y)].shape, SPLIT_SHAPES - 1u);
+    let sa = class_key(body_of(p.x));
+    let sb = class_key(body_of(p.y));
     var path = 0u;
     if touching[c] == 1u {
         let h = pair_memory[c].x;
@@ -33,7 +38,16 @@ fn pair_class(c: u32) -> u32 {
             path = 1u;
         }
     }
-    return (path * SPLIT_SHAPES + min(sa, sb)) * SPLIT_SHAPES + max(sa, sb);
+    return (min(sa, sb) * SPLIT_SHAPES + max(sa, sb)) * 3u + path;
+}
+
+// Body i's shape key in its pairs' classes: 0 for a sphere, else 1 + its shape index, capped.
+fn class_key(i: u32) -> u32 {
+    let s = statics[i];
+    if s.is_sphere != 0u {
+        return 0u;
+    }
+    return min(s.shape + 1u, SPLIT_SHAPES - 1u);
 }
 
 // Clears the workgroup's class counts; before halted_wg, whose uniform load is the barrier.
@@ -128,32 +142,94 @@ fn pair_apart(c: u32) -> bool {
 @compute @workgroup_size(1)
 fn contacts_size() {
     var count = 0u;
-    if !halted() {
+    let live = !halted();
+    if live {
         count = atomicLoad(&status[ST_WORK]);
     }
     write_args(ARG_WORK, dealt_groups(count));
-    // Each class's count becomes where its pairs start in the ordered list.
+    // Each class's count becomes where its pairs start in the ordered list; the pairs with a
+    // sphere body (the first SPHERE_CLASSES classes) are its first range.
     var at = 0u;
+    var spheres = 0u;
     for (var k = 0u; k < SPLIT_CLASSES; k++) {
+        if k == SPHERE_CLASSES {
+            spheres = at;
+        }
         let n = atomicLoad(&status[ST_CLASSES + k]);
         atomicStore(&status[ST_CLASSES + k], at);
         at += n;
     }
+    if !live {
+        spheres = 0u;
+    }
+    atomicStore(&status[ST_FULL_SPHERES], spheres);
+    write_args(ARG_FULL_SPHERES, dealt_groups(spheres));
+    write_args(ARG_FULL_POLY, dealt_groups(count - spheres));
 }
 
-@compute @workgroup_size(256)
-fn contacts_full(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
-                 @builtin(local_invocation_index) lid: u32) {
-    if halted_wg(lid) {
-        return;
+// narrow.wgsl's `collide` for the pairs of one kind (contacts.wgsl PAIR_*): with PAIR_SPHERES the pair
+// has a sphere (a or b), with PAIR_POLY two polyhedra (unless composites, whose pairs
+// without a sphere body may still hold a sphere piece: then every kind); PAIR_ANY is
+// `collide`. The same operations as `collide`'s branches, so the same results; called with
+// a literal `kind`, so each entry point's compiled code holds only its own branch.
+fn collide_kind(kind: u32, sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
+    if kind == PAIR_SPHERES {
+        nrw_hint_out = 0u;
+        nrw_mem_out = vec2<u32>(NO_HINT, 0u);
+        let a = nrw_shape(sa);
+        let b = nrw_shape(sb);
+        if a.kind == 0u {
+            if b.kind == 0u {
+                return nrw_sphere_sphere(xa, a.radius, xb, b.radius);
+            }
+            return nrw_sphere_poly(xa, a.radius, b, xb, qb);
+        }
+        var m = nrw_sphere_poly(xb, b.radius, a, xa, qa);
+        m.normal = -m.normal;
+        return m;
     }
-    let count = atomicLoad(&status[ST_WORK]);
+    if kind == PAIR_POLY && !COMPOSITES {
+        nrw_hint_out = 0u;
+        nrw_mem_out = vec2<u32>(NO_HINT, 0u);
+        return nrw_poly_poly(nrw_shape(sa), xa, qa, nrw_shape(sb), xb, qb);
+    }
+    return collide(sa, xa, qa, sb, xb, qb);
+}
+
+// The full narrow phase and the law (contacts.wgsl `pair_contact`, narrow phase `kind`) on
+// the `count` pairs of the ordered list from `first`.
+fn full_range(wid: vec3<u32>, nwg: vec3<u32>, lid: u32, first: u32, count: u32, kind: u32) {
     let k = dealt_item(wid, nwg, lid, count);
     var touched = 0u;
-    if k < count && pair_contact(new_pairs[k].y, false) {
+    if k < count && pair_contact(new_pairs[first + k].y, false, kind) {
         touched = 1u;
     }
     add_status_wg(lid, ST_TOUCHING, touched);
+}
+
+// The pairs with a sphere body: the list's first ST_FULL_SPHERES.
+@compute @workgroup_size(256)
+fn contacts_full_spheres(@builtin(workgroup_id) wid: vec3<u32>,
+                         @builtin(num_workgroups) nwg: vec3<u32>,
+                         @builtin(local_invocation_index) lid: u32) {
+    if halted_wg(lid) {
+        return;
+    }
+    let spheres = atomicLoad(&status[ST_FULL_SPHERES]);
+    full_range(wid, nwg, lid, 0u, spheres, PAIR_SPHERES);
+}
+
+// The other pairs (two polyhedra, or composites): the rest of the list.
+@compute @workgroup_size(256)
+fn contacts_full_poly(@builtin(workgroup_id) wid: vec3<u32>,
+                      @builtin(num_workgroups) nwg: vec3<u32>,
+                      @builtin(local_invocation_index) lid: u32) {
+    if halted_wg(lid) {
+        return;
+    }
+    let spheres = atomicLoad(&status[ST_FULL_SPHERES]);
+    let count = atomicLoad(&status[ST_WORK]);
+    full_range(wid, nwg, lid, spheres, count - spheres, PAIR_POLY);
 }
 
 // The list contacts_sat left (new_pairs[k].x, in any order) ordered by class into

@@ -51,6 +51,11 @@ fn collide(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: ve
     return m;
 }
 
+// contacts_split.wgsl's `collide_kind` (scenes with polyhedra): here every pair is two spheres.
+fn collide_kind(kind: u32, sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
+    return collide(sa, xa, qa, sb, xb, qb);
+}
+
 // As narrow.rs's collide_plane for a sphere.
 fn collide_plane(n: vec3<f32>, offset: f32, s: u32, x: vec3<f32>, q: vec4<f32>) -> Manifold {
     var m = Manifold();

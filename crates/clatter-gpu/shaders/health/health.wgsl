@@ -1,7 +1,8 @@
 // The blow-up checks and the energy samples on the GPU (src/stages/health.rs), so that a run
 // never waits on the host for them: the twin of clatter's health.rs cheap check.
 //
-// After every step, on the steps a check or an energy sample is due:
+// After every step (sized by `end_step_gate`, which ends the step), on the steps a check or
+// an energy sample is due:
 // - `health_bodies`: per workgroup of bodies, the kinetic and potential energy and the
 //   momentum (a fixed-order tree in workgroup memory: no float atomics, so the sums are the
 //   same on every run), the first body entirely behind a wall, the first body with a
@@ -38,17 +39,21 @@ fn health_step(lid: u32) -> u32 {
     return workgroupUniformLoad(&red_step);
 }
 
-// Sizes this step's health_bodies and snapshot_state (ARG_HEALTH, ARG_SNAPSHOT): their
-// grids on the steps a check, a sample or a snapshot is due, else nothing, so that the
-// steps in between launch no workgroup. The kernels still test the step themselves.
+// The last kernel of every step with the blow-up checks on: bin.wgsl's `end_step` (counts
+// the step), then the gate, in one dispatch: sizes this step's health_bodies, health_reduce
+// and snapshot_state (ARG_HEALTH, ARG_HEALTH_REDUCE, ARG_SNAPSHOT) from the step count just
+// written: their grids on the steps a check, a sample or a snapshot is due, else nothing, so
+// that the steps in between launch no workgroup. The kernels still test the step themselves.
 @compute @workgroup_size(1)
-fn health_gate() {
+fn end_step_gate() {
+    count_step();
     let g = atomicLoad(&status[ST_STEPS]);
     let hp = health_params;
     let live = !halted();
     let due = live && (due_every(g, hp.check_every, hp.base_check)
         || due_every(g, hp.energy_every, hp.base_energy));
     write_args(ARG_HEALTH, select(0u, (params.n + WG - 1u) / WG, due));
+    write_args(ARG_HEALTH_REDUCE, select(0u, 1u, due));
     let snap = live && due_every(g, hp.snapshot_every, hp.base_snapshot);
     write_args(ARG_SNAPSHOT, select(0u, SNAPSHOT_GROUPS, snap));
 }

@@ -1,8 +1,10 @@
 //! Stage 2, **contacts**: narrow phase and contact law per candidate pair. Sphere-only scenes
 //! run one pass (`contacts`); scenes with polyhedra run two (contacts_split.wgsl):
 //! `contacts_sat` proves most pairs apart cheaply and lists the rest, `contacts_place` orders
-//! that list by class (shape pair and path, so that a subgroup runs one kind), `contacts_full`
-//! runs the full narrow phase and the law on that list only.
+//! that list by class (shape pair and path, so that a subgroup runs one kind), with the pairs
+//! that have a sphere body first; `contacts_full_spheres` (sphere narrow phase only) and
+//! `contacts_full_poly` (polyhedron pairs only) run the full narrow phase and the law on the
+//! list's two ranges, so that no workgroup mixes the two kinds' code.
 
 use super::Recorder;
 use crate::layout::arg;
@@ -41,7 +43,8 @@ pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelS
                 ("contacts", "contacts_sat", Group2::None),
                 ("contacts", "contacts_size", Group2::Args),
                 ("contacts", "contacts_place", Group2::None),
-                ("contacts", "contacts_full", Group2::None),
+                ("contacts", "contacts_full_spheres", Group2::None),
+                ("contacts", "contacts_full_poly", Group2::None),
             ],
         )
     }
@@ -55,6 +58,7 @@ pub(crate) fn record(r: &mut Recorder<'_>, spheres_only: bool) {
         r.contact("contacts_sat", Size::Indirect(arg::PAIRS));
         r.contact("contacts_size", Size::Single);
         r.contact("contacts_place", Size::Indirect(arg::WORK));
-        r.contact("contacts_full", Size::Indirect(arg::WORK));
+        r.contact("contacts_full_spheres", Size::Indirect(arg::FULL_SPHERES));
+        r.contact("contacts_full_poly", Size::Indirect(arg::FULL_POLY));
     }
 }

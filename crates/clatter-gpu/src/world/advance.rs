@@ -75,13 +75,15 @@ impl GpuWorld {
             } else {
                 &self.plan.ops
             };
-            for op in ops {
+            // With the checks on, their dispatches end the step in place of `end_step`
+            // (its last dispatch): `end_step_gate` counts the step and sizes them.
+            let (step, tail): (&[_], &[_]) = if health {
+                (&ops[..ops.len() - 1], &self.plan.health_ops)
+            } else {
+                (ops, &[])
+            };
+            for op in step.iter().chain(tail) {
                 self.plan.encode(&mut pass, op);
-            }
-            if health {
-                for op in &self.plan.health_ops {
-                    self.plan.encode(&mut pass, op);
-                }
             }
         }
     }

@@ -348,6 +348,92 @@ mod tests {
         assert!(old_snapshot > limits.max_buffer_size);
     }
 
+    /// Cubes in touching layers with a layer of balls resting on the top one (spacing
+    /// 0.019 m, half sizes and radii 0.01 m: every neighbour overlaps by 1 mm), so that the
+    /// full narrow phase gets cube-cube, ball-cube and ball-ball pairs.
+    const KINDS: &str = r#"
+[simulation]
+steps = 10
+dt = 1.0e-5
+
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 1.0e4
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.01 }
+
+[[shape]]
+name = "cube"
+box = { half_extents = [0.01, 0.01, 0.01] }
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.2, 0.2, 0.3]
+material = "m"
+
+[[group]]
+shape = "cube"
+material = "m"
+lattice = { min = [0.03, 0.03, 0.0105], max = [0.12, 0.12, 0.05], spacing = 0.019 }
+
+[[group]]
+shape = "ball"
+material = "m"
+lattice = { min = [0.03, 0.03, 0.0675], max = [0.12, 0.12, 0.1], spacing = 0.019 }
+"#;
+
+    /// The list the full narrow phase runs is split by kind: its first `FULL_SPHERES`
+    /// entries are exactly the listed pairs with a sphere body (by the host's body table),
+    /// the rest exactly the pairs of two polyhedra, each listed pair once; so
+    /// `contacts_full_spheres` and `contacts_full_poly` never run a pair of the other kind.
+    #[test]
+    fn full_list_puts_sphere_pairs_first_and_apart() {
+        let Some(ctx) = crate::test_context() else {
+            return;
+        };
+        let world = clatter::scene::Scene::parse(KINDS, "kinds.toml")
+            .expect("the scene parses")
+            .world();
+        let mut gpu = GpuWorld::new(ctx, &world).expect("the world fits");
+        for _ in 0..3 {
+            gpu.step(1).expect("a step");
+            let words = |buf: Buf, n: u64| -> Vec<u32> {
+                let bytes = gpu
+                    .read_buffer(&gpu.bufs[buf], 0, buf.bytes(n))
+                    .expect("read back");
+                bytemuck::pod_collect_to_vec(&bytes)
+            };
+            let st = words(Buf::Status, status::LEN as u64);
+            let work = st[status::WORK] as usize;
+            let spheres = st[status::FULL_SPHERES] as usize;
+            let listed = words(Buf::NewPairs, work as u64);
+            let pairs = words(Buf::Pairs, st[status::PAIRS] as u64);
+            let sphere_body = |word: u32| world.consts.is_sphere[(word & 0x3ff_ffff) as usize];
+            let mut seen = std::collections::HashSet::new();
+            let (mut with_sphere, mut polyhedra) = (0, 0);
+            for k in 0..work {
+                let c = listed[2 * k + 1] as usize;
+                assert!(seen.insert(c), "pair {c} listed twice");
+                let has = sphere_body(pairs[2 * c]) || sphere_body(pairs[2 * c + 1]);
+                assert_eq!(
+                    has,
+                    k < spheres,
+                    "entry {k} (pair {c}) of {work}, {spheres} first"
+                );
+                with_sphere += has as usize;
+                polyhedra += !has as usize;
+            }
+            // Every kind is there: cube-cube, ball-cube and ball-ball pairs all overlap.
+            assert!(
+                with_sphere > 0 && polyhedra > 0,
+                "{with_sphere} {polyhedra}"
+            );
+        }
+    }
+
     /// A scene too large for the limits is an error naming the first buffer over them, its
     /// size, the limit and about how many bodies would fit: here WebGPU's default limits
     /// (128 MiB a storage binding), where the pair forces (48 bytes a pair, 8 pairs a body:

@@ -31,7 +31,8 @@ pub(super) struct Plan {
     args_group: wgpu::BindGroup,
     pub(super) ops: Vec<Dispatch>,
     pub(super) lean_ops: Vec<Dispatch>,
-    /// The checks and the snapshot after every step, when on (stages::health).
+    /// With the checks on, the dispatches that end every step in place of the last one of
+    /// `ops` and `lean_ops` (`end_step`): stages::health.
     pub(super) health_ops: Vec<Dispatch>,
 }
 
@@ -94,6 +95,15 @@ impl Plan {
         });
         let (ops, lean_ops) = stages::record(&compiled.base, contacts, &scans, spheres_only);
         let health_ops = stages::health::record(&compiled.base);
+        // The health dispatches take the place of the last one, `end_step` (encode_steps).
+        let end_step = compiled.base.index("end_step");
+        for list in [&ops, &lean_ops] {
+            assert!(
+                list.last()
+                    .is_some_and(|op| op.set == KernelSet::Base && op.pipeline == end_step),
+                "a step's dispatches end with end_step"
+            );
+        }
         Ok(Plan {
             compiled: compiled.clone(),
             contacts: variant,
