@@ -85,7 +85,10 @@ fn support(s: &Shape, q: Quat, dir: Vec3) -> f32 {
         panic!("a polyhedron")
     };
     let local = q.conjugate() * dir;
-    p.vertices.iter().map(|v| v.dot(local)).fold(f32::MIN, f32::max)
+    p.vertices
+        .iter()
+        .map(|v| v.dot(local))
+        .fold(f32::MIN, f32::max)
 }
 
 /// One pair kept just touching (the centres' distance set from the supports along the line
@@ -140,9 +143,16 @@ fn run_touching(a: &Shape, b: &Shape, rng: &mut Rng, spin: f32, steps: usize) ->
         let without = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
         let full = narrow::collide(a, &pa, b, &pb);
         assert_eq!(with, without, "step {k}: manifolds differ");
-        assert_eq!(with, full, "step {k}: manifold differs from the full test's");
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
         assert_eq!(hint_m, hint, "step {k}: hints differ");
-        assert_eq!(bound_m.to_bits(), bound.to_bits(), "step {k}: bounds differ");
+        assert_eq!(
+            bound_m.to_bits(),
+            bound.to_bits(),
+            "step {k}: bounds differ"
+        );
         touching += with.is_some() as usize;
         edges += (hint == narrow::HINT_EDGE_CONTACT) as usize;
         qa = (Quat::from_axis_angle(wa, 0.1 * spin) * qa).normalize();
