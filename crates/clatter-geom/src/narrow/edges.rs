@@ -26,6 +26,10 @@ pub(super) struct GaussTables {
 }
 
 /// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
+///
+/// `floor` (not positive): as for [`edge_axes_by_direction`], axes whose separation is at
+/// most `floor` may be left out (by a memory that serves, see [`EdgeMemory::search`]); an
+/// axis above it is found as without it.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn edge_axes_gauss_map(
     a: &ConvexPolyhedron,
@@ -33,20 +37,24 @@ pub(super) fn edge_axes_gauss_map(
     rot: glam::Mat3,
     inv_rot: glam::Mat3,
     bv: &[Vec3],
+    floor: f32,
     tables: &mut GaussTables,
-    memory: Option<(&mut EdgeMemory, Quat)>,
+    memory: Option<(&mut EdgeMemory, Quat, Vec3)>,
     hint: &mut SatHint,
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
-    // A memory that holds at this rotation: its pairs alone (the same answer, see
-    // `EdgeMemory`); one that does not records this search.
+    // A memory that holds at this rotation: its pairs alone, less those that cannot rise
+    // above the floor (the same answer above it, see `EdgeMemory`); one that does not
+    // records this search.
     let mut memory = match memory {
-        Some((m, q)) if m.holds(a, b, q) => {
-            return m.search(a, b, rot, inv_rot, bv, hint, separation);
+        Some((m, q, t)) if m.holds(a, b, q) => {
+            let pose = (q, t);
+            return m.search(a, b, pose, rot, inv_rot, bv, floor, hint, separation);
         }
-        Some((m, q)) => m.start(a, b, q).then_some(m),
+        Some((m, q, t)) => m.start(a, b, q, t).then_some(m),
         None => None,
     };
+    let radii = a.radius + b.radius;
     // Edge-edge axes that are faces of the Minkowski difference (Gauss-map pruning: the arcs
     // of edge `ea` of A and of edge `eb` of -B must cross). The products of B's normals with
     // A's arc `ea` are taken a row at a time, 4 faces at once (each row is read whole);
@@ -113,7 +121,8 @@ pub(super) fn edge_axes_gauss_map(
             let (cba, dba) = (row1[fb0 as usize], row1[fb1 as usize]);
             if let Some(m) = memory.as_deref_mut() {
                 let arcs = [side_a.na0.dot(arcs_b[eb]), side_a.na1.dot(arcs_b[eb])];
-                if !m.record(ea, eb, cba, dba, arcs) {
+                let code = || side_a.depth_code(b, bv, eb, a.radius, radii);
+                if !m.record(ea, eb, cba, dba, arcs, code) {
                     memory = None;
                 }
             }
@@ -214,6 +223,32 @@ impl EdgeOfA {
             pa0,
             da: a.vertices[a1 as usize] - pa0,
         }
+    }
+
+    /// The level code of this edge's pair with edge `eb` of B (`bv`: B's vertices in A's
+    /// frame; `r_a` A's radius, `radii` the bodies' radii summed): the level of the pair's
+    /// separation along its axis turned as [`EdgeOfA::pair_axis`] turns it, whether or not
+    /// it passes the Gauss-map tests now, or 0 when the pair may not be left out (near
+    /// parallel edges, or an axis near A's centre; see [`DeepPairs`]).
+    #[inline]
+    fn depth_code(&self, b: &ConvexPolyhedron, bv: &[Vec3], eb: usize, r_a: f32, radii: f32) -> u8 {
+        let [b0, b1] = b.edges[eb];
+        let pb0 = bv[b0 as usize];
+        let db = bv[b1 as usize] - pb0;
+        let axis = self.da.cross(db);
+        let len2 = axis.length_squared();
+        let norms = self.da.length_squared() * db.length_squared();
+        // (Written so that a NaN is not remembered.)
+        if !(norms > 0.0 && DeepPairs::rememberable(len2 / norms)) {
+            return 0;
+        }
+        let axis = axis / len2.sqrt();
+        let h = axis.dot(self.pa0);
+        if !DeepPairs::keeps_turn(h, r_a) {
+            return 0;
+        }
+        let axis = if h < 0.0 { -axis } else { axis };
+        DeepPairs::code(axis.dot(pb0 - self.pa0), radii)
     }
 
     /// The Gauss-map tests of this edge against edge `eb` of B (`bv`: B's vertices in A's

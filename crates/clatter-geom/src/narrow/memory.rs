@@ -13,8 +13,10 @@ use super::sphere::SphereMemory;
 use crate::ConvexPolyhedron;
 
 /// How many edge pairs one memory holds (the default scene's searches keep fewer than 20 on
-/// average at [`TURN`]); a search with more candidates is not remembered.
-const CAPACITY: usize = 64;
+/// average at [`TURN`], the mixed pile's about 28, but a dodecahedron against an
+/// icosahedron often more than 64: with 64 those pairs were never remembered and ran the
+/// whole search every step); a search with more candidates is not remembered.
+const CAPACITY: usize = 128;
 
 /// How far the Gauss-map tests' products must be from zero at the recorded rotation for a
 /// pair to be left out of the memory (the products are of unit normals with arcs of
@@ -66,11 +68,15 @@ pub struct EdgeMemory {
     len: u8,
     /// Whether this is a memory of the search by direction (see [`DeepPairs`]).
     directions: bool,
-    /// By direction: B's offset in A's frame at the recorded search ...
+    /// B's offset in A's frame at the recorded search ...
     offset: Vec3,
-    /// ... and the direction pairs remembered at some depth then, a bit per pair `ia * (B's
-    /// directions) + ib` (their levels in `pairs`).
+    /// ... and, by direction, the direction pairs remembered at some depth then, a bit per
+    /// pair `ia * (B's directions) + ib` (their levels in `pairs`).
     deep: u128,
+    /// By Gauss map, the level code of each remembered edge pair (see [`DeepPairs`]; 0 when
+    /// the pair is always visited): a pair found at some depth is left out of later
+    /// searches while it cannot rise above the search's floor (see [`EdgeMemory::search`]).
+    codes: [u8; CAPACITY],
     /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
     /// what the sphere's faces, edges and margins are (see `super::sphere`).
     sphere: SphereMemory,
@@ -89,6 +95,7 @@ impl Default for EdgeMemory {
             directions: false,
             offset: Vec3::ZERO,
             deep: 0,
+            codes: [0; CAPACITY],
             sphere: SphereMemory::default(),
         }
     }
@@ -150,22 +157,30 @@ impl EdgeMemory {
         self.len = 0;
     }
 
-    /// Starts recording the search of `a` against `b` at `rot`; false when this pair of
-    /// polyhedra cannot be remembered (too many edges to name in a byte, or not a unit
-    /// rotation).
-    pub(super) fn start(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat) -> bool {
+    /// Starts recording the search of `a` against `b` at `rot` and offset `t`; false when
+    /// this pair of polyhedra cannot be remembered (too many edges to name in a byte, or
+    /// not a unit rotation, or an offset that is not finite).
+    pub(super) fn start(
+        &mut self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Quat,
+        t: Vec3,
+    ) -> bool {
         self.clear();
-        if a.edges.len() > 256 || b.edges.len() > 64 || !unit(rot) {
+        if a.edges.len() > 256 || b.edges.len() > 64 || !unit(rot) || !t.is_finite() {
             return false;
         }
         self.rot = rot;
+        self.offset = t;
         self.directions = false;
         true
     }
 
     /// Records pair `(ea, eb)` unless the Gauss-map tests fail for it by more than [`TURN`]
     /// (`cba`, `dba`, `adc`, `bdc` as `edges::EdgeOfA::pair_axis` takes and computes
-    /// them); false when the memory is full (the recording is then abandoned).
+    /// them), with the level code `code()` (see `edges::EdgeOfA::depth_code`); false when
+    /// the memory is full (the recording is then abandoned).
     #[inline]
     pub(super) fn record(
         &mut self,
@@ -174,6 +189,7 @@ impl EdgeMemory {
         cba: f32,
         dba: f32,
         arcs: [f32; 2],
+        code: impl FnOnce() -> u8,
     ) -> bool {
         let [adc, bdc] = arcs;
         let apart = |x: f32, y: f32| (x > TURN && y > TURN) || (x < -TURN && y < -TURN);
@@ -188,6 +204,7 @@ impl EdgeMemory {
             return false;
         }
         self.pairs[len] = [ea as u8, eb as u8];
+        self.codes[len] = code();
         self.len += 1;
         true
     }
@@ -198,21 +215,37 @@ impl EdgeMemory {
     }
 
     /// The Gauss-map edge search over the remembered pairs alone (see [`EdgeMemory`]):
-    /// the best edge axis, or `None` with the separating one in `hint` and `separation`.
+    /// the best edge axis, or `None` with the separating one in `hint` and `separation`;
+    /// B at relative rotation `q` (`rot` its matrix) and offset `t` in A's frame.
+    ///
+    /// `floor` (not positive): the pairs remembered at a level that, with the most their
+    /// separation can have grown since (see [`DeepPairs`]), stays at or below `floor` are
+    /// left out. When the best axis is above `floor` it is returned exactly as the whole
+    /// search returns it (every pair left out is at or below `floor`: it neither separates,
+    /// nor wins, nor ties the winner); else some axis at or below `floor` is (or none,
+    /// with separation `-inf`).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn search(
         &self,
         a: &ConvexPolyhedron,
         b: &ConvexPolyhedron,
+        (q, t): (Quat, Vec3),
         rot: Mat3,
         inv_rot: Mat3,
         bv: &[Vec3],
+        floor: f32,
         hint: &mut SatHint,
         separation: &mut f32,
     ) -> Option<EdgeAxis> {
         let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
         let mut current = None;
-        for &[ea, eb] in &self.pairs[..self.len as usize] {
+        let top = self.top_level(a, b, q, t, floor);
+        let len = self.len as usize;
+        for (&[ea, eb], &code) in self.pairs[..len].iter().zip(&self.codes[..len]) {
+            // (Code 0: never left out.)
+            if code.wrapping_sub(1) < top {
+                continue;
+            }
             let (ea, eb) = (ea as usize, eb as usize);
             let (side_a, arc) = match current {
                 Some((e, side_a, arc)) if e == ea => (side_a, arc),
@@ -270,6 +303,17 @@ const LEVELS: u8 = 11;
 /// rotation matrices' rounding). Rounding of the separations (B's points rotated by those
 /// matrices, dot products of points within `L` of the origin with a unit axis, at both
 /// searches) is allowed as `1e-4 L`, several times more than it can be.
+///
+/// The Gauss-map memory's edge pairs get levels by the same bound. Edge pair `(ea, eb)`'s
+/// separation, when it passes the Gauss-map tests, is `f = n . (pb0 - pa0)` with `n` the
+/// unit axis along `da x (R db)` turned to point away from A's centre (`n . pa0 >= 0`),
+/// `pa0` A's first vertex and `pb0 = R vb0 + t` B's. Only pairs whose unit edge directions
+/// have `|ua x wb| >= 0.2` (so `n` turns by at most `11 c`) and whose axis is at least
+/// `r_a / 8` from A's centre (`|n . pa0| >= r_a / 8`) get a level: while the memory serves
+/// (`c < TURN`), `n . pa0` moves by at most `11.1 c r_a < r_a / 8`, so the axis keeps its
+/// turn, and `f` moves by at most `|dn| |pb0 - pa0| + |d pb0| <= 11 c L + c r_b + |dt|`,
+/// the bound above. A pair at a level that cannot rise above the floor would have a
+/// separation at or below it if it passed the tests: the search may leave it out.
 pub(super) struct DeepPairs;
 
 impl DeepPairs {
@@ -304,6 +348,13 @@ impl DeepPairs {
     pub(super) fn rememberable(len2: f32) -> bool {
         len2 >= 0.04
     }
+
+    /// Whether a Gauss-map edge pair's axis is far enough from A's centre to keep its turn
+    /// while the memory serves (`h = n . pa0`, `r_a` A's radius; see above).
+    #[inline]
+    pub(super) fn keeps_turn(h: f32, r_a: f32) -> bool {
+        h.abs() >= 0.125 * r_a
+    }
 }
 
 impl EdgeMemory {
@@ -323,18 +374,7 @@ impl EdgeMemory {
         if self.shapes != [address(a), address(b)] || !self.directions || !unit(rot) {
             return 0;
         }
-        let c = 2.0 * (self.rot.conjugate() * rot).xyz().length() + 4e-5;
-        let moved = (t - self.offset).length();
-        let lever = a.radius + b.radius + t.length() + moved;
-        let turned = 11.0 * c + 4e-5;
-        let grown = (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01;
-        // The deepest levels that still reach no higher than the floor: codes 1 to `top`
-        // (levels rise with the code). (Written so that a NaN serves nothing.)
-        let r = a.radius + b.radius;
-        let mut top = 0;
-        while top < LEVELS && DeepPairs::level(top + 1, r) + grown <= floor {
-            top += 1;
-        }
+        let top = self.top_level(a, b, rot, t, floor);
         if top == 0 {
             return 0;
         }
@@ -348,6 +388,35 @@ impl EdgeMemory {
             bits &= bits - 1;
         }
         served
+    }
+
+    /// The highest level code whose pairs may be left out of a search of `a` against `b`
+    /// at relative rotation `rot` and offset `t` with floor `floor`: codes 1 to this have
+    /// levels that, with the most a separation can have grown since the recording (see
+    /// [`DeepPairs`]), stay at or below `floor` (0: none). `rot` must be a unit rotation
+    /// (the callers check it).
+    #[inline]
+    fn top_level(
+        &self,
+        a: &ConvexPolyhedron,
+        b: &ConvexPolyhedron,
+        rot: Quat,
+        t: Vec3,
+        floor: f32,
+    ) -> u8 {
+        let c = 2.0 * (self.rot.conjugate() * rot).xyz().length() + 4e-5;
+        let moved = (t - self.offset).length();
+        let lever = a.radius + b.radius + t.length() + moved;
+        let turned = 11.0 * c + 4e-5;
+        let grown = (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01;
+        // The deepest levels that still reach no higher than the floor: codes 1 to `top`
+        // (levels rise with the code). (Written so that a NaN serves nothing.)
+        let r = a.radius + b.radius;
+        let mut top = 0;
+        while top < LEVELS && DeepPairs::level(top + 1, r) + grown <= floor {
+            top += 1;
+        }
+        top
     }
 
     /// Starts recording a search by direction of `a` against `b` at `rot` and offset `t`;

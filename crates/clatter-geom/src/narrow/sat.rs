@@ -364,7 +364,7 @@ fn remembered_edge(
     }
     // Axes at or below `-margin` fail the test below whether they win or not: left out.
     let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin, memory);
-    let exact = exact_search(a, b, &found, -margin);
+    let exact = exact_search(&found, -margin);
     let keep = |found: EdgeFound| if exact { Some(found) } else { None };
     let best_e = found.map_err(|e| keep(Err(e)))?;
     // (Written so that a NaN fails the test too.)
@@ -385,13 +385,13 @@ fn remembered_edge(
 type EdgeFound = Result<EdgeAxis, (SatHint, f32)>;
 
 /// Whether `found`, from [`edge_search`] with `floor`, is what the search gives with no
-/// floor, and so with any: the Gauss-map search takes no floor; by direction, a separating
-/// axis (positive, above any floor: every axis left out is at or below the floor, so none
-/// separates, and the first that does is the same), or a best axis above the floor
-/// (returned exactly as with no floor, see [`edge_search`]).
-fn exact_search(a: &ConvexPolyhedron, b: &ConvexPolyhedron, found: &EdgeFound, floor: f32) -> bool {
+/// floor, and so with any: a separating axis (positive, above any floor: every axis left
+/// out is at or below the floor, so none separates, and the first that does is the same),
+/// or a best axis above the floor (returned exactly as with no floor, see
+/// [`edge_search`]). (By Gauss map or by direction alike: both leave out only axes at or
+/// below the floor.)
+fn exact_search(found: &EdgeFound, floor: f32) -> bool {
     match found {
-        _ if !edges_by_direction(a, b) => true,
         Err(_) => true,
         Ok(e) => e.0 > floor,
     }
@@ -434,13 +434,14 @@ fn edge_search(
         )
     } else {
         let (rot, inv_rot) = (rel.rot, rel.inv_rot);
-        let memory = memory.map(|m| (m, rel.q));
+        let memory = memory.map(|m| (m, rel.q, rel.t));
         edge_axes_gauss_map(
             a,
             b,
             rot,
             inv_rot,
             bv,
+            floor,
             tables,
             memory,
             &mut hint,
