@@ -463,11 +463,11 @@ impl Domain {
                 recv[boxes.owner(x)].push(i as u32);
             } else {
                 let o = boxes.owner(x);
-                for s in boxes.within(x, self.ghost_reach(x)) {
+                boxes.for_within(x, self.ghost_reach(x), |s| {
                     if s != o {
                         send[s].push(i as u32);
                     }
-                }
+                });
             }
         }
         (send, recv)
@@ -515,20 +515,28 @@ impl Domain {
             }
             // The owner, and the ranks within the ghost reach (the cut tree walked, not
             // every rank's box tested).
-            let mut to = boxes.within(x, self.ghost_reach(x));
-            if !to.contains(&o) {
-                to.push(o);
-            }
-            for s in to {
+            let ids = &self.ids;
+            let mut send = |s: usize| {
                 let (n, w) = &mut bodies[s];
                 *n += 1;
-                w.u32(self.ids[i]);
+                w.u32(ids[i]);
                 w.u32((s == o) as u32);
                 w.state(&local.state, i);
                 w.consts(local, i);
                 for slot in local.mesh.body_slots(i) {
                     w.slot(slot);
                 }
+            };
+            // The ranks come ascending, each once; the owner after them where it is not
+            // among them (each rank's message holds the body once, so the order over ranks
+            // does not matter).
+            let mut owner_sent = false;
+            boxes.for_within(x, self.ghost_reach(x), |s| {
+                owner_sent |= s == o;
+                send(s);
+            });
+            if !owner_sent {
+                send(o);
             }
         }
         // 3. Springs: each owner sends its bodies' contacts to the bodies' new owners (a
