@@ -505,6 +505,12 @@ impl Domain {
         };
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        // Most owned bodies stay: this rank's message reserved for all of them (its rows
+        // without mesh slots), rather than regrown (and copied) a dozen times.
+        bodies[comm.rank()]
+            .1
+            .0
+            .reserve(owned.len() * (8 + rows::STATE_BYTES + rows::CONST_BYTES));
         let mut new_owner = vec![usize::MAX; local.len()];
         for &i in &owned {
             let x = local.state.position[i];
@@ -543,6 +549,11 @@ impl Domain {
         //    contact with two owners is sent by both; the copies are equal). Zero springs
         //    are not sent: a contact not found is carried as zero.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
+        springs[comm.rank()]
+            .1
+            .0
+            .reserve(local.contacts.pairs.len() * 28);
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();
