@@ -279,6 +279,55 @@ impl Contacts {
         }
         (f, t)
     }
+
+    /// [`Contacts::gather4`] of bodies `i..i + 8` at once (`f[l]`, `t[l]` for body `i + l`):
+    /// the same sums in the same order (the same bits), with the eight bodies' ranges read
+    /// and checked once rather than body by body. Panics unless `i + 8` bodies exist.
+    #[inline(always)]
+    pub(crate) fn gather8(&self, i: usize) -> ([Vec4; 8], [Vec4; 8]) {
+        let total = self.len();
+        let np = self.pairs.len();
+        let forces = &self.springs.forces[..total];
+        let a: &[u32; 9] = self.pairs_as_a[i..i + 9].try_into().unwrap();
+        let bs: &[u32; 9] = self.b_pair_start[i..i + 9].try_into().unwrap();
+        let ws: &[u32; 9] = self.wall_contacts_of[i..i + 9].try_into().unwrap();
+        // Each table ascends within the list (as `Contacts::new` builds them); checked here
+        // for the eight bodies so the loops below index without further checks.
+        let ascending =
+            |r: &[u32; 9], end: usize| r.windows(2).all(|w| w[0] <= w[1]) && r[8] as usize <= end;
+        assert!(ascending(a, np) && ascending(bs, self.b_pairs.len()) && ascending(ws, total));
+        let mut f = [Vec4::ZERO; 8];
+        let mut t = [Vec4::ZERO; 8];
+        for l in 0..8 {
+            let (mut fl, mut tl) = (Vec4::ZERO, Vec4::ZERO);
+            // SAFETY: `a[l]..a[l + 1]` lies within `forces` (checked above).
+            let own = unsafe { forces.get_unchecked(a[l] as usize..a[l + 1] as usize) };
+            for c in own {
+                let [force_b, torque_a, _] = lanes(c);
+                fl -= force_b;
+                tl += torque_a;
+            }
+            // SAFETY: within `b_pairs` (checked above).
+            let other = unsafe {
+                self.b_pairs
+                    .get_unchecked(bs[l] as usize..bs[l + 1] as usize)
+            };
+            for &k in other {
+                let [force_b, _, torque_b] = lanes(&forces[k as usize]);
+                fl += force_b;
+                tl += torque_b;
+            }
+            // SAFETY: within `forces` (checked above).
+            let walls = unsafe { forces.get_unchecked(ws[l] as usize..ws[l + 1] as usize) };
+            for c in walls {
+                let [force_b, _, torque_b] = lanes(c);
+                fl += force_b;
+                tl += torque_b;
+            }
+            (f[l], t[l]) = (fl, tl);
+        }
+        (f, t)
+    }
 }
 
 /// A contact force's three vectors, each with the float stored after it as a fourth lane

@@ -432,15 +432,22 @@ impl Bisection {
     /// for bit (each rank found is tested with [`Bisection::distance`]).
     pub fn within(&self, x: DVec3, reach: f64) -> Vec<usize> {
         let mut found = Vec::new();
+        self.for_within(x, reach, |r| found.push(r));
+        found
+    }
+
+    /// [`Bisection::within`] without a list: calls `found` with each of those ranks,
+    /// ascending. For the per-body loops of a rebuild, which would otherwise allocate a list
+    /// per body.
+    pub fn for_within(&self, x: DVec3, reach: f64, mut found: impl FnMut(usize)) {
         self.walk(
             |b| self.point_to(x, b) < reach,
             |r| {
                 if self.distance(x, r) < reach {
-                    found.push(r);
+                    found(r);
                 }
             },
         );
-        found
     }
 
     /// The ranks, ascending, whose boxes are nearer rank `r`'s box than `reach`
@@ -467,24 +474,34 @@ impl Bisection {
             Some((lo, hi)) => [lo, hi],
             None => [f64::NEG_INFINITY, f64::INFINITY],
         });
-        // (node, first rank, ranks, box)
-        let mut stack = vec![(0usize, 0usize, self.ranks(), outer)];
-        while let Some((node, r0, n, b)) = stack.pop() {
-            if !enter(&b) {
-                continue;
-            }
-            if n == 1 {
-                leaf(r0);
-                continue;
-            }
-            let (axis, cut) = self.cuts[node];
-            let first = n.div_ceil(2);
-            let (mut low, mut high) = (b, b);
-            low[axis][1] = cut as f64;
-            high[axis][0] = cut as f64;
-            // The second half first onto the stack, so the first half comes off first.
-            stack.push((node + first, r0 + first, n - first, high));
-            stack.push((node + 1, r0, first, low));
+        // Recursion rather than a stack of nodes: as deep as the cut tree (the log of the
+        // ranks), and nothing allocated per walk.
+        self.walk_node(0, 0, self.ranks(), outer, &enter, &mut leaf);
+    }
+
+    /// [`Bisection::walk`] from `node` (ranks `r0..r0 + n`, box `b`).
+    fn walk_node(
+        &self,
+        node: usize,
+        r0: usize,
+        n: usize,
+        b: [[f64; 2]; 3],
+        enter: &impl Fn(&[[f64; 2]; 3]) -> bool,
+        leaf: &mut impl FnMut(usize),
+    ) {
+        if !enter(&b) {
+            return;
         }
+        if n == 1 {
+            leaf(r0);
+            return;
+        }
+        let (axis, cut) = self.cuts[node];
+        let first = n.div_ceil(2);
+        let (mut low, mut high) = (b, b);
+        low[axis][1] = cut as f64;
+        high[axis][0] = cut as f64;
+        self.walk_node(node + 1, r0, first, low, enter, leaf);
+        self.walk_node(node + first, r0 + first, n - first, high, enter, leaf);
     }
 }

@@ -463,11 +463,11 @@ impl Domain {
                 recv[boxes.owner(x)].push(i as u32);
             } else {
                 let o = boxes.owner(x);
-                for s in boxes.within(x, self.ghost_reach(x)) {
+                boxes.for_within(x, self.ghost_reach(x), |s| {
                     if s != o {
                         send[s].push(i as u32);
                     }
-                }
+                });
             }
         }
         (send, recv)
@@ -505,6 +505,12 @@ impl Domain {
         };
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        // Most owned bodies stay: this rank's message reserved for all of them (its rows
+        // without mesh slots), rather than regrown (and copied) a dozen times.
+        bodies[comm.rank()]
+            .1
+            .0
+            .reserve(owned.len() * (8 + rows::STATE_BYTES + rows::CONST_BYTES));
         let mut new_owner = vec![usize::MAX; local.len()];
         for &i in &owned {
             let x = local.state.position[i];
@@ -515,26 +521,39 @@ impl Domain {
             }
             // The owner, and the ranks within the ghost reach (the cut tree walked, not
             // every rank's box tested).
-            let mut to = boxes.within(x, self.ghost_reach(x));
-            if !to.contains(&o) {
-                to.push(o);
-            }
-            for s in to {
+            let ids = &self.ids;
+            let mut send = |s: usize| {
                 let (n, w) = &mut bodies[s];
                 *n += 1;
-                w.u32(self.ids[i]);
+                w.u32(ids[i]);
                 w.u32((s == o) as u32);
                 w.state(&local.state, i);
                 w.consts(local, i);
                 for slot in local.mesh.body_slots(i) {
                     w.slot(slot);
                 }
+            };
+            // The ranks come ascending, each once; the owner after them where it is not
+            // among them (each rank's message holds the body once, so the order over ranks
+            // does not matter).
+            let mut owner_sent = false;
+            boxes.for_within(x, self.ghost_reach(x), |s| {
+                owner_sent |= s == o;
+                send(s);
+            });
+            if !owner_sent {
+                send(o);
             }
         }
         // 3. Springs: each owner sends its bodies' contacts to the bodies' new owners (a
         //    contact with two owners is sent by both; the copies are equal). Zero springs
         //    are not sent: a contact not found is carried as zero.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
+        // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
+        springs[comm.rank()]
+            .1
+            .0
+            .reserve(local.contacts.pairs.len() * 28);
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();

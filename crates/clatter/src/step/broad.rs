@@ -124,47 +124,50 @@ pub fn pairs_periodic(
     let keys = bin(grid, positions);
     let (sorted, start) = sort(&keys, grid.cell_count());
     let dims = grid.dims;
-    let per_body: Vec<Vec<u32>> = (0..positions.len())
+    // Bodies in fixed runs of `RUN`, one task and one list each (a list per body cost an
+    // allocation and its regrowths per body); each body's partners sorted within its run's
+    // list, so the runs joined in order are the pairs sorted.
+    const RUN: usize = 256;
+    let n = positions.len();
+    let per_run: Vec<Vec<[u32; 2]>> = (0..n.div_ceil(RUN))
         .into_par_iter()
-        .with_min_len(256)
-        .map(|i| {
-            let ri = radii[i];
-            let (images, count) = match periodic {
-                Some(p) => p.images_near(positions[i], grid.cell_size),
-                None => ([positions[i]; 8], 1),
-            };
-            let mut out = Vec::new();
-            for &pi in &images[..count] {
-                let c = grid.cell_of(pi);
-                for z in c[2].saturating_sub(1)..=(c[2] + 1).min(dims[2] - 1) {
-                    for y in c[1].saturating_sub(1)..=(c[1] + 1).min(dims[1] - 1) {
-                        let row = grid.key([0, y, z]);
-                        let x0 = c[0].saturating_sub(1);
-                        let x1 = (c[0] + 1).min(dims[0] - 1);
-                        // Cells x0..=x1 of this row are contiguous in key order.
-                        let s = start[(row + x0) as usize] as usize;
-                        let e = start[(row + x1 + 1) as usize] as usize;
-                        for &j in &sorted[s..e] {
-                            if j as usize > i {
-                                let reach = ri + radii[j as usize] + skin;
-                                if (positions[j as usize] - pi).length_squared() < reach * reach {
-                                    out.push(j);
+        .map(|run| {
+            let mut out: Vec<[u32; 2]> = Vec::with_capacity(8 * RUN);
+            for i in run * RUN..((run + 1) * RUN).min(n) {
+                let first = out.len();
+                let ri = radii[i];
+                let (images, count) = match periodic {
+                    Some(p) => p.images_near(positions[i], grid.cell_size),
+                    None => ([positions[i]; 8], 1),
+                };
+                for &pi in &images[..count] {
+                    let c = grid.cell_of(pi);
+                    for z in c[2].saturating_sub(1)..=(c[2] + 1).min(dims[2] - 1) {
+                        for y in c[1].saturating_sub(1)..=(c[1] + 1).min(dims[1] - 1) {
+                            let row = grid.key([0, y, z]);
+                            let x0 = c[0].saturating_sub(1);
+                            let x1 = (c[0] + 1).min(dims[0] - 1);
+                            // Cells x0..=x1 of this row are contiguous in key order.
+                            let s = start[(row + x0) as usize] as usize;
+                            let e = start[(row + x1 + 1) as usize] as usize;
+                            for &j in &sorted[s..e] {
+                                if j as usize > i {
+                                    let reach = ri + radii[j as usize] + skin;
+                                    if (positions[j as usize] - pi).length_squared() < reach * reach
+                                    {
+                                        out.push([i as u32, j]);
+                                    }
                                 }
                             }
                         }
                     }
                 }
+                out[first..].sort_unstable();
             }
-            out.sort_unstable();
             out
         })
         .collect();
-    let total = per_body.iter().map(Vec::len).sum();
-    let mut result = Vec::with_capacity(total);
-    for (i, js) in per_body.into_iter().enumerate() {
-        result.extend(js.into_iter().map(|j| [i as u32, j]));
-    }
-    result
+    per_run.concat()
 }
 
 /// The same pairs by checking all `n (n-1) / 2` of them: the reference for tests.

@@ -15,7 +15,7 @@
 
 use std::arch::x86_64::*;
 
-use glam::{DVec3, Quat, Vec3, Vec4};
+use glam::{DVec3, Quat, Vec3};
 
 use super::integrate::{Bodies, Ctx, body};
 use super::lanes::{F8, V3, load_vec3, store_vec3};
@@ -354,11 +354,7 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
         return None;
     }
     // The gather, per body as the scalar path does it; its sums' four lanes kept.
-    let mut f = [Vec4::ZERO; 8];
-    let mut t = [Vec4::ZERO; 8];
-    for l in 0..8 {
-        (f[l], t[l]) = c.contacts.gather4(i + l);
-    }
+    let (f, t) = c.contacts.gather8(i);
     let dt = F8::splat(c.dt);
     let [fx, fy, fz, _] = unsafe { load4(f.as_ptr() as *const f32) };
     let [tx, ty, tz, _] = unsafe { load4(t.as_ptr() as *const f32) };
