@@ -171,22 +171,13 @@ fn contacts_size() {
 // has a sphere (a or b), with PAIR_POLY two polyhedra (unless composites, whose pairs
 // without a sphere body may still hold a sphere piece: then every kind); PAIR_ANY is
 // `collide`. The same operations as `collide`'s branches, so the same results; called with
-// a literal `kind`, so each entry point's compiled code holds only its own branch.
+// a literal `kind`, so each entry point's compiled code holds only its own branch
+// (`nrw_with_sphere` or `nrw_poly_poly`).
 fn collide_kind(kind: u32, sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
     if kind == PAIR_SPHERES {
         nrw_hint_out = 0u;
         nrw_mem_out = vec2<u32>(NO_HINT, 0u);
-        let a = nrw_shape(sa);
-        let b = nrw_shape(sb);
-        if a.kind == 0u {
-            if b.kind == 0u {
-                return nrw_sphere_sphere(xa, a.radius, xb, b.radius);
-            }
-            return nrw_sphere_poly(xa, a.radius, b, xb, qb);
-        }
-        var m = nrw_sphere_poly(xb, b.radius, a, xa, qa);
-        m.normal = -m.normal;
-        return m;
+        return nrw_with_sphere(nrw_shape(sa), xa, qa, nrw_shape(sb), xb, qb);
     }
     if kind == PAIR_POLY && !COMPOSITES {
         nrw_hint_out = 0u;

@@ -521,18 +521,24 @@ fn collide(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: ve
     nrw_mem_out = vec2<u32>(NO_HINT, 0u);
     let a = nrw_shape(sa);
     let b = nrw_shape(sb);
+    if a.kind == 0u || b.kind == 0u {
+        return nrw_with_sphere(a, xa, qa, b, xb, qb);
+    }
+    return nrw_poly_poly(a, xa, qa, b, xb, qb);
+}
+
+// `collide`'s pairs where a or b is a sphere (the other a sphere or a polyhedron); also the
+// whole narrow phase of contacts_split.wgsl's `collide_kind` for PAIR_SPHERES.
+fn nrw_with_sphere(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
     if a.kind == 0u {
         if b.kind == 0u {
             return nrw_sphere_sphere(xa, a.radius, xb, b.radius);
         }
         return nrw_sphere_poly(xa, a.radius, b, xb, qb);
     }
-    if b.kind == 0u {
-        var m = nrw_sphere_poly(xb, b.radius, a, xa, qa);
-        m.normal = -m.normal;
-        return m;
-    }
-    return nrw_poly_poly(a, xa, qa, b, xb, qb);
+    var m = nrw_sphere_poly(xb, b.radius, a, xa, qa);
+    m.normal = -m.normal;
+    return m;
 }
 
 // Whether shapes sa and sb are certainly apart: their bounding spheres are, or, for two
