@@ -293,8 +293,15 @@ impl Contacts {
         let ws: &[u32; 9] = self.wall_contacts_of[i..i + 9].try_into().unwrap();
         // Each table ascends within the list (as `Contacts::new` builds them); checked here
         // for the eight bodies so the loops below index without further checks.
-        let ascending =
-            |r: &[u32; 9], end: usize| r.windows(2).all(|w| w[0] <= w[1]) && r[8] as usize <= end;
+        // Without early exits (`&`, not `all`): eight compares the compiler may do at once,
+        // rather than eight branches.
+        let ascending = |r: &[u32; 9], end: usize| {
+            let mut ok = r[8] as usize <= end;
+            for l in 0..8 {
+                ok &= r[l] <= r[l + 1];
+            }
+            ok
+        };
         assert!(ascending(a, np) && ascending(bs, self.b_pairs.len()) && ascending(ws, total));
         let mut f = [Vec4::ZERO; 8];
         let mut t = [Vec4::ZERO; 8];

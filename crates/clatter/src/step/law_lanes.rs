@@ -49,8 +49,10 @@ pub(super) struct Law8 {
 ///
 /// # Safety
 /// AVX2.
-#[inline]
-#[target_feature(enable = "avx2")]
+// Inlined into its callers (AVX2 functions both), not called: a call returned its
+// thirteen lanes through memory and spilled the caller's registers around it. Without
+// `target_feature` of its own (which `inline(always)` does not allow), it takes its callers'.
+#[inline(always)]
 pub(super) unsafe fn law(
     c: &Contact8,
     touch: M8,
