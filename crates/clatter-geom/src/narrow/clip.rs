@@ -47,71 +47,47 @@ pub(super) fn clip_faces(
         }
     }
     let ClipBuffers { poly, tmp, pts } = clip;
-    // Written by index into buffers sized beforehand (no capacity check per corner): the
-    // incident face's corners, then each side plane's output, at most two corners per input
-    // corner (one kept, one crossing; a convex polygon gains at most one in all, but rounding
-    // may make a near-degenerate one alternate).
-    let il = inc.face_loop(inc_face);
-    let mut len = il.len();
-    if poly.len() < len {
-        poly.resize(len, Vec3::ZERO);
-    }
-    for (c, &i) in poly.iter_mut().zip(il) {
-        *c = inc_v(i as usize);
-    }
+    poly.clear();
+    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v(i as usize)));
     let rl = refp.face_loop(rf);
     for k in 0..rl.len() {
         let v0 = refp.vertices[rl[k] as usize];
         let v1 = refp.vertices[rl[if k + 1 < rl.len() { k + 1 } else { 0 }] as usize];
         let side = (v1 - v0).cross(n); // outward for a CCW loop
         let off = side.dot(v0);
-        if len == 0 {
-            break;
-        }
-        if tmp.len() < 2 * len {
-            tmp.resize(2 * len, Vec3::ZERO);
-        }
         // Each corner's distance is computed once (the same expression for it as the start
         // and as the end of an edge, so the same bits), and the loop closes on the first.
-        let first = poly[0];
+        tmp.clear();
+        let Some(&first) = poly.first() else {
+            break;
+        };
         let d_first = side.dot(first) - off;
         let (mut p, mut dp) = (first, d_first);
-        let mut out = 0;
-        for i in 1..=len {
-            let (q, dq) = if i < len {
-                let q = poly[i];
-                (q, side.dot(q) - off)
-            } else {
-                (first, d_first)
+        for i in 1..=poly.len() {
+            let (q, dq) = match poly.get(i) {
+                Some(&q) => (q, side.dot(q) - off),
+                None => (first, d_first),
             };
             if dp <= 0.0 {
-                tmp[out] = p;
-                out += 1;
+                tmp.push(p);
             }
             if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
-                tmp[out] = p + (q - p) * (dp / (dp - dq));
-                out += 1;
+                tmp.push(p + (q - p) * (dp / (dp - dq)));
             }
             (p, dp) = (q, dq);
         }
         std::mem::swap(poly, tmp);
-        len = out;
-        if len == 0 {
+        if poly.is_empty() {
             break;
         }
     }
-    if pts.len() < len {
-        pts.resize(len, (Vec3::ZERO, 0.0));
-    }
-    let mut count = 0;
-    for &p in &poly[..len] {
+    pts.clear();
+    for &p in poly.iter() {
         let depth = rface.offset - n.dot(p);
         if depth > 0.0 {
-            pts[count] = (p + n * (0.5 * depth), depth);
-            count += 1;
+            pts.push((p + n * (0.5 * depth), depth));
         }
     }
-    let pts = &pts[..count];
     if pts.is_empty() {
         // The separating-axis test found overlap but the incident face clips away entirely
         // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
