@@ -186,6 +186,8 @@ pub(super) fn polyhedron_pair(
     };
     // An edge search already made at these poses, if any (see `remembered_edge`).
     let mut searched = None;
+    // A face already clipped at these poses, if any (see `remembered_face`).
+    let mut clipped = None;
     if is_contact_hint(*hint) {
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
         let found = if face == EDGE_CONTACT {
@@ -199,10 +201,14 @@ pub(super) fn polyhedron_pair(
                 .ok()
                 .map(Some)
         } else if margin > 0.0 {
-            // The full test would choose the remembered face again: clip it alone.
-            SCRATCH.with_borrow_mut(|sc| {
-                remembered_face(a, pa, b, pb, &rel, sc, *hint & HINT_KIND, face as usize)
-            })
+            // The full test would choose the remembered face again: clip it alone. When the
+            // overlap is not certified, the clipped face serves the full test below.
+            SCRATCH
+                .with_borrow_mut(|sc| {
+                    remembered_face(a, pa, b, pb, &rel, sc, *hint & HINT_KIND, face as usize)
+                })
+                .map_err(|c| clipped = c)
+                .ok()
         } else {
             None
         };
@@ -260,7 +266,11 @@ pub(super) fn polyhedron_pair(
         }
     }
     SCRATCH.with_borrow_mut(|sc| {
-        let full = FullTest { searched, memory };
+        let full = FullTest {
+            searched,
+            memory,
+            clipped,
+        };
         sat_full(a, pa, b, pb, &rel, sc, full, hint, bound)
     })
 }
@@ -276,16 +286,26 @@ struct Relative {
 
 /// What [`sat_full`] may take instead of searching the edge axes itself: the answer of an
 /// edge search with no floor at the same poses, if one was made ([`remembered_edge`]),
-/// and the pair's [`EdgeMemory`].
+/// and the pair's [`EdgeMemory`]; and instead of clipping, a face clipped at the same
+/// poses ([`remembered_face`]).
 struct FullTest<'m> {
     searched: Option<EdgeFound>,
     memory: Option<&'m mut EdgeMemory>,
+    clipped: Option<Clipped>,
 }
 
+/// A reference face clipped by [`remembered_face`] whose overlap was not certified: its
+/// kind ([`HINT_FACE_A`] or [`HINT_FACE_B`]), its index and the manifold in its body's
+/// frame, before [`to_world`]. [`sat_full`] takes it when it chooses that face: the same
+/// call of [`clip_faces`] with the same arguments (the incident vertices by the same
+/// expressions), so the same manifold, bitwise.
+type Clipped = (u32, usize, Manifold);
+
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
-/// clipped with the full test's own expressions ([`sat_full`]): `Some(manifold)` as the full
-/// test would return it, or `None` when the overlap is not certain enough to rule out a
-/// separating axis ([`overlap_certified`]; the full test must run).
+/// clipped with the full test's own expressions ([`sat_full`]): `Ok(manifold)` as the full
+/// test would return it, or `Err` when the overlap is not certain enough to rule out a
+/// separating axis ([`overlap_certified`]; the full test must run), with the clipped face
+/// when there is one (for the full test, if it chooses that face: [`Clipped`]).
 #[allow(clippy::too_many_arguments)]
 fn remembered_face(
     a: &ConvexPolyhedron,
@@ -296,7 +316,7 @@ fn remembered_face(
     sc: &mut Scratch,
     kind: u32,
     face: usize,
-) -> Option<Option<Manifold>> {
+) -> Result<Option<Manifold>, Option<Clipped>> {
     let Relative {
         rot, inv_rot, t, ..
     } = *rel;
@@ -304,16 +324,25 @@ fn remembered_face(
     let delta = 2e-5 * (a.radius + b.radius);
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
-            return None;
+            return Err(None);
         }
-        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip)?;
-        overlap_certified(a, &m, delta).then(|| Some(to_world(m, pa)))
+        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
+        if overlap_certified(a, &m, delta) {
+            Ok(Some(to_world(m, pa)))
+        } else {
+            Err(Some((kind, face, m)))
+        }
     } else {
         if face >= b.faces.len() {
-            return None;
+            return Err(None);
         }
-        let m = clip_faces(b, face, a, |i| inv_rot * (a.vertices[i] - t), inv_rot, clip)?;
-        overlap_certified(b, &m, delta).then(|| Some(to_world(m, pb).flipped()))
+        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
+        if overlap_certified(b, &m, delta) {
+            Ok(Some(to_world(m, pb).flipped()))
+        } else {
+            Err(Some((kind, face, m)))
+        }
     }
 }
 
@@ -670,12 +699,21 @@ fn sat_full(
         (best_a.0, second_a, best_b.0, HINT_FACE_A, best_a.1)
     };
     let margin = contact_margin(best, second, other, best_e.0, ref_b, tol) - eps;
+    // The face clipped already at these poses, if it is this one (see `Clipped`).
+    let clipped = match full.clipped {
+        Some((k, f, m)) if k == kind && f == face => Some(m),
+        _ => None,
+    };
     let m = if ref_b {
         // Reference face on B: work in B's frame with A as incident.
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
-        clip_faces(b, face, a, inc_v, inv_rot, clip).map(|m| to_world(m, pb).flipped())
+        clipped
+            .or_else(|| clip_faces(b, face, a, inc_v, inv_rot, clip))
+            .map(|m| to_world(m, pb).flipped())
     } else {
-        clip_faces(a, face, b, |i| bv[i], rot, clip).map(|m| to_world(m, pa))
+        clipped
+            .or_else(|| clip_faces(a, face, b, |i| bv[i], rot, clip))
+            .map(|m| to_world(m, pa))
     };
     if m.is_some() && margin > 0.0 && face < EDGE_CONTACT as usize {
         *hint = kind | HINT_CONTACT | face as u32;

@@ -1,0 +1,142 @@
+//! Remembered face contacts (a touching pair's reference face, kept while its margin lasts,
+//! see `narrow::collide_with_hint`) against the full separating-axis test: polyhedron pairs
+//! resting face on face, sliding, spinning about the normal, tilting onto an edge and back,
+//! pulled apart and pressed together again, every step's manifold compared bitwise with the
+//! full test's at the same poses.
+
+use clatter_geom::narrow::{self, NO_HINT};
+use clatter_geom::{ConvexPolyhedron, PreparedShape, Shape};
+use glam::{Quat, Vec3};
+
+mod common;
+use common::Rng;
+
+fn poly(s: &Shape) -> &ConvexPolyhedron {
+    match s {
+        Shape::Polyhedron(p) => p,
+        _ => panic!("a polyhedron"),
+    }
+}
+
+/// The centroid of face `f`'s corners (a point of the face plane, inside the face).
+fn face_centre(p: &ConvexPolyhedron, f: usize) -> Vec3 {
+    let lp = p.face_loop(f);
+    lp.iter().map(|&i| p.vertices[i as usize]).sum::<Vec3>() / lp.len() as f32
+}
+
+/// The rotation angle of `q` (radians, at most pi).
+fn angle(q: Quat) -> f32 {
+    2.0 * q.w.abs().min(1.0).acos()
+}
+
+/// One pair stepped `steps` times: B's face `fb` laid on A's face `fa` (anti-parallel), then
+/// B, moved `reach` times A's radius across A's face (up to its edge and off it), slides
+/// slowly, spins about the normal at `spin` rad per step, tilts by up to
+/// `tilt` rad (onto an edge and back) and its overlap swings from 0.5% of the radii to a gap
+/// and back. The caller's part of the contract is kept as the simulation keeps it: before
+/// each call the remembered margin is decreased by twice a true bound of how far any point
+/// of either body moved in the other's frame. Returns (steps whose remembered face stood in
+/// for the full test, steps that touched).
+#[allow(clippy::too_many_arguments)]
+fn run_resting(
+    a: &Shape,
+    b: &Shape,
+    fa: usize,
+    fb: usize,
+    rng: &mut Rng,
+    spin: f32,
+    tilt: f32,
+    reach: f32,
+    steps: usize,
+) -> (usize, usize) {
+    let (pa_, pb_) = (poly(a), poly(b));
+    let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
+    let qa = rng.rotation();
+    let na = qa * pa_.faces[fa].normal;
+    // B's face normal turned onto -na, then spun about na.
+    let lay = Quat::from_rotation_arc(pb_.faces[fb].normal, -na);
+    let spin0 = rng.next() * std::f32::consts::TAU;
+    let slide = rng.unit().cross(na).normalize_or_zero();
+    let tilt_axis = rng.unit().cross(na).normalize_or_zero();
+    let (ca, cb) = (qa * face_centre(pa_, fa), face_centre(pb_, fb));
+    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
+    let mut last: Option<(Vec3, Quat)> = None;
+    let (mut kept, mut touching) = (0, 0);
+    for k in 0..steps {
+        let phase = k as f32 * 0.01;
+        let qb = (Quat::from_axis_angle(tilt_axis, tilt * (0.05 * phase).sin())
+            * Quat::from_axis_angle(na, spin0 + spin * k as f32)
+            * lay)
+            .normalize();
+        let overlap = (0.002 + 0.003 * phase.sin()) * (ra + rb);
+        let side = slide * (ra * (reach + 0.1 * (0.03 * phase).sin()));
+        // B's face centre on A's face plane, pressed in by `overlap`, slid sideways.
+        let centre = ca + side - na * overlap - qb * cb;
+        let pa = Pose::new(Vec3::ZERO, qa);
+        let pb = Pose::new(centre, qb);
+        if let Some((c0, q0)) = last {
+            // B's points move by at most |dc| + th (|c| + r_b) in A's (fixed) frame, and A's
+            // points in B's frame by at most |dc| + th (|c| + r_a).
+            let th = angle(qb * q0.conjugate());
+            let moved =
+                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
+            if bound > 0.0 {
+                bound -= 2.0 * (moved * 1.01 + 1e-6 * (ra + rb));
+            }
+        }
+        last = Some((centre, qb));
+        let before = narrow::is_contact_hint(hint).then_some((hint, bound));
+        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
+        let full = narrow::collide(a, &pa, b, &pb);
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
+        // The remembered face stood in when the pair kept its hint and margin (a full test
+        // sets both anew).
+        let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
+        kept += stood as usize;
+        touching += with.is_some() as usize;
+    }
+    (kept, touching)
+}
+
+use clatter_geom::Pose;
+
+fn shapes() -> Vec<PreparedShape> {
+    common::solids_and_hull(12)
+}
+
+/// Every Platonic solid and a hull against every one, resting face on face on a few face
+/// pairs, still, slow and tumbling: every step's manifold is the full test's, and the
+/// remembered faces stood in for a good share of the touching steps (so the comparison
+/// covers them, not only the full test).
+#[test]
+fn remembered_faces_give_the_full_tests_manifolds() {
+    let shapes = shapes();
+    let mut rng = Rng(4242);
+    let (mut kept, mut touching, mut total) = (0, 0, 0);
+    for sa in &shapes {
+        for sb in &shapes {
+            let (na, nb) = (poly(&sa.shape).faces.len(), poly(&sb.shape).faces.len());
+            for (spin, tilt) in [(0.0, 0.0), (1e-5, 2e-4), (3e-4, 0.05), (3e-3, 1.5)] {
+                for reach in [0.0, 0.4, 0.8, 1.2, 1.6] {
+                    for _ in 0..2 {
+                        let fa = (rng.next() * na as f32) as usize % na;
+                        let fb = (rng.next() * nb as f32) as usize % nb;
+                        let (k, t) = run_resting(
+                            &sa.shape, &sb.shape, fa, fb, &mut rng, spin, tilt, reach, 400,
+                        );
+                        (kept, touching, total) = (kept + k, touching + t, total + 400);
+                    }
+                }
+            }
+        }
+    }
+    println!("{touching} of {total} pair-steps touching, remembered faces stood in {kept}");
+    assert!(touching * 2 > total, "{touching} of {total} touching");
+    assert!(
+        kept * 4 > touching,
+        "remembered faces stood in {kept} of {touching}"
+    );
+}
