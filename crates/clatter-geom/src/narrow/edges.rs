@@ -422,6 +422,7 @@ pub(super) fn edge_axes_by_direction(
             None => record = m.start_directions(a, b, q, t).then_some(&mut *m),
             Some(Served {
                 skip: deep,
+                top,
                 grown,
                 winner,
             }) => {
@@ -439,8 +440,9 @@ pub(super) fn edge_axes_by_direction(
                 if let Some((s, _)) = found {
                     // (Written so that a NaN does not serve.)
                     if s <= 0.0 && s > floor {
-                        let below = DeepPairs::top(grown, radii, s.next_down());
-                        let after = DeepPairs::top(grown, radii, s);
+                        // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
+                        let below = DeepPairs::top(top, grown, radii, s.next_down());
+                        let after = DeepPairs::top(below, grown, radii, s);
                         // Bits of the pairs before the winner, and after it.
                         let early = (1u128 << winner) - 1;
                         let late = !early & !(1u128 << winner);

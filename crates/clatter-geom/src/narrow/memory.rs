@@ -277,7 +277,8 @@ impl EdgeMemory {
         let len = self.len as usize;
         // The pairs to visit, by index (those at no level always).
         let all = u128::MAX.checked_shr(128 - len as u32).unwrap_or(0);
-        let mut todo = all & !self.up_to(DeepPairs::top(grown, r, floor));
+        let top = DeepPairs::top(0, grown, r, floor);
+        let mut todo = all & !self.up_to(top);
         // The winner first (`first`: its index and answer), if it is visited: then the
         // pairs before it at levels whose growth stays below its separation, and those
         // after it at levels whose growth stays at or below it, are not.
@@ -294,8 +295,12 @@ impl EdgeMemory {
                 if s <= 0.0 && s > floor {
                     let early = (1u128 << w) - 1;
                     let late = all & !early & !(1u128 << w);
-                    let before = self.up_to(DeepPairs::top(grown, r, s.next_down()));
-                    let after = self.up_to(DeepPairs::top(grown, r, s));
+                    // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
+                    let below = DeepPairs::top(top, grown, r, s.next_down());
+                    let (before, after) = (
+                        self.up_to(below),
+                        self.up_to(DeepPairs::top(below, grown, r, s)),
+                    );
                     todo &= !((before & early) | (after & late));
                     first = (w, found);
                 }
@@ -363,6 +368,8 @@ fn evaluate(
 pub(super) struct Served {
     /// The direction pairs that may be left out below the search's floor (a bit per pair).
     pub(super) skip: u128,
+    /// The highest level code left out below the floor ([`DeepPairs::top`]).
+    pub(super) top: u8,
     /// The most a remembered pair's separation can have grown since the recording.
     pub(super) grown: f32,
     /// The direction pair that won the last search (128 or more: none).
@@ -443,11 +450,15 @@ impl DeepPairs {
     /// for bodies whose radii sum to `r`, their separations grown by at most `grown` since
     /// the recording (`EdgeMemory::growth`): codes 1 to this have levels that, grown, stay
     /// at or below `floor` (0: none).
+    ///
+    /// `from`: a code known to qualify (0, or this function's answer for a lower floor):
+    /// the levels rise with the code, and so do they grown (rounding is monotonic), so the
+    /// codes that qualify are 1 to some top, and the count starts at `from`.
     #[inline]
-    pub(super) fn top(grown: f32, r: f32, floor: f32) -> u8 {
+    pub(super) fn top(from: u8, grown: f32, r: f32, floor: f32) -> u8 {
         // The deepest levels that still reach no higher than the floor: codes 1 to `top`
         // (levels rise with the code). (Written so that a NaN serves nothing.)
-        let mut top = 0;
+        let mut top = from;
         while top < LEVELS && Self::level(top + 1, r) + grown <= floor {
             top += 1;
         }
@@ -481,9 +492,11 @@ impl EdgeMemory {
         }
         let grown = self.growth(a, b, rot, t);
         let r = a.radius + b.radius;
-        let skip = self.up_to(DeepPairs::top(grown, r, floor));
+        let top = DeepPairs::top(0, grown, r, floor);
+        let skip = self.up_to(top);
         (skip != 0).then_some(Served {
             skip,
+            top,
             grown,
             winner: self.winner as usize,
         })
