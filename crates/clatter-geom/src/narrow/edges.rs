@@ -354,7 +354,8 @@ fn crossing_candidates(row: &[Vec4], nfb: usize, by_face: &[u64; 64]) -> u64 {
 /// Direction pair `ua`, `wb` (unit directions of A's and B's edges in A's frame) as
 /// [`edge_axes_by_direction`] evaluates it when it does not leave it out: its separation
 /// (the larger of B pushed along the axis and against it) and that axis, or `None` for
-/// near-parallel directions. The same arithmetic in the same order, so the same bits.
+/// near-parallel directions. The same arithmetic in the same order, so the same bits (keep
+/// the two in step).
 #[inline]
 fn direction_pair(
     ua: Vec3,
@@ -414,7 +415,10 @@ pub(super) fn edge_axes_by_direction(
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
     // The pairs a memory found deep, left out while they cannot reach the floor (see
     // `DeepPairs`); a memory that serves none records this search. One that serves
-    // evaluates the last search's winner first: see `winner_first`.
+    // evaluates the last search's winner first and, when it passes, leaves out more: the
+    // pairs whose level, grown, stays below its separation (before it in this order) or
+    // at or below it (after it), and before it the pairs whose first points already
+    // bound them below it (the proof of `EdgeMemory::search`, the same here).
     let (mut skip, mut record, mut served) = (0, None, None);
     let mut first = (usize::MAX, None, f32::NEG_INFINITY);
     if let Some((m, q, t)) = memory {
