@@ -96,13 +96,25 @@ fn support(s: &Shape, q: Quat, dir: Vec3) -> f32 {
 /// slowly while B slides across A: face, edge and vertex contacts in turn, separating and
 /// touching again. The caller's bound is decreased by twice a true bound of the motion
 /// (as the simulation does), so the remembered paths run as long as the contract lets them.
-/// Returns (steps whose hint was an edge contact, steps that touched).
-fn run_touching(a: &Shape, b: &Shape, rng: &mut Rng, spin: f32, steps: usize) -> (usize, usize) {
+/// With `about_line`, B turns about the line of centres (so that the edge pairs of an edge
+/// contact take turns winning). Returns (steps whose hint was an edge contact, steps that
+/// touched, edge contacts whose normal turned by more than 1e-3 rad since the step before,
+/// itself an edge contact: the winning edge pair changed).
+fn run_touching(
+    a: &Shape,
+    b: &Shape,
+    rng: &mut Rng,
+    spin: f32,
+    steps: usize,
+    about_line: bool,
+) -> (usize, usize, usize) {
     let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
     let dir = rng.unit();
     let slide = rng.unit().cross(dir).normalize_or_zero();
     let (mut qa, mut qb) = (rng.rotation(), rng.rotation());
     let (wa, wb) = (rng.unit(), rng.unit());
+    let wb = if about_line { dir } else { wb };
+    let (mut switches, mut last_edge): (usize, Option<Vec3>) = (0, None);
     let mut memory = EdgeMemory::default();
     let (mut hint_m, mut bound_m) = (NO_HINT, 0.0f32);
     let (mut hint, mut bound) = (NO_HINT, 0.0f32);
@@ -154,11 +166,17 @@ fn run_touching(a: &Shape, b: &Shape, rng: &mut Rng, spin: f32, steps: usize) ->
             "step {k}: bounds differ"
         );
         touching += with.is_some() as usize;
-        edges += (hint == narrow::HINT_EDGE_CONTACT) as usize;
+        let edge = hint == narrow::HINT_EDGE_CONTACT;
+        edges += edge as usize;
+        let normal = with.filter(|_| edge).map(|m| m.normal);
+        if let (Some(n), Some(before)) = (normal, last_edge) {
+            switches += (n.angle_between(before) > 1e-3) as usize;
+        }
+        last_edge = normal;
         qa = (Quat::from_axis_angle(wa, 0.1 * spin) * qa).normalize();
         qb = (Quat::from_axis_angle(wb, spin) * qb).normalize();
     }
-    (edges, touching)
+    (edges, touching, switches)
 }
 
 /// Pairs kept touching with small overlaps, where the edge searches' floors are close to
@@ -174,7 +192,7 @@ fn touching_pairs_turning_slowly_keep_their_answers() {
         for sb in &shapes {
             for spin in [2e-5, 3e-4, 3e-3] {
                 for _ in 0..2 {
-                    let (e, t) = run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300);
+                    let (e, t, _) = run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300, false);
                     (edges, touching, total) = (edges + e, touching + t, total + 300);
                 }
             }
@@ -184,4 +202,30 @@ fn touching_pairs_turning_slowly_keep_their_answers() {
     // Most steps touch, and a good share of them are remembered edge contacts.
     assert!(touching * 2 > total, "{touching} of {total} touching");
     assert!(edges * 10 > touching, "{edges} edge contacts of {touching}");
+}
+
+/// Edge contacts whose winning edge pair changes while the memory serves: B turns about
+/// the line of centres (slowly enough for the memories to hold for many steps), so another
+/// edge pair rises to the winner's separation and overtakes it, through the range where
+/// the searches leave pairs out below the last winner's separation (evaluated first) and
+/// where ties are decided by the search's order. Every step's manifold, hint and bound
+/// bitwise those without memory and of the full test.
+#[test]
+fn edge_pairs_overtaking_the_winner_keep_their_answers() {
+    let shapes = shapes();
+    let mut rng = Rng(4242);
+    let (mut edges, mut switches) = (0, 0);
+    for sa in &shapes {
+        for sb in &shapes {
+            for spin in [1e-3, 4e-3] {
+                for _ in 0..2 {
+                    let (e, _, w) = run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300, true);
+                    (edges, switches) = (edges + e, switches + w);
+                }
+            }
+        }
+    }
+    println!("{edges} edge contacts, {switches} with a new winning pair");
+    // Winners changed often within edge contacts, not only between contacts.
+    assert!(switches * 20 > edges, "{switches} new winners of {edges}");
 }

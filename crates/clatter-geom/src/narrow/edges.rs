@@ -2,7 +2,7 @@
 
 use glam::{Quat, Vec3, Vec4};
 
-use super::memory::{DeepPairs, EdgeMemory, TURN};
+use super::memory::{DeepPairs, EdgeMemory, Served, TURN};
 use super::sat::{EdgeAxis, Extent, SoaPoints};
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
@@ -138,6 +138,9 @@ pub(super) fn edge_axes_gauss_map(
             }
             if s > best_e.0 {
                 best_e = (s, ea, eb, axis);
+                if let Some(m) = memory.as_deref_mut() {
+                    m.note_winner(ea, eb);
+                }
             }
         }
     }
@@ -348,6 +351,40 @@ fn crossing_candidates(row: &[Vec4], nfb: usize, by_face: &[u64; 64]) -> u64 {
     (edges_of(plus, xor) & edges_of(minus, xor)) | edges_of(all & !(plus | minus), or)
 }
 
+/// Direction pair `ua`, `wb` (unit directions of A's and B's edges in A's frame) as
+/// [`edge_axes_by_direction`] evaluates it when it does not leave it out: its separation
+/// (the larger of B pushed along the axis and against it) and that axis, or `None` for
+/// near-parallel directions. The same arithmetic in the same order, so the same bits (keep
+/// the two in step).
+#[inline]
+fn direction_pair(
+    ua: Vec3,
+    wb: Vec3,
+    a_local: &SoaPoints,
+    b_soa: &SoaPoints,
+    head_a: usize,
+    head_b: usize,
+) -> Option<(f32, Vec3)> {
+    let axis = ua.cross(wb);
+    let len2 = axis.length_squared();
+    if len2 < 1e-10 {
+        return None;
+    }
+    let axis = axis / len2.sqrt();
+    let (mut ext_a, mut ext_b) = (Extent::new(), Extent::new());
+    a_local.extent(axis, 0..head_a, &mut ext_a);
+    b_soa.extent(axis, 0..head_b, &mut ext_b);
+    a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
+    b_soa.extent(axis, head_b..b_soa.chunks(), &mut ext_b);
+    let (min_a, max_a) = (ext_a.min(), ext_a.max());
+    let (min_b, max_b) = (ext_b.min(), ext_b.max());
+    Some(if min_b - max_a >= min_a - max_b {
+        (min_b - max_a, axis)
+    } else {
+        (min_a - max_b, -axis)
+    })
+}
+
 /// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
 /// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
 /// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
@@ -369,15 +406,6 @@ pub(super) fn edge_axes_by_direction(
     separation: &mut f32,
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
-    // The pairs a memory found deep, left out while they cannot reach the floor (see
-    // `DeepPairs`); a memory that serves none records this search.
-    let (skip, mut record) = match memory {
-        Some((m, q, t)) => match m.deep_pairs(a, b, q, t, floor) {
-            0 => (0, m.start_directions(a, b, q, t).then_some(m)),
-            deep => (deep, None),
-        },
-        None => (0, None),
-    };
     let (radii, ndb) = (a.radius + b.radius, b.edge_dirs.len());
     // B's directions rotated once (the same products as per pair, so the same bits).
     let dirs_b = &mut tables.dirs_b;
@@ -385,11 +413,68 @@ pub(super) fn edge_axes_by_direction(
     dirs_b.extend(b.edge_dirs.iter().map(|ub| rot * *ub));
     let dirs_b: &[Vec3] = dirs_b;
     let (head_a, head_b) = (a_local.chunks().min(1), b_soa.chunks().min(1));
+    // The pairs a memory found deep, left out while they cannot reach the floor (see
+    // `DeepPairs`); a memory that serves none records this search. One that serves
+    // evaluates the last search's winner first and, when it passes, leaves out more: the
+    // pairs whose level, grown, stays below its separation (before it in this order) or
+    // at or below it (after it), and before it the pairs whose first points already
+    // bound them below it (the proof of `EdgeMemory::search`, the same here).
+    let (mut skip, mut record, mut served) = (0, None, None);
+    let mut first = (usize::MAX, None, f32::NEG_INFINITY);
+    if let Some((m, q, t)) = memory {
+        match m.deep_pairs(a, b, q, t, floor) {
+            None => record = m.start_directions(a, b, q, t).then_some(&mut *m),
+            Some(Served {
+                skip: deep,
+                top,
+                grown,
+                winner,
+            }) => {
+                skip = deep;
+                let pair = |k: usize| {
+                    let (ia, ib) = (k / ndb.max(1), k % ndb.max(1));
+                    let (ua, wb) = (a.edge_dirs.get(ia)?, dirs_b.get(ib)?);
+                    direction_pair(*ua, *wb, a_local, b_soa, head_a, head_b)
+                };
+                let found = if winner < a.edge_dirs.len() * ndb && (skip >> winner) & 1 == 0 {
+                    pair(winner)
+                } else {
+                    None
+                };
+                if let Some((s, _)) = found {
+                    // (Written so that a NaN does not serve.)
+                    if s <= 0.0 && s > floor {
+                        // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
+                        let below = DeepPairs::top(top, grown, radii, s.next_down());
+                        let after = DeepPairs::top(below, grown, radii, s);
+                        // Bits of the pairs before the winner, and after it.
+                        let early = (1u128 << winner) - 1;
+                        let late = !early & !(1u128 << winner);
+                        skip |= (m.up_to(below) & early) | (m.up_to(after) & late);
+                        first = (winner, found, s.next_down());
+                    }
+                }
+                served = Some(m);
+            }
+        }
+    }
+    // Pair `k`'s bit (0 from the 129th pair on: those are never left out).
+    let mut bit = 1u128;
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
         for (ib, &wb) in dirs_b.iter().enumerate() {
             let k = ia * ndb + ib;
-            let bit = 1u128.checked_shl(k as u32).unwrap_or(0);
-            if skip & bit != 0 {
+            let skipped = skip & bit != 0;
+            bit <<= 1;
+            if skipped {
+                continue;
+            }
+            if k == first.0 {
+                // The winner, evaluated first: the same answer as here.
+                if let Some((s, axis)) = first.1
+                    && s > best.0
+                {
+                    best = (s, ia, ib, axis);
+                }
                 continue;
             }
             let axis = ua.cross(wb);
@@ -409,7 +494,13 @@ pub(super) fn edge_axes_by_direction(
             let (mut ext_a, mut ext_b) = (Extent::new(), Extent::new());
             a_local.extent(axis, 0..head_a, &mut ext_a);
             b_soa.extent(axis, 0..head_b, &mut ext_b);
+            // (Before the winner evaluated first, `first.2`: just below its separation.)
             let low = if floor > best.0 { floor } else { best.0 };
+            let low = if k < first.0 && first.2 > low {
+                first.2
+            } else {
+                low
+            };
             let (head_plus, head_minus) = (ext_b.min() - ext_a.max(), ext_a.min() - ext_b.max());
             if head_plus <= low && head_minus <= low {
                 // (These bound the separations from above.)
@@ -464,6 +555,9 @@ pub(super) fn edge_axes_by_direction(
     }
     if let Some(m) = record.take() {
         m.finish_directions(a, b);
+        m.note_direction_winner(best.1 * ndb + best.2);
+    } else if let Some(m) = served {
+        m.note_direction_winner(best.1 * ndb + best.2);
     }
     if best.0 == f32::NEG_INFINITY {
         return Some(best);

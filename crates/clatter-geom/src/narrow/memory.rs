@@ -61,22 +61,25 @@ pub struct EdgeMemory {
     shapes: [usize; 2],
     /// B's rotation relative to A at the recorded search.
     rot: Quat,
-    /// By Gauss map, the pairs remembered, `[edge of A, edge of B]`, in increasing order; by
-    /// direction, the level code of each direction pair in `deep` (see [`DeepPairs`]), one
-    /// byte per pair.
+    /// By Gauss map, the pairs remembered, `[edge of A, edge of B]`, in increasing order.
     pairs: [[u8; 2]; CAPACITY],
     len: u8,
     /// Whether this is a memory of the search by direction (see [`DeepPairs`]).
     directions: bool,
-    /// B's offset in A's frame at the recorded search ...
+    /// B's offset in A's frame at the recorded search.
     offset: Vec3,
-    /// ... and, by direction, the direction pairs remembered at some depth then, a bit per
-    /// pair `ia * (B's directions) + ib` (their levels in `pairs`).
-    deep: u128,
-    /// By Gauss map, the level code of each remembered edge pair (see [`DeepPairs`]; 0 when
-    /// the pair is always visited): a pair found at some depth is left out of later
-    /// searches while it cannot rise above the search's floor (see [`EdgeMemory::search`]).
-    codes: [u8; CAPACITY],
+    /// The pairs remembered at each level code `c` (1 to [`LEVELS`], at `c - 1`; see
+    /// [`DeepPairs`]), a bit per pair: by Gauss map, per index in `pairs` (a pair at no
+    /// level is always visited); by direction, per direction pair `ia * (B's directions) +
+    /// ib`. A pair found at some depth is left out of later searches while it cannot rise
+    /// above the search's floor (see [`EdgeMemory::search`]): those of a few sets joined,
+    /// not found one remembered pair at a time.
+    levels: [u128; LEVELS as usize],
+    /// By Gauss map, the index in `pairs` of the pair that won the last search; by
+    /// direction, the direction pair `ia * (B's directions) + ib` that won it ([`NONE`]:
+    /// none): evaluated first at the next (see [`EdgeMemory::search`] and
+    /// [`EdgeMemory::deep_pairs`]).
+    winner: u8,
     /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
     /// what the sphere's faces, edges and margins are (see `super::sphere`).
     sphere: SphereMemory,
@@ -84,6 +87,9 @@ pub struct EdgeMemory {
 
 /// The second shape address of a memory of the sphere kind (no polyhedron lives at 1).
 const SPHERE: usize = 1;
+
+/// No winning pair remembered (see `EdgeMemory::winner`; above every index of `pairs`).
+const NONE: u8 = u8::MAX;
 
 impl Default for EdgeMemory {
     fn default() -> Self {
@@ -94,8 +100,8 @@ impl Default for EdgeMemory {
             len: 0,
             directions: false,
             offset: Vec3::ZERO,
-            deep: 0,
-            codes: [0; CAPACITY],
+            levels: [0; LEVELS as usize],
+            winner: NONE,
             sphere: SphereMemory::default(),
         }
     }
@@ -174,7 +180,18 @@ impl EdgeMemory {
         self.rot = rot;
         self.offset = t;
         self.directions = false;
+        self.winner = NONE;
+        self.levels = [0; LEVELS as usize];
         true
+    }
+
+    /// Notes, while recording, that pair `(ea, eb)`, the last recorded, is the best so far
+    /// (a pair that is not the last recorded is not noted: the winner is then unknown).
+    #[inline]
+    pub(super) fn note_winner(&mut self, ea: usize, eb: usize) {
+        let last = self.len.wrapping_sub(1);
+        let named = self.pairs.get(last as usize) == Some(&[ea as u8, eb as u8]);
+        self.winner = if self.len > 0 && named { last } else { NONE };
     }
 
     /// Records pair `(ea, eb)` unless the Gauss-map tests fail for it by more than [`TURN`]
@@ -204,7 +221,10 @@ impl EdgeMemory {
             return false;
         }
         self.pairs[len] = [ea as u8, eb as u8];
-        self.codes[len] = code();
+        let code = code();
+        if code != 0 {
+            self.levels[code as usize - 1] |= 1 << len;
+        }
         self.len += 1;
         true
     }
@@ -224,9 +244,21 @@ impl EdgeMemory {
     /// search returns it (every pair left out is at or below `floor`: it neither separates,
     /// nor wins, nor ties the winner); else some axis at or below `floor` is (or none,
     /// with separation `-inf`).
+    ///
+    /// **Winner first**: the pair that won the last search is evaluated first. When it
+    /// passes the tests with a separation `s_w` above `floor` and not positive, the best
+    /// separation is at least `s_w`, and the pairs whose level plus growth stays below `s_w`
+    /// (those before the winner in the search's order) or at or below it (those after) are
+    /// left out too: such a pair, if it passes the tests, has a separation below `s_w` (it
+    /// neither separates nor wins, as the winner's is larger), or at most `s_w` and comes
+    /// after the winner (the first of equals wins: it does not win a tie with the winner,
+    /// nor with any pair of the same separation, which comes before it or is the winner).
+    /// The winner itself is always visited, in its place, with the same result (the same
+    /// function of the same inputs), so the search returns bitwise what it returns without
+    /// this.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn search(
-        &self,
+        &mut self,
         a: &ConvexPolyhedron,
         b: &ConvexPolyhedron,
         (q, t): (Quat, Vec3),
@@ -238,32 +270,61 @@ impl EdgeMemory {
         separation: &mut f32,
     ) -> Option<EdgeAxis> {
         let mut best_e = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
+        let mut best_at = NONE;
         let mut current = None;
-        let top = self.top_level(a, b, q, t, floor);
+        let grown = self.growth(a, b, q, t);
+        let r = a.radius + b.radius;
         let len = self.len as usize;
-        for (&[ea, eb], &code) in self.pairs[..len].iter().zip(&self.codes[..len]) {
-            // (Code 0: never left out.)
-            if code.wrapping_sub(1) < top {
-                continue;
-            }
+        // The pairs to visit, by index (those at no level always).
+        let all = u128::MAX.checked_shr(128 - len as u32).unwrap_or(0);
+        let top = DeepPairs::top(0, grown, r, floor);
+        let mut todo = all & !self.up_to(top);
+        // The winner first (`first`: its index and answer), if it is visited: then the
+        // pairs before it at levels whose growth stays below its separation, and those
+        // after it at levels whose growth stays at or below it, are not.
+        let mut first = (usize::MAX, None);
+        let w = self.winner as usize;
+        if w < len && (todo >> w) & 1 != 0 {
+            let [ea, eb] = self.pairs[w];
             let (ea, eb) = (ea as usize, eb as usize);
-            let (side_a, arc) = match current {
-                Some((e, side_a, arc)) if e == ea => (side_a, arc),
-                _ => {
-                    let next = (EdgeOfA::new(a, ea), inv_rot * a.edge_arcs[ea]);
-                    current = Some((ea, next.0, next.1));
-                    next
+            let side = (EdgeOfA::new(a, ea), inv_rot * a.edge_arcs[ea]);
+            current = Some((ea, side.0, side.1));
+            let found = evaluate(b, rot, bv, side, eb);
+            if let Some((s, _)) = found {
+                // (Written so that a NaN does not serve.)
+                if s <= 0.0 && s > floor {
+                    let early = (1u128 << w) - 1;
+                    let late = all & !early & !(1u128 << w);
+                    // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
+                    let below = DeepPairs::top(top, grown, r, s.next_down());
+                    let (before, after) = (
+                        self.up_to(below),
+                        self.up_to(DeepPairs::top(below, grown, r, s)),
+                    );
+                    todo &= !((before & early) | (after & late));
+                    first = (w, found);
                 }
+            }
+        }
+        // In increasing order, as the whole search.
+        while todo != 0 {
+            let i = todo.trailing_zeros() as usize;
+            todo &= todo - 1;
+            let [ea, eb] = self.pairs[i];
+            let (ea, eb) = (ea as usize, eb as usize);
+            let found = if i == first.0 {
+                first.1
+            } else {
+                let side = match current {
+                    Some((e, side_a, arc)) if e == ea => (side_a, arc),
+                    _ => {
+                        let next = (EdgeOfA::new(a, ea), inv_rot * a.edge_arcs[ea]);
+                        current = Some((ea, next.0, next.1));
+                        next
+                    }
+                };
+                evaluate(b, rot, bv, side, eb)
             };
-            let [fb0, fb1] = b.edge_faces[eb];
-            // The products of the whole search's rows (`-(n . arc)` summed in `dot`'s
-            // order) and of its rotated arcs of B.
-            let product = |f: u32| {
-                let n = b.faces[f as usize].normal;
-                -(n.x * arc.x + n.y * arc.y + n.z * arc.z)
-            };
-            let arc_b = rot * b.edge_arcs[eb];
-            let found = side_a.pair_axis(b, bv, eb, product(fb0), product(fb1), arc_b);
             let Some((s, axis)) = found else {
                 continue;
             };
@@ -273,10 +334,46 @@ impl EdgeMemory {
             }
             if s > best_e.0 {
                 best_e = (s, ea, eb, axis);
+                best_at = i as u8;
             }
         }
+        self.winner = best_at;
         Some(best_e)
     }
+}
+
+/// Edge `eb` of B against the edge of A in `side` (its [`EdgeOfA`] and its arc in B's
+/// frame), through the Gauss-map tests: [`EdgeOfA::pair_axis`] from the products of the
+/// whole search's rows (`-(n . arc)` summed in `dot`'s order) and of its rotated arcs of
+/// B (`rot` B's rotation in A's frame, `bv` B's vertices there).
+#[inline(always)]
+fn evaluate(
+    b: &ConvexPolyhedron,
+    rot: Mat3,
+    bv: &[Vec3],
+    (side_a, arc): (EdgeOfA, Vec3),
+    eb: usize,
+) -> Option<(f32, Vec3)> {
+    let [fb0, fb1] = b.edge_faces[eb];
+    let product = |f: u32| {
+        let n = b.faces[f as usize].normal;
+        -(n.x * arc.x + n.y * arc.y + n.z * arc.z)
+    };
+    let arc_b = rot * b.edge_arcs[eb];
+    side_a.pair_axis(b, bv, eb, product(fb0), product(fb1), arc_b)
+}
+
+/// What a search by direction takes of a memory that serves it
+/// ([`EdgeMemory::deep_pairs`]).
+pub(super) struct Served {
+    /// The direction pairs that may be left out below the search's floor (a bit per pair).
+    pub(super) skip: u128,
+    /// The highest level code left out below the floor ([`DeepPairs::top`]).
+    pub(super) top: u8,
+    /// The most a remembered pair's separation can have grown since the recording.
+    pub(super) grown: f32,
+    /// The direction pair that won the last search (128 or more: none).
+    pub(super) winner: usize,
 }
 
 /// How many depth levels a direction pair can be remembered at (see [`DeepPairs`]): level
@@ -349,6 +446,25 @@ impl DeepPairs {
         len2 >= 0.04
     }
 
+    /// The highest level code whose pairs may be left out of a search with floor `floor`
+    /// for bodies whose radii sum to `r`, their separations grown by at most `grown` since
+    /// the recording (`EdgeMemory::growth`): codes 1 to this have levels that, grown, stay
+    /// at or below `floor` (0: none).
+    ///
+    /// `from`: a code known to qualify (0, or this function's answer for a lower floor):
+    /// the levels rise with the code, and so do they grown (rounding is monotonic), so the
+    /// codes that qualify are 1 to some top, and the count starts at `from`.
+    #[inline]
+    pub(super) fn top(from: u8, grown: f32, r: f32, floor: f32) -> u8 {
+        // The deepest levels that still reach no higher than the floor: codes 1 to `top`
+        // (levels rise with the code). (Written so that a NaN serves nothing.)
+        let mut top = from;
+        while top < LEVELS && Self::level(top + 1, r) + grown <= floor {
+            top += 1;
+        }
+        top
+    }
+
     /// Whether a Gauss-map edge pair's axis is far enough from A's centre to keep its turn
     /// while the memory serves (`h = n . pa0`, `r_a` A's radius; see above).
     #[inline]
@@ -358,11 +474,11 @@ impl DeepPairs {
 }
 
 impl EdgeMemory {
-    /// The direction pairs that a search of `a` against `b` by direction, at relative
-    /// rotation `rot` and offset `t` with floor `floor`, may leave out (see [`DeepPairs`]):
-    /// 0 when the memory does not serve (the search then records anew). (Recording anew
-    /// once fewer than half the remembered pairs were served cost more instructions on the
-    /// settled cube and mixed piles than serving them to the last.)
+    /// What a search of `a` against `b` by direction, at relative rotation `rot` and offset
+    /// `t` with floor `floor`, may take of this memory (see [`DeepPairs`]): `None` when it
+    /// serves no pair (the search then records anew). (Recording anew once fewer than half
+    /// the remembered pairs were served cost more instructions on the settled cube and
+    /// mixed piles than serving them to the last.)
     pub(super) fn deep_pairs(
         &self,
         a: &ConvexPolyhedron,
@@ -370,53 +486,45 @@ impl EdgeMemory {
         rot: Quat,
         t: Vec3,
         floor: f32,
-    ) -> u128 {
+    ) -> Option<Served> {
         if self.shapes != [address(a), address(b)] || !self.directions || !unit(rot) {
-            return 0;
+            return None;
         }
-        let top = self.top_level(a, b, rot, t, floor);
-        if top == 0 {
-            return 0;
-        }
-        let codes = self.pairs.as_flattened();
-        let (mut bits, mut served) = (self.deep, 0u128);
-        while bits != 0 {
-            let k = bits.trailing_zeros();
-            if codes[k as usize] <= top {
-                served |= 1 << k;
-            }
-            bits &= bits - 1;
-        }
-        served
+        let grown = self.growth(a, b, rot, t);
+        let r = a.radius + b.radius;
+        let top = DeepPairs::top(0, grown, r, floor);
+        let skip = self.up_to(top);
+        (skip != 0).then_some(Served {
+            skip,
+            top,
+            grown,
+            winner: self.winner as usize,
+        })
     }
 
-    /// The highest level code whose pairs may be left out of a search of `a` against `b`
-    /// at relative rotation `rot` and offset `t` with floor `floor`: codes 1 to this have
-    /// levels that, with the most a separation can have grown since the recording (see
-    /// [`DeepPairs`]), stay at or below `floor` (0: none). `rot` must be a unit rotation
-    /// (the callers check it).
+    /// The pairs at levels 1 to `top` (none when `top` is 0; see `levels`).
     #[inline]
-    fn top_level(
-        &self,
-        a: &ConvexPolyhedron,
-        b: &ConvexPolyhedron,
-        rot: Quat,
-        t: Vec3,
-        floor: f32,
-    ) -> u8 {
+    pub(super) fn up_to(&self, top: u8) -> u128 {
+        let top = (top as usize).min(LEVELS as usize);
+        self.levels[..top].iter().fold(0, |set, level| set | level)
+    }
+
+    /// Notes direction pair `k` (below 128) as the winner of a search by direction.
+    #[inline]
+    pub(super) fn note_direction_winner(&mut self, k: usize) {
+        self.winner = if k < 128 { k as u8 } else { NONE };
+    }
+
+    /// The most a remembered pair's separation can have grown since the recording (see
+    /// [`DeepPairs`]) for `a` against `b` at relative rotation `rot` (a unit rotation: the
+    /// callers check it) and offset `t`.
+    #[inline]
+    fn growth(&self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat, t: Vec3) -> f32 {
         let c = 2.0 * (self.rot.conjugate() * rot).xyz().length() + 4e-5;
         let moved = (t - self.offset).length();
         let lever = a.radius + b.radius + t.length() + moved;
         let turned = 11.0 * c + 4e-5;
-        let grown = (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01;
-        // The deepest levels that still reach no higher than the floor: codes 1 to `top`
-        // (levels rise with the code). (Written so that a NaN serves nothing.)
-        let r = a.radius + b.radius;
-        let mut top = 0;
-        while top < LEVELS && DeepPairs::level(top + 1, r) + grown <= floor {
-            top += 1;
-        }
-        top
+        (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01
     }
 
     /// Starts recording a search by direction of `a` against `b` at `rot` and offset `t`;
@@ -433,7 +541,9 @@ impl EdgeMemory {
         if a.edge_dirs.len() * b.edge_dirs.len() > 128 || !unit(rot) || !t.is_finite() {
             return false;
         }
-        (self.rot, self.offset, self.directions, self.deep) = (rot, t, true, 0);
+        (self.rot, self.offset, self.directions, self.winner) = (rot, t, true, NONE);
+        // No pair at any level yet.
+        self.levels = [0; LEVELS as usize];
         true
     }
 
@@ -441,8 +551,7 @@ impl EdgeMemory {
     /// `code` ([`DeepPairs::code`], not 0).
     #[inline]
     pub(super) fn record_depth(&mut self, k: usize, code: u8) {
-        self.pairs.as_flattened_mut()[k] = code;
-        self.deep |= 1 << k;
+        self.levels[code as usize - 1] |= 1 << k;
     }
 
     /// Ends a recording by direction that went through every direction pair.
