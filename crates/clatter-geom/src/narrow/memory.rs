@@ -21,7 +21,9 @@ const CAPACITY: usize = 128;
 /// How far the Gauss-map tests' products must be from zero at the recorded rotation for a
 /// pair to be left out of the memory (the products are of unit normals with arcs of
 /// length at most 1). The memory holds while twice the sine of half the angle turned since
-/// (the largest move of a unit vector) stays below this, less [`ROUNDING`].
+/// (the largest move of a unit vector) stays below this, less [`ROUNDING`]. 0.01 measured
+/// cheapest overall (BENCHMARKS.md, poly9): 0.005 and 0.0025 save under 1% on a settled
+/// pile but cost 3.5% and 11% while the default scene pours; 0.02 costs more on both.
 pub(super) const TURN: f32 = 0.01;
 
 /// The rounding allowed for: of each product, at the recorded rotation and now (a few ulps
