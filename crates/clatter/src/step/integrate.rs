@@ -85,7 +85,8 @@ pub(super) fn run_in(world: &mut World, lanes: bool) -> Moved {
             };
             #[cfg(target_arch = "x86_64")]
             if lanes {
-                assert!(super::avx2());
+                // The CPU, not `avx2()`'s switch, which another thread may turn off meanwhile.
+                assert!(super::cpu_has_avx2());
                 // SAFETY: the CPU has AVX2.
                 return unsafe { super::integrate_lanes::chunk(&ctx, bodies) };
             }

@@ -63,8 +63,10 @@ pub fn set_avx2(on: bool) {
     AVX2.store(if on { 2 } else { 1 }, Ordering::Relaxed);
 }
 
-/// Whether this CPU has AVX2.
-fn cpu_has_avx2() -> bool {
+/// Whether this CPU has AVX2, whatever [`set_avx2`] says: the condition for running an
+/// AVX2 build at all (a stage that chose its lanes from [`avx2`] may meet the switch turned
+/// off by another thread meanwhile, which is harmless: both builds give the same bits).
+pub(super) fn cpu_has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")
