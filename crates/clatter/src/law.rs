@@ -535,11 +535,31 @@ pub fn contact_force(
     history: &mut Vec3,
     twist: &mut f32,
 ) -> ContactForce {
+    contact_force_in::<false>(c, manifold, a, b, history, twist)
+}
+
+/// [`contact_force`] for a caller that knows whether the pair's law is plain
+/// ([`is_plain`]): with `PLAIN = true` the tests for the Hertz law, cohesion, rolling and
+/// spinning resistance are left out, in the one-point law ([`point_contact_force_in`]) and
+/// in the patch law alike. The same operations on the same values otherwise, so the same
+/// bits as [`contact_force`] for plain parameters (other parameters must use
+/// `PLAIN = false`). The polyhedron piles' contact stage calls it with `PLAIN = true` when
+/// every material pair is plain, as the sphere stages do.
+#[inline]
+pub fn contact_force_in<const PLAIN: bool>(
+    c: &PairContext,
+    manifold: &Manifold,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    history: &mut Vec3,
+    twist: &mut f32,
+) -> ContactForce {
+    debug_assert!(!PLAIN || is_plain(&c.params));
     let (p, m_eff, r_eff, share, dt) = (&c.params, c.m_eff, c.r_eff, c.share, c.dt);
     let n = manifold.normal;
     if manifold.count == 1 {
         // The twist slot holds the normal coverage of one-point contacts.
-        return point_contact_force(c, n, manifold.points[0], a, b, history, twist);
+        return point_contact_force_in::<PLAIN>(c, n, manifold.points[0], a, b, history, twist);
     }
     let pts = manifold.points();
     let inv_count = 1.0 / pts.len() as f32;
@@ -549,7 +569,7 @@ pub fn contact_force(
     let mut centroid = Vec3::ZERO;
     let mut mean_depth = 0.0;
     for (s, cp) in springs.iter_mut().zip(pts) {
-        *s = spring(p, r_eff, cp.depth, share);
+        *s = spring_in::<PLAIN>(p, r_eff, cp.depth, share);
         k_total += s.1;
         centroid += cp.point;
         mean_depth += cp.depth;
@@ -574,8 +594,8 @@ pub fn contact_force(
     }
     // One tangential spring for the whole patch, at its centroid.
     let share_total = share * pts.len() as f32;
-    let kt = tangential_stiffness::<false>(c, mean_depth, share_total);
-    let eta_t = tangential_damping::<false>(c, kt, eta_total);
+    let kt = tangential_stiffness::<PLAIN>(c, mean_depth, share_total);
+    let eta_t = tangential_damping::<PLAIN>(c, kt, eta_total);
     let vrel = b.point_velocity(centroid) - a.point_velocity(centroid);
     let ft = tangential_law(c, kt, n, vrel, out.normal_force, eta_t, history);
     out.force_b += ft;
@@ -605,7 +625,7 @@ pub fn contact_force(
         *twist = 0.0;
     }
     let normal_force = out.normal_force;
-    adhesion_and_rolling::<false>(c, n, centroid, (a, b), normal_force, &mut out);
+    adhesion_and_rolling::<PLAIN>(c, n, centroid, (a, b), normal_force, &mut out);
     out
 }
 
@@ -725,6 +745,89 @@ mod tests {
             );
             assert_eq!(c1.to_bits(), c2.to_bits(), "contact {k}");
         }
+    }
+
+    /// The plain patch law ([`contact_force_in`]`::<true>`) against the general one
+    /// ([`contact_force`], which tests for every model term) on random plain manifolds of one
+    /// to four points, polyhedron and sphere shares, sticking and sliding springs, twisting
+    /// springs capped and not: forces, springs and twists bitwise the same.
+    #[test]
+    fn the_plain_patch_law_gives_the_same_bits_on_plain_pairs() {
+        let plain = params(ContactLaw::Linear { stiffness: 2.0e4 });
+        assert!(is_plain(&plain));
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut vec = |scale: f32| Vec3::new(unit(), unit(), unit()) * scale;
+        let (mut patches, mut capped) = (0, 0);
+        for k in 0..40_000 {
+            let n = vec(1.0).try_normalize().unwrap_or(Vec3::Z);
+            let count = 1 + k % 4;
+            let share = if count == 1 && k % 8 == 0 {
+                SPHERE_POINT_SHARE
+            } else {
+                POLYHEDRON_POINT_SHARE
+            };
+            let c = PairContext {
+                params: plain,
+                m_eff: 0.01 * (1.5 + vec(1.0).y),
+                r_eff: 0.005,
+                share,
+                dt: 3.3e-5,
+            };
+            let mut m = Manifold {
+                normal: n,
+                count,
+                ..Default::default()
+            };
+            for cp in &mut m.points[..count] {
+                cp.depth = vec(1.0).x * 3e-4 + 1e-4;
+                cp.point = n * 0.01 + vec(0.004);
+            }
+            let a = BodyMotion {
+                position: Vec3::ZERO,
+                velocity: vec(0.5),
+                omega: vec(20.0),
+            };
+            let b = BodyMotion {
+                position: n * 0.02,
+                velocity: vec(0.5),
+                omega: vec(20.0),
+            };
+            let history = vec(2e-4);
+            let twist = match (count, k % 3) {
+                (1, 0) => 0.0,
+                (1, 1) => -1.0,
+                (1, _) => (vec(1.0).z + 1.0) * 1e-3,
+                _ => vec(0.05).x,
+            };
+            let (mut h1, mut t1) = (history, twist);
+            let (mut h2, mut t2) = (history, twist);
+            let general = contact_force(&c, &m, &a, &b, &mut h1, &mut t1);
+            let fast = contact_force_in::<true>(&c, &m, &a, &b, &mut h2, &mut t2);
+            assert_eq!(
+                bytemuck::bytes_of(&general),
+                bytemuck::bytes_of(&fast),
+                "manifold {k}"
+            );
+            assert_eq!(
+                h1.to_array().map(f32::to_bits),
+                h2.to_array().map(f32::to_bits),
+                "manifold {k}"
+            );
+            assert_eq!(t1.to_bits(), t2.to_bits(), "manifold {k}");
+            if count > 1 {
+                patches += 1;
+                // The twisting spring capped: it was reset to the cap.
+                capped += (t1 != twist + (b.omega - a.omega).dot(n) * c.dt) as usize;
+            }
+        }
+        // Both branches of the twisting law were exercised.
+        assert!(capped > 100 && capped < patches - 100, "{capped} of {patches}");
     }
 
     #[test]
