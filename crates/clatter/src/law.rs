@@ -570,7 +570,7 @@ pub fn contact_force(
 /// bits as [`contact_force`] for plain parameters (other parameters must use
 /// `PLAIN = false`). The polyhedron piles' contact stage calls it with `PLAIN = true` when
 /// every material pair is plain, as the sphere stages do.
-#[inline]
+#[inline(always)]
 pub fn contact_force_in<const PLAIN: bool>(
     c: &PairContext,
     manifold: &Manifold,
