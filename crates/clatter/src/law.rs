@@ -634,7 +634,11 @@ pub fn contact_force_in<const PLAIN: bool>(
     // Twisting about the normal, resisted over the patch radius.
     let r_patch = pts
         .iter()
-        .map(|cp| (Vec3A::from(cp.point) - centroid).reject_from_normalized(n_a).length())
+        .map(|cp| {
+            (Vec3A::from(cp.point) - centroid)
+                .reject_from_normalized(n_a)
+                .length()
+        })
         .sum::<f32>()
         * inv_count;
     if r_patch > 0.0 {
@@ -654,7 +658,12 @@ pub fn contact_force_in<const PLAIN: bool>(
     } else {
         *twist = 0.0;
     }
-    let mut out = ContactForce::new(force_b.into(), torque_a.into(), torque_b.into(), normal_force);
+    let mut out = ContactForce::new(
+        force_b.into(),
+        torque_a.into(),
+        torque_b.into(),
+        normal_force,
+    );
     let centroid = Vec3::from(centroid);
     let normal_force = out.normal_force;
     adhesion_and_rolling::<PLAIN>(c, n, centroid, (a, b), normal_force, &mut out);
@@ -859,7 +868,10 @@ mod tests {
             }
         }
         // Both branches of the twisting law were exercised.
-        assert!(capped > 100 && capped < patches - 100, "{capped} of {patches}");
+        assert!(
+            capped > 100 && capped < patches - 100,
+            "{capped} of {patches}"
+        );
     }
 
     /// The law as it was written with `Vec3` arithmetic (before `MotionA`): the reference the
@@ -1104,7 +1116,11 @@ mod tests {
                     contact_force(&c, &m, &a, &b, &mut h, &mut t)
                 };
                 let what = format!("manifold {k}, plain form {plain}");
-                assert_eq!(bytemuck::bytes_of(&got), bytemuck::bytes_of(&want), "{what}");
+                assert_eq!(
+                    bytemuck::bytes_of(&got),
+                    bytemuck::bytes_of(&want),
+                    "{what}"
+                );
                 assert_eq!(
                     h.to_array().map(f32::to_bits),
                     h0.to_array().map(f32::to_bits),
