@@ -511,8 +511,9 @@ fn release(
 }
 
 /// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`, `j` at offset
-/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any.
-#[inline]
+/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any. Inlined: called, it
+/// returned the manifold through memory, which its caller then copied twice more.
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn narrow_pair<const PIECES: bool>(
     w: &World,
