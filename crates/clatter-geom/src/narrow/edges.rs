@@ -459,15 +459,15 @@ pub(super) fn edge_axes_by_direction(
         }
     }
     // Pair `k`'s bit (0 from the 129th pair on: those are never left out).
-    let mut bit = 1u128;
+    // Visited row by row (A's direction), B's directions not left out taken from the row's
+    // bits in increasing order: the same pairs in the same order as testing each pair's
+    // bit, without a `u128` shift and test per pair.
     for (ia, &ua) in a.edge_dirs.iter().enumerate() {
-        for (ib, &wb) in dirs_b.iter().enumerate() {
-            let k = ia * ndb + ib;
-            let skipped = skip & bit != 0;
-            bit <<= 1;
-            if skipped {
-                continue;
-            }
+        let base = ia * ndb;
+        let row = if base < 128 { skip >> base } else { 0 };
+        for ib in RowPairs::new(row, ndb) {
+            let wb = dirs_b[ib];
+            let k = base + ib;
             if k == first.0 {
                 // The winner, evaluated first: the same answer as here.
                 if let Some((s, axis)) = first.1
@@ -584,4 +584,96 @@ pub(super) fn edge_axes_by_direction(
         }
     }
     Some((best.0, ea_best.1, eb_best.1, axis))
+}
+
+/// The indices `ib` in `0..ndb` of one row of direction pairs whose bit in `row` (bit `ib`:
+/// the row's part of a search's set of pairs left out, 0 from the set's 129th pair on) is
+/// clear, in increasing order.
+struct RowPairs {
+    /// The row's pairs below 128 not left out.
+    todo: u128,
+    /// The next pair from 128 on (never left out), and the row's end.
+    next: usize,
+    end: usize,
+}
+
+impl RowPairs {
+    #[inline(always)]
+    fn new(row: u128, ndb: usize) -> Self {
+        let low = if ndb >= 128 { !0 } else { (1u128 << ndb) - 1 };
+        RowPairs {
+            todo: !row & low,
+            next: 128,
+            end: ndb,
+        }
+    }
+}
+
+impl Iterator for RowPairs {
+    type Item = usize;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        if self.todo != 0 {
+            let ib = self.todo.trailing_zeros() as usize;
+            self.todo &= self.todo - 1;
+            return Some(ib);
+        }
+        if self.next < self.end {
+            self.next += 1;
+            return Some(self.next - 1);
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RowPairs;
+
+    /// The direction pairs `RowPairs` visits, row by row, against testing each pair's bit in
+    /// turn (`skip`'s bit `k` for pair `k = ia * ndb + ib`, none from the 129th pair on), on
+    /// random sets of left-out pairs and row lengths 0 to 200.
+    #[test]
+    fn row_pairs_visit_the_pairs_not_left_out_in_order() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for case in 0..3000 {
+            let skip = ((next() as u128) << 64 | next() as u128)
+                & ((next() as u128) << 64 | next() as u128);
+            let skip = if case % 7 == 0 { !0 } else { skip };
+            let nda = (next() % 12) as usize;
+            let ndb = if case % 5 == 0 {
+                (next() % 201) as usize
+            } else {
+                (next() % 20) as usize
+            };
+            let mut want = Vec::new();
+            let mut bit = 1u128;
+            for ia in 0..nda {
+                for ib in 0..ndb {
+                    let skipped = skip & bit != 0;
+                    bit <<= 1;
+                    if !skipped {
+                        want.push((ia, ib));
+                    }
+                }
+            }
+            let mut got = Vec::new();
+            for ia in 0..nda {
+                let base = ia * ndb;
+                let row = if base < 128 { skip >> base } else { 0 };
+                got.extend(RowPairs::new(row, ndb).map(|ib| (ia, ib)));
+            }
+            assert_eq!(
+                got, want,
+                "case {case}: nda {nda}, ndb {ndb}, skip {skip:#x}"
+            );
+        }
+    }
 }

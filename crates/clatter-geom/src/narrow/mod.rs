@@ -306,7 +306,10 @@ fn collide_plane_convex(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifol
                 return None;
             }
             let n_local = pose.rotation.conjugate() * n;
-            let mut buf = [(Vec3::ZERO, 0.0f32); 64];
+            // Room for the usual patch (a face's vertices) without an allocation; more go to
+            // `extra`, in the same order. Not 64: the whole buffer is zeroed on every call,
+            // which at 1 KiB cost more than the test of the vertices itself.
+            let mut buf = [(Vec3::ZERO, 0.0f32); 16];
             let mut count = 0;
             let mut extra = Vec::new();
             for &v in &p.vertices {

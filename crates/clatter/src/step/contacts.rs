@@ -61,7 +61,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .with_min_len(CHUNK)
                     .map(|(((((((p, pc), h), f), t), hn), tw), b)| {
                         let memo = None;
-                        body_pair::<true>(w, x, *p, *pc, h, f, t, hn, tw, b, memo) as usize
+                        body_pair::<true>(w, x, *p, *pc, h, f, t, hn, tw, b, memo, plain) as usize
                     })
                     .sum::<usize>();
             }
@@ -104,7 +104,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(memory.par_iter_mut())
                 .with_min_len(CHUNK)
                 .map(|(((((((p, h), f), t), hn), tw), b), m)| {
-                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b, Some(m)) as usize
+                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b, Some(m), plain) as usize
                 })
                 .sum::<usize>()
         },
@@ -121,7 +121,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(twist_walls.par_iter_mut())
                     .with_min_len(CHUNK)
                     .map(|(((((p, pc), h), f), t), tw)| {
-                        wall_pair::<true>(w, x, *p, *pc, h, f, t, tw, false) as usize
+                        wall_pair::<true>(w, x, *p, *pc, h, f, t, tw, plain) as usize
                     })
                     .sum::<usize>();
             }
@@ -234,6 +234,7 @@ pub(super) fn sphere_pair<const PLAIN: bool>(
 /// law sees the bodies' masses and motions (so torques are about each body's centre of
 /// mass) and the pieces' radii and point shares. `PIECES` is false in worlds without
 /// composites: the code is then the plain body-pair path, compiled without the piece lookups.
+/// `plain`: every pair's law is plain ([`law::is_plain`]), so the law's plain form serves.
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn body_pair<const PIECES: bool>(
@@ -248,6 +249,7 @@ fn body_pair<const PIECES: bool>(
     twist: &mut f32,
     bound: &mut f32,
     memory: Option<&mut EdgeMemory>,
+    plain: bool,
 ) -> bool {
     let pair = [i, j];
     let Some((d, found)) = remembered_narrow::<PIECES>(w, x, pair, pieces, hint, bound, memory)
@@ -263,14 +265,12 @@ fn body_pair<const PIECES: bool>(
             let ((ri, si), (rj, sj)) = (law_side::<PIECES>(w, i, pa), law_side::<PIECES>(w, j, pb));
             let share = law::point_share(si, sj);
             let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
-            *force = law::contact_force(
-                &context,
-                &m,
-                &w.local_motion(i),
-                &w.motion_at(j, d),
-                hist,
-                twist,
-            );
+            let (a, b) = (w.local_motion(i), w.motion_at(j, d));
+            *force = if plain {
+                law::contact_force_in::<true>(&context, &m, &a, &b, hist, twist)
+            } else {
+                law::contact_force_in::<false>(&context, &m, &a, &b, hist, twist)
+            };
             *touching = true;
         }
         None if *touching => release(force, hist, Some(twist), touching),
@@ -399,14 +399,12 @@ pub(super) fn wall_pair<const PIECES: bool>(
             let (r, sphere) = law_side::<PIECES>(w, i, piece);
             let share = law::point_share(sphere, sphere);
             let context = pair_context(w, params, w.consts.mass[i], r, share);
-            *force = law::contact_force(
-                &context,
-                &m,
-                &BodyMotion::default(),
-                &w.local_motion(i),
-                hist,
-                twist,
-            );
+            let (a, b) = (BodyMotion::default(), w.local_motion(i));
+            *force = if plain {
+                law::contact_force_in::<true>(&context, &m, &a, &b, hist, twist)
+            } else {
+                law::contact_force_in::<false>(&context, &m, &a, &b, hist, twist)
+            };
             *touching = true;
         }
         None if *touching => release(force, hist, Some(twist), touching),
@@ -513,8 +511,9 @@ fn release(
 }
 
 /// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`, `j` at offset
-/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any.
-#[inline]
+/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any. Inlined: called, it
+/// returned the manifold through memory, which its caller then copied twice more.
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn narrow_pair<const PIECES: bool>(
     w: &World,
