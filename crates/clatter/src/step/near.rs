@@ -1,0 +1,172 @@
+//! The **near list** of a spheres-only world: a second, contiguous contact list of the
+//! candidate pairs that can touch for a while, made from the broad phase's list
+//! (`Contacts`) and used by the contacts stage and the gather in its place while it lives.
+//!
+//! Why: the broad phase's list holds every pair within the Verlet skin (on a settled pile
+//! about 3.6 pairs per body, of which 2.3 touch), and the law's lanes and the gather read all
+//! of them every step. The near list holds only the pairs whose spheres are within `MARGIN`
+//! of the skin of touching when it is made, with their springs and forces copied into its
+//! own arrays (in list order, so eight near pairs are eight slots in a row) and its own
+//! gather tables; it is made again once any body has moved half that margin since.
+//!
+//! Why the same bits:
+//!
+//! - **Pairs outside it neither touch nor hold anything while it lives.** A pair is left
+//!   out only when its state is all zero bits (not touching, no force, no springs: what the
+//!   law leaves in a pair that does not touch) and its spheres were apart by at least
+//!   `MARGIN` when the list was made (the step's own `f32` offset and distance, with a
+//!   relative allowance for their rounding). While no body has moved more than half the
+//!   margin less that allowance (`f64`, from the positions at the making), the gap cannot
+//!   close, so the law would find such a pair apart every step and, as it was not touching,
+//!   write nothing (the lanes store +0, which it already holds).
+//! - **The gather's sums are unchanged.** `Contacts::gather4` and `gather8` start each sum
+//!   at +0 and add or subtract the forces of a body's contacts in list order. In
+//!   round-to-nearest a sum or difference is -0 only when both operands are -0 (a sum) or
+//!   -0 and +0 (a difference), so a sum started at +0 is never -0, and adding or
+//!   subtracting a +0 force leaves it unchanged: the pairs left out (forces +0) drop out of
+//!   the sums without changing a bit. The near list keeps each body's remaining contacts in
+//!   the same relative order (its pairs are the list's, sorted, and all wall pairs).
+//! - **Everything else reads the one list.** The near list is a cache: `Contacts::springs`
+//!   gives the list's springs with the near list's written in, and a rebuild, a checkpoint
+//!   restore, a GPU hand-over or a migration writes it back (`Contacts::end_near`) or drops
+//!   it before replacing the list.
+
+use glam::{DVec3, Vec3};
+
+use crate::contact_list::{ContactSprings, Contacts};
+use crate::contract::ContactForce;
+use crate::world::World;
+
+/// The near list's margin, as a fraction of the skin: pairs whose spheres are closer than
+/// this when it is made are in it.
+pub(crate) const MARGIN: f32 = 0.25;
+
+/// A near list (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct Near {
+    /// Per near body pair, its slot in the broad phase's list (ascending).
+    pub(crate) slots: Vec<u32>,
+    /// The near pairs and every wall pair of the broad phase's list, with their springs.
+    pub(crate) list: Contacts,
+    /// The bodies' positions when it was made.
+    made_at: Vec<DVec3>,
+    /// The squared distance any body may move from `made_at` while it lives.
+    reach2: f64,
+}
+
+impl Near {
+    /// Writes the near list's springs, forces and flags into `dst`, the broad phase's list's
+    /// (whose pairs outside the near list hold zeros).
+    pub(crate) fn write_back(&self, dst: &mut ContactSprings) {
+        let src = &self.list.springs;
+        let n = self.slots.len();
+        for (k, &s) in self.slots.iter().enumerate() {
+            let s = s as usize;
+            dst.history[s] = src.history[k];
+            dst.twist[s] = src.twist[k];
+            dst.forces[s] = src.forces[k];
+            dst.touching[s] = src.touching[k];
+        }
+        // The wall pairs: all of them, in the same order, after the body pairs in both.
+        let np = dst.hints.len();
+        dst.history[np..].copy_from_slice(&src.history[n..]);
+        dst.twist[np..].copy_from_slice(&src.twist[n..]);
+        dst.forces[np..].copy_from_slice(&src.forces[n..]);
+        dst.touching[np..].copy_from_slice(&src.touching[n..]);
+    }
+
+    /// Whether every body is still within reach of where it was when the list was made.
+    fn holds(&self, positions: &[DVec3]) -> bool {
+        positions.len() == self.made_at.len()
+            && positions
+                .iter()
+                .zip(&self.made_at)
+                .all(|(x, m)| (*x - *m).length_squared() <= self.reach2)
+    }
+}
+
+/// Whether `world` steps with a near list: spheres only (whose contacts keep no
+/// separating-axis hints, bounds or edge memories), a positive skin.
+fn applies(world: &World) -> bool {
+    world.spheres_only() && !world.has_composites() && world.skin > 0.0
+}
+
+/// Before the contacts stage (positions split): keeps the near list while it holds, else
+/// writes it back and makes a new one from the broad phase's list.
+pub(crate) fn update(world: &mut World) {
+    if !applies(world) {
+        world.contacts.end_near();
+        return;
+    }
+    // The springs change this step: the readers' copy is void.
+    world.contacts.view = std::sync::OnceLock::new();
+    if let Some(near) = &world.contacts.near
+        && near.holds(&world.state.position)
+    {
+        return;
+    }
+    world.contacts.end_near();
+    let near = make(world);
+    world.contacts.near = Some(Box::new(near));
+}
+
+/// A near list from the broad phase's list (whose springs are current) at the current
+/// positions.
+fn make(world: &World) -> Near {
+    let c = &world.contacts;
+    let sp = &c.springs;
+    let np = c.pairs.len();
+    let margin = MARGIN * world.skin;
+    let x = world.position_pairs.as_slice();
+    let radius = &world.consts.radius;
+    let zero_force = ContactForce::default();
+    let is_zero = |k: usize| {
+        !sp.touching[k]
+            && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
+            && sp.twist[k].to_bits() == 0
+            && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
+    };
+    let mut slots = Vec::with_capacity(np);
+    let mut pairs = Vec::with_capacity(np);
+    for (k, &[i, j]) in c.pairs.iter().enumerate() {
+        let (iu, ju) = (i as usize, j as usize);
+        // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
+        let d: Vec3 = world.offset_in(x, iu, ju);
+        let reach = radius[iu] + radius[ju] + margin;
+        // Not `<`: a NaN distance keeps the pair.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(d.length_squared() >= reach * reach) || !is_zero(k) {
+            slots.push(k as u32);
+            pairs.push([i, j]);
+        }
+    }
+    let n = slots.len();
+    let total = n + c.wall_pairs.len();
+    let mut history = Vec::with_capacity(total);
+    let mut twist = Vec::with_capacity(total);
+    let mut forces = Vec::with_capacity(total);
+    let mut touching = Vec::with_capacity(total);
+    for &s in &slots {
+        let s = s as usize;
+        history.push(sp.history[s]);
+        twist.push(sp.twist[s]);
+        forces.push(sp.forces[s]);
+        touching.push(sp.touching[s]);
+    }
+    history.extend_from_slice(&sp.history[np..]);
+    twist.extend_from_slice(&sp.twist[np..]);
+    forces.extend_from_slice(&sp.forces[np..]);
+    touching.extend_from_slice(&sp.touching[np..]);
+    let mut list = Contacts::new(world.len(), pairs, c.wall_pairs.clone(), history, twist);
+    list.springs.forces = forces;
+    list.springs.touching = touching;
+    // Half the margin, less an allowance for the rounding of the offsets and distances
+    // (relative errors of a few `f32` ulps of the largest reach) on both sides.
+    let reach = 0.5 * margin as f64 - 1e-5 * (2.0 * world.consts.max_radius() + margin) as f64;
+    Near {
+        slots,
+        list,
+        made_at: world.state.position.clone(),
+        reach2: if reach > 0.0 { reach * reach } else { -1.0 },
+    }
+}
