@@ -97,8 +97,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     })
                     .sum::<usize>();
             }
-            list
-                .pairs
+            list.pairs
                 .par_iter()
                 .zip(hist_pairs.par_iter_mut())
                 .zip(force_pairs.par_iter_mut())
@@ -129,8 +128,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     })
                     .sum::<usize>();
             }
-            list
-                .wall_pairs
+            list.wall_pairs
                 .par_chunks(CHUNK)
                 .zip(hist_walls.par_chunks_mut(CHUNK))
                 .zip(force_walls.par_chunks_mut(CHUNK))

@@ -88,6 +88,10 @@ impl Near {
 /// Whether `world` steps with a near list: spheres only (whose contacts keep no
 /// separating-axis hints, bounds or edge memories), a positive skin.
 fn applies(world: &World) -> bool {
+    #[cfg(test)]
+    if tests::OFF.with(|off| off.get()) {
+        return false;
+    }
     world.spheres_only() && !world.has_composites() && world.skin > 0.0
 }
 
@@ -168,5 +172,179 @@ fn make(world: &World) -> Near {
         list,
         made_at: world.state.position.clone(),
         reach2: if reach > 0.0 { reach * reach } else { -1.0 },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use crate::World;
+    use crate::checkpoint::Checkpoint;
+    use crate::contact_list::ContactSprings;
+    use crate::scene::Scene;
+
+    thread_local! {
+        /// This thread's worlds step without a near list (the reference).
+        pub(super) static OFF: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// Spheres of two sizes poured fast and slow into a box: pairs and wall contacts that
+    /// start, separate and touch again, bodies that cross half the near margin within a few
+    /// steps and others that settle.
+    const SCENE: &str = r#"
+[simulation]
+steps = 1
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+
+[[material]]
+name = "glass"
+density = 2500.0
+stiffness = 2.0e4
+restitution = 0.5
+friction = 0.5
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.05, 0.05, 0.08]
+material = "glass"
+
+[[shape]]
+name = "small"
+sphere = { radius = 0.003 }
+
+[[shape]]
+name = "large"
+sphere = { radius = 0.0045 }
+
+[[group]]
+shape = "small"
+material = "glass"
+random = { min = [0.004, 0.004, 0.004], max = [0.046, 0.046, 0.03], count = 140, seed = 3 }
+velocity = [0.0, 0.0, -0.05]
+
+[[group]]
+shape = "large"
+material = "glass"
+random = { min = [0.005, 0.005, 0.034], max = [0.045, 0.045, 0.05], count = 40, seed = 4 }
+velocity = [0.0, 0.0, 0.02]
+
+[[group]]
+shape = "small"
+material = "glass"
+random = { min = [0.004, 0.004, 0.056], max = [0.046, 0.046, 0.077], count = 50, seed = 5 }
+velocity = [0.8, -0.6, -2.5]
+"#;
+
+    fn world() -> World {
+        Scene::parse(SCENE, "near.toml")
+            .expect("valid scene")
+            .world()
+    }
+
+    /// Every bit of the bodies' state and of every contact's springs, force and flag.
+    fn bits(w: &World) -> (Vec<u64>, Vec<u32>) {
+        let s = &w.state;
+        let mut state = Vec::new();
+        for i in 0..w.len() {
+            state.extend(s.position[i].to_array().map(f64::to_bits));
+            state.extend(s.velocity[i].to_array().map(|v| v.to_bits() as u64));
+            state.extend(s.angular_momentum[i].to_array().map(|v| v.to_bits() as u64));
+        }
+        let ContactSprings {
+            history,
+            twist,
+            forces,
+            touching,
+            ..
+        } = w.contacts.springs();
+        let mut springs: Vec<u32> = w.contacts.pairs.iter().flatten().copied().collect();
+        springs.extend(history.iter().flat_map(|h| h.to_array().map(f32::to_bits)));
+        springs.extend(twist.iter().map(|t| t.to_bits()));
+        springs.extend(
+            forces
+                .iter()
+                .flat_map(|f| bytemuck::cast::<_, [u32; 12]>(*f)),
+        );
+        springs.extend(touching.iter().map(|&t| t as u32));
+        (state, springs)
+    }
+
+    fn reference_step(w: &mut World) -> usize {
+        OFF.with(|off| off.set(true));
+        let touching = w.step().expect("a stable run").contacts;
+        OFF.with(|off| off.set(false));
+        touching
+    }
+
+    /// The same steps with and without the near list: the bodies' states, every contact's
+    /// springs, forces and flags and the touching count bitwise equal after every step,
+    /// through near lists made again, rebuilds and a checkpoint taken while one lives.
+    #[test]
+    fn the_near_list_gives_the_full_lists_bits() {
+        let (mut near, mut full) = (world(), world());
+        let mut restored: Option<World> = None;
+        let (mut made, mut rebuilt_in_life, mut shorter, mut checkpointed) = (0, 0, 0, false);
+        let mut last_slots: Option<*const u32> = None;
+        for step in 0..1500 {
+            let before = near.rebuilds;
+            let alive = near.contacts.near.is_some();
+            let touching = near.step().expect("a stable run").contacts;
+            assert_eq!(
+                touching,
+                reference_step(&mut full),
+                "touching at step {step}"
+            );
+            let list = near
+                .contacts
+                .near
+                .as_ref()
+                .expect("a spheres world has a near list");
+            if last_slots != Some(list.slots.as_ptr()) {
+                made += 1;
+                last_slots = Some(list.slots.as_ptr());
+            }
+            if alive && near.rebuilds > before {
+                rebuilt_in_life += 1;
+            }
+            if list.slots.len() < near.contacts.pairs.len() {
+                shorter += 1;
+            }
+            assert!(
+                bits(&near) == bits(&full),
+                "the states differ after step {step}"
+            );
+            if let Some(r) = &mut restored {
+                let t = r.step().expect("a stable run").contacts;
+                assert_eq!(t, touching);
+                assert!(
+                    bits(r) == bits(&full),
+                    "the restored run differs after step {step}"
+                );
+            }
+            if step == 700 {
+                // A checkpoint written while the near list lives (its springs are the
+                // current ones), restored and run on beside the others.
+                let bytes = near.checkpoint_bytes("near.toml", SCENE, b"");
+                let (_, mut w) = Checkpoint::from_bytes(&bytes)
+                    .expect("a fresh checkpoint parses")
+                    .world()
+                    .expect("it restores");
+                assert!(bits(&w) == bits(&full), "the restored world differs");
+                restored = Some(w);
+                checkpointed = true;
+                let _ = &mut restored;
+            }
+        }
+        assert!(checkpointed);
+        // The test covered what it is for: lists made again many times, rebuilds while one
+        // lived, and lists shorter than the broad phase's.
+        assert!(made > 20, "near lists made: {made}");
+        assert!(
+            rebuilt_in_life > 3,
+            "rebuilds in a near list's life: {rebuilt_in_life}"
+        );
+        assert!(shorter > 1000, "steps with a shorter list: {shorter}");
     }
 }
