@@ -7,18 +7,21 @@
 //! of them every step. The near list holds only the pairs whose spheres are within `MARGIN`
 //! of the skin of touching when it is made, with their springs and forces copied into its
 //! own arrays (in list order, so eight near pairs are eight slots in a row) and its own
-//! gather tables; it is made again once any body has moved half that margin since.
+//! gather tables; it is made again once a body has moved half the smallest gap of its pairs
+//! left out (at least half the margin) since.
 //!
 //! Why the same bits:
 //!
 //! - **Pairs outside it neither touch nor hold anything while it lives.** A pair is left
 //!   out only when its state is all zero bits (not touching, no force, no springs: what the
 //!   law leaves in a pair that does not touch) and its spheres were apart by at least
-//!   `MARGIN` when the list was made (the step's own `f32` offset and distance, with a
-//!   relative allowance for their rounding). While no body has moved more than half the
-//!   margin less that allowance (`f64`, from the positions at the making), the gap cannot
-//!   close, so the law would find such a pair apart every step and, as it was not touching,
-//!   write nothing (the lanes store +0, which it already holds).
+//!   `MARGIN` times the skin when the list was made (the step's own `f32` offset and
+//!   distance). While each body has moved (`f64`, from its position at the making) no more
+//!   than half the smallest such gap of its pairs, less an allowance for the rounding of
+//!   those distances, the two moves of a pair cannot close its gap, so the law would find
+//!   the pair apart every step and, as it was not touching, write nothing (the lanes store
+//!   +0, which it already holds). A body with no pair left out may move any distance (the
+//!   broad phase's own rebuild keeps the list itself current).
 //! - **The gather's sums are unchanged.** `Contacts::gather4` and `gather8` start each sum
 //!   at +0 and add or subtract the forces of a body's contacts in list order. In
 //!   round-to-nearest a sum or difference is -0 only when both operands are -0 (a sum) or
@@ -50,8 +53,10 @@ pub(crate) struct Near {
     pub(crate) list: Contacts,
     /// The bodies' positions when it was made.
     made_at: Vec<DVec3>,
-    /// The squared distance any body may move from `made_at` while it lives.
-    reach2: f64,
+    /// Per body, the squared distance it may move from `made_at` while the list lives (half
+    /// the smallest gap of its pairs left out, less a rounding allowance; infinite where
+    /// none is left out, -1 where it may not move at all).
+    reach2: Vec<f64>,
 }
 
 impl Near {
@@ -81,7 +86,8 @@ impl Near {
             && positions
                 .iter()
                 .zip(&self.made_at)
-                .all(|(x, m)| (*x - *m).length_squared() <= self.reach2)
+                .zip(&self.reach2)
+                .all(|((x, m), &r2)| (*x - *m).length_squared() <= r2)
     }
 }
 
@@ -115,11 +121,12 @@ pub(crate) fn update(world: &mut World) {
 }
 
 /// A near list from the broad phase's list (whose springs are current) at the current
-/// positions.
+/// positions (split).
 fn make(world: &World) -> Near {
     let c = &world.contacts;
     let sp = &c.springs;
     let np = c.pairs.len();
+    let nb = world.len();
     let margin = MARGIN * world.skin;
     let x = world.position_pairs.as_slice();
     let radius = &world.consts.radius;
@@ -130,21 +137,34 @@ fn make(world: &World) -> Near {
             && sp.twist[k].to_bits() == 0
             && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
     };
+    // Per body, half the smallest gap of its pairs left out (how far it may move while the
+    // list lives); infinite for a body with none left out.
+    let mut slack = vec![f32::INFINITY; nb];
+    // Per slot of the broad phase's list, the near pairs before it (and the total last).
+    let mut rank = Vec::with_capacity(np + 1);
     let mut slots = Vec::with_capacity(np);
     let mut pairs = Vec::with_capacity(np);
     for (k, &[i, j]) in c.pairs.iter().enumerate() {
+        rank.push(slots.len() as u32);
         let (iu, ju) = (i as usize, j as usize);
         // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
         let d: Vec3 = world.offset_in(x, iu, ju);
         let reach = radius[iu] + radius[ju] + margin;
+        let d2 = d.length_squared();
         // Not `<`: a NaN distance keeps the pair.
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(d.length_squared() >= reach * reach) || !is_zero(k) {
+        if !(d2 >= reach * reach) || !is_zero(k) {
             slots.push(k as u32);
             pairs.push([i, j]);
+        } else {
+            // At least `margin` (up to rounding, allowed for below).
+            let half_gap = 0.5 * (d2.sqrt() - radius[iu] - radius[ju]);
+            slack[iu] = slack[iu].min(half_gap);
+            slack[ju] = slack[ju].min(half_gap);
         }
     }
     let n = slots.len();
+    rank.push(n as u32);
     let total = n + c.wall_pairs.len();
     let mut history = Vec::with_capacity(total);
     let mut twist = Vec::with_capacity(total);
@@ -161,17 +181,62 @@ fn make(world: &World) -> Near {
     twist.extend_from_slice(&sp.twist[np..]);
     forces.extend_from_slice(&sp.forces[np..]);
     touching.extend_from_slice(&sp.touching[np..]);
-    let mut list = Contacts::new(world.len(), pairs, c.wall_pairs.clone(), history, twist);
-    list.springs.forces = forces;
-    list.springs.touching = touching;
-    // Half the margin, less an allowance for the rounding of the offsets and distances
-    // (relative errors of a few `f32` ulps of the largest reach) on both sides.
-    let reach = 0.5 * margin as f64 - 1e-5 * (2.0 * world.consts.max_radius() + margin) as f64;
+    // The gather tables, from the list's: what `Contacts::new` builds for the near pairs
+    // (the slots ascend, so each body's pairs keep their order).
+    let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
+    let mut b_pair_start = Vec::with_capacity(nb + 1);
+    let mut b_pairs = Vec::with_capacity(n);
+    b_pair_start.push(0);
+    for i in 0..nb {
+        let range = c.b_pair_start[i] as usize..c.b_pair_start[i + 1] as usize;
+        for &k in &c.b_pairs[range] {
+            let k = k as usize;
+            if rank[k + 1] != rank[k] {
+                b_pairs.push(rank[k]);
+            }
+        }
+        b_pair_start.push(b_pairs.len() as u32);
+    }
+    let wall_contacts_of = c
+        .wall_contacts_of
+        .iter()
+        .map(|&w| w - np as u32 + n as u32)
+        .collect();
+    let list = Contacts {
+        pairs,
+        wall_pairs: c.wall_pairs.clone(),
+        springs: ContactSprings {
+            history,
+            twist,
+            forces,
+            touching,
+            // Spheres keep no hints or bounds.
+            hints: Vec::new(),
+            separation_bound: Vec::new(),
+        },
+        pairs_as_a,
+        b_pair_start,
+        b_pairs,
+        wall_contacts_of,
+        pieces: Vec::new(),
+        near: None,
+        view: std::sync::OnceLock::new(),
+    };
+    // Less an allowance for the rounding of the offsets and distances (relative errors of a
+    // few `f32` ulps of the largest reach) on both sides.
+    let allowance = 1e-5 * (2.0 * world.consts.max_radius() + world.skin) as f64;
+    let reach2 = slack
+        .iter()
+        .map(|&s| {
+            let r = s as f64 - allowance;
+            if r > 0.0 { r * r } else { -1.0 }
+        })
+        .collect();
     Near {
         slots,
         list,
         made_at: world.state.position.clone(),
-        reach2: if reach > 0.0 { reach * reach } else { -1.0 },
+        reach2,
     }
 }
 
