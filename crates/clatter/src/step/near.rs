@@ -82,12 +82,18 @@ impl Near {
 
     /// Whether every body is still within reach of where it was when the list was made.
     fn holds(&self, positions: &[DVec3]) -> bool {
-        positions.len() == self.made_at.len()
-            && positions
-                .iter()
-                .zip(&self.made_at)
-                .zip(&self.reach2)
-                .all(|((x, m), &r2)| (*x - *m).length_squared() <= r2)
+        let n = self.made_at.len();
+        if positions.len() != n || self.reach2.len() != n {
+            return false;
+        }
+        // Every body tested (no early exit), with `&`: a loop without branches.
+        let (made, reach2) = (&self.made_at[..n], &self.reach2[..n]);
+        let mut ok = true;
+        for k in 0..n {
+            let d = positions[k] - made[k];
+            ok &= d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k];
+        }
+        ok
     }
 }
 
