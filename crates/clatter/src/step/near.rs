@@ -398,14 +398,13 @@ velocity = [0.8, -0.6, -2.5]
                 // A checkpoint written while the near list lives (its springs are the
                 // current ones), restored and run on beside the others.
                 let bytes = near.checkpoint_bytes("near.toml", SCENE, b"");
-                let (_, mut w) = Checkpoint::from_bytes(&bytes)
+                let (_, w) = Checkpoint::from_bytes(&bytes)
                     .expect("a fresh checkpoint parses")
                     .world()
                     .expect("it restores");
                 assert!(bits(&w) == bits(&full), "the restored world differs");
                 restored = Some(w);
                 checkpointed = true;
-                let _ = &mut restored;
             }
         }
         assert!(checkpointed);
