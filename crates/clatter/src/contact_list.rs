@@ -77,6 +77,14 @@ pub struct Contacts {
     /// [`piece_code`]`(a, b)` for a body pair (the same body pair then appears once per piece
     /// pair, sorted by code), the piece of the body for a wall pair.
     pub(crate) pieces: Vec<u32>,
+    /// Spheres only: the near list ([`crate::step::near`]), a step-internal cache of the
+    /// body pairs that can touch while it lives, with its own contiguous springs (the owner
+    /// of those pairs' and the wall pairs' springs while it lives). `None`: `springs` is
+    /// current.
+    pub(crate) near: Option<Box<crate::step::near::Near>>,
+    /// While a near list lives: `springs` with the near list's written in, made on the first
+    /// read ([`Contacts::springs`]) after a step, emptied by the next.
+    pub(crate) view: std::sync::OnceLock<ContactSprings>,
 }
 
 /// Bits per piece id in a contact's piece code (composites have at most 64 pieces).
@@ -145,6 +153,8 @@ impl Contacts {
             b_pairs,
             wall_contacts_of,
             pieces: Vec::new(),
+            near: None,
+            view: std::sync::OnceLock::new(),
         }
     }
 
@@ -202,9 +212,43 @@ impl Contacts {
         }
     }
 
-    /// The springs, forces and flags of every contact.
+    /// The springs, forces and flags of every contact. While a near list lives (spheres,
+    /// [`crate::step::near`]), the list's own springs are behind: this is then a copy with
+    /// the near list's written in, made once per step on the first read.
     pub fn springs(&self) -> &ContactSprings {
-        &self.springs
+        match &self.near {
+            None => &self.springs,
+            Some(near) => self.view.get_or_init(|| {
+                let mut s = self.springs.clone();
+                near.write_back(&mut s);
+                s
+            }),
+        }
+    }
+
+    /// The list the step reads and writes: the near list while one lives, else this one.
+    /// Every contact outside it neither touches nor holds a force or a spring.
+    #[inline]
+    pub(crate) fn active(&self) -> &Contacts {
+        match &self.near {
+            Some(near) => &near.list,
+            None => self,
+        }
+    }
+
+    /// Writes a live near list's springs back into this list's and drops it (before
+    /// anything replaces or reads this list's springs directly).
+    pub(crate) fn end_near(&mut self) {
+        if let Some(near) = self.near.take() {
+            near.write_back(&mut self.springs);
+        }
+        self.view = std::sync::OnceLock::new();
+    }
+
+    /// The springs, for changing them: any near list is written back and dropped first.
+    pub(crate) fn springs_mut(&mut self) -> &mut ContactSprings {
+        self.end_near();
+        &mut self.springs
     }
 
     /// Replaces the per-contact state (a checkpoint's); fails when a length does not match
@@ -224,6 +268,9 @@ impl Contacts {
                 return Err(format!("{got} {what} for a list of {want}"));
             }
         }
+        // Replaced whole: a near list's springs are void.
+        self.near = None;
+        self.view = std::sync::OnceLock::new();
         self.springs = springs;
         Ok(())
     }
@@ -231,9 +278,11 @@ impl Contacts {
     /// Per body, the number of contacts (body and wall) that touched in the last step.
     pub fn counts(&self, bodies: usize) -> Vec<u32> {
         let mut counts = vec![0u32; bodies];
-        for k in 0..self.len() {
-            if self.springs.touching[k] {
-                let (i, other) = self.partners(k);
+        // Only the active list's contacts can touch.
+        let c = self.active();
+        for k in 0..c.len() {
+            if c.springs.touching[k] {
+                let (i, other) = c.partners(k);
                 counts[i as usize] += 1;
                 if let Partner::Body(j) = other {
                     counts[j as usize] += 1;
@@ -255,24 +304,27 @@ impl Contacts {
     /// fourth is to be thrown away (for callers that keep the sums in SIMD registers).
     #[inline(always)]
     pub(crate) fn gather4(&self, i: usize) -> (Vec4, Vec4) {
+        // A live near list holds every contact with a force (the others' are +0, and adding
+        // or subtracting +0 leaves a sum started at +0 unchanged: `crate::step::near`).
+        let this = self.active();
         // Forces of non-touching contacts are zero, so no branch is needed. Each vector is
         // read with the float after it (`normal_force`, a pad) as one four-lane load and
         // summed in four lanes: the first three lanes do the `Vec3` sums' operations in the
         // same order (the same bits); the fourth is thrown away.
-        let forces = &self.springs.forces;
+        let forces = &this.springs.forces;
         let mut f = Vec4::ZERO;
         let mut t = Vec4::ZERO;
-        for c in &forces[self.pairs_as_a[i] as usize..self.pairs_as_a[i + 1] as usize] {
+        for c in &forces[this.pairs_as_a[i] as usize..this.pairs_as_a[i + 1] as usize] {
             let [force_b, torque_a, _] = lanes(c);
             f -= force_b;
             t += torque_a;
         }
-        for &k in &self.b_pairs[self.b_pair_start[i] as usize..self.b_pair_start[i + 1] as usize] {
+        for &k in &this.b_pairs[this.b_pair_start[i] as usize..this.b_pair_start[i + 1] as usize] {
             let [force_b, _, torque_b] = lanes(&forces[k as usize]);
             f += force_b;
             t += torque_b;
         }
-        for c in &forces[self.wall_contacts_of[i] as usize..self.wall_contacts_of[i + 1] as usize] {
+        for c in &forces[this.wall_contacts_of[i] as usize..this.wall_contacts_of[i + 1] as usize] {
             let [force_b, _, torque_b] = lanes(c);
             f += force_b;
             t += torque_b;
@@ -285,6 +337,14 @@ impl Contacts {
     /// and checked once rather than body by body. Panics unless `i + 8` bodies exist.
     #[inline(always)]
     pub(crate) fn gather8(&self, i: usize) -> ([Vec4; 8], [Vec4; 8]) {
+        // The near list's sums while one lives (see `gather4`).
+        let this = self.active();
+        this.gather8_here(i)
+    }
+
+    /// [`Contacts::gather8`] on this list itself.
+    #[inline(always)]
+    fn gather8_here(&self, i: usize) -> ([Vec4; 8], [Vec4; 8]) {
         let total = self.len();
         let np = self.pairs.len();
         let forces = &self.springs.forces[..total];

@@ -715,7 +715,9 @@ impl World {
 
     /// Number of contacts (body-body, body-wall and body-mesh) that touched in the last step.
     pub fn contact_count(&self) -> usize {
+        // Only the active list's contacts (a near list's, while one lives) can touch.
         self.contacts
+            .active()
             .springs
             .touching
             .iter()
@@ -726,11 +728,11 @@ impl World {
 
     /// Body pairs currently in contact, sorted (for tests and output).
     pub fn touching_pairs(&self) -> Vec<[u32; 2]> {
-        let mut out: Vec<[u32; 2]> = self
-            .contacts
+        let c = self.contacts.active();
+        let mut out: Vec<[u32; 2]> = c
             .pairs
             .iter()
-            .zip(&self.contacts.springs.touching)
+            .zip(&c.springs.touching)
             .filter(|(_, t)| **t)
             .map(|(p, _)| *p)
             .collect();
@@ -781,7 +783,7 @@ impl World {
     /// where the piece is no wall candidate.
     pub fn contact_state(&self) -> ContactState {
         let c = &self.contacts;
-        let sp = &c.springs;
+        let sp = c.springs();
         let np = c.pairs.len();
         let nw = self.walls.len();
         let mp = self.max_pieces();

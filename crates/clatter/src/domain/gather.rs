@@ -249,7 +249,7 @@ impl Domain {
     fn write_contacts(&self, w: &mut Writer) {
         let local = &self.local;
         let c = &local.contacts;
-        let sp = &c.springs;
+        let sp = c.springs();
         let np = c.pairs.len();
         let piece = |k: usize| {
             if c.pieces.len() == c.len() {

@@ -171,7 +171,7 @@ impl Domain {
         // bodies' wall contacts; local ids are ascending global ids, so the order holds.
         let index = |g: u32| ids.binary_search(&g).ok().map(|i| i as u32);
         let c = &world.contacts;
-        let sp = &c.springs;
+        let sp = c.springs();
         let np = c.pairs.len();
         let mut pairs = Vec::new();
         let mut keep = Vec::new();
@@ -336,7 +336,8 @@ impl Domain {
     /// Touching contacts of this rank's share: body pairs whose first body it owns, and
     /// its bodies' wall contacts.
     fn owned_touching(&self) -> usize {
-        let c = &self.local.contacts;
+        // Only the active list's contacts (a near list's, while one lives) can touch.
+        let c = self.local.contacts.active();
         let np = c.pairs.len();
         let t = &c.springs.touching;
         let ghost = &self.local.ghost;
@@ -476,6 +477,8 @@ impl Domain {
     /// The rebuild (collective): new boxes (when needed), bodies and springs moved to their new ranks, the
     /// ghost lists found, then the local broad phase (which carries the springs).
     fn migrate(&mut self, comm: &dyn Comm) {
+        // The springs sent below are the list's own: a near list's written back first.
+        self.local.contacts.end_near();
         let ranks = comm.size();
         let local = &self.local;
         let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
@@ -557,7 +560,7 @@ impl Domain {
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();
-        let sp = &c.springs;
+        let sp = c.springs();
         let piece = |k: usize| {
             if c.pieces.len() == c.len() {
                 c.pieces[k]

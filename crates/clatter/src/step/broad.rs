@@ -199,6 +199,8 @@ pub fn pairs_brute_force_periodic(
 /// The broad phase of a step: pairs and wall candidates at the current positions, springs
 /// carried over from the old list where a pair persists.
 pub(crate) fn rebuild(world: &mut World) {
+    // The springs carried below are the list's own: a near list's written back first.
+    world.contacts.end_near();
     // Bins and bounding-sphere tests at the positions rounded to f32 (as the GPU does, from
     // the high part of its double-single positions): the skin absorbs the rounding.
     let positions: Vec<Vec3> = world.state.position.iter().map(|p| p.as_vec3()).collect();

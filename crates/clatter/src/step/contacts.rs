@@ -18,7 +18,13 @@ use clatter_geom::{Pose, Shape};
 pub(crate) fn run(world: &mut World) -> usize {
     // Each body's position split into its pair once, for every contact it takes part in.
     world.split_positions();
-    let mut springs = std::mem::take(&mut world.contacts.springs);
+    // Spheres: the near list, kept or made anew; the stage then runs on it.
+    super::near::update(world);
+    let active = match &mut world.contacts.near {
+        Some(near) => &mut near.list.springs,
+        None => &mut world.contacts.springs,
+    };
+    let mut springs = std::mem::take(active);
     // The plain body-pair path's edge memories, one per body pair (see `World::edge_memory`).
     let mut memory = std::mem::take(&mut world.edge_memory);
     if !world.has_composites() && !world.spheres_only() {
@@ -26,7 +32,8 @@ pub(crate) fn run(world: &mut World) -> usize {
     }
     let w = &*world;
     let x = w.position_pairs.as_slice();
-    let np = w.contacts.pairs.len();
+    let list = w.contacts.active();
+    let np = list.pairs.len();
     let ContactSprings {
         history,
         twist,
@@ -39,7 +46,7 @@ pub(crate) fn run(world: &mut World) -> usize {
     let (twist_pairs, twist_walls) = twist.split_at_mut(np);
     let (force_pairs, force_walls) = forces.split_at_mut(np);
     let (touch_pairs, touch_walls) = touching.split_at_mut(np);
-    let (piece_pairs, piece_walls) = w.contacts.pieces.split_at(w.contacts.pieces.len().min(np));
+    let (piece_pairs, piece_walls) = list.pieces.split_at(list.pieces.len().min(np));
     // Every pair on the plain law: the law compiled without the tests for the others.
     let plain = w.materials.all_plain();
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
@@ -47,8 +54,7 @@ pub(crate) fn run(world: &mut World) -> usize {
         || {
             if w.has_composites() {
                 // Contacts per piece pair (the same per-contact work, on the pieces).
-                return w
-                    .contacts
+                return list
                     .pairs
                     .par_iter()
                     .zip(piece_pairs.par_iter())
@@ -68,8 +74,7 @@ pub(crate) fn run(world: &mut World) -> usize {
             if w.spheres_only() {
                 // Chunks of plain slices: the sphere law is cheap, so the per-item cost of
                 // a deep parallel zip would show.
-                return w
-                    .contacts
+                return list
                     .pairs
                     .par_chunks(CHUNK)
                     .zip(hist_pairs.par_chunks_mut(CHUNK))
@@ -92,8 +97,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     })
                     .sum::<usize>();
             }
-            w.contacts
-                .pairs
+            list.pairs
                 .par_iter()
                 .zip(hist_pairs.par_iter_mut())
                 .zip(force_pairs.par_iter_mut())
@@ -110,8 +114,7 @@ pub(crate) fn run(world: &mut World) -> usize {
         },
         || {
             if w.has_composites() {
-                return w
-                    .contacts
+                return list
                     .wall_pairs
                     .par_iter()
                     .zip(piece_walls.par_iter())
@@ -125,8 +128,7 @@ pub(crate) fn run(world: &mut World) -> usize {
                     })
                     .sum::<usize>();
             }
-            w.contacts
-                .wall_pairs
+            list.wall_pairs
                 .par_chunks(CHUNK)
                 .zip(hist_walls.par_chunks_mut(CHUNK))
                 .zip(force_walls.par_chunks_mut(CHUNK))
@@ -153,7 +155,10 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .sum::<usize>()
         },
     );
-    world.contacts.springs = springs;
+    match &mut world.contacts.near {
+        Some(near) => near.list.springs = springs,
+        None => world.contacts.springs = springs,
+    }
     world.edge_memory = memory;
     pairs_touching + walls_touching
 }

@@ -96,8 +96,9 @@ impl World {
         } else {
             Contacts::new(n, state.pairs, wall_pairs, history, twist)
         };
-        self.contacts.springs.touching = touching;
-        self.contacts.springs.forces = forces;
+        let springs = self.contacts.springs_mut();
+        springs.touching = touching;
+        springs.forces = forces;
         self.rebuild_position = state.rebuild_position;
         if self.has_composites() {
             self.rebuild_orientation = state.rebuild_orientation;

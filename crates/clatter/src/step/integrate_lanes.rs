@@ -559,7 +559,7 @@ mod tests {
             periodic: None,
         });
         w.rebuild_contacts();
-        for f in w.contacts.springs.forces.iter_mut() {
+        for f in w.contacts.springs_mut().forces.iter_mut() {
             let scale = [1e-3, 1.0, 1e2][rng.random_range(0..3)];
             *f = ContactForce::new(
                 vec(rng, scale),

@@ -1,0 +1,420 @@
+//! The **near list** of a spheres-only world: a second, contiguous contact list of the
+//! candidate pairs that can touch for a while, made from the broad phase's list
+//! (`Contacts`) and used by the contacts stage and the gather in its place while it lives.
+//!
+//! Why: the broad phase's list holds every pair within the Verlet skin (on a settled pile
+//! about 3.6 pairs per body, of which 2.3 touch), and the law's lanes and the gather read all
+//! of them every step. The near list holds only the pairs whose spheres are within `MARGIN`
+//! of the skin of touching when it is made, with their springs and forces copied into its
+//! own arrays (in list order, so eight near pairs are eight slots in a row) and its own
+//! gather tables; it is made again once a body has moved half the smallest gap of its pairs
+//! left out (at least half the margin) since.
+//!
+//! Why the same bits:
+//!
+//! - **Pairs outside it neither touch nor hold anything while it lives.** A pair is left
+//!   out only when its state is all zero bits (not touching, no force, no springs: what the
+//!   law leaves in a pair that does not touch) and its spheres were apart by at least
+//!   `MARGIN` times the skin when the list was made (the step's own `f32` offset and
+//!   distance). While each body has moved (`f64`, from its position at the making) no more
+//!   than half the smallest such gap of its pairs, less an allowance for the rounding of
+//!   those distances, the two moves of a pair cannot close its gap, so the law would find
+//!   the pair apart every step and, as it was not touching, write nothing (the lanes store
+//!   +0, which it already holds). A body with no pair left out may move any distance (the
+//!   broad phase's own rebuild keeps the list itself current).
+//! - **The gather's sums are unchanged.** `Contacts::gather4` and `gather8` start each sum
+//!   at +0 and add or subtract the forces of a body's contacts in list order. In
+//!   round-to-nearest a sum or difference is -0 only when both operands are -0 (a sum) or
+//!   -0 and +0 (a difference), so a sum started at +0 is never -0, and adding or
+//!   subtracting a +0 force leaves it unchanged: the pairs left out (forces +0) drop out of
+//!   the sums without changing a bit. The near list keeps each body's remaining contacts in
+//!   the same relative order (its pairs are the list's, sorted, and all wall pairs).
+//! - **Everything else reads the one list.** The near list is a cache: `Contacts::springs`
+//!   gives the list's springs with the near list's written in, and a rebuild, a checkpoint
+//!   restore, a GPU hand-over or a migration writes it back (`Contacts::end_near`) or drops
+//!   it before replacing the list.
+
+use glam::{DVec3, Vec3};
+
+use crate::contact_list::{ContactSprings, Contacts};
+use crate::contract::ContactForce;
+use crate::world::World;
+
+/// The near list's margin, as a fraction of the skin: pairs whose spheres are closer than
+/// this when it is made are in it.
+pub(crate) const MARGIN: f32 = 0.25;
+
+/// A near list (see the module docs).
+#[derive(Debug, Clone)]
+pub(crate) struct Near {
+    /// Per near body pair, its slot in the broad phase's list (ascending).
+    pub(crate) slots: Vec<u32>,
+    /// The near pairs and every wall pair of the broad phase's list, with their springs.
+    pub(crate) list: Contacts,
+    /// The bodies' positions when it was made.
+    made_at: Vec<DVec3>,
+    /// Per body, the squared distance it may move from `made_at` while the list lives (half
+    /// the smallest gap of its pairs left out, less a rounding allowance; infinite where
+    /// none is left out, -1 where it may not move at all).
+    reach2: Vec<f64>,
+}
+
+impl Near {
+    /// Writes the near list's springs, forces and flags into `dst`, the broad phase's list's
+    /// (whose pairs outside the near list hold zeros).
+    pub(crate) fn write_back(&self, dst: &mut ContactSprings) {
+        let src = &self.list.springs;
+        let n = self.slots.len();
+        for (k, &s) in self.slots.iter().enumerate() {
+            let s = s as usize;
+            dst.history[s] = src.history[k];
+            dst.twist[s] = src.twist[k];
+            dst.forces[s] = src.forces[k];
+            dst.touching[s] = src.touching[k];
+        }
+        // The wall pairs: all of them, in the same order, after the body pairs in both.
+        let np = dst.hints.len();
+        dst.history[np..].copy_from_slice(&src.history[n..]);
+        dst.twist[np..].copy_from_slice(&src.twist[n..]);
+        dst.forces[np..].copy_from_slice(&src.forces[n..]);
+        dst.touching[np..].copy_from_slice(&src.touching[n..]);
+    }
+
+    /// Whether every body is still within reach of where it was when the list was made.
+    fn holds(&self, positions: &[DVec3]) -> bool {
+        let n = self.made_at.len();
+        if positions.len() != n || self.reach2.len() != n {
+            return false;
+        }
+        // Every body tested (no early exit), with `&`: a loop without branches.
+        let (made, reach2) = (&self.made_at[..n], &self.reach2[..n]);
+        let mut ok = true;
+        for k in 0..n {
+            let d = positions[k] - made[k];
+            ok &= d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k];
+        }
+        ok
+    }
+}
+
+/// Whether `world` steps with a near list: spheres only (whose contacts keep no
+/// separating-axis hints, bounds or edge memories), a positive skin.
+fn applies(world: &World) -> bool {
+    #[cfg(test)]
+    if tests::OFF.with(|off| off.get()) {
+        return false;
+    }
+    world.spheres_only() && !world.has_composites() && world.skin > 0.0
+}
+
+/// Before the contacts stage (positions split): keeps the near list while it holds, else
+/// writes it back and makes a new one from the broad phase's list.
+pub(crate) fn update(world: &mut World) {
+    if !applies(world) {
+        world.contacts.end_near();
+        return;
+    }
+    // The springs change this step: the readers' copy is void.
+    world.contacts.view = std::sync::OnceLock::new();
+    if let Some(near) = &world.contacts.near
+        && near.holds(&world.state.position)
+    {
+        return;
+    }
+    world.contacts.end_near();
+    let near = make(world);
+    world.contacts.near = Some(Box::new(near));
+}
+
+/// A near list from the broad phase's list (whose springs are current) at the current
+/// positions (split).
+fn make(world: &World) -> Near {
+    let c = &world.contacts;
+    let sp = &c.springs;
+    let np = c.pairs.len();
+    let nb = world.len();
+    let margin = MARGIN * world.skin;
+    let x = world.position_pairs.as_slice();
+    let radius = &world.consts.radius;
+    let zero_force = ContactForce::default();
+    let is_zero = |k: usize| {
+        !sp.touching[k]
+            && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
+            && sp.twist[k].to_bits() == 0
+            && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
+    };
+    // Per body, half the smallest gap of its pairs left out (how far it may move while the
+    // list lives); infinite for a body with none left out.
+    let mut slack = vec![f32::INFINITY; nb];
+    // Per slot of the broad phase's list, the near pairs before it (and the total last).
+    let mut rank = Vec::with_capacity(np + 1);
+    let mut slots = Vec::with_capacity(np);
+    let mut pairs = Vec::with_capacity(np);
+    for (k, &[i, j]) in c.pairs.iter().enumerate() {
+        rank.push(slots.len() as u32);
+        let (iu, ju) = (i as usize, j as usize);
+        // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
+        let d: Vec3 = world.offset_in(x, iu, ju);
+        let reach = radius[iu] + radius[ju] + margin;
+        let d2 = d.length_squared();
+        // Not `<`: a NaN distance keeps the pair.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(d2 >= reach * reach) || !is_zero(k) {
+            slots.push(k as u32);
+            pairs.push([i, j]);
+        } else {
+            // At least `margin` (up to rounding, allowed for below).
+            let half_gap = 0.5 * (d2.sqrt() - radius[iu] - radius[ju]);
+            slack[iu] = slack[iu].min(half_gap);
+            slack[ju] = slack[ju].min(half_gap);
+        }
+    }
+    let n = slots.len();
+    rank.push(n as u32);
+    let total = n + c.wall_pairs.len();
+    let mut history = Vec::with_capacity(total);
+    let mut twist = Vec::with_capacity(total);
+    let mut forces = Vec::with_capacity(total);
+    let mut touching = Vec::with_capacity(total);
+    for &s in &slots {
+        let s = s as usize;
+        history.push(sp.history[s]);
+        twist.push(sp.twist[s]);
+        forces.push(sp.forces[s]);
+        touching.push(sp.touching[s]);
+    }
+    history.extend_from_slice(&sp.history[np..]);
+    twist.extend_from_slice(&sp.twist[np..]);
+    forces.extend_from_slice(&sp.forces[np..]);
+    touching.extend_from_slice(&sp.touching[np..]);
+    // The gather tables, from the list's: what `Contacts::new` builds for the near pairs
+    // (the slots ascend, so each body's pairs keep their order).
+    let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
+    let mut b_pair_start = Vec::with_capacity(nb + 1);
+    let mut b_pairs = Vec::with_capacity(n);
+    b_pair_start.push(0);
+    for i in 0..nb {
+        let range = c.b_pair_start[i] as usize..c.b_pair_start[i + 1] as usize;
+        for &k in &c.b_pairs[range] {
+            let k = k as usize;
+            if rank[k + 1] != rank[k] {
+                b_pairs.push(rank[k]);
+            }
+        }
+        b_pair_start.push(b_pairs.len() as u32);
+    }
+    let wall_contacts_of = c
+        .wall_contacts_of
+        .iter()
+        .map(|&w| w - np as u32 + n as u32)
+        .collect();
+    let list = Contacts {
+        pairs,
+        wall_pairs: c.wall_pairs.clone(),
+        springs: ContactSprings {
+            history,
+            twist,
+            forces,
+            touching,
+            // Spheres keep no hints or bounds.
+            hints: Vec::new(),
+            separation_bound: Vec::new(),
+        },
+        pairs_as_a,
+        b_pair_start,
+        b_pairs,
+        wall_contacts_of,
+        pieces: Vec::new(),
+        near: None,
+        view: std::sync::OnceLock::new(),
+    };
+    // Less an allowance for the rounding of the offsets and distances (relative errors of a
+    // few `f32` ulps of the largest reach) on both sides.
+    let allowance = 1e-5 * (2.0 * world.consts.max_radius() + world.skin) as f64;
+    let reach2 = slack
+        .iter()
+        .map(|&s| {
+            let r = s as f64 - allowance;
+            if r > 0.0 { r * r } else { -1.0 }
+        })
+        .collect();
+    Near {
+        slots,
+        list,
+        made_at: world.state.position.clone(),
+        reach2,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use crate::World;
+    use crate::checkpoint::Checkpoint;
+    use crate::contact_list::ContactSprings;
+    use crate::scene::Scene;
+
+    thread_local! {
+        /// This thread's worlds step without a near list (the reference).
+        pub(super) static OFF: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// Spheres of two sizes poured fast and slow into a box: pairs and wall contacts that
+    /// start, separate and touch again, bodies that cross half the near margin within a few
+    /// steps and others that settle.
+    const SCENE: &str = r#"
+[simulation]
+steps = 1
+dt = 2.0e-5
+gravity = [0.0, 0.0, -9.81]
+
+[[material]]
+name = "glass"
+density = 2500.0
+stiffness = 2.0e4
+restitution = 0.5
+friction = 0.5
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.05, 0.05, 0.08]
+material = "glass"
+
+[[shape]]
+name = "small"
+sphere = { radius = 0.003 }
+
+[[shape]]
+name = "large"
+sphere = { radius = 0.0045 }
+
+[[group]]
+shape = "small"
+material = "glass"
+random = { min = [0.004, 0.004, 0.004], max = [0.046, 0.046, 0.03], count = 140, seed = 3 }
+velocity = [0.0, 0.0, -0.05]
+
+[[group]]
+shape = "large"
+material = "glass"
+random = { min = [0.005, 0.005, 0.034], max = [0.045, 0.045, 0.05], count = 40, seed = 4 }
+velocity = [0.0, 0.0, 0.02]
+
+[[group]]
+shape = "small"
+material = "glass"
+random = { min = [0.004, 0.004, 0.056], max = [0.046, 0.046, 0.077], count = 50, seed = 5 }
+velocity = [0.8, -0.6, -2.5]
+"#;
+
+    fn world() -> World {
+        Scene::parse(SCENE, "near.toml")
+            .expect("valid scene")
+            .world()
+    }
+
+    /// Every bit of the bodies' state and of every contact's springs, force and flag.
+    fn bits(w: &World) -> (Vec<u64>, Vec<u32>) {
+        let s = &w.state;
+        let mut state = Vec::new();
+        for i in 0..w.len() {
+            state.extend(s.position[i].to_array().map(f64::to_bits));
+            state.extend(s.velocity[i].to_array().map(|v| v.to_bits() as u64));
+            state.extend(s.angular_momentum[i].to_array().map(|v| v.to_bits() as u64));
+        }
+        let ContactSprings {
+            history,
+            twist,
+            forces,
+            touching,
+            ..
+        } = w.contacts.springs();
+        let mut springs: Vec<u32> = w.contacts.pairs.iter().flatten().copied().collect();
+        springs.extend(history.iter().flat_map(|h| h.to_array().map(f32::to_bits)));
+        springs.extend(twist.iter().map(|t| t.to_bits()));
+        springs.extend(
+            forces
+                .iter()
+                .flat_map(|f| bytemuck::cast::<_, [u32; 12]>(*f)),
+        );
+        springs.extend(touching.iter().map(|&t| t as u32));
+        (state, springs)
+    }
+
+    fn reference_step(w: &mut World) -> usize {
+        OFF.with(|off| off.set(true));
+        let touching = w.step().expect("a stable run").contacts;
+        OFF.with(|off| off.set(false));
+        touching
+    }
+
+    /// The same steps with and without the near list: the bodies' states, every contact's
+    /// springs, forces and flags and the touching count bitwise equal after every step,
+    /// through near lists made again, rebuilds and a checkpoint taken while one lives.
+    #[test]
+    fn the_near_list_gives_the_full_lists_bits() {
+        let (mut near, mut full) = (world(), world());
+        let mut restored: Option<World> = None;
+        let (mut made, mut rebuilt_in_life, mut shorter, mut checkpointed) = (0, 0, 0, false);
+        let mut last_slots: Option<*const u32> = None;
+        for step in 0..1500 {
+            let before = near.rebuilds;
+            let alive = near.contacts.near.is_some();
+            let touching = near.step().expect("a stable run").contacts;
+            assert_eq!(
+                touching,
+                reference_step(&mut full),
+                "touching at step {step}"
+            );
+            let list = near
+                .contacts
+                .near
+                .as_ref()
+                .expect("a spheres world has a near list");
+            if last_slots != Some(list.slots.as_ptr()) {
+                made += 1;
+                last_slots = Some(list.slots.as_ptr());
+            }
+            if alive && near.rebuilds > before {
+                rebuilt_in_life += 1;
+            }
+            if list.slots.len() < near.contacts.pairs.len() {
+                shorter += 1;
+            }
+            assert!(
+                bits(&near) == bits(&full),
+                "the states differ after step {step}"
+            );
+            if let Some(r) = &mut restored {
+                let t = r.step().expect("a stable run").contacts;
+                assert_eq!(t, touching);
+                assert!(
+                    bits(r) == bits(&full),
+                    "the restored run differs after step {step}"
+                );
+            }
+            if step == 700 {
+                // A checkpoint written while the near list lives (its springs are the
+                // current ones), restored and run on beside the others.
+                let bytes = near.checkpoint_bytes("near.toml", SCENE, b"");
+                let (_, w) = Checkpoint::from_bytes(&bytes)
+                    .expect("a fresh checkpoint parses")
+                    .world()
+                    .expect("it restores");
+                assert!(bits(&w) == bits(&full), "the restored world differs");
+                restored = Some(w);
+                checkpointed = true;
+            }
+        }
+        assert!(checkpointed);
+        // The test covered what it is for: lists made again many times, rebuilds while one
+        // lived, and lists shorter than the broad phase's.
+        assert!(made > 20, "near lists made: {made}");
+        assert!(
+            rebuilt_in_life > 3,
+            "rebuilds in a near list's life: {rebuilt_in_life}"
+        );
+        assert!(shorter > 1000, "steps with a shorter list: {shorter}");
+    }
+}
