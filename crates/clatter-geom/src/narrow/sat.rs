@@ -327,7 +327,8 @@ fn remembered_face(
             return Err(None);
         }
         let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
-        if overlap_certified(a, &m, delta) {
+        let to_b = |p: Vec3| inv_rot * (p - t);
+        if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
             Ok(Some(to_world(m, pa)))
         } else {
             Err(Some((kind, face, m)))
@@ -338,7 +339,9 @@ fn remembered_face(
         }
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
-        if overlap_certified(b, &m, delta) {
+        let to_a = |p: Vec3| rot * p + t;
+        if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
+        {
             Ok(Some(to_world(m, pb).flipped()))
         } else {
             Err(Some((kind, face, m)))
@@ -570,6 +573,110 @@ fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool 
     refp.faces
         .iter()
         .all(|f| f.normal.dot(c) - f.offset <= -delta)
+}
+
+/// Whether the bodies certainly overlap by more than `delta` at a face contact `m` (in the
+/// reference body's frame, reference face `rf` of `refp`) where [`overlap_certified`]
+/// cannot tell: the incident body crossing a side of the reference face, its clipped points
+/// on that side's plane, so that no ball about their centroid fits in the reference body.
+/// `to_inc` maps a point of the reference frame into the incident body's frame, `inc_rot`
+/// the incident body's directions into the reference frame.
+///
+/// Why: if a point `p` is at least `delta / 2` inside every face plane of both bodies, the
+/// balls of radius `delta / 2` about `p` lie in both, so along any direction `u` the
+/// incident body reaches below `u.p - delta / 2` and the reference body above `u.p +
+/// delta / 2`: every axis's separation is at most `-delta`, as in [`overlap_certified`]
+/// (whose point is in the incident body up to rounding and `delta` inside the reference
+/// body), and with the same room for rounding none of the full test's separations is
+/// positive. `p` is checked against every plane of both bodies, so any `p` serves; the one
+/// tried is where the overlap is widest near the points: the point as deep (`r`) inside the
+/// reference face's plane, the reference body's face plane nearest the points' centroid
+/// `c` (the side it crosses) and the incident body's nearest face plane (its incident face),
+/// on the plane through `c` across their common edge: the centre of the largest ball in the
+/// wedge's cross-section. (A singular system gives a NaN or an infinite `p`, which fails the
+/// checks.)
+fn wedge_certified(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+) -> bool {
+    let n = m.normal;
+    let mut c = Vec3::ZERO;
+    for p in m.points() {
+        c += p.point - n * (0.5 * p.depth);
+    }
+    let c = c / m.count as f32;
+    // The reference body's face plane nearest `c` other than the reference face's.
+    let (mut s2, mut n2) = (f32::NEG_INFINITY, Vec3::ZERO);
+    for (f, face) in refp.faces.iter().enumerate() {
+        let s = face.normal.dot(c) - face.offset;
+        if f != rf && s > s2 {
+            (s2, n2) = (s, face.normal);
+        }
+    }
+    // The incident body's face plane nearest `c`, in the reference frame.
+    let c_inc = to_inc(c);
+    let (mut s3, mut n3) = (f32::NEG_INFINITY, Vec3::ZERO);
+    for face in &inc.faces {
+        let s = face.normal.dot(c_inc) - face.offset;
+        if s > s3 {
+            (s3, n3) = (s, face.normal);
+        }
+    }
+    let n3 = inc_rot * n3;
+    let s1 = n.dot(c) - refp.faces[rf].offset;
+    // `c + u` with `n_i.u + r = -s_i` (depth `r` inside each plane) and `e.u = 0`.
+    let e = n.cross(n2);
+    let rows = glam::Mat4::from_cols(
+        n.extend(1.0),
+        n2.extend(1.0),
+        n3.extend(1.0),
+        e.extend(0.0),
+    )
+    .transpose();
+    let u = rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, 0.0);
+    let p = c + u.truncate();
+    let half = 0.5 * delta;
+    let p_inc = to_inc(p);
+    let certified = refp
+        .faces
+        .iter()
+        .all(|f| f.normal.dot(p) - f.offset <= -half)
+        && inc
+            .faces
+            .iter()
+            .all(|f| f.normal.dot(p_inc) - f.offset <= -half);
+    {
+        use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+        static TRIED: AtomicUsize = AtomicUsize::new(0);
+        static OK: AtomicUsize = AtomicUsize::new(0);
+        let t = TRIED.fetch_add(1, Relaxed) + 1;
+        let o = OK.fetch_add(certified as usize, Relaxed) + certified as usize;
+        if t % 1000 == 0 && std::env::var_os("WEDGE_DBG").is_some() {
+            eprintln!("WEDGE tried {t} ok {o}");
+        }
+    }
+    if certified {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+    }
+    certified
+}
+
+thread_local! {
+    /// How many face contacts [`wedge_certified`] certified on this thread (for tests).
+    static WEDGE_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many remembered face contacts on this thread stood in for the full test by the
+/// certificate of a contact crossing the reference face's side ([`wedge_certified`]), for
+/// tests that check the path serves.
+#[doc(hidden)]
+pub fn wedge_certificates() -> usize {
+    WEDGE_CERTIFIED.with(|n| n.get())
 }
 
 /// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
