@@ -588,13 +588,14 @@ fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool 
 /// delta / 2`: every axis's separation is at most `-delta`, as in [`overlap_certified`]
 /// (whose point is in the incident body up to rounding and `delta` inside the reference
 /// body), and with the same room for rounding none of the full test's separations is
-/// positive. `p` is checked against every plane of both bodies, so any `p` serves; the one
-/// tried is where the overlap is widest near the points: the point as deep (`r`) inside the
-/// reference face's plane, the reference body's face plane nearest the points' centroid
-/// `c` (the side it crosses) and the incident body's nearest face plane (its incident face),
-/// on the plane through `c` across their common edge: the centre of the largest ball in the
-/// wedge's cross-section. (A singular system gives a NaN or an infinite `p`, which fails the
-/// checks.)
+/// positive. Every `p` tried is checked against every plane of both bodies, so any `p`
+/// serves; those tried are where the overlap is widest near the points' centroid `c` (on
+/// the incident face): the centre of the largest ball within the reference face's plane
+/// and the three other face planes (of either body) nearest `c`, and, when that fails (the
+/// four planes bound no small region, as at a wedge along the reference face's edge), the
+/// centre of the largest disc within the reference face's plane and the two nearest, on the
+/// plane through `c` across the reference face's plane and the nearest one. (A singular
+/// system gives a NaN or an infinite `p`, which fails the checks.)
 fn wedge_certified(
     refp: &ConvexPolyhedron,
     rf: usize,
@@ -610,56 +611,54 @@ fn wedge_certified(
         c += p.point - n * (0.5 * p.depth);
     }
     let c = c / m.count as f32;
-    // The reference body's face plane nearest `c` other than the reference face's.
-    let (mut s2, mut n2) = (f32::NEG_INFINITY, Vec3::ZERO);
-    for (f, face) in refp.faces.iter().enumerate() {
-        let s = face.normal.dot(c) - face.offset;
-        if f != rf && s > s2 {
-            (s2, n2) = (s, face.normal);
-        }
-    }
-    // The incident body's face plane nearest `c`, in the reference frame.
-    let c_inc = to_inc(c);
-    let (mut s3, mut n3) = (f32::NEG_INFINITY, Vec3::ZERO);
-    for face in &inc.faces {
-        let s = face.normal.dot(c_inc) - face.offset;
-        if s > s3 {
-            (s3, n3) = (s, face.normal);
-        }
-    }
-    let n3 = inc_rot * n3;
     let s1 = n.dot(c) - refp.faces[rf].offset;
-    // `c + u` with `n_i.u + r = -s_i` (depth `r` inside each plane) and `e.u = 0`.
-    let e = n.cross(n2);
-    let rows = glam::Mat4::from_cols(
-        n.extend(1.0),
-        n2.extend(1.0),
-        n3.extend(1.0),
-        e.extend(0.0),
-    )
-    .transpose();
-    let u = rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, 0.0);
-    let p = c + u.truncate();
     let half = 0.5 * delta;
-    let p_inc = to_inc(p);
-    let certified = refp
-        .faces
-        .iter()
-        .all(|f| f.normal.dot(p) - f.offset <= -half)
-        && inc
-            .faces
-            .iter()
-            .all(|f| f.normal.dot(p_inc) - f.offset <= -half);
-    {
-        use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
-        static TRIED: AtomicUsize = AtomicUsize::new(0);
-        static OK: AtomicUsize = AtomicUsize::new(0);
-        let t = TRIED.fetch_add(1, Relaxed) + 1;
-        let o = OK.fetch_add(certified as usize, Relaxed) + certified as usize;
-        if t % 1000 == 0 && std::env::var_os("WEDGE_DBG").is_some() {
-            eprintln!("WEDGE tried {t} ok {o}");
+    // Shallower than `delta` along the reference normal: no ball fits (and NaN returns).
+    if s1.partial_cmp(&-delta) != Some(std::cmp::Ordering::Less) {
+        return false;
+    }
+    // The three face planes nearest `c` but the reference face's, (separation, normal in
+    // the reference frame), nearest first.
+    let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 3];
+    let mut take = |s: f32, normal: Vec3| {
+        if s > near[2].0 {
+            near[2] = (s, normal);
+            if near[2].0 > near[1].0 {
+                near.swap(1, 2);
+                if near[1].0 > near[0].0 {
+                    near.swap(0, 1);
+                }
+            }
+        }
+    };
+    for (f, face) in refp.faces.iter().enumerate() {
+        if f != rf {
+            take(face.normal.dot(c) - face.offset, face.normal);
         }
     }
+    let c_inc = to_inc(c);
+    for face in &inc.faces {
+        take(face.normal.dot(c_inc) - face.offset, inc_rot * face.normal);
+    }
+    let inside = |p: Vec3| {
+        let p_inc = to_inc(p);
+        refp.faces
+            .iter()
+            .all(|f| f.normal.dot(p) - f.offset <= -half)
+            && inc
+                .faces
+                .iter()
+                .all(|f| f.normal.dot(p_inc) - f.offset <= -half)
+    };
+    // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
+    let [(s2, n2), (s3, n3), (s4, n4)] = near;
+    let solve = |last: glam::Vec4, rhs: f32| {
+        let rows = glam::Mat4::from_cols(n.extend(1.0), n2.extend(1.0), n3.extend(1.0), last)
+            .transpose();
+        c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
+    };
+    let certified =
+        inside(solve(n4.extend(1.0), -s4)) || inside(solve(n.cross(n2).extend(0.0), 0.0));
     if certified {
         WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
     }
