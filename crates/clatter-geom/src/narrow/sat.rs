@@ -403,12 +403,17 @@ fn remembered_edge(
     if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(keep(Ok(best_e)));
     }
-    let (m, qb) = edge_manifold(a, b, pa, bv, best_e);
+    let (m, qb, mid) = edge_manifold(a, b, pa, bv, best_e);
     let delta = 2e-5 * (a.radius + b.radius);
     let inside = a
         .faces
         .iter()
         .all(|f| f.normal.dot(qb) - f.offset <= -delta);
+    // Else a point inside both bodies near the edges' closest points, if one is found
+    // ([`ball_certified`]); not tried shallower than `delta` (and NaN fails too).
+    let to_b = |p: Vec3| rel.inv_rot * (p - rel.t);
+    let inside = inside
+        || (best_e.0 < -delta && ball_certified(a, None, b, to_b, rel.rot, mid, delta));
     if inside { Ok(m) } else { Err(keep(Ok(best_e))) }
 }
 
@@ -495,14 +500,14 @@ fn edges_by_direction(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> bool {
 }
 
 /// The manifold of edge contact `best_e` (one point, halfway between the closest points of
-/// the two edges), and B's closest point, in A's frame.
+/// the two edges), and B's closest point and that halfway point, in A's frame.
 fn edge_manifold(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
     pa: &Pose,
     bv: &[Vec3],
     best_e: EdgeAxis,
-) -> (Manifold, Vec3) {
+) -> (Manifold, Vec3, Vec3) {
     let (s, ea, eb, axis) = best_e;
     let [a0, a1] = a.edges[ea];
     let [b0, b1] = b.edges[eb];
@@ -514,7 +519,7 @@ fn edge_manifold(
     );
     let mid = 0.5 * (qa + qb);
     let m = Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s);
-    (m, qb)
+    (m, qb, mid)
 }
 
 /// The margin of the full test's decisions for a face contact: how much the separation
@@ -611,28 +616,51 @@ fn wedge_certified(
         c += p.point - n * (0.5 * p.depth);
     }
     let c = c / m.count as f32;
-    let s1 = n.dot(c) - refp.faces[rf].offset;
-    let half = 0.5 * delta;
     // Shallower than `delta` along the reference normal: no ball fits (and NaN returns).
+    let s1 = n.dot(c) - refp.faces[rf].offset;
     if s1.partial_cmp(&-delta) != Some(std::cmp::Ordering::Less) {
         return false;
     }
-    // The three face planes nearest `c` but the reference face's, (separation, normal in
-    // the reference frame), nearest first.
-    let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 3];
+    let certified = ball_certified(refp, Some(rf), inc, to_inc, inc_rot, c, delta);
+    if certified {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+    }
+    certified
+}
+
+/// Whether a point at least `delta / 2` inside every face plane of both `refp` and `inc`
+/// is found near `c` (in `refp`'s frame; `to_inc` maps a point of it into `inc`'s frame,
+/// `inc_rot` `inc`'s directions into it), so that every axis's separation is at most
+/// `-delta` (see [`wedge_certified`]). Every point tried is checked against every plane, so
+/// the choice only decides how often one is found: the centre of the largest ball within
+/// the four face planes (of either body) nearest `c`, face `first` of `refp` always among
+/// them when given; and, when that fails, the centre of the largest disc within the three
+/// nearest, on the plane through `c` across the two nearest. (A singular system gives a NaN
+/// or an infinite point, which fails the checks.)
+fn ball_certified(
+    refp: &ConvexPolyhedron,
+    first: Option<usize>,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    c: Vec3,
+    delta: f32,
+) -> bool {
+    // The face planes nearest `c`, (separation, normal in `refp`'s frame), nearest first
+    // (`first`'s ahead of all).
+    let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 4];
     let mut take = |s: f32, normal: Vec3| {
-        if s > near[2].0 {
-            near[2] = (s, normal);
-            if near[2].0 > near[1].0 {
-                near.swap(1, 2);
-                if near[1].0 > near[0].0 {
-                    near.swap(0, 1);
-                }
+        let mut k = 3;
+        if s > near[k].0 {
+            near[k] = (s, normal);
+            while k > 0 && near[k].0 > near[k - 1].0 {
+                near.swap(k, k - 1);
+                k -= 1;
             }
         }
     };
     for (f, face) in refp.faces.iter().enumerate() {
-        if f != rf {
+        if Some(f) != first {
             take(face.normal.dot(c) - face.offset, face.normal);
         }
     }
@@ -640,6 +668,12 @@ fn wedge_certified(
     for face in &inc.faces {
         take(face.normal.dot(c_inc) - face.offset, inc_rot * face.normal);
     }
+    if let Some(f) = first {
+        let face = refp.faces[f];
+        near.copy_within(0..3, 1);
+        near[0] = (face.normal.dot(c) - face.offset, face.normal);
+    }
+    let half = 0.5 * delta;
     let inside = |p: Vec3| {
         let p_inc = to_inc(p);
         refp.faces
@@ -651,18 +685,13 @@ fn wedge_certified(
                 .all(|f| f.normal.dot(p_inc) - f.offset <= -half)
     };
     // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
-    let [(s2, n2), (s3, n3), (s4, n4)] = near;
+    let [(s1, n1), (s2, n2), (s3, n3), (s4, n4)] = near;
     let solve = |last: glam::Vec4, rhs: f32| {
-        let rows = glam::Mat4::from_cols(n.extend(1.0), n2.extend(1.0), n3.extend(1.0), last)
+        let rows = glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last)
             .transpose();
         c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
     };
-    let certified =
-        inside(solve(n4.extend(1.0), -s4)) || inside(solve(n.cross(n2).extend(0.0), 0.0));
-    if certified {
-        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
-    }
-    certified
+    inside(solve(n4.extend(1.0), -s4)) || inside(solve(n1.cross(n2).extend(0.0), 0.0))
 }
 
 thread_local! {
