@@ -188,6 +188,7 @@ fn touching_pairs_turning_slowly_keep_their_answers() {
     let shapes = shapes();
     let mut rng = Rng(777);
     let (mut edges, mut touching, mut total) = (0, 0, 0);
+    let balls0 = narrow::edge_ball_certificates();
     for sa in &shapes {
         for sb in &shapes {
             for spin in [2e-5, 3e-4, 3e-3] {
@@ -198,7 +199,14 @@ fn touching_pairs_turning_slowly_keep_their_answers() {
             }
         }
     }
-    println!("{touching} of {total} pair-steps touching, {edges} edge contacts");
+    let balls = narrow::edge_ball_certificates() - balls0;
+    println!(
+        "{touching} of {total} pair-steps touching, {edges} edge contacts, \
+         {balls} certified by a point inside both bodies"
+    );
+    // The certificate by a point inside both bodies served (where B's closest point was
+    // not deep enough in A), and every one of those steps was checked above.
+    assert!(balls * 50 > edges, "{balls} of {edges} edge contacts by a point in both");
     // Most steps touch, and a good share of them are remembered edge contacts.
     assert!(touching * 2 > total, "{touching} of {total} touching");
     assert!(edges * 10 > touching, "{edges} edge contacts of {touching}");

@@ -412,8 +412,13 @@ fn remembered_edge(
     // Else a point inside both bodies near the edges' closest points, if one is found
     // ([`ball_certified`]); not tried shallower than `delta` (and NaN fails too).
     let to_b = |p: Vec3| rel.inv_rot * (p - rel.t);
-    let inside = inside
-        || (best_e.0 < -delta && ball_certified(a, None, b, to_b, rel.rot, mid, delta));
+    let inside = inside || {
+        let ball = best_e.0 < -delta && ball_certified(a, None, b, to_b, rel.rot, mid, delta);
+        if ball {
+            EDGE_BALL_CERTIFIED.with(|n| n.set(n.get() + 1));
+        }
+        ball
+    };
     if inside { Ok(m) } else { Err(keep(Ok(best_e))) }
 }
 
@@ -697,6 +702,16 @@ fn ball_certified(
 thread_local! {
     /// How many face contacts [`wedge_certified`] certified on this thread (for tests).
     static WEDGE_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    /// How many edge contacts [`ball_certified`] certified on this thread (for tests).
+    static EDGE_BALL_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many remembered edge contacts on this thread stood in for the full test by a point
+/// inside both bodies ([`ball_certified`]) where B's closest point was not deep enough in
+/// A, for tests that check the path serves.
+#[doc(hidden)]
+pub fn edge_ball_certificates() -> usize {
+    EDGE_BALL_CERTIFIED.with(|n| n.get())
 }
 
 /// How many remembered face contacts on this thread stood in for the full test by the
