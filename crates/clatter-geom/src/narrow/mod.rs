@@ -26,7 +26,7 @@ mod sphere;
 pub use memory::EdgeMemory;
 pub use sat::polyhedron_polyhedron;
 #[doc(hidden)]
-pub use sat::{edge_ball_certificates, wedge_certificates};
+pub use sat::wedge_certificates;
 pub use sphere::sphere_polyhedron;
 
 /// One point of a contact manifold.

@@ -363,9 +363,12 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 /// The full test keeps an edge contact when `best_e > face_best + tol`. The best face
 /// axis's separation moves by at most the bodies' motion bound per step (see
 /// [`contact_margin`]), so with `margin = -(face_best_then + tol) - eps` less twice the
-/// bounds since (the caller's), `best_e + margin > 0` implies the decision. No axis
-/// separates when B's point of the contact is inside A by more than the rounding (the
-/// argument of [`overlap_certified`], on a point of B's edge).
+/// bounds since (the caller's), `best_e + margin > 0` implies the decision. It also implies
+/// that no axis separates, with no check of the overlap: the search found no separating
+/// edge axis (one would be positive, above any floor, and returned as such: see
+/// [`exact_search`]), so `best_e <= 0`, and every face axis's separation is now at most
+/// `face_best_then` plus one bound, below `best_e - tol - eps <= -tol`: the full test
+/// finds no separating face axis either, and keeps this edge contact.
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -403,23 +406,7 @@ fn remembered_edge(
     if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(keep(Ok(best_e)));
     }
-    let (m, qb, mid) = edge_manifold(a, b, pa, bv, best_e);
-    let delta = 2e-5 * (a.radius + b.radius);
-    let inside = a
-        .faces
-        .iter()
-        .all(|f| f.normal.dot(qb) - f.offset <= -delta);
-    // Else a point inside both bodies near the edges' closest points, if one is found
-    // ([`ball_certified`]); not tried shallower than `delta` (and NaN fails too).
-    let to_b = |p: Vec3| rel.inv_rot * (p - rel.t);
-    let inside = inside || {
-        let ball = best_e.0 < -delta && ball_certified(a, None, b, to_b, rel.rot, mid, delta);
-        if ball {
-            EDGE_BALL_CERTIFIED.with(|n| n.set(n.get() + 1));
-        }
-        ball
-    };
-    if inside { Ok(m) } else { Err(keep(Ok(best_e))) }
+    Ok(edge_manifold(a, b, pa, bv, best_e))
 }
 
 /// An edge search's answer: the best edge axis, or the separating one (its hint and
@@ -505,14 +492,14 @@ fn edges_by_direction(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> bool {
 }
 
 /// The manifold of edge contact `best_e` (one point, halfway between the closest points of
-/// the two edges), and B's closest point and that halfway point, in A's frame.
+/// the two edges).
 fn edge_manifold(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
     pa: &Pose,
     bv: &[Vec3],
     best_e: EdgeAxis,
-) -> (Manifold, Vec3, Vec3) {
+) -> Manifold {
     let (s, ea, eb, axis) = best_e;
     let [a0, a1] = a.edges[ea];
     let [b0, b1] = b.edges[eb];
@@ -523,8 +510,7 @@ fn edge_manifold(
         bv[b1 as usize],
     );
     let mid = 0.5 * (qa + qb);
-    let m = Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s);
-    (m, qb, mid)
+    Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s)
 }
 
 /// The margin of the full test's decisions for a face contact: how much the separation
@@ -702,16 +688,6 @@ fn ball_certified(
 thread_local! {
     /// How many face contacts [`wedge_certified`] certified on this thread (for tests).
     static WEDGE_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-    /// How many edge contacts [`ball_certified`] certified on this thread (for tests).
-    static EDGE_BALL_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-}
-
-/// How many remembered edge contacts on this thread stood in for the full test by a point
-/// inside both bodies ([`ball_certified`]) where B's closest point was not deep enough in
-/// A, for tests that check the path serves.
-#[doc(hidden)]
-pub fn edge_ball_certificates() -> usize {
-    EDGE_BALL_CERTIFIED.with(|n| n.get())
 }
 
 /// How many remembered face contacts on this thread stood in for the full test by the
@@ -839,7 +815,7 @@ fn sat_full(
         // moves by at most the bodies' motion (see `remembered_edge`).
         *hint = HINT_EDGE_CONTACT;
         *separation = -(face_best + tol) - eps;
-        return Some(edge_manifold(a, b, pa, bv, best_e).0);
+        return Some(edge_manifold(a, b, pa, bv, best_e));
     }
     // Face contact: prefer A's face unless B's is clearly better.
     let ref_b = best_b.0 > best_a.0 + tol;
