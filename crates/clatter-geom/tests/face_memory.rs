@@ -172,7 +172,10 @@ fn run_poses(
         let before = narrow::is_contact_hint(hint).then_some((hint, bound));
         let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
         let full = narrow::collide(a, &pa, b, &pb);
-        assert_eq!(with, full, "step {k}: manifold differs from the full test's");
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
         let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
         kept += stood as usize;
         touching += with.is_some() as usize;
@@ -275,6 +278,12 @@ fn contacts_across_the_reference_faces_edge_give_the_full_tests_manifolds() {
          by the edge certificate {wedge}"
     );
     assert!(touching * 2 > total, "{touching} of {total} touching");
-    assert!(kept * 4 > touching, "remembered faces stood in {kept} of {touching}");
-    assert!(wedge * 20 > touching, "the edge certificate stood in {wedge} of {touching}");
+    assert!(
+        kept * 4 > touching,
+        "remembered faces stood in {kept} of {touching}"
+    );
+    assert!(
+        wedge * 20 > touching,
+        "the edge certificate stood in {wedge} of {touching}"
+    );
 }

@@ -678,8 +678,8 @@ fn ball_certified(
     // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
     let [(s1, n1), (s2, n2), (s3, n3), (s4, n4)] = near;
     let solve = |last: glam::Vec4, rhs: f32| {
-        let rows = glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last)
-            .transpose();
+        let rows =
+            glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last).transpose();
         c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
     };
     inside(solve(n4.extend(1.0), -s4)) || inside(solve(n1.cross(n2).extend(0.0), 0.0))
