@@ -10,6 +10,13 @@ use glam::{Quat, Vec3};
 mod common;
 use common::Rng;
 
+fn poly(s: &Shape) -> &clatter_geom::ConvexPolyhedron {
+    match s {
+        Shape::Polyhedron(p) => p,
+        _ => panic!("a polyhedron"),
+    }
+}
+
 fn shapes() -> Vec<PreparedShape> {
     common::solids_and_hull(12)
 }
@@ -99,7 +106,8 @@ fn support(s: &Shape, q: Quat, dir: Vec3) -> f32 {
 /// With `about_line`, B turns about the line of centres (so that the edge pairs of an edge
 /// contact take turns winning). Returns (steps whose hint was an edge contact, steps that
 /// touched, edge contacts whose normal turned by more than 1e-3 rad since the step before,
-/// itself an edge contact: the winning edge pair changed).
+/// itself an edge contact: the winning edge pair changed, remembered edge contacts that
+/// stood in with B's point of the contact less than `2e-5 (r_a + r_b)` inside A).
 fn run_touching(
     a: &Shape,
     b: &Shape,
@@ -107,8 +115,9 @@ fn run_touching(
     spin: f32,
     steps: usize,
     about_line: bool,
-) -> (usize, usize, usize) {
+) -> (usize, usize, usize, usize) {
     let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
+    let mut shallow = 0;
     let dir = rng.unit();
     let slide = rng.unit().cross(dir).normalize_or_zero();
     let (mut qa, mut qb) = (rng.rotation(), rng.rotation());
@@ -152,6 +161,7 @@ fn run_touching(
         last = Some(centre);
         let with =
             narrow::collide_with_memory(a, &pa, b, &pb, &mut hint_m, &mut bound_m, &mut memory);
+        let before = (hint, bound);
         let without = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
         let full = narrow::collide(a, &pa, b, &pb);
         assert_eq!(with, without, "step {k}: manifolds differ");
@@ -168,6 +178,18 @@ fn run_touching(
         touching += with.is_some() as usize;
         let edge = hint == narrow::HINT_EDGE_CONTACT;
         edges += edge as usize;
+        // A remembered edge contact stood in (hint and bound kept), B's point of the
+        // contact (half the depth from the manifold's point, against the normal) not deep
+        // in A (A's face planes in the world frame).
+        if let Some(m) = with.filter(|_| edge && before == (hint, bound)) {
+            let p = m.points()[0];
+            let qb = qa.conjugate() * (p.point - m.normal * (0.5 * p.depth));
+            let deep = poly(a)
+                .faces
+                .iter()
+                .all(|f| f.normal.dot(qb) - f.offset <= -2e-5 * (ra + rb));
+            shallow += !deep as usize;
+        }
         let normal = with.filter(|_| edge).map(|m| m.normal);
         if let (Some(n), Some(before)) = (normal, last_edge) {
             switches += (n.angle_between(before) > 1e-3) as usize;
@@ -176,7 +198,7 @@ fn run_touching(
         qa = (Quat::from_axis_angle(wa, 0.1 * spin) * qa).normalize();
         qb = (Quat::from_axis_angle(wb, spin) * qb).normalize();
     }
-    (edges, touching, switches)
+    (edges, touching, switches, shallow)
 }
 
 /// Pairs kept touching with small overlaps, where the edge searches' floors are close to
@@ -187,18 +209,27 @@ fn run_touching(
 fn touching_pairs_turning_slowly_keep_their_answers() {
     let shapes = shapes();
     let mut rng = Rng(777);
-    let (mut edges, mut touching, mut total) = (0, 0, 0);
+    let (mut edges, mut touching, mut total, mut shallow) = (0, 0, 0, 0);
     for sa in &shapes {
         for sb in &shapes {
             for spin in [2e-5, 3e-4, 3e-3] {
                 for _ in 0..2 {
-                    let (e, t, _) = run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300, false);
+                    let (e, t, _, sh) =
+                        run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300, false);
                     (edges, touching, total) = (edges + e, touching + t, total + 300);
+                    shallow += sh;
                 }
             }
         }
     }
-    println!("{touching} of {total} pair-steps touching, {edges} edge contacts");
+    println!(
+        "{touching} of {total} pair-steps touching, {edges} edge contacts, {shallow} \
+         remembered with B's point of the contact less than 2e-5 (r_a + r_b) inside A"
+    );
+    // Remembered edge contacts stood in where B's point of the contact was not deep in A
+    // (no overlap check: the decision's margin rules out a separating axis), every one of
+    // those steps checked above.
+    assert!(shallow * 50 > edges, "{shallow} of {edges} edge contacts");
     // Most steps touch, and a good share of them are remembered edge contacts.
     assert!(touching * 2 > total, "{touching} of {total} touching");
     assert!(edges * 10 > touching, "{edges} edge contacts of {touching}");
@@ -219,7 +250,8 @@ fn edge_pairs_overtaking_the_winner_keep_their_answers() {
         for sb in &shapes {
             for spin in [1e-3, 4e-3] {
                 for _ in 0..2 {
-                    let (e, _, w) = run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300, true);
+                    let (e, _, w, _) =
+                        run_touching(&sa.shape, &sb.shape, &mut rng, spin, 300, true);
                     (edges, switches) = (edges + e, switches + w);
                 }
             }

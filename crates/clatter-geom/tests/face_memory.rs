@@ -140,3 +140,150 @@ fn remembered_faces_give_the_full_tests_manifolds() {
         "remembered faces stood in {kept} of {touching}"
     );
 }
+
+/// One pair stepped `steps` times with B at `pose_b(k)` (A still at the origin, turned by
+/// `qa`), the caller's part of the contract kept as in [`run_resting`]: every step's
+/// manifold compared bitwise with the full test's. Returns (steps whose remembered face
+/// stood in, steps that touched).
+fn run_poses(
+    a: &Shape,
+    b: &Shape,
+    qa: Quat,
+    steps: usize,
+    mut pose_b: impl FnMut(usize) -> (Vec3, Quat),
+) -> (usize, usize) {
+    let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
+    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
+    let mut last: Option<(Vec3, Quat)> = None;
+    let (mut kept, mut touching) = (0, 0);
+    let pa = Pose::new(Vec3::ZERO, qa);
+    for k in 0..steps {
+        let (centre, qb) = pose_b(k);
+        if let Some((c0, q0)) = last {
+            let th = angle(qb * q0.conjugate());
+            let moved =
+                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
+            if bound > 0.0 {
+                bound -= 2.0 * (moved * 1.01 + 1e-6 * (ra + rb));
+            }
+        }
+        last = Some((centre, qb));
+        let pb = Pose::new(centre, qb);
+        let before = narrow::is_contact_hint(hint).then_some((hint, bound));
+        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
+        let full = narrow::collide(a, &pa, b, &pb);
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
+        let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
+        kept += stood as usize;
+        touching += with.is_some() as usize;
+    }
+    (kept, touching)
+}
+
+/// B's face `fb` tilted by about `tilt` rad against A's face `fa`, dipping outward across
+/// A's face edge `edge`: B's face plane `depth` below A's face at that edge, and B's face's
+/// outermost point `over` beyond the edge's side plane (just past it, or just short of it),
+/// held there with slow drifts of all four. The contacts whose clipped points lie on the
+/// reference face's side plane (the incident body crossing it) are those
+/// `wedge_certified` serves.
+#[allow(clippy::too_many_arguments)]
+fn run_at_edge(
+    a: &Shape,
+    b: &Shape,
+    fa: usize,
+    fb: usize,
+    edge: usize,
+    rng: &mut Rng,
+    tilt: f32,
+    depth: f32,
+    over: f32,
+    steps: usize,
+) -> (usize, usize) {
+    let (pa_, pb_) = (poly(a), poly(b));
+    let qa = rng.rotation();
+    let n = pa_.faces[fa].normal;
+    let lp = pa_.face_loop(fa);
+    let (v0, v1) = (
+        pa_.vertices[lp[edge] as usize],
+        pa_.vertices[lp[(edge + 1) % lp.len()] as usize],
+    );
+    // In A's frame: the edge's midpoint, direction and outward side normal.
+    let mid = 0.5 * (v0 + v1);
+    let e = (v1 - v0).normalize();
+    let s = e.cross(n);
+    let lay = Quat::from_rotation_arc(pb_.faces[fb].normal, -n);
+    let spin0 = rng.next() * std::f32::consts::TAU;
+    let cb = face_centre(pb_, fb);
+    let fl = pb_.face_loop(fb);
+    run_poses(a, b, qa, steps, |k| {
+        let k = k as f32;
+        let th = tilt * (1.0 + 0.02 * (0.005 * k).sin());
+        let d = depth * (1.0 + 0.3 * (0.013 * k).sin());
+        let y = over * (1.0 + 0.5 * (0.02 * k).sin());
+        // B's face normal dips outward: -n cos th - s sin th.
+        let dip = Quat::from_rotation_arc(-n, -n * th.cos() - s * th.sin());
+        let q = (dip * Quat::from_axis_angle(n, spin0 + 1e-5 * k) * lay).normalize();
+        // B's face vertex farthest out along s, placed `y` beyond the edge on B's plane.
+        let far = fl
+            .iter()
+            .map(|&i| q * pb_.vertices[i as usize])
+            .max_by(|p, r| p.dot(s).total_cmp(&r.dot(s)))
+            .expect("a face has corners");
+        let at = mid + s * y - n * (d + y * th.tan());
+        let mut pos = at - far;
+        // Centred on the edge along it (a shift within B's face plane).
+        pos += e * (mid - (q * cb + pos)).dot(e);
+        (qa * pos, qa * q)
+    })
+}
+
+/// Every Platonic solid and a hull against every one, B tilted over an edge of A's face and
+/// held there (see [`run_at_edge`]): every step's manifold is the full test's, and the
+/// certificate of a contact crossing the reference face's side stood in on many steps.
+#[test]
+fn contacts_across_the_reference_faces_edge_give_the_full_tests_manifolds() {
+    let shapes = shapes();
+    let mut rng = Rng(777);
+    let (mut kept, mut touching, mut total) = (0, 0, 0);
+    let wedge0 = narrow::wedge_certificates();
+    for sa in &shapes {
+        for sb in &shapes {
+            let (pa_, pb_) = (poly(&sa.shape), poly(&sb.shape));
+            let (na, nb) = (pa_.faces.len(), pb_.faces.len());
+            for tilt in [0.05f32, 0.2, 0.5] {
+                // Past the edge by up to what keeps the two faces' separations within the
+                // full test's tolerance (1e-3 of the radius), or just short of it.
+                for over in [-0.3e-3, 0.3e-3, 0.8e-3] {
+                    for depth in [5e-4f32, 1.5e-3] {
+                        let fa = (rng.next() * na as f32) as usize % na;
+                        let fb = (rng.next() * nb as f32) as usize % nb;
+                        let ne = pa_.face_loop(fa).len();
+                        let edge = (rng.next() * ne as f32) as usize % ne;
+                        let over = over / tilt.tan();
+                        let (k, t) = run_at_edge(
+                            &sa.shape, &sb.shape, fa, fb, edge, &mut rng, tilt, depth, over, 200,
+                        );
+                        (kept, touching, total) = (kept + k, touching + t, total + 200);
+                    }
+                }
+            }
+        }
+    }
+    let wedge = narrow::wedge_certificates() - wedge0;
+    println!(
+        "{touching} of {total} pair-steps touching, remembered faces stood in {kept}, \
+         by the edge certificate {wedge}"
+    );
+    assert!(touching * 2 > total, "{touching} of {total} touching");
+    assert!(
+        kept * 4 > touching,
+        "remembered faces stood in {kept} of {touching}"
+    );
+    assert!(
+        wedge * 20 > touching,
+        "the edge certificate stood in {wedge} of {touching}"
+    );
+}

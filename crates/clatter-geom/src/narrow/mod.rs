@@ -25,6 +25,8 @@ mod sphere;
 
 pub use memory::EdgeMemory;
 pub use sat::polyhedron_polyhedron;
+#[doc(hidden)]
+pub use sat::wedge_certificates;
 pub use sphere::sphere_polyhedron;
 
 /// One point of a contact manifold.

@@ -327,7 +327,8 @@ fn remembered_face(
             return Err(None);
         }
         let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
-        if overlap_certified(a, &m, delta) {
+        let to_b = |p: Vec3| inv_rot * (p - t);
+        if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
             Ok(Some(to_world(m, pa)))
         } else {
             Err(Some((kind, face, m)))
@@ -338,7 +339,9 @@ fn remembered_face(
         }
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
-        if overlap_certified(b, &m, delta) {
+        let to_a = |p: Vec3| rot * p + t;
+        if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
+        {
             Ok(Some(to_world(m, pb).flipped()))
         } else {
             Err(Some((kind, face, m)))
@@ -360,9 +363,12 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 /// The full test keeps an edge contact when `best_e > face_best + tol`. The best face
 /// axis's separation moves by at most the bodies' motion bound per step (see
 /// [`contact_margin`]), so with `margin = -(face_best_then + tol) - eps` less twice the
-/// bounds since (the caller's), `best_e + margin > 0` implies the decision. No axis
-/// separates when B's point of the contact is inside A by more than the rounding (the
-/// argument of [`overlap_certified`], on a point of B's edge).
+/// bounds since (the caller's), `best_e + margin > 0` implies the decision. It also implies
+/// that no axis separates, with no check of the overlap: the search found no separating
+/// edge axis (one would be positive, above any floor, and returned as such: see
+/// [`exact_search`]), so `best_e <= 0`, and every face axis's separation is now at most
+/// `face_best_then` plus one bound, below `best_e - tol - eps <= -tol`: the full test
+/// finds no separating face axis either, and keeps this edge contact.
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -400,13 +406,7 @@ fn remembered_edge(
     if (best_e.0 + margin).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(keep(Ok(best_e)));
     }
-    let (m, qb) = edge_manifold(a, b, pa, bv, best_e);
-    let delta = 2e-5 * (a.radius + b.radius);
-    let inside = a
-        .faces
-        .iter()
-        .all(|f| f.normal.dot(qb) - f.offset <= -delta);
-    if inside { Ok(m) } else { Err(keep(Ok(best_e))) }
+    Ok(edge_manifold(a, b, pa, bv, best_e))
 }
 
 /// An edge search's answer: the best edge axis, or the separating one (its hint and
@@ -492,14 +492,14 @@ fn edges_by_direction(a: &ConvexPolyhedron, b: &ConvexPolyhedron) -> bool {
 }
 
 /// The manifold of edge contact `best_e` (one point, halfway between the closest points of
-/// the two edges), and B's closest point, in A's frame.
+/// the two edges).
 fn edge_manifold(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
     pa: &Pose,
     bv: &[Vec3],
     best_e: EdgeAxis,
-) -> (Manifold, Vec3) {
+) -> Manifold {
     let (s, ea, eb, axis) = best_e;
     let [a0, a1] = a.edges[ea];
     let [b0, b1] = b.edges[eb];
@@ -510,8 +510,7 @@ fn edge_manifold(
         bv[b1 as usize],
     );
     let mid = 0.5 * (qa + qb);
-    let m = Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s);
-    (m, qb)
+    Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s)
 }
 
 /// The margin of the full test's decisions for a face contact: how much the separation
@@ -570,6 +569,138 @@ fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool 
     refp.faces
         .iter()
         .all(|f| f.normal.dot(c) - f.offset <= -delta)
+}
+
+/// Whether the bodies certainly overlap by more than `delta` at a face contact `m` (in the
+/// reference body's frame, reference face `rf` of `refp`) where [`overlap_certified`]
+/// cannot tell: the incident body crossing a side of the reference face, its clipped points
+/// on that side's plane, so that no ball about their centroid fits in the reference body.
+/// `to_inc` maps a point of the reference frame into the incident body's frame, `inc_rot`
+/// the incident body's directions into the reference frame.
+///
+/// Why: if a point `p` is at least `delta / 2` inside every face plane of both bodies, the
+/// balls of radius `delta / 2` about `p` lie in both, so along any direction `u` the
+/// incident body reaches below `u.p - delta / 2` and the reference body above `u.p +
+/// delta / 2`: every axis's separation is at most `-delta`, as in [`overlap_certified`]
+/// (whose point is in the incident body up to rounding and `delta` inside the reference
+/// body), and with the same room for rounding none of the full test's separations is
+/// positive. Every `p` tried is checked against every plane of both bodies, so any `p`
+/// serves; those tried are where the overlap is widest near the points' centroid `c` (on
+/// the incident face): the centre of the largest ball within the reference face's plane
+/// and the three other face planes (of either body) nearest `c`, and, when that fails (the
+/// four planes bound no small region, as at a wedge along the reference face's edge), the
+/// centre of the largest disc within the reference face's plane and the two nearest, on the
+/// plane through `c` across the reference face's plane and the nearest one. (A singular
+/// system gives a NaN or an infinite `p`, which fails the checks.)
+fn wedge_certified(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+) -> bool {
+    // Clipped points on a side plane are crossings of the incident face's edges: one or two
+    // (more are corners inside the face, where the first certificate failed for depth).
+    if m.count > 2 {
+        return false;
+    }
+    let n = m.normal;
+    let mut c = Vec3::ZERO;
+    for p in m.points() {
+        c += p.point - n * (0.5 * p.depth);
+    }
+    let c = c / m.count as f32;
+    // Shallower than `delta` along the reference normal: no ball fits (and NaN returns).
+    let s1 = n.dot(c) - refp.faces[rf].offset;
+    if s1.partial_cmp(&-delta) != Some(std::cmp::Ordering::Less) {
+        return false;
+    }
+    let certified = ball_certified(refp, Some(rf), inc, to_inc, inc_rot, c, delta);
+    if certified {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+    }
+    certified
+}
+
+/// Whether a point at least `delta / 2` inside every face plane of both `refp` and `inc`
+/// is found near `c` (in `refp`'s frame; `to_inc` maps a point of it into `inc`'s frame,
+/// `inc_rot` `inc`'s directions into it), so that every axis's separation is at most
+/// `-delta` (see [`wedge_certified`]). Every point tried is checked against every plane, so
+/// the choice only decides how often one is found: the centre of the largest ball within
+/// the four face planes (of either body) nearest `c`, face `first` of `refp` always among
+/// them when given; and, when that fails, the centre of the largest disc within the three
+/// nearest, on the plane through `c` across the two nearest. (A singular system gives a NaN
+/// or an infinite point, which fails the checks.)
+fn ball_certified(
+    refp: &ConvexPolyhedron,
+    first: Option<usize>,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    c: Vec3,
+    delta: f32,
+) -> bool {
+    // The face planes nearest `c`, (separation, normal in `refp`'s frame), nearest first
+    // (`first`'s ahead of all).
+    let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 4];
+    let mut take = |s: f32, normal: Vec3| {
+        let mut k = 3;
+        if s > near[k].0 {
+            near[k] = (s, normal);
+            while k > 0 && near[k].0 > near[k - 1].0 {
+                near.swap(k, k - 1);
+                k -= 1;
+            }
+        }
+    };
+    for (f, face) in refp.faces.iter().enumerate() {
+        if Some(f) != first {
+            take(face.normal.dot(c) - face.offset, face.normal);
+        }
+    }
+    let c_inc = to_inc(c);
+    for face in &inc.faces {
+        take(face.normal.dot(c_inc) - face.offset, inc_rot * face.normal);
+    }
+    if let Some(f) = first {
+        let face = refp.faces[f];
+        near.copy_within(0..3, 1);
+        near[0] = (face.normal.dot(c) - face.offset, face.normal);
+    }
+    let half = 0.5 * delta;
+    let inside = |p: Vec3| {
+        let p_inc = to_inc(p);
+        refp.faces
+            .iter()
+            .all(|f| f.normal.dot(p) - f.offset <= -half)
+            && inc
+                .faces
+                .iter()
+                .all(|f| f.normal.dot(p_inc) - f.offset <= -half)
+    };
+    // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
+    let [(s1, n1), (s2, n2), (s3, n3), (s4, n4)] = near;
+    let solve = |last: glam::Vec4, rhs: f32| {
+        let rows =
+            glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last).transpose();
+        c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
+    };
+    inside(solve(n4.extend(1.0), -s4)) || inside(solve(n1.cross(n2).extend(0.0), 0.0))
+}
+
+thread_local! {
+    /// How many face contacts [`wedge_certified`] certified on this thread (for tests).
+    static WEDGE_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many remembered face contacts on this thread stood in for the full test by the
+/// certificate of a contact crossing the reference face's side ([`wedge_certified`]), for
+/// tests that check the path serves.
+#[doc(hidden)]
+pub fn wedge_certificates() -> usize {
+    WEDGE_CERTIFIED.with(|n| n.get())
 }
 
 /// Per-thread buffers of the separating-axis test (no allocation or zeroing per pair).
@@ -689,7 +820,7 @@ fn sat_full(
         // moves by at most the bodies' motion (see `remembered_edge`).
         *hint = HINT_EDGE_CONTACT;
         *separation = -(face_best + tol) - eps;
-        return Some(edge_manifold(a, b, pa, bv, best_e).0);
+        return Some(edge_manifold(a, b, pa, bv, best_e));
     }
     // Face contact: prefer A's face unless B's is clearly better.
     let ref_b = best_b.0 > best_a.0 + tol;
