@@ -591,8 +591,9 @@ const NRW_EDGE: u32 = 2u;
 
 // Two convex polyhedra (CPU `polyhedron_polyhedron`): what the pair remembers (nrw_mem_in)
 // first, while its margin lasts (the remembered face clipped alone if the overlap is
-// certain; the edge axes alone for an edge contact, while the best stays above the margin
-// and B's contact point is inside A), else the full separating-axis test; what the pair
+// certain; the edge axes alone for an edge contact, while the best stays above the margin:
+// that also rules out a separating axis, with no overlap check, as on the CPU's
+// `remembered_edge`), else the full separating-axis test; what the pair
 // remembers next is left in nrw_mem_out. Each path's decisions are the full test's, so the
 // manifold is too; one call site each for the clipping, the edge manifold and the axes (an
 // inlined copy could round differently under FMA contraction, and costs compile time).
@@ -655,10 +656,6 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
                 let ev_a = nrw_edge(a, e.ea);
                 let ev_b = nrw_edge(b, e.eb);
                 let cl = nrw_segment_closest(nrw_vert(a, ev_a.x), nrw_vert(a, ev_a.y), nrw_bv(b, ev_b.x, rot, t), nrw_bv(b, ev_b.y, rot, t));
-                if mode == NRW_EDGE && !nrw_inside(a, cl[1], delta) {
-                    mode = NRW_FULL;
-                    continue;
-                }
                 if mode == NRW_FULL {
                     // Remembered with the bound the edge must stay above.
                     keep = vec2<u32>(HINT_EDGE_CONTACT, bitcast<u32>(-(face_best + tol) - eps));
