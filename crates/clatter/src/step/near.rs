@@ -417,4 +417,90 @@ velocity = [0.8, -0.6, -2.5]
         );
         assert!(shorter > 1000, "steps with a shorter list: {shorter}");
     }
+
+    /// Two spheres approaching head-on, each at the same speed, with a gap inside the skin
+    /// but outside the near margin when the list is made: both bodies must stop the list
+    /// before each has moved half the gap, or the pair touches unseen. (A reach twice too
+    /// long lets them meet first: the pile test above, whose other bodies make lists again
+    /// often, does not catch that.) Bitwise the run without a near list, every step, through
+    /// the collision and the rebound.
+    #[test]
+    fn a_head_on_pair_is_in_the_near_list_before_it_touches() {
+        const PAIR: &str = r#"
+[simulation]
+steps = 1
+dt = 2.0e-5
+skin = 0.004
+gravity = [0.0, 0.0, 0.0]
+
+[[material]]
+name = "glass"
+density = 2500.0
+stiffness = 2.0e4
+restitution = 0.5
+friction = 0.5
+
+[container]
+min = [0.0, 0.0, 0.0]
+max = [0.1, 0.1, 0.1]
+material = "glass"
+
+[[shape]]
+name = "ball"
+sphere = { radius = 0.005 }
+
+[[body]]
+shape = "ball"
+material = "glass"
+position = [0.0435, 0.05, 0.05]
+velocity = [0.5, 0.0, 0.0]
+
+[[body]]
+shape = "ball"
+material = "glass"
+position = [0.0565, 0.05, 0.05]
+velocity = [-0.5, 0.0, 0.0]
+"#;
+        let world = || {
+            Scene::parse(PAIR, "pair.toml")
+                .expect("valid scene")
+                .world()
+        };
+        let (mut near, mut full) = (world(), world());
+        // The gap (3 mm) is inside the skin (the broad phase's list holds the pair) and
+        // outside the near margin (the near list does not, at first).
+        assert!(0.003 < near.skin && 0.003 > super::MARGIN * near.skin);
+        let (mut first_touch, mut left_out_first) = (None, false);
+        for step in 0..400 {
+            let touching = near.step().expect("a stable run").contacts;
+            assert_eq!(
+                touching,
+                reference_step(&mut full),
+                "touching at step {step}"
+            );
+            assert!(
+                bits(&near) == bits(&full),
+                "the states differ after step {step}"
+            );
+            let list = near.contacts.near.as_ref().expect("a near list");
+            if step == 0 {
+                left_out_first = list.slots.is_empty() && near.contacts.pairs.len() == 1;
+            }
+            if touching > 0 && first_touch.is_none() {
+                first_touch = Some(step);
+            }
+        }
+        assert!(
+            left_out_first,
+            "the pair was not left out of the first near list"
+        );
+        // Each body moves 1e-5 m a step: they meet after about 150 steps and part again.
+        let first = first_touch.expect("the pair never touched");
+        assert!((140..160).contains(&first), "first touch at step {first}");
+        assert!(
+            near.state.velocity[0].x < 0.0,
+            "no rebound: {}",
+            near.state.velocity[0].x
+        );
+    }
 }
