@@ -213,7 +213,7 @@ impl Contacts {
     }
 
     /// The springs, forces and flags of every contact. While a near list lives (spheres,
-    /// [`crate::step::near`]), the list's own springs are behind: this is then a copy with
+    /// the `step::near` module), the list's own springs are behind: this is then a copy with
     /// the near list's written in, made once per step on the first read.
     pub fn springs(&self) -> &ContactSprings {
         match &self.near {
