@@ -1,4 +1,4 @@
-// The DEM contact law on the GPU: the twin of crates/clatter/src/law.rs, function for
+// The DEM contact law on the GPU: the twin of crates/clatter/src/law/mod.rs, function for
 // function under the same names (tests/law.rs runs both on random contacts). Each contact
 // passes a `PairContext` (its `PairParams` row, effective mass and radius, point share and
 // step) and the constants of clatter::contract (both from the generated prelude).

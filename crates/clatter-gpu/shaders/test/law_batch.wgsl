@@ -1,5 +1,5 @@
 // The contact law (law.wgsl) on a batch of contact states, for tests/law.rs. Compiled after
-// the contract's records, common.wgsl and law.wgsl (src/law.rs).
+// the contract's records, common.wgsl and law.wgsl (src/law/mod.rs).
 
 struct LawQuery {
     context: PairContext,
