@@ -2,7 +2,7 @@
 # Device run (the `device` tool's machine, an H100 or H200 with 16 cores): the GPU targets of
 # issue 23 (`run.sh gpu`), then the MPI scaling rows of issue 25 beside LAMMPS (`run.sh mpi`).
 # Made by scripts/device/pack.sh (copied to .devrun/dev.sh); the device tool's command is
-# `bash .devrun/dev.sh gpu` with carry [".gl", ".devrun"]. Each stage has its own timeout;
+# `bash .devrun/dev.sh gpu` (or `both`: the targets of both issues in one call) with carry [".gl", ".devrun"]. Each stage has its own timeout;
 # the logs go to $OUT/all.log and a summary to $OUT/summary.txt (at most 8 files come back).
 # MPI: the machine's own Open MPI is used when it has one (it had 4.1.6); unpacking the
 # carried Debian 4.1.4 over it crashed mpirun, so that is only the fallback.
@@ -43,6 +43,17 @@ stage default_run 60 $C run --backend gpu --steps 5000 -q --out /tmp/run1
 stage default_run_sparse 60 $C run --backend gpu --steps 5000 -q --energy-every 1000 --check-every 1000 --out /tmp/run2
 for t in stages memory_steps; do CI=1 stage test_$t 90 /opt/cl/$t --test-threads 4; done
 log "final gpu part done"; set -- mixmpi
+fi
+if [ "${1:-gpu}" = both ]; then
+# One call for a 15-minute lease: the H100 targets of issue 23 first, then the 16-rank rows of
+# issue 25 (weak scaling at 1, 4, 16 ranks and the strong row at 16; LAMMPS beside each).
+stage sph4M_lat 100 $G --shape sphere --pile lattice --bodies 4194304 --steps 500 --settle 200
+stage mixed80k 200 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --settle 200
+stage mixed80k_prof 45 $G --shape mixed --pile poured --bodies 80000 --steps 300 --settle 0 --profile --profile-steps 100
+stage default_bench 40 $G --scene default --settle 0 --steps 5000
+stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
+for t in stages memory_steps; do CI=1 stage test_$t 70 /opt/cl/$t --test-threads 8; done
+log "gpu part done"; W="16384 65536 262144"; NPS="1 16"; WNP="1 4 16"; set -- mpi
 fi
 if [ "${1:-gpu}" = gpu ]; then
 # 1. H100 targets (issue 23).
@@ -98,6 +109,10 @@ run_pair() { # np bodies
   (cd /tmp/l$n && timeout 120 $M -np $np $LMP -in in.pile -log l$np.log > /dev/null 2>&1; grep "^Loop time" l$np.log | tail -1 | awk -v np=$np -v n=$n '{print "lammps np", np, "n", n, $9/$4, "steps/s"}' | tee -a $OUT/summary.txt)
 }
 for np in $NPS; do run_pair $np $S; done
+if [ -n "${WNP:-}" ]; then
+  set -- $WNP; for n in $W; do np=$1; shift; [ $n = $S ] && [ $np = 16 ] && continue; run_pair $np $n; done
+  log "done"; exit 0
+fi
 i=0; for n in $W; do np=$((1<<i)); i=$((i+1)); [ $n = $S ] && continue; run_pair $np $n; done
 for np in 1 4 16; do stage m_np${np} 120 $M -np $np $CM bench --backend cpu --shape mixed --pile lattice --bodies $MX --steps 100 --settle 0 --threads 1 --pile-cache $PC --json; grep -h steps_per_s $L/m_np${np}.log | tee -a $OUT/summary.txt; done
 log "done"
