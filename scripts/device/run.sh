@@ -44,6 +44,16 @@ stage default_run_sparse 60 $C run --backend gpu --steps 5000 -q --energy-every 
 for t in stages memory_steps; do CI=1 stage test_$t 90 /opt/cl/$t --test-threads 4; done
 log "final gpu part done"; set -- mixmpi
 fi
+if [ "${1:-gpu}" = check ]; then
+# A short re-check after merges: the machine's cores, the GPU tests, the default scene, then
+# the weak-scaling end rows (1 and 16 ranks) and 8 ranks of the 16.
+{ lscpu | grep -E "^(Model name|Socket|Core|Thread|CPU\(s\)|NUMA node\(s\)|L2|L3)"; } 2>&1 | tee -a $OUT/summary.txt
+for t in stages memory_steps; do CI=1 stage test_$t 70 /opt/cl/$t --test-threads 8; done
+stage default_bench 40 $G --scene default --settle 0 --steps 5000
+stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
+stage default_run_sparse 40 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
+log "gpu part done"; W="16384 131072 262144"; S=16384; NPS=1; WNP="1 8 16"; set -- mpi
+fi
 if [ "${1:-gpu}" = both ]; then
 # One call for a 15-minute lease: the H100 targets of issue 23 first, then the 16-rank rows of
 # issue 25 (weak scaling at 1, 4, 16 ranks and the strong row at 16; LAMMPS beside each).
@@ -110,7 +120,7 @@ run_pair() { # np bodies
 }
 for np in $NPS; do run_pair $np $S; done
 if [ -n "${WNP:-}" ]; then
-  set -- $WNP; for n in $W; do np=$1; shift; [ $n = $S ] && [ $np = 16 ] && continue; run_pair $np $n; done
+  set -- $WNP; for n in $W; do np=$1; shift; [ $n = $S ] && echo " $NPS " | grep -q " $np " && continue; run_pair $np $n; done
   log "done"; exit 0
 fi
 i=0; for n in $W; do np=$((1<<i)); i=$((i+1)); [ $n = $S ] && continue; run_pair $np $n; done
