@@ -24,9 +24,12 @@ fn face_centre(p: &ConvexPolyhedron, f: usize) -> Vec3 {
     lp.iter().map(|&i| p.vertices[i as usize]).sum::<Vec3>() / lp.len() as f32
 }
 
-/// The rotation angle of `q` (radians, at most pi).
+/// The rotation angle of `q` (radians, at most pi), accurate for small turns: from the
+/// vector part's length, not `acos(w)` (in f32, `w` of a turn below about 5e-4 rad rounds
+/// to 1, and `acos` gave 0: the motion bound these tests pass then missed the turn, and a
+/// margin spent at the rate of the true motion could serve past its decisions).
 fn angle(q: Quat) -> f32 {
-    2.0 * q.w.abs().min(1.0).acos()
+    2.0 * q.xyz().length().atan2(q.w.abs())
 }
 
 /// One pair stepped `steps` times: B's face `fb` laid on A's face `fa` (anti-parallel), then
@@ -285,5 +288,128 @@ fn contacts_across_the_reference_faces_edge_give_the_full_tests_manifolds() {
     assert!(
         wedge * 20 > touching,
         "the edge certificate stood in {wedge} of {touching}"
+    );
+}
+
+/// B's face `fb` laid parallel on A's face `fa` (anti-parallel normals), sliding across it
+/// at `slide` times A's radius per step, spinning about the normal at `spin` rad per step
+/// and rocking by up to `rock` rad, pressed in by 0.2% of the radii: every step's manifold
+/// compared bitwise with the full test's, the caller's part of the contract kept as in
+/// [`run_resting`]. Returns (steps whose remembered face stood in, steps that touched,
+/// steps that stood in after the bodies had moved, since the full test that set the
+/// margin, by more than half the full test's tolerance).
+///
+/// Why the last count: the margin the pair kept before `contact_margin` took the reference
+/// face's separation anew was at most `tol - eps` (its edge term, `face_best + tol -
+/// max(face_best, best_e)`, is at most `tol`), spent at twice the motion bound per step, so
+/// no remembered face could stand in once the bound summed since its full test passed
+/// `tol / 2`. On parallel faces the cross and edge terms sit at `tol`, so these are the
+/// steps the new margin adds.
+#[allow(clippy::too_many_arguments)]
+fn run_parallel(
+    a: &Shape,
+    b: &Shape,
+    fa: usize,
+    fb: usize,
+    rng: &mut Rng,
+    slide: f32,
+    spin: f32,
+    rock: f32,
+    steps: usize,
+) -> (usize, usize, usize) {
+    let (pa_, pb_) = (poly(a), poly(b));
+    let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
+    let tol = 1e-3 * ra.max(rb);
+    let qa = rng.rotation();
+    let na = qa * pa_.faces[fa].normal;
+    let lay = Quat::from_rotation_arc(pb_.faces[fb].normal, -na);
+    let spin0 = rng.next() * std::f32::consts::TAU;
+    let dir = rng.unit().cross(na).normalize_or_zero();
+    let rock_axis = rng.unit().cross(na).normalize_or_zero();
+    let (ca, cb) = (qa * face_centre(pa_, fa), face_centre(pb_, fb));
+    let pa = Pose::new(Vec3::ZERO, qa);
+    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
+    let mut last: Option<(Vec3, Quat)> = None;
+    let (mut kept, mut touching, mut beyond) = (0, 0, 0);
+    // The motion bound summed since the last full test.
+    let mut since = 0.0f32;
+    for k in 0..steps {
+        let kf = k as f32;
+        let qb = (Quat::from_axis_angle(rock_axis, rock * (0.02 * kf).sin())
+            * Quat::from_axis_angle(na, spin0 + spin * kf)
+            * lay)
+            .normalize();
+        let overlap = (0.002 + 1e-4 * (0.05 * kf).sin()) * (ra + rb);
+        let centre = ca + dir * (slide * ra * (kf - 0.5 * steps as f32)) - na * overlap - qb * cb;
+        let mut step_bound = 0.0;
+        if let Some((c0, q0)) = last {
+            let th = angle(qb * q0.conjugate());
+            let moved =
+                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
+            step_bound = moved * 1.01 + 1e-6 * (ra + rb);
+            if bound > 0.0 {
+                bound -= 2.0 * step_bound;
+            }
+        }
+        last = Some((centre, qb));
+        let pb = Pose::new(centre, qb);
+        let before = narrow::is_contact_hint(hint).then_some((hint, bound));
+        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
+        let full = narrow::collide(a, &pa, b, &pb);
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
+        let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
+        if stood {
+            since += step_bound;
+            beyond += (since > 0.5 * tol) as usize;
+        } else {
+            since = 0.0;
+        }
+        kept += stood as usize;
+        touching += with.is_some() as usize;
+    }
+    (kept, touching, beyond)
+}
+
+/// Every Platonic solid and a hull against every one, laid face on face with parallel
+/// faces, sliding and slowly turning (see [`run_parallel`]): every step's manifold is the
+/// full test's, and the remembered faces stood in on many steps the margin relative to the
+/// full test's own separation could not serve (more than half the tolerance moved since).
+#[test]
+fn parallel_faces_sliding_and_turning_stay_remembered() {
+    let shapes = shapes();
+    let mut rng = Rng(2323);
+    let (mut kept, mut touching, mut beyond, mut total) = (0, 0, 0, 0);
+    for sa in &shapes {
+        for sb in &shapes {
+            let (na, nb) = (poly(&sa.shape).faces.len(), poly(&sb.shape).faces.len());
+            // Per step, motion bounds of about 1/60 to 1/10 of the tolerance.
+            for (slide, spin, rock) in [(2e-5, 0.0, 0.0), (1e-5, 5e-6, 0.0), (5e-6, 1e-5, 2e-4)] {
+                for _ in 0..2 {
+                    let fa = (rng.next() * na as f32) as usize % na;
+                    let fb = (rng.next() * nb as f32) as usize % nb;
+                    let (k, t, o) = run_parallel(
+                        &sa.shape, &sb.shape, fa, fb, &mut rng, slide, spin, rock, 300,
+                    );
+                    (kept, touching, beyond, total) =
+                        (kept + k, touching + t, beyond + o, total + 300);
+                }
+            }
+        }
+    }
+    println!(
+        "{touching} of {total} pair-steps touching, remembered faces stood in {kept}, \
+         {beyond} of them beyond the old margin's reach"
+    );
+    assert!(touching * 10 > total * 9, "{touching} of {total} touching");
+    assert!(
+        kept * 2 > touching,
+        "remembered faces stood in {kept} of {touching}"
+    );
+    assert!(
+        beyond * 4 > kept,
+        "beyond the old margin's reach: {beyond} of {kept}"
     );
 }

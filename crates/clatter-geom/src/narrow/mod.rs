@@ -125,7 +125,8 @@ pub fn is_contact_hint(hint: SatHint) -> bool {
 ///   test's decisions could turn (0 and [`NO_HINT`] when there is none). The caller
 ///   subtracts from `bound`, before each later call, twice a bound of how much any axis's
 ///   separation can have changed since (both sides of each decision move); while it stays
-///   positive (for an edge contact: above minus the best edge axis's separation), the
+///   above minus twice the reference face's separation at the call's poses (for an edge
+///   contact: above minus the best edge axis's separation), the
 ///   remembered contact stands in for the full test, and the manifold is the one the full
 ///   test would give, bitwise.
 ///

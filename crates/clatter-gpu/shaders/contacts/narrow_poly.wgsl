@@ -536,22 +536,38 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
     return r;
 }
 
-// The margin of the full test's decisions for a face contact (CPU `contact_margin`, see
-// there why): `best` the winning face's separation, `second` the best other face of its
-// body, `other` the best face of the other body, `edge` the best edge axis's separation,
-// `ref_b` whether the reference face is B's.
-fn nrw_contact_margin(best: f32, second: f32, other: f32, edge: f32, ref_b: bool, tol: f32) -> f32 {
-    var best_a = best;
-    var best_b = other;
-    var cross = best_a + tol - best_b;
+// The margin of the full test's decisions for a face contact less the reference face's
+// separation (CPU `contact_margin`, see there why): the face serves while its separation
+// at the later pose plus this margin exceeds the motion since. `second` the best other
+// face of the reference body, `other` the best face of the other body, `largest` the
+// larger of the best face and the best edge axis, `ref_b` whether the reference face is B's.
+fn nrw_contact_margin(second: f32, other: f32, largest: f32, ref_b: bool, tol: f32) -> f32 {
+    var cross = tol - other;
     if ref_b {
-        best_a = other;
-        best_b = best;
-        cross = best_b - best_a - tol;
+        cross = -(other + tol);
     }
-    let face_best = max(best_a, best_b);
-    let largest = max(face_best, edge);
-    return min(min(best - second, cross), face_best + tol - largest);
+    return min(min(-second, cross), tol - largest);
+}
+
+// The separation along reference face `face` (of B when ref_b, else of A; in range) at the
+// current poses (CPU `reference_separation`): the smallest projection of the other body's
+// vertices on its normal, less its offset, as the full test computes it up to rounding.
+fn nrw_reference_separation(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, ref_b: bool, face: u32) -> f32 {
+    var p = b;
+    var fc = nrw_face(a, face);
+    var n = inv_rot * fc.xyz;
+    var shift = dot(fc.xyz, t) - fc.w;
+    if ref_b {
+        p = a;
+        fc = nrw_face(b, face);
+        n = rot * fc.xyz;
+        shift = -(fc.w + dot(n, t));
+    }
+    var m = 3.0e38;
+    for (var i = 0u; i < p.num_vertices; i += 1u) {
+        m = min(m, dot(n, nrw_vert(p, i)));
+    }
+    return m + shift;
 }
 
 // Whether point p (in refp's frame) is at least delta inside every face plane of refp.
@@ -626,8 +642,12 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
             if margin > 0.0 {
                 mode = NRW_EDGE;
             }
-        } else if margin > 0.0 && ((kind == HINT_FACE_B && face < b.num_faces) || (kind != HINT_FACE_B && face < a.num_faces)) {
-            mode = NRW_FACE;
+        } else if (kind == HINT_FACE_B && face < b.num_faces) || (kind != HINT_FACE_B && face < a.num_faces) {
+            // The pair stores twice the margin less the face's separation (CPU
+            // `contact_margin`): the face serves while `margin + 2 s > 0`.
+            if margin + 2.0 * nrw_reference_separation(a, b, rot, inv_rot, t, kind == HINT_FACE_B, face) > 0.0 {
+                mode = NRW_FACE;
+            }
         }
     }
     // At most two passes: a remembered path, then the full test if it cannot decide.
@@ -682,10 +702,11 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
                 rf = sat.best_bf;
                 kind_now = HINT_FACE_B;
             }
-            let edge = select(face_best, e.s, e.found);
-            let m_now = nrw_contact_margin(best, second, other, edge, b_ref, tol) - eps;
+            let largest = max(face_best, select(face_best, e.s, e.found));
+            // Twice the margin (CPU `contact_margin`): the face serves while `m_now + 2 s > 0`.
+            let m_now = 2.0 * (nrw_contact_margin(second, other, largest, b_ref, tol) - eps);
             keep = vec2<u32>(NO_HINT, 0u);
-            if m_now > 0.0 {
+            if m_now + 2.0 * best > 0.0 {
                 keep = vec2<u32>(kind_now | HINT_CONTACT | rf, bitcast<u32>(m_now));
             }
         }
