@@ -200,7 +200,8 @@ fn flipped_bytes_are_detected() {
     bad[8] = 9;
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
     assert!(msg.contains("version 9 is not supported"), "{msg}");
-    // Version 3 (f32 positions) is refused the same way: this build writes version 4.
+    // Version 3 (f32 positions) is refused the same way: this build writes version 5 and
+    // reads 4 and 5.
     bad[8] = 3;
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
     assert!(msg.contains("version 3 is not supported"), "{msg}");
@@ -208,6 +209,32 @@ fn flipped_bytes_are_detected() {
     bad[0] = b'X';
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
     assert!(msg.contains("not a clatter checkpoint"), "{msg}");
+}
+
+/// Version 5 kept version 4's layout (it changed what a remembered face contact's stored
+/// margin means, and a version-4 margin is safe under the new check), so a version-4 file is
+/// read, and resumes bitwise as the run it was cut from; this build writes version 5.
+#[test]
+fn a_version_4_file_is_read_and_resumes_bitwise() {
+    const TOTAL: u64 = 300;
+    let mut straight = world();
+    steps(&mut straight, TOTAL);
+    let mut first = world();
+    steps(&mut first, 120);
+    let mut v4 = bytes(&first);
+    assert_eq!(v4[8..12], 5u32.to_le_bytes(), "this build writes version 5");
+    v4[8..12].copy_from_slice(&4u32.to_le_bytes());
+    let body_end = v4.len() - 4;
+    let crc = crc32(&v4[..body_end]);
+    v4[body_end..].copy_from_slice(&crc.to_le_bytes());
+    let (_, mut resumed) = Checkpoint::from_bytes(&v4)
+        .expect("a version-4 file is read")
+        .world()
+        .expect("restore");
+    assert_eq!(bytes(&resumed), bytes(&first), "the same state as written");
+    steps(&mut resumed, TOTAL - 120);
+    assert!(bits(&resumed) == bits(&straight), "resumed from version 4");
+    assert!(bytes(&resumed) == bytes(&straight));
 }
 
 #[test]

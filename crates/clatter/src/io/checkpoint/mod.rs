@@ -70,9 +70,17 @@ use read::*;
 
 /// The first eight bytes of every checkpoint.
 pub const MAGIC: [u8; 8] = *b"CLATCKPT";
-/// The format version this build writes and reads.
+/// The format version this build writes.
 /// Version 4: positions (`BODY`, `RBLD`) in f64.
-pub const FORMAT_VERSION: u32 = 4;
+/// Version 5: the same layout; a remembered face contact's stored margin (the `separation`
+/// of its separating-axis hint) is twice its room beyond the reference face's separation,
+/// which the remembered path takes anew at each pose (`clatter_geom`'s `contact_margin`).
+/// A version-4 margin read as a version-5 one is still safe (the new check implies the old),
+/// so this build reads both; a build that reads only version 4 refuses version 5 files, as it
+/// must: it would take the larger stored word for its own margin.
+pub const FORMAT_VERSION: u32 = 5;
+/// The oldest format version this build reads (see [`FORMAT_VERSION`]).
+pub const OLDEST_READ_VERSION: u32 = 4;
 const HEADER_LEN: usize = 8 + 4 + 8 + 4;
 const TRAILER_LEN: usize = 4;
 /// Bodies further than this from the origin are refused (the broad phase needs finite extents).
@@ -92,9 +100,16 @@ pub enum CheckpointError {
     NotACheckpoint,
     /// Written by a version of clatter with another format.
     #[error(
-        "checkpoint format version {found} is not supported (this build reads version {supported})"
+        "checkpoint format version {found} is not supported (this build reads versions {oldest} to {supported})"
     )]
-    UnsupportedVersion { found: u32, supported: u32 },
+    UnsupportedVersion {
+        /// The version in the file.
+        found: u32,
+        /// The oldest version this build reads.
+        oldest: u32,
+        /// The version this build writes (the newest it reads).
+        supported: u32,
+    },
     /// Shorter than its header says: an interrupted write or a cut file.
     #[error("truncated checkpoint: {actual} bytes, {}", match .expected { Some(e) => format!("the header says {e}"), None => "too short for the header".to_string() })]
     Truncated { actual: u64, expected: Option<u64> },
@@ -529,9 +544,10 @@ fn check_header(bytes: &[u8]) -> Result<usize, CheckpointError> {
         });
     }
     let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != FORMAT_VERSION {
+    if !(OLDEST_READ_VERSION..=FORMAT_VERSION).contains(&version) {
         return Err(CheckpointError::UnsupportedVersion {
             found: version,
+            oldest: OLDEST_READ_VERSION,
             supported: FORMAT_VERSION,
         });
     }
