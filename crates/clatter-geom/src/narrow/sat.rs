@@ -32,14 +32,21 @@ impl SoaPoints {
     fn fill(&mut self, pts: &[Vec3]) {
         let n = pts.len();
         let pad = n.next_multiple_of(4);
-        // Sized once, then written in place (no capacity check per point).
+        // Sized once, then written in place (no capacity check per point): the points,
+        // then copies of the first up to the padded length.
         for c in [&mut self.x, &mut self.y, &mut self.z] {
             c.resize(pad, 0.0);
         }
-        let lanes = self.x.iter_mut().zip(&mut self.y).zip(&mut self.z);
-        for (k, ((x, y), z)) in lanes.enumerate() {
-            let v = pts[if k < n { k } else { 0 }];
+        let (xs, ys, zs) = (&mut self.x[..], &mut self.y[..], &mut self.z[..]);
+        let lanes = xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut());
+        for (((x, y), z), v) in lanes.zip(pts) {
             (*x, *y, *z) = (v.x, v.y, v.z);
+        }
+        if let Some(v) = pts.first() {
+            let pads = xs[n..].iter_mut().zip(&mut ys[n..]).zip(&mut zs[n..]);
+            for ((x, y), z) in pads {
+                (*x, *y, *z) = (v.x, v.y, v.z);
+            }
         }
     }
 
@@ -188,6 +195,8 @@ pub(super) fn polyhedron_pair(
     let mut searched = None;
     // A face already clipped at these poses, if any (see `remembered_face`).
     let mut clipped = None;
+    // What of the scratch `remembered_edge` already filled at these poses (see `Prepared`).
+    let mut prepared = Prepared::Nothing;
     if is_contact_hint(*hint) {
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
         let found = if face == EDGE_CONTACT {
@@ -195,7 +204,8 @@ pub(super) fn polyhedron_pair(
             // (if it is the search's without a floor) serves the full test below.
             SCRATCH
                 .with_borrow_mut(|sc| {
-                    remembered_edge(a, pa, b, &rel, sc, margin, memory.as_deref_mut())
+                    let memory = memory.as_deref_mut();
+                    remembered_edge(a, pa, b, &rel, sc, margin, memory, &mut prepared)
                 })
                 .map_err(|e| searched = e)
                 .ok()
@@ -270,6 +280,7 @@ pub(super) fn polyhedron_pair(
             searched,
             memory,
             clipped,
+            prepared,
         };
         sat_full(a, pa, b, pb, &rel, sc, full, hint, bound)
     })
@@ -292,6 +303,20 @@ struct FullTest<'m> {
     searched: Option<EdgeFound>,
     memory: Option<&'m mut EdgeMemory>,
     clipped: Option<Clipped>,
+    prepared: Prepared,
+}
+
+/// What of the scratch ([`Scratch`]) [`remembered_edge`] filled for the same pair at the
+/// same poses before the full test runs, which [`sat_full`] then takes as it is instead
+/// of computing it again from the same inputs by the same expressions (the same floats).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Prepared {
+    /// Nothing: the full test fills it all.
+    Nothing,
+    /// B's vertices in A's frame (`bv`).
+    Vertices,
+    /// `bv`, and the points of both bodies as lanes (`b_soa`, `a_local`).
+    Lanes,
 }
 
 /// A reference face clipped by [`remembered_face`] whose overlap was not certified: its
@@ -369,6 +394,9 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 /// [`exact_search`]), so `best_e <= 0`, and every face axis's separation is now at most
 /// `face_best_then` plus one bound, below `best_e - tol - eps <= -tol`: the full test
 /// finds no separating face axis either, and keeps this edge contact.
+///
+/// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]).
+#[allow(clippy::too_many_arguments)]
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -377,6 +405,7 @@ fn remembered_edge(
     sc: &mut Scratch,
     margin: f32,
     memory: Option<&mut EdgeMemory>,
+    prepared: &mut Prepared,
 ) -> Result<Manifold, Option<EdgeFound>> {
     let Scratch {
         bv,
@@ -393,9 +422,11 @@ fn remembered_edge(
     }
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
+    *prepared = Prepared::Vertices;
     if edges_by_direction(a, b) {
         b_soa.fill(bv);
         a_local.fill(&a.vertices);
+        *prepared = Prepared::Lanes;
     }
     // Axes at or below `-margin` fail the test below whether they win or not: left out.
     let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin, memory);
@@ -743,11 +774,16 @@ fn sat_full(
     let Relative {
         rot, inv_rot, t, ..
     } = *rel;
-    bv.clear();
-    bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+    // (`rel.rot * v + rel.t` in `remembered_edge`: the same floats.)
+    if full.prepared == Prepared::Nothing {
+        bv.clear();
+        bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+    }
     let bv: &[Vec3] = bv;
-    b_soa.fill(bv);
-    a_local.fill(&a.vertices);
+    if full.prepared != Prepared::Lanes {
+        b_soa.fill(bv);
+        a_local.fill(&a.vertices);
+    }
     // Face axes of A.
     let mut best_a = (f32::NEG_INFINITY, 0usize);
     let mut second_a = f32::NEG_INFINITY;
