@@ -19,54 +19,45 @@ fn face_separation(p: &ConvexPolyhedron, f: usize, q: &SoaPoints) -> f32 {
     q.min_along(face.normal) - face.offset
 }
 
-/// Points as separate x, y, z arrays padded to a multiple of 4 (with copies of the first
-/// point), so that "smallest projection on an axis" compiles to packed SIMD.
+/// Points as 4-point chunks of separate x, y, z lanes (the last chunk padded with copies of
+/// the first point), so that "smallest projection on an axis" is packed SIMD, a chunk's
+/// three lanes read together.
 #[derive(Default)]
 pub(super) struct SoaPoints {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
+    chunks: Vec<[Vec4; 3]>,
 }
 
 impl SoaPoints {
     fn fill(&mut self, pts: &[Vec3]) {
-        let n = pts.len();
-        let pad = n.next_multiple_of(4);
-        // Sized once, then written in place (no capacity check per point): the points,
-        // then copies of the first up to the padded length.
-        for c in [&mut self.x, &mut self.y, &mut self.z] {
-            c.resize(pad, 0.0);
-        }
-        let (xs, ys, zs) = (&mut self.x[..], &mut self.y[..], &mut self.z[..]);
-        let lanes = xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut());
-        for (((x, y), z), v) in lanes.zip(pts) {
-            (*x, *y, *z) = (v.x, v.y, v.z);
-        }
-        if let Some(v) = pts.first() {
-            let pads = xs[n..].iter_mut().zip(&mut ys[n..]).zip(&mut zs[n..]);
-            for ((x, y), z) in pads {
-                (*x, *y, *z) = (v.x, v.y, v.z);
-            }
+        // Sized once, then written in place (no capacity check per chunk).
+        self.chunks.resize(pts.len().div_ceil(4), [Vec4::ZERO; 3]);
+        let Some(&first) = pts.first() else {
+            return;
+        };
+        for (chunk, ps) in self.chunks.iter_mut().zip(pts.chunks(4)) {
+            let p = |k: usize| *ps.get(k).unwrap_or(&first);
+            let (p0, p1, p2, p3) = (p(0), p(1), p(2), p(3));
+            *chunk = [
+                Vec4::new(p0.x, p1.x, p2.x, p3.x),
+                Vec4::new(p0.y, p1.y, p2.y, p3.y),
+                Vec4::new(p0.z, p1.z, p2.z, p3.z),
+            ];
         }
     }
 
     /// The number of 4-point chunks (the padded length over 4).
     #[inline]
     pub(super) fn chunks(&self) -> usize {
-        self.x.len() / 4
+        self.chunks.len()
     }
 
     /// Feeds chunks `range` of the points' projections on `n` into `e` (see [`Extent`]).
     #[inline(always)]
     pub(super) fn extent(&self, n: Vec3, range: std::ops::Range<usize>, e: &mut Extent) {
         let (nx, ny, nz) = (Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z));
-        let r = 4 * range.start..4 * range.end;
-        let (xs, ys, zs) = (&self.x[r.clone()], &self.y[r.clone()], &self.z[r]);
-        let chunks = xs.chunks_exact(4).zip(ys.chunks_exact(4)).zip(zs.chunks_exact(4));
-        for ((xs, ys), zs) in chunks {
+        for &[xs, ys, zs] in &self.chunks[range] {
             // The products of `min_along(n)` and, negated, those of `min_along(-n)`
             // (`(-a) * b == -(a * b)` bitwise), summed in the same order, lane by lane.
-            let (xs, ys, zs) = (Vec4::from_slice(xs), Vec4::from_slice(ys), Vec4::from_slice(zs));
             let (p, q, s) = (nx * xs, ny * ys, nz * zs);
             let d = p + q + s;
             let dn = -p - q - s;
@@ -75,24 +66,18 @@ impl SoaPoints {
         }
     }
 
-    /// Smallest projection on `n`.
+    /// Smallest projection on `n`: per lane `n.x * x + n.y * y + n.z * z` over the chunks
+    /// in order, the smaller kept (the first on a tie), then the lanes reduced as
+    /// [`Extent::min`] does.
     #[inline]
     pub(super) fn min_along(&self, n: Vec3) -> f32 {
-        let mut m = [f32::INFINITY; 4];
-        for ((xs, ys), zs) in self
-            .x
-            .chunks_exact(4)
-            .zip(self.y.chunks_exact(4))
-            .zip(self.z.chunks_exact(4))
-        {
-            for k in 0..4 {
-                let d = n.x * xs[k] + n.y * ys[k] + n.z * zs[k];
-                m[k] = if d < m[k] { d } else { m[k] };
-            }
+        let (nx, ny, nz) = (Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z));
+        let mut m = Vec4::INFINITY;
+        for &[xs, ys, zs] in &self.chunks {
+            let d = nx * xs + ny * ys + nz * zs;
+            m = less(d, m);
         }
-        let a = if m[0] < m[1] { m[0] } else { m[1] };
-        let b = if m[2] < m[3] { m[2] } else { m[3] };
-        if a < b { a } else { b }
+        Extent::reduce(m)
     }
 }
 
@@ -131,7 +116,8 @@ impl Extent {
         }
     }
 
-    /// The lanes reduced as [`SoaPoints::min_along`] does.
+    /// The lanes reduced to their smallest: lanes 0 and 1, 2 and 3, then the two (the
+    /// first kept on a tie).
     #[inline]
     fn reduce(m: Vec4) -> f32 {
         let m = m.to_array();
