@@ -427,8 +427,36 @@ impl DeepPairs {
     /// separation, or an upper bound of it from some of the points), for bodies whose
     /// radii sum to `r`: the shallowest level at or above `s`, or 0 (not remembered) when
     /// `s` is above every level (or NaN).
+    ///
+    /// Found by bisection: with `r` not negative (a sum of radii) the levels do not fall
+    /// as the code rises (`r` times a falling power of two, rounded monotonically), so
+    /// "level `c` is at or above `s`" holds for the codes from some `c0` up to
+    /// [`LEVELS`] and for no other: the answer is that `c0`, the first code that passes,
+    /// as when the codes are tested one by one from [`LEVELS`] down until one fails (kept
+    /// as the test's oracle, `code_by_steps`). A NaN `s` or `r` passes no test: 0.
     #[inline]
     pub(super) fn code(s: f32, r: f32) -> u8 {
+        let passes = |c: u8| Self::level(c, r) >= s;
+        if !passes(LEVELS) {
+            return 0;
+        }
+        // `hi` passes; `lo` is 0 or fails.
+        let (mut lo, mut hi) = (0u8, LEVELS);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if passes(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    }
+
+    /// [`DeepPairs::code`] by testing the codes one by one from [`LEVELS`] down (the
+    /// search's rule before the bisection; the tests' oracle).
+    #[cfg(test)]
+    pub(super) fn code_by_steps(s: f32, r: f32) -> u8 {
         // Deeper pairs meet the first levels' tests (written so that a NaN gets 0).
         let mut code = 0;
         for c in (1..=LEVELS).rev() {
@@ -587,5 +615,59 @@ mod tests {
             assert_eq!(DeepPairs::code(f32::NAN, r), 0);
             assert_eq!(DeepPairs::code(0.0, r), 0);
         }
+    }
+
+    /// The bisection against the codes tested one by one (`code_by_steps`, the rule it
+    /// replaced), bitwise the same code: every level of many radii sums (0, subnormal,
+    /// tiny, usual, huge, infinite, NaN) and the floats next to it on both sides, and
+    /// random separations from far below the deepest level to above the shallowest.
+    #[test]
+    fn bisected_codes_are_the_codes_tested_one_by_one() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut radii = vec![
+            0.0f32,
+            f32::from_bits(1),
+            1e-38,
+            1e-30,
+            0.013,
+            0.02,
+            1.0,
+            7.5,
+            3e38,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        for _ in 0..200 {
+            radii.push(f32::from_bits((next() as u32) & 0x7fff_ffff));
+        }
+        let mut checked = 0;
+        for &r in &radii {
+            let mut ss = vec![f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0];
+            for c in 0..=LEVELS + 1 {
+                let l = -(r * 2f32.powi(-(c as i32) - 1));
+                ss.extend([l, l.next_up(), l.next_down()]);
+            }
+            for _ in 0..2000 {
+                // Separations from about -4 r to r, spread over the levels' scales.
+                let u = (next() >> 40) as f32 / (1u64 << 24) as f32;
+                let scale = 2f32.powi(-((next() % 16) as i32));
+                ss.push(r * (1.0 - 5.0 * u) * scale);
+            }
+            for &s in &ss {
+                assert_eq!(
+                    DeepPairs::code(s, r),
+                    DeepPairs::code_by_steps(s, r),
+                    "s {s:e}, r {r:e}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 400_000);
     }
 }

@@ -1,7 +1,7 @@
 //! The separating-axis test of two convex polyhedra: face axes of both bodies, then the
 //! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]).
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
@@ -19,72 +19,65 @@ fn face_separation(p: &ConvexPolyhedron, f: usize, q: &SoaPoints) -> f32 {
     q.min_along(face.normal) - face.offset
 }
 
-/// Points as separate x, y, z arrays padded to a multiple of 4 (with copies of the first
-/// point), so that "smallest projection on an axis" compiles to packed SIMD.
+/// Points as 4-point chunks of separate x, y, z lanes (the last chunk padded with copies of
+/// the first point), so that "smallest projection on an axis" is packed SIMD, a chunk's
+/// three lanes read together.
 #[derive(Default)]
 pub(super) struct SoaPoints {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
+    chunks: Vec<[Vec4; 3]>,
 }
 
 impl SoaPoints {
     fn fill(&mut self, pts: &[Vec3]) {
-        let n = pts.len();
-        let pad = n.next_multiple_of(4);
-        // Sized once, then written in place (no capacity check per point).
-        for c in [&mut self.x, &mut self.y, &mut self.z] {
-            c.resize(pad, 0.0);
-        }
-        let lanes = self.x.iter_mut().zip(&mut self.y).zip(&mut self.z);
-        for (k, ((x, y), z)) in lanes.enumerate() {
-            let v = pts[if k < n { k } else { 0 }];
-            (*x, *y, *z) = (v.x, v.y, v.z);
+        // Sized once, then written in place (no capacity check per chunk).
+        self.chunks.resize(pts.len().div_ceil(4), [Vec4::ZERO; 3]);
+        let Some(&first) = pts.first() else {
+            return;
+        };
+        for (chunk, ps) in self.chunks.iter_mut().zip(pts.chunks(4)) {
+            let p = |k: usize| *ps.get(k).unwrap_or(&first);
+            let (p0, p1, p2, p3) = (p(0), p(1), p(2), p(3));
+            *chunk = [
+                Vec4::new(p0.x, p1.x, p2.x, p3.x),
+                Vec4::new(p0.y, p1.y, p2.y, p3.y),
+                Vec4::new(p0.z, p1.z, p2.z, p3.z),
+            ];
         }
     }
 
     /// The number of 4-point chunks (the padded length over 4).
     #[inline]
     pub(super) fn chunks(&self) -> usize {
-        self.x.len() / 4
+        self.chunks.len()
     }
 
     /// Feeds chunks `range` of the points' projections on `n` into `e` (see [`Extent`]).
     #[inline(always)]
     pub(super) fn extent(&self, n: Vec3, range: std::ops::Range<usize>, e: &mut Extent) {
-        for c in range {
-            let r = 4 * c..4 * c + 4;
-            let (xs, ys, zs) = (&self.x[r.clone()], &self.y[r.clone()], &self.z[r]);
-            for k in 0..4 {
-                // The products of `min_along(n)` and, negated, those of `min_along(-n)`
-                // (`(-a) * b == -(a * b)` bitwise), summed in the same order.
-                let (p, q, s) = (n.x * xs[k], n.y * ys[k], n.z * zs[k]);
-                let d = p + q + s;
-                let dn = -p - q - s;
-                e.lo[k] = if d < e.lo[k] { d } else { e.lo[k] };
-                e.lo_neg[k] = if dn < e.lo_neg[k] { dn } else { e.lo_neg[k] };
-            }
+        let (nx, ny, nz) = (Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z));
+        for &[xs, ys, zs] in &self.chunks[range] {
+            // The products of `min_along(n)` and, negated, those of `min_along(-n)`
+            // (`(-a) * b == -(a * b)` bitwise), summed in the same order, lane by lane.
+            let (p, q, s) = (nx * xs, ny * ys, nz * zs);
+            let d = p + q + s;
+            let dn = -p - q - s;
+            e.lo = less(d, e.lo);
+            e.lo_neg = less(dn, e.lo_neg);
         }
     }
 
-    /// Smallest projection on `n`.
+    /// Smallest projection on `n`: per lane `n.x * x + n.y * y + n.z * z` over the chunks
+    /// in order, the smaller kept (the first on a tie), then the lanes reduced as
+    /// [`Extent::min`] does.
     #[inline]
     pub(super) fn min_along(&self, n: Vec3) -> f32 {
-        let mut m = [f32::INFINITY; 4];
-        for ((xs, ys), zs) in self
-            .x
-            .chunks_exact(4)
-            .zip(self.y.chunks_exact(4))
-            .zip(self.z.chunks_exact(4))
-        {
-            for k in 0..4 {
-                let d = n.x * xs[k] + n.y * ys[k] + n.z * zs[k];
-                m[k] = if d < m[k] { d } else { m[k] };
-            }
+        let (nx, ny, nz) = (Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z));
+        let mut m = Vec4::INFINITY;
+        for &[xs, ys, zs] in &self.chunks {
+            let d = nx * xs + ny * ys + nz * zs;
+            m = less(d, m);
         }
-        let a = if m[0] < m[1] { m[0] } else { m[1] };
-        let b = if m[2] < m[3] { m[2] } else { m[3] };
-        if a < b { a } else { b }
+        Extent::reduce(m)
     }
 }
 
@@ -93,8 +86,24 @@ impl SoaPoints {
 /// bitwise `min_along(n)` and [`Extent::max`] bitwise `-min_along(-n)`; fed some, they bound
 /// those from inside (a minimum no smaller, a maximum no larger).
 pub(super) struct Extent {
-    lo: [f32; 4],
-    lo_neg: [f32; 4],
+    lo: Vec4,
+    lo_neg: Vec4,
+}
+
+/// `if d < m { d } else { m }` lane by lane: on x86-64 the one instruction `minps`, which
+/// is that rule exactly (the second operand on a tie, such as `-0` against `0`, or when
+/// either is a NaN).
+#[inline(always)]
+fn less(d: Vec4, m: Vec4) -> Vec4 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    {
+        // SAFETY: `minps` is SSE, enabled for this target (the `cfg` above).
+        Vec4::from(unsafe { std::arch::x86_64::_mm_min_ps(d.into(), m.into()) })
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        Vec4::select(d.cmplt(m), d, m)
+    }
 }
 
 impl Extent {
@@ -102,14 +111,16 @@ impl Extent {
     #[inline]
     pub(super) fn new() -> Self {
         Self {
-            lo: [f32::INFINITY; 4],
-            lo_neg: [f32::INFINITY; 4],
+            lo: Vec4::INFINITY,
+            lo_neg: Vec4::INFINITY,
         }
     }
 
-    /// The lanes reduced as [`SoaPoints::min_along`] does.
+    /// The lanes reduced to their smallest: lanes 0 and 1, 2 and 3, then the two (the
+    /// first kept on a tie).
     #[inline]
-    fn reduce(m: [f32; 4]) -> f32 {
+    fn reduce(m: Vec4) -> f32 {
+        let m = m.to_array();
         let a = if m[0] < m[1] { m[0] } else { m[1] };
         let b = if m[2] < m[3] { m[2] } else { m[3] };
         if a < b { a } else { b }
@@ -189,6 +200,8 @@ pub(super) fn polyhedron_pair(
     let mut searched = None;
     // A face already clipped at these poses, if any (see `remembered_face`).
     let mut clipped = None;
+    // What of the scratch `remembered_edge` already filled at these poses (see `Prepared`).
+    let mut prepared = Prepared::Nothing;
     if is_contact_hint(*hint) {
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
         let found = if face == EDGE_CONTACT {
@@ -196,7 +209,8 @@ pub(super) fn polyhedron_pair(
             // (if it is the search's without a floor) serves the full test below.
             SCRATCH
                 .with_borrow_mut(|sc| {
-                    remembered_edge(a, pa, b, &rel, sc, margin, memory.as_deref_mut())
+                    let memory = memory.as_deref_mut();
+                    remembered_edge(a, pa, b, &rel, sc, margin, memory, &mut prepared)
                 })
                 .map_err(|e| searched = e)
                 .ok()
@@ -272,6 +286,7 @@ pub(super) fn polyhedron_pair(
             searched,
             memory,
             clipped,
+            prepared,
         };
         sat_full(a, pa, b, pb, &rel, sc, full, hint, bound)
     })
@@ -294,6 +309,20 @@ struct FullTest<'m> {
     searched: Option<EdgeFound>,
     memory: Option<&'m mut EdgeMemory>,
     clipped: Option<Clipped>,
+    prepared: Prepared,
+}
+
+/// What of the scratch ([`Scratch`]) [`remembered_edge`] filled for the same pair at the
+/// same poses before the full test runs, which [`sat_full`] then takes as it is instead
+/// of computing it again from the same inputs by the same expressions (the same floats).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Prepared {
+    /// Nothing: the full test fills it all.
+    Nothing,
+    /// B's vertices in A's frame (`bv`).
+    Vertices,
+    /// `bv`, and the points of both bodies as lanes (`b_soa`, `a_local`).
+    Lanes,
 }
 
 /// A reference face clipped by [`remembered_face`] whose overlap was not certified: its
@@ -412,6 +441,9 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 /// [`exact_search`]), so `best_e <= 0`, and every face axis's separation is now at most
 /// `face_best_then` plus one bound, below `best_e - tol - eps <= -tol`: the full test
 /// finds no separating face axis either, and keeps this edge contact.
+///
+/// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]).
+#[allow(clippy::too_many_arguments)]
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -420,6 +452,7 @@ fn remembered_edge(
     sc: &mut Scratch,
     margin: f32,
     memory: Option<&mut EdgeMemory>,
+    prepared: &mut Prepared,
 ) -> Result<Manifold, Option<EdgeFound>> {
     let Scratch {
         bv,
@@ -436,9 +469,11 @@ fn remembered_edge(
     }
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
+    *prepared = Prepared::Vertices;
     if edges_by_direction(a, b) {
         b_soa.fill(bv);
         a_local.fill(&a.vertices);
+        *prepared = Prepared::Lanes;
     }
     // Axes at or below `-margin` fail the test below whether they win or not: left out.
     let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -margin, memory);
@@ -790,11 +825,16 @@ fn sat_full(
     let Relative {
         rot, inv_rot, t, ..
     } = *rel;
-    bv.clear();
-    bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+    // (`rel.rot * v + rel.t` in `remembered_edge`: the same floats.)
+    if full.prepared == Prepared::Nothing {
+        bv.clear();
+        bv.extend(b.vertices.iter().map(|&v| rot * v + t));
+    }
     let bv: &[Vec3] = bv;
-    b_soa.fill(bv);
-    a_local.fill(&a.vertices);
+    if full.prepared != Prepared::Lanes {
+        b_soa.fill(bv);
+        a_local.fill(&a.vertices);
+    }
     // Face axes of A.
     let mut best_a = (f32::NEG_INFINITY, 0usize);
     let mut second_a = f32::NEG_INFINITY;
