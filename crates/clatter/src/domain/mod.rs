@@ -368,8 +368,8 @@ impl Domain {
                 .map(|&g| {
                     let g = g as usize;
                     debug_assert!(ghost[g]);
-                    let r = c.pairs_as_a[g] as usize..c.pairs_as_a[g + 1] as usize;
-                    t[r].iter().map(|&tk| tk as usize).sum::<usize>()
+                    // A near list's two parts' ranges (`Contacts::late_as_a`), else one.
+                    c.slots_as_a(g).map(|k| t[k] as usize).sum::<usize>()
                 })
                 .sum()
         };
