@@ -364,7 +364,7 @@ impl Contacts {
         // The near list's sums while one lives (see `gather4`).
         let this = self.active();
         if !this.late_as_a.is_empty()
-            && crate::step::near::any(&this.late_live[i..i + 8])
+            && crate::step::near::any(this.late_live[i..i + 8].try_into().unwrap())
         {
             // Late pairs touch: these bodies' pairs as side a in their sorted order.
             let mut f = [Vec4::ZERO; 8];
