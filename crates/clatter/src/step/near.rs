@@ -531,7 +531,10 @@ velocity = [0.8, -0.6, -2.5]
             "rebuilds in a near list's life: {rebuilt_in_life}"
         );
         assert!(shorter > 1000, "steps with a shorter list: {shorter}");
-        assert!(merged > 100, "bodies' sums merged from both parts: {merged}");
+        assert!(
+            merged > 100,
+            "bodies' sums merged from both parts: {merged}"
+        );
         eprintln!("made {made}, rebuilt in life {rebuilt_in_life}, merged {merged}");
     }
 
