@@ -156,7 +156,10 @@ pub(crate) fn run(world: &mut World) -> usize {
         },
     );
     match &mut world.contacts.near {
-        Some(near) => near.list.springs = springs,
+        Some(near) => {
+            near.list.springs = springs;
+            near.note_late();
+        }
         None => world.contacts.springs = springs,
     }
     world.edge_memory = memory;
