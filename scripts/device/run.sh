@@ -44,6 +44,10 @@ stage default_run_sparse 60 $C run --backend gpu --steps 5000 -q --energy-every 
 for t in stages memory_steps; do CI=1 stage test_$t 90 /opt/cl/$t --test-threads 4; done
 log "final gpu part done"; set -- mixmpi
 fi
+# `ab`: `check`, plus the CPU targets timed on this machine's quiet cores (2 pinned), the
+# issue's baseline binary, the last merge's base and this build alternated (carried in
+# .devrun/extra.tar.xz with their pile caches: clatter-8c9edd6, clatter-base, pc/).
+AB=0; if [ "${1:-gpu}" = ab ]; then AB=1; set -- check; fi
 if [ "${1:-gpu}" = check ]; then
 # A short re-check after merges: the machine's cores, the GPU tests, the default scene, then
 # the weak-scaling end rows (1 and 16 ranks) and 8 ranks of the 16.
@@ -52,7 +56,7 @@ for t in stages memory_steps; do CI=1 stage test_$t 70 /opt/cl/$t --test-threads
 stage default_bench 40 $G --scene default --settle 0 --steps 5000
 stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
 stage default_run_sparse 40 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
-log "gpu part done"; W="16384 131072 262144"; S=16384; NPS=1; WNP="1 8 16"; set -- mpi
+log "gpu part done"; W="16384 262144"; S=16384; NPS="1 2"; WNP="1 16"; set -- mpi
 fi
 if [ "${1:-gpu}" = both ]; then
 # One call for a 15-minute lease: the H100 targets of issue 23 first, then the 16-rank rows of
@@ -101,6 +105,31 @@ log "MPI mode $MODE"
 CM=/opt/cl/clatter-mpi
 stage mpi_hello 30 $M -np 2 $CM bench --shape sphere --pile lattice --bodies 1024 --steps 10 --settle 0 --threads 1
 grep -q "MPI ranks" $L/mpi_hello.log || { log "MPI does not start; stopping"; exit 0; }
+if [ $AB = 1 ]; then
+  mkdir -p /opt/ex $PC && tar -xJf .devrun/extra.tar.xz -C /opt/ex
+  PQ=/tmp/pcq; mkdir -p $PQ; cp /opt/ex/pc/*.ckpt $PQ/; cp $PQ/sphere-n16384* $PC/
+  TS="taskset -c 2,3"; command -v taskset > /dev/null || TS=""
+  O=/opt/ex/clatter-8c9edd6; B=/opt/ex/clatter-base
+  ab() { # label binary bench-args...
+    local l=$1 b=$2; shift 2
+    local v=$($TS $b bench --backend cpu --pile-cache $PQ --json "$@" 2>/dev/null | python3 -c "import json,sys; print(round(json.load(sys.stdin)[0]['steps_per_s'],1))" 2>&1)
+    log "ab $l: $v steps/s ($*)"
+  }
+  for r in 1 2; do
+    for x in "issue:$O" "base:$B" "new:$C"; do
+      ab "${x%%:*} mixed" ${x#*:} --shape mixed --pile poured --bodies 2048 --steps 200 --threads 2
+      ab "${x%%:*} cube" ${x#*:} --shape cube --pile poured --bodies 2048 --steps 200 --threads 2
+    done
+    for x in "base:$B" "new:$C"; do
+      ab "${x%%:*} sphere t1" ${x#*:} --shape sphere --pile poured --bodies 16384 --steps 1000 --threads 1
+      ab "${x%%:*} sphere t2" ${x#*:} --shape sphere --pile poured --bodies 16384 --steps 1000 --threads 2
+    done
+  done
+  for x in "issue:$O" "base:$B" "new:$C"; do
+    TIMEFORMAT="%R s wall, %U s user"; { time $TS ${x#*:} run --backend cpu --threads 2 --out /tmp/r-${x%%:*} -q > /dev/null 2>&1; } 2> /tmp/t.txt
+    log "default run ${x%%:*}: $(cat /tmp/t.txt | tail -1), final.csv $(md5sum < /tmp/r-${x%%:*}/final.csv | cut -c1-8)"
+  done
+fi
 if [ "$MODE_ARG" = mixmpi ]; then
   stage mix_pour 150 $G --shape mixed --pile poured --bodies $MX --steps 10 --settle 0
   for np in 1 4 16; do stage mp_np${np} 120 $M -np $np $CM bench --backend cpu --shape mixed --bodies $MX --steps 100 --settle 0 --threads 1 --pile-cache $PC --json; grep -h -E "steps_per_s|contacts_per_body" $L/mp_np${np}.log | sed "s/^/mixed poured np $np /" | tee -a $OUT/summary.txt; done
