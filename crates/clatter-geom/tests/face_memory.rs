@@ -32,6 +32,69 @@ fn angle(q: Quat) -> f32 {
     2.0 * q.xyz().length().atan2(q.w.abs())
 }
 
+/// The caller's part of the remembering contract for one pair, A fixed at `pa` and B moving:
+/// before each call the remembered margin is decreased by twice a true bound of how far any
+/// point of either body moved in the other's frame, and every manifold is compared bitwise
+/// with the full test's.
+struct Remembering {
+    hint: narrow::SatHint,
+    bound: f32,
+    last: Option<(Vec3, Quat)>,
+    ra: f32,
+    rb: f32,
+}
+
+impl Remembering {
+    fn new(a: &Shape, b: &Shape) -> Remembering {
+        Remembering {
+            hint: NO_HINT,
+            bound: 0.0,
+            last: None,
+            ra: a.bounding_radius(),
+            rb: b.bounding_radius(),
+        }
+    }
+
+    /// Step `k` with B at `(centre, qb)`: returns (the remembered face stood in for the full
+    /// test, the bodies touch, this step's motion bound).
+    fn step(
+        &mut self,
+        (a, pa): (&Shape, &Pose),
+        b: &Shape,
+        (centre, qb): (Vec3, Quat),
+        k: usize,
+    ) -> (bool, bool, f32) {
+        let (ra, rb) = (self.ra, self.rb);
+        let mut step_bound = 0.0;
+        if let Some((c0, q0)) = self.last {
+            // B's points move by at most |dc| + th (|c| + r_b) in A's (fixed) frame, and A's
+            // points in B's frame by at most |dc| + th (|c| + r_a).
+            let th = angle(qb * q0.conjugate());
+            let moved =
+                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
+            step_bound = moved * 1.01 + 1e-6 * (ra + rb);
+            if self.bound > 0.0 {
+                self.bound -= 2.0 * step_bound;
+            }
+        }
+        self.last = Some((centre, qb));
+        let pb = Pose::new(centre, qb);
+        let before = narrow::is_contact_hint(self.hint).then_some((self.hint, self.bound));
+        let with = narrow::collide_with_hint(a, pa, b, &pb, &mut self.hint, &mut self.bound);
+        let full = narrow::collide(a, pa, b, &pb);
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
+        // The remembered face stood in when the pair kept its hint and margin (a full test
+        // sets both anew).
+        let stood = before.is_some_and(|b| {
+            b == (self.hint, self.bound) && self.hint != narrow::HINT_EDGE_CONTACT
+        });
+        (stood, with.is_some(), step_bound)
+    }
+}
+
 /// One pair stepped `steps` times: B's face `fb` laid on A's face `fa` (anti-parallel), then
 /// B, moved `reach` times A's radius across A's face (up to its edge and off it), slides
 /// slowly, spins about the normal at `spin` rad per step, tilts by up to
@@ -62,8 +125,8 @@ fn run_resting(
     let slide = rng.unit().cross(na).normalize_or_zero();
     let tilt_axis = rng.unit().cross(na).normalize_or_zero();
     let (ca, cb) = (qa * face_centre(pa_, fa), face_centre(pb_, fb));
-    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
-    let mut last: Option<(Vec3, Quat)> = None;
+    let mut pair = Remembering::new(a, b);
+    let pa = Pose::new(Vec3::ZERO, qa);
     let (mut kept, mut touching) = (0, 0);
     for k in 0..steps {
         let phase = k as f32 * 0.01;
@@ -75,31 +138,9 @@ fn run_resting(
         let side = slide * (ra * (reach + 0.1 * (0.03 * phase).sin()));
         // B's face centre on A's face plane, pressed in by `overlap`, slid sideways.
         let centre = ca + side - na * overlap - qb * cb;
-        let pa = Pose::new(Vec3::ZERO, qa);
-        let pb = Pose::new(centre, qb);
-        if let Some((c0, q0)) = last {
-            // B's points move by at most |dc| + th (|c| + r_b) in A's (fixed) frame, and A's
-            // points in B's frame by at most |dc| + th (|c| + r_a).
-            let th = angle(qb * q0.conjugate());
-            let moved =
-                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
-            if bound > 0.0 {
-                bound -= 2.0 * (moved * 1.01 + 1e-6 * (ra + rb));
-            }
-        }
-        last = Some((centre, qb));
-        let before = narrow::is_contact_hint(hint).then_some((hint, bound));
-        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
-        let full = narrow::collide(a, &pa, b, &pb);
-        assert_eq!(
-            with, full,
-            "step {k}: manifold differs from the full test's"
-        );
-        // The remembered face stood in when the pair kept its hint and margin (a full test
-        // sets both anew).
-        let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
+        let (stood, touched, _) = pair.step((a, &pa), b, (centre, qb), k);
         kept += stood as usize;
-        touching += with.is_some() as usize;
+        touching += touched as usize;
     }
     (kept, touching)
 }
@@ -155,33 +196,13 @@ fn run_poses(
     steps: usize,
     mut pose_b: impl FnMut(usize) -> (Vec3, Quat),
 ) -> (usize, usize) {
-    let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
-    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
-    let mut last: Option<(Vec3, Quat)> = None;
+    let mut pair = Remembering::new(a, b);
     let (mut kept, mut touching) = (0, 0);
     let pa = Pose::new(Vec3::ZERO, qa);
     for k in 0..steps {
-        let (centre, qb) = pose_b(k);
-        if let Some((c0, q0)) = last {
-            let th = angle(qb * q0.conjugate());
-            let moved =
-                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
-            if bound > 0.0 {
-                bound -= 2.0 * (moved * 1.01 + 1e-6 * (ra + rb));
-            }
-        }
-        last = Some((centre, qb));
-        let pb = Pose::new(centre, qb);
-        let before = narrow::is_contact_hint(hint).then_some((hint, bound));
-        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
-        let full = narrow::collide(a, &pa, b, &pb);
-        assert_eq!(
-            with, full,
-            "step {k}: manifold differs from the full test's"
-        );
-        let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
+        let (stood, touched, _) = pair.step((a, &pa), b, pose_b(k), k);
         kept += stood as usize;
-        touching += with.is_some() as usize;
+        touching += touched as usize;
     }
     (kept, touching)
 }
@@ -328,8 +349,7 @@ fn run_parallel(
     let rock_axis = rng.unit().cross(na).normalize_or_zero();
     let (ca, cb) = (qa * face_centre(pa_, fa), face_centre(pb_, fb));
     let pa = Pose::new(Vec3::ZERO, qa);
-    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
-    let mut last: Option<(Vec3, Quat)> = None;
+    let mut pair = Remembering::new(a, b);
     let (mut kept, mut touching, mut beyond) = (0, 0, 0);
     // The motion bound summed since the last full test.
     let mut since = 0.0f32;
@@ -341,26 +361,7 @@ fn run_parallel(
             .normalize();
         let overlap = (0.002 + 1e-4 * (0.05 * kf).sin()) * (ra + rb);
         let centre = ca + dir * (slide * ra * (kf - 0.5 * steps as f32)) - na * overlap - qb * cb;
-        let mut step_bound = 0.0;
-        if let Some((c0, q0)) = last {
-            let th = angle(qb * q0.conjugate());
-            let moved =
-                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
-            step_bound = moved * 1.01 + 1e-6 * (ra + rb);
-            if bound > 0.0 {
-                bound -= 2.0 * step_bound;
-            }
-        }
-        last = Some((centre, qb));
-        let pb = Pose::new(centre, qb);
-        let before = narrow::is_contact_hint(hint).then_some((hint, bound));
-        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
-        let full = narrow::collide(a, &pa, b, &pb);
-        assert_eq!(
-            with, full,
-            "step {k}: manifold differs from the full test's"
-        );
-        let stood = before.is_some_and(|b| b == (hint, bound) && hint != narrow::HINT_EDGE_CONTACT);
+        let (stood, touched, step_bound) = pair.step((a, &pa), b, (centre, qb), k);
         if stood {
             since += step_bound;
             beyond += (since > 0.5 * tol) as usize;
@@ -368,7 +369,7 @@ fn run_parallel(
             since = 0.0;
         }
         kept += stood as usize;
-        touching += with.is_some() as usize;
+        touching += touched as usize;
     }
     (kept, touching, beyond)
 }
