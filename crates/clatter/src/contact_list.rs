@@ -67,19 +67,7 @@ pub struct Contacts {
     pub(crate) wall_pairs: Vec<[u32; 2]>,
     pub(crate) springs: ContactSprings,
     /// Body `i` is side a of body pairs `pairs_as_a[i]..pairs_as_a[i+1]` (pairs sort by `i`).
-    /// In a near list with a late part ([`Contacts::late_as_a`]): of its early part's pairs.
     pub(crate) pairs_as_a: Vec<u32>,
-    /// Empty, except in a near list ([`crate::step::near`]) whose pairs come in two parts,
-    /// each sorted: the early part (the pairs that touched when it was made) and then the
-    /// late part (the others). Body `i` is side a of the late pairs
-    /// `late_as_a[i]..late_as_a[i+1]`; `late_as_a[0]` is the early part's length.
-    pub(crate) late_as_a: Vec<u32>,
-    /// With a late part, per body: whether a late pair of which it is side a touched in
-    /// the last contacts stage (all set when the list is made). While none of a body's
-    /// does, their forces are zero, so its sum over its early pairs alone is its sum in the
-    /// sorted order (zero terms change no bit: `crate::step::near`); else the gather merges
-    /// the two parts for it.
-    pub(crate) late_live: Vec<bool>,
     /// Body `i` is side b of the body pairs `b_pairs[b_pair_start[i]..b_pair_start[i+1]]`.
     pub(crate) b_pair_start: Vec<u32>,
     pub(crate) b_pairs: Vec<u32>,
@@ -164,8 +152,6 @@ impl Contacts {
             b_pair_start,
             b_pairs,
             wall_contacts_of,
-            late_as_a: Vec::new(),
-            late_live: Vec::new(),
             pieces: Vec::new(),
             near: None,
             view: std::sync::OnceLock::new(),
@@ -328,20 +314,10 @@ impl Contacts {
         let forces = &this.springs.forces;
         let mut f = Vec4::ZERO;
         let mut t = Vec4::ZERO;
-        let own = this.pairs_as_a[i] as usize..this.pairs_as_a[i + 1] as usize;
-        if !this.late_as_a.is_empty() && this.late_live[i] {
-            let late = this.late_as_a[i] as usize..this.late_as_a[i + 1] as usize;
-            this.merged_as_a(own, late, |k| {
-                let [force_b, torque_a, _] = lanes(&forces[k]);
-                f -= force_b;
-                t += torque_a;
-            });
-        } else {
-            for c in &forces[own] {
-                let [force_b, torque_a, _] = lanes(c);
-                f -= force_b;
-                t += torque_a;
-            }
+        for c in &forces[this.pairs_as_a[i] as usize..this.pairs_as_a[i + 1] as usize] {
+            let [force_b, torque_a, _] = lanes(c);
+            f -= force_b;
+            t += torque_a;
         }
         for &k in &this.b_pairs[this.b_pair_start[i] as usize..this.b_pair_start[i + 1] as usize] {
             let [force_b, _, torque_b] = lanes(&forces[k as usize]);
@@ -363,53 +339,7 @@ impl Contacts {
     pub(crate) fn gather8(&self, i: usize) -> ([Vec4; 8], [Vec4; 8]) {
         // The near list's sums while one lives (see `gather4`).
         let this = self.active();
-        if !this.late_as_a.is_empty()
-            && crate::step::near::any(this.late_live[i..i + 8].try_into().unwrap())
-        {
-            // Late pairs touch: these bodies' pairs as side a in their sorted order.
-            let mut f = [Vec4::ZERO; 8];
-            let mut t = [Vec4::ZERO; 8];
-            for l in 0..8 {
-                (f[l], t[l]) = this.gather4(i + l);
-            }
-            return (f, t);
-        }
         this.gather8_here(i)
-    }
-
-    /// Calls `each` with the slots of the body pairs `early` and `late` (ranges of a near
-    /// list's two parts, each sorted) in their merged sorted order: a body's pairs as side
-    /// a, by their second body. Panics unless both ranges lie within their parts.
-    #[inline]
-    fn merged_as_a(
-        &self,
-        early: std::ops::Range<usize>,
-        late: std::ops::Range<usize>,
-        mut each: impl FnMut(usize),
-    ) {
-        let split = self.late_as_a[0] as usize;
-        assert!(early.end <= split && late.start >= split && late.end <= self.pairs.len());
-        let (mut p, mut q) = (early.start, late.start);
-        while p < early.end || q < late.end {
-            if q >= late.end || (p < early.end && self.pairs[p][1] < self.pairs[q][1]) {
-                each(p);
-                p += 1;
-            } else {
-                each(q);
-                q += 1;
-            }
-        }
-    }
-
-    /// The slots of body `i`'s pairs as side a (both parts of a near list's, in no
-    /// particular order), for counts.
-    pub(crate) fn slots_as_a(&self, i: usize) -> impl Iterator<Item = usize> {
-        let early = self.pairs_as_a[i] as usize..self.pairs_as_a[i + 1] as usize;
-        let late = match self.late_as_a.is_empty() {
-            true => 0..0,
-            false => self.late_as_a[i] as usize..self.late_as_a[i + 1] as usize,
-        };
-        early.chain(late)
     }
 
     /// [`Contacts::gather8`] on this list itself.

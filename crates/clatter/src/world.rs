@@ -736,8 +736,6 @@ impl World {
             .filter(|(_, t)| **t)
             .map(|(p, _)| *p)
             .collect();
-        // A near list's pairs come in two sorted parts (`Contacts::late_as_a`).
-        out.sort_unstable();
         // Composites: one entry per body pair, however many of their pieces touch.
         out.dedup();
         out

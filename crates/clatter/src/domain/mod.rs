@@ -344,9 +344,8 @@ impl Domain {
         // Counted every step (the step's stats): every pair's flag summed without branches
         // (bytes widened to `u32`, which vectorise), less the pairs whose first body is a
         // ghost: pairs sort by their first body, so a ghost's are one range of the list
-        // (`pairs_as_a`; two in a near list, one per part: `Contacts::slots_as_a`), and only
-        // the ghosts' ranges (the lists received every step) are read, not every pair's
-        // first body.
+        // (`pairs_as_a`), and only the ghosts' ranges (the lists received every step) are
+        // read, not every pair's first body.
         let all = t[..np].iter().map(|&tk| tk as u32).sum::<u32>() as usize;
         let of_ghosts: usize = if ghost.is_empty() {
             0
@@ -369,8 +368,8 @@ impl Domain {
                 .map(|&g| {
                     let g = g as usize;
                     debug_assert!(ghost[g]);
-                    // A near list's two parts' ranges (`Contacts::late_as_a`), else one.
-                    c.slots_as_a(g).map(|k| t[k] as usize).sum::<usize>()
+                    let r = c.pairs_as_a[g] as usize..c.pairs_as_a[g + 1] as usize;
+                    t[r].iter().map(|&tk| tk as usize).sum::<usize>()
                 })
                 .sum()
         };

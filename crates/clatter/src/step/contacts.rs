@@ -156,10 +156,7 @@ pub(crate) fn run(world: &mut World) -> usize {
         },
     );
     match &mut world.contacts.near {
-        Some(near) => {
-            near.list.springs = springs;
-            near.note_late();
-        }
+        Some(near) => near.list.springs = springs,
         None => world.contacts.springs = springs,
     }
     world.edge_memory = memory;

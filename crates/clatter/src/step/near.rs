@@ -6,8 +6,8 @@
 //! about 3.6 pairs per body, of which 2.3 touch), and the law's lanes and the gather read all
 //! of them every step. The near list holds only the pairs whose spheres are within `MARGIN`
 //! of the skin of touching when it is made, with their springs and forces copied into its
-//! own arrays (touching pairs first, see below; eight near pairs are eight slots in a row)
-//! and its own gather tables; it is made again once a body has moved half the smallest gap of its pairs
+//! own arrays (in list order, so eight near pairs are eight slots in a row) and its own
+//! gather tables; it is made again once a body has moved half the smallest gap of its pairs
 //! left out (at least half the margin) since.
 //!
 //! Why the same bits:
@@ -27,23 +27,8 @@
 //!   round-to-nearest a sum or difference is -0 only when both operands are -0 (a sum) or
 //!   -0 and +0 (a difference), so a sum started at +0 is never -0, and adding or
 //!   subtracting a +0 force leaves it unchanged: the pairs left out (forces +0) drop out of
-//!   the sums without changing a bit (a zero of either sign, in fact: `x + -0 = x` and
-//!   `x - -0 = x` for every `x` but -0). The near list keeps each body's remaining
-//!   contacts in the same relative order as side b (`b_pairs` maps the list's order) and
-//!   with the walls (all wall pairs, in order).
-//! - **Touching pairs first.** The near list's body pairs come in two parts, each sorted:
-//!   the **early** part, the pairs touching when it is made (in the last step, or at the
-//!   making's positions), then the **late** part, the others. The lanes work in groups of
-//!   eight slots, so the late part's groups are mostly all apart and take the lanes' cheap
-//!   path (on a settled pile about 9K of 47K pairs: -0.5M instructions per step). A body's
-//!   pairs as side a are then two ranges (`pairs_as_a`, `Contacts::late_as_a`), not one.
-//!   After each contacts stage `Near::note_late` marks the bodies that are side a of a late
-//!   pair that touched (`Contacts::late_live`); for those the gather merges the two ranges
-//!   by the second body (the sorted order); for the others every late pair's force is zero
-//!   (a contact that does not touch holds a zero force), so the early range alone gives
-//!   the same sum by the argument above. The pile test compares every body's gather with
-//!   the full list's, bitwise, after every step (a concatenation in place of the merge
-//!   fails it).
+//!   the sums without changing a bit. The near list keeps each body's remaining contacts in
+//!   the same relative order (its pairs are the list's, sorted, and all wall pairs).
 //! - **Everything else reads the one list.** The near list is a cache: `Contacts::springs`
 //!   gives the list's springs with the near list's written in, and a rebuild, a checkpoint
 //!   restore, a GPU hand-over or a migration writes it back (`Contacts::end_near`) or drops
@@ -59,27 +44,15 @@ use crate::world::World;
 /// this when it is made are in it.
 pub(crate) const MARGIN: f32 = 0.25;
 
-/// A slot's part in `make`'s table: the top two bits, the position within the part below.
-const PART: u32 = 3 << 30;
-/// The pairs touching when the list is made.
-const EARLY: u32 = 1 << 30;
-/// The other pairs kept.
-const LATE: u32 = 2 << 30;
-/// The pairs left out.
-const OUT: u32 = PART;
-
 /// A near list (see the module docs).
 #[derive(Debug, Clone)]
 pub(crate) struct Near {
-    /// Per near body pair, its slot in the broad phase's list (the early part's ascending,
-    /// then the late part's: `Contacts::late_as_a`).
+    /// Per near body pair, its slot in the broad phase's list (ascending).
     pub(crate) slots: Vec<u32>,
     /// The near pairs and every wall pair of the broad phase's list, with their springs.
     pub(crate) list: Contacts,
     /// The bodies' positions when it was made.
     made_at: Vec<DVec3>,
-    /// The bodies `note_late` marked in `list.late_live` (to clear them the next time).
-    marked: Vec<u32>,
     /// Per body, the squared distance it may move from `made_at` while the list lives (half
     /// the smallest gap of its pairs left out, less a rounding allowance; infinite where
     /// none is left out, -1 where it may not move at all).
@@ -87,38 +60,6 @@ pub(crate) struct Near {
 }
 
 impl Near {
-    /// After the contacts stage: which bodies are side a of a late pair that touched
-    /// (`Contacts::late_live`).
-    pub(crate) fn note_late(&mut self) {
-        let l = &mut self.list;
-        let Some(&split) = l.late_as_a.first() else {
-            return;
-        };
-        let (split, np) = (split as usize, l.pairs.len());
-        // Last step's marks cleared (rather than every body's).
-        for &a in &self.marked {
-            l.late_live[a as usize] = false;
-        }
-        self.marked.clear();
-        let late = &l.springs.touching[split.min(np)..np];
-        // Eight flags at a time; few touch (on a pile a few hundred of ten thousand).
-        for (c, chunk) in late.chunks(8).enumerate() {
-            let set = match chunk.try_into() {
-                Ok(eight) => any(eight),
-                Err(_) => chunk.contains(&true),
-            };
-            if set {
-                for (k, &t) in chunk.iter().enumerate() {
-                    if t {
-                        let a = l.pairs[split + 8 * c + k][0];
-                        l.late_live[a as usize] = true;
-                        self.marked.push(a);
-                    }
-                }
-            }
-        }
-    }
-
     /// Writes the near list's springs, forces and flags into `dst`, the broad phase's list's
     /// (whose pairs outside the near list hold zeros).
     pub(crate) fn write_back(&self, dst: &mut ContactSprings) {
@@ -154,13 +95,6 @@ impl Near {
         }
         ok
     }
-}
-
-/// Whether any of eight flags is set, as one word's test.
-#[inline(always)]
-pub(crate) fn any(flags: &[bool; 8]) -> bool {
-    // SAFETY: eight `bool`s are eight bytes, each 0 or 1 (any bytes make a `u64`).
-    unsafe { (flags.as_ptr() as *const u64).read_unaligned() != 0 }
 }
 
 /// Whether `world` steps with a near list: spheres only (whose contacts keep no
@@ -199,8 +133,6 @@ fn make(world: &World) -> Near {
     let sp = &c.springs;
     let np = c.pairs.len();
     let nb = world.len();
-    // Positions fit below `make`'s two part bits.
-    assert!(np < 1 << 30);
     let margin = MARGIN * world.skin;
     let x = world.position_pairs.as_slice();
     let radius = &world.consts.radius;
@@ -214,12 +146,12 @@ fn make(world: &World) -> Near {
     // Per body, half the smallest gap of its pairs left out (how far it may move while the
     // list lives); infinite for a body with none left out.
     let mut slack = vec![f32::INFINITY; nb];
-    // Per slot of the broad phase's list: its part (`EARLY`, `LATE` or `OUT`) and its
-    // position within it; the early and the late pairs in list order.
-    let mut place = Vec::with_capacity(np);
-    let mut early = Vec::with_capacity(np);
-    let mut late = Vec::with_capacity(np);
+    // Per slot of the broad phase's list, the near pairs before it (and the total last).
+    let mut rank = Vec::with_capacity(np + 1);
+    let mut slots = Vec::with_capacity(np);
+    let mut pairs = Vec::with_capacity(np);
     for (k, &[i, j]) in c.pairs.iter().enumerate() {
+        rank.push(slots.len() as u32);
         let (iu, ju) = (i as usize, j as usize);
         // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
         let d: Vec3 = world.offset_in(x, iu, ju);
@@ -228,45 +160,24 @@ fn make(world: &World) -> Near {
         // Not `<`: a NaN distance keeps the pair.
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(d2 >= reach * reach) || !is_zero(k) {
-            // Early: touching in the last step, or now (the law's test, up to rounding).
-            let touch = radius[iu] + radius[ju];
-            if sp.touching[k] || d2 < touch * touch {
-                place.push(EARLY | early.len() as u32);
-                early.push(k as u32);
-            } else {
-                place.push(LATE | late.len() as u32);
-                late.push(k as u32);
-            }
+            slots.push(k as u32);
+            pairs.push([i, j]);
         } else {
-            place.push(OUT);
             // At least `margin` (up to rounding, allowed for below).
             let half_gap = 0.5 * (d2.sqrt() - radius[iu] - radius[ju]);
             slack[iu] = slack[iu].min(half_gap);
             slack[ju] = slack[ju].min(half_gap);
         }
     }
-    let split = early.len();
-    let mut slots = early;
-    slots.extend_from_slice(&late);
     let n = slots.len();
-    // Each slot's position in the near list (`OUT` for the pairs left out).
-    let position = |k: usize| -> u32 {
-        let p = place[k];
-        match p & PART {
-            EARLY => p & !PART,
-            LATE => split as u32 + (p & !PART),
-            _ => OUT,
-        }
-    };
+    rank.push(n as u32);
     let total = n + c.wall_pairs.len();
-    let mut pairs = Vec::with_capacity(n);
     let mut history = Vec::with_capacity(total);
     let mut twist = Vec::with_capacity(total);
     let mut forces = Vec::with_capacity(total);
     let mut touching = Vec::with_capacity(total);
     for &s in &slots {
         let s = s as usize;
-        pairs.push(c.pairs[s]);
         history.push(sp.history[s]);
         twist.push(sp.twist[s]);
         forces.push(sp.forces[s]);
@@ -276,34 +187,18 @@ fn make(world: &World) -> Near {
     twist.extend_from_slice(&sp.twist[np..]);
     forces.extend_from_slice(&sp.forces[np..]);
     touching.extend_from_slice(&sp.touching[np..]);
-    // The gather tables, from the list's: per body, its range of each part as side a (the
-    // pairs before its first slot in each part), and its pairs as side b in list order.
-    let mut pairs_as_a = Vec::with_capacity(nb + 1);
-    let mut late_as_a = Vec::with_capacity(nb + 1);
-    let (mut in_early, mut in_late) = (0u32, split as u32);
-    let mut next = 0;
-    for &a in &c.pairs_as_a {
-        // Count the parts' pairs of the slots before `a`.
-        while next < (a as usize).min(np) {
-            match place[next] & PART {
-                EARLY => in_early += 1,
-                LATE => in_late += 1,
-                _ => {}
-            }
-            next += 1;
-        }
-        pairs_as_a.push(in_early);
-        late_as_a.push(in_late);
-    }
+    // The gather tables, from the list's: what `Contacts::new` builds for the near pairs
+    // (the slots ascend, so each body's pairs keep their order).
+    let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
     let mut b_pair_start = Vec::with_capacity(nb + 1);
     let mut b_pairs = Vec::with_capacity(n);
     b_pair_start.push(0);
     for i in 0..nb {
         let range = c.b_pair_start[i] as usize..c.b_pair_start[i + 1] as usize;
         for &k in &c.b_pairs[range] {
-            let p = position(k as usize);
-            if p != OUT {
-                b_pairs.push(p);
+            let k = k as usize;
+            if rank[k + 1] != rank[k] {
+                b_pairs.push(rank[k]);
             }
         }
         b_pair_start.push(b_pairs.len() as u32);
@@ -329,9 +224,6 @@ fn make(world: &World) -> Near {
         b_pair_start,
         b_pairs,
         wall_contacts_of,
-        late_as_a,
-        // Until the contacts stage says otherwise (`Near::note_late`).
-        late_live: vec![true; nb],
         pieces: Vec::new(),
         near: None,
         view: std::sync::OnceLock::new(),
@@ -350,8 +242,6 @@ fn make(world: &World) -> Near {
         slots,
         list,
         made_at: world.state.position.clone(),
-        // Every body's mark is set when the list is made.
-        marked: (0..nb as u32).collect(),
         reach2,
     }
 }
@@ -467,7 +357,6 @@ velocity = [0.8, -0.6, -2.5]
         let (mut near, mut full) = (world(), world());
         let mut restored: Option<World> = None;
         let (mut made, mut rebuilt_in_life, mut shorter, mut checkpointed) = (0, 0, 0, false);
-        let mut merged = 0;
         let mut last_slots: Option<*const u32> = None;
         for step in 0..1500 {
             let before = near.rebuilds;
@@ -492,25 +381,6 @@ velocity = [0.8, -0.6, -2.5]
             }
             if list.slots.len() < near.contacts.pairs.len() {
                 shorter += 1;
-            }
-            // Bodies whose sums the gather merges from both parts: a late pair touching
-            // among more than two pairs as side a (where the order can change the sum).
-            let l = &list.list;
-            merged += (0..near.len())
-                .filter(|&i| {
-                    let early = l.pairs_as_a[i + 1] - l.pairs_as_a[i];
-                    let late = l.late_as_a[i + 1] - l.late_as_a[i];
-                    l.late_live[i] && early > 0 && early + late > 2
-                })
-                .count();
-            // Each body's gathered force and torque, bitwise the full list's.
-            for i in 0..near.len() {
-                let (a, b) = (near.contacts.gather(i), full.contacts.gather(i));
-                assert!(
-                    [a.0, a.1].map(|v| v.to_array().map(f32::to_bits))
-                        == [b.0, b.1].map(|v| v.to_array().map(f32::to_bits)),
-                    "body {i}'s gather differs after step {step}: {a:?} against {b:?}"
-                );
             }
             assert!(
                 bits(&near) == bits(&full),
@@ -546,11 +416,6 @@ velocity = [0.8, -0.6, -2.5]
             "rebuilds in a near list's life: {rebuilt_in_life}"
         );
         assert!(shorter > 1000, "steps with a shorter list: {shorter}");
-        assert!(
-            merged > 100,
-            "bodies' sums merged from both parts: {merged}"
-        );
-        eprintln!("made {made}, rebuilt in life {rebuilt_in_life}, merged {merged}");
     }
 
     /// Two spheres approaching head-on, each at the same speed, with a gap inside the skin
