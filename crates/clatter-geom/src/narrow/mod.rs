@@ -17,16 +17,17 @@ use glam::Vec3;
 
 use crate::{Pose, Shape};
 
+mod certify;
 mod clip;
 mod edges;
 mod memory;
 mod sat;
 mod sphere;
 
+#[doc(hidden)]
+pub use certify::wedge_certificates;
 pub use memory::EdgeMemory;
 pub use sat::polyhedron_polyhedron;
-#[doc(hidden)]
-pub use sat::wedge_certificates;
 pub use sphere::sphere_polyhedron;
 
 /// One point of a contact manifold.

@@ -1,0 +1,164 @@
+//! Certificates that two bodies overlap, so that no axis of the full separating-axis test
+//! separates them: what lets a remembered face contact stand in for the full test
+//! ([`super::sat`]'s `remembered_face`).
+
+use glam::{Mat3, Vec3};
+
+use super::Manifold;
+use crate::ConvexPolyhedron;
+
+/// The centroid of the manifold's points moved back halfway along the normal: on the
+/// incident face, up to rounding (see [`overlap_certified`]).
+fn incident_centroid(m: &Manifold) -> Vec3 {
+    let mut c = Vec3::ZERO;
+    for p in m.points() {
+        c += p.point - m.normal * (0.5 * p.depth);
+    }
+    c / m.count as f32
+}
+
+/// Whether the bodies certainly overlap by more than `delta`, so that no axis of the full
+/// test separates them, for a face contact `m` in the reference body's frame.
+///
+/// Why: each point of the manifold is a point of the incident face (a corner of its clipped
+/// polygon, or its deepest vertex) moved halfway along the normal; moved back, their
+/// centroid `c` is a point of the incident body (the face is convex), up to rounding. If
+/// `c` is at least `delta` inside every face plane of the reference body, the ball of
+/// radius `delta` about `c` lies in that body, so along any direction `u` the incident
+/// body reaches below `u.c` and the reference body above `u.c + delta`: every axis's
+/// separation is at most `-delta`. With `delta` above the rounding of `c` and of the full
+/// test's separations, none of them is positive.
+pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool {
+    let c = incident_centroid(m);
+    refp.faces
+        .iter()
+        .all(|f| f.normal.dot(c) - f.offset <= -delta)
+}
+
+/// Whether the bodies certainly overlap by more than `delta` at a face contact `m` (in the
+/// reference body's frame, reference face `rf` of `refp`) where [`overlap_certified`]
+/// cannot tell: the incident body crossing a side of the reference face, its clipped points
+/// on that side's plane, so that no ball about their centroid fits in the reference body.
+/// `to_inc` maps a point of the reference frame into the incident body's frame, `inc_rot`
+/// the incident body's directions into the reference frame.
+///
+/// Why: if a point `p` is at least `delta / 2` inside every face plane of both bodies, the
+/// balls of radius `delta / 2` about `p` lie in both, so along any direction `u` the
+/// incident body reaches below `u.p - delta / 2` and the reference body above `u.p +
+/// delta / 2`: every axis's separation is at most `-delta`, as in [`overlap_certified`]
+/// (whose point is in the incident body up to rounding and `delta` inside the reference
+/// body), and with the same room for rounding none of the full test's separations is
+/// positive. Every `p` tried is checked against every plane of both bodies, so any `p`
+/// serves; those tried are where the overlap is widest near the points' centroid `c` (on
+/// the incident face): the centre of the largest ball within the reference face's plane
+/// and the three other face planes (of either body) nearest `c`, and, when that fails (the
+/// four planes bound no small region, as at a wedge along the reference face's edge), the
+/// centre of the largest disc within the reference face's plane and the two nearest, on the
+/// plane through `c` across the reference face's plane and the nearest one. (A singular
+/// system gives a NaN or an infinite `p`, which fails the checks.)
+pub(super) fn wedge_certified(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+) -> bool {
+    // Clipped points on a side plane are crossings of the incident face's edges: one or two
+    // (more are corners inside the face, where the first certificate failed for depth).
+    if m.count > 2 {
+        return false;
+    }
+    let n = m.normal;
+    let c = incident_centroid(m);
+    // Shallower than `delta` along the reference normal: no ball fits (and NaN returns).
+    let s1 = n.dot(c) - refp.faces[rf].offset;
+    if s1.partial_cmp(&-delta) != Some(std::cmp::Ordering::Less) {
+        return false;
+    }
+    let certified = ball_certified(refp, Some(rf), inc, to_inc, inc_rot, c, delta);
+    if certified {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+    }
+    certified
+}
+
+/// Whether a point at least `delta / 2` inside every face plane of both `refp` and `inc`
+/// is found near `c` (in `refp`'s frame; `to_inc` maps a point of it into `inc`'s frame,
+/// `inc_rot` `inc`'s directions into it), so that every axis's separation is at most
+/// `-delta` (see [`wedge_certified`]). Every point tried is checked against every plane, so
+/// the choice only decides how often one is found: the centre of the largest ball within
+/// the four face planes (of either body) nearest `c`, face `first` of `refp` always among
+/// them when given; and, when that fails, the centre of the largest disc within the three
+/// nearest, on the plane through `c` across the two nearest. (A singular system gives a NaN
+/// or an infinite point, which fails the checks.)
+fn ball_certified(
+    refp: &ConvexPolyhedron,
+    first: Option<usize>,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    c: Vec3,
+    delta: f32,
+) -> bool {
+    // The face planes nearest `c`, (separation, normal in `refp`'s frame), nearest first
+    // (`first`'s ahead of all).
+    let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 4];
+    let mut take = |s: f32, normal: Vec3| {
+        let mut k = 3;
+        if s > near[k].0 {
+            near[k] = (s, normal);
+            while k > 0 && near[k].0 > near[k - 1].0 {
+                near.swap(k, k - 1);
+                k -= 1;
+            }
+        }
+    };
+    for (f, face) in refp.faces.iter().enumerate() {
+        if Some(f) != first {
+            take(face.normal.dot(c) - face.offset, face.normal);
+        }
+    }
+    let c_inc = to_inc(c);
+    for face in &inc.faces {
+        take(face.normal.dot(c_inc) - face.offset, inc_rot * face.normal);
+    }
+    if let Some(f) = first {
+        let face = refp.faces[f];
+        near.copy_within(0..3, 1);
+        near[0] = (face.normal.dot(c) - face.offset, face.normal);
+    }
+    let half = 0.5 * delta;
+    let inside = |p: Vec3| {
+        let p_inc = to_inc(p);
+        refp.faces
+            .iter()
+            .all(|f| f.normal.dot(p) - f.offset <= -half)
+            && inc
+                .faces
+                .iter()
+                .all(|f| f.normal.dot(p_inc) - f.offset <= -half)
+    };
+    // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
+    let [(s1, n1), (s2, n2), (s3, n3), (s4, n4)] = near;
+    let solve = |last: glam::Vec4, rhs: f32| {
+        let rows =
+            glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last).transpose();
+        c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
+    };
+    inside(solve(n4.extend(1.0), -s4)) || inside(solve(n1.cross(n2).extend(0.0), 0.0))
+}
+
+thread_local! {
+    /// How many face contacts [`wedge_certified`] certified on this thread (for tests).
+    static WEDGE_CERTIFIED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// How many remembered face contacts on this thread stood in for the full test by the
+/// certificate of a contact crossing the reference face's side ([`wedge_certified`]), for
+/// tests that check the path serves.
+#[doc(hidden)]
+pub fn wedge_certificates() -> usize {
+    WEDGE_CERTIFIED.with(|n| n.get())
+}
