@@ -234,6 +234,31 @@ impl GpuWorld {
         &self.bufs[Buf::Bodies]
     }
 
+    /// Uploads the body states of `world` (the world this was created from, at the step this
+    /// has reached) over the GPU's, and keeps everything else: the contact list, springs,
+    /// pair memories and the broad phase's rebuild positions, as the CPU's `World::step`
+    /// keeps them when a caller edits `world.state` between steps. For callers that change
+    /// the bodies' state between steps (a test integrating orientations itself), where
+    /// [`GpuWorld::new`] would rebuild the pipeline and carry the contacts at every step.
+    /// Refuses a world with another body count or step count.
+    pub fn write_states(&mut self, world: &clatter::World) -> Result<(), GpuError> {
+        if world.len() != self.n as usize || world.step_count != self.step_count() {
+            return Err(GpuError::Unsupported(format!(
+                "write_states: the world has {} bodies at step {}, the GPU {} at step {}",
+                world.len(),
+                world.step_count,
+                self.n,
+                self.step_count()
+            )));
+        }
+        let states: Vec<clatter::contract::BodyState> =
+            (0..world.len()).map(|i| world.state.record(i)).collect();
+        self.ctx
+            .queue
+            .write_buffer(&self.bufs[Buf::Bodies], 0, bytemuck::cast_slice(&states));
+        Ok(())
+    }
+
     /// Whether to record steps without the rebuild's dispatches after the first step of each
     /// batch (on by default; see `encode_steps`). Results do not depend on it, only speed:
     /// the tests turn it off to check that.
