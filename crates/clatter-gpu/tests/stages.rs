@@ -443,6 +443,43 @@ fn lean_steps_match_full_steps_bitwise() {
     }
 }
 
+/// `write_states` puts the host's edited states on the GPU bit for bit (what the next step
+/// starts from), and refuses a world that is not at the GPU's step.
+#[test]
+fn written_states_are_the_hosts_bit_for_bit() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let mut world = scene(300, 11, spheres(), false);
+    let mut gpu = GpuWorld::new(ctx, &world).expect("scene fits");
+    gpu.step_into(20, &mut world).expect("steps");
+    for i in 0..world.len() {
+        let q = world.state.orientation[i];
+        world.state.orientation[i] = (glam::Quat::from_rotation_y(0.3 + i as f32) * q).normalize();
+        world.state.velocity[i] += glam::Vec3::new(0.01, -0.02, 0.005);
+    }
+    gpu.write_states(&world)
+        .expect("the same world at the same step");
+    let on_gpu = gpu.read_states().expect("readback");
+    let bits =
+        |s: &[clatter_gpu::BodyState]| -> Vec<u32> { bytemuck::cast_slice::<_, u32>(s).to_vec() };
+    let host: Vec<_> = (0..world.len()).map(|i| world.state.record(i)).collect();
+    assert!(
+        bits(&on_gpu) == bits(&host),
+        "written states differ from the host's"
+    );
+    // The GPU steps on from them (the planted bug of writing all but the last body fails
+    // the comparison above).
+    gpu.step_into(5, &mut world)
+        .expect("steps after the upload");
+    assert_eq!(world.step_count, 25);
+    world.step_count += 1;
+    assert!(
+        gpu.write_states(&world).is_err(),
+        "a world at another step must be refused"
+    );
+}
+
 /// The shapes of mesh files (`[[shape]] mesh = ..`: the convex hull of the file's vertices),
 /// as the scene builds them: the irregular rock of `scenes/rocks.toml` (42 vertices, 80
 /// faces), the same rock stretched unevenly, and the committed PLY tetrahedron, each scaled
