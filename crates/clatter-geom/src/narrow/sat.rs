@@ -401,6 +401,14 @@ fn reference_separation(
 ) -> f32 {
     let face = face as usize;
     let smallest = |p: &ConvexPolyhedron, n: Vec3| {
+        if let Some(h) = p.corner_box {
+            // A box's corners: the loop's smallest in closed form, the same value (see
+            // `ConvexPolyhedron::corner_box`); its first comparison with infinity kept, so
+            // that a NaN direction gives infinity as the loop does.
+            let a = n.abs();
+            let d = -((a.x * h.x + a.y * h.y) + a.z * h.z);
+            return if d < f32::INFINITY { d } else { f32::INFINITY };
+        }
         let mut m = f32::INFINITY;
         for v in &p.vertices {
             let d = n.x * v.x + n.y * v.y + n.z * v.z;
