@@ -391,7 +391,9 @@ fn remembered_face(
 /// frame instead of B's vertices into A's, a few ulps of the bodies' size apart, far
 /// inside `contact_margin`'s `eps`). NaN for a face index out of range (no remembered
 /// face then serves).
-#[inline(never)]
+// Inlined now that a box's case is a closed form (cube pile 7,939 -> 7,922 Ir per
+// body-step, callgrind); `remembered_face` and `sat_full` stay out of line.
+#[inline]
 fn reference_separation(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
