@@ -128,7 +128,7 @@ pub const MAX_SETTLE_STEPS: u64 = 400_000;
 
 /// Bump when the poured pile, its settling or the checkpoint format changes, so that old
 /// cached piles are not used (2: checkpoint version 4, f64 positions). Not bumped for checkpoint
-/// version 5, which reads version-4 piles with the same results.
+/// versions 5 and 6, which read version-4 piles with the same results.
 const PILE_CACHE_VERSION: u32 = 2;
 
 /// Where settled poured piles are cached: `--pile-cache DIR`, else `$CLATTER_PILE_CACHE`,

@@ -41,6 +41,13 @@ pub struct ConvexPolyhedron {
     /// When the polyhedron is a rectangular box centred on the origin: its axes and half
     /// extents, recognised once here so that queries take the closed-form box paths.
     pub box_frame: Option<BoxFrame>,
+    /// When the vertices are exactly the eight corners `(±h.x, ±h.y, ±h.z)` in f32 (an
+    /// axis-aligned box centred on the origin, as a prepared cube is): `h`. Then the
+    /// smallest projection of the vertices on any direction `n`, each projection computed
+    /// as `n.x * v.x + n.y * v.y + n.z * v.z`, is `-((|n.x| h.x + |n.y| h.y) + |n.z| h.z)`
+    /// bitwise (up to the sign of a zero): the separating-axis test's remembered faces take
+    /// it in closed form (see [`ConvexPolyhedron::detect_corner_box`]).
+    pub corner_box: Option<Vec3>,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -164,9 +171,36 @@ impl ConvexPolyhedron {
             edge_dir_of,
             radius,
             box_frame: None,
+            corner_box: None,
         };
         p.box_frame = crate::query::support::detect_box(&p);
+        p.corner_box = Self::detect_corner_box(&p.vertices);
         p
+    }
+
+    /// `h` when `vertices` are exactly the eight corners `(±h.x, ±h.y, ±h.z)` (each sign
+    /// pattern once, every half extent positive), else `None` (see
+    /// [`ConvexPolyhedron::corner_box`]'s field). Why the closed form is then the vertices'
+    /// smallest projection bitwise: the corner with `v_i = -sign(n_i) h_i` has the products
+    /// `-(|n_i| h_i)` (a product's rounding is symmetric in sign), each at most the same
+    /// coordinate's product for any other corner; rounded sums are monotonic in each
+    /// operand, so its projection, `-((|n.x| h.x + |n.y| h.y) + |n.z| h.z)` with the sums
+    /// in the same order, is the smallest.
+    pub fn detect_corner_box(vertices: &[Vec3]) -> Option<Vec3> {
+        let first = vertices.first()?;
+        let h = first.abs();
+        if vertices.len() != 8 || !(h.x > 0.0 && h.y > 0.0 && h.z > 0.0) {
+            return None;
+        }
+        let mut seen = 0u32;
+        for v in vertices {
+            if v.abs() != h {
+                return None;
+            }
+            seen |=
+                1 << ((v.x < 0.0) as u32 | ((v.y < 0.0) as u32) << 1 | ((v.z < 0.0) as u32) << 2);
+        }
+        (seen == 0xff).then_some(h)
     }
 
     /// The vertex loop of face `f`.

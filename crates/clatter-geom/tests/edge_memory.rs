@@ -261,3 +261,160 @@ fn edge_pairs_overtaking_the_winner_keep_their_answers() {
     // Winners changed often within edge contacts, not only between contacts.
     assert!(switches * 20 > edges, "{switches} new winners of {edges}");
 }
+
+/// The rotation angle of `q` (radians, at most pi), accurate for small turns (see
+/// `face_memory.rs`'s `angle`).
+fn angle(q: Quat) -> f32 {
+    2.0 * q.xyz().length().atan2(q.w.abs())
+}
+
+/// What [`run_crossed_edges`] counted: pair-steps whose hint was an edge contact, those
+/// where the remembered edge contact stood in for the full test, and of those the steps
+/// where the older rule (the room stored once and spent at twice the summed motion bound)
+/// would have run the full test.
+#[derive(Default)]
+struct Crossed {
+    edges: usize,
+    served: usize,
+    beyond_old: usize,
+}
+
+/// One pair stepped `steps` times in an edge-edge contact: A's edge `ea` and B's edge `eb`
+/// crossed (each body's support along the line of centres `dir` is its edge: `dir` is A's
+/// two faces' normals' bisector, B's bisector turned onto `-dir`), pressed in by a small
+/// overlap along `dir`, while B spins slowly about `dir` (the edges stay crossed, at a
+/// turning angle), rocks slightly off it, and slides across A's edge. The caller's part of
+/// the contract is kept as the simulation keeps it: before each call the remembered margin
+/// is decreased by twice a true bound of how far any point of either body moved in the
+/// other's frame (A is fixed). Every step's manifold is compared bitwise with the full
+/// test's.
+#[allow(clippy::too_many_arguments)]
+fn run_crossed_edges(
+    a: &Shape,
+    b: &Shape,
+    ea: usize,
+    eb: usize,
+    rng: &mut Rng,
+    spin: f32,
+    steps: usize,
+    counts: &mut Crossed,
+) {
+    let (pa_, pb_) = (poly(a), poly(b));
+    let (ra, rb) = (a.bounding_radius(), b.bounding_radius());
+    let bisector = |p: &clatter_geom::ConvexPolyhedron, e: usize| {
+        let [f0, f1] = p.edge_faces[e];
+        (p.faces[f0 as usize].normal + p.faces[f1 as usize].normal).normalize()
+    };
+    let midpoint = |p: &clatter_geom::ConvexPolyhedron, e: usize| {
+        let [v0, v1] = p.edges[e];
+        0.5 * (p.vertices[v0 as usize] + p.vertices[v1 as usize])
+    };
+    let length = |p: &clatter_geom::ConvexPolyhedron, e: usize| {
+        let [v0, v1] = p.edges[e];
+        (p.vertices[v1 as usize] - p.vertices[v0 as usize]).length()
+    };
+    let qa = rng.rotation();
+    let pa = Pose::new(Vec3::ZERO, qa);
+    let dir = qa * bisector(pa_, ea);
+    let lay = Quat::from_rotation_arc(bisector(pb_, eb), -dir);
+    let spin0 = rng.next() * std::f32::consts::TAU;
+    let rock_axis = rng.unit().cross(dir).normalize_or_zero();
+    let slide = rng.unit().cross(dir).normalize_or_zero();
+    let reach = 0.1 * length(pa_, ea).min(length(pb_, eb));
+    let ma = qa * midpoint(pa_, ea);
+    let (mut hint, mut bound) = (NO_HINT, 0.0f32);
+    // The summed motion bound since the last full test (the older rule's spending).
+    let mut spent = 0.0f32;
+    let mut last: Option<(Vec3, Quat)> = None;
+    for k in 0..steps {
+        let phase = k as f32 * 0.02;
+        let qb = (Quat::from_axis_angle(dir, spin0 + spin * k as f32)
+            * Quat::from_axis_angle(rock_axis, 2e-3 * (0.5 * phase).sin())
+            * lay)
+            .normalize();
+        let overlap = (0.002 + 0.0015 * (1.5 * phase).sin()) * (ra + rb);
+        // B's edge midpoint on A's, slid sideways, pressed in along `dir`.
+        let centre = ma - qb * midpoint(pb_, eb) + slide * (reach * phase.sin()) - dir * overlap;
+        if let Some((c0, q0)) = last {
+            // B's points move by at most |dc| + th (|c| + r_b) in A's (fixed) frame, and
+            // A's points in B's frame by at most |dc| + th (|c| + r_a).
+            let th = angle(qb * q0.conjugate());
+            let moved =
+                (centre - c0).length() + th * (centre.length().max(c0.length()) + ra.max(rb));
+            let step_bound = moved * 1.01 + 1e-6 * (ra + rb);
+            if bound > 0.0 {
+                bound -= 2.0 * step_bound;
+                spent += step_bound;
+            }
+        }
+        last = Some((centre, qb));
+        let pb = Pose::new(centre, qb);
+        let before = (hint, bound);
+        let with = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
+        let full = narrow::collide(a, &pa, b, &pb);
+        assert_eq!(
+            with, full,
+            "step {k}: manifold differs from the full test's"
+        );
+        let edge = hint == narrow::HINT_EDGE_CONTACT;
+        counts.edges += edge as usize;
+        let served = edge && before == (hint, bound);
+        if let Some(m) = with.filter(|_| served) {
+            counts.served += 1;
+            // The older rule stored the room `R` once (`before.1 / 2 + spent` here) and
+            // served while `R - 2 spent + best_e > 0`, `best_e` the edge axis's separation.
+            let best_e = -m.points()[0].depth;
+            counts.beyond_old += (0.5 * before.1 - spent + best_e <= 0.0) as usize;
+        } else {
+            spent = 0.0;
+        }
+    }
+}
+
+/// Every Platonic solid and a hull against every one in edge-edge contacts (a few edge
+/// pairs each), the edges crossed, B spinning slowly about the contact normal, rocking and
+/// sliding across A's edge: every step's manifold is the full test's, bitwise, and the
+/// remembered edge contacts stood in for most edge-contact steps, a good share of them
+/// after the summed motion bound had spent the room the older rule allowed (the room
+/// stored once and spent at twice the bound: its check would have run the full test).
+#[test]
+fn crossed_edges_sliding_and_turning_stay_remembered() {
+    let shapes = shapes();
+    let mut rng = Rng(2311);
+    let mut counts = Crossed::default();
+    for sa in &shapes {
+        for sb in &shapes {
+            let (pa_, pb_) = (poly(&sa.shape), poly(&sb.shape));
+            for _ in 0..3 {
+                let ea = (rng.next() * pa_.edges.len() as f32) as usize % pa_.edges.len();
+                let eb = (rng.next() * pb_.edges.len() as f32) as usize % pb_.edges.len();
+                for spin in [2e-5, 2e-4] {
+                    run_crossed_edges(
+                        &sa.shape,
+                        &sb.shape,
+                        ea,
+                        eb,
+                        &mut rng,
+                        spin,
+                        300,
+                        &mut counts,
+                    );
+                }
+            }
+        }
+    }
+    let Crossed {
+        edges,
+        served,
+        beyond_old,
+    } = counts;
+    println!(
+        "{edges} edge-contact steps, {served} served by the remembered edge, {beyond_old} \
+         of them past the older rule's room"
+    );
+    assert!(served * 2 > edges, "{served} served of {edges}");
+    assert!(
+        beyond_old * 4 > served,
+        "{beyond_old} past the old room of {served}"
+    );
+}

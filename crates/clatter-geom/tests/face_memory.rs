@@ -414,3 +414,60 @@ fn parallel_faces_sliding_and_turning_stay_remembered() {
         "beyond the old margin's reach: {beyond} of {kept}"
     );
 }
+
+/// The closed form the remembered faces take for a box's vertices' smallest projection
+/// (`ConvexPolyhedron::corner_box`) against the loop over the vertices, on the prepared cube
+/// and on boxes built from eight corners with unequal half extents: the same value on random
+/// directions and on directions with zero and tiny components; shapes that are not such a
+/// box (the other solids, a hull, a box off the origin) are not recognised.
+#[test]
+fn box_corners_smallest_projection_in_closed_form() {
+    let smallest = |p: &ConvexPolyhedron, n: Vec3| {
+        let mut m = f32::INFINITY;
+        for v in &p.vertices {
+            let d = n.x * v.x + n.y * v.y + n.z * v.z;
+            m = if d < m { d } else { m };
+        }
+        m
+    };
+    let corners = |h: Vec3, c: Vec3| -> Vec<Vec3> {
+        (0..8)
+            .map(|k| {
+                let s = |b: u32| if k & b != 0 { -1.0 } else { 1.0 };
+                c + Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
+            })
+            .collect()
+    };
+    let mut boxes: Vec<ConvexPolyhedron> = vec![poly(&shapes()[1].shape).clone()];
+    for h in [Vec3::new(0.3, 1.7, 0.011), Vec3::new(2.5e-3, 1e-3, 7e-3)] {
+        let hull = clatter_geom::convex_hull(&corners(h, Vec3::ZERO)).expect("a box");
+        boxes.push(hull);
+    }
+    let mut rng = Rng(99);
+    for p in &boxes {
+        let h = p.corner_box.expect("a box's corners are recognised");
+        for k in 0..20_000 {
+            let mut n = rng.unit();
+            match k % 4 {
+                1 => n.x = 0.0,
+                2 => n.y *= 1e-30,
+                3 => n = Vec3::new(n.x, -0.0, 0.0),
+                _ => {}
+            }
+            let a = n.abs();
+            let closed = -((a.x * h.x + a.y * h.y) + a.z * h.z);
+            assert_eq!(closed, smallest(p, n), "direction {n}");
+        }
+    }
+    for s in shapes()
+        .iter()
+        .filter(|s| poly(&s.shape).vertices.len() != 8)
+    {
+        assert_eq!(poly(&s.shape).corner_box, None);
+    }
+    let off = corners(Vec3::new(1.0, 2.0, 3.0), Vec3::new(0.5, 0.0, 0.0));
+    assert_eq!(ConvexPolyhedron::detect_corner_box(&off), None);
+    let mut dented = corners(Vec3::ONE, Vec3::ZERO);
+    dented[5].y = f32::from_bits(dented[5].y.to_bits() - 1);
+    assert_eq!(ConvexPolyhedron::detect_corner_box(&dented), None);
+}

@@ -200,8 +200,8 @@ fn flipped_bytes_are_detected() {
     bad[8] = 9;
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
     assert!(msg.contains("version 9 is not supported"), "{msg}");
-    // Version 3 (f32 positions) is refused the same way: this build writes version 5 and
-    // reads 4 and 5.
+    // Version 3 (f32 positions) is refused the same way: this build writes version 6 and
+    // reads 4 to 6.
     bad[8] = 3;
     let msg = Checkpoint::from_bytes(&bad).unwrap_err().to_string();
     assert!(msg.contains("version 3 is not supported"), "{msg}");
@@ -211,30 +211,41 @@ fn flipped_bytes_are_detected() {
     assert!(msg.contains("not a clatter checkpoint"), "{msg}");
 }
 
-/// Version 5 kept version 4's layout (it changed what a remembered face contact's stored
-/// margin means, and a version-4 margin is safe under the new check), so a version-4 file is
-/// read, and resumes bitwise as the run it was cut from; this build writes version 5.
+/// Versions 5 and 6 kept version 4's layout (each changed what a remembered contact's
+/// stored margin means: 5 a face contact's, 6 an edge contact's; an older margin is safe
+/// under the newer check), so version-4 and version-5 files are read, and resume bitwise as
+/// the run they were cut from; this build writes version 6.
 #[test]
-fn a_version_4_file_is_read_and_resumes_bitwise() {
+fn version_4_and_5_files_are_read_and_resume_bitwise() {
     const TOTAL: u64 = 300;
     let mut straight = world();
     steps(&mut straight, TOTAL);
     let mut first = world();
     steps(&mut first, 120);
-    let mut v4 = bytes(&first);
-    assert_eq!(v4[8..12], 5u32.to_le_bytes(), "this build writes version 5");
-    v4[8..12].copy_from_slice(&4u32.to_le_bytes());
-    let body_end = v4.len() - 4;
-    let crc = crc32(&v4[..body_end]);
-    v4[body_end..].copy_from_slice(&crc.to_le_bytes());
-    let (_, mut resumed) = Checkpoint::from_bytes(&v4)
-        .expect("a version-4 file is read")
-        .world()
-        .expect("restore");
-    assert_eq!(bytes(&resumed), bytes(&first), "the same state as written");
-    steps(&mut resumed, TOTAL - 120);
-    assert!(bits(&resumed) == bits(&straight), "resumed from version 4");
-    assert!(bytes(&resumed) == bytes(&straight));
+    let written = bytes(&first);
+    assert_eq!(
+        written[8..12],
+        6u32.to_le_bytes(),
+        "this build writes version 6"
+    );
+    for version in [4u32, 5] {
+        let mut old = written.clone();
+        old[8..12].copy_from_slice(&version.to_le_bytes());
+        let body_end = old.len() - 4;
+        let crc = crc32(&old[..body_end]);
+        old[body_end..].copy_from_slice(&crc.to_le_bytes());
+        let (_, mut resumed) = Checkpoint::from_bytes(&old)
+            .unwrap_or_else(|e| panic!("a version-{version} file is read: {e}"))
+            .world()
+            .expect("restore");
+        assert_eq!(bytes(&resumed), written, "the same state as written");
+        steps(&mut resumed, TOTAL - 120);
+        assert!(
+            bits(&resumed) == bits(&straight),
+            "resumed from version {version}"
+        );
+        assert!(bytes(&resumed) == bytes(&straight));
+    }
 }
 
 #[test]

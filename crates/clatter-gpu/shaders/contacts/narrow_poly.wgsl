@@ -650,14 +650,17 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
             }
         }
     }
+    // A remembered edge contact's word is twice its room (CPU `remembered_edge`): the edge
+    // serves while `half + best_e > 0`.
+    let half = 0.5 * margin;
     // At most two passes: a remembered path, then the full test if it cannot decide.
     for (var attempt = 0u; attempt < 2u; attempt += 1u) {
         var b_ref = kind == HINT_FACE_B;
         var rf = face;
         var keep = vec2<u32>(hint, nrw_mem_in.y);
         if mode != NRW_FACE {
-            // Without the face axes, edge axes at or below `-margin` fail the edge test.
-            let sat = nrw_sat(a, b, rot, inv_rot, t, mode == NRW_FULL, -margin);
+            // Without the face axes, edge axes at or below `-half` fail the edge test.
+            let sat = nrw_sat(a, b, rot, inv_rot, t, mode == NRW_FULL, -half);
             if sat.separated {
                 if mode == NRW_EDGE {
                     mode = NRW_FULL;
@@ -670,15 +673,15 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
             // An edge contact: the full test's rule, or the remembered edge's margin.
             var edge_wins = e.found && e.s > face_best + tol;
             if mode == NRW_EDGE {
-                edge_wins = e.found && e.s + margin > 0.0;
+                edge_wins = e.found && e.s + half > 0.0;
             }
             if edge_wins {
                 let ev_a = nrw_edge(a, e.ea);
                 let ev_b = nrw_edge(b, e.eb);
                 let cl = nrw_segment_closest(nrw_vert(a, ev_a.x), nrw_vert(a, ev_a.y), nrw_bv(b, ev_b.x, rot, t), nrw_bv(b, ev_b.y, rot, t));
                 if mode == NRW_FULL {
-                    // Remembered with the bound the edge must stay above.
-                    keep = vec2<u32>(HINT_EDGE_CONTACT, bitcast<u32>(-(face_best + tol) - eps));
+                    // Remembered with twice the room above the best face's level.
+                    keep = vec2<u32>(HINT_EDGE_CONTACT, bitcast<u32>(2.0 * (-(face_best + tol) - eps)));
                 }
                 nrw_mem_out = keep;
                 let mid = 0.5 * (cl[0] + cl[1]);

@@ -78,7 +78,12 @@ pub const MAGIC: [u8; 8] = *b"CLATCKPT";
 /// A version-4 margin read as a version-5 one is still safe (the new check implies the old),
 /// so this build reads both; a build that reads only version 4 refuses version 5 files, as it
 /// must: it would take the larger stored word for its own margin.
-pub const FORMAT_VERSION: u32 = 5;
+/// Version 6: the same layout; a remembered edge contact's stored margin is twice its room
+/// (`clatter_geom`'s `remembered_edge`: the edge serves while half the word plus the best
+/// edge axis's separation is positive; before, while the word plus it was). A version-4 or
+/// 5 word read as a version-6 one is still safe: a positive word's half is below it, so the
+/// new check implies the old; this build reads versions 4 to 6.
+pub const FORMAT_VERSION: u32 = 6;
 /// The oldest format version this build reads (see [`FORMAT_VERSION`]).
 pub const OLDEST_READ_VERSION: u32 = 4;
 const HEADER_LEN: usize = 8 + 4 + 8 + 4;
