@@ -376,8 +376,7 @@ fn direction_pair(
     b_soa.extent(axis, 0..head_b, &mut ext_b);
     a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
     b_soa.extent(axis, head_b..b_soa.chunks(), &mut ext_b);
-    let (min_a, max_a) = (ext_a.min(), ext_a.max());
-    let (min_b, max_b) = (ext_b.min(), ext_b.max());
+    let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
     Some(if min_b - max_a >= min_a - max_b {
         (min_b - max_a, axis)
     } else {
@@ -501,7 +500,8 @@ pub(super) fn edge_axes_by_direction(
             } else {
                 low
             };
-            let (head_plus, head_minus) = (ext_b.min() - ext_a.max(), ext_a.min() - ext_b.max());
+            let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
+            let (head_plus, head_minus) = (min_b - max_a, min_a - max_b);
             if head_plus <= low && head_minus <= low {
                 // (These bound the separations from above.)
                 if rememberable {
@@ -516,8 +516,7 @@ pub(super) fn edge_axes_by_direction(
             }
             a_local.extent(axis, head_a..a_local.chunks(), &mut ext_a);
             b_soa.extent(axis, head_b..b_soa.chunks(), &mut ext_b);
-            let (min_a, max_a) = (ext_a.min(), ext_a.max());
-            let (min_b, max_b) = (ext_b.min(), ext_b.max());
+            let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
             // Separation pushing B along +axis, and along -axis; keep the larger.
             let (s, axis) = if min_b - max_a >= min_a - max_b {
                 (min_b - max_a, axis)
