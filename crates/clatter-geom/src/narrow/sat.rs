@@ -39,25 +39,22 @@ impl SoaPoints {
         }
     }
 
-    /// The number of 4-point chunks (the padded length over 4).
-    #[inline]
-    pub(super) fn chunks(&self) -> usize {
-        self.chunks.len()
+    /// Feeds the first chunk's projections on `n` into a new [`Extent`] (nothing when
+    /// there are no points): the head test's bounds, without a range to check.
+    #[inline(always)]
+    pub(super) fn head(&self, n: Vec3) -> Extent {
+        let mut e = Extent::new();
+        if let Some(c) = self.chunks.first() {
+            feed(n, std::slice::from_ref(c), &mut e);
+        }
+        e
     }
 
-    /// Feeds chunks `range` of the points' projections on `n` into `e` (see [`Extent`]).
+    /// Feeds the projections on `n` of the chunks after the first into `e`: after
+    /// [`SoaPoints::head`], `e` has been fed every chunk in order.
     #[inline(always)]
-    pub(super) fn extent(&self, n: Vec3, range: std::ops::Range<usize>, e: &mut Extent) {
-        let (nx, ny, nz) = (Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z));
-        for &[xs, ys, zs] in &self.chunks[range] {
-            // The products of `min_along(n)` and, negated, those of `min_along(-n)`
-            // (`(-a) * b == -(a * b)` bitwise), summed in the same order, lane by lane.
-            let (p, q, s) = (nx * xs, ny * ys, nz * zs);
-            let d = p + q + s;
-            let dn = -p - q - s;
-            e.lo = less(d, e.lo);
-            e.lo_neg = less(dn, e.lo_neg);
-        }
+    pub(super) fn tail(&self, n: Vec3, e: &mut Extent) {
+        feed(n, self.chunks.get(1..).unwrap_or(&[]), e);
     }
 
     /// Smallest projection on `n`: per lane `n.x * x + n.y * y + n.z * z` over the chunks
@@ -122,6 +119,21 @@ impl SoaPoints {
             m[3] = less(n3.0 * xs + n3.1 * ys + n3.2 * zs, m[3]);
         }
         reduce4(m[0], m[1], m[2], m[3])
+    }
+}
+
+/// Feeds `chunks`' projections on `n` into `e` (see [`Extent`]), chunk by chunk in order.
+#[inline(always)]
+fn feed(n: Vec3, chunks: &[[Vec4; 3]], e: &mut Extent) {
+    let (nx, ny, nz) = (Vec4::splat(n.x), Vec4::splat(n.y), Vec4::splat(n.z));
+    for &[xs, ys, zs] in chunks {
+        // The products of `min_along(n)` and, negated, those of `min_along(-n)`
+        // (`(-a) * b == -(a * b)` bitwise), summed in the same order, lane by lane.
+        let (p, q, s) = (nx * xs, ny * ys, nz * zs);
+        let d = p + q + s;
+        let dn = -p - q - s;
+        e.lo = less(d, e.lo);
+        e.lo_neg = less(dn, e.lo_neg);
     }
 }
 
