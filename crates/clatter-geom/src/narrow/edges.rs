@@ -452,97 +452,92 @@ pub(super) fn edge_axes_by_direction(
             }
         }
     }
-    // Pair `k`'s bit (0 from the 129th pair on: those are never left out).
-    // Visited row by row (A's direction), B's directions not left out taken from the row's
-    // bits in increasing order: the same pairs in the same order as testing each pair's
-    // bit, without a `u128` shift and test per pair.
-    for (ia, &ua) in a.edge_dirs.iter().enumerate() {
-        let base = ia * ndb;
-        let row = if base < 128 { skip >> base } else { 0 };
-        for ib in RowPairs::new(row, ndb) {
-            let wb = dirs_b[ib];
-            let k = base + ib;
-            if k == first.0 {
-                // The winner, evaluated first: the same answer as here.
-                if let Some((s, axis)) = first.1
-                    && s > best.0
-                {
-                    best = (s, ia, ib, axis);
-                }
-                continue;
-            }
-            let axis = ua.cross(wb);
-            let len2 = axis.length_squared();
-            if len2 < 1e-10 {
-                continue;
-            }
-            // Whether a recording may remember this pair as deep.
-            let rememberable = record.is_some() && DeepPairs::rememberable(len2);
-            let axis = axis / len2.sqrt();
-            // The first 4 points of each body first: their extents lie inside the bodies'
-            // (and rounding is monotonic), so when they already overlap by more than the best
-            // axis so far, so do the bodies, and the axis cannot win (the first of equals
-            // wins) nor separate (`best` is not positive); nor matter when they overlap by
-            // at least `-floor` (its separation is at most `floor`, not positive either).
-            // Exact: an axis above `floor` meets the same decisions.
-            let (mut ext_a, mut ext_b) = (a_local.head(axis), b_soa.head(axis));
-            // (Before the winner evaluated first, `first.2`: just below its separation.)
-            let low = if floor > best.0 { floor } else { best.0 };
-            let low = if k < first.0 && first.2 > low {
-                first.2
-            } else {
-                low
-            };
-            let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
-            let (head_plus, head_minus) = (min_b - max_a, min_a - max_b);
-            if head_plus <= low && head_minus <= low {
-                // (These bound the separations from above.)
-                if rememberable {
-                    let bound = if head_plus >= head_minus {
-                        head_plus
-                    } else {
-                        head_minus
-                    };
-                    remember_depth(record.as_deref_mut(), k, bound, radii);
-                }
-                continue;
-            }
-            a_local.tail(axis, &mut ext_a);
-            b_soa.tail(axis, &mut ext_b);
-            let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
-            // Separation pushing B along +axis, and along -axis; keep the larger.
-            let (s, axis) = if min_b - max_a >= min_a - max_b {
-                (min_b - max_a, axis)
-            } else {
-                (min_a - max_b, -axis)
-            };
-            if rememberable {
-                remember_depth(record.as_deref_mut(), k, s, radii);
-            }
-            if s > 0.0 {
-                if let Some(m) = record {
-                    m.clear();
-                }
-                // Remember one concrete edge pair with these directions for the next step.
-                let ea = a
-                    .edge_dir_of
-                    .iter()
-                    .position(|&d| d as usize == ia)
-                    .unwrap_or(0);
-                let eb = b
-                    .edge_dir_of
-                    .iter()
-                    .position(|&d| d as usize == ib)
-                    .unwrap_or(0);
-                if ea < 0x8000 && eb < 0x8000 {
-                    *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
-                }
-                *separation = s;
-                return None;
-            }
-            if s > best.0 {
+    // Pair `k`'s bit (0 from the 129th pair on: those are never left out). The pairs not
+    // left out taken from the set's bits in increasing order (row by row, A's direction
+    // `ia`): the same pairs in the same order as testing each pair's bit, without a `u128`
+    // shift and test per pair, nor a shift per row.
+    for (ia, ib, k) in Pairs::new(skip, a.edge_dirs.len(), ndb) {
+        let (ua, wb) = (a.edge_dirs[ia], dirs_b[ib]);
+        if k == first.0 {
+            // The winner, evaluated first: the same answer as here.
+            if let Some((s, axis)) = first.1
+                && s > best.0
+            {
                 best = (s, ia, ib, axis);
             }
+            continue;
+        }
+        let axis = ua.cross(wb);
+        let len2 = axis.length_squared();
+        if len2 < 1e-10 {
+            continue;
+        }
+        // Whether a recording may remember this pair as deep.
+        let rememberable = record.is_some() && DeepPairs::rememberable(len2);
+        let axis = axis / len2.sqrt();
+        // The first 4 points of each body first: their extents lie inside the bodies'
+        // (and rounding is monotonic), so when they already overlap by more than the best
+        // axis so far, so do the bodies, and the axis cannot win (the first of equals
+        // wins) nor separate (`best` is not positive); nor matter when they overlap by
+        // at least `-floor` (its separation is at most `floor`, not positive either).
+        // Exact: an axis above `floor` meets the same decisions.
+        let (mut ext_a, mut ext_b) = (a_local.head(axis), b_soa.head(axis));
+        // (Before the winner evaluated first, `first.2`: just below its separation.)
+        let low = if floor > best.0 { floor } else { best.0 };
+        let low = if k < first.0 && first.2 > low {
+            first.2
+        } else {
+            low
+        };
+        let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
+        let (head_plus, head_minus) = (min_b - max_a, min_a - max_b);
+        if head_plus <= low && head_minus <= low {
+            // (These bound the separations from above.)
+            if rememberable {
+                let bound = if head_plus >= head_minus {
+                    head_plus
+                } else {
+                    head_minus
+                };
+                remember_depth(record.as_deref_mut(), k, bound, radii);
+            }
+            continue;
+        }
+        a_local.tail(axis, &mut ext_a);
+        b_soa.tail(axis, &mut ext_b);
+        let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
+        // Separation pushing B along +axis, and along -axis; keep the larger.
+        let (s, axis) = if min_b - max_a >= min_a - max_b {
+            (min_b - max_a, axis)
+        } else {
+            (min_a - max_b, -axis)
+        };
+        if rememberable {
+            remember_depth(record.as_deref_mut(), k, s, radii);
+        }
+        if s > 0.0 {
+            if let Some(m) = record {
+                m.clear();
+            }
+            // Remember one concrete edge pair with these directions for the next step.
+            let ea = a
+                .edge_dir_of
+                .iter()
+                .position(|&d| d as usize == ia)
+                .unwrap_or(0);
+            let eb = b
+                .edge_dir_of
+                .iter()
+                .position(|&d| d as usize == ib)
+                .unwrap_or(0);
+            if ea < 0x8000 && eb < 0x8000 {
+                *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+            }
+            *separation = s;
+            return None;
+        }
+        if s > best.0 {
+            best = (s, ia, ib, axis);
         }
     }
     if let Some(m) = record.take() {
@@ -630,50 +625,64 @@ fn matches4(four: &[u32], d: u32) -> u32 {
     }
 }
 
-/// The indices `ib` in `0..ndb` of one row of direction pairs whose bit in `row` (bit `ib`:
-/// the row's part of a search's set of pairs left out, 0 from the set's 129th pair on) is
-/// clear, in increasing order.
-struct RowPairs {
-    /// The row's pairs below 128 not left out.
+/// The direction pairs `k = ia * ndb + ib` (`nda` directions of A, `ndb` of B) whose bit in
+/// `skip` (bit `k`: a search's set of pairs left out, none from the 129th pair on) is clear,
+/// in increasing order, as `(ia, ib, k)`.
+struct Pairs {
+    /// The pairs below 128 not left out.
     todo: u128,
-    /// The next pair from 128 on (never left out), and the row's end.
+    /// The next pair from 128 on (never left out), and the end of all pairs.
     next: usize,
     end: usize,
+    /// B's directions per row, the current row and the pair that ends it.
+    ndb: usize,
+    ia: usize,
+    row_end: usize,
 }
 
-impl RowPairs {
+impl Pairs {
     #[inline(always)]
-    fn new(row: u128, ndb: usize) -> Self {
-        let low = if ndb >= 128 { !0 } else { (1u128 << ndb) - 1 };
-        RowPairs {
-            todo: !row & low,
+    fn new(skip: u128, nda: usize, ndb: usize) -> Self {
+        let end = nda.saturating_mul(ndb);
+        let low = if end >= 128 { !0 } else { (1u128 << end) - 1 };
+        Pairs {
+            todo: !skip & low,
             next: 128,
-            end: ndb,
+            end,
+            ndb,
+            ia: 0,
+            row_end: ndb,
         }
     }
 }
 
-impl Iterator for RowPairs {
-    type Item = usize;
+impl Iterator for Pairs {
+    type Item = (usize, usize, usize);
 
     #[inline(always)]
-    fn next(&mut self) -> Option<usize> {
-        if self.todo != 0 {
-            let ib = self.todo.trailing_zeros() as usize;
+    fn next(&mut self) -> Option<(usize, usize, usize)> {
+        let k = if self.todo != 0 {
+            let k = self.todo.trailing_zeros() as usize;
             self.todo &= self.todo - 1;
-            return Some(ib);
-        }
-        if self.next < self.end {
+            k
+        } else if self.next < self.end {
             self.next += 1;
-            return Some(self.next - 1);
+            self.next - 1
+        } else {
+            return None;
+        };
+        // (`k < end` here, so `ndb > 0` and the row is found.)
+        while k >= self.row_end {
+            self.ia += 1;
+            self.row_end += self.ndb;
         }
-        None
+        Some((self.ia, k + self.ndb - self.row_end, k))
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{RowPairs, edges_of_direction};
+    use super::{Pairs, edges_of_direction};
     use crate::hull::convex_hull;
     use glam::Vec3;
 
@@ -728,11 +737,11 @@ mod tests {
         }
     }
 
-    /// The direction pairs `RowPairs` visits, row by row, against testing each pair's bit in
+    /// The direction pairs `Pairs` visits against testing each pair's bit in
     /// turn (`skip`'s bit `k` for pair `k = ia * ndb + ib`, none from the 129th pair on), on
     /// random sets of left-out pairs and row lengths 0 to 200.
     #[test]
-    fn row_pairs_visit_the_pairs_not_left_out_in_order() {
+    fn pairs_visited_are_the_pairs_not_left_out_in_order() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         let mut next = move || {
             seed ^= seed << 13;
@@ -761,12 +770,11 @@ mod tests {
                     }
                 }
             }
-            let mut got = Vec::new();
-            for ia in 0..nda {
-                let base = ia * ndb;
-                let row = if base < 128 { skip >> base } else { 0 };
-                got.extend(RowPairs::new(row, ndb).map(|ib| (ia, ib)));
-            }
+            let want: Vec<_> = want
+                .into_iter()
+                .map(|(ia, ib)| (ia, ib, ia * ndb + ib))
+                .collect();
+            let got: Vec<_> = Pairs::new(skip, nda, ndb).collect();
             assert_eq!(
                 got, want,
                 "case {case}: nda {nda}, ndb {ndb}, skip {skip:#x}"
