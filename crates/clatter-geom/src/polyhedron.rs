@@ -41,6 +41,10 @@ pub struct ConvexPolyhedron {
     /// When the polyhedron is a rectangular box centred on the origin: its axes and half
     /// extents, recognised once here so that queries take the closed-form box paths.
     pub box_frame: Option<BoxFrame>,
+    /// `vertices` as 4-point SIMD lanes, built once by the constructor (derived from
+    /// `vertices` like the planes and `radius`: a changed shape is built anew), so that the
+    /// separating-axis test does not lay them out again for every pair.
+    lanes: crate::narrow::SoaPoints,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -164,9 +168,17 @@ impl ConvexPolyhedron {
             edge_dir_of,
             radius,
             box_frame: None,
+            lanes: crate::narrow::SoaPoints::default(),
         };
+        p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.box_frame = crate::query::support::detect_box(&p);
         p
+    }
+
+    /// The vertices as the separating-axis test's lanes (built by the constructor).
+    #[inline]
+    pub(crate) fn lanes(&self) -> &crate::narrow::SoaPoints {
+        &self.lanes
     }
 
     /// The vertex loop of face `f`.

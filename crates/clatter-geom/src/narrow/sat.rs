@@ -16,12 +16,19 @@ use crate::{ConvexPolyhedron, Pose};
 /// Points as 4-point chunks of separate x, y, z lanes (the last chunk padded with copies of
 /// the first point), so that "smallest projection on an axis" is packed SIMD, a chunk's
 /// three lanes read together.
-#[derive(Default)]
-pub(super) struct SoaPoints {
+#[derive(Default, Debug, Clone, PartialEq)]
+pub(crate) struct SoaPoints {
     chunks: Vec<[Vec4; 3]>,
 }
 
 impl SoaPoints {
+    /// `pts` as lanes (see [`SoaPoints::fill`]).
+    pub(crate) fn of(pts: &[Vec3]) -> Self {
+        let mut lanes = Self::default();
+        lanes.fill(pts);
+        lanes
+    }
+
     fn fill(&mut self, pts: &[Vec3]) {
         // Sized once, then written in place (no capacity check per chunk).
         self.chunks.resize(pts.len().div_ceil(4), [Vec4::ZERO; 3]);
@@ -415,7 +422,7 @@ enum Prepared {
     Nothing,
     /// B's vertices in A's frame (`bv`).
     Vertices,
-    /// `bv`, and the points of both bodies as lanes (`b_soa`, `a_local`).
+    /// `bv`, and B's points as lanes (`b_soa`; A's are the shape's own).
     Lanes,
 }
 
@@ -549,12 +556,10 @@ fn remembered_edge(
     prepared: &mut Prepared,
 ) -> Result<Manifold, Option<EdgeFound>> {
     let Scratch {
-        bv,
-        b_soa,
-        a_local,
-        tables,
-        ..
+        bv, b_soa, tables, ..
     } = sc;
+    // A's points in its own frame: the lanes the shape keeps (see `ConvexPolyhedron`).
+    let a_local = a.lanes();
     // (Written so that a NaN returns too.) With no margin left the search cannot keep the
     // edge: a best edge axis is never positive (a positive one separates, and the full test
     // must run), so `best_e + margin > 0` fails.
@@ -566,7 +571,6 @@ fn remembered_edge(
     *prepared = Prepared::Vertices;
     if edges_by_direction(a, b) {
         b_soa.fill(bv);
-        a_local.fill(&a.vertices);
         *prepared = Prepared::Lanes;
     }
     // Axes at or below `-margin` fail the test below whether they win or not: left out.
@@ -728,7 +732,6 @@ fn contact_margin(second: f32, other: f32, largest: f32, ref_b: bool, tol: f32) 
 struct Scratch {
     bv: Vec<Vec3>,
     b_soa: SoaPoints,
-    a_local: SoaPoints,
     tables: GaussTables,
     clip: ClipBuffers,
 }
@@ -757,10 +760,11 @@ fn sat_full(
     let Scratch {
         bv,
         b_soa,
-        a_local,
         tables,
         clip,
     } = sc;
+    // A's points in its own frame: the lanes the shape keeps (see `ConvexPolyhedron`).
+    let a_local = a.lanes();
     let Relative {
         rot, inv_rot, t, ..
     } = *rel;
@@ -772,7 +776,6 @@ fn sat_full(
     let bv: &[Vec3] = bv;
     if full.prepared != Prepared::Lanes {
         b_soa.fill(bv);
-        a_local.fill(&a.vertices);
     }
     // Face axes of A.
     let mut best_a = (f32::NEG_INFINITY, 0usize);
@@ -950,6 +953,40 @@ mod tests {
             let want = [a.min(), a.max(), b.min(), b.max()].map(f32::to_bits);
             assert_eq!(got, want, "case {case}");
         }
+    }
+
+    /// The lanes a polyhedron keeps are its vertices: the smallest projection on random
+    /// axes by the lanes against the plain smallest over `vertices` (by value), and the
+    /// lanes laid out anew from `vertices` (bitwise), for hulls of random clouds and their
+    /// copies moved by `map_vertices`.
+    #[test]
+    fn a_polyhedrons_lanes_are_its_vertices() {
+        let mut g = Floats(0x5851_f42d_4c95_7f2d);
+        let mut shapes = 0;
+        for case in 0..400 {
+            let count = 4 + case % 40;
+            let pts: Vec<Vec3> = (0..count)
+                .map(|_| Vec3::new(g.ordinary(), g.ordinary(), g.ordinary()))
+                .collect();
+            let Ok(hull) = crate::hull::convex_hull(&pts) else {
+                continue;
+            };
+            let shift = Vec3::new(g.ordinary(), g.ordinary(), g.ordinary());
+            for p in [hull.clone(), hull.map_vertices(|v| 2.0 * v + shift)] {
+                shapes += 1;
+                for _ in 0..8 {
+                    let n = Vec3::new(g.ordinary(), g.ordinary(), g.ordinary());
+                    let brute = p
+                        .vertices
+                        .iter()
+                        .map(|v| n.x * v.x + n.y * v.y + n.z * v.z)
+                        .fold(f32::INFINITY, f32::min);
+                    assert_eq!(p.lanes().min_along(n), brute, "case {case}");
+                }
+                assert_eq!(p.lanes(), &SoaPoints::of(&p.vertices), "case {case}");
+            }
+        }
+        assert!(shapes > 600);
     }
 
     /// `min_along4` and `each_min` against `min_along` axis by axis (bitwise), and
