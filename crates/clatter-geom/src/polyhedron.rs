@@ -48,6 +48,10 @@ pub struct ConvexPolyhedron {
     /// bitwise (up to the sign of a zero): the separating-axis test's remembered faces take
     /// it in closed form (see [`ConvexPolyhedron::detect_corner_box`]).
     pub corner_box: Option<Vec3>,
+    /// `vertices` as 4-point SIMD lanes, built once by the constructor (derived from
+    /// `vertices` like the planes and `radius`: a changed shape is built anew), so that the
+    /// separating-axis test does not lay them out again for every pair.
+    lanes: crate::narrow::SoaPoints,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -172,7 +176,9 @@ impl ConvexPolyhedron {
             radius,
             box_frame: None,
             corner_box: None,
+            lanes: crate::narrow::SoaPoints::default(),
         };
+        p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.box_frame = crate::query::support::detect_box(&p);
         p.corner_box = Self::detect_corner_box(&p.vertices);
         p
@@ -201,6 +207,12 @@ impl ConvexPolyhedron {
                 1 << ((v.x < 0.0) as u32 | ((v.y < 0.0) as u32) << 1 | ((v.z < 0.0) as u32) << 2);
         }
         (seen == 0xff).then_some(h)
+    }
+
+    /// The vertices as the separating-axis test's lanes (built by the constructor).
+    #[inline]
+    pub(crate) fn lanes(&self) -> &crate::narrow::SoaPoints {
+        &self.lanes
     }
 
     /// The vertex loop of face `f`.

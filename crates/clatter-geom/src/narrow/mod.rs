@@ -27,6 +27,7 @@ mod sphere;
 #[doc(hidden)]
 pub use certify::wedge_certificates;
 pub use memory::EdgeMemory;
+pub(crate) use sat::SoaPoints;
 pub use sat::polyhedron_polyhedron;
 pub use sphere::sphere_polyhedron;
 
