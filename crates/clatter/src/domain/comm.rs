@@ -31,7 +31,10 @@ pub trait Comm {
     /// (MPI); the default goes through [`Comm::all_to_all_known`] and copies.
     fn all_to_all_into(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>]) {
         let len: Vec<usize> = recv.iter().map(Vec::len).collect();
-        for (buf, got) in recv.iter_mut().zip(self.all_to_all_known(send.to_vec(), &len)) {
+        for (buf, got) in recv
+            .iter_mut()
+            .zip(self.all_to_all_known(send.to_vec(), &len))
+        {
             *buf = got;
         }
     }

@@ -96,45 +96,23 @@ impl Writer {
     /// record and appended at once (ghost states go out every step: one capacity check
     /// per state, not one per field).
     pub fn state(&mut self, s: &BodyStates, i: usize) {
-        let mut r = Record::default();
+        let mut r = [0u8; STATE_BYTES];
+        // At the fixed offsets `fields` reads (constant ranges of an array: plain stores).
+        let mut f64_at = |a: usize, x: f64| r[a..a + 8].copy_from_slice(&x.to_le_bytes());
         let x = s.position[i];
-        for c in [x.x, x.y, x.z] {
-            r.put(c.to_le_bytes());
-        }
+        f64_at(0, x.x);
+        f64_at(8, x.y);
+        f64_at(16, x.z);
         let (v, q, r0) = (s.velocity[i], s.orientation[i], s.orientation_residual[i]);
         let (l, w) = (s.angular_momentum[i], s.omega[i]);
         let floats = [
             v.x, v.y, v.z, q.x, q.y, q.z, q.w, r0.x, r0.y, r0.z, r0.w, l.x, l.y, l.z, w.x, w.y, w.z,
         ];
-        for f in floats {
-            r.put(f.to_le_bytes());
+        for (k, f) in floats.into_iter().enumerate() {
+            r[24 + 4 * k..28 + 4 * k].copy_from_slice(&f.to_le_bytes());
         }
-        r.put((s.removed[i] as u32).to_le_bytes());
-        debug_assert_eq!(r.at, STATE_BYTES);
-        self.0.extend_from_slice(&r.bytes);
-    }
-}
-
-/// A state's bytes as [`Writer::state`] assembles them.
-struct Record {
-    bytes: [u8; STATE_BYTES],
-    at: usize,
-}
-
-impl Default for Record {
-    fn default() -> Self {
-        Record {
-            bytes: [0; STATE_BYTES],
-            at: 0,
-        }
-    }
-}
-
-impl Record {
-    #[inline(always)]
-    fn put<const N: usize>(&mut self, b: [u8; N]) {
-        self.bytes[self.at..self.at + N].copy_from_slice(&b);
-        self.at += N;
+        r[92..96].copy_from_slice(&(s.removed[i] as u32).to_le_bytes());
+        self.0.extend_from_slice(&r);
     }
 }
 
@@ -268,7 +246,8 @@ fn fields(record: &[u8; STATE_BYTES], s: &mut BodyStates, i: usize) {
         f32::from_le_bytes(b)
     };
     let vec3_at = |a: usize| Vec3::new(f32_at(a), f32_at(a + 4), f32_at(a + 8));
-    let quat_at = |a: usize| Quat::from_xyzw(f32_at(a), f32_at(a + 4), f32_at(a + 8), f32_at(a + 12));
+    let quat_at =
+        |a: usize| Quat::from_xyzw(f32_at(a), f32_at(a + 4), f32_at(a + 8), f32_at(a + 12));
     // The offsets of `Writer::state`: position (3 f64), velocity, orientation, its
     // residual, angular momentum, angular velocity, removed flag.
     s.position[i] = DVec3::new(f64_at(0), f64_at(8), f64_at(16));
