@@ -288,6 +288,11 @@ impl Comm for Timed<'_> {
             self.comm.all_to_all_known(send, recv_len)
         })
     }
+    fn all_to_all_into(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>]) {
+        self.clocked(&self.spent.forward, || {
+            self.comm.all_to_all_into(send, recv)
+        })
+    }
     fn exchange_with(&self, send: Vec<Vec<u8>>, peers: &[bool]) -> Vec<Vec<u8>> {
         self.clocked(&self.spent.rebuild, || self.comm.exchange_with(send, peers))
     }

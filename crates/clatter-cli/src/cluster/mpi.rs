@@ -220,16 +220,22 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all_known(&self, send: Vec<Vec<u8>>, recv_len: &[usize]) -> Vec<Vec<u8>> {
+        let mut recv: Vec<Vec<u8>> = recv_len.iter().map(|&n| vec![0u8; n]).collect();
+        self.all_to_all_into(&send, &mut recv);
+        recv
+    }
+
+    fn all_to_all_into(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>]) {
         // Point to point with the ranks that have something to send or receive (a box's
         // neighbours; the sizes are known on both sides, so none is exchanged): the others
-        // are not involved, where an `Alltoallv` would touch every rank.
+        // are not involved, where an `Alltoallv` would touch every rank. Into the caller's
+        // buffers: nothing allocated or zeroed here. A message longer than the limit goes
+        // in pieces, received in the order sent (MPI does not let messages of one tag
+        // between two ranks overtake each other).
         let me = self.rank();
-        let mut recv: Vec<Vec<u8>> = recv_len.iter().map(|&n| vec![0u8; n]).collect();
         if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
             mine.clone_from(m);
         }
-        // A message longer than the limit goes in pieces, received in the order sent (MPI
-        // does not let messages of one tag between two ranks overtake each other).
         let piece = self.limit;
         mpi::request::scope(|scope| {
             let mut requests = Vec::new();
@@ -257,7 +263,6 @@ impl Comm for MpiComm {
                 request.wait();
             }
         });
-        recv
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {

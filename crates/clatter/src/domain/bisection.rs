@@ -439,7 +439,19 @@ impl Bisection {
     /// [`Bisection::within`] without a list: calls `found` with each of those ranks,
     /// ascending. For the per-body loops of a rebuild, which would otherwise allocate a list
     /// per body.
+    ///
+    /// A point at least `reach` inside its owner's box along every axis (most bodies at a
+    /// rebuild) is within reach of that box alone: boxes tile space, so every other box (and
+    /// each periodic image of one) lies beyond one of the owner's faces, and its distance
+    /// is at least that face's gap (`sqrt(g * g) == g` in floating point; the other terms
+    /// only add). So the owner alone is found without walking the cuts.
     pub fn for_within(&self, x: DVec3, reach: f64, mut found: impl FnMut(usize)) {
+        let o = self.owner(x);
+        let b = &self.boxes[o];
+        if (0..3).all(|a| x[a] - b[a][0] >= reach && b[a][1] - x[a] >= reach) {
+            found(o);
+            return;
+        }
         self.walk(
             |b| self.point_to(x, b) < reach,
             |r| {

@@ -24,6 +24,20 @@ pub trait Comm {
         debug_assert!(got.iter().map(Vec::len).eq(recv_len.iter().copied()));
         got
     }
+    /// [`Comm::all_to_all_known`] between buffers the caller keeps from step to step (the
+    /// ghost states of every step): `send[r]` to rank `r`, and rank `r`'s message into
+    /// `recv[r]`, whose length is already the number of bytes rank `r` sends here. No
+    /// message is allocated nor zeroed per call where the transport writes into `recv`
+    /// (MPI); the default goes through [`Comm::all_to_all_known`] and copies.
+    fn all_to_all_into(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>]) {
+        let len: Vec<usize> = recv.iter().map(Vec::len).collect();
+        for (buf, got) in recv
+            .iter_mut()
+            .zip(self.all_to_all_known(send.to_vec(), &len))
+        {
+            *buf = got;
+        }
+    }
     /// Sends `send[r]` to each rank `r` that `peers[r]` names (every other message must be
     /// empty) and returns what each peer sent here: the bodies and springs of a rebuild
     /// that kept its boxes, between neighbouring ranks. `peers` must be symmetric (rank `r`

@@ -87,6 +87,11 @@ pub struct Domain {
     /// Rebuilds whose bodies and springs went point to point (the boxes were kept), and
     /// those that went through an all-to-all (new boxes).
     sparse_migrations: u64,
+    /// The ghost states' messages of every step, by rank: kept from step to step (their
+    /// sizes change only at rebuilds), so a step allocates and zeroes none.
+    sent: Vec<Vec<u8>>,
+    /// The ghost states received every step, by sending rank (see `sent`).
+    received: Vec<Vec<u8>>,
 }
 
 impl Domain {
@@ -113,6 +118,8 @@ impl Domain {
             recuts: 0,
             moved: f32::INFINITY,
             sparse_migrations: 0,
+            sent: vec![Vec::new(); ranks],
+            received: vec![Vec::new(); ranks],
         };
         let w = &world;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
@@ -408,27 +415,29 @@ impl Domain {
         }
     }
 
-    /// Forward communication: the owners' new states to the ranks holding them as ghosts.
+    /// Forward communication: the owners' new states to the ranks holding them as ghosts,
+    /// through the buffers kept from step to step (`sent`, `received`).
     fn forward(&mut self, comm: &dyn Comm) {
-        let msgs = self
-            .send
-            .iter()
-            .map(|list| {
-                let mut w = Writer(Vec::with_capacity(list.len() * rows::STATE_BYTES));
-                for &i in list {
-                    w.state(&self.local.state, i as usize);
-                }
-                w.0
-            })
-            .collect();
-        let sizes: Vec<usize> = self
-            .recv
-            .iter()
-            .map(|list| list.len() * rows::STATE_BYTES)
-            .collect();
-        for (from, m) in comm.all_to_all_known(msgs, &sizes).iter().enumerate() {
+        let ranks = self.send.len();
+        self.sent.resize_with(ranks, Vec::new);
+        self.received.resize_with(ranks, Vec::new);
+        for (buf, list) in self.sent.iter_mut().zip(&self.send) {
+            let mut w = Writer(std::mem::take(buf));
+            w.0.clear();
+            w.0.reserve(list.len() * rows::STATE_BYTES);
+            for &i in list {
+                w.state(&self.local.state, i as usize);
+            }
+            *buf = w.0;
+        }
+        for (buf, list) in self.received.iter_mut().zip(&self.recv) {
+            // Only the sizes matter (every byte is overwritten): no zeroing unless they grew.
+            buf.resize(list.len() * rows::STATE_BYTES, 0);
+        }
+        comm.all_to_all_into(&self.sent, &mut self.received);
+        for (m, list) in self.received.iter().zip(&self.recv) {
             let mut r = Reader::new(m);
-            for &i in &self.recv[from] {
+            for &i in list {
                 r.state(&mut self.local.state, i as usize);
             }
         }

@@ -96,45 +96,23 @@ impl Writer {
     /// record and appended at once (ghost states go out every step: one capacity check
     /// per state, not one per field).
     pub fn state(&mut self, s: &BodyStates, i: usize) {
-        let mut r = Record::default();
+        let mut r = [0u8; STATE_BYTES];
+        // At the fixed offsets `fields` reads (constant ranges of an array: plain stores).
+        let mut f64_at = |a: usize, x: f64| r[a..a + 8].copy_from_slice(&x.to_le_bytes());
         let x = s.position[i];
-        for c in [x.x, x.y, x.z] {
-            r.put(c.to_le_bytes());
-        }
+        f64_at(0, x.x);
+        f64_at(8, x.y);
+        f64_at(16, x.z);
         let (v, q, r0) = (s.velocity[i], s.orientation[i], s.orientation_residual[i]);
         let (l, w) = (s.angular_momentum[i], s.omega[i]);
         let floats = [
             v.x, v.y, v.z, q.x, q.y, q.z, q.w, r0.x, r0.y, r0.z, r0.w, l.x, l.y, l.z, w.x, w.y, w.z,
         ];
-        for f in floats {
-            r.put(f.to_le_bytes());
+        for (k, f) in floats.into_iter().enumerate() {
+            r[24 + 4 * k..28 + 4 * k].copy_from_slice(&f.to_le_bytes());
         }
-        r.put((s.removed[i] as u32).to_le_bytes());
-        debug_assert_eq!(r.at, STATE_BYTES);
-        self.0.extend_from_slice(&r.bytes);
-    }
-}
-
-/// A state's bytes as [`Writer::state`] assembles them.
-struct Record {
-    bytes: [u8; STATE_BYTES],
-    at: usize,
-}
-
-impl Default for Record {
-    fn default() -> Self {
-        Record {
-            bytes: [0; STATE_BYTES],
-            at: 0,
-        }
-    }
-}
-
-impl Record {
-    #[inline(always)]
-    fn put<const N: usize>(&mut self, b: [u8; N]) {
-        self.bytes[self.at..self.at + N].copy_from_slice(&b);
-        self.at += N;
+        r[92..96].copy_from_slice(&(s.removed[i] as u32).to_le_bytes());
+        self.0.extend_from_slice(&r);
     }
 }
 
@@ -251,20 +229,34 @@ impl<'a> Reader<'a> {
             .try_into()
             .expect("a whole state");
         self.at += STATE_BYTES;
-        Reader::new(record).fields(s, i);
+        fields(record, s, i);
     }
+}
 
-    /// [`Reader::state`]'s fields, from a reader of the record alone.
-    #[inline(always)]
-    fn fields(&mut self, s: &mut BodyStates, i: usize) {
-        s.position[i] = DVec3::new(self.f64(), self.f64(), self.f64());
-        s.velocity[i] = self.vec3();
-        s.orientation[i] = self.quat();
-        s.orientation_residual[i] = self.quat();
-        s.angular_momentum[i] = self.vec3();
-        s.omega[i] = self.vec3();
-        s.removed[i] = self.u32() != 0;
-    }
+/// [`Reader::state`]'s fields, read at their fixed offsets in the record (constant ranges
+/// of an array: no bounds check, no reader state; ghost states are read every step).
+#[inline(always)]
+fn fields(record: &[u8; STATE_BYTES], s: &mut BodyStates, i: usize) {
+    let f64_at = |a: usize| {
+        let b: [u8; 8] = record[a..a + 8].try_into().expect("8 bytes");
+        f64::from_le_bytes(b)
+    };
+    let f32_at = |a: usize| {
+        let b: [u8; 4] = record[a..a + 4].try_into().expect("4 bytes");
+        f32::from_le_bytes(b)
+    };
+    let vec3_at = |a: usize| Vec3::new(f32_at(a), f32_at(a + 4), f32_at(a + 8));
+    let quat_at =
+        |a: usize| Quat::from_xyzw(f32_at(a), f32_at(a + 4), f32_at(a + 8), f32_at(a + 12));
+    // The offsets of `Writer::state`: position (3 f64), velocity, orientation, its
+    // residual, angular momentum, angular velocity, removed flag.
+    s.position[i] = DVec3::new(f64_at(0), f64_at(8), f64_at(16));
+    s.velocity[i] = vec3_at(24);
+    s.orientation[i] = quat_at(36);
+    s.orientation_residual[i] = quat_at(52);
+    s.angular_momentum[i] = vec3_at(68);
+    s.omega[i] = vec3_at(80);
+    s.removed[i] = u32::from_le_bytes(record[92..96].try_into().expect("4 bytes")) != 0;
 }
 
 /// A contact's springs on the move between ranks at a rebuild: the contact by global ids

@@ -331,9 +331,6 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let i = b.first + k;
     let r = i..i + 8;
     let kr = k..k + 8;
-    if b.gone[kr.clone()].iter().any(|&g| g) {
-        return None;
-    }
     // Ghosts (other ranks' bodies) are not integrated here: their lanes are computed with
     // the others (each lane is independent) and their state put back after, so groups that
     // mix ghosts with owned bodies (ghosts come in global id order) still run in lanes.
@@ -342,6 +339,14 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     } else {
         (0..8).fold(0u32, |m, l| m | (c.ghost[i + l] as u32) << l)
     };
+    if ghosts == 0xff {
+        // Eight ghosts: nothing to integrate, nothing moved here (as the scalar `body`
+        // returns for each); their forces are not even gathered.
+        return Some(0.0);
+    }
+    if b.gone[kr.clone()].iter().any(|&g| g) {
+        return None;
+    }
     let kept = (ghosts != 0).then(|| Kept::take(b, k));
     // SAFETY (loads and stores below): AVX2, and arrays of 8.
     let inv_inertia = unsafe { load_vec3(c.consts.inv_inertia[r.clone()].try_into().unwrap()) };
