@@ -2,8 +2,9 @@
 
 use glam::{Quat, Vec3, Vec4};
 
+use super::lanes::{Extent, SoaPoints};
 use super::memory::{DeepPairs, EdgeMemory, Served, TURN};
-use super::sat::{EdgeAxis, Extent, SoaPoints};
+use super::sat::EdgeAxis;
 use super::{HINT_EDGE, SatHint};
 use crate::ConvexPolyhedron;
 

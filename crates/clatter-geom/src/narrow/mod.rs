@@ -20,14 +20,15 @@ use crate::{Pose, Shape};
 mod certify;
 mod clip;
 mod edges;
+mod lanes;
 mod memory;
 mod sat;
 mod sphere;
 
 #[doc(hidden)]
 pub use certify::wedge_certificates;
+pub(crate) use lanes::SoaPoints;
 pub use memory::EdgeMemory;
-pub(crate) use sat::SoaPoints;
 pub use sat::polyhedron_polyhedron;
 pub use sphere::sphere_polyhedron;
 
