@@ -45,8 +45,8 @@ pub struct ConvexPolyhedron {
     /// axis-aligned box centred on the origin, as a prepared cube is): `h`. Then the
     /// smallest projection of the vertices on any direction `n`, each projection computed
     /// as `n.x * v.x + n.y * v.y + n.z * v.z`, is `-((|n.x| h.x + |n.y| h.y) + |n.z| h.z)`
-    /// bitwise (up to the sign of a zero): the separating-axis test's remembered faces take
-    /// it in closed form (see [`ConvexPolyhedron::detect_corner_box`]).
+    /// bitwise (up to the sign of a zero), which [`ConvexPolyhedron::smallest_projection`]
+    /// takes (see [`ConvexPolyhedron::detect_corner_box`] for why).
     pub corner_box: Option<Vec3>,
     /// `vertices` as 4-point SIMD lanes, built once by the constructor (derived from
     /// `vertices` like the planes and `radius`: a changed shape is built anew), so that the
@@ -220,6 +220,26 @@ impl ConvexPolyhedron {
     pub fn face_loop(&self, f: usize) -> &[u32] {
         let face = &self.faces[f];
         &self.face_vertices[face.first as usize..(face.first + face.count) as usize]
+    }
+
+    /// The smallest projection of the vertices on `n` (local frame), each computed as
+    /// `n.x * v.x + n.y * v.y + n.z * v.z` and the first of equals kept: in closed form for
+    /// a box's corners ([`ConvexPolyhedron::corner_box`], the same value but perhaps for the
+    /// sign of a zero), else by the loop. A NaN direction gives infinity, as the loop does.
+    #[inline]
+    pub fn smallest_projection(&self, n: Vec3) -> f32 {
+        if let Some(h) = self.corner_box {
+            let a = n.abs();
+            let d = -((a.x * h.x + a.y * h.y) + a.z * h.z);
+            // The loop's first comparison with infinity, kept for a NaN direction.
+            return if d < f32::INFINITY { d } else { f32::INFINITY };
+        }
+        let mut m = f32::INFINITY;
+        for v in &self.vertices {
+            let d = n.x * v.x + n.y * v.y + n.z * v.z;
+            m = if d < m { d } else { m };
+        }
+        m
     }
 
     /// Support point: the vertex furthest along `dir` (local frame).

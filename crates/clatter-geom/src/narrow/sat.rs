@@ -117,14 +117,7 @@ pub(super) fn polyhedron_pair(
     // body's own frame (no vertex transformed).
     if *hint != NO_HINT {
         let idx = (*hint & !HINT_KIND) as usize;
-        let min_along = |p: &ConvexPolyhedron, dir: Vec3| {
-            let mut m = f32::INFINITY;
-            for v in &p.vertices {
-                let d = dir.dot(*v);
-                m = if d < m { d } else { m };
-            }
-            m
-        };
+        let min_along = |p: &ConvexPolyhedron, dir: Vec3| p.smallest_projection(dir);
         // Signed gap along the remembered axis (a distance: the axis is a unit vector).
         let gap = match *hint & HINT_KIND {
             HINT_FACE_A if idx < a.faces.len() => {
@@ -277,22 +270,7 @@ fn reference_separation(
     face: u32,
 ) -> f32 {
     let face = face as usize;
-    let smallest = |p: &ConvexPolyhedron, n: Vec3| {
-        if let Some(h) = p.corner_box {
-            // A box's corners: the loop's smallest in closed form, the same value (see
-            // `ConvexPolyhedron::corner_box`); its first comparison with infinity kept, so
-            // that a NaN direction gives infinity as the loop does.
-            let a = n.abs();
-            let d = -((a.x * h.x + a.y * h.y) + a.z * h.z);
-            return if d < f32::INFINITY { d } else { f32::INFINITY };
-        }
-        let mut m = f32::INFINITY;
-        for v in &p.vertices {
-            let d = n.x * v.x + n.y * v.y + n.z * v.z;
-            m = if d < m { d } else { m };
-        }
-        m
-    };
+    let smallest = |p: &ConvexPolyhedron, n: Vec3| p.smallest_projection(n);
     if kind == HINT_FACE_A {
         let Some(f) = a.faces.get(face) else {
             return f32::NAN;
