@@ -24,6 +24,8 @@ nvidia-smi --query-gpu=name,clocks.max.sm,clocks.max.mem,memory.total --format=c
 nproc | tee -a $OUT/summary.txt
 C=/opt/cl/clatter
 PC=/tmp/pc
+# Pile caches carried from an earlier call (xz, as `both` sends them back) skip the pouring.
+mkdir -p $PC; for f in .devrun/pc/*.xz; do [ -f "$f" ] && xz -dc "$f" > $PC/$(basename "$f" .xz); done
 G="$C bench --backend gpu --pile-cache $PC"
 stage() { # name timeout cmd...
   local name=$1 t=$2; shift 2
@@ -46,8 +48,9 @@ log "final gpu part done"; set -- mixmpi
 fi
 # `ab`: `check`, plus the CPU targets timed on this machine's quiet cores (2 pinned), the
 # issue's baseline binary, the last merge's base and this build alternated (carried in
-# .devrun/extra.tar.xz with their pile caches: clatter-8c9edd6, clatter-base, pc/).
-AB=0; if [ "${1:-gpu}" = ab ]; then AB=1; set -- check; fi
+# .devrun/extra.tar.xz with their pile caches: clatter-8c9edd6, clatter-base, pc/). `AB=1` adds
+# the same A/B to `both`.
+AB=${AB:-0}; if [ "${1:-gpu}" = ab ]; then AB=1; set -- check; fi
 if [ "${1:-gpu}" = check ]; then
 # A short re-check after merges: the machine's cores, the GPU tests, the default scene, then
 # the weak-scaling end rows (1 and 16 ranks) and 8 ranks of the 16.
@@ -63,6 +66,8 @@ if [ "${1:-gpu}" = both ]; then
 # issue 25 (weak scaling at 1, 4, 16 ranks and the strong row at 16; LAMMPS beside each).
 stage sph4M_lat 100 $G --shape sphere --pile lattice --bodies 4194304 --steps 500 --settle 200
 stage mixed80k 200 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --settle 200
+# The poured pile comes back (xz) so that a later call can carry it in .devrun/pc/ and skip pouring.
+for f in $PC/mixed-n80000-*.ckpt; do [ -f "$f" ] && xz -T8 -c "$f" > $OUT/$(basename "$f").xz; done
 stage mixed80k_prof 45 $G --shape mixed --pile poured --bodies 80000 --steps 300 --settle 0 --profile --profile-steps 100
 stage default_bench 40 $G --scene default --settle 0 --steps 5000
 stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
