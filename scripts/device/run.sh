@@ -71,6 +71,7 @@ for f in $PC/mixed-n80000-*.ckpt; do [ -f "$f" ] && xz -T8 -c "$f" > $OUT/$(base
 stage mixed80k_prof 45 $G --shape mixed --pile poured --bodies 80000 --steps 300 --settle 0 --profile --profile-steps 100
 stage default_bench 40 $G --scene default --settle 0 --steps 5000
 stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
+stage default_run_sparse 40 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
 for t in stages memory_steps; do CI=1 stage test_$t 70 /opt/cl/$t --test-threads 8; done
 log "gpu part done"; W="16384 65536 262144"; NPS="1 16"; WNP="1 4 16"; set -- mpi
 fi
