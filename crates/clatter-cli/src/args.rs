@@ -19,18 +19,32 @@ pub struct Pipeline {
 }
 
 impl Pipeline {
-    /// Sizes rayon's global pool to `--threads` (left alone without it).
+    /// Sizes rayon's global pool to `--threads` (rayon's default without it: all cores, or
+    /// `RAYON_NUM_THREADS`), with the main thread's stack size, since [`on_pool`] runs the
+    /// whole command on one of its threads.
     pub fn init_threads(&self) -> anyhow::Result<()> {
-        if let Some(n) = self.threads {
-            if n == 0 {
-                anyhow::bail!("--threads must be at least 1");
-            }
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
-                .build_global()?;
+        if self.threads == Some(0) {
+            anyhow::bail!("--threads must be at least 1");
         }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads.unwrap_or(0))
+            .stack_size(POOL_STACK)
+            .build_global()?;
         Ok(())
     }
+}
+
+/// The stack of each pool thread: the main thread's usual 8 MiB, as the command runs on one.
+const POOL_STACK: usize = 8 << 20;
+
+/// Runs `f` on a thread of rayon's global pool and returns its result. A step's parallel
+/// loops started from a pool thread run there and on the other pool threads directly; started
+/// from the main thread, each would be injected into the pool, wake a worker and put the main
+/// thread to sleep until it ends, a few system calls and a wake-up per loop (several a step),
+/// while the main thread's own serial work ran beside an idle pool. Results do not depend on
+/// the thread a loop starts from (they are identical for any thread count).
+pub fn on_pool<T: Send>(f: impl FnOnce() -> T + Send) -> T {
+    rayon::scope(|_| f())
 }
 
 /// `--quiet` and `--log-every`: what a long-running subcommand prints on the way.

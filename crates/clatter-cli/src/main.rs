@@ -70,7 +70,7 @@ fn main() -> ExitCode {
                     Some(ranks) if cluster::wanted(ranks) => {
                         cluster::run(cluster::Invocation::Run(args), ranks)
                     }
-                    _ => run::run(args),
+                    _ => args::on_pool(|| run::run(args)),
                 })
         }
         Command::Resume(args) => {
@@ -80,7 +80,7 @@ fn main() -> ExitCode {
                     Some(ranks) if cluster::wanted(ranks) => {
                         cluster::run(cluster::Invocation::Resume(args), ranks)
                     }
-                    _ => run::resume(args),
+                    _ => args::on_pool(|| run::resume(args)),
                 })
         }
         Command::Bench(args) => {
@@ -90,7 +90,7 @@ fn main() -> ExitCode {
                     Some(ranks) if cluster::wanted(ranks) => {
                         cluster::run(cluster::Invocation::Bench(args), ranks)
                     }
-                    _ => bench::bench(args),
+                    _ => args::on_pool(|| bench::bench(args)),
                 })
         }
         Command::Render(args) => args

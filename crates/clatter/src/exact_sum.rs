@@ -18,6 +18,9 @@ const LIMB_BITS: u32 = 32;
 pub const LIMBS: usize = 68;
 /// Values added between two carry propagations: each limb then stays far from `i64`'s range.
 const ADDS_BEFORE_CARRY: u32 = 1 << 30;
+/// Indices per parallel piece of [`ExactSum::par_sums`]: a merge (about 70 limbs) is cheap
+/// beside this many adds.
+const PAR_MIN: usize = 512;
 
 /// An exact sum of `f64`s (see the module docs).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -93,6 +96,34 @@ impl ExactSum {
         if self.adds >= ADDS_BEFORE_CARRY {
             self.carry();
         }
+    }
+
+    /// The exact sums of `K` terms of each index `0..n`, `terms(i)` (a zero adds nothing),
+    /// computed in parallel over chunks of indices and merged: bitwise the sums of adding
+    /// them one by one, since an exact sum does not depend on order or grouping. The energy
+    /// samples and blow-up checks run this between steps, where a serial loop over the
+    /// bodies would leave all but one thread idle.
+    pub fn par_sums<const K: usize>(
+        n: usize,
+        terms: impl Fn(usize) -> [f64; K] + Sync,
+    ) -> [ExactSum; K] {
+        use rayon::prelude::*;
+        let zero = || std::array::from_fn(|_| ExactSum::default());
+        (0..n)
+            .into_par_iter()
+            .with_min_len(PAR_MIN)
+            .fold(zero, |mut s: [ExactSum; K], i| {
+                for (s, x) in s.iter_mut().zip(terms(i)) {
+                    s.add(x);
+                }
+                s
+            })
+            .reduce(zero, |mut a, b| {
+                for (a, b) in a.iter_mut().zip(&b) {
+                    a.merge(b);
+                }
+                a
+            })
     }
 
     /// Adds every value `other` holds: the sum of the union.
@@ -260,6 +291,37 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn parallel_sums_are_the_serial_ones_bit_for_bit() {
+        // Against adding one by one, for lengths around the parallel pieces' size, with huge
+        // cancelling terms (order-sensitive in f64), zeros, NaNs and infinities, and in a
+        // pool of 3 threads so the pieces really are split and merged.
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(3)
+            .build()
+            .expect("a pool of 3 threads");
+        let mut xs = values(7, 5000, 400);
+        xs[100] = 1e300;
+        xs[4000] = -1e300;
+        xs[2500] = 0.0;
+        for n in [0, 1, PAR_MIN - 1, PAR_MIN, PAR_MIN + 1, 3 * PAR_MIN + 5, 5000] {
+            let (a, b) = (&xs[..n], &xs[xs.len() - n..]);
+            let [sa, sb] = pool.install(|| ExactSum::par_sums(n, |i| [a[i], -b[i] * 3.0]));
+            let want_a = ExactSum::of(a.iter().copied()).value();
+            let want_b = ExactSum::of(b.iter().map(|x| -x * 3.0)).value();
+            assert_eq!(sa.value().to_bits(), want_a.to_bits(), "n = {n}");
+            assert_eq!(sb.value().to_bits(), want_b.to_bits(), "n = {n}");
+        }
+        let mut ys = values(8, 3000, 20);
+        ys[17] = f64::NAN;
+        ys[2999] = f64::INFINITY;
+        let [s] = pool.install(|| ExactSum::par_sums(ys.len(), |i| [ys[i]]));
+        assert!(s.value().is_nan());
+        ys[17] = 1.0;
+        let [s] = pool.install(|| ExactSum::par_sums(ys.len(), |i| [ys[i]]));
+        assert_eq!(s.value(), f64::INFINITY);
     }
 
     #[test]

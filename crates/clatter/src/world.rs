@@ -678,14 +678,16 @@ impl World {
     /// Total kinetic energy, translational plus rotational, J: the bodies' energies summed
     /// exactly ([`ExactSum`]), so ranks that each sum their own bodies find the same total.
     pub fn kinetic_energy(&self) -> f64 {
-        ExactSum::of((0..self.len()).map(|i| self.body_kinetic_energy(i))).value()
+        let [k] = ExactSum::par_sums(self.len(), |i| [self.body_kinetic_energy(i)]);
+        k.value()
     }
 
     /// Total gravitational potential energy relative to the origin, J. Removed bodies count
     /// where they were removed (a constant), so that taking a body out never looks like
     /// energy appearing to the blow-up checks. Summed exactly, as [`World::kinetic_energy`].
     pub fn potential_energy(&self) -> f64 {
-        ExactSum::of((0..self.len()).map(|i| self.body_potential_energy(i))).value()
+        let [p] = ExactSum::par_sums(self.len(), |i| [self.body_potential_energy(i)]);
+        p.value()
     }
 
     /// Body `i`'s gravitational potential energy relative to the origin, J (a removed body's
@@ -697,7 +699,13 @@ impl World {
     /// Total linear momentum of the bodies still in the simulation, kg m/s (each
     /// component's terms summed exactly, as [`World::kinetic_energy`]).
     pub fn momentum(&self) -> [f64; 3] {
-        let p = self.momentum_sums((0..self.len()).filter(|&i| !self.state.removed[i]));
+        let p = ExactSum::par_sums(self.len(), |i| {
+            if self.state.removed[i] {
+                return [0.0; 3];
+            }
+            let m = self.state.velocity[i] * self.consts.mass[i];
+            [m.x as f64, m.y as f64, m.z as f64]
+        });
         p.map(|s| s.value())
     }
 

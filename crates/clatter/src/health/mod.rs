@@ -378,11 +378,12 @@ impl Health {
     /// (all but its ghosts; [`World::kinetic_energy`]'s and [`World::potential_energy`]'s
     /// terms, summed exactly rather than in order).
     pub(crate) fn energy_sums(&self, world: &World) -> (ExactSum, ExactSum) {
-        let (mut ke, mut pe) = (ExactSum::default(), ExactSum::default());
-        for i in (0..world.len()).filter(|&i| !world.is_ghost(i)) {
-            ke.add(world.body_kinetic_energy(i));
-            pe.add(world.body_potential_energy(i));
-        }
+        let [ke, pe] = ExactSum::par_sums(world.len(), |i| {
+            if world.is_ghost(i) {
+                return [0.0; 2];
+            }
+            [world.body_kinetic_energy(i), world.body_potential_energy(i)]
+        });
         (ke, pe)
     }
 
@@ -651,12 +652,15 @@ pub(crate) fn first_escaped(world: &World) -> Option<usize> {
     let (x, r) = (&world.state.position, &world.consts.radius);
     let gone = &world.state.removed;
     let ghost = |i: usize| world.is_ghost(i);
+    // In parallel pieces (a count, so the same for any split): this runs between steps.
     let escaped = world.walls.iter().any(|w| {
+        use rayon::prelude::*;
         let (n, o) = (w.plane.normal.as_dvec3(), w.plane.offset as f64);
-        x.iter()
+        x.par_iter()
             .zip(r)
             .zip(gone)
             .enumerate()
+            .with_min_len(1024)
             .map(|(i, ((x, r), g))| (!g & !ghost(i) & (n.dot(*x) - o < -(*r as f64))) as u32)
             .sum::<u32>()
             > 0
