@@ -68,7 +68,7 @@ fn main() -> ExitCode {
                 .init_threads()
                 .and_then(|_| match cluster::launched() {
                     Some(ranks) if cluster::wanted(ranks) => {
-                        cluster::run(cluster::Invocation::Run(args), ranks)
+                        args::on_pool(|| cluster::run(cluster::Invocation::Run(args), ranks))
                     }
                     _ => args::on_pool(|| run::run(args)),
                 })
@@ -78,7 +78,7 @@ fn main() -> ExitCode {
                 .init_threads()
                 .and_then(|_| match cluster::launched() {
                     Some(ranks) if cluster::wanted(ranks) => {
-                        cluster::run(cluster::Invocation::Resume(args), ranks)
+                        args::on_pool(|| cluster::run(cluster::Invocation::Resume(args), ranks))
                     }
                     _ => args::on_pool(|| run::resume(args)),
                 })
@@ -88,7 +88,7 @@ fn main() -> ExitCode {
                 .init_threads()
                 .and_then(|_| match cluster::launched() {
                     Some(ranks) if cluster::wanted(ranks) => {
-                        cluster::run(cluster::Invocation::Bench(args), ranks)
+                        args::on_pool(|| cluster::run(cluster::Invocation::Bench(args), ranks))
                     }
                     _ => args::on_pool(|| bench::bench(args)),
                 })
@@ -109,7 +109,7 @@ fn main() -> ExitCode {
                 .init_threads()
                 .and_then(|_| match cluster::launched() {
                     Some(ranks) if cluster::wanted(ranks) => {
-                        cluster::run(cluster::Invocation::Validate(args), ranks)
+                        args::on_pool(|| cluster::run(cluster::Invocation::Validate(args), ranks))
                     }
                     _ => validate::validate(args).and_then(|passed| {
                         if passed {

@@ -306,7 +306,15 @@ mod tests {
         xs[100] = 1e300;
         xs[4000] = -1e300;
         xs[2500] = 0.0;
-        for n in [0, 1, PAR_MIN - 1, PAR_MIN, PAR_MIN + 1, 3 * PAR_MIN + 5, 5000] {
+        for n in [
+            0,
+            1,
+            PAR_MIN - 1,
+            PAR_MIN,
+            PAR_MIN + 1,
+            3 * PAR_MIN + 5,
+            5000,
+        ] {
             let (a, b) = (&xs[..n], &xs[xs.len() - n..]);
             let [sa, sb] = pool.install(|| ExactSum::par_sums(n, |i| [a[i], -b[i] * 3.0]));
             let want_a = ExactSum::of(a.iter().copied()).value();
