@@ -334,17 +334,19 @@ impl Contacts {
 
     /// [`Contacts::gather4`] of bodies `i..i + 8` at once (`f[l]`, `t[l]` for body `i + l`):
     /// the same sums in the same order (the same bits), with the eight bodies' ranges read
-    /// and checked once rather than body by body. Panics unless `i + 8` bodies exist.
+    /// and checked once rather than body by body. The bodies whose bit is set in `skip`
+    /// (lane l in bit l: ghosts, whose states the exchange brings) are not gathered and come
+    /// back zero. Panics unless `i + 8` bodies exist.
     #[inline(always)]
-    pub(crate) fn gather8(&self, i: usize) -> ([Vec4; 8], [Vec4; 8]) {
+    pub(crate) fn gather8(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         // The near list's sums while one lives (see `gather4`).
         let this = self.active();
-        this.gather8_here(i)
+        this.gather8_here(i, skip)
     }
 
     /// [`Contacts::gather8`] on this list itself.
     #[inline(always)]
-    fn gather8_here(&self, i: usize) -> ([Vec4; 8], [Vec4; 8]) {
+    fn gather8_here(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         let total = self.len();
         let np = self.pairs.len();
         let forces = &self.springs.forces[..total];
@@ -366,6 +368,10 @@ impl Contacts {
         let mut f = [Vec4::ZERO; 8];
         let mut t = [Vec4::ZERO; 8];
         for l in 0..8 {
+            if skip >> l & 1 != 0 {
+                // Not wanted (a ghost, which its owner integrates): left zero.
+                continue;
+            }
             let (mut fl, mut tl) = (Vec4::ZERO, Vec4::ZERO);
             // SAFETY: `a[l]..a[l + 1]` lies within `forces` (checked above).
             let own = unsafe { forces.get_unchecked(a[l] as usize..a[l + 1] as usize) };

@@ -265,6 +265,48 @@ impl Comm for MpiComm {
         });
     }
 
+    fn all_to_all_into_and_max(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>], x: f32) -> f32 {
+        // As `all_to_all_into`, with the all-reduce posted first (nonblocking, the
+        // displacement reduced while the ghost states travel): one wait for both.
+        let me = self.rank();
+        if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
+            mine.clone_from(m);
+        }
+        let piece = self.limit;
+        let mut y = 0.0f32;
+        mpi::request::scope(|scope| {
+            let reduced =
+                self.world
+                    .immediate_all_reduce_into(scope, &x, &mut y, SystemOperation::max());
+            let mut requests = Vec::new();
+            for (r, buf) in recv.iter_mut().enumerate() {
+                if r != me && !buf.is_empty() {
+                    let from = self.world.process_at_rank(r as mpi::Rank);
+                    for chunk in buf.chunks_mut(piece) {
+                        requests.push(from.immediate_receive_into_with_tag(
+                            scope,
+                            chunk,
+                            FORWARD_TAG,
+                        ));
+                    }
+                }
+            }
+            for (r, m) in send.iter().enumerate() {
+                if r != me && !m.is_empty() {
+                    let to = self.world.process_at_rank(r as mpi::Rank);
+                    for chunk in m.chunks(piece) {
+                        requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
+                    }
+                }
+            }
+            for request in requests {
+                request.wait();
+            }
+            reduced.wait();
+        });
+        y
+    }
+
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
         self.gathered(mine, false)
     }

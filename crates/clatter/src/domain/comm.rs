@@ -38,6 +38,15 @@ pub trait Comm {
             *buf = got;
         }
     }
+    /// [`Comm::all_to_all_into`] and [`Comm::max_f32`] of `x` together: the ghost states
+    /// of a step and the largest displacement of any body since the last rebuild (which
+    /// decides the next rebuild), so a transport may let the reduction's latency overlap the
+    /// exchange's (MPI: a nonblocking all-reduce posted with the point-to-point messages)
+    /// rather than wait for one after the other. Returns the maximum of `x` over the ranks.
+    fn all_to_all_into_and_max(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>], x: f32) -> f32 {
+        self.all_to_all_into(send, recv);
+        self.max_f32(x)
+    }
     /// Sends `send[r]` to each rank `r` that `peers[r]` names (every other message must be
     /// empty) and returns what each peer sent here: the bodies and springs of a rebuild
     /// that kept its boxes, between neighbouring ranks. `peers` must be symmetric (rank `r`

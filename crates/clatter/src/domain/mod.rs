@@ -17,10 +17,11 @@
 //!   ([`crate::Contacts::gather`]). No force crosses ranks: both owners of a cross-boundary
 //!   pair compute it (LAMMPS' `newton off`), so nothing depends on the rank count.
 //! - **Every step** ([`Domain::step`]): contacts and integrate on the local world (ghosts are
-//!   not integrated), then the owners send their bodies' new states to the ranks holding
-//!   them as ghosts (forward communication), then the largest displacement since the last
-//!   rebuild is reduced over ranks (max, exact) to decide the next rebuild, as one process
-//!   decides it.
+//!   not integrated: what integrate leaves in a ghost's state is not meaningful), then the
+//!   owners send their bodies' new states to the ranks holding them as ghosts (forward
+//!   communication, which overwrites every word of every ghost's state), and with them the
+//!   largest displacement since the last rebuild is reduced over ranks (max, exact) to
+//!   decide the next rebuild, as one process decides it.
 //! - **At rebuilds** (`Domain::migrate`): new boxes (when the old ones are uneven); each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies (point to
@@ -309,12 +310,13 @@ impl Domain {
         let moved = integrate::run(&mut self.local);
         self.local.step_count += 1;
         self.local.time += self.local.dt as f64;
-        self.forward(comm);
+        // This rank's largest displacement (its owned bodies': a ghost's state is not yet
+        // its owner's), reduced over the ranks with the ghost states' exchange.
         let d2 = match moved {
             integrate::Moved::NonFinite => f32::INFINITY,
             integrate::Moved::Farthest(d2) => d2.max(broad::composite_moved(&self.local)),
         };
-        let d2 = comm.max_f32(d2);
+        let d2 = self.forward(comm, d2);
         self.moved = d2;
         if d2 == f32::INFINITY {
             return Err(self.non_finite_error(comm));
@@ -416,8 +418,11 @@ impl Domain {
     }
 
     /// Forward communication: the owners' new states to the ranks holding them as ghosts,
-    /// through the buffers kept from step to step (`sent`, `received`).
-    fn forward(&mut self, comm: &dyn Comm) {
+    /// through the buffers kept from step to step (`sent`, `received`), every word of each
+    /// ghost's state overwritten (integrate leaves a ghost's lanes unkept). The largest
+    /// squared displacement `d2` rides with it ([`Comm::all_to_all_into_and_max`]): returns
+    /// its maximum over the ranks.
+    fn forward(&mut self, comm: &dyn Comm, d2: f32) -> f32 {
         let ranks = self.send.len();
         self.sent.resize_with(ranks, Vec::new);
         self.received.resize_with(ranks, Vec::new);
@@ -434,13 +439,14 @@ impl Domain {
             // Only the sizes matter (every byte is overwritten): no zeroing unless they grew.
             buf.resize(list.len() * rows::STATE_BYTES, 0);
         }
-        comm.all_to_all_into(&self.sent, &mut self.received);
+        let d2 = comm.all_to_all_into_and_max(&self.sent, &mut self.received, d2);
         for (m, list) in self.received.iter().zip(&self.recv) {
             let mut r = Reader::new(m);
             for &i in list {
                 r.state(&mut self.local.state, i as usize);
             }
         }
+        d2
     }
 
     /// How far from a box a body at `x` is a ghost there: the reach of a pair, with a

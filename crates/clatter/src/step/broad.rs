@@ -402,8 +402,10 @@ pub(crate) fn composite_moved(world: &World) -> f32 {
         return 0.0;
     }
     let s = &world.state;
+    // Ghosts (another rank's bodies) are their owners' to count: the largest over the
+    // ranks is the same, and a ghost's state is the exchange's until it arrives.
     (0..world.len())
-        .filter(|&i| world.reach[i] > 0.0)
+        .filter(|&i| world.reach[i] > 0.0 && !world.is_ghost(i))
         .map(|i| {
             let dx = crate::precise::moved(
                 world.periodic.as_ref(),

@@ -10,8 +10,10 @@
 //! (`Contacts::gather4`). Groups the lanes do not cover go to the scalar `body`: a periodic
 //! box, mesh boundaries or sinks in the world, a removed body in the group, a body whose
 //! inertia is not isotropic, and the chunk's last `len % 8` bodies. A ghost (another rank's
-//! body, which this rank does not integrate) runs in its lane with the others and gets its
-//! state back after.
+//! body, which this rank does not integrate) runs in its lane with the others, without its
+//! forces gathered, and what its lane writes is not kept: the forward exchange that follows
+//! every integrate on ranks (`crate::domain`) overwrites every word of a ghost's state with
+//! the owner's, so neither its gather nor a copy of its old state is needed.
 
 use std::arch::x86_64::*;
 
@@ -320,8 +322,10 @@ pub(super) unsafe fn chunk(c: &Ctx, mut b: Bodies) -> f32 {
 }
 
 /// Bodies `k..k + 8` of the chunk in lanes; `None` (nothing written) where a body is removed
-/// or not isotropic; ghosts (another rank's bodies) left as they were. Returns the largest
-/// squared distance moved, infinite for a state no longer finite.
+/// or not isotropic. Ghosts (another rank's bodies) are not gathered and their lanes' states
+/// are not meaningful: the forward exchange, which follows integrate on every rank,
+/// overwrites them with the owners'. Returns the largest squared distance moved by an owned
+/// body, infinite for a state no longer finite.
 ///
 /// # Safety
 /// AVX2.
@@ -331,9 +335,10 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let i = b.first + k;
     let r = i..i + 8;
     let kr = k..k + 8;
-    // Ghosts (other ranks' bodies) are not integrated here: their lanes are computed with
-    // the others (each lane is independent) and their state put back after, so groups that
-    // mix ghosts with owned bodies (ghosts come in global id order) still run in lanes.
+    // Ghosts (other ranks' bodies) are not integrated here: their lanes run with the others
+    // (each lane is independent) on zero forces, and what they write is overwritten by the
+    // forward exchange right after (every word of the state), so groups that mix ghosts with
+    // owned bodies (ghosts come in global id order) still run in lanes, with no copy kept.
     let ghosts = if c.ghost.is_empty() {
         0
     } else {
@@ -347,7 +352,6 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     if b.gone[kr.clone()].iter().any(|&g| g) {
         return None;
     }
-    let kept = (ghosts != 0).then(|| Kept::take(b, k));
     // SAFETY (loads and stores below): AVX2, and arrays of 8.
     let inv_inertia = unsafe { load_vec3(c.consts.inv_inertia[r.clone()].try_into().unwrap()) };
     // `angular_velocity`'s test, per lane: `x == y && y == z`.
@@ -359,7 +363,7 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
         return None;
     }
     // The gather, per body as the scalar path does it; its sums' four lanes kept.
-    let (f, t) = c.contacts.gather8(i);
+    let (f, t) = c.contacts.gather8(i, ghosts);
     let dt = F8::splat(c.dt);
     let [fx, fy, fz, _] = unsafe { load4(f.as_ptr() as *const f32) };
     let [tx, ty, tz, _] = unsafe { load4(t.as_ptr() as *const f32) };
@@ -452,8 +456,7 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let d2 = F8::select(finite(d2).and(finite(q.w)), d2, F8::splat(f32::INFINITY));
     let mut lanes = [0.0f32; 8];
     unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), d2.0) };
-    if let Some(kept) = kept {
-        kept.put_back(b, k, ghosts);
+    if ghosts != 0 {
         // A ghost has not moved here (as the scalar `body` returns for it).
         for (l, d2) in lanes.iter_mut().enumerate() {
             if ghosts >> l & 1 != 0 {
@@ -466,45 +469,6 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
             .into_iter()
             .fold(0.0, |worst, d2| if d2 > worst { d2 } else { worst }),
     )
-}
-
-/// The states a group of eight bodies writes, kept to put the ghosts' back.
-struct Kept {
-    xs: [DVec3; 8],
-    vs: [Vec3; 8],
-    qs: [Quat; 8],
-    ls: [Vec3; 8],
-    ws: [Vec3; 8],
-    rs: [Quat; 8],
-}
-
-impl Kept {
-    /// Bodies `k..k + 8` of the chunk's states.
-    fn take(b: &Bodies, k: usize) -> Kept {
-        let kr = k..k + 8;
-        Kept {
-            xs: b.xs[kr.clone()].try_into().unwrap(),
-            vs: b.vs[kr.clone()].try_into().unwrap(),
-            qs: b.qs[kr.clone()].try_into().unwrap(),
-            ls: b.ls[kr.clone()].try_into().unwrap(),
-            ws: b.ws[kr.clone()].try_into().unwrap(),
-            rs: b.rs[kr].try_into().unwrap(),
-        }
-    }
-
-    /// The kept states of the lanes in `lanes` (lane l in bit l) written back.
-    fn put_back(&self, b: &mut Bodies, k: usize, lanes: u32) {
-        for l in 0..8 {
-            if lanes >> l & 1 != 0 {
-                b.xs[k + l] = self.xs[l];
-                b.vs[k + l] = self.vs[l];
-                b.qs[k + l] = self.qs[l];
-                b.ls[k + l] = self.ls[l];
-                b.ws[k + l] = self.ws[l];
-                b.rs[k + l] = self.rs[l];
-            }
-        }
-    }
 }
 
 #[cfg(test)]
@@ -597,7 +561,8 @@ mod tests {
         }
         if odd {
             // Other ranks' bodies here and there (`crate::domain`): not integrated here (a third
-            // of the groups hold one; their lanes run with the others and are put back).
+            // of the groups hold one; their lanes run with the others and are not kept: the
+            // exchange overwrites them, so only the owned bodies' states are compared).
             w.ghost = (0..n).map(|_| rng.random_bool(0.05)).collect();
         }
         // Rebuild positions a little off the current ones.
@@ -608,10 +573,11 @@ mod tests {
         w
     }
 
+    /// Every owned body's state words (a ghost's are the exchange's to write).
     fn state_bits(w: &World) -> Vec<u64> {
         let s = &w.state;
         let mut out = Vec::new();
-        for i in 0..w.len() {
+        for i in (0..w.len()).filter(|&i| !w.is_ghost(i)) {
             out.extend(s.position[i].to_array().map(f64::to_bits));
             let f32s = [
                 s.velocity[i].to_array().to_vec(),
@@ -657,7 +623,7 @@ mod tests {
             let (a, b) = (state_bits(&scalar), state_bits(&lanes));
             if let Some(k) = (0..a.len()).find(|&k| a[k] != b[k]) {
                 panic!(
-                    "case {case}: body {}, word {}: {:x} vs {:x}",
+                    "case {case}: owned body {}, word {}: {:x} vs {:x}",
                     k / 23,
                     k % 23,
                     a[k],
