@@ -90,7 +90,10 @@ fn compare(cpu: &World, full_test: bool, steps: usize) -> usize {
             g
         })
         .collect();
-    assert!(worlds[0].set_poly_lanes(4).is_err(), "4 lanes are not built");
+    assert!(
+        worlds[0].set_poly_lanes(4).is_err(),
+        "4 lanes are not built"
+    );
     let is_poly = |i: usize| matches!(cpu.shape(i), Shape::Polyhedron(_));
     let mut touching_poly = 0;
     for step in 0..steps {
@@ -125,16 +128,28 @@ fn compare(cpu: &World, full_test: bool, steps: usize) -> usize {
 }
 
 #[test]
+// Planted bugs checked (then removed): the reduction skipping the last lane of each pair, and
+// a face separation off by 1e-4, each fail at step 0. The reduction taking the last index on
+// equal separations does not fail here: no two edge axes of this pile tie exactly above the
+// best face axis.
 fn lanes_per_pair_give_the_one_thread_bits() {
-    let cpu = pile(160, 3000);
+    let cpu = pile(256, 6000);
     // Every shape kind is in the pile.
     let kinds: std::collections::BTreeSet<u32> = cpu.consts.shape.iter().copied().collect();
-    assert_eq!(kinds.len(), 7, "cube, tetra, octa, dodeca, icosa, sphere, hull");
+    assert_eq!(
+        kinds.len(),
+        7,
+        "cube, tetra, octa, dodeca, icosa, sphere, hull"
+    );
     for full_test in [true, false] {
         let touching = compare(&cpu, full_test, 60);
         if touching == usize::MAX {
             return;
         }
-        assert!(touching > 300, "too few touching polyhedron pair-steps: {touching}");
+        eprintln!("full test {full_test}: {touching} touching polyhedron pair-steps");
+        assert!(
+            touching > 300,
+            "too few touching polyhedron pair-steps: {touching}"
+        );
     }
 }

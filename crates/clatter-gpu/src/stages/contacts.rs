@@ -17,8 +17,8 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 /// entry points.
 pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelSpec>) {
     use pipeline::{
-        ARGS, CONTACTS, CONTACTS_LANES, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE,
-        MESH_POLY, MESH_SPHERES, NARROW_SPHERES, PIECES,
+        ARGS, CONTACTS, CONTACTS_LANES, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE, MESH_POLY,
+        MESH_SPHERES, NARROW_SPHERES, PIECES,
     };
     let with = pipeline::composites_const(variant.composites);
     // The mesh contacts (called by integrate) only in scenes with meshes.
