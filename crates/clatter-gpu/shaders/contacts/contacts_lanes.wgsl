@@ -11,8 +11,9 @@
 // keeps the first of equal bests, and its early exit stops at the first separating axis,
 // which is the smallest index. Lane 0 then runs `pair_contact` as contacts_full_poly does,
 // with that result in place of nrw_sat's own loops (narrow_poly.wgsl `nrw_lanes_ready`).
-// Pairs the lanes do not serve (a remembered contact, composites, a shape with more faces
-// than the table holds, a NaN on the way) run the one-thread loops on lane 0 alone.
+// Pairs of a remembered path's class run alone on one thread (see the kernel); pairs the
+// lanes cannot serve (composites, a shape with more faces than the table holds, a NaN on
+// the way) run the one-thread loops on lane 0.
 // Every lane of the workgroup reaches every barrier: lanes without a pair run the loops
 // with nothing to do.
 
@@ -31,6 +32,8 @@ var<workgroup> wg_lane_axis: array<vec4<f32>, LANE_SLOTS>;
 // The pair a group of lanes serves, in A's frame as nrw_poly_poly sees it.
 struct LanePair {
     live: bool,
+    // Its class takes a remembered path first: one thread runs it alone (see the kernel).
+    remembers: bool,
     a: NrwShape,
     b: NrwShape,
     rot: mat3x3<f32>,
@@ -40,18 +43,16 @@ struct LanePair {
 
 // Candidate pair c (if `listed`) as the lanes serve it: live only when nrw_poly_poly will
 // run the full test first (no remembered contact), with the inputs pair_contact gives it.
-fn lane_pair(c: u32, listed: bool) -> LanePair {
+fn lane_pair(c: u32, listed: bool, remembers: bool) -> LanePair {
     var r: LanePair;
     r.live = false;
-    if !listed || COMPOSITES {
+    r.remembers = remembers;
+    if !listed || remembers || COMPOSITES {
         return r;
     }
     let p = pairs[c];
     let i = body_of(p.x);
     let j = body_of(p.y);
-    if touching[c] == 1u && params.full_test == 0u && pair_memory[c].x != NO_HINT {
-        return r;
-    }
     let xj = offset_of(i, j);
     let pa = piece_at(statics[i], piece_of(p.x), vec3<f32>(0.0), bodies[i].orientation);
     let pb = piece_at(statics[j], piece_of(p.y), xj, bodies[j].orientation);
@@ -71,6 +72,27 @@ fn lane_pair(c: u32, listed: bool) -> LanePair {
     r.t = pose.t;
     r.live = true;
     return r;
+}
+
+// Whether the pair at position `pos` of the ordered list takes a remembered path first (its
+// class's path, contacts_split.wgsl `pair_class`, is not the full test): found from the
+// classes' ends (status[ST_CLASSES + k] after contacts_place), not from the pair's own
+// words, which this kernel writes.
+fn listed_remembers(pos: u32) -> bool {
+    if params.full_test != 0u {
+        return false;
+    }
+    var lo = 0u;
+    var hi = SPLIT_CLASSES - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if atomicLoad(&status[ST_CLASSES + mid]) > pos {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo % 3u != 0u;
 }
 
 // One lane's share of the edge axes: its first separating index, its best (index,
@@ -375,8 +397,13 @@ fn lane_sat(lp: LanePair, lid: u32) -> LaneSat {
 }
 
 // contacts_full_poly with POLY_LANES lanes per pair: the dispatch has POLY_LANES threads
-// per listed pair (contacts_size), consecutive in a workgroup (dealt in chunks of
-// DEAL_CHUNK, a multiple of POLY_LANES).
+// per listed pair (contacts_size), u = 0, 1, ...; the POLY_LANES threads u of pair u /
+// POLY_LANES are consecutive in a workgroup (dealt in chunks of DEAL_CHUNK, a multiple of
+// POLY_LANES). A pair that remembers its contact (most touching pairs: the remembered face
+// clipped alone) gains nothing from lanes, and would keep POLY_LANES threads for one: thread
+// u runs pair u alone when it remembers (so a subgroup runs as many of those as
+// contacts_full_poly does), and the lanes of pair u / POLY_LANES serve it only when it does
+// not. Each pair runs once; one call site of pair_contact.
 @compute @workgroup_size(256)
 fn contacts_full_poly_lanes(@builtin(workgroup_id) wid: vec3<u32>,
                             @builtin(num_workgroups) nwg: vec3<u32>,
@@ -389,18 +416,35 @@ fn contacts_full_poly_lanes(@builtin(workgroup_id) wid: vec3<u32>,
     let u = dealt_item(wid, nwg, lid, count * POLY_LANES);
     let listed = u < count * POLY_LANES;
     var c = 0u;
+    var remembers = false;
     if listed {
         c = new_pairs[spheres + u / POLY_LANES].y;
+        remembers = listed_remembers(spheres + u / POLY_LANES);
     }
-    let ls = lane_sat(lane_pair(c, listed), lid);
+    let lp = lane_pair(c, listed, remembers);
+    let ls = lane_sat(lp, lid);
     var touched = 0u;
-    if listed && lid % POLY_LANES == 0u {
-        nrw_lanes_ready = ls.ok;
-        nrw_lanes_sat = ls.sat;
-        nrw_lanes_hint = ls.hint;
-        if pair_contact(c, false, PAIR_POLY) {
-            touched = 1u;
+    for (var turn = 0u; turn < 2u; turn += 1u) {
+        var run = false;
+        var cr = c;
+        if turn == 0u {
+            // The lanes' pair, on its lane 0, with their result.
+            run = listed && lid % POLY_LANES == 0u && !lp.remembers;
+            nrw_lanes_ready = ls.ok;
+            nrw_lanes_sat = ls.sat;
+            nrw_lanes_hint = ls.hint;
+        } else {
+            // Pair u, if it remembers its contact, alone.
+            nrw_lanes_ready = false;
+            if u < count {
+                cr = new_pairs[spheres + u].y;
+                run = listed_remembers(spheres + u);
+            }
+        }
+        if run && pair_contact(cr, false, PAIR_POLY) {
+            touched += 1u;
         }
     }
+    nrw_lanes_ready = false;
     add_status_wg(lid, ST_TOUCHING, touched);
 }
