@@ -18,7 +18,7 @@ for L in 0 8 16 0; do
 done
 for L in 0 8 16; do
   CLATTER_GPU_POLY_LANES=$L timeout 60 $B --steps 200 --profile --profile-steps 100 > $O/prof-$L.log 2>&1
-  echo "lanes=$L rc=$? profile: $(grep -E 'contacts_full_poly|contacts_sat |total' $O/prof-$L.log | tr -s ' ' | tr '\n' ';')"
+  echo "lanes=$L rc=$? profile: $(grep -E '^# +kernels' $O/prof-$L.log | tail -1 | tr -s ' ')"
 done
 for L in 0 8 16; do
   CLATTER_GPU_POLY_LANES=$L timeout 60 $C run --backend gpu --steps 3000 -q --out $O/run-$L > $O/run-$L.log 2>&1
