@@ -74,8 +74,10 @@ clatter::gpu_record! {
         /// part of it (the pairs of one class, the bodies near the floor). Only which
         /// thread computes an item changes, never its result.
         pub deal: u32,
-        /// Unused.
-        pub pad2: u32,
+        /// Lanes per polyhedron pair in the full narrow phase (0: one thread per pair; 8 or
+        /// 16: `contacts_full_poly_lanes`, `CLATTER_GPU_POLY_LANES`): `contacts_size` sizes
+        /// that dispatch with it. Results are bitwise the same for every value.
+        pub poly_lanes: u32,
     }
 }
 

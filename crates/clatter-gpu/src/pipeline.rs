@@ -29,6 +29,7 @@ pub(crate) const PAIRS: &str = include_str!("../shaders/broad/pairs.wgsl");
 pub(crate) const LAW: &str = include_str!("../shaders/contacts/law.wgsl");
 pub(crate) const CONTACTS: &str = include_str!("../shaders/contacts/contacts.wgsl");
 pub(crate) const CONTACTS_SPLIT: &str = include_str!("../shaders/contacts/contacts_split.wgsl");
+pub(crate) const CONTACTS_LANES: &str = include_str!("../shaders/contacts/contacts_lanes.wgsl");
 pub(crate) const INTEGRATE: &str = include_str!("../shaders/integrate/integrate.wgsl");
 pub(crate) const HEALTH: &str = include_str!("../shaders/health/health.wgsl");
 pub(crate) const PIECES: &str = include_str!("../shaders/contacts/pieces.wgsl");
@@ -69,6 +70,7 @@ pub(crate) const SHADER_FILES: &[(&str, &str)] = &[
     ("law.wgsl", LAW),
     ("contacts.wgsl", CONTACTS),
     ("contacts_split.wgsl", CONTACTS_SPLIT),
+    ("contacts_lanes.wgsl", CONTACTS_LANES),
     ("integrate.wgsl", INTEGRATE),
     ("health.wgsl", HEALTH),
     ("pieces.wgsl", PIECES),
@@ -159,7 +161,7 @@ pub(crate) struct Compiled {
     pub layouts: [wgpu::BindGroupLayout; 4],
     pub base: Kernels,
     /// By [`ContactVariant::index`].
-    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 6 * CLIP_SIZES],
+    pub contact_sets: [std::sync::OnceLock<Result<Kernels, GpuError>>; 6 * CLIP_SIZES * 3],
 }
 
 /// Which contact kernel set a world uses.
@@ -173,6 +175,25 @@ pub(crate) struct ContactVariant {
     pub composites: bool,
     /// Points each clipping buffer holds (`NRW_MAX_CLIP`): [`ContactVariant::clip_points`].
     pub clip: u32,
+    /// Lanes per polyhedron pair in the full narrow phase: 0 (one thread per pair,
+    /// `contacts_full_poly`), or one of [`POLY_LANES`] (`contacts_full_poly_lanes`,
+    /// contacts_lanes.wgsl); always 0 in sphere-only scenes.
+    pub lanes: u32,
+}
+
+/// The lane counts `contacts_full_poly_lanes` is compiled for (a divisor of `DEAL_CHUNK`,
+/// status.wgsl, so that a pair's lanes are neighbours in one workgroup).
+pub const POLY_LANES: [u32; 2] = [8, 16];
+
+/// `CLATTER_GPU_POLY_LANES` (0, 8 or 16; anything else, or unset, is 0): how many lanes
+/// serve each polyhedron pair in the full narrow phase ([`ContactVariant::lanes`]). Read
+/// when a world is built; results are bitwise the same for every value, only speed differs.
+pub fn poly_lanes_from_env() -> u32 {
+    std::env::var("CLATTER_GPU_POLY_LANES")
+        .ok()
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .filter(|l| POLY_LANES.contains(l))
+        .unwrap_or(0)
 }
 
 /// The clipping buffer sizes compiled: 16, 32 and 64 points.
@@ -187,7 +208,11 @@ impl ContactVariant {
             self.spheres_only as usize + 2 * self.meshes as usize
         };
         let size = (self.clip.max(16) / 16).trailing_zeros() as usize;
-        base * CLIP_SIZES + size.min(CLIP_SIZES - 1)
+        let lanes = POLY_LANES
+            .iter()
+            .position(|&l| l == self.lanes)
+            .map_or(0, |k| k + 1);
+        (lanes * 6 + base) * CLIP_SIZES + size.min(CLIP_SIZES - 1)
     }
 
     /// Points per clipping buffer for a scene whose longest polyhedron face has
@@ -273,7 +298,7 @@ impl Compiled {
         let c = std::sync::Arc::new(Compiled {
             layouts,
             base,
-            contact_sets: Default::default(),
+            contact_sets: std::array::from_fn(|_| std::sync::OnceLock::new()),
         });
         *slot = Some(c.clone());
         Ok(c)

@@ -164,7 +164,8 @@ fn contacts_size() {
     }
     atomicStore(&status[ST_FULL_SPHERES], spheres);
     write_args(ARG_FULL_SPHERES, dealt_groups(spheres));
-    write_args(ARG_FULL_POLY, dealt_groups(count - spheres));
+    // contacts_full_poly_lanes (contacts_lanes.wgsl) runs params.poly_lanes threads a pair.
+    write_args(ARG_FULL_POLY, dealt_groups((count - spheres) * max(params.poly_lanes, 1u)));
 }
 
 // narrow.wgsl's `collide` for the pairs of one kind (contacts.wgsl PAIR_*): with PAIR_SPHERES the pair

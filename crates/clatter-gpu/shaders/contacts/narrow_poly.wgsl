@@ -333,16 +333,27 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
     if !r.found {
         return r;
     }
+    let eab = nrw_supporting_edges(a, b, rot, t, ia_best, ib_best, r.axis);
+    r.ea = eab.x;
+    r.eb = eab.y;
+    return r;
+}
+
+// The supporting edges (A's, B's) of the best pair of edge directions (ia, ib) along `axis`
+// (nrw_edge_axes_by_direction; also contacts_lanes.wgsl).
+fn nrw_supporting_edges(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>, ia_best: u32,
+                        ib_best: u32, axis: vec3<f32>) -> vec2<u32> {
+    var r = vec2<u32>(0u);
     var ha = 0.0;
     var fa = false;
     for (var e = 0u; e < a.num_edges; e += 1u) {
         if shape_u[a.edge_dir_base + e] == ia_best {
             let ev = nrw_edge(a, e);
-            let h = dot(r.axis, nrw_vert(a, ev.x) + nrw_vert(a, ev.y));
+            let h = dot(axis, nrw_vert(a, ev.x) + nrw_vert(a, ev.y));
             if !fa || h > ha {
                 fa = true;
                 ha = h;
-                r.ea = e;
+                r.x = e;
             }
         }
     }
@@ -351,11 +362,11 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
     for (var e = 0u; e < b.num_edges; e += 1u) {
         if shape_u[b.edge_dir_base + e] == ib_best {
             let ev = nrw_edge(b, e);
-            let h = dot(r.axis, nrw_bv(b, ev.x, rot, t) + nrw_bv(b, ev.y, rot, t));
+            let h = dot(axis, nrw_bv(b, ev.x, rot, t) + nrw_bv(b, ev.y, rot, t));
             if !fb || h < hb {
                 fb = true;
                 hb = h;
-                r.eb = e;
+                r.y = e;
             }
         }
     }
@@ -468,7 +479,21 @@ struct NrwSat {
 // Below every separation (the CPU's f32::NEG_INFINITY as a start).
 const NRW_LOWEST: f32 = -3.4028235e38;
 
+// The full test's result computed by a group of lanes (contacts_lanes.wgsl), for the pair
+// this thread runs next, and the hint it leaves when separated: nrw_sat takes it, once, in
+// place of its own loops when `nrw_lanes_ready`. Never set outside that kernel.
+var<private> nrw_lanes_ready: bool = false;
+var<private> nrw_lanes_sat: NrwSat;
+var<private> nrw_lanes_hint: u32 = 0u;
+
 fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, faces: bool, floor_in: f32) -> NrwSat {
+    if faces && nrw_lanes_ready && nrw_hint_in == 0u {
+        nrw_lanes_ready = false;
+        if nrw_lanes_sat.separated {
+            nrw_hint_out = nrw_lanes_hint;
+        }
+        return nrw_lanes_sat;
+    }
     var r: NrwSat;
     r.separated = true;
     r.best_a = NRW_LOWEST;
@@ -605,6 +630,19 @@ const NRW_FULL: u32 = 0u;
 const NRW_FACE: u32 = 1u;
 const NRW_EDGE: u32 = 2u;
 
+// B's rotation into A's frame and B's offset there, from the orientations and the offset
+// d = xb - xa in world space (nrw_poly_poly; contacts_lanes.wgsl, which must see the same
+// bits).
+struct NrwPose {
+    rot: mat3x3<f32>,
+    t: vec3<f32>,
+}
+
+fn nrw_relative_pose(qa: vec4<f32>, qb: vec4<f32>, d: vec3<f32>) -> NrwPose {
+    let inv_a = quat_conj(qa);
+    return NrwPose(nrw_mat_from_quat(quat_mul(inv_a, qb)), quat_rotate(inv_a, d));
+}
+
 // Two convex polyhedra (CPU `polyhedron_polyhedron`): what the pair remembers (nrw_mem_in)
 // first, while its margin lasts (the remembered face clipped alone if the overlap is
 // certain; the edge axes alone for an edge contact, while the best stays above the margin:
@@ -620,10 +658,10 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
         return nrw_none();
     }
     // Everything in A's frame: B's rotation and offset relative to A.
-    let inv_a = quat_conj(qa);
-    let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
+    let pose = nrw_relative_pose(qa, qb, d);
+    let rot = pose.rot;
     let inv_rot = transpose(rot);
-    let t = quat_rotate(inv_a, d);
+    let t = pose.t;
     let scale = max(a.radius, b.radius);
     let tol = 1e-3 * scale;
     // Rounding of the separations and the near-parallel edge axes left out (see sat.rs).

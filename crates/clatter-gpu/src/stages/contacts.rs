@@ -4,7 +4,10 @@
 //! that list by class (shape pair and path, so that a subgroup runs one kind), with the pairs
 //! that have a sphere body first; `contacts_full_spheres` (sphere narrow phase only) and
 //! `contacts_full_poly` (polyhedron pairs only) run the full narrow phase and the law on the
-//! list's two ranges, so that no workgroup mixes the two kinds' code.
+//! list's two ranges, so that no workgroup mixes the two kinds' code. With
+//! `CLATTER_GPU_POLY_LANES` at 8 or 16, `contacts_full_poly_lanes` (contacts_lanes.wgsl)
+//! takes `contacts_full_poly`'s place: that many lanes per pair spread its separating-axis
+//! test, with the same bits.
 
 use super::Recorder;
 use crate::layout::arg;
@@ -14,8 +17,8 @@ use crate::pipeline::{self, Group2, KernelSpec, Size};
 /// entry points.
 pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelSpec>) {
     use pipeline::{
-        ARGS, CONTACTS, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE, MESH_POLY, MESH_SPHERES,
-        NARROW_SPHERES, PIECES,
+        ARGS, CONTACTS, CONTACTS_LANES, CONTACTS_SPLIT, INTEGRATE, LAW, MESH, MESH_NONE, MESH_POLY,
+        MESH_SPHERES, NARROW_SPHERES, PIECES,
     };
     let with = pipeline::composites_const(variant.composites);
     // The mesh contacts (called by integrate) only in scenes with meshes.
@@ -34,7 +37,14 @@ pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelS
         )
     } else {
         let narrow = pipeline::narrow_source(variant.clip);
+        let lanes = format!("const POLY_LANES: u32 = {}u;\n", variant.lanes.max(1));
         let mut parts = vec![with, ARGS, &narrow, PIECES, LAW, CONTACTS, CONTACTS_SPLIT];
+        let full_poly = if variant.lanes > 1 {
+            parts.extend_from_slice(&[&lanes, CONTACTS_LANES]);
+            "contacts_full_poly_lanes"
+        } else {
+            "contacts_full_poly"
+        };
         parts.extend_from_slice(mesh);
         parts.push(INTEGRATE);
         (
@@ -44,21 +54,26 @@ pub(crate) fn kernels(variant: pipeline::ContactVariant) -> (String, Vec<KernelS
                 ("contacts", "contacts_size", Group2::Args),
                 ("contacts", "contacts_place", Group2::None),
                 ("contacts", "contacts_full_spheres", Group2::None),
-                ("contacts", "contacts_full_poly", Group2::None),
+                ("contacts", full_poly, Group2::None),
             ],
         )
     }
 }
 
 /// Records the stage.
-pub(crate) fn record(r: &mut Recorder<'_>, spheres_only: bool) {
-    if spheres_only {
+pub(crate) fn record(r: &mut Recorder<'_>, variant: pipeline::ContactVariant) {
+    if variant.spheres_only {
         r.contact("contacts", Size::Indirect(arg::PAIRS));
     } else {
         r.contact("contacts_sat", Size::Indirect(arg::PAIRS));
         r.contact("contacts_size", Size::Single);
         r.contact("contacts_place", Size::Indirect(arg::WORK));
         r.contact("contacts_full_spheres", Size::Indirect(arg::FULL_SPHERES));
-        r.contact("contacts_full_poly", Size::Indirect(arg::FULL_POLY));
+        let full_poly = if variant.lanes > 1 {
+            "contacts_full_poly_lanes"
+        } else {
+            "contacts_full_poly"
+        };
+        r.contact(full_poly, Size::Indirect(arg::FULL_POLY));
     }
 }

@@ -57,7 +57,7 @@ pub(crate) fn record(
     base: &Kernels,
     contacts: &Kernels,
     scans: &Scans,
-    spheres_only: bool,
+    variant: crate::pipeline::ContactVariant,
 ) -> (Vec<Dispatch>, Vec<Dispatch>) {
     let mut r = Recorder {
         base,
@@ -66,7 +66,7 @@ pub(crate) fn record(
     };
     broad::record(&mut r, scans);
     let first_contact = r.ops.len();
-    contacts::record(&mut r, spheres_only);
+    contacts::record(&mut r, variant);
     integrate::record(&mut r);
     let full = std::mem::take(&mut r.ops);
     r.base("prepare_lean", Size::Single);

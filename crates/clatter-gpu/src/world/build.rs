@@ -152,6 +152,7 @@ fn scene_params(world: &World, capacity: u64, mesh_base: u32) -> Params {
         num_boundaries: world.boundaries.len() as u32,
         mesh_base,
         full_test: full_test_only() as u32,
+        poly_lanes: crate::pipeline::poly_lanes_from_env(),
         ..Default::default()
     }
 }

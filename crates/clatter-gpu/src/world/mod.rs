@@ -277,6 +277,31 @@ impl GpuWorld {
             .write_buffer(&self.bufs[Buf::Params], 0, bytemuck::bytes_of(&self.params));
     }
 
+    /// How many lanes serve each polyhedron pair in the full narrow phase: 0 (one thread a
+    /// pair, the default), 8 or 16 (`contacts_full_poly_lanes`; the default comes from
+    /// `CLATTER_GPU_POLY_LANES`, see docs/gpu.md). Results are bitwise the same for every
+    /// value, only speed differs: the tests set it to check that. Other values are refused.
+    pub fn set_poly_lanes(&mut self, lanes: u32) -> Result<(), GpuError> {
+        if lanes != 0 && !crate::pipeline::POLY_LANES.contains(&lanes) {
+            return Err(GpuError::Runtime {
+                adapter: self.ctx.adapter_name(),
+                message: format!("{lanes} lanes per pair: 0, 8 or 16 are built"),
+            });
+        }
+        self.params.poly_lanes = lanes;
+        self.plan = Plan::new(
+            &self.ctx,
+            &self.plan.compiled,
+            &self.bufs,
+            &self.shapes,
+            &mut self.params,
+        )?;
+        self.ctx
+            .queue
+            .write_buffer(&self.bufs[Buf::Params], 0, bytemuck::bytes_of(&self.params));
+        Ok(())
+    }
+
     /// How many times a lean step found a rebuild due and was run again in full.
     pub fn stalls(&self) -> u64 {
         self.stalls

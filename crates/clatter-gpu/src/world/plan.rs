@@ -54,6 +54,7 @@ impl Plan {
             meshes: params.num_boundaries > 0,
             composites: params.composites != 0,
             clip: ContactVariant::clip_points(shapes.longest_face, params.num_boundaries > 0),
+            lanes: if spheres_only { 0 } else { params.poly_lanes },
         };
         let contacts = compiled.contacts(ctx, variant)?;
         let scans = Scans::new(
@@ -93,7 +94,7 @@ impl Plan {
                 },
             ],
         });
-        let (ops, lean_ops) = stages::record(&compiled.base, contacts, &scans, spheres_only);
+        let (ops, lean_ops) = stages::record(&compiled.base, contacts, &scans, variant);
         let health_ops = stages::health::record(&compiled.base);
         // The health dispatches take the place of the last one, `end_step` (encode_steps).
         let end_step = compiled.base.index("end_step");
