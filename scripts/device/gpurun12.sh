@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Branch gpurun12 (issue 23): the whole `clatter run --backend gpu` process against the whole
+# `clatter bench --backend gpu --scene` process on the default scene, 5,000 steps, twice each,
+# alternated, one line each (wall seconds of the process, from start to exit). Then once the run
+# with checks and samples only at the end (what the checks cost). Under a minute on an H100.
+# Binary: $C (default /opt/cl/clatter, as scripts/device/run.sh unpacks it); STEPS (default 5000).
+set -u
+C=${C:-/opt/cl/clatter}
+N=${STEPS:-5000}
+secs() { python3 -c "import sys;print(f'{float(sys.argv[2])-float(sys.argv[1]):.3f}')" "$1" "$2"; }
+timed() { # label cmd...
+  local label=$1; shift
+  local s=$(date +%s.%N)
+  timeout 60 "$@" > /tmp/gpurun12-$label.log 2>&1
+  local rc=$?
+  local e=$(date +%s.%N)
+  echo "$label rc=$rc $(secs $s $e) s whole process"
+}
+for k in 1 2; do
+  timed bench$k $C bench --backend gpu --scene default --settle 0 --steps $N
+  timed run$k $C run --backend gpu --steps $N -q --out /tmp/r
+done
+timed run_sparse $C run --backend gpu --steps $N -q --energy-every $N --check-every $N --out /tmp/r2
+grep -E "steps/s|^default|ms/step" /tmp/gpurun12-bench2.log | tail -n 3
