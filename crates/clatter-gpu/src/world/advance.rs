@@ -177,12 +177,20 @@ impl GpuWorld {
             }
             encoder
         };
-        let encoders: Vec<wgpu::CommandEncoder> = if sizes.len() > 1 {
-            sizes.par_iter().map(record).collect()
-        } else {
-            sizes.iter().map(record).collect()
-        };
-        for (encoder, (batch, _)) in encoders.into_iter().zip(sizes) {
+        // With nothing in flight (the start of a call, after a stop) the GPU idles until
+        // something is submitted: the first batch goes alone, the rest are recorded while
+        // it runs. The same batches in the same order either way.
+        let first = usize::from(f.in_flight.is_empty() && sizes.len() > 1);
+        let mut encoders: Vec<wgpu::CommandEncoder> = sizes[..first].iter().map(record).collect();
+        for (k, &(batch, _)) in sizes.iter().enumerate() {
+            if k == first {
+                encoders.extend(if sizes.len() - first > 1 {
+                    sizes[first..].par_iter().map(record).collect::<Vec<_>>()
+                } else {
+                    sizes[first..].iter().map(record).collect()
+                });
+            }
+            let encoder = encoders.remove(0);
             f.submitted += batch;
             // The status (and, with the last batch, the bodies) come back in one transfer.
             let last = f.submitted >= f.target;
