@@ -26,4 +26,4 @@ done
 timed run_sparse $C run --backend gpu --steps $N -q --energy-every $N --check-every $N --out /tmp/r2
 timed bench_depth2 env CLATTER_GPU_IN_FLIGHT=2 $C bench --backend gpu --scene default --settle 0 --steps $N
 timed run_depth2 env CLATTER_GPU_IN_FLIGHT=2 $C run --backend gpu --steps $N -q --out /tmp/r3
-grep -E "steps/s|^default|ms/step" /tmp/gpurun12-bench2.log | tail -n 3
+for l in bench2 bench_depth2; do echo "$l: $(tail -n 1 /tmp/gpurun12-$l.log)"; done
