@@ -25,9 +25,12 @@ pub const FULL_CHECK_EVERY: u64 = 100;
 
 /// The GPU's deep-overlap alarm looks at contacts whose force means an overlap deeper than
 /// this fraction of the host's [`OVERLAP_LIMIT`](clatter::health::OVERLAP_LIMIT): a margin
-/// below the host's own test for the f32 arithmetic on either side, and few enough alarms
-/// that a pour does not stop the pipeline at every check step (`HealthSetup::overlap_limit`).
-pub const GPU_OVERLAP_MARGIN: f32 = 0.9;
+/// below the host's own test for the f32 arithmetic on either side (the same law functions
+/// on the same f32 inputs, a few ulps apart: 1% of the depth, 1.5% of a Hertz force, is
+/// ample), and as few alarms as that allows, since each stops the pipeline and drains the
+/// batches in flight (`HealthSetup::overlap_limit`; 0.9 stopped the default scene's 5,000
+/// steps 14 times on lavapipe, 0.99 9 times).
+pub const GPU_OVERLAP_MARGIN: f32 = 0.99;
 
 /// The cheap checks run every this many steps unless asked otherwise (`--check-every`).
 pub const CHECK_EVERY: u64 = 10;

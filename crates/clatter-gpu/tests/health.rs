@@ -59,7 +59,8 @@ fn setup(world: &World, energy_every: u64) -> HealthSetup {
         budget: h.baseline(),
         alarm_factor: 0.5 * ENERGY_FACTOR,
         force_floor: h.force_floor(),
-        overlap_limit: 0.9 * clatter::health::OVERLAP_LIMIT,
+        // clatter_backend::GPU_OVERLAP_MARGIN, what `clatter run` arms the alarm with.
+        overlap_limit: 0.99 * clatter::health::OVERLAP_LIMIT,
     }
 }
 
@@ -224,7 +225,8 @@ fn host_depth_ratio(world: &World, floor: f32) -> f32 {
 
 /// The GPU's deep-overlap alarm fires at every check step where the host's cheap check would
 /// measure a contact (its force, all on one point, means an overlap beyond the limit), and
-/// not where every such estimate is below the GPU's margin: soft spheres and a cube land on
+/// not where every such estimate is below 0.98 of the limit (the margin is 0.99, for the
+/// f32 rounding on either side): soft spheres and a cube land on
 /// the floor one after the other, so each contact's estimate rises through the limit and
 /// falls back.
 #[test]
@@ -268,7 +270,7 @@ fn the_overlap_alarm_fires_where_the_host_would_look() {
                 "step {}: the host would measure a contact (depth estimate {ratio} of the limit) but the GPU raised no alarm",
                 w.step_count
             );
-        } else if ratio > 0.0 && ratio < 0.85 {
+        } else if ratio > 0.0 && ratio < 0.98 {
             // A contact above the force floor that the host would not measure.
             calm += 1;
             assert!(

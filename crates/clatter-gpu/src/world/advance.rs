@@ -32,6 +32,18 @@ struct Flight {
     first: bool,
     /// Whether the last batch brings the body state back.
     with_states: bool,
+    /// The most batches in flight ([`in_flight_depth`]).
+    depth: usize,
+}
+
+/// The most batches in flight: `2 * ENCODERS`, or [`IN_FLIGHT_VAR`](super::IN_FLIGHT_VAR)
+/// when set to 2 or more. New batches are recorded when half of them are left.
+fn in_flight_depth() -> usize {
+    std::env::var(super::IN_FLIGHT_VAR)
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&d| d >= 2)
+        .unwrap_or(2 * ENCODERS)
 }
 
 impl GpuWorld {
@@ -110,13 +122,14 @@ impl GpuWorld {
             submitted: self.gpu_steps,
             first: true,
             with_states: states.is_some(),
+            depth: in_flight_depth(),
         };
         let mut guard = 0;
         loop {
             if f.in_flight.is_empty() {
                 f.submitted = self.gpu_steps;
             }
-            if f.in_flight.len() <= ENCODERS && (f.submitted < f.target || f.first) {
+            if f.in_flight.len() <= f.depth / 2 && (f.submitted < f.target || f.first) {
                 self.submit_batches(&mut f)?;
             }
             let Some((pending, with_bodies, batch)) = f.in_flight.pop_front() else {
@@ -152,12 +165,12 @@ impl GpuWorld {
         Ok(self.report(&self.last_status, None, false))
     }
 
-    /// Records up to `ENCODERS` batches side by side on the CPU's threads, then submits
-    /// them in order, each with the read of its status.
+    /// Records batches up to the depth in flight side by side on the CPU's threads, then
+    /// submits them in order, each with the read of its status.
     fn submit_batches(&mut self, f: &mut Flight) -> Result<(), GpuError> {
         let mut sizes = Vec::new();
         let mut at = f.submitted;
-        while f.in_flight.len() + sizes.len() < 2 * ENCODERS && (at < f.target || f.first) {
+        while f.in_flight.len() + sizes.len() < f.depth && (at < f.target || f.first) {
             f.first = false;
             let batch = (f.target - at).min(BATCH);
             let lean = self.lean_enabled && self.full_batches == 0;
@@ -177,12 +190,20 @@ impl GpuWorld {
             }
             encoder
         };
-        let encoders: Vec<wgpu::CommandEncoder> = if sizes.len() > 1 {
-            sizes.par_iter().map(record).collect()
-        } else {
-            sizes.iter().map(record).collect()
-        };
-        for (encoder, (batch, _)) in encoders.into_iter().zip(sizes) {
+        // With nothing in flight (the start of a call, after a stop) the GPU idles until
+        // something is submitted: the first batch goes alone, the rest are recorded while
+        // it runs. The same batches in the same order either way.
+        let first = usize::from(f.in_flight.is_empty() && sizes.len() > 1);
+        let mut encoders: Vec<wgpu::CommandEncoder> = sizes[..first].iter().map(record).collect();
+        for (k, &(batch, _)) in sizes.iter().enumerate() {
+            if k == first {
+                encoders.extend(if sizes.len() - first > 1 {
+                    sizes[first..].par_iter().map(record).collect::<Vec<_>>()
+                } else {
+                    sizes[first..].iter().map(record).collect()
+                });
+            }
+            let encoder = encoders.remove(0);
             f.submitted += batch;
             // The status (and, with the last batch, the bodies) come back in one transfer.
             let last = f.submitted >= f.target;

@@ -42,6 +42,10 @@ const BATCH: u64 = 64;
 /// each dispatch, about as long as the GPU needs for a step of 65,536 spheres, so one
 /// recording thread would hold the GPU back; up to `2 * ENCODERS` batches are in flight.
 const ENCODERS: usize = 4;
+/// The environment variable that sets the most batches in flight (2 or more; default
+/// `2 * ENCODERS`): for timing the cost of a stopped pipeline, which runs every batch already
+/// submitted as no-ops before the host can act, against the GPU's idle time with fewer.
+pub const IN_FLIGHT_VAR: &str = "CLATTER_GPU_IN_FLIGHT";
 /// Initial pair capacity per body (grown on demand).
 const PAIRS_PER_BODY: u64 = 8;
 
