@@ -27,8 +27,8 @@ mkdir -p $PC
 # 1. The default CPU run, base then new, on cores 14 and 15 while the GPU works.
 (
   for x in base:/opt/base/clatter new:/opt/cl/clatter; do
-    s=$(date +%s.%N)
-    /usr/bin/time -f "%e s wall, %U s user" -o /tmp/cpu-${x%%:*}.time taskset -c 14,15 ${x#*:} run --backend cpu --threads 2 --out /tmp/cpu-${x%%:*} -q > /dev/null 2>&1
+    TIMEFORMAT="%R s wall, %U s user"
+    { time taskset -c 14,15 ${x#*:} run --backend cpu --threads 2 --out /tmp/cpu-${x%%:*} -q > /dev/null 2>&1; } 2> /tmp/cpu-${x%%:*}.time
     echo "cpu default run ${x%%:*}: $(cat /tmp/cpu-${x%%:*}.time | tail -1), final.csv $(md5sum < /tmp/cpu-${x%%:*}/final.csv | cut -c1-8)" >> /tmp/cpu.txt
   done
 ) &
