@@ -48,6 +48,7 @@ impl GpuWorld {
             .max(1024);
         let mut params = scene_params(world, capacity, mesh_base);
         params.deal = ctx.workgroup_runs();
+        params.poly_lanes = crate::pipeline::poly_lanes_from_env(ctx.is_software());
         let dims = dims_of(world, &params, capacity);
         // Every buffer within the device's limits before any is allocated.
         let too_large = |e: crate::buffers::Oversize| e.into_error(&ctx.adapter_name());
@@ -152,7 +153,6 @@ fn scene_params(world: &World, capacity: u64, mesh_base: u32) -> Params {
         num_boundaries: world.boundaries.len() as u32,
         mesh_base,
         full_test: full_test_only() as u32,
-        poly_lanes: crate::pipeline::poly_lanes_from_env(),
         ..Default::default()
     }
 }
