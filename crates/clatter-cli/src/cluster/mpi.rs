@@ -132,6 +132,64 @@ fn padded(m: &[u8]) -> Vec<u8> {
 }
 
 impl MpiComm {
+    /// The forward exchange into the caller's buffers (`Comm::all_to_all_into`): point to
+    /// point with the ranks that have something to send or receive (a box's neighbours; the
+    /// sizes are known on both sides, so none is exchanged), where an `Alltoallv` would touch
+    /// every rank; nothing allocated or zeroed here. A message longer than the limit goes in
+    /// pieces, received in the order sent (MPI does not let messages of one tag between two
+    /// ranks overtake each other). With `max`, the all-reduce of that value is posted first,
+    /// nonblocking, so that it is reduced while the ghost states travel, and its result is
+    /// returned (one wait for both; `Comm::all_to_all_into_and_max`).
+    fn forward(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>], max: Option<f32>) -> f32 {
+        let me = self.rank();
+        if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
+            mine.clone_from(m);
+        }
+        let piece = self.limit;
+        let x = max.unwrap_or(0.0);
+        let mut y = x;
+        mpi::request::scope(|scope| {
+            let reduced = if max.is_some() {
+                Some(self.world.immediate_all_reduce_into(
+                    scope,
+                    &x,
+                    &mut y,
+                    SystemOperation::max(),
+                ))
+            } else {
+                None
+            };
+            let mut requests = Vec::new();
+            for (r, buf) in recv.iter_mut().enumerate() {
+                if r != me && !buf.is_empty() {
+                    let from = self.world.process_at_rank(r as mpi::Rank);
+                    for chunk in buf.chunks_mut(piece) {
+                        requests.push(from.immediate_receive_into_with_tag(
+                            scope,
+                            chunk,
+                            FORWARD_TAG,
+                        ));
+                    }
+                }
+            }
+            for (r, m) in send.iter().enumerate() {
+                if r != me && !m.is_empty() {
+                    let to = self.world.process_at_rank(r as mpi::Rank);
+                    for chunk in m.chunks(piece) {
+                        requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
+                    }
+                }
+            }
+            for request in requests {
+                request.wait();
+            }
+            if let Some(reduced) = reduced {
+                reduced.wait();
+            }
+        });
+        y
+    }
+
     /// Every rank's `mine`, by rank: on every rank (`Allgatherv`), or on rank 0 alone
     /// (`Gatherv`, the others get nothing and never hold more than their own message).
     /// Every rank learns every length first, so all take the same rounds (almost always
@@ -226,85 +284,11 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all_into(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>]) {
-        // Point to point with the ranks that have something to send or receive (a box's
-        // neighbours; the sizes are known on both sides, so none is exchanged): the others
-        // are not involved, where an `Alltoallv` would touch every rank. Into the caller's
-        // buffers: nothing allocated or zeroed here. A message longer than the limit goes
-        // in pieces, received in the order sent (MPI does not let messages of one tag
-        // between two ranks overtake each other).
-        let me = self.rank();
-        if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
-            mine.clone_from(m);
-        }
-        let piece = self.limit;
-        mpi::request::scope(|scope| {
-            let mut requests = Vec::new();
-            for (r, buf) in recv.iter_mut().enumerate() {
-                if r != me && !buf.is_empty() {
-                    let from = self.world.process_at_rank(r as mpi::Rank);
-                    for chunk in buf.chunks_mut(piece) {
-                        requests.push(from.immediate_receive_into_with_tag(
-                            scope,
-                            chunk,
-                            FORWARD_TAG,
-                        ));
-                    }
-                }
-            }
-            for (r, m) in send.iter().enumerate() {
-                if r != me && !m.is_empty() {
-                    let to = self.world.process_at_rank(r as mpi::Rank);
-                    for chunk in m.chunks(piece) {
-                        requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
-                    }
-                }
-            }
-            for request in requests {
-                request.wait();
-            }
-        });
+        self.forward(send, recv, None);
     }
 
     fn all_to_all_into_and_max(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>], x: f32) -> f32 {
-        // As `all_to_all_into`, with the all-reduce posted first (nonblocking, the
-        // displacement reduced while the ghost states travel): one wait for both.
-        let me = self.rank();
-        if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
-            mine.clone_from(m);
-        }
-        let piece = self.limit;
-        let mut y = 0.0f32;
-        mpi::request::scope(|scope| {
-            let reduced =
-                self.world
-                    .immediate_all_reduce_into(scope, &x, &mut y, SystemOperation::max());
-            let mut requests = Vec::new();
-            for (r, buf) in recv.iter_mut().enumerate() {
-                if r != me && !buf.is_empty() {
-                    let from = self.world.process_at_rank(r as mpi::Rank);
-                    for chunk in buf.chunks_mut(piece) {
-                        requests.push(from.immediate_receive_into_with_tag(
-                            scope,
-                            chunk,
-                            FORWARD_TAG,
-                        ));
-                    }
-                }
-            }
-            for (r, m) in send.iter().enumerate() {
-                if r != me && !m.is_empty() {
-                    let to = self.world.process_at_rank(r as mpi::Rank);
-                    for chunk in m.chunks(piece) {
-                        requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
-                    }
-                }
-            }
-            for request in requests {
-                request.wait();
-            }
-            reduced.wait();
-        });
-        y
+        self.forward(send, recv, Some(x))
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {
