@@ -19,6 +19,7 @@ pub mod bandwidth;
 mod batch;
 pub mod buffers;
 pub mod context;
+pub mod env;
 #[cfg(feature = "test-harness")]
 pub mod law;
 pub mod layout;

@@ -187,16 +187,17 @@ pub const POLY_LANES: [u32; 2] = [8, 16];
 
 /// `CLATTER_GPU_POLY_LANES` (0, 8 or 16): how many lanes serve each polyhedron pair in the
 /// full narrow phase ([`ContactVariant::lanes`]). Read when a world is built; results are
-/// bitwise the same for every value, only speed differs. Unset (or anything else): 8 on a
+/// bitwise the same for every value, only speed differs. Unset: 8 on a
 /// hardware GPU (the kernel 7.7% faster, the step 5.5%, on 40,000 poured mixed polyhedra on
 /// an H200; BENCHMARKS.md), 0 on a CPU rasteriser (`software`: lavapipe, where 8 lanes took
-/// 1.6x the time).
+/// 1.6x the time). Any other value takes that default, with a warning on stderr.
 pub fn poly_lanes_from_env(software: bool) -> u32 {
-    std::env::var("CLATTER_GPU_POLY_LANES")
-        .ok()
-        .and_then(|v| v.trim().parse::<u32>().ok())
-        .filter(|l| *l == 0 || POLY_LANES.contains(l))
-        .unwrap_or(if software { 0 } else { 8 })
+    crate::env::u32_choice(
+        "CLATTER_GPU_POLY_LANES",
+        "0, 8 or 16",
+        |l| l == 0 || POLY_LANES.contains(&l),
+        if software { 0 } else { 8 },
+    )
 }
 
 /// The clipping buffer sizes compiled: 16, 32 and 64 points.

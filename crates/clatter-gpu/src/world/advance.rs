@@ -37,13 +37,14 @@ struct Flight {
 }
 
 /// The most batches in flight: `2 * ENCODERS`, or [`IN_FLIGHT_VAR`](super::IN_FLIGHT_VAR)
-/// when set to 2 or more. New batches are recorded when half of them are left.
+/// when set to 2 or more (another value: the default, with a warning). New batches are recorded when half of them are left.
 fn in_flight_depth() -> usize {
-    std::env::var(super::IN_FLIGHT_VAR)
-        .ok()
-        .and_then(|v| v.trim().parse::<usize>().ok())
-        .filter(|&d| d >= 2)
-        .unwrap_or(2 * ENCODERS)
+    crate::env::u32_choice(
+        super::IN_FLIGHT_VAR,
+        "a whole number of 2 or more",
+        |d| d >= 2,
+        2 * ENCODERS as u32,
+    ) as usize
 }
 
 impl GpuWorld {
