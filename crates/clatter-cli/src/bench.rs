@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::World;
-use clatter::pile::{PileParams, PileShape, pile, poured};
+use clatter::pile::{PileParams, PileShape, pile, poured, settled_desc, tiled};
+use clatter::{World, WorldDesc};
 use clatter_backend::{Device, Readback, StepError, Stepper};
 
 use clap::ValueEnum;
@@ -95,6 +95,13 @@ pub struct BenchArgs {
     /// $XDG_CACHE_HOME/clatter/piles, else ~/.cache/clatter/piles).
     #[arg(long, value_name = "DIR")]
     pub pile_cache: Option<PathBuf>,
+    /// With --pile poured: lay the settled pile of each --bodies count K times side by side
+    /// on one floor (a grid of tiles, the side walls between them left out), so that a row
+    /// times K x the bodies without pouring them all: e.g. --bodies 80000 --tiles 13 times
+    /// 1,040,000 bodies. The tiles start without contact history; --settle steps follow.
+    #[arg(long, value_name = "K", default_value_t = 1,
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub tiles: u32,
 }
 
 impl BenchArgs {
@@ -309,6 +316,8 @@ pub(crate) struct Plan {
     pub counts: Vec<usize>,
     /// The rows are poured piles (settled, cached).
     pub poured: bool,
+    /// Copies of each poured pile side by side (`--tiles`; 1 for one pile).
+    pub tiles: usize,
 }
 
 impl Plan {
@@ -321,14 +330,20 @@ impl Plan {
         }
     }
 
-    /// The world of `n` bodies before the pile is poured or settled: the scene's, the
-    /// lattice, or the poured pile's start (the same on every rank).
+    /// The world of `n` bodies (`n` times the tiles) before the pile is poured or settled:
+    /// the scene's, the lattice, or the poured pile's start (the same on every rank).
     pub fn fresh(&self, n: usize, params: &PileParams) -> World {
         match (&self.scene_world, self.poured) {
             (Some(w), _) => w.clone(),
             (None, false) => World::new(pile(self.shape, n, params)),
-            (None, true) => World::new(poured(self.shape, n, params, POUR_SEED)),
+            (None, true) => World::new(self.tile(poured(self.shape, n, params, POUR_SEED))),
         }
+    }
+
+    /// `desc` laid out [`Plan::tiles`] times ([`clatter::pile::tiled`]).
+    fn tile(&self, desc: WorldDesc) -> WorldDesc {
+        // `plan` checked that the tiles go with a poured pile, whose box `tiled` needs.
+        tiled(&desc, self.tiles).unwrap_or(desc)
     }
 }
 
@@ -376,10 +391,17 @@ pub(crate) fn plan(
     if args.profiled_steps().is_some() && args.pipeline.backend == Backend::Cpu {
         anyhow::bail!("--profile times GPU kernels: use it with --backend gpu");
     }
+    let poured = args.scene.is_none() && args.pile == PileArg::Poured;
+    if args.tiles > 1 && !poured {
+        anyhow::bail!(
+            "--tiles lays out copies of a poured pile: use it with --pile poured, without --scene"
+        );
+    }
     Ok(Plan {
         shape,
         name,
-        poured: args.scene.is_none() && args.pile == PileArg::Poured,
+        poured,
+        tiles: args.tiles as usize,
         scene_world,
         counts,
     })
@@ -393,7 +415,19 @@ pub(crate) fn settled_pile(
     params: &PileParams,
     args: &BenchArgs,
 ) -> anyhow::Result<World> {
-    poured_pile(plan.shape, plan.name, n, params, args, args.json)
+    let pile = poured_pile(plan.shape, plan.name, n, params, args, args.json)?;
+    if plan.tiles == 1 {
+        return Ok(pile);
+    }
+    let desc = settled_desc(&poured(plan.shape, n, params, POUR_SEED), &pile);
+    if !args.json {
+        eprintln!(
+            "# poured pile: {} tiles of {n} bodies side by side, {} bodies",
+            plan.tiles,
+            n * plan.tiles
+        );
+    }
+    Ok(World::new(plan.tile(desc)))
 }
 
 /// Runs the benchmark for every body count.
@@ -423,6 +457,8 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         } else {
             plan.fresh(n, &params)
         };
+        // With --tiles, the row times all the tiles' bodies.
+        let n = world.len();
         let device = match &gpu {
             Some(ctx) => Device::Shared(ctx.clone()),
             None => Device::Headless,

@@ -337,6 +337,29 @@ fn poured_pile_is_settled_once_and_cached() {
     assert_eq!(a[0]["contacts_per_body"], b[0]["contacts_per_body"]);
     assert!(a[0]["contacts_per_body"].as_f64().unwrap() > 1.0, "{a}");
     assert!(a[0]["pairs_per_body"].as_f64().unwrap() > 1.0, "{a}");
+    // `--tiles 3`: the cached pile three times side by side, timed as one row of 192 bodies
+    // in contact across the tiles' seams too (no new pile is settled or cached).
+    let mut tiled_args: Vec<&dyn AsRef<std::ffi::OsStr>> = args.to_vec();
+    tiled_args.extend([&"--tiles" as &dyn AsRef<std::ffi::OsStr>, &"3"]);
+    let tiled = clatter(&tiled_args);
+    assert_ok(&tiled, "bench poured --tiles 3");
+    let t = rows(&tiled);
+    assert_eq!(t[0]["bodies"], 192, "{t}");
+    assert_eq!(t[0]["pile"], "poured");
+    assert!(t[0]["contacts_per_body"].as_f64().unwrap() > 1.0, "{t}");
+    assert_eq!(std::fs::read_dir(&cache).expect("cache").count(), 1);
+    // Tiles copy a poured pile only.
+    let o = clatter(&[
+        &"bench",
+        &"--pile",
+        &"lattice",
+        &"--tiles",
+        &"2",
+        &"--bodies",
+        &"27",
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--tiles"));
     // The lattice pile needs no cache.
     let o = clatter(&[
         &"bench",
