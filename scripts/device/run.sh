@@ -69,6 +69,8 @@ stage mixed80k 200 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --
 # The poured pile comes back (xz) so that a later call can carry it in .devrun/pc/ and skip pouring.
 for f in $PC/mixed-n80000-*.ckpt; do [ -f "$f" ] && xz -T8 -c "$f" > $OUT/$(basename "$f").xz; done
 stage mixed80k_prof 45 $G --shape mixed --pile poured --bodies 80000 --steps 300 --settle 0 --profile --profile-steps 100
+# Issue 23's 1,000,000-body row: the 80,000 pile just settled, 13 tiles side by side (1,040,000).
+stage mixed1M_tiles 120 $G --shape mixed --pile poured --bodies 80000 --tiles 13 --steps 300 --settle 200
 stage default_bench 40 $G --scene default --settle 0 --steps 5000
 stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
 stage default_run_sparse 40 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
@@ -80,6 +82,7 @@ if [ "${1:-gpu}" = gpu ]; then
 stage mixed80k 260 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --settle 200
 stage mixed80k_prof 60 $G --shape mixed --pile poured --bodies 80000 --steps 300 --settle 0 --profile --profile-steps 100
 stage mixed1M_lat 90 $G --shape mixed --pile lattice --bodies 1048576 --steps 200 --settle 100
+stage mixed1M_tiles 120 $G --shape mixed --pile poured --bodies 80000 --tiles 13 --steps 300 --settle 200
 stage sph4M_lat 90 $G --shape sphere --pile lattice --bodies 4194304 --steps 500 --settle 200
 stage default_bench 60 $G --scene default --settle 0 --steps 5000
 stage default_run 60 $C run --backend gpu --steps 5000 -q --out /tmp/run1
