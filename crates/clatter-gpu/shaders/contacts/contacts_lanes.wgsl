@@ -122,71 +122,17 @@ fn lane_keep(r: ptr<function, LaneEdge>, key: u32, s: f32, axis: vec3<f32>) {
 }
 
 // nrw_edge_axes_gauss_map over A's edges lane, lane + POLY_LANES, ... (index ea *
-// b.num_edges + eb, the hint's).
+// b.num_edges + eb, the hint's): nrw_gauss_map_strided, the one-thread loop itself.
 fn lane_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, lane: u32) -> LaneEdge {
+    let g = nrw_gauss_map_strided(a, b, rot, inv_rot, t, lane, POLY_LANES);
     var r = lane_edge_none();
-    let use_bits = b.by_face_base != 0u;
-    for (var ea = lane; ea < a.num_edges; ea += POLY_LANES) {
-        let e_a = nrw_edge(a, ea);
-        let arc_a = inv_rot * shape_f[a.arc_base + ea].xyz;
-        let pa0 = nrw_vert(a, e_a.x);
-        let da = nrw_vert(a, e_a.y) - pa0;
-        let na0 = nrw_face(a, e_a.z).xyz;
-        let na1 = nrw_face(a, e_a.w).xyz;
-        var bits = vec2<u32>(0u);
-        if use_bits {
-            bits = nrw_crossing_candidates(b, arc_a);
-        }
-        var next = 0u;
-        loop {
-            var eb = 0u;
-            if use_bits {
-                if bits.x != 0u {
-                    eb = firstTrailingBit(bits.x);
-                    bits.x &= bits.x - 1u;
-                } else if bits.y != 0u {
-                    eb = 32u + firstTrailingBit(bits.y);
-                    bits.y &= bits.y - 1u;
-                } else {
-                    break;
-                }
-            } else {
-                if next >= b.num_edges {
-                    break;
-                }
-                eb = next;
-                next += 1u;
-            }
-            let e_b = nrw_edge(b, eb);
-            let cba = -dot(nrw_face(b, e_b.z).xyz, arc_a);
-            let dba = -dot(nrw_face(b, e_b.w).xyz, arc_a);
-            if cba * dba >= 0.0 {
-                continue;
-            }
-            let arc_b = rot * shape_f[b.arc_base + eb].xyz;
-            let adc = dot(na0, arc_b);
-            let bdc = dot(na1, arc_b);
-            if adc * bdc >= 0.0 || cba * bdc <= 0.0 {
-                continue;
-            }
-            let pb0 = nrw_bv(b, e_b.x, rot, t);
-            let db = nrw_bv(b, e_b.y, rot, t) - pb0;
-            let ax = cross(da, db);
-            let len2 = dot(ax, ax);
-            if len2 < 1e-10 * dot(da, da) * dot(db, db) {
-                continue;
-            }
-            var axis = ax / sqrt(len2);
-            if dot(axis, pa0) < 0.0 {
-                axis = -axis;
-            }
-            let s = dot(axis, pb0 - pa0);
-            if s > 0.0 {
-                r.sep = ea * b.num_edges + eb;
-                return r;
-            }
-            lane_keep(&r, ea * b.num_edges + eb, s, axis);
-        }
+    r.nan = g.nan;
+    if g.separated {
+        r.sep = g.sep_ea * b.num_edges + g.sep_eb;
+    } else if g.found && !g.nan {
+        r.key = g.ea * b.num_edges + g.eb;
+        r.s = g.s;
+        r.axis = g.axis;
     }
     return r;
 }

@@ -169,21 +169,28 @@ fn nrw_crossing_candidates(b: NrwShape, arc_a: vec3<f32>) -> vec2<u32> {
     return (pos & neg) | other;
 }
 
-// Edge axes over edge pairs whose Gauss-map arcs cross (CPU `edge_axes_gauss_map`; the
-// CPU's two product tables are recomputed per pair). Where B has its edges by face as bit
-// sets, only the candidates of nrw_crossing_candidates are visited, in increasing order, so
-// the same edges meet the same tests in the same order as when every edge is visited.
-fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
-    var r: NrwEdgeAxis;
-    r.s = 0.0;
-    r.ea = 0u;
-    r.eb = 0u;
-    r.axis = vec3<f32>(0.0);
-    r.found = false;
-    r.separated = false;
-    r.hint = 0u;
+// The Gauss-map search over A's edges first, first + stride, ...: the loop of
+// nrw_edge_axes_gauss_map (stride 1) and of each lane of contacts_full_poly_lanes
+// (contacts_lanes.wgsl, stride POLY_LANES), written once so that both make the same
+// decisions on the same arithmetic. It stops at the first separating axis (sep_ea, sep_eb);
+// else it keeps the largest separation, the first of equal ones (a NaN is kept only when
+// it comes first, as the one-thread loop does, and noted in `nan`).
+struct NrwGaussMap {
+    s: f32,
+    ea: u32,
+    eb: u32,
+    axis: vec3<f32>,
+    found: bool,
+    separated: bool,
+    sep_ea: u32,
+    sep_eb: u32,
+    nan: bool,
+}
+
+fn nrw_gauss_map_strided(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, first: u32, stride: u32) -> NrwGaussMap {
+    var r = NrwGaussMap(0.0, 0u, 0u, vec3<f32>(0.0), false, false, 0u, 0u, false);
     let use_bits = b.by_face_base != 0u;
-    for (var ea = 0u; ea < a.num_edges; ea += 1u) {
+    for (var ea = first; ea < a.num_edges; ea += stride) {
         let e_a = nrw_edge(a, ea);
         let arc_a = inv_rot * shape_f[a.arc_base + ea].xyz;
         let pa0 = nrw_vert(a, e_a.x);
@@ -241,8 +248,12 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
             let s = dot(axis, pb0 - pa0);
             if s > 0.0 {
                 r.separated = true;
-                r.hint = nrw_hint(3u, ea * b.num_edges + eb);
+                r.sep_ea = ea;
+                r.sep_eb = eb;
                 return r;
+            }
+            if s != s {
+                r.nan = true;
             }
             if !r.found || s > r.s {
                 r.found = true;
@@ -252,6 +263,26 @@ fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: 
                 r.axis = axis;
             }
         }
+    }
+    return r;
+}
+
+// Edge axes over edge pairs whose Gauss-map arcs cross (CPU `edge_axes_gauss_map`; the
+// CPU's two product tables are recomputed per pair). Where B has its edges by face as bit
+// sets, only the candidates of nrw_crossing_candidates are visited, in increasing order, so
+// the same edges meet the same tests in the same order as when every edge is visited.
+fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
+    let g = nrw_gauss_map_strided(a, b, rot, inv_rot, t, 0u, 1u);
+    var r: NrwEdgeAxis;
+    r.s = g.s;
+    r.ea = g.ea;
+    r.eb = g.eb;
+    r.axis = g.axis;
+    r.found = g.found;
+    r.separated = g.separated;
+    r.hint = 0u;
+    if g.separated {
+        r.hint = nrw_hint(3u, g.sep_ea * b.num_edges + g.sep_eb);
     }
     return r;
 }
