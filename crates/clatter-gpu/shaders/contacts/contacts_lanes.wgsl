@@ -127,12 +127,12 @@ fn lane_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f3
     let g = nrw_gauss_map_strided(a, b, rot, inv_rot, t, lane, POLY_LANES);
     var r = lane_edge_none();
     r.nan = g.nan;
-    if g.separated {
+    if g.e.separated {
         r.sep = g.sep_ea * b.num_edges + g.sep_eb;
-    } else if g.found && !g.nan {
-        r.key = g.ea * b.num_edges + g.eb;
-        r.s = g.s;
-        r.axis = g.axis;
+    } else if g.e.found && !g.nan {
+        r.key = g.e.ea * b.num_edges + g.e.eb;
+        r.s = g.e.s;
+        r.axis = g.e.axis;
     }
     return r;
 }

@@ -176,19 +176,15 @@ fn nrw_crossing_candidates(b: NrwShape, arc_a: vec3<f32>) -> vec2<u32> {
 // else it keeps the largest separation, the first of equal ones (a NaN is kept only when
 // it comes first, as the one-thread loop does, and noted in `nan`).
 struct NrwGaussMap {
-    s: f32,
-    ea: u32,
-    eb: u32,
-    axis: vec3<f32>,
-    found: bool,
-    separated: bool,
+    // The best axis (`hint` left 0).
+    e: NrwEdgeAxis,
     sep_ea: u32,
     sep_eb: u32,
     nan: bool,
 }
 
 fn nrw_gauss_map_strided(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>, first: u32, stride: u32) -> NrwGaussMap {
-    var r = NrwGaussMap(0.0, 0u, 0u, vec3<f32>(0.0), false, false, 0u, 0u, false);
+    var r = NrwGaussMap(NrwEdgeAxis(0.0, 0u, 0u, vec3<f32>(0.0), false, false, 0u), 0u, 0u, false);
     let use_bits = b.by_face_base != 0u;
     for (var ea = first; ea < a.num_edges; ea += stride) {
         let e_a = nrw_edge(a, ea);
@@ -247,7 +243,7 @@ fn nrw_gauss_map_strided(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: ma
             }
             let s = dot(axis, pb0 - pa0);
             if s > 0.0 {
-                r.separated = true;
+                r.e.separated = true;
                 r.sep_ea = ea;
                 r.sep_eb = eb;
                 return r;
@@ -255,12 +251,12 @@ fn nrw_gauss_map_strided(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: ma
             if s != s {
                 r.nan = true;
             }
-            if !r.found || s > r.s {
-                r.found = true;
-                r.s = s;
-                r.ea = ea;
-                r.eb = eb;
-                r.axis = axis;
+            if !r.e.found || s > r.e.s {
+                r.e.found = true;
+                r.e.s = s;
+                r.e.ea = ea;
+                r.e.eb = eb;
+                r.e.axis = axis;
             }
         }
     }
@@ -273,15 +269,8 @@ fn nrw_gauss_map_strided(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: ma
 // the same edges meet the same tests in the same order as when every edge is visited.
 fn nrw_edge_axes_gauss_map(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: vec3<f32>) -> NrwEdgeAxis {
     let g = nrw_gauss_map_strided(a, b, rot, inv_rot, t, 0u, 1u);
-    var r: NrwEdgeAxis;
-    r.s = g.s;
-    r.ea = g.ea;
-    r.eb = g.eb;
-    r.axis = g.axis;
-    r.found = g.found;
-    r.separated = g.separated;
-    r.hint = 0u;
-    if g.separated {
+    var r = g.e;
+    if r.separated {
         r.hint = nrw_hint(3u, g.sep_ea * b.num_edges + g.sep_eb);
     }
     return r;
