@@ -197,6 +197,35 @@ struct LaneSat {
     hint: u32,
 }
 
+// One body's face loop of nrw_sat over its separations in the table (`count` from `at`):
+// the first separating face (`sep`, LANE_NONE when none), else the best and second
+// separations and the best face, as the one-thread loop leaves them (also where it stops).
+struct LaneFaces {
+    best: f32,
+    second: f32,
+    best_f: u32,
+    sep: u32,
+}
+
+fn lane_face_loop(at: u32, count: u32) -> LaneFaces {
+    var r = LaneFaces(NRW_LOWEST, NRW_LOWEST, 0u, LANE_NONE);
+    for (var f = 0u; f < count; f += 1u) {
+        let s = wg_lane_face[at + f];
+        if s > 0.0 {
+            r.sep = f;
+            return r;
+        }
+        if f == 0u || s > r.best {
+            r.second = r.best;
+            r.best = s;
+            r.best_f = f;
+        } else if s > r.second {
+            r.second = s;
+        }
+    }
+    return r;
+}
+
 fn lane_sat(lp: LanePair, lid: u32) -> LaneSat {
     let lane = lid % POLY_LANES;
     let slot = lid / POLY_LANES;
@@ -229,36 +258,22 @@ fn lane_sat(lp: LanePair, lid: u32) -> LaneSat {
     var edges = false;
     if lp.live {
         var done = false;
-        for (var f = 0u; f < a.num_faces; f += 1u) {
-            let s = wg_lane_face[base + f];
-            if s > 0.0 {
-                out.hint = nrw_hint(0u, f);
-                done = true;
-                break;
-            }
-            if f == 0u || s > r.best_a {
-                r.second_a = r.best_a;
-                r.best_a = s;
-                r.best_af = f;
-            } else if s > r.second_a {
-                r.second_a = s;
-            }
+        let fa = lane_face_loop(base, a.num_faces);
+        r.best_a = fa.best;
+        r.second_a = fa.second;
+        r.best_af = fa.best_f;
+        if fa.sep != LANE_NONE {
+            out.hint = nrw_hint(0u, fa.sep);
+            done = true;
         }
         if !done {
-            for (var f = 0u; f < b.num_faces; f += 1u) {
-                let s = wg_lane_face[base + LANE_FACES + f];
-                if s > 0.0 {
-                    out.hint = nrw_hint(1u, f);
-                    done = true;
-                    break;
-                }
-                if f == 0u || s > r.best_b {
-                    r.second_b = r.best_b;
-                    r.best_b = s;
-                    r.best_bf = f;
-                } else if s > r.second_b {
-                    r.second_b = s;
-                }
+            let fb = lane_face_loop(base + LANE_FACES, b.num_faces);
+            r.best_b = fb.best;
+            r.second_b = fb.second;
+            r.best_bf = fb.best_f;
+            if fb.sep != LANE_NONE {
+                out.hint = nrw_hint(1u, fb.sep);
+                done = true;
             }
         }
         if !done {
