@@ -257,26 +257,22 @@ fn lane_sat(lp: LanePair, lid: u32) -> LaneSat {
     r.second_b = NRW_LOWEST;
     var edges = false;
     if lp.live {
-        var done = false;
         let fa = lane_face_loop(base, a.num_faces);
+        var fb = LaneFaces(NRW_LOWEST, NRW_LOWEST, 0u, LANE_NONE);
+        if fa.sep == LANE_NONE {
+            fb = lane_face_loop(base + LANE_FACES, b.num_faces);
+        }
         r.best_a = fa.best;
         r.second_a = fa.second;
         r.best_af = fa.best_f;
+        r.best_b = fb.best;
+        r.second_b = fb.second;
+        r.best_bf = fb.best_f;
         if fa.sep != LANE_NONE {
             out.hint = nrw_hint(0u, fa.sep);
-            done = true;
-        }
-        if !done {
-            let fb = lane_face_loop(base + LANE_FACES, b.num_faces);
-            r.best_b = fb.best;
-            r.second_b = fb.second;
-            r.best_bf = fb.best_f;
-            if fb.sep != LANE_NONE {
-                out.hint = nrw_hint(1u, fb.sep);
-                done = true;
-            }
-        }
-        if !done {
+        } else if fb.sep != LANE_NONE {
+            out.hint = nrw_hint(1u, fb.sep);
+        } else {
             // A NaN best face would make the edge floor's decisions the loop's own.
             edges = r.best_a == r.best_a && r.best_b == r.best_b;
             out.ok = edges;
