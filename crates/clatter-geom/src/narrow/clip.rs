@@ -47,42 +47,26 @@ pub(super) fn clip_faces(
         }
     }
     let ClipBuffers { poly, tmp, pts } = clip;
-    poly.clear();
-    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v(i as usize)));
-    let rl = refp.face_loop(rf);
-    for k in 0..rl.len() {
-        let v0 = refp.vertices[rl[k] as usize];
-        let v1 = refp.vertices[rl[if k + 1 < rl.len() { k + 1 } else { 0 }] as usize];
-        let side = (v1 - v0).cross(n); // outward for a CCW loop
-        let off = side.dot(v0);
-        // Each corner's distance is computed once (the same expression for it as the start
-        // and as the end of an edge, so the same bits), and the loop closes on the first.
-        tmp.clear();
-        let Some(&first) = poly.first() else {
-            break;
-        };
-        let d_first = side.dot(first) - off;
-        let (mut p, mut dp) = (first, d_first);
-        for i in 1..=poly.len() {
-            let (q, dq) = match poly.get(i) {
-                Some(&q) => (q, side.dot(q) - off),
-                None => (first, d_first),
-            };
-            if dp <= 0.0 {
-                tmp.push(p);
-            }
-            if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
-                tmp.push(p + (q - p) * (dp / (dp - dq)));
-            }
-            (p, dp) = (q, dq);
-        }
+    // The polygons are written by index into buffers at least twice as long as the polygon
+    // clipped (clipping by one plane at most doubles a polygon: each corner gives itself
+    // and one crossing at most), grown when needed and never shrunk, so that no push
+    // checks its capacity.
+    let il = inc.face_loop(inc_face);
+    fit(poly, 2 * il.len());
+    for (slot, &i) in poly.iter_mut().zip(il) {
+        *slot = inc_v(i as usize);
+    }
+    let mut len = il.len();
+    for &(side, off) in refp.side_planes(rf) {
+        fit(tmp, 2 * len);
+        len = clip_by_plane(&poly[..len], tmp, side, off);
         std::mem::swap(poly, tmp);
-        if poly.is_empty() {
+        if len == 0 {
             break;
         }
     }
     pts.clear();
-    for &p in poly.iter() {
+    for &p in &poly[..len] {
         let depth = rface.offset - n.dot(p);
         if depth > 0.0 {
             pts.push((p + n * (0.5 * depth), depth));
@@ -102,6 +86,46 @@ pub(super) fn clip_faces(
         return Some(Manifold::single(n, deepest + n * (0.5 * depth), depth));
     }
     Some(reduce(pts, n))
+}
+
+/// Grows `buf` to at least `len` entries (never shrinks it).
+#[inline]
+fn fit(buf: &mut Vec<Vec3>, len: usize) {
+    if buf.len() < len {
+        buf.resize(len, Vec3::ZERO);
+    }
+}
+
+/// Clips the convex polygon `src` by the side plane `side . x - off <= 0`, writing the
+/// kept corners and the edges' crossings in order into `dst` (at least `2 src.len()` long)
+/// and returning their count. Each corner's distance is computed once (the same
+/// expression for it as the start and as the end of an edge, so the same bits), and the
+/// loop closes on the first corner.
+#[inline(always)]
+fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> usize {
+    let Some((&first, rest)) = src.split_first() else {
+        return 0;
+    };
+    let mut w = 0;
+    let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
+        if dp <= 0.0 {
+            dst[w] = p;
+            w += 1;
+        }
+        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+            dst[w] = p + (q - p) * (dp / (dp - dq));
+            w += 1;
+        }
+    };
+    let d_first = side.dot(first) - off;
+    let (mut p, mut dp) = (first, d_first);
+    for &q in rest {
+        let dq = side.dot(q) - off;
+        edge(p, dp, q, dq);
+        (p, dp) = (q, dq);
+    }
+    edge(p, dp, first, d_first);
+    w
 }
 
 /// Closest points of segments `p0-p1` and `q0-q1`.
