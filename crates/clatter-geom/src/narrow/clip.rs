@@ -59,8 +59,10 @@ pub(super) fn clip_faces(
     let mut len = il.len();
     for &(side, off) in refp.side_planes(rf) {
         fit(tmp, 2 * len);
-        len = clip_by_plane(&poly[..len], tmp, side, off);
-        std::mem::swap(poly, tmp);
+        if let Some(kept) = clip_by_plane(&poly[..len], tmp, side, off) {
+            len = kept;
+            std::mem::swap(poly, tmp);
+        }
         if len == 0 {
             break;
         }
@@ -98,14 +100,30 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
 
 /// Clips the convex polygon `src` by the side plane `side . x - off <= 0`, writing the
 /// kept corners and the edges' crossings in order into `dst` (at least `2 src.len()` long)
-/// and returning their count. Each corner's distance is computed once (the same
-/// expression for it as the start and as the end of an edge, so the same bits), and the
-/// loop closes on the first corner.
+/// and returning their count, or `None` when the plane keeps `src` as it is (no copy).
+/// Each corner's distance is computed by one expression (the same for it as the start and
+/// as the end of an edge, so the same bits), and the loop closes on the first corner.
 #[inline(always)]
-fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> usize {
+fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> Option<usize> {
     let Some((&first, rest)) = src.split_first() else {
-        return 0;
+        return Some(0);
     };
+    let d_first = side.dot(first) - off;
+    // A plane that every corner is inside (or on) keeps the polygon as it is: no corner is
+    // dropped and no edge crosses (a crossing needs a corner strictly outside); then
+    // `None`, the polygon in `src` stands, and it is not copied. The scan stops at the
+    // first corner outside (its distance computed again below by the same expression: the
+    // same float). (Written so that a NaN distance counts as outside, as `dp <= 0` drops
+    // such a corner.)
+    let outside = |d: f32| {
+        !matches!(
+            d.partial_cmp(&0.0),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        )
+    };
+    if !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
+        return None;
+    }
     let mut w = 0;
     let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
         if dp <= 0.0 {
@@ -117,7 +135,6 @@ fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> usize 
             w += 1;
         }
     };
-    let d_first = side.dot(first) - off;
     let (mut p, mut dp) = (first, d_first);
     for &q in rest {
         let dq = side.dot(q) - off;
@@ -125,7 +142,7 @@ fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> usize 
         (p, dp) = (q, dq);
     }
     edge(p, dp, first, d_first);
-    w
+    Some(w)
 }
 
 /// Closest points of segments `p0-p1` and `q0-q1`.
