@@ -52,6 +52,12 @@ pub struct ConvexPolyhedron {
     /// `vertices` like the planes and `radius`: a changed shape is built anew), so that the
     /// separating-axis test does not lay them out again for every pair.
     lanes: crate::narrow::SoaPoints,
+    /// For each face's loop edge `k` (from `face_vertices[first + k]` to the next vertex of
+    /// the loop), its side plane `(side, offset)`: `side = (v1 - v0) x normal` (outward for
+    /// a counter-clockwise loop) and `offset = side . v0`, built once by the constructor
+    /// with the clipping's own expressions (the same floats), so that clipping an incident
+    /// face against a reference face does not recompute them for every pair and step.
+    side_planes: Vec<(Vec3, f32)>,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -177,8 +183,10 @@ impl ConvexPolyhedron {
             box_frame: None,
             corner_box: None,
             lanes: crate::narrow::SoaPoints::default(),
+            side_planes: Vec::new(),
         };
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
+        p.side_planes = Self::build_side_planes(&p);
         p.box_frame = crate::query::support::detect_box(&p);
         p.corner_box = Self::detect_corner_box(&p.vertices);
         p
@@ -207,6 +215,29 @@ impl ConvexPolyhedron {
                 1 << ((v.x < 0.0) as u32 | ((v.y < 0.0) as u32) << 1 | ((v.z < 0.0) as u32) << 2);
         }
         (seen == 0xff).then_some(h)
+    }
+
+    /// The side planes of every face's loop edges, in `face_vertices`' order (see the field).
+    fn build_side_planes(p: &Self) -> Vec<(Vec3, f32)> {
+        let mut planes = Vec::with_capacity(p.face_vertices.len());
+        for (f, face) in p.faces.iter().enumerate() {
+            let rl = p.face_loop(f);
+            for k in 0..rl.len() {
+                let v0 = p.vertices[rl[k] as usize];
+                let v1 = p.vertices[rl[if k + 1 < rl.len() { k + 1 } else { 0 }] as usize];
+                let side = (v1 - v0).cross(face.normal);
+                planes.push((side, side.dot(v0)));
+            }
+        }
+        planes
+    }
+
+    /// The side planes `(side, offset)` of face `f`'s loop edges, in loop order: a point
+    /// `x` of the face's plane is inside the face when `side . x - offset <= 0` for all.
+    #[inline]
+    pub(crate) fn side_planes(&self, f: usize) -> &[(Vec3, f32)] {
+        let face = &self.faces[f];
+        &self.side_planes[face.first as usize..(face.first + face.count) as usize]
     }
 
     /// The vertices as the separating-axis test's lanes (built by the constructor).

@@ -67,28 +67,12 @@ pub(crate) fn reduce<V: PatchVec>(pts: &[(V, V::S)], normal: V) -> ([usize; 4], 
     if pts.len() <= 4 {
         return ([0, 1, 2, 3], pts.len());
     }
-    let a = (0..pts.len())
-        .max_by(|&i, &j| V::total_cmp(&pts[i].1, &pts[j].1))
-        .unwrap_or(0);
+    let a = last_max::<V>(0..pts.len(), |i| pts[i].1).unwrap_or(0);
     let pa = pts[a].0;
-    let b = (0..pts.len())
-        .max_by(|&i, &j| {
-            V::total_cmp(
-                &(pts[i].0 - pa).length_squared(),
-                &(pts[j].0 - pa).length_squared(),
-            )
-        })
-        .unwrap_or(0);
+    let b = last_max::<V>(0..pts.len(), |i| (pts[i].0 - pa).length_squared()).unwrap_or(0);
     let pb = pts[b].0;
     let area = |p: V, q: V, r: V| (q - p).cross(r - p).dot(normal);
-    let c = (0..pts.len())
-        .max_by(|&i, &j| {
-            V::total_cmp(
-                &V::abs(area(pa, pb, pts[i].0)),
-                &V::abs(area(pa, pb, pts[j].0)),
-            )
-        })
-        .unwrap_or(0);
+    let c = last_max::<V>(0..pts.len(), |i| V::abs(area(pa, pb, pts[i].0))).unwrap_or(0);
     let pc = pts[c].0;
     let sign = V::signum(area(pa, pb, pc));
     let gain = |p: V| {
@@ -97,9 +81,10 @@ pub(crate) fn reduce<V: PatchVec>(pts: &[(V, V::S)], normal: V) -> ([usize; 4], 
             -sign * area(pc, pa, p),
         )
     };
-    let d = (0..pts.len())
-        .filter(|&i| i != a && i != b && i != c)
-        .max_by(|&i, &j| V::total_cmp(&gain(pts[i].0), &gain(pts[j].0)));
+    let d = last_max::<V>(
+        (0..pts.len()).filter(|&i| i != a && i != b && i != c),
+        |i| gain(pts[i].0),
+    );
     let mut idx = [a; 4];
     let mut n = 1;
     for i in [Some(b), Some(c), d].into_iter().flatten() {
@@ -109,6 +94,27 @@ pub(crate) fn reduce<V: PatchVec>(pts: &[(V, V::S)], normal: V) -> ([usize; 4], 
         }
     }
     (idx, n)
+}
+
+/// The index of `indices` whose `key` is largest by `total_cmp`, the last of equals: what
+/// `indices.max_by(|&i, &j| total_cmp(&key(i), &key(j)))` returns, with each key computed
+/// once instead of once per comparison side (the same pure expression, so the same keys).
+#[inline(always)]
+fn last_max<V: PatchVec>(
+    mut indices: impl Iterator<Item = usize>,
+    key: impl Fn(usize) -> V::S,
+) -> Option<usize> {
+    let mut best = indices.next()?;
+    let mut best_key = key(best);
+    for i in indices {
+        let k = key(i);
+        // `max_by` keeps the later element unless the earlier compares greater.
+        if V::total_cmp(&best_key, &k) != Ordering::Greater {
+            best = i;
+            best_key = k;
+        }
+    }
+    Some(best)
 }
 
 #[cfg(test)]

@@ -47,42 +47,28 @@ pub(super) fn clip_faces(
         }
     }
     let ClipBuffers { poly, tmp, pts } = clip;
-    poly.clear();
-    poly.extend(inc.face_loop(inc_face).iter().map(|&i| inc_v(i as usize)));
-    let rl = refp.face_loop(rf);
-    for k in 0..rl.len() {
-        let v0 = refp.vertices[rl[k] as usize];
-        let v1 = refp.vertices[rl[if k + 1 < rl.len() { k + 1 } else { 0 }] as usize];
-        let side = (v1 - v0).cross(n); // outward for a CCW loop
-        let off = side.dot(v0);
-        // Each corner's distance is computed once (the same expression for it as the start
-        // and as the end of an edge, so the same bits), and the loop closes on the first.
-        tmp.clear();
-        let Some(&first) = poly.first() else {
-            break;
-        };
-        let d_first = side.dot(first) - off;
-        let (mut p, mut dp) = (first, d_first);
-        for i in 1..=poly.len() {
-            let (q, dq) = match poly.get(i) {
-                Some(&q) => (q, side.dot(q) - off),
-                None => (first, d_first),
-            };
-            if dp <= 0.0 {
-                tmp.push(p);
-            }
-            if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
-                tmp.push(p + (q - p) * (dp / (dp - dq)));
-            }
-            (p, dp) = (q, dq);
+    // The polygons are written by index into buffers at least twice as long as the polygon
+    // clipped (clipping by one plane at most doubles a polygon: each corner gives itself
+    // and one crossing at most), grown when needed and never shrunk, so that no push
+    // checks its capacity.
+    let il = inc.face_loop(inc_face);
+    fit(poly, 2 * il.len());
+    for (slot, &i) in poly.iter_mut().zip(il) {
+        *slot = inc_v(i as usize);
+    }
+    let mut len = il.len();
+    for &(side, off) in refp.side_planes(rf) {
+        fit(tmp, 2 * len);
+        if let Some(kept) = clip_by_plane(&poly[..len], tmp, side, off) {
+            len = kept;
+            std::mem::swap(poly, tmp);
         }
-        std::mem::swap(poly, tmp);
-        if poly.is_empty() {
+        if len == 0 {
             break;
         }
     }
     pts.clear();
-    for &p in poly.iter() {
+    for &p in &poly[..len] {
         let depth = rface.offset - n.dot(p);
         if depth > 0.0 {
             pts.push((p + n * (0.5 * depth), depth));
@@ -102,6 +88,61 @@ pub(super) fn clip_faces(
         return Some(Manifold::single(n, deepest + n * (0.5 * depth), depth));
     }
     Some(reduce(pts, n))
+}
+
+/// Grows `buf` to at least `len` entries (never shrinks it).
+#[inline]
+fn fit(buf: &mut Vec<Vec3>, len: usize) {
+    if buf.len() < len {
+        buf.resize(len, Vec3::ZERO);
+    }
+}
+
+/// Clips the convex polygon `src` by the side plane `side . x - off <= 0`, writing the
+/// kept corners and the edges' crossings in order into `dst` (at least `2 src.len()` long)
+/// and returning their count, or `None` when the plane keeps `src` as it is (no copy).
+/// Each corner's distance is computed by one expression (the same for it as the start and
+/// as the end of an edge, so the same bits), and the loop closes on the first corner.
+#[inline(always)]
+fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> Option<usize> {
+    let Some((&first, rest)) = src.split_first() else {
+        return Some(0);
+    };
+    let d_first = side.dot(first) - off;
+    // A plane that every corner is inside (or on) keeps the polygon as it is: no corner is
+    // dropped and no edge crosses (a crossing needs a corner strictly outside); then
+    // `None`, the polygon in `src` stands, and it is not copied. The scan stops at the
+    // first corner outside (its distance computed again below by the same expression: the
+    // same float). (Written so that a NaN distance counts as outside, as `dp <= 0` drops
+    // such a corner.)
+    let outside = |d: f32| {
+        !matches!(
+            d.partial_cmp(&0.0),
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        )
+    };
+    if !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
+        return None;
+    }
+    let mut w = 0;
+    let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
+        if dp <= 0.0 {
+            dst[w] = p;
+            w += 1;
+        }
+        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+            dst[w] = p + (q - p) * (dp / (dp - dq));
+            w += 1;
+        }
+    };
+    let (mut p, mut dp) = (first, d_first);
+    for &q in rest {
+        let dq = side.dot(q) - off;
+        edge(p, dp, q, dq);
+        (p, dp) = (q, dq);
+    }
+    edge(p, dp, first, d_first);
+    Some(w)
 }
 
 /// Closest points of segments `p0-p1` and `q0-q1`.
@@ -137,4 +178,184 @@ pub(super) fn segment_closest(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (Vec3, 
         };
     }
     (p0 + d1 * s, q0 + d2 * t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Mat3, Quat};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The face clipping as it was before its buffers were written by index and its side
+    /// planes kept with the shape (pushes into vectors, side planes from the loop, every
+    /// plane copying the polygon), kept as the reference.
+    fn reference(
+        refp: &ConvexPolyhedron,
+        rf: usize,
+        inc: &ConvexPolyhedron,
+        inc_v: impl Fn(usize) -> Vec3,
+        inc_rot: Mat3,
+    ) -> Option<Vec<(Vec3, f32)>> {
+        let rface = refp.faces[rf];
+        let n = rface.normal;
+        let n_inc = inc_rot.transpose() * n;
+        let mut inc_face = 0;
+        let mut best = f32::INFINITY;
+        for (f, face) in inc.faces.iter().enumerate() {
+            let d = face.normal.dot(n_inc);
+            if d < best {
+                best = d;
+                inc_face = f;
+            }
+        }
+        let mut poly: Vec<Vec3> = inc
+            .face_loop(inc_face)
+            .iter()
+            .map(|&i| inc_v(i as usize))
+            .collect();
+        let rl = refp.face_loop(rf);
+        for k in 0..rl.len() {
+            let v0 = refp.vertices[rl[k] as usize];
+            let v1 = refp.vertices[rl[(k + 1) % rl.len()] as usize];
+            let side = (v1 - v0).cross(n);
+            let off = side.dot(v0);
+            let mut out = Vec::new();
+            for i in 0..poly.len() {
+                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+                let (dp, dq) = (side.dot(p) - off, side.dot(q) - off);
+                if dp <= 0.0 {
+                    out.push(p);
+                }
+                if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+                    out.push(p + (q - p) * (dp / (dp - dq)));
+                }
+            }
+            poly = out;
+            if poly.is_empty() {
+                break;
+            }
+        }
+        let pts: Vec<(Vec3, f32)> = poly
+            .iter()
+            .filter_map(|&p| {
+                let depth = rface.offset - n.dot(p);
+                (depth > 0.0).then(|| (p + n * (0.5 * depth), depth))
+            })
+            .collect();
+        if pts.is_empty() {
+            let deepest = (0..inc.vertices.len())
+                .map(inc_v)
+                .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
+            let depth = rface.offset - n.dot(deepest);
+            return (depth > 0.0).then(|| vec![(deepest + n * (0.5 * depth), depth)]);
+        }
+        let (idx, count) = crate::reduce::reduce(&pts, n);
+        Some(idx[..count].iter().map(|&i| pts[i]).collect())
+    }
+
+    fn bits(p: &[(Vec3, f32)]) -> Vec<[u32; 4]> {
+        p.iter()
+            .map(|(v, d)| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits(), d.to_bits()])
+            .collect()
+    }
+
+    /// Boxes (the pile's case: quads against rectangles) and random hulls, the incident
+    /// body turned at random and placed just through each reference face (touching,
+    /// crossing its sides, or clipped away), sometimes exactly aligned (corners on the side
+    /// planes, planes that cut nothing): every manifold bitwise the reference's.
+    #[test]
+    fn face_clipping_is_the_reference_bitwise() {
+        let mut r = ChaCha8Rng::seed_from_u64(13);
+        let cube = |h: Vec3| {
+            let v: Vec<Vec3> = (0..8)
+                .map(|k| {
+                    let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
+                    Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
+                })
+                .collect();
+            crate::convex_hull(&v).expect("box hull")
+        };
+        // A prism whose triangle, turned onto the cube's face exactly, has a corner on a
+        // side plane of the cube (a coordinate of 0.01) while the plane cuts another
+        // corner (0.02): a corner at distance zero on a plane that clips.
+        let tri = [(0.01, 0.005), (0.02, -0.005), (-0.005, -0.005)];
+        let prism: Vec<Vec3> = [-0.01, 0.01]
+            .iter()
+            .flat_map(|&z| tri.map(|(x, y)| Vec3::new(x, y, z)))
+            .collect();
+        let mut shapes = vec![
+            cube(Vec3::splat(0.01)),
+            cube(Vec3::new(0.5, 0.2, 0.3)),
+            crate::convex_hull(&prism).expect("prism hull"),
+        ];
+        for _ in 0..4 {
+            let v: Vec<Vec3> = (0..r.random_range(6..24))
+                .map(|_| Vec3::new(r.random(), r.random(), r.random()) - 0.5)
+                .collect();
+            shapes.push(crate::convex_hull(&v).expect("random hull"));
+        }
+        let (mut cases, mut multi, mut many) = (0, 0, 0);
+        let mut buffers = ClipBuffers::default();
+        for case in 0..20_000 {
+            let refp = &shapes[r.random_range(0..shapes.len())];
+            let inc = &shapes[r.random_range(0..shapes.len())];
+            let rf = r.random_range(0..refp.faces.len());
+            let face = refp.faces[rf];
+            let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+            let exact = case % 4 == 0;
+            let rot = if exact {
+                // A rotation that maps axes onto axes, exactly: with the boxes' faces on
+                // the axes, corners land exactly on side planes (distance zero).
+                let a = axes[r.random_range(0..6)];
+                let b = loop {
+                    let b = axes[r.random_range(0..6)];
+                    if a.dot(b) == 0.0 {
+                        break b;
+                    }
+                };
+                Mat3::from_cols(a, b, a.cross(b))
+            } else {
+                let mut q = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
+                q[3] += 1e-3;
+                Mat3::from_quat(Quat::from_array(q).normalize())
+            };
+            let scale = refp.radius.max(inc.radius);
+            let lateral = if exact {
+                Vec3::new(
+                    r.random_range(-1..=1) as f32,
+                    r.random_range(-1..=1) as f32,
+                    r.random_range(-1..=1) as f32,
+                ) * (0.005 * r.random_range(0..2) as f32)
+            } else {
+                Vec3::new(r.random(), r.random(), r.random()) * scale * 0.3
+            };
+            let t = face.normal * (face.offset + inc.radius * r.random_range(0.5..1.0)) + lateral;
+            let inc_v = |i: usize| rot * inc.vertices[i] + t;
+            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buffers);
+            let want = reference(refp, rf, inc, inc_v, rot);
+            let got = got.map(|m| {
+                assert_eq!(m.normal, face.normal);
+                m.points()
+                    .iter()
+                    .map(|p| (p.point, p.depth))
+                    .collect::<Vec<_>>()
+            });
+            assert_eq!(
+                got.as_deref().map(bits),
+                want.as_deref().map(bits),
+                "case {case}"
+            );
+            if let Some(w) = &want {
+                cases += 1;
+                multi += (w.len() > 1) as usize;
+                many += (w.len() == 4) as usize;
+            }
+        }
+        // The cases exercise the clipping, not only its fallback.
+        assert!(
+            cases > 5_000 && multi > 2_000 && many > 1_000,
+            "{cases} {multi} {many}"
+        );
+    }
 }

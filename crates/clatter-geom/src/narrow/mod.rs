@@ -351,8 +351,28 @@ pub fn patch(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
     reduce(pts, normal)
 }
 
-/// Keeps at most four points of a contact patch (see [`crate::reduce::reduce`]).
+/// Keeps at most four points of a contact patch (see [`crate::reduce::reduce`]): all of
+/// them, in order, when there are four or fewer (what `reduce` returns then, taken here
+/// without the call: the usual face contact), else the four it chooses.
+#[inline]
 fn reduce(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
+    if pts.len() <= 4 {
+        let mut m = Manifold {
+            normal,
+            count: pts.len(),
+            ..Default::default()
+        };
+        for (slot, &(point, depth)) in m.points.iter_mut().zip(pts) {
+            *slot = ContactPoint { point, depth };
+        }
+        return m;
+    }
+    reduce_more(pts, normal)
+}
+
+/// [`reduce`] of more than four points, out of line.
+#[inline(never)]
+fn reduce_more(pts: &[(Vec3, f32)], normal: Vec3) -> Manifold {
     let (idx, count) = crate::reduce::reduce(pts, normal);
     let mut m = Manifold {
         normal,
