@@ -341,7 +341,25 @@ impl Contacts {
     pub(crate) fn gather8(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         // The near list's sums while one lives (see `gather4`).
         let this = self.active();
+        #[cfg(target_arch = "x86_64")]
+        if crate::step::avx2() {
+            // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
+            return unsafe { this.gather8_avx2(i, skip) };
+        }
         this.gather8_here(i, skip)
+    }
+
+    /// [`Contacts::gather8_here`] compiled for AVX2 and called, not inlined: on its own it
+    /// keeps the tables' pointers in registers, where inlined into the integrate lanes it
+    /// reloaded them for every body.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(never)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn gather8_avx2(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
+        self.gather8_here(i, skip)
     }
 
     /// [`Contacts::gather8`] on this list itself.

@@ -158,6 +158,53 @@ pub fn split_a(x: DVec3) -> Ds3A {
     }
 }
 
+/// [`split_a`] of four positions at once (AVX2): the same conversions and subtraction per
+/// component, four bodies' twelve `f64`s in three registers rather than one body's three
+/// in two, then each body's three `f32`s moved into its lanes (pads +0, as `split_a`
+/// leaves them). About half the instructions of four `split_a`s; the same bits.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn split4(x: &[DVec3; 4], out: &mut [Ds3A; 4]) {
+    use std::arch::x86_64::*;
+    let p = x.as_ptr() as *const f64;
+    // SAFETY: 12 `f64`s from `p` (x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3).
+    let d = unsafe {
+        [
+            _mm256_loadu_pd(p),
+            _mm256_loadu_pd(p.add(4)),
+            _mm256_loadu_pd(p.add(8)),
+        ]
+    };
+    let hi = d.map(|d| _mm256_cvtpd_ps(d));
+    let lo = [0, 1, 2].map(|k| _mm256_cvtpd_ps(_mm256_sub_pd(d[k], _mm256_cvtps_pd(hi[k]))));
+    // Three registers of four `f32`s into four bodies' [x y z 0].
+    let rows = |[a, b, c]: [__m128; 3]| {
+        let zero = _mm_setzero_ps();
+        let (ai, bi, ci) = (
+            _mm_castps_si128(a),
+            _mm_castps_si128(b),
+            _mm_castps_si128(c),
+        );
+        [
+            _mm_blend_ps::<0b1000>(a, zero),
+            _mm_blend_ps::<0b1000>(_mm_castsi128_ps(_mm_alignr_epi8::<12>(bi, ai)), zero),
+            _mm_blend_ps::<0b1000>(_mm_castsi128_ps(_mm_alignr_epi8::<8>(ci, bi)), zero),
+            _mm_castsi128_ps(_mm_srli_si128::<4>(ci)),
+        ]
+    };
+    let (h, l) = (rows(hi), rows(lo));
+    for k in 0..4 {
+        out[k] = Ds3A {
+            hi: h[k].into(),
+            lo: l[k].into(),
+        };
+    }
+}
+
 /// `hi + lo` in f64 (exact for snapped pairs).
 #[inline]
 pub fn join(p: Ds3) -> DVec3 {
@@ -471,6 +518,66 @@ fn snap_a(p: Ds3A) -> Ds3A {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `split4` against `split` (the definition) and `split_a` (every byte, pads too), on
+    /// positions of every scale and sign, exact `f32`s, zeros of both signs, and values
+    /// halfway between two `f32`s (where the rounding's ties show).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn split4_gives_split_a_bits() {
+        use rand::{Rng, SeedableRng};
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 here: nothing to compare");
+            return;
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let value = |rng: &mut rand_chacha::ChaCha8Rng| -> f64 {
+            let scale = 10f64.powi(rng.random_range(-30..30));
+            match rng.random_range(0..6) {
+                0 => 0.0,
+                1 => -0.0,
+                2 => rng.random_range(-1000.0f32..1000.0) as f64,
+                3 => {
+                    // Halfway between two f32s.
+                    let f = rng.random_range(1.0f32..2.0);
+                    (f as f64 + f64::from(f32::from_bits(f.to_bits() + 1))) / 2.0
+                }
+                _ => rng.random_range(-1.0..1.0) * scale,
+            }
+        };
+        let mut checked = 0;
+        for _ in 0..20_000 {
+            let x: [DVec3; 4] = std::array::from_fn(|_| {
+                DVec3::new(value(&mut rng), value(&mut rng), value(&mut rng))
+            });
+            let zero = Ds3A {
+                hi: Vec3A::splat(f32::NAN),
+                lo: Vec3A::splat(f32::NAN),
+            };
+            let mut out = [zero; 4];
+            // SAFETY: the CPU has AVX2 (checked above).
+            unsafe { split4(&x, &mut out) };
+            for k in 0..4 {
+                let (want, got) = (split(x[k]), Ds3::from(out[k]));
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(bits(want.hi), bits(got.hi), "{:?}", x[k]);
+                assert_eq!(bits(want.lo), bits(got.lo), "{:?}", x[k]);
+                // All four lanes of each half, the pads too.
+                let bytes = |p: &Ds3A| -> [u32; 8] {
+                    let [a, b] = [p.hi, p.lo].map(|v| {
+                        // SAFETY: a `__m128` is four `f32`s.
+                        unsafe {
+                            std::mem::transmute::<std::arch::x86_64::__m128, [f32; 4]>(v.into())
+                        }
+                    });
+                    std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] }.to_bits())
+                };
+                assert_eq!(bytes(&split_a(x[k])), bytes(&out[k]), "{:?}", x[k]);
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 80_000);
+    }
 
     #[test]
     fn snapped_pairs_are_f64_values() {

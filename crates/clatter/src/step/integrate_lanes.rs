@@ -454,21 +454,22 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
     let d2 = moved.length_squared();
     let finite = |x: F8| x.abs().lt(F8::splat(f32::INFINITY));
     let d2 = F8::select(finite(d2).and(finite(q.w)), d2, F8::splat(f32::INFINITY));
-    let mut lanes = [0.0f32; 8];
-    unsafe { _mm256_storeu_ps(lanes.as_mut_ptr(), d2.0) };
-    if ghosts != 0 {
-        // A ghost has not moved here (as the scalar `body` returns for it).
-        for (l, d2) in lanes.iter_mut().enumerate() {
-            if ghosts >> l & 1 != 0 {
-                *d2 = 0.0;
-            }
-        }
-    }
-    Some(
-        lanes
-            .into_iter()
-            .fold(0.0, |worst, d2| if d2 > worst { d2 } else { worst }),
-    )
+    // A ghost has not moved here (as the scalar `body` returns for it).
+    let d2 = if ghosts != 0 {
+        let bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let ghost =
+            _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(ghosts as i32), bit), bit);
+        F8(_mm256_andnot_ps(_mm256_castsi256_ps(ghost), d2.0))
+    } else {
+        d2
+    };
+    // The largest of the eight by halving: every lane is +0, positive or infinite (a sum of
+    // squares, never -0 or NaN: a state no longer finite is infinite above), so the maximum
+    // is the same value in any order, and that of the scalar fold from 0.
+    let m = _mm256_max_ps(d2.0, _mm256_permute2f128_ps::<1>(d2.0, d2.0));
+    let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b01_00_11_10>(m, m));
+    let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b10_11_00_01>(m, m));
+    Some(_mm256_cvtss_f32(m))
 }
 
 #[cfg(test)]
