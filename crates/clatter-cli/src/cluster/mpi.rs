@@ -140,7 +140,17 @@ impl MpiComm {
     /// ranks overtake each other). With `max`, the all-reduce of that value is posted first,
     /// nonblocking, so that it is reduced while the ghost states travel, and its result is
     /// returned (one wait for both; `Comm::all_to_all_into_and_max`).
-    fn forward(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>], max: Option<f32>) -> f32 {
+    ///
+    /// With `during`, that work runs between posting the messages and waiting for them
+    /// (`Comm::all_to_all_into_during`), each of its `progress` calls testing the requests
+    /// still open (which lets Open MPI move a rendezvous-size message along meanwhile).
+    fn forward(
+        &self,
+        send: &[Vec<u8>],
+        recv: &mut [Vec<u8>],
+        max: Option<f32>,
+        during: Option<&mut dyn FnMut(&mut dyn FnMut())>,
+    ) -> f32 {
         let me = self.rank();
         if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {
             mine.clone_from(m);
@@ -179,6 +189,16 @@ impl MpiComm {
                         requests.push(to.immediate_send_with_tag(scope, chunk, FORWARD_TAG));
                     }
                 }
+            }
+            if let Some(during) = during {
+                let mut progress = || {
+                    // Each test moves the messages along; the requests done are dropped.
+                    requests = std::mem::take(&mut requests)
+                        .into_iter()
+                        .filter_map(|r| r.test().err())
+                        .collect();
+                };
+                during(&mut progress);
             }
             for request in requests {
                 request.wait();
@@ -284,11 +304,20 @@ impl Comm for MpiComm {
     }
 
     fn all_to_all_into(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>]) {
-        self.forward(send, recv, None);
+        self.forward(send, recv, None, None);
+    }
+
+    fn all_to_all_into_during(
+        &self,
+        send: &[Vec<u8>],
+        recv: &mut [Vec<u8>],
+        during: &mut dyn FnMut(&mut dyn FnMut()),
+    ) {
+        self.forward(send, recv, None, Some(during));
     }
 
     fn all_to_all_into_and_max(&self, send: &[Vec<u8>], recv: &mut [Vec<u8>], x: f32) -> f32 {
-        self.forward(send, recv, Some(x))
+        self.forward(send, recv, Some(x), None)
     }
 
     fn all_gather(&self, mine: &[u8]) -> Vec<Vec<u8>> {

@@ -97,6 +97,33 @@ impl Near {
     }
 }
 
+/// For a decomposed step whose ghost states are still on their way (`crate::domain`):
+/// whether the near list holds for the bodies `ghost` says are ghosts (`ghosts`) or the
+/// others (`!ghosts`): `update` keeps the list exactly when it holds for both. `None`
+/// where the world steps without a near list; `Some(false)` where it has none now.
+pub(crate) fn holds_for(world: &World, ghosts: bool) -> Option<bool> {
+    if !applies(world) {
+        return None;
+    }
+    let Some(near) = &world.contacts.near else {
+        return Some(false);
+    };
+    let (x, made, reach2, ghost) = (
+        &world.state.position,
+        &near.made_at,
+        &near.reach2,
+        &world.ghost,
+    );
+    let n = made.len();
+    if x.len() != n || reach2.len() != n || ghost.len() != n {
+        return Some(false);
+    }
+    Some((0..n).filter(|&k| ghost[k] == ghosts).all(|k| {
+        let d = x[k] - made[k];
+        d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k]
+    }))
+}
+
 /// Whether `world` steps with a near list: spheres only (whose contacts keep no
 /// separating-axis hints, bounds or edge memories), a positive skin.
 fn applies(world: &World) -> bool {
