@@ -774,15 +774,39 @@ fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
                 .collect()
         })
         .collect();
-    assert_eq!(lists.len(), 5, "{}", split[0]);
+    assert_eq!(lists.len(), 6, "{}", split[0]);
     assert!(lists.iter().all(|l| l.len() == 2), "{}", split[0]);
     for r in 0..2 {
         let own = lists[0][r];
         assert!(own > 0.0, "{}", split[0]);
-        let parts: f64 = lists[1..].iter().map(|l| l[r]).sum();
+        let parts: f64 = lists[1..5].iter().map(|l| l[r]).sum();
         assert!((parts - own).abs() <= 0.005, "rank {r}: {}", split[0]);
         assert!(lists[1..].iter().all(|l| l[r] >= -0.0005), "{}", split[0]);
+        // The work overlapped with the ghost states is part of the work.
+        assert!(lists[5][r] <= lists[1][r] + 0.0005, "{}", split[0]);
     }
+    // The overlap ran (on by default): most steps overlapped on each rank, some pairs
+    // computed while the states travelled.
+    let overlap: Vec<&str> = err
+        .lines()
+        .filter_map(|l| l.strip_prefix("# per rank, overlap of the ghost states (on): "))
+        .collect();
+    assert_eq!(overlap.len(), 1, "{}", text(&o));
+    let counts: Vec<Vec<f64>> = overlap[0]
+        .split("; ")
+        .map(|part| {
+            part.split_whitespace()
+                .filter_map(|w| w.parse::<f64>().ok())
+                .collect()
+        })
+        .collect();
+    assert_eq!(counts.len(), 4, "{}", overlap[0]);
+    assert!(counts[0].iter().all(|&s| s > 0.0), "{}", overlap[0]);
+    assert!(
+        counts[3].iter().all(|&p| (0.0..=100.0).contains(&p)),
+        "{}",
+        overlap[0]
+    );
     for (extra, message) in [
         ("--backend=gpu", "times the CPU pipeline"),
         ("--render", "run `clatter bench` without mpirun"),

@@ -123,6 +123,7 @@ fn time(
     let (rank, ranks) = (comm.rank(), comm.size());
     let n = world.len();
     let mut domain = Domain::new(world, rank, ranks);
+    domain.set_overlap(super::mpi::overlap());
     let stepped =
         |domain: &mut Domain, on: &dyn Comm, steps: u64, counts: &mut StepCounts, when| {
             for _ in 0..steps {
@@ -198,6 +199,17 @@ fn report_loads(comm: &MpiComm, domain: &Domain) {
     mine.extend((domain.owned() as u64).to_le_bytes());
     mine.extend((domain.ghosts() as u64).to_le_bytes());
     mine.extend(resident_kib().to_le_bytes());
+    // The overlap of the ghost states' exchange (over the settle and the timed steps).
+    let o = domain.overlapped();
+    for w in [
+        o.steps,
+        o.waited,
+        o.fallbacks,
+        o.interior_pairs,
+        o.ghost_pairs,
+    ] {
+        mine.extend(w.to_le_bytes());
+    }
     let all = comm.all_gather(&mine);
     if comm.rank() == 0 {
         let word = |m: &[u8], k: usize| {
@@ -220,6 +232,21 @@ fn report_loads(comm: &MpiComm, domain: &Domain) {
             "# per rank after the timed steps: owned {}; ghosts {}; resident MiB {mib}",
             list(0),
             list(1)
+        );
+        let share = all
+            .iter()
+            .map(|m| {
+                let (i, g) = (word(m, 6) as f64, word(m, 7) as f64);
+                format!("{:.0}", 100.0 * i / (i + g).max(1.0))
+            })
+            .collect::<Vec<_>>()
+            .join(" ");
+        eprintln!(
+            "# per rank, overlap of the ghost states ({}): steps overlapped {}; waited {}; near-list fallbacks {}; % of pairs computed while the states travel {share}",
+            if super::mpi::overlap() { "on" } else { "off" },
+            list(3),
+            list(4),
+            list(5)
         );
     }
 }
@@ -307,11 +334,12 @@ impl Comm for Timed<'_> {
         // The work within is the rank's, not communication: clocked apart and taken off.
         let t = Instant::now();
         let mut worked = Duration::ZERO;
-        self.comm.all_to_all_into_during(send, recv, &mut |progress| {
-            let w = Instant::now();
-            during(progress);
-            worked += w.elapsed();
-        });
+        self.comm
+            .all_to_all_into_during(send, recv, &mut |progress| {
+                let w = Instant::now();
+                during(progress);
+                worked += w.elapsed();
+            });
         let spent = &self.spent;
         spent.overlapped.set(spent.overlapped.get() + worked);
         spent

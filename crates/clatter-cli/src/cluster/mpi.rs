@@ -40,6 +40,17 @@ const MESSAGE_LIMIT: usize = 1 << 30;
 /// splitting, which cannot send gigabytes).
 pub const MESSAGE_LIMIT_VAR: &str = "CLATTER_MPI_MESSAGE_LIMIT";
 
+/// The environment variable that turns off the overlap of the ghost states' exchange with
+/// the contacts that need no ghost (`0`; on otherwise: [`clatter::domain::Domain::set_overlap`]),
+/// for A/B timings: the results are the same bits either way.
+pub const OVERLAP_VAR: &str = "CLATTER_MPI_OVERLAP";
+
+/// Whether the steps overlap the ghost states' exchange ([`OVERLAP_VAR`]). Every rank
+/// reads the same environment (mpirun passes it to all).
+pub fn overlap() -> bool {
+    std::env::var(OVERLAP_VAR).map_or(true, |v| v.trim() != "0")
+}
+
 impl MpiComm {
     /// The transport over `world`, with [`MESSAGE_LIMIT`] or the smaller limit that
     /// [`MESSAGE_LIMIT_VAR`] sets (at least 8 bytes a rank, so that the lengths go in one
@@ -523,6 +534,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     // The last good state until the first full check: the start, kept by rank 0 alone.
     let mut last_good = LastGood::Start((rank == 0).then(|| Box::new(world.clone())));
     let mut domain = Domain::new(world, rank, ranks);
+    domain.set_overlap(overlap());
     let loud = rank == 0 && !plan.quiet;
 
     if loud {

@@ -23,8 +23,8 @@
 //! A step that must make its near list, or that rebuilds, waits for the states first (a
 //! rebuild sends no ghost state: the migration brings every body anew).
 
-use super::comm::Comm;
 use super::Domain;
+use super::comm::Comm;
 use crate::precise;
 use crate::step::contacts::{self, Part};
 use crate::step::near;
@@ -135,7 +135,11 @@ impl Domain {
             for s in 0..PROGRESS_SLICES {
                 let cut = |s: usize| (np * s / PROGRESS_SLICES) / 8 * 8;
                 let part = Part {
-                    pairs: cut(s)..if s + 1 == PROGRESS_SLICES { np } else { cut(s + 1) },
+                    pairs: cut(s)..if s + 1 == PROGRESS_SLICES {
+                        np
+                    } else {
+                        cut(s + 1)
+                    },
                     groups: Some((groups, false)),
                     size: 8,
                     walls: s == 0,

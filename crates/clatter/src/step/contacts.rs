@@ -87,7 +87,10 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     let lo = part.pairs.start.min(np);
     let hi = part.pairs.end.clamp(lo, np);
     let size = part.size;
-    debug_assert!(size > 0 && CHUNK % size == 0 && lo % size == 0, "whole groups");
+    debug_assert!(
+        size > 0 && CHUNK % size == 0 && lo % size == 0,
+        "whole groups"
+    );
     let r = lo..hi;
     let cut = |len: usize| lo.min(len)..hi.min(len);
     let pairs = &list.pairs[r.clone()];
@@ -137,17 +140,17 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                              t: &mut [bool],
                              c: &mut [f32]| {
                     if plain {
-                            #[cfg(target_arch = "x86_64")]
-                            if super::avx2() {
-                                // SAFETY: the CPU has AVX2.
-                                return unsafe {
-                                    super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
-                                };
-                            }
-                            super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
-                        } else {
-                            super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
+                        #[cfg(target_arch = "x86_64")]
+                        if super::avx2() {
+                            // SAFETY: the CPU has AVX2.
+                            return unsafe {
+                                super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
+                            };
                         }
+                        super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
+                    } else {
+                        super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
+                    }
                 };
                 return pairs
                     .par_chunks(CHUNK)
