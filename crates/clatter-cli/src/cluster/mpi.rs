@@ -100,6 +100,10 @@ impl StepCounts {
     }
 }
 
+/// Work run while the ghost states travel, given the transport's progress call
+/// (`Comm::all_to_all_into_during`).
+type Work<'a> = &'a mut dyn FnMut(&mut dyn FnMut());
+
 /// Byte counts as MPI takes them (`int`): a message of 2 GiB or more is refused.
 fn count(n: usize) -> i32 {
     i32::try_from(n).unwrap_or_else(|_| {
@@ -160,7 +164,7 @@ impl MpiComm {
         send: &[Vec<u8>],
         recv: &mut [Vec<u8>],
         max: Option<f32>,
-        during: Option<&mut dyn FnMut(&mut dyn FnMut())>,
+        during: Option<Work<'_>>,
     ) -> f32 {
         let me = self.rank();
         if let (Some(mine), Some(m)) = (recv.get_mut(me), send.get(me)) {

@@ -118,7 +118,7 @@ impl Domain {
         // Ghosts' positions are split again once they are in.
         local.split_positions();
         let np = local.contacts.active().pairs.len();
-        let kept = near::holds_for(local, false) != Some(false);
+        let kept = near::holds_for(local, None) != Some(false);
         if !kept || self.groups.len() != np.div_ceil(8) {
             // A near list to make (from every body's position), or no groups: wait.
             self.overlapped.waited += 1;
@@ -157,7 +157,7 @@ impl Domain {
         }
         self.overlapped.steps += 1;
         self.overlapped.interior_pairs += self.interior_pairs;
-        if near::holds_for(local, true) == Some(false) {
+        if near::holds_for(local, Some(&self.recv)) == Some(false) {
             // The near list does not hold for a ghost: the broad phase's list, whose
             // pairs with a ghost are computed one by one.
             self.overlapped.fallbacks += 1;

@@ -88,7 +88,7 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     let hi = part.pairs.end.clamp(lo, np);
     let size = part.size;
     debug_assert!(
-        size > 0 && CHUNK % size == 0 && lo % size == 0,
+        size > 0 && CHUNK.is_multiple_of(size) && lo.is_multiple_of(size),
         "whole groups"
     );
     let r = lo..hi;
