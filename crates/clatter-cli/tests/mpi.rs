@@ -766,14 +766,16 @@ fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
         .filter_map(|l| l.strip_prefix("# per rank, ms per timed step: "))
         .collect();
     assert_eq!(split.len(), 1, "{}", text(&o));
-    let lists: Vec<Vec<f64>> = split[0]
-        .split("; ")
-        .map(|part| {
+    // A line's lists of numbers, one list per "; "-separated part.
+    let numbers = |line: &str| -> Vec<Vec<f64>> {
+        let numbers = |part: &str| {
             part.split_whitespace()
-                .filter_map(|w| w.parse::<f64>().ok())
+                .filter_map(|w| w.parse().ok())
                 .collect()
-        })
-        .collect();
+        };
+        line.split("; ").map(numbers).collect()
+    };
+    let lists = numbers(split[0]);
     assert_eq!(lists.len(), 6, "{}", split[0]);
     assert!(lists.iter().all(|l| l.len() == 2), "{}", split[0]);
     for r in 0..2 {
@@ -792,14 +794,7 @@ fn bench_on_2_and_3_ranks_times_the_steps_one_process_times() {
         .filter_map(|l| l.strip_prefix("# per rank, overlap of the ghost states (on): "))
         .collect();
     assert_eq!(overlap.len(), 1, "{}", text(&o));
-    let counts: Vec<Vec<f64>> = overlap[0]
-        .split("; ")
-        .map(|part| {
-            part.split_whitespace()
-                .filter_map(|w| w.parse::<f64>().ok())
-                .collect()
-        })
-        .collect();
+    let counts = numbers(overlap[0]);
     assert_eq!(counts.len(), 4, "{}", overlap[0]);
     assert!(counts[0].iter().all(|&s| s > 0.0), "{}", overlap[0]);
     assert!(
