@@ -21,7 +21,10 @@
 //!   owners send their bodies' new states to the ranks holding them as ghosts (forward
 //!   communication, which overwrites every word of every ghost's state), and with them the
 //!   largest displacement since the last rebuild is reduced over ranks (max, exact) to
-//!   decide the next rebuild, as one process decides it.
+//!   decide the next rebuild, as one process decides it. Overlapped (the default on
+//!   several ranks, `overlap.rs`): the displacement is reduced alone at the end of the
+//!   step, and the ghost states are sent at the next step's contacts, while the groups of
+//!   pairs with no ghost are computed.
 //! - **At rebuilds** (`Domain::migrate`): new boxes (when the old ones are uneven); each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies (point to

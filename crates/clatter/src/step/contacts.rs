@@ -37,9 +37,11 @@ pub(crate) fn prepare(world: &mut World) {
 /// Which contacts of the active list a run of the stage computes ([`run_part`]): all of
 /// them, or, for a decomposed step whose ghost states are still on their way
 /// (`crate::domain`), those that need no ghost first and the others once the states are in.
-/// Every contact is computed by the same code from the same inputs whatever the part (the
-/// lanes take the same eights: parts start at multiples of eight), and writes only its own
-/// slot, so computing the list in parts gives the bits one run gives.
+/// Every contact is computed by the same code from the same inputs whatever the part (in
+/// groups of eight the lanes take the same eights, parts starting at multiples of eight;
+/// in groups of one a pair may fall to the scalar path instead, which gives the lanes'
+/// bits, `sphere_lanes.rs`), and writes only its own slot, so computing the list in parts
+/// gives the bits one run gives.
 pub(crate) struct Part<'a> {
     /// The body pairs `lo..hi` of the active list (cut at its end), `lo` a multiple of 8.
     pub(crate) pairs: std::ops::Range<usize>,
