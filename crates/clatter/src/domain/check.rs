@@ -42,7 +42,11 @@ impl Domain {
     ///
     /// The rank that owns the body (or contact) blamed writes the report (its cause is
     /// found from the body's state) and every rank receives it (an all-gather).
-    pub fn check(&self, health: &Health, comm: &dyn Comm, full: bool) -> Result<(), BlowUp> {
+    ///
+    /// Ghost states owed by an overlapped step are brought first ([`Domain::sync_ghosts`]):
+    /// the overlap check reads both bodies of a contact.
+    pub fn check(&mut self, health: &Health, comm: &dyn Comm, full: bool) -> Result<(), BlowUp> {
+        self.sync_ghosts(comm);
         let world = &self.local;
         // 1. The energies.
         let (ke, pe) = health.energy_sums(world);

@@ -47,6 +47,23 @@ pub trait Comm {
         self.all_to_all_into(send, recv);
         self.max_f32(x)
     }
+    /// [`Comm::all_to_all_into`] with `during` run while the messages travel: the ghost
+    /// states of a step sent while the contacts that need no ghost are computed. `during`
+    /// is given `progress`, to call now and then (between chunks of its work, on the
+    /// calling thread): a transport may need it to move messages along (MPI: `MPI_Test`,
+    /// since Open MPI may not move a large message between its own calls). `during` cannot
+    /// see `recv` (the call holds it until every message is in).
+    /// The default exchanges first and runs `during` after (the blocking order): the same
+    /// messages and the same work, so the same results.
+    fn all_to_all_into_during(
+        &self,
+        send: &[Vec<u8>],
+        recv: &mut [Vec<u8>],
+        during: &mut dyn FnMut(&mut dyn FnMut()),
+    ) {
+        self.all_to_all_into(send, recv);
+        during(&mut || {});
+    }
     /// Sends `send[r]` to each rank `r` that `peers[r]` names (every other message must be
     /// empty) and returns what each peer sent here: the bodies and springs of a rebuild
     /// that kept its boxes, between neighbouring ranks. `peers` must be symmetric (rank `r`

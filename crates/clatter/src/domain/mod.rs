@@ -21,7 +21,10 @@
 //!   owners send their bodies' new states to the ranks holding them as ghosts (forward
 //!   communication, which overwrites every word of every ghost's state), and with them the
 //!   largest displacement since the last rebuild is reduced over ranks (max, exact) to
-//!   decide the next rebuild, as one process decides it.
+//!   decide the next rebuild, as one process decides it. Overlapped (the default on
+//!   several ranks, `overlap.rs`): the displacement is reduced alone at the end of the
+//!   step, and the ghost states are sent at the next step's contacts, while the groups of
+//!   pairs with no ghost are computed.
 //! - **At rebuilds** (`Domain::migrate`): new boxes (when the old ones are uneven); each owner sends its bodies' states to
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies (point to
@@ -36,12 +39,14 @@ mod carry;
 mod check;
 mod comm;
 mod gather;
+mod overlap;
 mod rows;
 mod totals;
 
 pub use bisection::Bisection;
 pub use comm::{Comm, Rounds, ThreadComm};
 pub use gather::Share;
+pub use overlap::Overlapped;
 pub use totals::Totals;
 
 use glam::{DVec3, Vec3};
@@ -93,6 +98,19 @@ pub struct Domain {
     sent: Vec<Vec<u8>>,
     /// The ghost states received every step, by sending rank (see `sent`).
     received: Vec<Vec<u8>>,
+    /// Whether steps overlap the ghost states' exchange with the interior contacts
+    /// ([`Domain::set_overlap`]; `overlap.rs`).
+    overlap: bool,
+    /// Whether the ghosts' states are owed: the last step integrated and did not send
+    /// them (overlapped steps send them at the next step's contacts).
+    owed: bool,
+    /// Per group of eight pairs of the active contact list, whether it holds a pair with a
+    /// ghost (found after each contact stage that may have made the list; empty when not).
+    groups: Vec<bool>,
+    /// The pairs in the groups of `groups` with no ghost.
+    interior_pairs: u64,
+    /// What the overlapped steps computed ([`Domain::overlapped`]).
+    overlapped: Overlapped,
 }
 
 impl Domain {
@@ -121,6 +139,11 @@ impl Domain {
             sparse_migrations: 0,
             sent: vec![Vec::new(); ranks],
             received: vec![Vec::new(); ranks],
+            overlap: true,
+            owed: false,
+            groups: Vec::new(),
+            interior_pairs: 0,
+            overlapped: Overlapped::default(),
         };
         let w = &world;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
@@ -303,20 +326,34 @@ impl Domain {
     pub fn step(&mut self, comm: &dyn Comm) -> Result<StepStats, SimError> {
         let rebuilt = self.local.needs_rebuild();
         if rebuilt {
+            // The migration brings every body's state anew: ghost states owed are not sent.
+            self.owed = false;
             self.migrate(comm);
         }
-        contacts::run(&mut self.local);
+        if self.owed {
+            // The ghost states sent while the contacts with no ghost are computed.
+            self.contacts_overlapped(comm);
+        } else {
+            contacts::run(&mut self.local);
+            self.mark_groups();
+        }
         mesh_contacts::run(&mut self.local);
         let moved = integrate::run(&mut self.local);
         self.local.step_count += 1;
         self.local.time += self.local.dt as f64;
         // This rank's largest displacement (its owned bodies': a ghost's state is not yet
-        // its owner's), reduced over the ranks with the ghost states' exchange.
+        // its owner's), reduced over the ranks with the ghost states' exchange, or alone
+        // when the states are sent at the next step's contacts (`overlap.rs`).
         let d2 = match moved {
             integrate::Moved::NonFinite => f32::INFINITY,
             integrate::Moved::Farthest(d2) => d2.max(broad::composite_moved(&self.local)),
         };
-        let d2 = self.forward(comm, d2);
+        let d2 = if self.overlaps() {
+            self.owed = true;
+            comm.max_f32(d2)
+        } else {
+            self.forward(comm, d2)
+        };
         self.moved = d2;
         if d2 == f32::INFINITY {
             return Err(self.non_finite_error(comm));
@@ -423,6 +460,15 @@ impl Domain {
     /// squared displacement `d2` rides with it ([`Comm::all_to_all_into_and_max`]): returns
     /// its maximum over the ranks.
     fn forward(&mut self, comm: &dyn Comm, d2: f32) -> f32 {
+        self.pack();
+        let d2 = comm.all_to_all_into_and_max(&self.sent, &mut self.received, d2);
+        self.unpack();
+        d2
+    }
+
+    /// The owned bodies' states into the messages of the forward exchange (`sent`), and
+    /// `received` sized for the ghosts' (see [`Domain::forward`]).
+    fn pack(&mut self) {
         let ranks = self.send.len();
         self.sent.resize_with(ranks, Vec::new);
         self.received.resize_with(ranks, Vec::new);
@@ -439,14 +485,17 @@ impl Domain {
             // Only the sizes matter (every byte is overwritten): no zeroing unless they grew.
             buf.resize(list.len() * rows::STATE_BYTES, 0);
         }
-        let d2 = comm.all_to_all_into_and_max(&self.sent, &mut self.received, d2);
+    }
+
+    /// The ghosts' states from the messages received (`received`): none owed now.
+    fn unpack(&mut self) {
         for (m, list) in self.received.iter().zip(&self.recv) {
             let mut r = Reader::new(m);
             for &i in list {
                 r.state(&mut self.local.state, i as usize);
             }
         }
-        d2
+        self.owed = false;
     }
 
     /// How far from a box a body at `x` is a ghost there: the reach of a pair, with a

@@ -16,10 +16,48 @@ use clatter_geom::{Pose, Shape};
 
 /// Runs the stage; returns the number of contacts that touch.
 pub(crate) fn run(world: &mut World) -> usize {
-    // Each body's position split into its pair once, for every contact it takes part in.
+    prepare(world);
+    let all = Part {
+        pairs: 0..usize::MAX,
+        groups: None,
+        size: 8,
+        walls: true,
+    };
+    run_part(world, &all)
+}
+
+/// The stage's start, before any contact is computed: each body's position split into its
+/// pair once, for every contact it takes part in; for spheres, the near list kept or made
+/// anew (the stage then runs on it). Reads every body's state (a rank's ghosts' too).
+pub(crate) fn prepare(world: &mut World) {
     world.split_positions();
-    // Spheres: the near list, kept or made anew; the stage then runs on it.
     super::near::update(world);
+}
+
+/// Which contacts of the active list a run of the stage computes ([`run_part`]): all of
+/// them, or, for a decomposed step whose ghost states are still on their way
+/// (`crate::domain`), those that need no ghost first and the others once the states are in.
+/// Every contact is computed by the same code from the same inputs whatever the part (in
+/// groups of eight the lanes take the same eights, parts starting at multiples of eight;
+/// in groups of one a pair may fall to the scalar path instead, which gives the lanes'
+/// bits, `sphere_lanes.rs`), and writes only its own slot, so computing the list in parts
+/// gives the bits one run gives.
+pub(crate) struct Part<'a> {
+    /// The body pairs `lo..hi` of the active list (cut at its end), `lo` a multiple of 8.
+    pub(crate) pairs: std::ops::Range<usize>,
+    /// Of those, only the groups of `size` pairs (`k / size`: eight, the lanes' groups, or
+    /// one) whose flag here equals the second: whether the group holds a pair with a ghost,
+    /// and which kind the run computes (`None`: every pair).
+    pub(crate) groups: Option<(&'a [bool], bool)>,
+    /// The pairs in a group of `groups` (a divisor of [`CHUNK`]).
+    pub(crate) size: usize,
+    /// Whether the wall pairs are computed too (a ghost has none).
+    pub(crate) walls: bool,
+}
+
+/// Runs part of the stage on a prepared world ([`prepare`]); returns the number of its
+/// contacts that touch.
+pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     let active = match &mut world.contacts.near {
         Some(near) => &mut near.list.springs,
         None => &mut world.contacts.springs,
@@ -47,6 +85,27 @@ pub(crate) fn run(world: &mut World) -> usize {
     let (force_pairs, force_walls) = forces.split_at_mut(np);
     let (touch_pairs, touch_walls) = touching.split_at_mut(np);
     let (piece_pairs, piece_walls) = list.pieces.split_at(list.pieces.len().min(np));
+    // The part's body pairs (and per-pair memories, where the list keeps them).
+    let lo = part.pairs.start.min(np);
+    let hi = part.pairs.end.clamp(lo, np);
+    let size = part.size;
+    debug_assert!(
+        size > 0 && CHUNK.is_multiple_of(size) && lo.is_multiple_of(size),
+        "whole groups"
+    );
+    let r = lo..hi;
+    let cut = |len: usize| lo.min(len)..hi.min(len);
+    let pairs = &list.pairs[r.clone()];
+    let (hist_pairs, twist_pairs) = (&mut hist_pairs[r.clone()], &mut twist_pairs[r.clone()]);
+    let (force_pairs, touch_pairs) = (&mut force_pairs[r.clone()], &mut touch_pairs[r]);
+    let piece_pairs = &piece_pairs[cut(piece_pairs.len())];
+    let (nh, nb, nm) = (hints.len(), separation_bound.len(), memory.len());
+    let hints = &mut hints[cut(nh)];
+    let separation_bound = &mut separation_bound[cut(nb)];
+    let memory_part = &mut memory[cut(nm)];
+    let groups = part.groups;
+    // Whether pair `k` of the part is computed.
+    let keep = |k: usize| groups.is_none_or(|(g, want)| g[(lo + k) / size] == want);
     // Every pair on the plain law: the law compiled without the tests for the others.
     let plain = w.materials.all_plain();
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
@@ -54,8 +113,7 @@ pub(crate) fn run(world: &mut World) -> usize {
         || {
             if w.has_composites() {
                 // Contacts per piece pair (the same per-contact work, on the pieces).
-                return list
-                    .pairs
+                return pairs
                     .par_iter()
                     .zip(piece_pairs.par_iter())
                     .zip(hist_pairs.par_iter_mut())
@@ -64,8 +122,12 @@ pub(crate) fn run(world: &mut World) -> usize {
                     .zip(hints.par_iter_mut())
                     .zip(twist_pairs.par_iter_mut())
                     .zip(separation_bound.par_iter_mut())
+                    .enumerate()
                     .with_min_len(CHUNK)
-                    .map(|(((((((p, pc), h), f), t), hn), tw), b)| {
+                    .map(|(k, (((((((p, pc), h), f), t), hn), tw), b))| {
+                        if !keep(k) {
+                            return 0;
+                        }
                         let memo = None;
                         body_pair::<true>(w, x, *p, *pc, h, f, t, hn, tw, b, memo, plain) as usize
                     })
@@ -74,30 +136,49 @@ pub(crate) fn run(world: &mut World) -> usize {
             if w.spheres_only() {
                 // Chunks of plain slices: the sphere law is cheap, so the per-item cost of
                 // a deep parallel zip would show.
-                return list
-                    .pairs
+                let chunk = |p: &[[u32; 2]],
+                             h: &mut [Vec3],
+                             f: &mut [ContactForce],
+                             t: &mut [bool],
+                             c: &mut [f32]| {
+                    if plain {
+                        #[cfg(target_arch = "x86_64")]
+                        if super::avx2() {
+                            // SAFETY: the CPU has AVX2.
+                            return unsafe {
+                                super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
+                            };
+                        }
+                        super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
+                    } else {
+                        super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
+                    }
+                };
+                return pairs
                     .par_chunks(CHUNK)
                     .zip(hist_pairs.par_chunks_mut(CHUNK))
                     .zip(force_pairs.par_chunks_mut(CHUNK))
                     .zip(touch_pairs.par_chunks_mut(CHUNK))
                     .zip(twist_pairs.par_chunks_mut(CHUNK))
-                    .map(|((((p, h), f), t), c)| {
-                        if plain {
-                            #[cfg(target_arch = "x86_64")]
-                            if super::avx2() {
-                                // SAFETY: the CPU has AVX2.
-                                return unsafe {
-                                    super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
-                                };
-                            }
-                            super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
-                        } else {
-                            super::vex(|| sphere_chunk::<false>(w, x, p, h, c, f, t))
+                    .enumerate()
+                    .map(|(n, ((((p, h), f), t), c))| match groups {
+                        None => chunk(p, h, f, t, c),
+                        // The chunk's runs of wanted groups, each as a chunk of its own.
+                        Some((g, want)) => {
+                            let first = (lo + n * CHUNK) / size;
+                            let runs = runs(&g[first..first + p.len().div_ceil(size)], want);
+                            runs.map(|(a, b)| {
+                                let r = size * a..(size * b).min(p.len());
+                                let (h, f) = (&mut h[r.clone()], &mut f[r.clone()]);
+                                let (t, c) = (&mut t[r.clone()], &mut c[r.clone()]);
+                                chunk(&p[r], h, f, t, c)
+                            })
+                            .sum()
                         }
                     })
                     .sum::<usize>();
             }
-            list.pairs
+            pairs
                 .par_iter()
                 .zip(hist_pairs.par_iter_mut())
                 .zip(force_pairs.par_iter_mut())
@@ -105,14 +186,21 @@ pub(crate) fn run(world: &mut World) -> usize {
                 .zip(hints.par_iter_mut())
                 .zip(twist_pairs.par_iter_mut())
                 .zip(separation_bound.par_iter_mut())
-                .zip(memory.par_iter_mut())
+                .zip(memory_part.par_iter_mut())
+                .enumerate()
                 .with_min_len(CHUNK)
-                .map(|(((((((p, h), f), t), hn), tw), b), m)| {
+                .map(|(k, (((((((p, h), f), t), hn), tw), b), m))| {
+                    if !keep(k) {
+                        return 0;
+                    }
                     body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b, Some(m), plain) as usize
                 })
                 .sum::<usize>()
         },
         || {
+            if !part.walls {
+                return 0;
+            }
             if w.has_composites() {
                 return list
                     .wall_pairs
@@ -161,6 +249,23 @@ pub(crate) fn run(world: &mut World) -> usize {
     }
     world.edge_memory = memory;
     pairs_touching + walls_touching
+}
+
+/// The runs `(a, b)` of consecutive flags equal to `want` in `flags`.
+fn runs(flags: &[bool], want: bool) -> impl Iterator<Item = (usize, usize)> + '_ {
+    let mut a = 0;
+    std::iter::from_fn(move || {
+        while a < flags.len() && flags[a] != want {
+            a += 1;
+        }
+        if a == flags.len() {
+            return None;
+        }
+        let b = a + flags[a..].iter().take_while(|&&f| f == want).count();
+        let run = (a, b);
+        a = b;
+        Some(run)
+    })
 }
 
 /// A chunk of sphere pairs with their springs, coverages, forces and touching flags (all

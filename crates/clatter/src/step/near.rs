@@ -97,6 +97,48 @@ impl Near {
     }
 }
 
+/// For a decomposed step whose ghost states are still on their way (`crate::domain`):
+/// whether the near list holds for the bodies that are not ghosts (`World::ghost`), or,
+/// with `ghosts`, for those in its lists (a rank's ghosts by owner, once their states are
+/// in):
+/// `update` keeps the list exactly when it holds for both. `None` where the world steps
+/// without a near list; `Some(false)` where it has none now.
+pub(crate) fn holds_for(world: &World, ghosts: Option<&[Vec<u32>]>) -> Option<bool> {
+    if !applies(world) {
+        return None;
+    }
+    let Some(near) = &world.contacts.near else {
+        return Some(false);
+    };
+    let (x, made, reach2, ghost) = (
+        &world.state.position,
+        &near.made_at,
+        &near.reach2,
+        &world.ghost,
+    );
+    let n = made.len();
+    if x.len() != n || reach2.len() != n || ghost.len() != n {
+        return Some(false);
+    }
+    let within = |k: usize| {
+        let d = x[k] - made[k];
+        d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k]
+    };
+    Some(match ghosts {
+        Some(lists) => lists.iter().flatten().all(|&k| within(k as usize)),
+        None => {
+            // Every body tested without branches (as `Near::holds`), the ghosts passing.
+            let (x, made, reach2, ghost) = (&x[..n], &made[..n], &reach2[..n], &ghost[..n]);
+            let mut ok = true;
+            for k in 0..n {
+                let d = x[k] - made[k];
+                ok &= ghost[k] | (d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k]);
+            }
+            ok
+        }
+    })
+}
+
 /// Whether `world` steps with a near list: spheres only (whose contacts keep no
 /// separating-axis hints, bounds or edge memories), a positive skin.
 fn applies(world: &World) -> bool {

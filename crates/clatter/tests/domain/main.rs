@@ -14,6 +14,7 @@ use glam::Vec3;
 mod bitwise;
 mod checks;
 mod cuts;
+mod overlap;
 mod traffic;
 
 /// Every state bit of every body, in order.
