@@ -1,7 +1,7 @@
 //! The domain decomposition (`clatter::domain`) on ranks that are threads of this process
 //! (`ThreadComm`): a world stepped on 1, 2, 3 and 4 ranks ends bitwise equal to the same
 //! world stepped by `World::step`, with the same contact count and rebuilds. The MPI
-//! transport itself is tested by `clatter-cli/tests/mpi.rs` (feature `mpi`).
+//! transport itself is tested by `clatter-cli/tests/mpi/` (feature `mpi`).
 
 use std::path::Path;
 
