@@ -20,6 +20,8 @@ impl SoaPoints {
         lanes
     }
 
+    /// Lays `pts` out as chunks of four (the last padded with the first point), reusing
+    /// the buffer: the pair's moved points, once per pair and step.
     pub(super) fn fill(&mut self, pts: &[Vec3]) {
         // Sized once, then written in place (no capacity check per chunk).
         self.chunks.resize(pts.len().div_ceil(4), [Vec4::ZERO; 3]);
@@ -313,10 +315,11 @@ mod tests {
                 .collect();
             soa.fill(&pts);
             assert_eq!(soa.chunks.len(), count.div_ceil(4), "case {case}");
-            for (c, chunk) in soa.chunks.iter().enumerate() {
-                for j in 0..4 {
-                    let p = *pts.get(4 * c + j).unwrap_or(&pts[0]);
-                    let got = [chunk[0][j], chunk[1][j], chunk[2][j]].map(f32::to_bits);
+            for (c, &[xs, ys, zs]) in soa.chunks.iter().enumerate() {
+                let lanes = [xs, ys, zs].map(|v| v.to_array());
+                for (j, want) in (4 * c..4 * c + 4).map(|k| pts.get(k)).enumerate() {
+                    let p = *want.unwrap_or(&pts[0]);
+                    let got = lanes.map(|lane| lane[j].to_bits());
                     assert_eq!(got, p.to_array().map(f32::to_bits), "case {case} {c} {j}");
                 }
             }

@@ -376,6 +376,18 @@ fn exact_search(found: &EdgeFound, floor: f32) -> bool {
     }
 }
 
+/// Writes `rot * v + t` for each of `vs` into `bv` (B's vertices in A's frame). In `Mat3A`
+/// lanes: per coordinate the same products and sums in the same order as `Mat3 * Vec3`
+/// (`x_axis * v.x + y_axis * v.y`, then `+ z_axis * v.z`, then `+ t`), so the same floats
+/// (a NaN's sign and payload aside: Rust leaves them unspecified either way), three
+/// coordinates at a time.
+#[inline]
+fn moved_into(bv: &mut Vec<Vec3>, vs: &[Vec3], rot: Mat3, t: Vec3) {
+    let (rot, t) = (Mat3A::from(rot), Vec3A::from(t));
+    bv.clear();
+    bv.extend(vs.iter().map(|&v| Vec3::from(rot * Vec3A::from(v) + t)));
+}
+
 /// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
 /// pair), or `Err((hint, separation))` when an edge axis separates the bodies.
 ///
@@ -384,17 +396,6 @@ fn exact_search(found: &EdgeFound, floor: f32) -> bool {
 /// the best axis is above `floor` it is returned exactly as with no floor (the same pair,
 /// the first of equals, the same floats); else some axis at or below `floor` is.
 #[allow(clippy::too_many_arguments)]
-/// Writes `rot * v + t` for each of `vs` into `bv` (B's vertices in A's frame). In `Mat3A`
-/// lanes: per coordinate the same products and sums in the same order as `Mat3 * Vec3`
-/// (`x_axis * v.x + y_axis * v.y`, then `+ z_axis * v.z`, then `+ t`), so the same floats,
-/// three coordinates at a time.
-#[inline]
-fn moved_into(bv: &mut Vec<Vec3>, vs: &[Vec3], rot: Mat3, t: Vec3) {
-    let (rot, t) = (Mat3A::from(rot), Vec3A::from(t));
-    bv.clear();
-    bv.extend(vs.iter().map(|&v| Vec3::from(rot * Vec3A::from(v) + t)));
-}
-
 fn edge_search(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
