@@ -224,12 +224,18 @@ fn remembered_face(
         rot, inv_rot, t, ..
     } = *rel;
     let Scratch { clip, .. } = sc;
+    // The incident vertices in the reference body's frame, in `Mat3A` lanes: per
+    // coordinate the products and sums of `rot * v + t` and `inv_rot * (v - t)` in their
+    // order (see `moved_into`), so the same floats.
+    let (rot_l, inv_l, t_l) = (Mat3A::from(rot), Mat3A::from(inv_rot), Vec3A::from(t));
+    let moved = |v: Vec3| lanes_moved(rot_l, t_l, v);
+    let moved_back = |v: Vec3| lanes_moved_back(inv_l, t_l, v);
     let delta = 2e-5 * (a.radius + b.radius);
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
             return Err(None);
         }
-        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
+        let m = clip_faces(a, face, b, |i| moved(b.vertices[i]), rot, clip).ok_or(None)?;
         let to_b = |p: Vec3| inv_rot * (p - t);
         if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
             Ok(Some(to_world(m, pa)))
@@ -240,7 +246,7 @@ fn remembered_face(
         if face >= b.faces.len() {
             return Err(None);
         }
-        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        let inc_v = |i: usize| moved_back(a.vertices[i]);
         let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
         let to_a = |p: Vec3| rot * p + t;
         if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
@@ -385,7 +391,20 @@ fn exact_search(found: &EdgeFound, floor: f32) -> bool {
 fn moved_into(bv: &mut Vec<Vec3>, vs: &[Vec3], rot: Mat3, t: Vec3) {
     let (rot, t) = (Mat3A::from(rot), Vec3A::from(t));
     bv.clear();
-    bv.extend(vs.iter().map(|&v| Vec3::from(rot * Vec3A::from(v) + t)));
+    bv.extend(vs.iter().map(|&v| lanes_moved(rot, t, v)));
+}
+
+/// `rot * v + t` in `Mat3A` lanes (the same floats as with `Mat3`, see [`moved_into`]).
+#[inline(always)]
+fn lanes_moved(rot: Mat3A, t: Vec3A, v: Vec3) -> Vec3 {
+    Vec3::from(rot * Vec3A::from(v) + t)
+}
+
+/// `inv_rot * (v - t)` in `Mat3A` lanes (the same floats as with `Mat3`, see
+/// [`moved_into`]): a vertex of A in B's frame.
+#[inline(always)]
+fn lanes_moved_back(inv_rot: Mat3A, t: Vec3A, v: Vec3) -> Vec3 {
+    Vec3::from(inv_rot * (Vec3A::from(v) - t))
 }
 
 /// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
@@ -705,7 +724,7 @@ mod tests {
     }
 
     /// `moved_into` against `rot * v + t` with `Mat3` and `Vec3` (the expression it
-    /// replaced), bitwise, for rotations from random quaternions and for arbitrary
+    /// replaced), and `lanes_moved_back` against `rot * (v - t)`, bitwise, for rotations from random quaternions and for arbitrary
     /// matrices (special floats included), 0 to 12 points into one reused buffer.
     #[test]
     fn moved_into_is_mat3_times_v_plus_t_bitwise() {
@@ -729,7 +748,9 @@ mod tests {
                 .collect();
             moved_into(&mut bv, &vs, rot, t);
             assert_eq!(bv.len(), vs.len(), "case {case}");
+            let back = |v: Vec3| lanes_moved_back(Mat3A::from(rot), Vec3A::from(t), v);
             for (k, (&got, &v)) in bv.iter().zip(&vs).enumerate() {
+                let (got_back, want_back) = (back(v), rot * (v - t));
                 let want = rot * v + t;
                 // Bitwise, but any NaN for a NaN (as `u32::MAX`, itself a NaN's bits): Rust
                 // leaves a NaN result's sign and payload unspecified (the compiler may swap
@@ -743,6 +764,8 @@ mod tests {
                     bits(want),
                     "case {case}, point {k}: {got} {want}"
                 );
+                let (got_back, want_back) = (bits(got_back), bits(want_back));
+                assert_eq!(got_back, want_back, "case {case}, point {k} back");
             }
         }
     }
