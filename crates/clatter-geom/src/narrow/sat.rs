@@ -2,7 +2,7 @@
 //! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]); the
 //! projections of the vertices on the axes in packed lanes ([`super::lanes`]).
 
-use glam::{Mat3, Mat3A, Quat, Vec3, Vec3A};
+use glam::{Mat3, Quat, Vec3};
 
 use super::certify::{overlap_certified, wedge_certified};
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
@@ -224,18 +224,12 @@ fn remembered_face(
         rot, inv_rot, t, ..
     } = *rel;
     let Scratch { clip, .. } = sc;
-    // The incident vertices in the reference body's frame, in `Mat3A` lanes: per
-    // coordinate the products and sums of `rot * v + t` and `inv_rot * (v - t)` in their
-    // order (see `moved_into`), so the same floats.
-    let (rot_l, inv_l, t_l) = (Mat3A::from(rot), Mat3A::from(inv_rot), Vec3A::from(t));
-    let moved = |v: Vec3| lanes_moved(rot_l, t_l, v);
-    let moved_back = |v: Vec3| lanes_moved_back(inv_l, t_l, v);
     let delta = 2e-5 * (a.radius + b.radius);
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
             return Err(None);
         }
-        let m = clip_faces(a, face, b, |i| moved(b.vertices[i]), rot, clip).ok_or(None)?;
+        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
         let to_b = |p: Vec3| inv_rot * (p - t);
         if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
             Ok(Some(to_world(m, pa)))
@@ -246,7 +240,7 @@ fn remembered_face(
         if face >= b.faces.len() {
             return Err(None);
         }
-        let inc_v = |i: usize| moved_back(a.vertices[i]);
+        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
         let to_a = |p: Vec3| rot * p + t;
         if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
@@ -345,7 +339,8 @@ fn remembered_edge(
     if margin.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(None);
     }
-    moved_into(bv, &b.vertices, rel.rot, rel.t);
+    bv.clear();
+    bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
     *prepared = Prepared::Vertices;
     if edges_by_direction(a, b) {
         b_soa.fill(bv);
@@ -380,31 +375,6 @@ fn exact_search(found: &EdgeFound, floor: f32) -> bool {
         Err(_) => true,
         Ok(e) => e.0 > floor,
     }
-}
-
-/// Writes `rot * v + t` for each of `vs` into `bv` (B's vertices in A's frame). In `Mat3A`
-/// lanes: per coordinate the same products and sums in the same order as `Mat3 * Vec3`
-/// (`x_axis * v.x + y_axis * v.y`, then `+ z_axis * v.z`, then `+ t`), so the same floats
-/// (a NaN's sign and payload aside: Rust leaves them unspecified either way), three
-/// coordinates at a time.
-#[inline]
-fn moved_into(bv: &mut Vec<Vec3>, vs: &[Vec3], rot: Mat3, t: Vec3) {
-    let (rot, t) = (Mat3A::from(rot), Vec3A::from(t));
-    bv.clear();
-    bv.extend(vs.iter().map(|&v| lanes_moved(rot, t, v)));
-}
-
-/// `rot * v + t` in `Mat3A` lanes (the same floats as with `Mat3`, see [`moved_into`]).
-#[inline(always)]
-fn lanes_moved(rot: Mat3A, t: Vec3A, v: Vec3) -> Vec3 {
-    Vec3::from(rot * Vec3A::from(v) + t)
-}
-
-/// `inv_rot * (v - t)` in `Mat3A` lanes (the same floats as with `Mat3`, see
-/// [`moved_into`]): a vertex of A in B's frame.
-#[inline(always)]
-fn lanes_moved_back(inv_rot: Mat3A, t: Vec3A, v: Vec3) -> Vec3 {
-    Vec3::from(inv_rot * (Vec3A::from(v) - t))
 }
 
 /// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
@@ -575,7 +545,8 @@ fn sat_full(
     } = *rel;
     // (`rel.rot * v + rel.t` in `remembered_edge`: the same floats.)
     if full.prepared == Prepared::Nothing {
-        moved_into(bv, &b.vertices, rot, t);
+        bv.clear();
+        bv.extend(b.vertices.iter().map(|&v| rot * v + t));
     }
     let bv: &[Vec3] = bv;
     if full.prepared != Prepared::Lanes {
@@ -702,71 +673,3 @@ fn sat_full(
 /// The best edge-edge axis `(separation, edge of A, edge of B, axis in A's frame)`, or `None`
 /// when an edge axis separates the bodies (recorded in `hint`).
 pub(super) type EdgeAxis = (f32, usize, usize, Vec3);
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    /// A float for the test: mostly ordinary values, sometimes a zero of either sign, an
-    /// infinity, a NaN, a tiny (subnormal) one or any bit pattern.
-    fn float(g: &mut ChaCha8Rng) -> f32 {
-        match g.random_range(0..16) {
-            0 => 0.0,
-            1 => -0.0,
-            2 => f32::INFINITY,
-            3 => f32::NAN,
-            4 => f32::from_bits(g.random::<u32>() & 0x007f_ffff),
-            5 => f32::from_bits(g.random()),
-            _ => g.random_range(-4.0f32..4.0),
-        }
-    }
-
-    /// `moved_into` against `rot * v + t` with `Mat3` and `Vec3` (the expression it
-    /// replaced), and `lanes_moved_back` against `rot * (v - t)`, bitwise, for rotations from random quaternions and for arbitrary
-    /// matrices (special floats included), 0 to 12 points into one reused buffer.
-    #[test]
-    fn moved_into_is_mat3_times_v_plus_t_bitwise() {
-        let mut g = ChaCha8Rng::seed_from_u64(0xbb67_ae85);
-        let mut bv = Vec::new();
-        for case in 0..20_000 {
-            let rot = if case % 2 == 0 {
-                let q = Quat::from_xyzw(
-                    g.random_range(-1.0..1.0),
-                    g.random_range(-1.0..1.0),
-                    g.random_range(-1.0..1.0),
-                    g.random_range(-1.0..1.0),
-                );
-                Mat3::from_quat(q.normalize())
-            } else {
-                Mat3::from_cols_array(&std::array::from_fn(|_| float(&mut g)))
-            };
-            let t = Vec3::new(float(&mut g), float(&mut g), float(&mut g));
-            let vs: Vec<Vec3> = (0..g.random_range(0..13))
-                .map(|_| Vec3::new(float(&mut g), float(&mut g), float(&mut g)))
-                .collect();
-            moved_into(&mut bv, &vs, rot, t);
-            assert_eq!(bv.len(), vs.len(), "case {case}");
-            let back = |v: Vec3| lanes_moved_back(Mat3A::from(rot), Vec3A::from(t), v);
-            for (k, (&got, &v)) in bv.iter().zip(&vs).enumerate() {
-                let (got_back, want_back) = (back(v), rot * (v - t));
-                let want = rot * v + t;
-                // Bitwise, but any NaN for a NaN (as `u32::MAX`, itself a NaN's bits): Rust
-                // leaves a NaN result's sign and payload unspecified (the compiler may swap
-                // a product's operands).
-                let bits = |p: Vec3| {
-                    p.to_array()
-                        .map(|x| if x.is_nan() { u32::MAX } else { x.to_bits() })
-                };
-                assert_eq!(
-                    bits(got),
-                    bits(want),
-                    "case {case}, point {k}: {got} {want}"
-                );
-                let (got_back, want_back) = (bits(got_back), bits(want_back));
-                assert_eq!(got_back, want_back, "case {case}, point {k} back");
-            }
-        }
-    }
-}
