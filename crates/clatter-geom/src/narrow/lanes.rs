@@ -20,20 +20,33 @@ impl SoaPoints {
         lanes
     }
 
+    /// Lays `pts` out as chunks of four (the last padded with the first point), reusing
+    /// the buffer: the pair's moved points, once per pair and step.
     pub(super) fn fill(&mut self, pts: &[Vec3]) {
         // Sized once, then written in place (no capacity check per chunk).
         self.chunks.resize(pts.len().div_ceil(4), [Vec4::ZERO; 3]);
         let Some(&first) = pts.first() else {
             return;
         };
-        for (chunk, ps) in self.chunks.iter_mut().zip(pts.chunks(4)) {
-            let p = |k: usize| *ps.get(k).unwrap_or(&first);
-            let (p0, p1, p2, p3) = (p(0), p(1), p(2), p(3));
-            *chunk = [
+        // Whole chunks of four without a test per lane; the last, short one padded with
+        // the first point (the same lanes as padding every chunk).
+        let lanes = |[p0, p1, p2, p3]: [Vec3; 4]| {
+            [
                 Vec4::new(p0.x, p1.x, p2.x, p3.x),
                 Vec4::new(p0.y, p1.y, p2.y, p3.y),
                 Vec4::new(p0.z, p1.z, p2.z, p3.z),
-            ];
+            ]
+        };
+        let fours = pts.chunks_exact(4);
+        let rest = fours.remainder();
+        let mut slots = self.chunks.iter_mut();
+        // (`fours` first: `zip` stops on it without taking the short chunk's slot.)
+        for (ps, chunk) in fours.zip(&mut slots) {
+            *chunk = lanes([ps[0], ps[1], ps[2], ps[3]]);
+        }
+        if let Some(chunk) = slots.next() {
+            let p = |k: usize| *rest.get(k).unwrap_or(&first);
+            *chunk = lanes([p(0), p(1), p(2), p(3)]);
         }
     }
 
@@ -285,6 +298,31 @@ mod tests {
             let got = Extent::bounds(&a, &b).map(f32::to_bits);
             let want = [a.min(), a.max(), b.min(), b.max()].map(f32::to_bits);
             assert_eq!(got, want, "case {case}");
+        }
+    }
+
+    /// `fill` lays the points out chunk by chunk (chunk `c`, lane `j`: point `4c + j`, the
+    /// last chunk padded with the first point), bitwise, into one buffer reused for counts
+    /// that rise and fall (0 to 13 points, NaNs, infinities and signed zeros among them).
+    #[test]
+    fn fill_lays_the_points_out_in_chunks_of_four() {
+        let mut g = Floats(0x6a09_e667_f3bc_c909);
+        let mut soa = SoaPoints::default();
+        for case in 0..20_000 {
+            let count = (g.bits() % 14) as usize;
+            let pts: Vec<Vec3> = (0..count)
+                .map(|_| Vec3::new(g.any(), g.any(), g.any()))
+                .collect();
+            soa.fill(&pts);
+            assert_eq!(soa.chunks.len(), count.div_ceil(4), "case {case}");
+            for (c, &[xs, ys, zs]) in soa.chunks.iter().enumerate() {
+                let lanes = [xs, ys, zs].map(|v| v.to_array());
+                for (j, want) in (4 * c..4 * c + 4).map(|k| pts.get(k)).enumerate() {
+                    let p = *want.unwrap_or(&pts[0]);
+                    let got = lanes.map(|lane| lane[j].to_bits());
+                    assert_eq!(got, p.to_array().map(f32::to_bits), "case {case} {c} {j}");
+                }
+            }
         }
     }
 
