@@ -35,6 +35,7 @@
 //!   it before replacing the list.
 
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 use crate::contact_list::{ContactSprings, Contacts};
 use crate::contract::ContactForce;
@@ -43,6 +44,9 @@ use crate::world::World;
 /// The near list's margin, as a fraction of the skin: pairs whose spheres are closer than
 /// this when it is made are in it.
 pub(crate) const MARGIN: f32 = 0.25;
+
+/// Bodies per parallel piece of the near list's reach test (`Near::holds`).
+const HOLDS_CHUNK: usize = 4096;
 
 /// A near list (see the module docs).
 #[derive(Debug, Clone)]
@@ -86,15 +90,28 @@ impl Near {
         if positions.len() != n || self.reach2.len() != n {
             return false;
         }
-        // Every body tested (no early exit), with `&`: a loop without branches.
-        let (made, reach2) = (&self.made_at[..n], &self.reach2[..n]);
-        let mut ok = true;
-        for k in 0..n {
-            let d = positions[k] - made[k];
-            ok &= d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k];
-        }
-        ok
+        within_reach(positions, &self.made_at, &self.reach2)
     }
+}
+
+/// Whether every body `k` is within `reach2[k]` (squared) of `made_at[k]` (the slices of
+/// one length). In parallel pieces (the test runs every step, over every body: on one
+/// thread it left the others waiting), each piece's bodies all tested with `&` (a loop
+/// without branches); a piece that fails ends the others early. The answer is the same
+/// boolean whatever the pieces; a NaN distance fails.
+fn within_reach(positions: &[DVec3], made_at: &[DVec3], reach2: &[f64]) -> bool {
+    positions
+        .par_chunks(HOLDS_CHUNK)
+        .zip(made_at.par_chunks(HOLDS_CHUNK))
+        .zip(reach2.par_chunks(HOLDS_CHUNK))
+        .all(|((x, made), reach2)| {
+            let mut ok = true;
+            for k in 0..x.len().min(made.len()).min(reach2.len()) {
+                let d = x[k] - made[k];
+                ok &= d.x * d.x + d.y * d.y + d.z * d.z <= reach2[k];
+            }
+            ok
+        })
 }
 
 /// For a decomposed step whose ghost states are still on their way (`crate::domain`):
@@ -290,6 +307,38 @@ fn make(world: &World) -> Near {
 
 #[cfg(test)]
 mod tests {
+    /// The parallel reach test against its definition, body by body: one body out of reach
+    /// (or at a NaN distance) anywhere, in the first, a middle or the last piece, fails it.
+    #[test]
+    fn the_reach_test_in_pieces_is_every_bodys() {
+        use glam::DVec3;
+        let n = 3 * super::HOLDS_CHUNK + 17;
+        let made: Vec<DVec3> = (0..n)
+            .map(|k| DVec3::new(k as f64 * 0.01, (k % 7) as f64, -(k as f64)))
+            .collect();
+        let reach2: Vec<f64> = (0..n).map(|k| 1e-6 * (1 + k % 5) as f64).collect();
+        let moved = |x: &mut [DVec3]| {
+            for (k, p) in x.iter_mut().enumerate() {
+                *p += DVec3::new(1e-4 * (k % 3) as f64, 0.0, 5e-4);
+            }
+        };
+        let definition =
+            |x: &[DVec3]| (0..n).all(|k| (x[k] - made[k]).length_squared() <= reach2[k]);
+        let mut x = made.clone();
+        moved(&mut x);
+        assert!(definition(&x));
+        assert!(super::within_reach(&x, &made, &reach2));
+        let edge = super::HOLDS_CHUNK;
+        for k in [0, edge - 1, edge, 2 * edge + 5, n - 1] {
+            for away in [DVec3::new(0.0, 0.01, 0.0), DVec3::NAN] {
+                let mut y = x.clone();
+                y[k] = made[k] + away;
+                assert!(!definition(&y));
+                assert!(!super::within_reach(&y, &made, &reach2), "body {k}, {away}");
+            }
+        }
+    }
+
     use std::cell::Cell;
 
     use crate::World;
