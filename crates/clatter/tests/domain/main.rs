@@ -68,18 +68,44 @@ fn on_ranks(world: &World, ranks: usize, steps: usize) -> End {
 
 /// [`on_ranks`], with the number of bodies handed from one rank to another at rebuilds.
 fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
-    let ends: Vec<(End, u64)> = std::thread::scope(|scope| {
+    let (end, handovers) = on_ranks_with(
+        world,
+        ranks,
+        steps,
+        |_| {},
+        |_| {},
+        |d, comm| comm.sum_u64(d.handed_over()),
+    );
+    (end, handovers[0])
+}
+
+/// `world` stepped on `ranks` threads, each rank's domain set up by `setup` and looked at
+/// by `after_step` after every step; every rank's gathered end must agree (and rank 0's
+/// `gather_root` with it). Also what `take` takes from each rank's domain after the steps
+/// (every rank calls it, in the same place: it may be collective), by rank.
+fn on_ranks_with<T: Send>(
+    world: &World,
+    ranks: usize,
+    steps: usize,
+    setup: impl Fn(&mut Domain) + Sync,
+    after_step: impl Fn(&Domain) + Sync,
+    take: impl Fn(&Domain, &ThreadComm) -> T + Sync,
+) -> (End, Vec<T>) {
+    let ends: Vec<(End, T)> = std::thread::scope(|scope| {
         let handles: Vec<_> = ThreadComm::group(ranks)
             .into_iter()
             .map(|comm| {
                 let w = world.clone();
+                let (setup, after_step, take) = (&setup, &after_step, &take);
                 scope.spawn(move || {
                     let mut d = Domain::new(w, comm.rank(), comm.size());
+                    setup(&mut d);
                     for _ in 0..steps {
                         d.step(&comm).expect("ranks step");
+                        after_step(&d);
                     }
                     let contacts = d.contact_count(&comm);
-                    let handovers = comm.sum_u64(d.handed_over());
+                    let taken = take(&d, &comm);
                     let g = d.gather(&comm);
                     let end = End {
                         state: snapshot(&g),
@@ -101,7 +127,7 @@ fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
                             "gather_root's world differs from gather's"
                         );
                     }
-                    (end, handovers)
+                    (end, taken)
                 })
             })
             .collect();
@@ -110,10 +136,11 @@ fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
             .map(|h| h.join().expect("rank thread"))
             .collect()
     });
+    let (ends, taken): (Vec<End>, Vec<T>) = ends.into_iter().unzip();
     for e in &ends[1..] {
         assert_eq!(e, &ends[0], "ranks disagree");
     }
-    ends.into_iter().next().expect("one rank at least")
+    (ends.into_iter().next().expect("one rank at least"), taken)
 }
 
 fn check(name: &str, world: World, steps: usize) -> u64 {

@@ -10,42 +10,15 @@ use super::*;
 /// `world` stepped on `ranks` thread ranks with the overlap on or off: the gathered end
 /// (every rank's must agree) and what each rank's overlapped steps computed.
 fn stepped(world: &World, ranks: usize, steps: usize, overlap: bool) -> (End, Vec<Overlapped>) {
-    let ends: Vec<(End, Overlapped)> = std::thread::scope(|scope| {
-        let handles: Vec<_> = ThreadComm::group(ranks)
-            .into_iter()
-            .map(|comm| {
-                let w = world.clone();
-                scope.spawn(move || {
-                    let mut d = Domain::new(w, comm.rank(), comm.size());
-                    d.set_overlap(overlap);
-                    for _ in 0..steps {
-                        d.step(&comm).expect("ranks step");
-                        // Between steps the ghost states are owed exactly when overlapped.
-                        assert_eq!(d.ghosts_owed(), overlap && ranks > 1);
-                    }
-                    let contacts = d.contact_count(&comm);
-                    let g = d.gather(&comm);
-                    let end = End {
-                        state: snapshot(&g),
-                        checkpoint: g.checkpoint_bytes("test", "", &[]),
-                        contacts,
-                        rebuilds: g.rebuilds,
-                        step: g.step_count,
-                    };
-                    (end, d.overlapped())
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("rank thread"))
-            .collect()
-    });
-    let (ends, counts): (Vec<End>, Vec<Overlapped>) = ends.into_iter().unzip();
-    for e in &ends[1..] {
-        assert_eq!(e, &ends[0], "ranks disagree");
-    }
-    (ends.into_iter().next().expect("a rank"), counts)
+    on_ranks_with(
+        world,
+        ranks,
+        steps,
+        |d| d.set_overlap(overlap),
+        // Between steps the ghost states are owed exactly when overlapped.
+        |d| assert_eq!(d.ghosts_owed(), overlap && ranks > 1),
+        |d, _| d.overlapped(),
+    )
 }
 
 /// Sums over the ranks.
