@@ -18,7 +18,7 @@ cargo build --release -q -p clatter-cli --features mpi
 cp target/release/clatter "$work/bin/clatter-mpi"
 cargo build --release -q -p clatter-cli
 cp target/release/clatter "$work/bin/clatter"
-for t in stages memory_steps; do
+for t in stages memory_steps poly_lanes narrow; do
   exe=$(cargo test --release -q -p clatter-gpu --test "$t" --no-run --message-format=json 2>/dev/null \
     | python3 -c "import json,sys; print([j['executable'] for j in map(json.loads, sys.stdin) if j.get('executable')][-1])")
   cp "$exe" "$work/bin/$t"

@@ -61,6 +61,21 @@ stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
 stage default_run_sparse 40 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
 log "gpu part done"; W="16384 262144"; S=16384; NPS="1 2"; WNP="1 16"; set -- mpi
 fi
+if [ "${1:-gpu}" = lease14 ]; then
+# Session 26's one call: the H100 targets of issue 23 first (the poured 80,000 pile, then 13
+# tiles of it: 1,040,000 bodies), the GPU tests on NVIDIA's compiler (with the lanes and narrow
+# batches), run against bench, then the MPI rows: LAMMPS beside clatter at 1 and 16 ranks (and
+# 4 for weak scaling), and the exchange overlap on and off (mpi13.sh). 4M spheres only if
+# time is left (their kernels are unchanged since they were last timed).
+stage mixed80k 200 $G --shape mixed --pile poured --bodies 80000 --steps 1000 --settle 200
+for f in $PC/mixed-n80000-*.ckpt; do [ -f "$f" ] && xz -T8 -c "$f" > $OUT/$(basename "$f").xz; done
+stage mixed1M_tiles 150 $G --shape mixed --pile poured --bodies 80000 --tiles 13 --steps 300 --settle 200
+for t in stages memory_steps poly_lanes narrow; do CI=1 stage test_$t 60 /opt/cl/$t --test-threads 8; done
+stage default_bench 30 $G --scene default --settle 0 --steps 5000
+stage default_run 30 $C run --backend gpu --steps 5000 -q --out /tmp/run1
+stage default_run_sparse 30 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
+log "gpu part done"; W="16384 65536 262144"; NPS="1 16"; WNP="1 4 16"; OVERLAP_AB=1; set -- mpi
+fi
 if [ "${1:-gpu}" = both ]; then
 # One call for a 15-minute lease: the H100 targets of issue 23 first, then the 16-rank rows of
 # issue 25 (weak scaling at 1, 4, 16 ranks and the strong row at 16; LAMMPS beside each).
@@ -159,6 +174,10 @@ run_pair() { # np bodies
 for np in $NPS; do run_pair $np $S; done
 if [ -n "${WNP:-}" ]; then
   set -- $WNP; for n in $W; do np=$1; shift; [ $n = $S ] && echo " $NPS " | grep -q " $np " && continue; run_pair $np $n; done
+  if [ "${OVERLAP_AB:-0}" = 1 ]; then
+    export M CM PC; LEFT=$(( 480 - $(date +%s) + T0 )) bash "$root/scripts/device/mpi13.sh" 2>&1 | tee -a $OUT/summary.txt
+    if [ $(( $(date +%s) - T0 )) -lt 440 ]; then stage sph4M_lat 90 $G --shape sphere --pile lattice --bodies 4194304 --steps 500 --settle 200; fi
+  fi
   log "done"; exit 0
 fi
 i=0; for n in $W; do np=$((1<<i)); i=$((i+1)); [ $n = $S ] && continue; run_pair $np $n; done
