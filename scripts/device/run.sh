@@ -61,6 +61,16 @@ stage default_run 40 $C run --backend gpu --steps 5000 -q --out /tmp/run1
 stage default_run_sparse 40 $C run --backend gpu --steps 5000 -q --energy-every 5000 --check-every 5000 --out /tmp/run2
 log "gpu part done"; W="16384 262144"; S=16384; NPS="1 2"; WNP="1 16"; set -- mpi
 fi
+if [ "${1:-gpu}" = lease15 ]; then
+# Session 26's second call: `run` against `bench` on the GPU three times alternated, then
+# (below, after MPI starts) the machine's own ceiling for weak scaling and the merged build
+# against the base one at 1 and 16 ranks.
+for r in 1 2 3; do
+  stage default_bench_$r 30 $G --scene default --settle 0 --steps 5000
+  stage default_run_$r 30 $C run --backend gpu --steps 5000 -q --out /tmp/run$r
+done
+log "gpu part done"; LEASE15=1; set -- mpi
+fi
 if [ "${1:-gpu}" = lease14 ]; then
 # Session 26's one call: the H100 targets of issue 23 first (the poured 80,000 pile, then 13
 # tiles of it: 1,040,000 bodies), the GPU tests on NVIDIA's compiler (with the lanes and narrow
@@ -129,6 +139,40 @@ log "MPI mode $MODE"
 CM=/opt/cl/clatter-mpi
 stage mpi_hello 30 $M -np 2 $CM bench --shape sphere --pile lattice --bodies 1024 --steps 10 --settle 0 --threads 1
 grep -q "MPI ranks" $L/mpi_hello.log || { log "MPI does not start; stopping"; exit 0; }
+if [ "${LEASE15:-0}" = 1 ]; then
+  { lscpu | grep -E "^(Model name|Socket|Core|Thread|CPU\(s\)|NUMA|L2|L3|On-line)"; } 2>&1 | tee -a $OUT/summary.txt
+  mkdir -p /opt/base; for b in clatter clatter-mpi; do [ -f .devrun/base/$b.xz ] && xz -dc .devrun/base/$b.xz > /opt/base/$b && chmod +x /opt/base/$b; done
+  stage sph_pour 60 $G --shape sphere --pile poured --bodies 16384,262144 --steps 10 --settle 0
+  mkdir -p /tmp/l16384 /tmp/l262144
+  stage emit16384 30 $C bench --shape sphere --bodies 16384 --steps 500 --settle 0 --threads 16 --pile-cache $PC --emit-lammps /tmp/l16384
+  stage emit262144 30 $C bench --shape sphere --bodies 262144 --steps 500 --settle 0 --threads 16 --pile-cache $PC --emit-lammps /tmp/l262144
+  sps() { grep -h -o '"steps_per_s": *[0-9.e+-]*' "$1" 2>/dev/null | head -1 | sed 's/.*: *//'; }
+  lsps() { grep "^Loop time" "$1" 2>/dev/null | tail -1 | awk '{print $9/$4}'; }
+  # The machine's ceiling: the one-rank bench alone on core 0, then 16 copies at once, one per
+  # core (no MPI, nothing exchanged): what 16 busy cores cost each process by themselves.
+  for bin in /opt/base/clatter $C; do
+    taskset -c 0 $bin bench --backend cpu --shape sphere --bodies 16384 --steps 500 --settle 0 --threads 1 --pile-cache $PC --json > /tmp/solo.json 2>&1
+    log "ceiling $bin alone: $(sps /tmp/solo.json) steps/s"
+    mkdir -p /tmp/six; for i in $(seq 0 15); do taskset -c $i $bin bench --backend cpu --shape sphere --bodies 16384 --steps 500 --settle 0 --threads 1 --pile-cache $PC --json > /tmp/six/$i.json 2>&1 & done; wait
+    log "ceiling $bin 16 at once: $(for i in $(seq 0 15); do sps /tmp/six/$i.json; done | tr '\n' ' ')"
+  done
+  (cd /tmp/l16384 && taskset -c 0 timeout 60 $LMP -in in.pile -log /tmp/lsolo.log > /dev/null 2>&1); log "ceiling lammps alone: $(lsps /tmp/lsolo.log) steps/s"
+  (cd /tmp/l16384 && for i in $(seq 0 15); do taskset -c $i timeout 90 $LMP -in in.pile -log /tmp/six/l$i.log > /dev/null 2>&1 & done; wait)
+  log "ceiling lammps 16 at once: $(for i in $(seq 0 15); do lsps /tmp/six/l$i.log; done | tr '\n' ' ')"
+  one() { # label env binary np
+    local l=$1 e=$2 b=$3 np=$4 n=$(( $4 * 16384 ))
+    env $e timeout 60 $M -x CLATTER_MPI_BALANCE -np $np $b bench --backend cpu --shape sphere --bodies $n --steps 500 --settle 0 --threads 1 --pile-cache $PC --json > /tmp/one.log 2>&1
+    log "mpi $l np $np bodies $n: $(sps /tmp/one.log) steps/s"
+    grep -h "^# per rank" /tmp/one.log | cut -c1-600 >> $OUT/summary.txt
+  }
+  for np in 1 16 16; do
+    one base CLATTER_MPI_BALANCE=bodies /opt/base/clatter-mpi $np
+    one new-bodies CLATTER_MPI_BALANCE=bodies $CM $np
+    one new CLATTER_MPI_BALANCE= $CM $np
+  done
+  for np in 1 16; do n=$(( np * 16384 )); (cd /tmp/l$n && timeout 90 $M -np $np $LMP -in in.pile -log /tmp/lm$np.log > /dev/null 2>&1); log "lammps np $np bodies $n: $(lsps /tmp/lm$np.log) steps/s"; done
+  log "done"; exit 0
+fi
 if [ $AB = 1 ]; then
   mkdir -p /opt/ex $PC && tar -xJf .devrun/extra.tar.xz -C /opt/ex
   PQ=/tmp/pcq; mkdir -p $PQ; cp /opt/ex/pc/*.ckpt $PQ/; cp $PQ/sphere-n16384* $PC/
