@@ -225,43 +225,30 @@ fn remembered_face(
     } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
-    // One path for both kinds (the reference face of A or of B), its choices made per
-    // vertex by `b_ref`: the same expressions for each kind as two paths would compute,
-    // so the same floats, in half the code (pairs of either kind alternate, and two copies
-    // of the clipping and the certificates kept more of the instruction cache busy).
-    let b_ref = kind != HINT_FACE_A;
-    let (refp, inc, inc_rot, pose) = if b_ref {
-        (b, a, inv_rot, pb)
-    } else {
-        (a, b, rot, pa)
-    };
-    if face >= refp.faces.len() {
-        return Err(None);
-    }
-    // The incident body's vertex `i` in the reference frame, and a point of the reference
-    // frame in the incident body's.
-    let inc_v = |i: usize| {
-        if b_ref {
-            inv_rot * (a.vertices[i] - t)
-        } else {
-            rot * b.vertices[i] + t
+    if kind == HINT_FACE_A {
+        if face >= a.faces.len() {
+            return Err(None);
         }
-    };
-    let m = clip_faces(refp, face, inc, inc_v, inc_rot, clip).ok_or(None)?;
-    let to_inc = |p: Vec3| {
-        if b_ref {
-            rot * p + t
+        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
+        let to_b = |p: Vec3| inv_rot * (p - t);
+        if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
+            Ok(Some(to_world(m, pa)))
         } else {
-            inv_rot * (p - t)
+            Err(Some((kind, face, m)))
         }
-    };
-    if overlap_certified(refp, &m, delta)
-        || wedge_certified(refp, face, inc, to_inc, inc_rot, &m, delta)
-    {
-        let m = to_world(m, pose);
-        Ok(Some(if b_ref { m.flipped() } else { m }))
     } else {
-        Err(Some((kind, face, m)))
+        if face >= b.faces.len() {
+            return Err(None);
+        }
+        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
+        let to_a = |p: Vec3| rot * p + t;
+        if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
+        {
+            Ok(Some(to_world(m, pb).flipped()))
+        } else {
+            Err(Some((kind, face, m)))
+        }
     }
 }
 
