@@ -168,7 +168,7 @@ if [ "${LEASE15:-0}" = 1 ]; then
   for np in 1 16 16; do
     one base CLATTER_MPI_BALANCE=bodies /opt/base/clatter-mpi $np
     one new-bodies CLATTER_MPI_BALANCE=bodies $CM $np
-    one new CLATTER_MPI_BALANCE= $CM $np
+    one new-work CLATTER_MPI_BALANCE=work $CM $np
   done
   for np in 1 16; do n=$(( np * 16384 )); (cd /tmp/l$n && timeout 90 $M -np $np $LMP -in in.pile -log /tmp/lm$np.log > /dev/null 2>&1); log "lammps np $np bodies $n: $(lsps /tmp/lm$np.log) steps/s"; done
   log "done"; exit 0
