@@ -75,6 +75,7 @@ pub(super) fn run_in(world: &mut World, lanes: bool) -> Moved {
         .zip(s.orientation_residual.par_chunks_mut(size))
         .zip(s.removed.par_chunks_mut(size))
         .enumerate()
+        .with_max_len(1)
         .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
             let mut bodies = Bodies {
                 first: chunk * size,

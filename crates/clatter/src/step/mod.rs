@@ -46,7 +46,10 @@ pub(crate) const CHUNK: usize = 1024;
 /// polyhedra, and the integrate stage's bodies. [`CHUNK`]-sized tasks there leave a
 /// default scene's step (2,500 bodies, ~6,000 pairs) with only a handful of tasks of very
 /// unequal cost, and one thread waiting at the end of every stage while the other finishes
-/// the last one. Each item writes only its own slots, so the task size changes no result.
+/// the last one. These loops split down to tasks of at most this many items
+/// (`with_max_len`: rayon's adaptive splitting alone leaves a thread's last task as large as
+/// a quarter of the loop when nothing is stolen). Each item writes only its own slots, so
+/// the task size changes no result.
 pub(crate) const FINE_CHUNK: usize = 64;
 
 /// Whether the hot stages run their AVX2 builds ([`vex`]): 0 not decided yet, 1 no, 2 yes.
