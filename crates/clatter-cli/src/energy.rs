@@ -60,8 +60,7 @@ impl EnergySeries {
 
     /// Records the state of `world`.
     pub fn sample(&mut self, world: &World) -> anyhow::Result<()> {
-        let (k, p) = (world.kinetic_energy(), world.potential_energy());
-        let m = world.momentum();
+        let (k, p, m) = world.energies_and_momentum();
         self.record(world.step_count, world.time, k, p, m)
     }
 

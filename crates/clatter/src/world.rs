@@ -723,6 +723,21 @@ impl World {
         p.map(|s| s.value())
     }
 
+    /// [`World::kinetic_energy`], [`World::potential_energy`] and [`World::momentum`] from
+    /// one parallel pass over the bodies (the same exact sums of the same terms, so the
+    /// same bits): an energy sample's three quantities with one fork-join, not three.
+    pub fn energies_and_momentum(&self) -> (f64, f64, [f64; 3]) {
+        let [k, p, px, py, pz] = ExactSum::par_sums(self.len(), |i| {
+            let (k, p) = (self.body_kinetic_energy(i), self.body_potential_energy(i));
+            if self.state.removed[i] {
+                return [k, p, 0.0, 0.0, 0.0];
+            }
+            let m = self.state.velocity[i] * self.consts.mass[i];
+            [k, p, m.x as f64, m.y as f64, m.z as f64]
+        });
+        (k.value(), p.value(), [px, py, pz].map(|s| s.value()))
+    }
+
     /// The exact sums of the momentum components of `bodies` (those not removed).
     pub fn momentum_sums(&self, bodies: impl Iterator<Item = usize>) -> [ExactSum; 3] {
         let mut p: [ExactSum; 3] = Default::default();

@@ -71,8 +71,10 @@ fn first_difference(a: &[u32], b: &[u32]) -> Option<usize> {
 #[test]
 fn same_bits_for_1_2_3_threads_and_repeated_runs() {
     // Enough bodies (and contacts) that every parallel stage is split into at least three
-    // chunks (the pipeline's `with_min_len` is 1024 items): a few hundred bodies would run
-    // each stage in one chunk whatever the thread count, and prove nothing.
+    // chunks (the sphere loops' tasks are 1024 items; the polyhedron pairs' at most 64; the
+    // integrate stage's cut by the thread count, so each count here cuts it differently): a
+    // few hundred bodies would run each stage in one chunk whatever the thread count, and
+    // prove nothing.
     let (n, steps) = (3300, 300);
     let reference = run(1, n, steps);
     let total: usize = reference.contacts.iter().sum();

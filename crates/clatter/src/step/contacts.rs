@@ -5,7 +5,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::CHUNK;
+use super::{CHUNK, FINE_CHUNK};
 use crate::contact_list::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::material::PairParams;
@@ -123,7 +123,7 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     .zip(twist_pairs.par_iter_mut())
                     .zip(separation_bound.par_iter_mut())
                     .enumerate()
-                    .with_min_len(CHUNK)
+                    .with_max_len(FINE_CHUNK)
                     .map(|(k, (((((((p, pc), h), f), t), hn), tw), b))| {
                         if !keep(k) {
                             return 0;
@@ -188,7 +188,7 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                 .zip(separation_bound.par_iter_mut())
                 .zip(memory_part.par_iter_mut())
                 .enumerate()
-                .with_min_len(CHUNK)
+                .with_max_len(FINE_CHUNK)
                 .map(|(k, (((((((p, h), f), t), hn), tw), b), m))| {
                     if !keep(k) {
                         return 0;
@@ -210,18 +210,26 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     .zip(force_walls.par_iter_mut())
                     .zip(touch_walls.par_iter_mut())
                     .zip(twist_walls.par_iter_mut())
-                    .with_min_len(CHUNK)
+                    .with_max_len(FINE_CHUNK)
                     .map(|(((((p, pc), h), f), t), tw)| {
                         wall_pair::<true>(w, x, *p, *pc, h, f, t, tw, plain) as usize
                     })
                     .sum::<usize>();
             }
+            // Sphere-wall pairs are cheap (and go eight at a time); pairs with polyhedra are
+            // not: a task each of `FINE_CHUNK` of those.
+            let (chunk, most) = if w.spheres_only() {
+                (CHUNK, usize::MAX)
+            } else {
+                (FINE_CHUNK, 1)
+            };
             list.wall_pairs
-                .par_chunks(CHUNK)
-                .zip(hist_walls.par_chunks_mut(CHUNK))
-                .zip(force_walls.par_chunks_mut(CHUNK))
-                .zip(touch_walls.par_chunks_mut(CHUNK))
-                .zip(twist_walls.par_chunks_mut(CHUNK))
+                .par_chunks(chunk)
+                .zip(hist_walls.par_chunks_mut(chunk))
+                .zip(force_walls.par_chunks_mut(chunk))
+                .zip(touch_walls.par_chunks_mut(chunk))
+                .zip(twist_walls.par_chunks_mut(chunk))
+                .with_max_len(most)
                 .map(|((((p, h), f), t), tw)| {
                     #[cfg(target_arch = "x86_64")]
                     if plain && w.spheres_only() && super::avx2() {

@@ -8,7 +8,7 @@
 use glam::{DVec3, Quat, Vec3};
 use rayon::prelude::*;
 
-use super::CHUNK;
+use super::{CHUNK, FINE_CHUNK};
 use crate::bodies::BodyConstants;
 use crate::contact_list::Contacts;
 use crate::mesh_boundary::MeshContacts;
@@ -61,20 +61,24 @@ pub(super) fn run_in(world: &mut World, lanes: bool) -> Moved {
         ghost,
     };
     let s = &mut world.state;
-    // Chunks of bodies, one task each; the loop body sees plain slices.
+    // Chunks of bodies, one task each; the loop body sees plain slices. A few thousand
+    // bodies make only a few [`CHUNK`]s: one thread would do two of three while the other
+    // waits, so those go in [`FINE_CHUNK`]-multiple pieces, at least two per thread.
+    let size = body_chunk(s.position.len(), rayon::current_num_threads());
     let worst = s
         .position
-        .par_chunks_mut(CHUNK)
-        .zip(s.velocity.par_chunks_mut(CHUNK))
-        .zip(s.orientation.par_chunks_mut(CHUNK))
-        .zip(s.angular_momentum.par_chunks_mut(CHUNK))
-        .zip(s.omega.par_chunks_mut(CHUNK))
-        .zip(s.orientation_residual.par_chunks_mut(CHUNK))
-        .zip(s.removed.par_chunks_mut(CHUNK))
+        .par_chunks_mut(size)
+        .zip(s.velocity.par_chunks_mut(size))
+        .zip(s.orientation.par_chunks_mut(size))
+        .zip(s.angular_momentum.par_chunks_mut(size))
+        .zip(s.omega.par_chunks_mut(size))
+        .zip(s.orientation_residual.par_chunks_mut(size))
+        .zip(s.removed.par_chunks_mut(size))
         .enumerate()
+        .with_max_len(1)
         .map(|(chunk, ((((((xs, vs), qs), ls), ws), rs), gone))| {
             let mut bodies = Bodies {
-                first: chunk * CHUNK,
+                first: chunk * size,
                 xs,
                 vs,
                 qs,
@@ -104,6 +108,21 @@ pub(super) fn run_in(world: &mut World, lanes: bool) -> Moved {
         Moved::NonFinite
     } else {
         Moved::Farthest(worst)
+    }
+}
+
+/// Bodies per task of the stage for `n` bodies and `threads` threads: [`CHUNK`] when that
+/// makes at least four tasks per thread, otherwise `n` cut into about four tasks per
+/// thread, rounded up to a multiple of [`FINE_CHUNK`] (so of the lanes' eight). Each body
+/// is updated alone, so the size changes no result.
+pub(super) fn body_chunk(n: usize, threads: usize) -> usize {
+    let tasks = 4 * threads.max(1);
+    if n >= tasks * CHUNK {
+        CHUNK
+    } else {
+        n.div_ceil(tasks)
+            .next_multiple_of(FINE_CHUNK)
+            .clamp(FINE_CHUNK, CHUNK)
     }
 }
 
