@@ -37,16 +37,17 @@ impl Balance {
     }
 }
 
-/// The work model's units, fitted to the instructions per step of ranks of a settled sphere
-/// pile (BENCHMARKS.md, `mpi15`): an owned body (integrate, bookkeeping) costs
-/// [`BODY_WORK`], a pair the rank computes [`PAIR_WORK`] (split between its ends when both
-/// are owned here), a ghost [`GHOST_WORK`] (its state packed, sent, unpacked; its lane in
-/// integrate; its place in the broad phase).
+/// The work model's units (about 40 instructions each), fitted to the instructions per
+/// step of ranks of a settled sphere pile (BENCHMARKS.md, `mpi15`): an owned body
+/// (integrate, bookkeeping, about 200) costs [`BODY_WORK`], a pair the rank computes
+/// [`PAIR_WORK`] (about 80; split between its ends when both are owned here), a ghost
+/// [`GHOST_WORK`] (about 230-270: its state packed, sent, unpacked, and its lane in
+/// integrate, which runs over every group of eight bodies holding an owned one).
 pub const BODY_WORK: u64 = 5;
 /// See [`BODY_WORK`]; even, so that each end of a pair within a rank takes half exactly.
 pub const PAIR_WORK: u64 = 2;
 /// See [`BODY_WORK`].
-pub const GHOST_WORK: u64 = 2;
+pub const GHOST_WORK: u64 = 6;
 
 /// How many times the work-balanced boxes are cut ([`cut`]): the pairs across boxes and the
 /// ghost copies depend on the boxes, so each cut weighs the bodies with the last one's
