@@ -86,3 +86,65 @@ fn weighted_cuts_balance_uneven_work_by_brute_force() {
         );
     }
 }
+
+/// A shaken sphere pile (bodies cross the boxes, and the boxes are cut again) stepped on 3
+/// thread ranks with the boxes balanced by bodies and by work: both end bitwise as one
+/// process does (a new world is first cut by bodies, then recut by work once it has pairs:
+/// at least two cuts).
+#[test]
+fn both_balances_step_a_shaken_pile_bitwise_as_one_process() {
+    use clatter::domain::{Balance, Bisection};
+    let mut desc = pile(PileShape::Sphere, 400, &PileParams::default());
+    for (i, b) in desc.bodies.iter_mut().enumerate() {
+        let f = i as f32;
+        b.velocity = Vec3::new((f * 0.37).sin(), (f * 0.73).cos(), (f * 0.11).sin()) * 2.0;
+    }
+    let world = World::new(desc);
+    let steps = 400;
+    let expected = one_process(world.clone(), steps);
+    for balance in [Balance::Bodies, Balance::Work] {
+        let ends: Vec<(End, u64, u64)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = ThreadComm::group(3)
+                .into_iter()
+                .map(|comm| {
+                    let w = world.clone();
+                    scope.spawn(move || {
+                        let mut d = Domain::with_balance(w, comm.rank(), comm.size(), balance);
+                        for _ in 0..steps {
+                            d.step(&comm).expect("ranks step");
+                        }
+                        let work = d.work();
+                        let contacts = d.contact_count(&comm);
+                        let recuts = d.recuts();
+                        let g = d.gather(&comm);
+                        let end = End {
+                            state: snapshot(&g),
+                            checkpoint: g.checkpoint_bytes("test", "", &[]),
+                            contacts,
+                            rebuilds: g.rebuilds,
+                            step: g.step_count,
+                        };
+                        (end, work, recuts)
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().expect("rank thread"))
+                .collect()
+        });
+        let work: Vec<u64> = ends.iter().map(|e| e.1).collect();
+        eprintln!(
+            "{balance:?}: estimated work {work:?} (imbalance {:.4}), recuts {}",
+            Bisection::imbalance(&work),
+            ends[0].2
+        );
+        for (end, _, _) in &ends {
+            assert!(*end == expected, "{balance:?}: not one process's end");
+        }
+        if balance == Balance::Work {
+            assert!(ends[0].2 >= 2, "the pile should be cut again");
+            assert!(work.iter().all(|&w| w > 0));
+        }
+    }
+}
