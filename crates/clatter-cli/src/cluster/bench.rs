@@ -122,7 +122,7 @@ fn time(
 ) -> anyhow::Result<Option<Row>> {
     let (rank, ranks) = (comm.rank(), comm.size());
     let n = world.len();
-    let mut domain = Domain::new(world, rank, ranks);
+    let mut domain = Domain::with_balance(world, rank, ranks, super::mpi::balance(rank));
     domain.set_overlap(super::mpi::overlap());
     let stepped =
         |domain: &mut Domain, on: &dyn Comm, steps: u64, counts: &mut StepCounts, when| {
@@ -191,11 +191,13 @@ fn time(
 
 /// Rank 0 says on stderr how many bodies each rank owns and holds as ghosts after the
 /// timed steps (collective): the balance of the decomposition and its communication volume
-/// (ghost states are what is sent every step), whatever the load of the machine; and each
+/// (ghost states are what is sent every step), whatever the load of the machine; its
+/// candidate pairs and its estimated work ([`Domain::work`], what the default balance
+/// evens out) and the balance used (`CLATTER_MPI_BALANCE`); and each
 /// rank's resident memory then (before the pile is gathered for the row), in MiB, where the
 /// system says it (`VmRSS` of /proc/self/status; 0 elsewhere).
 fn report_loads(comm: &MpiComm, domain: &Domain) {
-    let mut mine = Vec::with_capacity(24);
+    let mut mine = Vec::with_capacity(80);
     mine.extend((domain.owned() as u64).to_le_bytes());
     mine.extend((domain.ghosts() as u64).to_le_bytes());
     mine.extend(resident_kib().to_le_bytes());
@@ -207,6 +209,8 @@ fn report_loads(comm: &MpiComm, domain: &Domain) {
         o.fallbacks,
         o.interior_pairs,
         o.ghost_pairs,
+        domain.pairs() as u64,
+        domain.work(),
     ] {
         mine.extend(w.to_le_bytes());
     }
@@ -229,9 +233,12 @@ fn report_loads(comm: &MpiComm, domain: &Domain) {
             .collect::<Vec<_>>()
             .join(" ");
         eprintln!(
-            "# per rank after the timed steps: owned {}; ghosts {}; resident MiB {mib}",
+            "# per rank after the timed steps: owned {}; ghosts {}; resident MiB {mib}; pairs {}; estimated work ({:?} balance) {}",
             list(0),
-            list(1)
+            list(1),
+            list(8),
+            domain.balance(),
+            list(9)
         );
         let share = all
             .iter()

@@ -8,7 +8,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use anyhow::Context;
-use clatter::domain::{Comm, Domain, Rounds, Share};
+use clatter::domain::{Balance, Comm, Domain, Rounds, Share};
 use clatter::scene::Scene;
 use clatter::{Checkpoint, World};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -52,6 +52,30 @@ pub const OVERLAP_VAR: &str = "CLATTER_MPI_OVERLAP";
 /// rank reads the same environment (mpirun passes it to all).
 pub fn overlap() -> bool {
     std::env::var(OVERLAP_VAR).is_ok_and(|v| v.trim() == "1")
+}
+
+/// The environment variable that says what the ranks' boxes balance: `work` (the default:
+/// each rank's estimated work per step, its pairs and ghosts counted,
+/// [`clatter::domain::Balance::Work`]) or `bodies` (each rank owns as many bodies, the cut
+/// before issue 25's). Which rank steps a body changes with it, never the result; both can
+/// be timed from one binary.
+pub const BALANCE_VAR: &str = "CLATTER_MPI_BALANCE";
+
+/// What the ranks' boxes balance ([`BALANCE_VAR`]; the default when unset, and, said once on
+/// stderr by rank 0, when set to neither name). Every rank reads the same environment.
+pub fn balance(rank: usize) -> Balance {
+    let Ok(v) = std::env::var(BALANCE_VAR) else {
+        return Balance::default();
+    };
+    Balance::from_name(&v).unwrap_or_else(|| {
+        let d = Balance::default();
+        if rank == 0 {
+            eprintln!(
+                "clatter: ignoring {BALANCE_VAR}={v:?} (expected bodies or work; using {d:?})"
+            );
+        }
+        d
+    })
 }
 
 impl MpiComm {
@@ -540,7 +564,7 @@ fn run_on(comm: &MpiComm, invocation: Invocation) -> anyhow::Result<()> {
     let mut outputs = comm.agree(outputs)?;
     // The last good state until the first full check: the start, kept by rank 0 alone.
     let mut last_good = LastGood::Start((rank == 0).then(|| Box::new(world.clone())));
-    let mut domain = Domain::new(world, rank, ranks);
+    let mut domain = Domain::with_balance(world, rank, ranks, balance(rank));
     domain.set_overlap(overlap());
     let loud = rank == 0 && !plan.quiet;
 

@@ -16,7 +16,7 @@ use crate::periodic::Periodic;
 const BINS: usize = 1024;
 
 /// A cut is refined (second pass) when its side is off its share by more than this
-/// fraction of the bodies being cut (0.1%).
+/// fraction of the bodies (or weight, [`Bisection::weighted`]) being cut (0.1%).
 const REFINE_TOLERANCE: f64 = 1e-3;
 
 /// A bisection of space between ranks: rank `r` owns the bodies whose centre (rounded to
@@ -67,9 +67,9 @@ fn bin(edges: &[f32], c: f32) -> usize {
 #[derive(Debug, Clone)]
 struct Cutting {
     axis: usize,
-    /// The bodies the first half of the ranks should own.
+    /// The bodies (summed weight) the first half of the ranks should own.
     target: u64,
-    /// The best cut so far, and the bodies below it.
+    /// The best cut so far, and the bodies (summed weight) below it.
     at: f32,
     below: u64,
     /// The range searched in the next pass (while the best cut is not close enough): the
@@ -153,6 +153,24 @@ impl Bisection {
         periodic: Option<&Periodic>,
         comm: Option<&dyn Comm>,
     ) -> Bisection {
+        Self::weighted(positions, &vec![1; positions.len()], ranks, periodic, comm)
+    }
+
+    /// [`Bisection::balanced`] with a weight per body (`weights[i]` for the body at
+    /// `positions[i]`; integers, so the histograms' sums are exact in any order): each cut
+    /// divides its node's summed weight, not its body count, in the proportion of its
+    /// ranks' halves, so each rank's bodies weigh about `total / ranks` (to 0.1% of a node's
+    /// weight per cut, plus the heaviest body where bodies share a coordinate). Weighted by
+    /// an estimate of each body's work (`balance.rs`), the ranks get about the same work
+    /// where the work per body is uneven. Unit weights give [`Bisection::balanced`]'s cuts.
+    pub fn weighted(
+        positions: &[Vec3],
+        weights: &[u64],
+        ranks: usize,
+        periodic: Option<&Periodic>,
+        comm: Option<&dyn Comm>,
+    ) -> Bisection {
+        assert_eq!(positions.len(), weights.len(), "one weight per body");
         let period = std::array::from_fn(|a| {
             periodic
                 .filter(|p| p.axes[a])
@@ -168,7 +186,7 @@ impl Bisection {
         };
         let mut at: Vec<Option<usize>> = vec![Some(0); positions.len()];
         while !groups.is_empty() {
-            let cutting = Self::cut_level(positions, &at, &groups, comm);
+            let cutting = Self::cut_level(positions, weights, &at, &groups, comm);
             let mut next = Vec::new();
             let mut children = Vec::with_capacity(groups.len());
             for (g, c) in groups.iter().zip(&cutting) {
@@ -208,6 +226,7 @@ impl Bisection {
     /// share (a sum per pass, all groups of the level together).
     fn cut_level(
         positions: &[Vec3],
+        weights: &[u64],
         at: &[Option<usize>],
         groups: &[Group],
         comm: Option<&dyn Comm>,
@@ -270,11 +289,11 @@ impl Bisection {
                 slot[k] = s;
             }
             let mut hist = vec![0u64; BINS * searching.len()];
-            for (p, g) in positions.iter().zip(at) {
+            for ((p, g), &w) in positions.iter().zip(at).zip(weights) {
                 let Some(k) = *g else { continue };
                 let c = &cutting[k];
                 if let Some(b) = c.search.as_ref().and_then(|s| s.bin(p[c.axis])) {
-                    hist[BINS * slot[k] + b] += 1;
+                    hist[BINS * slot[k] + b] += w;
                 }
             }
             if let Some(comm) = comm {

@@ -5,7 +5,9 @@
 //!   bisection ([`Bisection`], across the seam of a periodic axis too), cut so that each
 //!   rank owns as many bodies as the others (by centre), from histograms of the bodies'
 //!   coordinates summed over the ranks, and cut again at a broad-phase rebuild when the
-//!   ranks' shares have drifted more than [`REBALANCE_IMBALANCE`] from even.
+//!   ranks' shares have drifted more than [`REBALANCE_IMBALANCE`] from even. By default the
+//!   bodies are weighted by an estimate of their work (pairs, ghost copies: [`Balance`]), so
+//!   that each rank does about as much work rather than owning as many bodies.
 //!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
 //!   of other ranks whose centres lie within `2 r_max + skin` of its box (every partner of
 //!   an owned body in the Verlet list), in ascending global id (scene order).
@@ -34,6 +36,7 @@
 //!   energy samples reduce each rank's exact sums and extremes, never a body's state; the
 //!   last good state stays in shares on the ranks ([`Domain::share`]) until a blow-up.
 
+mod balance;
 mod bisection;
 mod carry;
 mod check;
@@ -43,6 +46,7 @@ mod overlap;
 mod rows;
 mod totals;
 
+pub use balance::{BODY_WORK, Balance, GHOST_WORK, PAIR_WORK};
 pub use bisection::Bisection;
 pub use comm::{Comm, Rounds, ThreadComm};
 pub use gather::Share;
@@ -58,7 +62,8 @@ use crate::world::{SimError, StepStats, World};
 use rows::{Reader, SpringRow, Writer};
 
 /// The boxes are cut again at a rebuild only when the fullest rank would own more than this
-/// fraction above the mean number of bodies per rank (10%) with the boxes it has: recutting
+/// fraction above the mean number of bodies per rank (10%) with the boxes it has (or, when
+/// they balance work, [`Balance::Work`], would have more than this above the mean work): recutting
 /// moves bodies between ranks (states, springs, ghost lists) and that is wasted while the
 /// ranks are still about even. The threshold changes which rank steps a body, never the result.
 pub const REBALANCE_IMBALANCE: f64 = 0.10;
@@ -111,6 +116,8 @@ pub struct Domain {
     interior_pairs: u64,
     /// What the overlapped steps computed ([`Domain::overlapped`]).
     overlapped: Overlapped,
+    /// What the boxes balance: bodies or estimated work ([`Domain::with_balance`]).
+    balance: Balance,
 }
 
 impl Domain {
@@ -121,6 +128,13 @@ impl Domain {
     /// starts owned by rank 0, and the first step's rebuild distributes it. Every world can be
     /// decomposed: walls, periodic boundaries, mesh boundaries, sinks, composites.
     pub fn new(world: World, rank: usize, ranks: usize) -> Domain {
+        Domain::with_balance(world, rank, ranks, Balance::default())
+    }
+
+    /// [`Domain::new`] with boxes that balance `balance` (the bodies each rank owns, or the
+    /// estimated work of each: `balance.rs`) at the first split and every recut. Which
+    /// rank steps a body changes with it, never the result.
+    pub fn with_balance(world: World, rank: usize, ranks: usize, balance: Balance) -> Domain {
         let reach = 2.0 * world.consts.max_radius() + world.skin;
         let skeleton = world.subset(&[], Vec::new());
         let empty = world.subset(&[], Vec::new());
@@ -144,6 +158,7 @@ impl Domain {
             groups: Vec::new(),
             interior_pairs: 0,
             overlapped: Overlapped::default(),
+            balance,
         };
         let w = &world;
         let current = !w.needs_rebuild() && w.rebuild_position.len() == w.len() && !w.is_empty();
@@ -176,8 +191,16 @@ impl Domain {
     /// hints, bounds): in ascending global id, so in the one-process order. The mesh
     /// candidates are found again at the rebuild poses and time.
     fn split_current(&mut self, world: &World, rank: usize, ranks: usize) {
-        let built: Vec<Vec3> = world.rebuild_position.iter().map(|x| x.as_vec3()).collect();
-        let boxes = Bisection::balanced(&built, ranks, world.periodic.as_ref(), None);
+        let (all, reach) = (|_: usize| true, |x: DVec3| self.ghost_reach(x));
+        let layout = balance::Layout {
+            position: &world.rebuild_position,
+            owned: &all,
+            pairs: &world.contacts.pairs,
+            walls: &world.contacts.wall_pairs,
+            reach: &reach,
+        };
+        let periodic = world.periodic.as_ref();
+        let boxes = balance::cut(self.balance, &layout, None, ranks, periodic, None);
         let mut ids = Vec::new();
         let mut ghost = Vec::new();
         for (i, &x) in world.rebuild_position.iter().enumerate() {
@@ -546,30 +569,37 @@ impl Domain {
         let ranks = comm.size();
         let local = &self.local;
         let owned: Vec<usize> = (0..local.len()).filter(|&i| !local.is_ghost(i)).collect();
-        // 1. The boxes: the old ones while they are still about even (each rank counts its
-        //    bodies per old box, and the counts are summed: `REBALANCE_IMBALANCE`), else
-        //    new ones, cut from histograms of the owned bodies' coordinates summed over the
-        //    ranks (no rank sees another's positions).
+        // 1. The boxes: the old ones while they are still about even (each rank sums its
+        //    bodies' counts or work per old box, and the sums are summed:
+        //    `REBALANCE_IMBALANCE`), else new ones, cut from histograms of the owned
+        //    bodies' coordinates (weighted by their work) summed over the ranks (no rank
+        //    sees another's positions).
+        let (mine, reach) = (
+            |i: usize| !local.is_ghost(i),
+            |x: DVec3| self.ghost_reach(x),
+        );
+        let layout = balance::Layout {
+            position: &local.state.position,
+            owned: &mine,
+            pairs: &local.contacts.pairs,
+            walls: &local.contacts.wall_pairs,
+            reach: &reach,
+        };
         let kept = self.boxes.as_ref().filter(|old| {
-            let mut owned_by = vec![0u64; ranks];
-            for &i in &owned {
-                owned_by[old.owner(local.state.position[i])] += 1;
-            }
-            comm.sum_u64s(&mut owned_by);
-            Bisection::imbalance(&owned_by) <= REBALANCE_IMBALANCE
+            let load = balance::loads(self.balance, &layout, old, Some(comm));
+            Bisection::imbalance(&load) <= REBALANCE_IMBALANCE
         });
         let kept_boxes = kept.is_some();
         let boxes = match kept {
             Some(old) => old.clone(),
             None => {
-                let positions: Vec<Vec3> = owned
-                    .iter()
-                    .map(|&i| local.state.position[i].as_vec3())
-                    .collect();
-                self.recuts += 1;
-                Bisection::balanced(&positions, ranks, local.periodic.as_ref(), Some(comm))
+                let (old, periodic) = (self.boxes.as_ref(), local.periodic.as_ref());
+                balance::cut(self.balance, &layout, old, ranks, periodic, Some(comm))
             }
         };
+        if !kept_boxes {
+            self.recuts += 1;
+        }
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         // Most owned bodies stay: this rank's message reserved for all of them (its rows

@@ -11,6 +11,7 @@ use clatter::pile::{PileParams, PileShape, pile};
 use clatter::scene::Scene;
 use glam::Vec3;
 
+mod balance;
 mod bitwise;
 mod checks;
 mod cuts;
