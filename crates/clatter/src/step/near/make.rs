@@ -98,16 +98,12 @@ fn make_in(world: &World, piece: usize) -> Near {
     let (slots, pairs) = (slots.concat(), pairs.concat());
     // 3. The near pairs' springs, forces and flags, then every wall pair's.
     let total = n + c.wall_pairs.len();
-    // One parallel pass for the four (an unzip into each, in order).
-    let mut springs = (
-        (Vec::with_capacity(total), Vec::with_capacity(total)),
-        (Vec::with_capacity(total), Vec::with_capacity(total)),
-    );
-    springs.par_extend(slots.par_iter().map(|&s| {
-        let s = s as usize;
-        ((sp.history[s], sp.twist[s]), (sp.forces[s], sp.touching[s]))
-    }));
-    let ((mut history, mut twist), (mut forces, mut touching)) = springs;
+    let (mut history, mut twist) = (Vec::with_capacity(total), Vec::with_capacity(total));
+    let (mut forces, mut touching) = (Vec::with_capacity(total), Vec::with_capacity(total));
+    history.par_extend(slots.par_iter().map(|&s| sp.history[s as usize]));
+    twist.par_extend(slots.par_iter().map(|&s| sp.twist[s as usize]));
+    forces.par_extend(slots.par_iter().map(|&s| sp.forces[s as usize]));
+    touching.par_extend(slots.par_iter().map(|&s| sp.touching[s as usize]));
     history.extend_from_slice(&sp.history[np..]);
     twist.extend_from_slice(&sp.twist[np..]);
     forces.extend_from_slice(&sp.forces[np..]);
@@ -157,11 +153,10 @@ fn make_in(world: &World, piece: usize) -> Near {
         b_pairs.extend_from_slice(&b);
         reach2.extend_from_slice(&r);
     }
-    // (Short maps, one value per body: serial, without a fork-join of their own.)
-    let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
+    let pairs_as_a = c.pairs_as_a.par_iter().map(|&a| rank[a as usize]).collect();
     let wall_contacts_of = c
         .wall_contacts_of
-        .iter()
+        .par_iter()
         .map(|&w| w - np as u32 + n as u32)
         .collect();
     let list = Contacts {
@@ -184,11 +179,13 @@ fn make_in(world: &World, piece: usize) -> Near {
         near: None,
         view: std::sync::OnceLock::new(),
     };
+    let mut made_at = Vec::with_capacity(nb);
+    made_at.par_extend(world.state.position.par_iter().copied());
     Near {
         slots,
         rank,
         list,
-        made_at: world.state.position.clone(),
+        made_at,
         reach2,
     }
 }
