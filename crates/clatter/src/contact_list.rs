@@ -467,27 +467,132 @@ pub struct ContactState {
 
 /// Tangential and twisting springs for `new` pairs: the old values where the pair persists,
 /// zero otherwise. Both pair lists are sorted (keys: body pairs, or body pairs with piece
-/// codes).
-pub(crate) fn carry_springs<K: Ord>(
+/// codes). In parallel pieces of [`CARRY_CHUNK`] new pairs ([`carry_springs_in`]).
+pub(crate) fn carry_springs<K: Ord + Sync>(
     old: &[K],
     old_hist: &[Vec3],
     old_twist: &[f32],
     new: &[K],
 ) -> (Vec<Vec3>, Vec<f32>) {
-    let mut hist = Vec::with_capacity(new.len());
-    let mut twist = Vec::with_capacity(new.len());
-    let mut k = 0;
-    for p in new {
-        while k < old.len() && old[k] < *p {
-            k += 1;
-        }
-        if k < old.len() && old[k] == *p {
-            hist.push(old_hist.get(k).copied().unwrap_or(Vec3::ZERO));
-            twist.push(old_twist.get(k).copied().unwrap_or(0.0));
-        } else {
-            hist.push(Vec3::ZERO);
-            twist.push(0.0);
-        }
-    }
+    carry_springs_in(old, old_hist, old_twist, new, CARRY_CHUNK)
+}
+
+/// New pairs per parallel piece of [`carry_springs`].
+const CARRY_CHUNK: usize = 4096;
+
+/// [`carry_springs`] in pieces of `piece` new pairs (any positive size: the same springs).
+/// Each piece merges its new pairs with the old from the first old pair not below its
+/// first new pair (`partition_point`): where the one merge over the whole list would be
+/// when it reaches that pair, as both lists are sorted. Serial, this merge was part of
+/// the rebuild that a second thread waited for.
+pub(crate) fn carry_springs_in<K: Ord + Sync>(
+    old: &[K],
+    old_hist: &[Vec3],
+    old_twist: &[f32],
+    new: &[K],
+    piece: usize,
+) -> (Vec<Vec3>, Vec<f32>) {
+    use rayon::prelude::*;
+    // Zero for a pair that does not persist; each piece writes the others.
+    let mut hist = vec![Vec3::ZERO; new.len()];
+    let mut twist = vec![0.0; new.len()];
+    new.par_chunks(piece)
+        .zip(hist.par_chunks_mut(piece))
+        .zip(twist.par_chunks_mut(piece))
+        .for_each(|((new, hist), twist)| {
+            let mut k = new.first().map_or(0, |p| old.partition_point(|o| o < p));
+            for ((p, h), t) in new.iter().zip(hist).zip(twist) {
+                while k < old.len() && old[k] < *p {
+                    k += 1;
+                }
+                if k < old.len() && old[k] == *p {
+                    *h = old_hist.get(k).copied().unwrap_or(Vec3::ZERO);
+                    *t = old_twist.get(k).copied().unwrap_or(0.0);
+                }
+            }
+        });
     (hist, twist)
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    /// The springs carried in pieces of any size against the one merge over the whole
+    /// list (the definition): pairs that persist, new ones, old ones gone, runs of each
+    /// across piece edges, old springs shorter than the old list.
+    #[test]
+    fn the_springs_carried_in_pieces_are_the_one_merges() {
+        let merge = |old: &[[u32; 2]], h: &[Vec3], t: &[f32], new: &[[u32; 2]]| {
+            let (mut hist, mut twist, mut k) = (Vec::new(), Vec::new(), 0);
+            for p in new {
+                while k < old.len() && old[k] < *p {
+                    k += 1;
+                }
+                let kept = k < old.len() && old[k] == *p;
+                hist.push(if kept {
+                    h.get(k).copied().unwrap_or(Vec3::ZERO)
+                } else {
+                    Vec3::ZERO
+                });
+                twist.push(if kept {
+                    t.get(k).copied().unwrap_or(0.0)
+                } else {
+                    0.0
+                });
+            }
+            (hist, twist)
+        };
+        // A fixed pseudo-random walk over pairs (i, j): each candidate in old, new, both
+        // or neither.
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) as u32
+        };
+        let (mut old, mut new) = (Vec::new(), Vec::new());
+        for i in 0..900u32 {
+            for j in i + 1..i + 6 {
+                match next() % 4 {
+                    0 => old.push([i, j]),
+                    1 => new.push([i, j]),
+                    2 => {
+                        old.push([i, j]);
+                        new.push([i, j]);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let hist: Vec<Vec3> = (0..old.len())
+            .map(|k| Vec3::new(k as f32, 1.0, -2.0))
+            .collect();
+        let twist: Vec<f32> = (0..old.len()).map(|k| 0.5 + k as f32).collect();
+        let bits = |(h, t): (Vec<Vec3>, Vec<f32>)| -> Vec<u32> {
+            let mut out: Vec<u32> = h
+                .iter()
+                .flat_map(|h| h.to_array())
+                .map(f32::to_bits)
+                .collect();
+            out.extend(t.iter().map(|t| t.to_bits()));
+            out
+        };
+        let mut persisting = 0;
+        for short in [0, 37] {
+            let (h, t) = (&hist[..hist.len() - short], &twist[..twist.len() - short]);
+            let want = merge(&old, h, t, &new);
+            persisting = want.1.iter().filter(|&&t| t != 0.0).count();
+            let want = bits(want);
+            for piece in [1, 2, 7, 64, 1000, 4096] {
+                let got = bits(super::carry_springs_in(&old, h, t, &new, piece));
+                assert!(got == want, "pieces of {piece}, {short} springs short");
+            }
+        }
+        assert!(
+            persisting > 500 && persisting < new.len() - 500,
+            "{persisting}"
+        );
+    }
 }

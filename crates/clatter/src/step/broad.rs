@@ -208,7 +208,10 @@ pub(crate) fn rebuild(world: &mut World) {
     world.contacts.end_near();
     // Bins and bounding-sphere tests at the positions rounded to f32 (as the GPU does, from
     // the high part of its double-single positions): the skin absorbs the rounding.
-    let positions: Vec<Vec3> = world.state.position.iter().map(|p| p.as_vec3()).collect();
+    // (Per body, in parallel: an indexed collect keeps the order.)
+    let positions: Vec<Vec3> = (world.state.position.par_iter())
+        .map(|p| p.as_vec3())
+        .collect();
     let radii = &world.consts.radius;
     let grid = Grid::around(&positions, 2.0 * world.consts.max_radius() + world.skin);
     let mut pairs = pairs_periodic(

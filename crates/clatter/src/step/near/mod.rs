@@ -34,12 +34,14 @@
 //!   restore, a GPU hand-over or a migration writes it back (`Contacts::end_near`) or drops
 //!   it before replacing the list.
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::contact_list::{ContactSprings, Contacts};
-use crate::contract::ContactForce;
 use crate::world::World;
+
+mod make;
+use make::make;
 
 /// The near list's margin, as a fraction of the skin: pairs whose spheres are closer than
 /// this when it is made are in it.
@@ -48,11 +50,17 @@ pub(crate) const MARGIN: f32 = 0.25;
 /// Bodies per parallel piece of the near list's reach test (`Near::holds`).
 const HOLDS_CHUNK: usize = 4096;
 
+/// Pairs, and bodies, per parallel piece of the near list's making and writing back.
+const MAKE_CHUNK: usize = 4096;
+
 /// A near list (see the module docs).
 #[derive(Debug, Clone)]
 pub(crate) struct Near {
     /// Per near body pair, its slot in the broad phase's list (ascending).
     pub(crate) slots: Vec<u32>,
+    /// Per slot of the broad phase's list, the near pairs before it, and their count last
+    /// (slot `s` is near pair `rank[s]` where `rank[s + 1] != rank[s]`).
+    rank: Vec<u32>,
     /// The near pairs and every wall pair of the broad phase's list, with their springs.
     pub(crate) list: Contacts,
     /// The bodies' positions when it was made.
@@ -65,17 +73,31 @@ pub(crate) struct Near {
 
 impl Near {
     /// Writes the near list's springs, forces and flags into `dst`, the broad phase's list's
-    /// (whose pairs outside the near list hold zeros).
+    /// (whose pairs outside the near list hold zeros). In parallel pieces of the broad
+    /// phase's slots (each written by one piece, from its near pair, found by `rank`).
     pub(crate) fn write_back(&self, dst: &mut ContactSprings) {
         let src = &self.list.springs;
         let n = self.slots.len();
-        for (k, &s) in self.slots.iter().enumerate() {
-            let s = s as usize;
-            dst.history[s] = src.history[k];
-            dst.twist[s] = src.twist[k];
-            dst.forces[s] = src.forces[k];
-            dst.touching[s] = src.touching[k];
-        }
+        let rank = &self.rank;
+        let np = rank.len() - 1;
+        dst.history[..np]
+            .par_chunks_mut(MAKE_CHUNK)
+            .zip(dst.twist[..np].par_chunks_mut(MAKE_CHUNK))
+            .zip(dst.forces[..np].par_chunks_mut(MAKE_CHUNK))
+            .zip(dst.touching[..np].par_chunks_mut(MAKE_CHUNK))
+            .enumerate()
+            .for_each(|(p, (((history, twist), forces), touching))| {
+                let first = p * MAKE_CHUNK;
+                for s in 0..history.len() {
+                    let k = rank[first + s] as usize;
+                    if rank[first + s + 1] as usize != k {
+                        history[s] = src.history[k];
+                        twist[s] = src.twist[k];
+                        forces[s] = src.forces[k];
+                        touching[s] = src.touching[k];
+                    }
+                }
+            });
         // The wall pairs: all of them, in the same order, after the body pairs in both.
         let np = dst.hints.len();
         dst.history[np..].copy_from_slice(&src.history[n..]);
@@ -185,126 +207,6 @@ pub(crate) fn update(world: &mut World) {
     world.contacts.near = Some(Box::new(near));
 }
 
-/// A near list from the broad phase's list (whose springs are current) at the current
-/// positions (split).
-fn make(world: &World) -> Near {
-    let c = &world.contacts;
-    let sp = &c.springs;
-    let np = c.pairs.len();
-    let nb = world.len();
-    let margin = MARGIN * world.skin;
-    let x = world.position_pairs.as_slice();
-    let radius = &world.consts.radius;
-    let zero_force = ContactForce::default();
-    let is_zero = |k: usize| {
-        !sp.touching[k]
-            && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
-            && sp.twist[k].to_bits() == 0
-            && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
-    };
-    // Per body, half the smallest gap of its pairs left out (how far it may move while the
-    // list lives); infinite for a body with none left out.
-    let mut slack = vec![f32::INFINITY; nb];
-    // Per slot of the broad phase's list, the near pairs before it (and the total last).
-    let mut rank = Vec::with_capacity(np + 1);
-    let mut slots = Vec::with_capacity(np);
-    let mut pairs = Vec::with_capacity(np);
-    for (k, &[i, j]) in c.pairs.iter().enumerate() {
-        rank.push(slots.len() as u32);
-        let (iu, ju) = (i as usize, j as usize);
-        // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
-        let d: Vec3 = world.offset_in(x, iu, ju);
-        let reach = radius[iu] + radius[ju] + margin;
-        let d2 = d.length_squared();
-        // Not `<`: a NaN distance keeps the pair.
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        if !(d2 >= reach * reach) || !is_zero(k) {
-            slots.push(k as u32);
-            pairs.push([i, j]);
-        } else {
-            // At least `margin` (up to rounding, allowed for below).
-            let half_gap = 0.5 * (d2.sqrt() - radius[iu] - radius[ju]);
-            slack[iu] = slack[iu].min(half_gap);
-            slack[ju] = slack[ju].min(half_gap);
-        }
-    }
-    let n = slots.len();
-    rank.push(n as u32);
-    let total = n + c.wall_pairs.len();
-    let mut history = Vec::with_capacity(total);
-    let mut twist = Vec::with_capacity(total);
-    let mut forces = Vec::with_capacity(total);
-    let mut touching = Vec::with_capacity(total);
-    for &s in &slots {
-        let s = s as usize;
-        history.push(sp.history[s]);
-        twist.push(sp.twist[s]);
-        forces.push(sp.forces[s]);
-        touching.push(sp.touching[s]);
-    }
-    history.extend_from_slice(&sp.history[np..]);
-    twist.extend_from_slice(&sp.twist[np..]);
-    forces.extend_from_slice(&sp.forces[np..]);
-    touching.extend_from_slice(&sp.touching[np..]);
-    // The gather tables, from the list's: what `Contacts::new` builds for the near pairs
-    // (the slots ascend, so each body's pairs keep their order).
-    let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
-    let mut b_pair_start = Vec::with_capacity(nb + 1);
-    let mut b_pairs = Vec::with_capacity(n);
-    b_pair_start.push(0);
-    for i in 0..nb {
-        let range = c.b_pair_start[i] as usize..c.b_pair_start[i + 1] as usize;
-        for &k in &c.b_pairs[range] {
-            let k = k as usize;
-            if rank[k + 1] != rank[k] {
-                b_pairs.push(rank[k]);
-            }
-        }
-        b_pair_start.push(b_pairs.len() as u32);
-    }
-    let wall_contacts_of = c
-        .wall_contacts_of
-        .iter()
-        .map(|&w| w - np as u32 + n as u32)
-        .collect();
-    let list = Contacts {
-        pairs,
-        wall_pairs: c.wall_pairs.clone(),
-        springs: ContactSprings {
-            history,
-            twist,
-            forces,
-            touching,
-            // Spheres keep no hints or bounds.
-            hints: Vec::new(),
-            separation_bound: Vec::new(),
-        },
-        pairs_as_a,
-        b_pair_start,
-        b_pairs,
-        wall_contacts_of,
-        pieces: Vec::new(),
-        near: None,
-        view: std::sync::OnceLock::new(),
-    };
-    // Less an allowance for the rounding of the offsets and distances (relative errors of a
-    // few `f32` ulps of the largest reach) on both sides.
-    let allowance = 1e-5 * (2.0 * world.consts.max_radius() + world.skin) as f64;
-    let reach2 = slack
-        .iter()
-        .map(|&s| {
-            let r = s as f64 - allowance;
-            if r > 0.0 { r * r } else { -1.0 }
-        })
-        .collect();
-    Near {
-        slots,
-        list,
-        made_at: world.state.position.clone(),
-        reach2,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     /// The parallel reach test against its definition, body by body: one body out of reach
@@ -399,7 +301,7 @@ random = { min = [0.004, 0.004, 0.056], max = [0.046, 0.046, 0.077], count = 50,
 velocity = [0.8, -0.6, -2.5]
 "#;
 
-    fn world() -> World {
+    pub(super) fn world() -> World {
         Scene::parse(SCENE, "near.toml")
             .expect("valid scene")
             .world()
