@@ -19,7 +19,7 @@ use crate::periodic::Periodic;
 pub enum Balance {
     /// Each rank owns about as many bodies ([`Bisection::balanced`]).
     Bodies,
-    /// Each rank's estimated work per step ([`weigh`]) is about the same
+    /// Each rank's estimated work per step (`weigh`) is about the same
     /// ([`Bisection::weighted`]): the default.
     #[default]
     Work,
@@ -188,7 +188,7 @@ impl super::Domain {
         self.local.contacts.pairs.len()
     }
 
-    /// This rank's estimated work per step in the units of [`BODY_WORK`] ([`weigh`] summed
+    /// This rank's estimated work per step in the units of [`BODY_WORK`] (`weigh` summed
     /// over its owned bodies with its boxes): what [`Balance::Work`] evens out, for
     /// reports (0 before the first step of a new world, which has no boxes yet).
     pub fn work(&self) -> u64 {
