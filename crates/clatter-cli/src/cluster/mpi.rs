@@ -42,10 +42,10 @@ pub const MESSAGE_LIMIT_VAR: &str = "CLATTER_MPI_MESSAGE_LIMIT";
 
 /// The environment variable that turns on the overlap of the ghost states' exchange with
 /// the contacts that need no ghost (`1`; off otherwise: [`clatter::domain::Domain::set_overlap`]).
-/// Off by default until a machine with many cores shows it pays: on 2 ranks of 4,096 spheres
-/// it costs 12-14% more instructions a rank (the pair list split into many short runs), and
-/// what it hides (the ghost states' exchange, 0.5-1.5 ms of a 5.5 ms step at 16 ranks) has
-/// not been timed against that yet. The results are the same bits either way.
+/// Off by default: on 2 ranks of 4,096 spheres it costs 12-14% more instructions a rank (the
+/// pair list split into many short runs), and on a 16-core machine it timed 4-18% slower at
+/// 1, 4 and 16 ranks than the blocking exchange it replaces (BENCHMARKS.md, "The H100 and 16
+/// MPI ranks on `main` at `e2da94c`"). The results are the same bits either way.
 pub const OVERLAP_VAR: &str = "CLATTER_MPI_OVERLAP";
 
 /// Whether the steps overlap the ghost states' exchange ([`OVERLAP_VAR`] set to `1`). Every
@@ -54,10 +54,11 @@ pub fn overlap() -> bool {
     std::env::var(OVERLAP_VAR).is_ok_and(|v| v.trim() == "1")
 }
 
-/// The environment variable that says what the ranks' boxes balance: `work` (the default:
-/// each rank's estimated work per step, its pairs and ghosts counted,
-/// [`clatter::domain::Balance::Work`]) or `bodies` (each rank owns as many bodies, the cut
-/// before issue 25's). Which rank steps a body changes with it, never the result; both can
+/// The environment variable that says what the ranks' boxes balance: `bodies` (the default:
+/// each rank owns as many bodies, [`clatter::domain::Balance::Bodies`]) or `work` (each
+/// rank's estimated work per step, its pairs and ghosts counted,
+/// [`clatter::domain::Balance::Work`]; it evens out the instruction counts but timed 2-5%
+/// slower on 16 cores). Which rank steps a body changes with it, never the result; both can
 /// be timed from one binary.
 pub const BALANCE_VAR: &str = "CLATTER_MPI_BALANCE";
 

@@ -17,11 +17,14 @@ use crate::periodic::Periodic;
 /// What the recursive coordinate bisection balances between the ranks.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Balance {
-    /// Each rank owns about as many bodies ([`Bisection::balanced`]).
+    /// Each rank owns about as many bodies ([`Bisection::balanced`]): the default. On a
+    /// 16-core machine it timed 2-5% faster than [`Balance::Work`] on a poured pile of
+    /// 262,144 spheres (BENCHMARKS.md, session 26's second device call), where the work
+    /// balance evened out the instruction counts (6.9% to 2.6% apart) but not the time.
+    #[default]
     Bodies,
     /// Each rank's estimated work per step (`weigh`) is about the same
-    /// ([`Bisection::weighted`]): the default.
-    #[default]
+    /// ([`Bisection::weighted`]).
     Work,
 }
 

@@ -5,9 +5,9 @@
 //!   bisection ([`Bisection`], across the seam of a periodic axis too), cut so that each
 //!   rank owns as many bodies as the others (by centre), from histograms of the bodies'
 //!   coordinates summed over the ranks, and cut again at a broad-phase rebuild when the
-//!   ranks' shares have drifted more than [`REBALANCE_IMBALANCE`] from even. By default the
-//!   bodies are weighted by an estimate of their work (pairs, ghost copies: [`Balance`]), so
-//!   that each rank does about as much work rather than owning as many bodies.
+//!   ranks' shares have drifted more than [`REBALANCE_IMBALANCE`] from even. With
+//!   [`Balance::Work`] the bodies are weighted by an estimate of their work (pairs, ghost
+//!   copies), so that each rank does about as much work rather than owning as many bodies.
 //!   A rank's [`Domain::local`] world holds the bodies it owns and its **ghosts**: the bodies
 //!   of other ranks whose centres lie within `2 r_max + skin` of its box (every partner of
 //!   an owned body in the Verlet list), in ascending global id (scene order).
