@@ -28,6 +28,9 @@ fn incident_centroid(m: &Manifold) -> Vec3 {
 /// body reaches below `u.c` and the reference body above `u.c + delta`: every axis's
 /// separation is at most `-delta`. With `delta` above the rounding of `c` and of the full
 /// test's separations, none of them is positive.
+// One copy out of line, shared by both kinds of reference face and the full test (issue
+// 23: the served paths' code footprint).
+#[inline(never)]
 pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool {
     let c = incident_centroid(m);
     refp.faces
