@@ -96,7 +96,7 @@ pub(super) fn wedge_certified(
 /// them when given; and, when that fails, the centre of the largest disc within the three
 /// nearest, on the plane through `c` across the two nearest. (A singular system gives a NaN
 /// or an infinite point, which fails the checks.)
-// Out of line and cold: reached by about one remembered face contact in sixteen (cube
+// Out of line and cold: reached by about one remembered face contact in fifteen (cube
 // pile), so its code (two instances, one per frame map) stays out of
 // `remembered_face`'s hot body and out of the instruction cache (issue 23).
 #[cold]
