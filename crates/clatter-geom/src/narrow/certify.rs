@@ -28,6 +28,9 @@ fn incident_centroid(m: &Manifold) -> Vec3 {
 /// body reaches below `u.c` and the reference body above `u.c + delta`: every axis's
 /// separation is at most `-delta`. With `delta` above the rounding of `c` and of the full
 /// test's separations, none of them is positive.
+// One copy out of line, shared by both kinds of reference face and the full test (issue
+// 23: the served paths' code footprint).
+#[inline(never)]
 pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool {
     let c = incident_centroid(m);
     refp.faces
@@ -93,6 +96,11 @@ pub(super) fn wedge_certified(
 /// them when given; and, when that fails, the centre of the largest disc within the three
 /// nearest, on the plane through `c` across the two nearest. (A singular system gives a NaN
 /// or an infinite point, which fails the checks.)
+// Out of line and cold: reached by about one remembered face contact in fifteen (cube
+// pile), so its code (two instances, one per frame map) stays out of
+// `remembered_face`'s hot body and out of the instruction cache (issue 23).
+#[cold]
+#[inline(never)]
 fn ball_certified(
     refp: &ConvexPolyhedron,
     first: Option<usize>,

@@ -14,6 +14,10 @@ pub(super) struct ClipBuffers {
     pub(super) pts: Vec<(Vec3, f32)>,
 }
 
+/// `m` (in `pose`'s body frame) turned into the world frame.
+// One copy out of line, shared by both kinds of reference face and the full test (issue
+// 23: the served paths' code footprint).
+#[inline(never)]
 pub(super) fn to_world(mut m: Manifold, pose: &Pose) -> Manifold {
     m.normal = pose.rotation * m.normal;
     for p in &mut m.points[..m.count] {

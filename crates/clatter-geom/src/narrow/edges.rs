@@ -520,20 +520,7 @@ pub(super) fn edge_axes_by_direction(
             if let Some(m) = record {
                 m.clear();
             }
-            // Remember one concrete edge pair with these directions for the next step.
-            let ea = a
-                .edge_dir_of
-                .iter()
-                .position(|&d| d as usize == ia)
-                .unwrap_or(0);
-            let eb = b
-                .edge_dir_of
-                .iter()
-                .position(|&d| d as usize == ib)
-                .unwrap_or(0);
-            if ea < 0x8000 && eb < 0x8000 {
-                *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
-            }
+            separating_direction_hint(a, b, ia, ib, hint);
             *separation = s;
             return None;
         }
@@ -568,6 +555,36 @@ pub(super) fn edge_axes_by_direction(
         }
     });
     Some((best.0, ea_best.1, eb_best.1, axis))
+}
+
+/// Remembers in `hint` one concrete edge pair of directions `ia` (of `a`) and `ib` (of
+/// `b`) whose axis separated the bodies, for the next step's gap test (left as it is when
+/// an edge index does not fit the hint).
+// Cold and out of line: a search by direction separates only on the first steps of a
+// pair's approach (then the hint's gap test answers before any search), so this stays out
+// of `edge_axes_by_direction`'s hot code (issue 23).
+#[cold]
+#[inline(never)]
+fn separating_direction_hint(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    ia: usize,
+    ib: usize,
+    hint: &mut SatHint,
+) {
+    let ea = a
+        .edge_dir_of
+        .iter()
+        .position(|&d| d as usize == ia)
+        .unwrap_or(0);
+    let eb = b
+        .edge_dir_of
+        .iter()
+        .position(|&d| d as usize == ib)
+        .unwrap_or(0);
+    if ea < 0x8000 && eb < 0x8000 {
+        *hint = HINT_EDGE | ((ea as u32) << 15) | eb as u32;
+    }
 }
 
 /// Visits the edges `e` of `p` whose direction is `d` (`edge_dir_of[e] == d`) in increasing
