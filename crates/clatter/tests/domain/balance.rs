@@ -103,47 +103,23 @@ fn both_balances_step_a_shaken_pile_bitwise_as_one_process() {
     let steps = 400;
     let expected = one_process(world.clone(), steps);
     for balance in [Balance::Bodies, Balance::Work] {
-        let ends: Vec<(End, u64, u64)> = std::thread::scope(|scope| {
-            let handles: Vec<_> = ThreadComm::group(3)
-                .into_iter()
-                .map(|comm| {
-                    let w = world.clone();
-                    scope.spawn(move || {
-                        let mut d = Domain::with_balance(w, comm.rank(), comm.size(), balance);
-                        for _ in 0..steps {
-                            d.step(&comm).expect("ranks step");
-                        }
-                        let work = d.work();
-                        let contacts = d.contact_count(&comm);
-                        let recuts = d.recuts();
-                        let g = d.gather(&comm);
-                        let end = End {
-                            state: snapshot(&g),
-                            checkpoint: g.checkpoint_bytes("test", "", &[]),
-                            contacts,
-                            rebuilds: g.rebuilds,
-                            step: g.step_count,
-                        };
-                        (end, work, recuts)
-                    })
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().expect("rank thread"))
-                .collect()
-        });
-        let work: Vec<u64> = ends.iter().map(|e| e.1).collect();
-        eprintln!(
-            "{balance:?}: estimated work {work:?} (imbalance {:.4}), recuts {}",
-            Bisection::imbalance(&work),
-            ends[0].2
+        let (end, taken) = on_ranks_with(
+            &world,
+            3,
+            steps,
+            |w, rank, ranks| Domain::with_balance(w, rank, ranks, balance),
+            |_| {},
+            |d, _| (d.work(), d.recuts()),
         );
-        for (end, _, _) in &ends {
-            assert!(*end == expected, "{balance:?}: not one process's end");
-        }
+        let work: Vec<u64> = taken.iter().map(|t| t.0).collect();
+        let recuts = taken[0].1;
+        eprintln!(
+            "{balance:?}: estimated work {work:?} (imbalance {:.4}), recuts {recuts}",
+            Bisection::imbalance(&work),
+        );
+        assert!(end == expected, "{balance:?}: not one process's end");
         if balance == Balance::Work {
-            assert!(ends[0].2 >= 2, "the pile should be cut again");
+            assert!(recuts >= 2, "the pile should be cut again");
             assert!(work.iter().all(|&w| w > 0));
         }
     }

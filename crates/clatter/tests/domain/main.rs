@@ -73,22 +73,22 @@ fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
         world,
         ranks,
         steps,
-        |_| {},
+        |w, rank, ranks| Domain::new(w, rank, ranks),
         |_| {},
         |d, comm| comm.sum_u64(d.handed_over()),
     );
     (end, handovers[0])
 }
 
-/// `world` stepped on `ranks` threads, each rank's domain set up by `setup` and looked at
-/// by `after_step` after every step; every rank's gathered end must agree (and rank 0's
+/// `world` stepped on `ranks` threads, each rank's domain made by `make` (from the world,
+/// the rank and the rank count) and looked at by `after_step` after every step; every rank's gathered end must agree (and rank 0's
 /// `gather_root` with it). Also what `take` takes from each rank's domain after the steps
 /// (every rank calls it, in the same place: it may be collective), by rank.
 fn on_ranks_with<T: Send>(
     world: &World,
     ranks: usize,
     steps: usize,
-    setup: impl Fn(&mut Domain) + Sync,
+    make: impl Fn(World, usize, usize) -> Domain + Sync,
     after_step: impl Fn(&Domain) + Sync,
     take: impl Fn(&Domain, &ThreadComm) -> T + Sync,
 ) -> (End, Vec<T>) {
@@ -97,10 +97,9 @@ fn on_ranks_with<T: Send>(
             .into_iter()
             .map(|comm| {
                 let w = world.clone();
-                let (setup, after_step, take) = (&setup, &after_step, &take);
+                let (make, after_step, take) = (&make, &after_step, &take);
                 scope.spawn(move || {
-                    let mut d = Domain::new(w, comm.rank(), comm.size());
-                    setup(&mut d);
+                    let mut d = make(w, comm.rank(), comm.size());
                     for _ in 0..steps {
                         d.step(&comm).expect("ranks step");
                         after_step(&d);

@@ -14,7 +14,11 @@ fn stepped(world: &World, ranks: usize, steps: usize, overlap: bool) -> (End, Ve
         world,
         ranks,
         steps,
-        |d| d.set_overlap(overlap),
+        |w, rank, ranks| {
+            let mut d = Domain::new(w, rank, ranks);
+            d.set_overlap(overlap);
+            d
+        },
         // Between steps the ghost states are owed exactly when overlapped.
         |d| assert_eq!(d.ghosts_owed(), overlap && ranks > 1),
         |d, _| d.overlapped(),
