@@ -73,7 +73,7 @@ fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
         world,
         ranks,
         steps,
-        |w, rank, ranks| Domain::new(w, rank, ranks),
+        Domain::new,
         |_| {},
         |d, comm| comm.sum_u64(d.handed_over()),
     );
