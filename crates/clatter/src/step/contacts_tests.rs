@@ -78,5 +78,8 @@ fn axis_motion_bound_holds_over_real_steps() {
     eprintln!("checked {checked}, worst ratio {worst}");
     assert!(checked > 1000, "only {checked} moving pairs checked");
     // Not vacuous: some pair's motion comes within a factor of 20 of its bound.
-    assert!(worst > 0.05, "bound loose everywhere: largest ratio {worst}");
+    assert!(
+        worst > 0.05,
+        "bound loose everywhere: largest ratio {worst}"
+    );
 }
