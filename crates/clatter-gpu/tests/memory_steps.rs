@@ -26,11 +26,13 @@ fn axis_motion(w: &World, i: usize, j: usize) -> f32 {
     let s = &w.state;
     let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
     let d = w.pose_from(i, j).position;
-    let moved = (s.velocity[i].length() + s.velocity[j].length()) * w.dt;
-    let turned = (s.omega[i].length() + s.omega[j].length()) * w.dt;
-    let lever = d.length() + moved + ri.max(rj);
+    let (vi, vj) = (s.velocity[i], s.velocity[j]);
+    let moved = ((vj - vi).length() + (vi.length() + vj.length()) * (1.0 / 4_194_304.0)) * w.dt;
+    let (ti, tj) = (s.omega[i].length() * w.dt, s.omega[j].length() * w.dt);
+    let far = d.length() + moved;
+    let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));
     let l1 = d.x.abs() + d.y.abs() + d.z.abs();
-    (moved + turned * lever) * 1.000_01 + l1 * (1.0 / 8_388_608.0) + 4e-6 * (ri + rj)
+    (moved + turn) * 1.000_01 + l1 * (1.0 / 8_388_608.0) + 4e-6 * (ri + rj)
 }
 
 /// A stage buffer as words.

@@ -567,11 +567,13 @@ fn pile_pairs_remember_their_contacts_on_the_gpu() {
         let s = &w.state;
         let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
         let d = w.pose_from(i, j).position;
-        let moved = (s.velocity[i].length() + s.velocity[j].length()) * w.dt;
-        let turned = (s.omega[i].length() + s.omega[j].length()) * w.dt;
-        let lever = d.length() + moved + ri.max(rj);
+        let (vi, vj) = (s.velocity[i], s.velocity[j]);
+        let moved = ((vj - vi).length() + (vi.length() + vj.length()) * (1.0 / 4_194_304.0)) * w.dt;
+        let (ti, tj) = (s.omega[i].length() * w.dt, s.omega[j].length() * w.dt);
+        let far = d.length() + moved;
+        let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));
         let rounding = l1(d) * (1.0 / 8_388_608.0) + 4e-6 * (ri + rj);
-        (moved + turned * lever) * 1.000_01 + rounding
+        (moved + turn) * 1.000_01 + rounding
     };
     let words = |gpu: &GpuWorld, name: &str| -> Vec<u32> {
         bytemuck::pod_collect_to_vec(&gpu.debug_buffer(name).expect("stage buffer"))

@@ -93,8 +93,8 @@ fn pair_contact(c: u32, use_hint: bool, kind: u32) -> bool {
 // An upper bound of how much the separation along any axis of the separating-axis test of
 // bodies i and j (j at offset xj) can have changed in the last step: the CPU's
 // `axis_motion_bound` (step/contacts.rs, see there why): with composites, 1-norms and the
-// lever 3 (r_i + r_j); else the norms themselves and the lever |xj| + moved + max(r_i, r_j);
-// plus rounding.
+// lever 3 (r_i + r_j); else the norms themselves, the centres' relative motion and the larger
+// of the two frames' bounds; plus rounding.
 fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
     let x = abs(xj);
     let ri = statics[i].radius;
@@ -110,10 +110,15 @@ fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
         let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * params.dt;
         return (moved + turned * 3.0 * r) * 1.00001 + rounding;
     }
-    let moved = (length(bodies[i].velocity.xyz) + length(bodies[j].velocity.xyz)) * params.dt;
-    let turned = (length(bodies[i].omega.xyz) + length(bodies[j].omega.xyz)) * params.dt;
-    let lever = length(xj) + moved + max(ri, rj);
-    return (moved + turned * lever) * 1.00001 + rounding;
+    let vi = bodies[i].velocity.xyz;
+    let vj = bodies[j].velocity.xyz;
+    let moved = (length(vj - vi) + (length(vi) + length(vj)) * (1.0 / 4194304.0)) * params.dt;
+    let ti = length(bodies[i].omega.xyz) * params.dt;
+    let tj = length(bodies[j].omega.xyz) * params.dt;
+    let far = length(xj) + moved;
+    // A's frame (B's vertices), then B's frame (A's vertices).
+    let turn = max(tj * rj + ti * (far + rj), ti * ri + tj * (far + ri));
+    return (moved + turn) * 1.00001 + rounding;
 }
 
 // Candidate pair c does not touch this step (`was`: its touching word before): zero spring
