@@ -21,7 +21,8 @@
 //! - **Every step** ([`Domain::step`]): contacts and integrate on the local world (ghosts are
 //!   not integrated: what integrate leaves in a ghost's state is not meaningful), then the
 //!   owners send their bodies' new states to the ranks holding them as ghosts (forward
-//!   communication, which overwrites every word of every ghost's state), and with them the
+//!   communication, which overwrites every field the step reads of a ghost: the whole state,
+//!   or for a world of spheres alone its position, velocity and spin, [`GhostRecord`]), and with them the
 //!   largest displacement since the last rebuild is reduced over ranks (max, exact) to
 //!   decide the next rebuild, as one process decides it. Overlapped (the default on
 //!   several ranks, `overlap.rs`): the displacement is reduced alone at the end of the
@@ -42,6 +43,7 @@ mod carry;
 mod check;
 mod comm;
 mod gather;
+mod ghosts;
 mod overlap;
 mod rows;
 mod totals;
@@ -50,6 +52,7 @@ pub use balance::{BODY_WORK, Balance, GHOST_WORK, PAIR_WORK};
 pub use bisection::Bisection;
 pub use comm::{Comm, Rounds, ThreadComm};
 pub use gather::Share;
+pub use ghosts::GhostRecord;
 pub use overlap::Overlapped;
 pub use totals::Totals;
 
@@ -475,50 +478,6 @@ impl Domain {
             time: self.local.time,
             dt: self.local.dt,
         }
-    }
-
-    /// Forward communication: the owners' new states to the ranks holding them as ghosts,
-    /// through the buffers kept from step to step (`sent`, `received`), every word of each
-    /// ghost's state overwritten (integrate leaves a ghost's lanes unkept). The largest
-    /// squared displacement `d2` rides with it ([`Comm::all_to_all_into_and_max`]): returns
-    /// its maximum over the ranks.
-    fn forward(&mut self, comm: &dyn Comm, d2: f32) -> f32 {
-        self.pack();
-        let d2 = comm.all_to_all_into_and_max(&self.sent, &mut self.received, d2);
-        self.unpack();
-        d2
-    }
-
-    /// The owned bodies' states into the messages of the forward exchange (`sent`), and
-    /// `received` sized for the ghosts' (see [`Domain::forward`]).
-    fn pack(&mut self) {
-        let ranks = self.send.len();
-        self.sent.resize_with(ranks, Vec::new);
-        self.received.resize_with(ranks, Vec::new);
-        for (buf, list) in self.sent.iter_mut().zip(&self.send) {
-            let mut w = Writer(std::mem::take(buf));
-            w.0.clear();
-            w.0.reserve(list.len() * rows::STATE_BYTES);
-            for &i in list {
-                w.state(&self.local.state, i as usize);
-            }
-            *buf = w.0;
-        }
-        for (buf, list) in self.received.iter_mut().zip(&self.recv) {
-            // Only the sizes matter (every byte is overwritten): no zeroing unless they grew.
-            buf.resize(list.len() * rows::STATE_BYTES, 0);
-        }
-    }
-
-    /// The ghosts' states from the messages received (`received`): none owed now.
-    fn unpack(&mut self) {
-        for (m, list) in self.received.iter().zip(&self.recv) {
-            let mut r = Reader::new(m);
-            for &i in list {
-                r.state(&mut self.local.state, i as usize);
-            }
-        }
-        self.owed = false;
     }
 
     /// How far from a box a body at `x` is a ghost there: the reach of a pair, with a
