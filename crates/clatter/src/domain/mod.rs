@@ -356,13 +356,16 @@ impl Domain {
             self.owed = false;
             self.migrate(comm);
         }
-        if self.owed {
+        // The contact stage's count of its touching contacts, where it ran whole.
+        let touching = if self.owed {
             // The ghost states sent while the contacts with no ghost are computed.
             self.contacts_overlapped(comm);
+            None
         } else {
-            contacts::run(&mut self.local);
+            let n = contacts::run(&mut self.local);
             self.mark_groups();
-        }
+            Some(n)
+        };
         mesh_contacts::run(&mut self.local);
         let moved = integrate::run(&mut self.local);
         self.local.step_count += 1;
@@ -394,7 +397,7 @@ impl Domain {
             self.local.set_needs_rebuild(true);
         }
         Ok(StepStats {
-            contacts: self.owned_touching(),
+            contacts: self.owned_touching(touching),
             rebuilt,
         })
     }
@@ -402,23 +405,30 @@ impl Domain {
     /// Touching contacts over all ranks (collective), each counted once: what
     /// [`World::contact_count`] gives for the whole world.
     pub fn contact_count(&self, comm: &dyn Comm) -> usize {
-        comm.sum_u64(self.owned_touching() as u64) as usize
+        comm.sum_u64(self.owned_touching(None) as u64) as usize
     }
 
     /// Touching contacts of this rank's share: body pairs whose first body it owns, and
-    /// its bodies' wall contacts.
-    fn owned_touching(&self) -> usize {
+    /// its bodies' wall contacts. `stage`: what the contact stage returned where it ran
+    /// whole this step (every touching body pair and wall contact of the active list, as
+    /// one process's step counts them), so that only the ghosts' pairs are counted here;
+    /// `None`: every flag is counted.
+    fn owned_touching(&self, stage: Option<usize>) -> usize {
         // Only the active list's contacts (a near list's, while one lives) can touch.
         let c = self.local.contacts.active();
         let np = c.pairs.len();
         let t = &c.springs.touching;
         let ghost = &self.local.ghost;
-        // Counted every step (the step's stats): every pair's flag summed without branches
-        // (bytes widened to `u32`, which vectorise), less the pairs whose first body is a
-        // ghost: pairs sort by their first body, so a ghost's are one range of the list
+        // The flags summed without branches (bytes widened to `u32`, which vectorise).
+        let flags = |t: &[bool]| t.iter().map(|&tk| tk as u32).sum::<u32>() as usize;
+        // Counted every step (the step's stats): every touching contact (the stage's count,
+        // or the flags), less the pairs whose first body is a ghost: pairs sort by their first body, so a ghost's are one range of the list
         // (`pairs_as_a`), and only the ghosts' ranges (the lists received every step) are
         // read, not every pair's first body.
-        let all = t[..np].iter().map(|&tk| tk as u32).sum::<u32>() as usize;
+        let all = match stage {
+            Some(n) => n,
+            None => flags(&t[..np]) + flags(&t[np..]),
+        };
         let of_ghosts: usize = if ghost.is_empty() {
             0
         } else if c.pairs_as_a.len() != ghost.len() + 1 {
@@ -445,8 +455,7 @@ impl Domain {
                 })
                 .sum()
         };
-        let pairs = all - of_ghosts;
-        let walls = t[np..].iter().map(|&x| x as u32).sum::<u32>() as usize;
+        let pairs_and_walls = all - of_ghosts;
         let mesh = if self.local.mesh_slots().is_empty() {
             0
         } else {
@@ -456,7 +465,7 @@ impl Domain {
                 .filter(|s| s.touching)
                 .count()
         };
-        pairs + walls + mesh
+        pairs_and_walls + mesh
     }
 
     /// The error of a step that left some body non-finite: the lowest such global id, as

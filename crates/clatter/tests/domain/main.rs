@@ -17,6 +17,7 @@ mod checks;
 mod cuts;
 mod ghosts;
 mod overlap;
+mod stats;
 mod traffic;
 
 /// Every state bit of every body, in order.
