@@ -569,10 +569,11 @@ impl Domain {
             self.recuts += 1;
         }
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
+        let me = comm.rank();
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         // Most owned bodies stay: this rank's message reserved for all of them (its rows
         // without mesh slots), rather than regrown (and copied) a dozen times.
-        bodies[comm.rank()]
+        bodies[me]
             .1
             .0
             .reserve(owned.len() * (8 + rows::STATE_BYTES + rows::CONST_BYTES));
@@ -581,7 +582,7 @@ impl Domain {
             let x = local.state.position[i];
             let o = boxes.owner(x);
             new_owner[i] = o;
-            if o != comm.rank() && self.boxes.is_some() {
+            if o != me && self.boxes.is_some() {
                 self.handed_over += 1;
             }
             // The owner, and the ranks within the ghost reach (the cut tree walked, not
@@ -615,7 +616,7 @@ impl Domain {
         //    are not sent: a contact not found is carried as zero.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
-        springs[comm.rank()]
+        springs[me]
             .1
             .0
             .reserve(local.contacts.pairs.len() * 28);
