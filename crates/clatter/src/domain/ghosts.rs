@@ -72,28 +72,16 @@ impl Domain {
         let ranks = self.send.len();
         self.sent.resize_with(ranks, Vec::new);
         self.received.resize_with(ranks, Vec::new);
-        let s = &self.local.state;
         for (buf, list) in self.sent.iter_mut().zip(&self.send) {
+            let mut w = Writer(std::mem::take(buf));
+            w.0.clear();
+            w.0.reserve(list.len() * record.bytes());
+            let s = &self.local.state;
             match record {
-                GhostRecord::Whole => {
-                    let mut w = Writer(std::mem::take(buf));
-                    w.0.clear();
-                    w.0.reserve(list.len() * record.bytes());
-                    list.iter().for_each(|&i| w.state(s, i as usize));
-                    *buf = w.0;
-                }
-                GhostRecord::Sphere => {
-                    // Sized once (zeroed only where it grew), then every record written in
-                    // place: no capacity check nor copy call per body.
-                    buf.resize(list.len() * record.bytes(), 0);
-                    let records = buf.chunks_exact_mut(rows::SPHERE_STATE_BYTES);
-                    for (r, &i) in records.zip(list) {
-                        let r: &mut [u8; rows::SPHERE_STATE_BYTES] =
-                            r.try_into().expect("a whole record");
-                        rows::write_sphere_state(r, s, i as usize);
-                    }
-                }
+                GhostRecord::Whole => list.iter().for_each(|&i| w.state(s, i as usize)),
+                GhostRecord::Sphere => list.iter().for_each(|&i| w.sphere_state(s, i as usize)),
             }
+            *buf = w.0;
         }
         for (buf, list) in self.received.iter_mut().zip(&self.recv) {
             // Only the sizes matter (every byte is overwritten): no zeroing unless they grew.
@@ -104,21 +92,12 @@ impl Domain {
     /// The ghosts' states from the messages received (`received`): none owed now.
     pub(super) fn unpack(&mut self) {
         let record = self.ghost_record();
-        let s = &mut self.local.state;
         for (m, list) in self.received.iter().zip(&self.recv) {
+            let mut r = Reader::new(m);
+            let s = &mut self.local.state;
             match record {
-                GhostRecord::Whole => {
-                    let mut r = Reader::new(m);
-                    list.iter().for_each(|&i| r.state(s, i as usize));
-                }
-                GhostRecord::Sphere => {
-                    // A message holds its list's records exactly (`pack` sized it).
-                    assert_eq!(m.len(), list.len() * rows::SPHERE_STATE_BYTES);
-                    for (r, &i) in m.chunks_exact(rows::SPHERE_STATE_BYTES).zip(list) {
-                        let r = r.try_into().expect("a whole record");
-                        rows::read_sphere_state(r, s, i as usize);
-                    }
-                }
+                GhostRecord::Whole => list.iter().for_each(|&i| r.state(s, i as usize)),
+                GhostRecord::Sphere => list.iter().for_each(|&i| r.sphere_state(s, i as usize)),
             }
         }
         self.owed = false;
