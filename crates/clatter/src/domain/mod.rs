@@ -616,10 +616,7 @@ impl Domain {
         //    are not sent: a contact not found is carried as zero.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
-        springs[me]
-            .1
-            .0
-            .reserve(local.contacts.pairs.len() * 28);
+        springs[me].1.0.reserve(local.contacts.pairs.len() * 28);
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();
