@@ -21,7 +21,8 @@
 //! - **Every step** ([`Domain::step`]): contacts and integrate on the local world (ghosts are
 //!   not integrated: what integrate leaves in a ghost's state is not meaningful), then the
 //!   owners send their bodies' new states to the ranks holding them as ghosts (forward
-//!   communication, which overwrites every word of every ghost's state), and with them the
+//!   communication, which overwrites every field the step reads of a ghost: the whole state,
+//!   or for a world of spheres alone its position, velocity and spin, [`GhostRecord`]), and with them the
 //!   largest displacement since the last rebuild is reduced over ranks (max, exact) to
 //!   decide the next rebuild, as one process decides it. Overlapped (the default on
 //!   several ranks, `overlap.rs`): the displacement is reduced alone at the end of the
@@ -42,6 +43,7 @@ mod carry;
 mod check;
 mod comm;
 mod gather;
+mod ghosts;
 mod overlap;
 mod rows;
 mod totals;
@@ -50,6 +52,7 @@ pub use balance::{BODY_WORK, Balance, GHOST_WORK, PAIR_WORK};
 pub use bisection::Bisection;
 pub use comm::{Comm, Rounds, ThreadComm};
 pub use gather::Share;
+pub use ghosts::GhostRecord;
 pub use overlap::Overlapped;
 pub use totals::Totals;
 
@@ -353,13 +356,16 @@ impl Domain {
             self.owed = false;
             self.migrate(comm);
         }
-        if self.owed {
+        // The contact stage's count of its touching contacts, where it ran whole.
+        let touching = if self.owed {
             // The ghost states sent while the contacts with no ghost are computed.
             self.contacts_overlapped(comm);
+            None
         } else {
-            contacts::run(&mut self.local);
+            let n = contacts::run(&mut self.local);
             self.mark_groups();
-        }
+            Some(n)
+        };
         mesh_contacts::run(&mut self.local);
         let moved = integrate::run(&mut self.local);
         self.local.step_count += 1;
@@ -391,7 +397,7 @@ impl Domain {
             self.local.set_needs_rebuild(true);
         }
         Ok(StepStats {
-            contacts: self.owned_touching(),
+            contacts: self.owned_touching(touching),
             rebuilt,
         })
     }
@@ -399,23 +405,30 @@ impl Domain {
     /// Touching contacts over all ranks (collective), each counted once: what
     /// [`World::contact_count`] gives for the whole world.
     pub fn contact_count(&self, comm: &dyn Comm) -> usize {
-        comm.sum_u64(self.owned_touching() as u64) as usize
+        comm.sum_u64(self.owned_touching(None) as u64) as usize
     }
 
     /// Touching contacts of this rank's share: body pairs whose first body it owns, and
-    /// its bodies' wall contacts.
-    fn owned_touching(&self) -> usize {
+    /// its bodies' wall contacts. `stage`: what the contact stage returned where it ran
+    /// whole this step (every touching body pair and wall contact of the active list, as
+    /// one process's step counts them), so that only the ghosts' pairs are counted here;
+    /// `None`: every flag is counted.
+    fn owned_touching(&self, stage: Option<usize>) -> usize {
         // Only the active list's contacts (a near list's, while one lives) can touch.
         let c = self.local.contacts.active();
         let np = c.pairs.len();
         let t = &c.springs.touching;
         let ghost = &self.local.ghost;
-        // Counted every step (the step's stats): every pair's flag summed without branches
-        // (bytes widened to `u32`, which vectorise), less the pairs whose first body is a
-        // ghost: pairs sort by their first body, so a ghost's are one range of the list
+        // The flags summed without branches (bytes widened to `u32`, which vectorise).
+        let flags = |t: &[bool]| t.iter().map(|&tk| tk as u32).sum::<u32>() as usize;
+        // Counted every step (the step's stats): every touching contact (the stage's count,
+        // or the flags), less the pairs whose first body is a ghost: pairs sort by their first body, so a ghost's are one range of the list
         // (`pairs_as_a`), and only the ghosts' ranges (the lists received every step) are
         // read, not every pair's first body.
-        let all = t[..np].iter().map(|&tk| tk as u32).sum::<u32>() as usize;
+        let all = match stage {
+            Some(n) => n,
+            None => flags(&t[..np]) + flags(&t[np..]),
+        };
         let of_ghosts: usize = if ghost.is_empty() {
             0
         } else if c.pairs_as_a.len() != ghost.len() + 1 {
@@ -442,8 +455,7 @@ impl Domain {
                 })
                 .sum()
         };
-        let pairs = all - of_ghosts;
-        let walls = t[np..].iter().map(|&x| x as u32).sum::<u32>() as usize;
+        let pairs_and_walls = all - of_ghosts;
         let mesh = if self.local.mesh_slots().is_empty() {
             0
         } else {
@@ -453,7 +465,7 @@ impl Domain {
                 .filter(|s| s.touching)
                 .count()
         };
-        pairs + walls + mesh
+        pairs_and_walls + mesh
     }
 
     /// The error of a step that left some body non-finite: the lowest such global id, as
@@ -475,50 +487,6 @@ impl Domain {
             time: self.local.time,
             dt: self.local.dt,
         }
-    }
-
-    /// Forward communication: the owners' new states to the ranks holding them as ghosts,
-    /// through the buffers kept from step to step (`sent`, `received`), every word of each
-    /// ghost's state overwritten (integrate leaves a ghost's lanes unkept). The largest
-    /// squared displacement `d2` rides with it ([`Comm::all_to_all_into_and_max`]): returns
-    /// its maximum over the ranks.
-    fn forward(&mut self, comm: &dyn Comm, d2: f32) -> f32 {
-        self.pack();
-        let d2 = comm.all_to_all_into_and_max(&self.sent, &mut self.received, d2);
-        self.unpack();
-        d2
-    }
-
-    /// The owned bodies' states into the messages of the forward exchange (`sent`), and
-    /// `received` sized for the ghosts' (see [`Domain::forward`]).
-    fn pack(&mut self) {
-        let ranks = self.send.len();
-        self.sent.resize_with(ranks, Vec::new);
-        self.received.resize_with(ranks, Vec::new);
-        for (buf, list) in self.sent.iter_mut().zip(&self.send) {
-            let mut w = Writer(std::mem::take(buf));
-            w.0.clear();
-            w.0.reserve(list.len() * rows::STATE_BYTES);
-            for &i in list {
-                w.state(&self.local.state, i as usize);
-            }
-            *buf = w.0;
-        }
-        for (buf, list) in self.received.iter_mut().zip(&self.recv) {
-            // Only the sizes matter (every byte is overwritten): no zeroing unless they grew.
-            buf.resize(list.len() * rows::STATE_BYTES, 0);
-        }
-    }
-
-    /// The ghosts' states from the messages received (`received`): none owed now.
-    fn unpack(&mut self) {
-        for (m, list) in self.received.iter().zip(&self.recv) {
-            let mut r = Reader::new(m);
-            for &i in list {
-                r.state(&mut self.local.state, i as usize);
-            }
-        }
-        self.owed = false;
     }
 
     /// How far from a box a body at `x` is a ghost there: the reach of a pair, with a
@@ -601,10 +569,11 @@ impl Domain {
             self.recuts += 1;
         }
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
+        let me = comm.rank();
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         // Most owned bodies stay: this rank's message reserved for all of them (its rows
         // without mesh slots), rather than regrown (and copied) a dozen times.
-        bodies[comm.rank()]
+        bodies[me]
             .1
             .0
             .reserve(owned.len() * (8 + rows::STATE_BYTES + rows::CONST_BYTES));
@@ -613,7 +582,7 @@ impl Domain {
             let x = local.state.position[i];
             let o = boxes.owner(x);
             new_owner[i] = o;
-            if o != comm.rank() && self.boxes.is_some() {
+            if o != me && self.boxes.is_some() {
                 self.handed_over += 1;
             }
             // The owner, and the ranks within the ghost reach (the cut tree walked, not
@@ -647,10 +616,7 @@ impl Domain {
         //    are not sent: a contact not found is carried as zero.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
-        springs[comm.rank()]
-            .1
-            .0
-            .reserve(local.contacts.pairs.len() * 28);
+        springs[me].1.0.reserve(local.contacts.pairs.len() * 28);
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();

@@ -14,6 +14,11 @@ use crate::world::World;
 /// orientation, its residual, angular momentum, angular velocity (f32) and the removed flag.
 pub(crate) const STATE_BYTES: usize = 24 + 12 + 16 + 16 + 12 + 12 + 4;
 
+/// The size of a sphere's ghost state written by [`Writer::sphere_state`]: position (3
+/// f64), velocity, angular velocity (f32) and the removed flag: what the step reads of a
+/// ghost sphere (`super::ghosts`).
+pub(crate) const SPHERE_STATE_BYTES: usize = 24 + 12 + 12 + 4;
+
 /// The size of a body's constants written by [`Writer::consts`]: shape, material, sphere
 /// flag, mass, inertia, inverse mass and inertia, bounding and equivalent radius, reach.
 pub(crate) const CONST_BYTES: usize = 4 * 14;
@@ -112,6 +117,22 @@ impl Writer {
             r[24 + 4 * k..28 + 4 * k].copy_from_slice(&f.to_le_bytes());
         }
         r[92..96].copy_from_slice(&(s.removed[i] as u32).to_le_bytes());
+        self.0.extend_from_slice(&r);
+    }
+
+    /// Body `i`'s ghost sphere state: the fields of [`SPHERE_STATE_BYTES`] in order, in
+    /// one fixed-size record (as [`Writer::state`]).
+    pub fn sphere_state(&mut self, s: &BodyStates, i: usize) {
+        let mut r = [0u8; SPHERE_STATE_BYTES];
+        let x = s.position[i];
+        for (k, c) in [x.x, x.y, x.z].into_iter().enumerate() {
+            r[8 * k..8 * k + 8].copy_from_slice(&c.to_le_bytes());
+        }
+        let (v, w) = (s.velocity[i], s.omega[i]);
+        for (k, f) in [v.x, v.y, v.z, w.x, w.y, w.z].into_iter().enumerate() {
+            r[24 + 4 * k..28 + 4 * k].copy_from_slice(&f.to_le_bytes());
+        }
+        r[48..52].copy_from_slice(&(s.removed[i] as u32).to_le_bytes());
         self.0.extend_from_slice(&r);
     }
 }
@@ -230,6 +251,30 @@ impl<'a> Reader<'a> {
             .expect("a whole state");
         self.at += STATE_BYTES;
         fields(record, s, i);
+    }
+}
+
+impl Reader<'_> {
+    /// A ghost sphere's state written by [`Writer::sphere_state`], into body `i` of `s`:
+    /// position, velocity, angular velocity and removed flag; the other fields of `s` are
+    /// left as they are.
+    pub fn sphere_state(&mut self, s: &mut BodyStates, i: usize) {
+        let record: &[u8; SPHERE_STATE_BYTES] = self.bytes[self.at..self.at + SPHERE_STATE_BYTES]
+            .try_into()
+            .expect("a whole sphere state");
+        self.at += SPHERE_STATE_BYTES;
+        let f64_at = |a: usize| {
+            let b: [u8; 8] = record[a..a + 8].try_into().expect("8 bytes");
+            f64::from_le_bytes(b)
+        };
+        let f32_at = |a: usize| {
+            let b: [u8; 4] = record[a..a + 4].try_into().expect("4 bytes");
+            f32::from_le_bytes(b)
+        };
+        s.position[i] = DVec3::new(f64_at(0), f64_at(8), f64_at(16));
+        s.velocity[i] = Vec3::new(f32_at(24), f32_at(28), f32_at(32));
+        s.omega[i] = Vec3::new(f32_at(36), f32_at(40), f32_at(44));
+        s.removed[i] = u32::from_le_bytes(record[48..52].try_into().expect("4 bytes")) != 0;
     }
 }
 

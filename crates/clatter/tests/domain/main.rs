@@ -15,7 +15,9 @@ mod balance;
 mod bitwise;
 mod checks;
 mod cuts;
+mod ghosts;
 mod overlap;
+mod stats;
 mod traffic;
 
 /// Every state bit of every body, in order.
@@ -81,7 +83,8 @@ fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
 }
 
 /// `world` stepped on `ranks` threads, each rank's domain made by `make` (from the world,
-/// the rank and the rank count) and looked at by `after_step` after every step; every rank's gathered end must agree (and rank 0's
+/// the rank and the rank count) and given to `after_step` after every step (to look at, or to
+/// scramble what no step may read); every rank's gathered end must agree (and rank 0's
 /// `gather_root` with it). Also what `take` takes from each rank's domain after the steps
 /// (every rank calls it, in the same place: it may be collective), by rank.
 fn on_ranks_with<T: Send>(
@@ -89,7 +92,7 @@ fn on_ranks_with<T: Send>(
     ranks: usize,
     steps: usize,
     make: impl Fn(World, usize, usize) -> Domain + Sync,
-    after_step: impl Fn(&Domain) + Sync,
+    after_step: impl Fn(&mut Domain) + Sync,
     take: impl Fn(&Domain, &ThreadComm) -> T + Sync,
 ) -> (End, Vec<T>) {
     let ends: Vec<(End, T)> = std::thread::scope(|scope| {
@@ -102,7 +105,7 @@ fn on_ranks_with<T: Send>(
                     let mut d = make(w, comm.rank(), comm.size());
                     for _ in 0..steps {
                         d.step(&comm).expect("ranks step");
-                        after_step(&d);
+                        after_step(&mut d);
                     }
                     let contacts = d.contact_count(&comm);
                     let taken = take(&d, &comm);
