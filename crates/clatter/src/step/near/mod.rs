@@ -73,11 +73,34 @@ pub(crate) struct Near {
 
 impl Near {
     /// Writes the near list's springs, forces and flags into `dst`, the broad phase's list's
-    /// (whose pairs outside the near list hold zeros). In parallel pieces of the broad
-    /// phase's slots (each written by one piece, from its near pair, found by `rank`).
+    /// (whose pairs outside the near list hold zeros): [`Near::write_back_in_pieces`] on more
+    /// than one thread, else [`Near::write_back_serial`] (the same values, without the
+    /// pieces' pass over every slot of the broad phase's list).
     pub(crate) fn write_back(&self, dst: &mut ContactSprings) {
+        if rayon::current_num_threads() == 1 {
+            self.write_back_serial(dst);
+        } else {
+            self.write_back_in_pieces(dst);
+        }
+    }
+
+    /// [`Near::write_back`] as one scatter: each near pair into its slot, in order.
+    fn write_back_serial(&self, dst: &mut ContactSprings) {
         let src = &self.list.springs;
-        let n = self.slots.len();
+        for (k, &s) in self.slots.iter().enumerate() {
+            let s = s as usize;
+            dst.history[s] = src.history[k];
+            dst.twist[s] = src.twist[k];
+            dst.forces[s] = src.forces[k];
+            dst.touching[s] = src.touching[k];
+        }
+        self.write_back_walls(dst);
+    }
+
+    /// [`Near::write_back`] in parallel pieces of the broad phase's slots (each written by
+    /// one piece, from its near pair, found by `rank`).
+    fn write_back_in_pieces(&self, dst: &mut ContactSprings) {
+        let src = &self.list.springs;
         let rank = &self.rank;
         let np = rank.len() - 1;
         dst.history[..np]
@@ -98,7 +121,14 @@ impl Near {
                     }
                 }
             });
-        // The wall pairs: all of them, in the same order, after the body pairs in both.
+        self.write_back_walls(dst);
+    }
+
+    /// The wall pairs' part of [`Near::write_back`]: all of them, in the same order, after
+    /// the body pairs in both lists.
+    fn write_back_walls(&self, dst: &mut ContactSprings) {
+        let src = &self.list.springs;
+        let n = self.slots.len();
         let np = dst.hints.len();
         dst.history[np..].copy_from_slice(&src.history[n..]);
         dst.twist[np..].copy_from_slice(&src.twist[n..]);
