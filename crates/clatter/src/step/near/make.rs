@@ -41,11 +41,14 @@ fn make_serial(world: &World) -> Near {
     };
     // Per body, half the smallest gap of its pairs left out; per slot, the near pairs
     // before it (and the total last).
+    // Each pair written at the next free place and kept by counting it (`n`): written by
+    // index into arrays of the list's length (no capacity test per push), cut to `n` after.
     let mut slack = vec![f32::INFINITY; nb];
-    let mut rank = Vec::with_capacity(np + 1);
-    let (mut slots, mut pairs) = (Vec::with_capacity(np), Vec::with_capacity(np));
+    let mut rank = vec![0u32; np + 1];
+    let (mut slots, mut pairs) = (vec![0u32; np], vec![[0u32; 2]; np]);
+    let mut n = 0;
     for (k, &[i, j]) in c.pairs.iter().enumerate() {
-        rank.push(slots.len() as u32);
+        rank[k] = n as u32;
         let (iu, ju) = (i as usize, j as usize);
         // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
         let d: Vec3 = world.offset_in(x, iu, ju);
@@ -54,8 +57,9 @@ fn make_serial(world: &World) -> Near {
         // Not `<`: a NaN distance keeps the pair.
         #[allow(clippy::neg_cmp_op_on_partial_ord)]
         if !(d2 >= reach * reach) || !is_zero(k) {
-            slots.push(k as u32);
-            pairs.push([i, j]);
+            slots[n] = k as u32;
+            pairs[n] = [i, j];
+            n += 1;
         } else {
             // At least `margin` (up to rounding, allowed for below).
             let half_gap = 0.5 * (d2.sqrt() - radius[iu] - radius[ju]);
@@ -63,23 +67,19 @@ fn make_serial(world: &World) -> Near {
             slack[ju] = slack[ju].min(half_gap);
         }
     }
-    let n = slots.len();
-    rank.push(n as u32);
-    // The near pairs' springs, forces and flags, then every wall pair's.
-    let total = n + c.wall_pairs.len();
-    let (mut history, mut twist) = (Vec::with_capacity(total), Vec::with_capacity(total));
-    let (mut forces, mut touching) = (Vec::with_capacity(total), Vec::with_capacity(total));
-    for &s in &slots {
-        let s = s as usize;
-        history.push(sp.history[s]);
-        twist.push(sp.twist[s]);
-        forces.push(sp.forces[s]);
-        touching.push(sp.touching[s]);
+    rank[np] = n as u32;
+    slots.truncate(n);
+    pairs.truncate(n);
+    // The near pairs' springs, forces and flags, then every wall pair's (collected from
+    // iterators of known length: no capacity test per element).
+    fn picked<T: Copy>(slots: &[u32], all: &[T], np: usize) -> Vec<T> {
+        let near = slots.iter().map(|&s| all[s as usize]);
+        near.chain(all[np..].iter().copied()).collect()
     }
-    history.extend_from_slice(&sp.history[np..]);
-    twist.extend_from_slice(&sp.twist[np..]);
-    forces.extend_from_slice(&sp.forces[np..]);
-    touching.extend_from_slice(&sp.touching[np..]);
+    let history = picked(&slots, &sp.history, np);
+    let twist = picked(&slots, &sp.twist, np);
+    let forces = picked(&slots, &sp.forces, np);
+    let touching = picked(&slots, &sp.touching, np);
     // The gather tables, from the list's (the slots ascend, so each body's pairs keep
     // their order).
     let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
