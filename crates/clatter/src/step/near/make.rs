@@ -9,9 +9,165 @@ use crate::contract::ContactForce;
 use crate::world::World;
 
 /// A near list from the broad phase's list (whose springs are current) at the current
-/// positions (split), in parallel pieces of [`MAKE_CHUNK`].
+/// positions (split): in parallel pieces of [`MAKE_CHUNK`] on more than one thread, else in
+/// one serial pass ([`make_serial`]: the same list, with none of the pieces' extra passes,
+/// which cost a one-thread step, the one each MPI rank runs, about 0.5% of its instructions).
 pub(super) fn make(world: &World) -> Near {
-    make_in(world, MAKE_CHUNK)
+    if rayon::current_num_threads() == 1 {
+        make_serial(world)
+    } else {
+        make_in(world, MAKE_CHUNK)
+    }
+}
+
+/// [`make`] in one pass over the broad phase's list, pair by pair in list order, each
+/// left-out pair's half gap folded into both its bodies' slack at once: the definition
+/// the pieces of [`make_in`] reproduce (the same arrays, bit for bit; the slack is the
+/// minimum of the same values, see there).
+fn make_serial(world: &World) -> Near {
+    let c = &world.contacts;
+    let sp = &c.springs;
+    let np = c.pairs.len();
+    let nb = world.len();
+    let margin = MARGIN * world.skin;
+    let x = world.position_pairs.as_slice();
+    let radius = &world.consts.radius;
+    let zero_force = ContactForce::default();
+    let is_zero = |k: usize| {
+        !sp.touching[k]
+            && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
+            && sp.twist[k].to_bits() == 0
+            && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
+    };
+    // Per body, half the smallest gap of its pairs left out; per slot, the near pairs
+    // before it (and the total last).
+    // Each pair written at the next free place and kept by counting it (`n`): written by
+    // index into arrays of the list's length (no capacity test per push), cut to `n` after.
+    let mut slack = vec![f32::INFINITY; nb];
+    let mut rank = vec![0u32; np + 1];
+    let (mut slots, mut pairs) = (vec![0u32; np], vec![[0u32; 2]; np]);
+    let mut n = 0;
+    for (k, &[i, j]) in c.pairs.iter().enumerate() {
+        rank[k] = n as u32;
+        let (iu, ju) = (i as usize, j as usize);
+        // The step's own offset (`sphere_pair`'s), its squared length in `f32`.
+        let d: Vec3 = world.offset_in(x, iu, ju);
+        let reach = radius[iu] + radius[ju] + margin;
+        let d2 = d.length_squared();
+        // Not `<`: a NaN distance keeps the pair.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        if !(d2 >= reach * reach) || !is_zero(k) {
+            slots[n] = k as u32;
+            pairs[n] = [i, j];
+            n += 1;
+        } else {
+            // At least `margin` (up to rounding, allowed for below).
+            let half_gap = 0.5 * (d2.sqrt() - radius[iu] - radius[ju]);
+            slack[iu] = slack[iu].min(half_gap);
+            slack[ju] = slack[ju].min(half_gap);
+        }
+    }
+    rank[np] = n as u32;
+    slots.truncate(n);
+    pairs.truncate(n);
+    // The near pairs' springs, forces and flags, then every wall pair's (collected from
+    // iterators of known length: no capacity test per element).
+    fn picked<T: Copy>(slots: &[u32], all: &[T], np: usize) -> Vec<T> {
+        let near = slots.iter().map(|&s| all[s as usize]);
+        near.chain(all[np..].iter().copied()).collect()
+    }
+    let history = picked(&slots, &sp.history, np);
+    let twist = picked(&slots, &sp.twist, np);
+    let forces = picked(&slots, &sp.forces, np);
+    let touching = picked(&slots, &sp.touching, np);
+    // The gather tables, from the list's (the slots ascend, so each body's pairs keep
+    // their order).
+    let pairs_as_a = c.pairs_as_a.iter().map(|&a| rank[a as usize]).collect();
+    let mut b_pair_start = Vec::with_capacity(nb + 1);
+    let mut b_pairs = Vec::with_capacity(n);
+    b_pair_start.push(0);
+    for i in 0..nb {
+        let range = c.b_pair_start[i] as usize..c.b_pair_start[i + 1] as usize;
+        for &k in &c.b_pairs[range] {
+            let k = k as usize;
+            if rank[k + 1] != rank[k] {
+                b_pairs.push(rank[k]);
+            }
+        }
+        b_pair_start.push(b_pairs.len() as u32);
+    }
+    let wall_contacts_of = c
+        .wall_contacts_of
+        .iter()
+        .map(|&w| w - np as u32 + n as u32)
+        .collect();
+    let springs = ContactSprings {
+        history,
+        twist,
+        forces,
+        touching,
+        // Spheres keep no hints or bounds.
+        hints: Vec::new(),
+        separation_bound: Vec::new(),
+    };
+    let tables = Tables {
+        pairs_as_a,
+        b_pair_start,
+        b_pairs,
+        wall_contacts_of,
+    };
+    // Less an allowance for the rounding (as in `make_in`).
+    let allowance = 1e-5 * (2.0 * world.consts.max_radius() + world.skin) as f64;
+    let reach2 = slack
+        .iter()
+        .map(|&s| {
+            let r = s as f64 - allowance;
+            if r > 0.0 { r * r } else { -1.0 }
+        })
+        .collect();
+    let made_at = world.state.position.clone();
+    assemble(world, slots, rank, pairs, springs, tables, made_at, reach2)
+}
+
+/// A near list's gather tables (what `Contacts::new` builds for its pairs).
+struct Tables {
+    pairs_as_a: Vec<u32>,
+    b_pair_start: Vec<u32>,
+    b_pairs: Vec<u32>,
+    wall_contacts_of: Vec<u32>,
+}
+
+/// The near list of [`make_serial`]'s or [`make_in`]'s parts.
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    world: &World,
+    slots: Vec<u32>,
+    rank: Vec<u32>,
+    pairs: Vec<[u32; 2]>,
+    springs: ContactSprings,
+    tables: Tables,
+    made_at: Vec<glam::DVec3>,
+    reach2: Vec<f64>,
+) -> Near {
+    let list = Contacts {
+        pairs,
+        wall_pairs: world.contacts.wall_pairs.clone(),
+        springs,
+        pairs_as_a: tables.pairs_as_a,
+        b_pair_start: tables.b_pair_start,
+        b_pairs: tables.b_pairs,
+        wall_contacts_of: tables.wall_contacts_of,
+        pieces: Vec::new(),
+        near: None,
+        view: std::sync::OnceLock::new(),
+    };
+    Near {
+        slots,
+        rank,
+        list,
+        made_at,
+        reach2,
+    }
 }
 
 /// [`make`] in parallel pieces of `piece` pairs and bodies (any positive size: the same
@@ -159,35 +315,24 @@ fn make_in(world: &World, piece: usize) -> Near {
         .par_iter()
         .map(|&w| w - np as u32 + n as u32)
         .collect();
-    let list = Contacts {
-        pairs,
-        wall_pairs: c.wall_pairs.clone(),
-        springs: ContactSprings {
-            history,
-            twist,
-            forces,
-            touching,
-            // Spheres keep no hints or bounds.
-            hints: Vec::new(),
-            separation_bound: Vec::new(),
-        },
+    let springs = ContactSprings {
+        history,
+        twist,
+        forces,
+        touching,
+        // Spheres keep no hints or bounds.
+        hints: Vec::new(),
+        separation_bound: Vec::new(),
+    };
+    let tables = Tables {
         pairs_as_a,
         b_pair_start,
         b_pairs,
         wall_contacts_of,
-        pieces: Vec::new(),
-        near: None,
-        view: std::sync::OnceLock::new(),
     };
     let mut made_at = Vec::with_capacity(nb);
     made_at.par_extend(world.state.position.par_iter().copied());
-    Near {
-        slots,
-        rank,
-        list,
-        made_at,
-        reach2,
-    }
+    assemble(world, slots, rank, pairs, springs, tables, made_at, reach2)
 }
 
 #[cfg(test)]
@@ -290,9 +435,10 @@ mod tests {
     }
 
     /// The near list made in parallel pieces of any size (one pair or body, a few, more
-    /// than the list) against the serial making, every array bitwise, at many moments of a
-    /// pour (pairs and bodies left out or not, reaches finite and infinite); and written
-    /// back over garbage, the broad phase's springs exactly.
+    /// than the list) and by `make_serial` (the one-thread path) against the serial making
+    /// kept here, every array bitwise, at many moments of a pour (pairs and bodies left out
+    /// or not, reaches finite and infinite); and written back over garbage, in pieces and
+    /// serially, the broad phase's springs exactly.
     #[test]
     fn the_near_list_made_in_pieces_is_the_serial_ones() {
         let mut w = world();
@@ -309,8 +455,13 @@ mod tests {
             let (slots, rank, pairs, pairs_as_a, b_pair_start, b_pairs, reach2) = &want;
             left_out += v.contacts.pairs.len() - slots.len();
             finite += reach2.iter().filter(|r| r.is_finite()).count();
-            for piece in [1, 3, 8, 61, 4096] {
-                let near = super::make_in(&v, piece);
+            // Pieces of 0: the serial making.
+            for piece in [0, 1, 3, 8, 61, 4096] {
+                let near = if piece == 0 {
+                    super::make_serial(&v)
+                } else {
+                    super::make_in(&v, piece)
+                };
                 let l = &near.list;
                 assert_eq!(&near.slots, slots, "slots, step {step}, pieces of {piece}");
                 assert_eq!(&near.rank, rank, "ranks, step {step}, pieces of {piece}");
@@ -366,24 +517,31 @@ mod tests {
                     spring_bits(&l.springs) == spring_bits(&copied),
                     "springs copied, step {step}, pieces of {piece}"
                 );
-                let mut dst = src.clone();
-                for &s in slots {
-                    let s = s as usize;
-                    dst.history[s] = glam::Vec3::NAN;
-                    dst.twist[s] = f32::NAN;
-                    dst.forces[s] = bytemuck::cast([u32::MAX; 12]);
-                    dst.touching[s] = !dst.touching[s];
+                for serial in [false, true] {
+                    let mut dst = src.clone();
+                    for &s in slots {
+                        let s = s as usize;
+                        dst.history[s] = glam::Vec3::NAN;
+                        dst.twist[s] = f32::NAN;
+                        dst.forces[s] = bytemuck::cast([u32::MAX; 12]);
+                        dst.touching[s] = !dst.touching[s];
+                    }
+                    if serial {
+                        near.write_back_serial(&mut dst);
+                    } else {
+                        near.write_back_in_pieces(&mut dst);
+                    }
+                    assert!(
+                        spring_bits(&dst) == spring_bits(src),
+                        "written back, step {step}, serially: {serial}"
+                    );
                 }
-                near.write_back(&mut dst);
-                assert!(
-                    spring_bits(&dst) == spring_bits(src),
-                    "written back, step {step}"
-                );
                 checked += 1;
             }
         }
-        // Covered: lists made at 15 moments, pairs left out, bodies with a finite reach.
-        assert_eq!(checked, 75);
+        // Covered: lists made at 15 moments, six ways each, pairs left out, bodies with a
+        // finite reach.
+        assert_eq!(checked, 90);
         assert!(
             left_out > 100 && finite > 100,
             "{left_out} left out, {finite} finite"
