@@ -16,13 +16,16 @@
 use super::rows::{self, Reader, Writer};
 use super::{Comm, Domain};
 
+// The record sizes the docs of `GhostRecord` name.
+const _: () = assert!(rows::STATE_BYTES == 96 && rows::SPHERE_STATE_BYTES == 52);
+
 /// Which record a ghost's state travels in every step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GhostRecord {
-    /// Every field the step integrates ([`rows::STATE_BYTES`] bytes a body).
+    /// Every field the step integrates (96 bytes a body).
     Whole,
     /// A world of spheres alone: position, velocity, angular velocity, removed flag
-    /// ([`rows::SPHERE_STATE_BYTES`] bytes a body).
+    /// (52 bytes a body).
     Sphere,
 }
 
