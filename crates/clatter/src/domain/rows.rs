@@ -263,14 +263,8 @@ impl Reader<'_> {
             .try_into()
             .expect("a whole sphere state");
         self.at += SPHERE_STATE_BYTES;
-        let f64_at = |a: usize| {
-            let b: [u8; 8] = record[a..a + 8].try_into().expect("8 bytes");
-            f64::from_le_bytes(b)
-        };
-        let f32_at = |a: usize| {
-            let b: [u8; 4] = record[a..a + 4].try_into().expect("4 bytes");
-            f32::from_le_bytes(b)
-        };
+        let f64_at = |a: usize| f64_in(record, a);
+        let f32_at = |a: usize| f32_in(record, a);
         s.position[i] = DVec3::new(f64_at(0), f64_at(8), f64_at(16));
         s.velocity[i] = Vec3::new(f32_at(24), f32_at(28), f32_at(32));
         s.omega[i] = Vec3::new(f32_at(36), f32_at(40), f32_at(44));
@@ -282,14 +276,8 @@ impl Reader<'_> {
 /// of an array: no bounds check, no reader state; ghost states are read every step).
 #[inline(always)]
 fn fields(record: &[u8; STATE_BYTES], s: &mut BodyStates, i: usize) {
-    let f64_at = |a: usize| {
-        let b: [u8; 8] = record[a..a + 8].try_into().expect("8 bytes");
-        f64::from_le_bytes(b)
-    };
-    let f32_at = |a: usize| {
-        let b: [u8; 4] = record[a..a + 4].try_into().expect("4 bytes");
-        f32::from_le_bytes(b)
-    };
+    let f64_at = |a: usize| f64_in(record, a);
+    let f32_at = |a: usize| f32_in(record, a);
     let vec3_at = |a: usize| Vec3::new(f32_at(a), f32_at(a + 4), f32_at(a + 8));
     let quat_at =
         |a: usize| Quat::from_xyzw(f32_at(a), f32_at(a + 4), f32_at(a + 8), f32_at(a + 12));
@@ -379,4 +367,19 @@ impl ContactRow {
             bound,
         }
     }
+}
+
+/// The little-endian `f64` at byte `a` of a fixed-size record (inlined with a constant `a`,
+/// so no bounds check is left).
+#[inline(always)]
+fn f64_in<const N: usize>(record: &[u8; N], a: usize) -> f64 {
+    let b: [u8; 8] = record[a..a + 8].try_into().expect("8 bytes");
+    f64::from_le_bytes(b)
+}
+
+/// The little-endian `f32` at byte `a` of a fixed-size record (see [`f64_in`]).
+#[inline(always)]
+fn f32_in<const N: usize>(record: &[u8; N], a: usize) -> f32 {
+    let b: [u8; 4] = record[a..a + 4].try_into().expect("4 bytes");
+    f32::from_le_bytes(b)
 }

@@ -18,11 +18,7 @@ fn scrambled_is_one_process(name: &str, world: &World, steps: usize, rank_counts
                 world,
                 ranks,
                 steps,
-                |w, rank, ranks| {
-                    let mut d = Domain::new(w, rank, ranks);
-                    d.set_overlap(overlap);
-                    d
-                },
+                with_overlap(overlap),
                 |d| {
                     assert_eq!(d.ghost_record(), GhostRecord::Sphere, "{name}: spheres");
                     d.scramble_unsent_ghost_fields();

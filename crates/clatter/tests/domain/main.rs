@@ -82,6 +82,16 @@ fn on_ranks_counted(world: &World, ranks: usize, steps: usize) -> (End, u64) {
     (end, handovers[0])
 }
 
+/// How [`on_ranks_with`] makes each rank's domain: [`Domain::new`] with the exchange
+/// overlap on or off.
+fn with_overlap(overlap: bool) -> impl Fn(World, usize, usize) -> Domain + Sync {
+    move |w, rank, ranks| {
+        let mut d = Domain::new(w, rank, ranks);
+        d.set_overlap(overlap);
+        d
+    }
+}
+
 /// `world` stepped on `ranks` threads, each rank's domain made by `make` (from the world,
 /// the rank and the rank count) and given to `after_step` after every step (to look at, or to
 /// scramble what no step may read); every rank's gathered end must agree (and rank 0's

@@ -14,11 +14,7 @@ fn stepped(world: &World, ranks: usize, steps: usize, overlap: bool) -> (End, Ve
         world,
         ranks,
         steps,
-        |w, rank, ranks| {
-            let mut d = Domain::new(w, rank, ranks);
-            d.set_overlap(overlap);
-            d
-        },
+        with_overlap(overlap),
         // Between steps the ghost states are owed exactly when overlapped.
         |d| assert_eq!(d.ghosts_owed(), overlap && ranks > 1),
         |d, _| d.overlapped(),

@@ -20,6 +20,15 @@ pub(super) fn make(world: &World) -> Near {
     }
 }
 
+/// Whether slot `k`'s spring holds nothing: not touching, and history, twist and forces
+/// all zero bits (such a pair may be left out of the near list and start afresh).
+fn at_rest(sp: &ContactSprings, k: usize) -> bool {
+    !sp.touching[k]
+        && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
+        && sp.twist[k].to_bits() == 0
+        && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&ContactForce::default())
+}
+
 /// [`make`] in one pass over the broad phase's list, pair by pair in list order, each
 /// left-out pair's half gap folded into both its bodies' slack at once: the definition
 /// the pieces of [`make_in`] reproduce (the same arrays, bit for bit; the slack is the
@@ -32,13 +41,7 @@ fn make_serial(world: &World) -> Near {
     let margin = MARGIN * world.skin;
     let x = world.position_pairs.as_slice();
     let radius = &world.consts.radius;
-    let zero_force = ContactForce::default();
-    let is_zero = |k: usize| {
-        !sp.touching[k]
-            && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
-            && sp.twist[k].to_bits() == 0
-            && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
-    };
+    let is_zero = |k: usize| at_rest(sp, k);
     // Per body, half the smallest gap of its pairs left out; per slot, the near pairs
     // before it (and the total last).
     // Each pair written at the next free place and kept by counting it (`n`): written by
@@ -191,13 +194,7 @@ fn make_in(world: &World, piece: usize) -> Near {
     let margin = MARGIN * world.skin;
     let x = world.position_pairs.as_slice();
     let radius = &world.consts.radius;
-    let zero_force = ContactForce::default();
-    let is_zero = |k: usize| {
-        !sp.touching[k]
-            && sp.history[k].to_array().map(f32::to_bits) == [0; 3]
-            && sp.twist[k].to_bits() == 0
-            && bytemuck::bytes_of(&sp.forces[k]) == bytemuck::bytes_of(&zero_force)
-    };
+    let is_zero = |k: usize| at_rest(sp, k);
     // 1. Per slot of the broad phase's list, half the gap of a pair left out (infinite for
     //    a pair kept); per piece, its kept slots and pairs.
     let mut gap = vec![f32::INFINITY; np];
