@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 
-use super::{Manifold, reduce};
+use super::{ContactPoint, Manifold, reduce};
 use crate::{ConvexPolyhedron, Pose};
 
 /// Buffers of the face clipping.
@@ -71,27 +71,62 @@ pub(super) fn clip_faces(
             break;
         }
     }
-    pts.clear();
+    // The points with their depths, written straight into the manifold while there are
+    // four or fewer (the usual face contact: `reduce` keeps them all, in order); a fifth
+    // sends the polygon through `reduce` with every point (each by the same expressions,
+    // so the same floats).
+    let mut m = Manifold {
+        normal: n,
+        ..Default::default()
+    };
+    let mut more = false;
     for &p in &poly[..len] {
         let depth = rface.offset - n.dot(p);
+        if depth > 0.0 {
+            if m.count == 4 {
+                more = true;
+                break;
+            }
+            m.points[m.count] = ContactPoint {
+                point: p + n * (0.5 * depth),
+                depth,
+            };
+            m.count += 1;
+        }
+    }
+    if more {
+        return Some(reduce_all(&poly[..len], rface.offset, n, pts));
+    }
+    if m.count > 0 {
+        return Some(m);
+    }
+    // The separating-axis test found overlap but the incident face clips away entirely
+    // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
+    // rather than losing it.
+    let deepest = (0..inc.vertices.len())
+        .map(inc_v)
+        .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
+    let depth = rface.offset - n.dot(deepest);
+    if depth <= 0.0 {
+        return None;
+    }
+    Some(Manifold::single(n, deepest + n * (0.5 * depth), depth))
+}
+
+/// The contact points of the clipped polygon `poly` (those below the reference face's
+/// plane `n . x = offset`, moved halfway up) reduced to four ([`reduce`]): the case of more
+/// than four, out of line.
+#[cold]
+#[inline(never)]
+fn reduce_all(poly: &[Vec3], offset: f32, n: Vec3, pts: &mut Vec<(Vec3, f32)>) -> Manifold {
+    pts.clear();
+    for &p in poly {
+        let depth = offset - n.dot(p);
         if depth > 0.0 {
             pts.push((p + n * (0.5 * depth), depth));
         }
     }
-    if pts.is_empty() {
-        // The separating-axis test found overlap but the incident face clips away entirely
-        // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
-        // rather than losing it.
-        let deepest = (0..inc.vertices.len())
-            .map(inc_v)
-            .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
-        let depth = rface.offset - n.dot(deepest);
-        if depth <= 0.0 {
-            return None;
-        }
-        return Some(Manifold::single(n, deepest + n * (0.5 * depth), depth));
-    }
-    Some(reduce(pts, n))
+    reduce(pts, n)
 }
 
 /// Grows `buf` to at least `len` entries (never shrinks it).
