@@ -14,16 +14,20 @@ pub(super) struct ClipBuffers {
     pub(super) pts: Vec<(Vec3, f32)>,
 }
 
-/// `m` (in `pose`'s body frame) turned into the world frame.
+/// `m` (in `pose`'s body frame) turned into the world frame, in place, its normal then
+/// negated when `flip` (a reference face of B: the normal from A to B).
 // One copy out of line, shared by both kinds of reference face and the full test (issue
-// 23: the served paths' code footprint).
+// 23: the served paths' code footprint); in place, so that the manifold is not copied in
+// and out.
 #[inline(never)]
-pub(super) fn to_world(mut m: Manifold, pose: &Pose) -> Manifold {
+pub(super) fn to_world(m: &mut Manifold, pose: &Pose, flip: bool) {
     m.normal = pose.rotation * m.normal;
+    if flip {
+        m.normal = -m.normal;
+    }
     for p in &mut m.points[..m.count] {
         p.point = pose.transform_point(p.point);
     }
-    m
 }
 
 /// Clips the incident face of `inc` (its vertex `i` in `refp`'s frame is `inc_v(i)`, computed

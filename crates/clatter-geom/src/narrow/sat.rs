@@ -229,10 +229,11 @@ fn remembered_face(
         if face >= a.faces.len() {
             return Err(None);
         }
-        let m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
+        let mut m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
         let to_b = |p: Vec3| inv_rot * (p - t);
         if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
-            Ok(Some(to_world(m, pa)))
+            to_world(&mut m, pa, false);
+            Ok(Some(m))
         } else {
             Err(Some((kind, face, m)))
         }
@@ -241,11 +242,12 @@ fn remembered_face(
             return Err(None);
         }
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
-        let m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
+        let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
         let to_a = |p: Vec3| rot * p + t;
         if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
         {
-            Ok(Some(to_world(m, pb).flipped()))
+            to_world(&mut m, pb, true);
+            Ok(Some(m))
         } else {
             Err(Some((kind, face, m)))
         }
@@ -660,11 +662,17 @@ fn sat_full(
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         clipped
             .or_else(|| clip_faces(b, face, a, inc_v, inv_rot, clip))
-            .map(|m| to_world(m, pb).flipped())
+            .map(|mut m| {
+                to_world(&mut m, pb, true);
+                m
+            })
     } else {
         clipped
             .or_else(|| clip_faces(a, face, b, |i| bv[i], rot, clip))
-            .map(|m| to_world(m, pa))
+            .map(|mut m| {
+                to_world(&mut m, pa, false);
+                m
+            })
     };
     if m.is_some() && margin + 2.0 * best > 0.0 && face < EDGE_CONTACT as usize {
         *hint = kind | HINT_CONTACT | face as u32;
