@@ -48,6 +48,15 @@ pub struct ConvexPolyhedron {
     /// bitwise (up to the sign of a zero), which [`ConvexPolyhedron::smallest_projection`]
     /// takes (see [`ConvexPolyhedron::detect_corner_box`] for why).
     pub corner_box: Option<Vec3>,
+    /// When the polyhedron has six faces whose normals are exactly the six signed unit axes
+    /// (one component `±1`, two `±0`; as a prepared cube's are): the face of each signed
+    /// axis, `face_axes[axis | (negative as usize) << 2]` (entries 3 and 7 unused). Then a
+    /// face normal's dot product with a finite vector `v` is `±v[axis]` as a value (the
+    /// products with `±0` are zeros, and a zero added to `x` gives `x`, or a zero for a
+    /// zero), so the smallest dot product is `-max |v[k]|` and its faces are known without
+    /// the products (see [`ConvexPolyhedron::detect_face_axes`] and the clipping's
+    /// incident face).
+    pub face_axes: Option<[u8; 8]>,
     /// `vertices` as 4-point SIMD lanes, built once by the constructor (derived from
     /// `vertices` like the planes and `radius`: a changed shape is built anew), so that the
     /// separating-axis test does not lay them out again for every pair.
@@ -182,6 +191,7 @@ impl ConvexPolyhedron {
             radius,
             box_frame: None,
             corner_box: None,
+            face_axes: None,
             lanes: crate::narrow::SoaPoints::default(),
             side_planes: Vec::new(),
         };
@@ -189,7 +199,30 @@ impl ConvexPolyhedron {
         p.side_planes = Self::build_side_planes(&p);
         p.box_frame = crate::query::support::detect_box(&p);
         p.corner_box = Self::detect_corner_box(&p.vertices);
+        p.face_axes = Self::detect_face_axes(&p.faces);
         p
+    }
+
+    /// The face of each signed axis when there are six faces and their normals are exactly
+    /// the six signed unit axes (see [`ConvexPolyhedron::face_axes`]'s field), else `None`.
+    pub fn detect_face_axes(faces: &[Face]) -> Option<[u8; 8]> {
+        if faces.len() != 6 {
+            return None;
+        }
+        let mut of = [u8::MAX; 8];
+        for (f, face) in faces.iter().enumerate() {
+            let c = face.normal.to_array();
+            let axis = c.iter().position(|x| x.abs() == 1.0)?;
+            if !(0..3).all(|k| k == axis || c[k] == 0.0) {
+                return None;
+            }
+            let code = axis | ((c[axis] < 0.0) as usize) << 2;
+            if of[code] != u8::MAX {
+                return None;
+            }
+            of[code] = f as u8;
+        }
+        Some(of)
     }
 
     /// `h` when `vertices` are exactly the eight corners `(±h.x, ±h.y, ±h.z)` (each sign

@@ -45,15 +45,7 @@ pub(super) fn clip_faces(
     let n = rface.normal;
     // Incident face: the one most anti-parallel to the reference normal.
     let n_inc = inc_rot.transpose() * n;
-    let mut inc_face = 0;
-    let mut best = f32::INFINITY;
-    for (f, face) in inc.faces.iter().enumerate() {
-        let d = face.normal.dot(n_inc);
-        if d < best {
-            best = d;
-            inc_face = f;
-        }
-    }
+    let inc_face = incident_face(inc, n_inc);
     let ClipBuffers { poly, tmp, pts } = clip;
     // The polygons are written by index into buffers at least twice as long as the polygon
     // clipped (clipping by one plane at most doubles a polygon: each corner gives itself
@@ -131,6 +123,45 @@ fn reduce_all(poly: &[Vec3], offset: f32, n: Vec3, pts: &mut Vec<(Vec3, f32)>) -
         }
     }
     reduce(pts, n)
+}
+
+/// The face of `inc` most anti-parallel to `n_inc` (the reference normal in `inc`'s
+/// frame): the smallest `normal . n_inc`, the first of equals (NaNs never chosen; face 0
+/// when all are).
+///
+/// For the six faces of the signed axes ([`ConvexPolyhedron::face_axes`]) and a finite
+/// `n_inc`, without the products: face `f`'s dot product is `±n_inc[axis]` as a value, so
+/// the smallest is `-m`, `m = max_k |n_inc[k]|`, taken by the face of axis `k` with the sign
+/// opposite to `n_inc[k]` for each `k` with `|n_inc[k]| = m`; the first of these. When `m =
+/// 0` every product is a zero, all equal: face 0.
+#[inline(always)]
+fn incident_face(inc: &ConvexPolyhedron, n_inc: Vec3) -> usize {
+    if let Some(of) = inc.face_axes
+        && n_inc.is_finite()
+    {
+        let v = n_inc.to_array();
+        let m = n_inc.abs().max_element();
+        if m == 0.0 {
+            return 0;
+        }
+        let mut first = usize::MAX;
+        for (k, &c) in v.iter().enumerate() {
+            if c.abs() == m {
+                first = first.min(of[k | ((c > 0.0) as usize) << 2] as usize);
+            }
+        }
+        return first;
+    }
+    let mut inc_face = 0;
+    let mut best = f32::INFINITY;
+    for (f, face) in inc.faces.iter().enumerate() {
+        let d = face.normal.dot(n_inc);
+        if d < best {
+            best = d;
+            inc_face = f;
+        }
+    }
+    inc_face
 }
 
 /// Grows `buf` to at least `len` entries (never shrinks it).
@@ -295,6 +326,78 @@ mod tests {
         }
         let (idx, count) = crate::reduce::reduce(&pts, n);
         Some(idx[..count].iter().map(|&i| pts[i]).collect())
+    }
+
+    /// The incident face's choice on faces of the signed axes, without the products,
+    /// against the loop over every face's dot product: boxes of several extents (their
+    /// hulls' own normals), directions at random, on the axes, with equal components (ties:
+    /// the first face wins), with zeros of either sign, all zero, and with an infinite or
+    /// NaN component (the loop decides those).
+    #[test]
+    fn incident_face_on_axes_is_the_loop() {
+        let mut r = ChaCha8Rng::seed_from_u64(19);
+        let boxes = [
+            Vec3::splat(0.01),
+            Vec3::new(0.5, 0.2, 0.3),
+            Vec3::new(1.0, 3.0, 0.25),
+        ];
+        let mut tested = 0;
+        for h in boxes {
+            let v: Vec<Vec3> = (0..8)
+                .map(|k| {
+                    let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
+                    Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
+                })
+                .collect();
+            let shape = crate::convex_hull(&v).expect("box hull");
+            assert!(
+                shape.face_axes.is_some(),
+                "a box's faces are the signed axes"
+            );
+            let picks = [
+                0.0,
+                -0.0,
+                1.0,
+                -1.0,
+                0.5,
+                -0.5,
+                1e-30,
+                f32::INFINITY,
+                f32::NAN,
+            ];
+            for case in 0..60_000 {
+                let n = if case % 2 == 0 {
+                    let mut q = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
+                    q[3] += 1e-3;
+                    Quat::from_array(q).normalize() * Vec3::Z
+                } else {
+                    Vec3::from_array([0; 3].map(|_| picks[r.random_range(0..picks.len())]))
+                };
+                let want = {
+                    let mut inc_face = 0;
+                    let mut best = f32::INFINITY;
+                    for (f, face) in shape.faces.iter().enumerate() {
+                        let d = face.normal.dot(n);
+                        if d < best {
+                            best = d;
+                            inc_face = f;
+                        }
+                    }
+                    inc_face
+                };
+                assert_eq!(incident_face(&shape, n), want, "{n:?}");
+                tested += n.is_finite() as usize;
+            }
+        }
+        assert!(tested > 100_000, "{tested}");
+        // A hull that is not a box of the axes takes the loop.
+        let tetra = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ZERO];
+        assert!(
+            crate::convex_hull(&tetra)
+                .expect("hull")
+                .face_axes
+                .is_none()
+        );
     }
 
     fn bits(p: &[(Vec3, f32)]) -> Vec<[u32; 4]> {
