@@ -49,3 +49,31 @@ pub(super) fn blank(skeleton: &World, n: usize, ghost: Vec<bool>) -> World {
     }
     w
 }
+
+/// Copies body `j` of `from` into body `i` of `to` (made by [`blank`]): its whole state and
+/// its constants, bit for bit as a record written by `Writer::state` and `Writer::consts`
+/// and read back would (the reach kept only where `to` keeps reaches). A body that stays on
+/// its rank at a rebuild takes this path instead of a message to the rank itself.
+pub(super) fn copy_body(from: &World, j: usize, to: &mut World, i: usize) {
+    let (s, t) = (&from.state, &mut to.state);
+    t.position[i] = s.position[j];
+    t.velocity[i] = s.velocity[j];
+    t.orientation[i] = s.orientation[j];
+    t.orientation_residual[i] = s.orientation_residual[j];
+    t.angular_momentum[i] = s.angular_momentum[j];
+    t.omega[i] = s.omega[j];
+    t.removed[i] = s.removed[j];
+    let (c, d) = (&from.consts, &mut to.consts);
+    d.shape[i] = c.shape[j];
+    d.material[i] = c.material[j];
+    d.is_sphere[i] = c.is_sphere[j];
+    d.mass[i] = c.mass[j];
+    d.inertia[i] = c.inertia[j];
+    d.inv_mass[i] = c.inv_mass[j];
+    d.inv_inertia[i] = c.inv_inertia[j];
+    d.radius[i] = c.radius[j];
+    d.equivalent_radius[i] = c.equivalent_radius[j];
+    if let Some(r) = to.reach.get_mut(i) {
+        *r = from.reach.get(j).copied().unwrap_or(0.0);
+    }
+}

@@ -571,12 +571,10 @@ impl Domain {
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let me = comm.rank();
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
-        // Most owned bodies stay: this rank's message reserved for all of them (its rows
-        // without mesh slots), rather than regrown (and copied) a dozen times.
-        bodies[me]
-            .1
-            .0
-            .reserve(owned.len() * (8 + rows::STATE_BYTES + rows::CONST_BYTES));
+        // Most owned bodies stay: they are not written into a message to this rank, only
+        // named (`Kept`), and copied from the old local world by `install`.
+        let mut kept = Kept::default();
+        kept.bodies.reserve(owned.len());
         let mut new_owner = vec![usize::MAX; local.len()];
         for &i in &owned {
             let x = local.state.position[i];
@@ -589,6 +587,10 @@ impl Domain {
             // every rank's box tested).
             let ids = &self.ids;
             let mut send = |s: usize| {
+                if s == me {
+                    kept.bodies.push((ids[i], s == o, i as u32));
+                    return;
+                }
                 let (n, w) = &mut bodies[s];
                 *n += 1;
                 w.u32(ids[i]);
@@ -614,9 +616,8 @@ impl Domain {
         // 3. Springs: each owner sends its bodies' contacts to the bodies' new owners (a
         //    contact with two owners is sent by both; the copies are equal). Zero springs
         //    are not sent: a contact not found is carried as zero.
+        //    Those staying on this rank are kept as rows (`Kept`), not written.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
-        // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
-        springs[me].1.0.reserve(local.contacts.pairs.len() * 28);
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();
@@ -643,7 +644,9 @@ impl Domain {
             };
             let (da, db) = (new_owner[a as usize], new_owner[b as usize]);
             for (d, first) in [(da, true), (db, da != db)] {
-                if d != usize::MAX && first {
+                if d == me && first {
+                    kept.pairs.push(row);
+                } else if d != usize::MAX && first {
                     springs[d].0 += 1;
                     row.write(&mut springs[d].1);
                 }
@@ -654,14 +657,18 @@ impl Domain {
             if zero(np + k) || d == usize::MAX {
                 continue;
             }
-            walls[d].0 += 1;
-            SpringRow {
+            let row = SpringRow {
                 key: [self.ids[a as usize], wall],
                 piece: piece(np + k),
                 history: sp.history[np + k],
                 twist: sp.twist[np + k],
+            };
+            if d == me {
+                kept.walls.push(row);
+            } else {
+                walls[d].0 += 1;
+                row.write(&mut walls[d].1);
             }
-            .write(&mut walls[d].1);
         }
         let msgs: Vec<Vec<u8>> = bodies
             .into_iter()
@@ -698,7 +705,7 @@ impl Domain {
             }
             None => comm.all_to_all(msgs),
         };
-        self.install(&got, boxes);
+        self.install(&got, kept, me, boxes);
     }
 
     /// The ranks a rebuild with kept boxes exchanges with (collective; every rank finds the
@@ -739,20 +746,35 @@ impl Domain {
         self.sparse_migrations
     }
 
-    /// Builds the new local world from the messages of a rebuild (by sending rank) and runs
-    /// the local broad phase on it.
-    fn install(&mut self, got: &[Vec<u8>], boxes: Bisection) {
+    /// Builds the new local world from the messages of a rebuild (by sending rank; this
+    /// rank's own, `me`, is `kept`: its staying bodies are copied from the old local world)
+    /// and runs the local broad phase on it.
+    fn install(&mut self, got: &[Vec<u8>], kept: Kept, me: usize, boxes: Bisection) {
         // Mesh contact slots per body (none without boundaries).
         let slots = if self.skeleton.boundaries.is_empty() {
             0
         } else {
             MESH_SLOTS
         };
-        // Bodies: (global id, owned, sending rank, where its state starts).
+        // Bodies: (global id, owned, sending rank, where its state starts), or for a body
+        // that stays, (global id, owned, `KEPT`, its old local id).
         let mut entries = Vec::new();
         let mut pair_rows = Vec::new();
         let mut wall_rows = Vec::new();
-        for (from, m) in got.iter().enumerate().filter(|(_, m)| !m.is_empty()) {
+        let mut kept = Some(kept);
+        for (from, m) in got.iter().enumerate() {
+            if from == me {
+                // Where this rank's own message was read: the rows in the same order.
+                let k = kept.take().expect("one rank is this one");
+                debug_assert!(m.is_empty(), "nothing is sent to this rank itself");
+                entries.extend(k.bodies.iter().map(|&(id, o, i)| (id, o, KEPT, i as usize)));
+                pair_rows.extend(k.pairs);
+                wall_rows.extend(k.walls);
+                continue;
+            }
+            if m.is_empty() {
+                continue;
+            }
             let mut r = Reader::new(m);
             for _ in 0..r.u32() {
                 let id = r.u32();
@@ -775,6 +797,12 @@ impl Domain {
         let mut local = carry::blank(&self.skeleton, ids.len(), ghost);
         let mut mesh_slots = Vec::with_capacity(entries.len() * slots);
         for (i, &(_, _, from, at)) in entries.iter().enumerate() {
+            if from == KEPT {
+                carry::copy_body(&self.local, at, &mut local, i);
+                let old = self.local.mesh.body_slots(at);
+                mesh_slots.extend(old.iter().take(slots).map(rows::travelled));
+                continue;
+            }
             let mut r = Reader::at(&got[from], at);
             r.state(&mut local.state, i);
             r.consts(&mut local, i);
@@ -834,4 +862,19 @@ impl Domain {
         self.recv = recv;
         self.boxes = Some(boxes);
     }
+}
+
+/// The `from` of a body in `install`'s entries that stays on the rank (its `at` is then its
+/// old local id).
+const KEPT: usize = usize::MAX;
+
+/// What a rebuild keeps on the rank instead of sending it to itself: the owned bodies that
+/// stay (owned or as ghosts: global id, owned, old local id, in the order the message would
+/// have held them) and the springs of the contacts whose bodies it owns next (the rows the
+/// message would have held, in its order).
+#[derive(Default)]
+struct Kept {
+    bodies: Vec<(u32, bool, u32)>,
+    pairs: Vec<SpringRow>,
+    walls: Vec<SpringRow>,
 }
