@@ -11,6 +11,8 @@ use crate::bodies::{BodyConstants, BodyStates};
 use crate::mesh_boundary::{MESH_SLOTS, MeshSlot};
 use crate::world::World;
 
+use super::rows::SpringRow;
+
 /// A world with `skeleton`'s setting and clock and `n` bodies whose states and constants
 /// are zero, to be filled in body by body (`ghost`: the ghost flags, empty for a whole
 /// world). The code paths (sphere-only, composites) are the skeleton's, which are the whole
@@ -76,4 +78,37 @@ pub(super) fn copy_body(from: &World, j: usize, to: &mut World, i: usize) {
     if let Some(r) = to.reach.get_mut(i) {
         *r = from.reach.get(j).copied().unwrap_or(0.0);
     }
+}
+
+/// The `from` of a body in `install`'s entries that stays on the rank (its `at` is then its
+/// old local id).
+pub(super) const KEPT: usize = usize::MAX;
+
+/// What a rebuild keeps on the rank instead of sending it to itself: the owned bodies that
+/// stay (owned or as ghosts: global id, owned, old local id, in the order the message would
+/// have held them) and the springs of the contacts whose bodies it owns next (the rows the
+/// message would have held, in its order, with the old local ids of their bodies).
+#[derive(Default)]
+pub(super) struct Kept {
+    pub bodies: Vec<(u32, bool, u32)>,
+    /// With their bodies' old local ids.
+    pub pairs: Vec<(SpringRow, [u32; 2])>,
+    /// With their body's old local id.
+    pub walls: Vec<(SpringRow, u32)>,
+}
+
+/// The new local id of each old local body (`u32::MAX` for those the rank no longer
+/// holds), from the old and new local bodies' global ids (both ascending: one merge).
+pub(super) fn renumbering(old: &[u32], new: &[u32]) -> Vec<u32> {
+    let mut out = vec![u32::MAX; old.len()];
+    let mut j = 0;
+    for (o, &g) in out.iter_mut().zip(old) {
+        while j < new.len() && new[j] < g {
+            j += 1;
+        }
+        if new.get(j) == Some(&g) {
+            *o = j as u32;
+        }
+    }
+    out
 }

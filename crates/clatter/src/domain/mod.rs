@@ -62,6 +62,7 @@ use crate::contact_list::{ContactSprings, Contacts};
 use crate::mesh_boundary::MESH_SLOTS;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
+use carry::{KEPT, Kept};
 use rows::{Reader, SpringRow, Writer};
 
 /// The boxes are cut again at a rebuild only when the fullest rank would own more than this
@@ -645,7 +646,7 @@ impl Domain {
             let (da, db) = (new_owner[a as usize], new_owner[b as usize]);
             for (d, first) in [(da, true), (db, da != db)] {
                 if d == me && first {
-                    kept.pairs.push(row);
+                    kept.pairs.push((row, [a, b]));
                 } else if d != usize::MAX && first {
                     springs[d].0 += 1;
                     row.write(&mut springs[d].1);
@@ -664,7 +665,7 @@ impl Domain {
                 twist: sp.twist[np + k],
             };
             if d == me {
-                kept.walls.push(row);
+                kept.walls.push((row, a));
             } else {
                 walls[d].0 += 1;
                 row.write(&mut walls[d].1);
@@ -768,8 +769,8 @@ impl Domain {
                 let k = kept.take().expect("one rank is this one");
                 debug_assert!(m.is_empty(), "nothing is sent to this rank itself");
                 entries.extend(k.bodies.iter().map(|&(id, o, i)| (id, o, KEPT, i as usize)));
-                pair_rows.extend(k.pairs);
-                wall_rows.extend(k.walls);
+                pair_rows.extend(k.pairs.into_iter().map(|(r, old)| (r, Some(old))));
+                wall_rows.extend(k.walls.into_iter().map(|(r, old)| (r, Some(old))));
                 continue;
             }
             if m.is_empty() {
@@ -785,13 +786,15 @@ impl Domain {
                 r.skip_slots(slots);
             }
             for _ in 0..r.u32() {
-                pair_rows.push(SpringRow::read(&mut r));
+                pair_rows.push((SpringRow::read(&mut r), None));
             }
             for _ in 0..r.u32() {
-                wall_rows.push(SpringRow::read(&mut r));
+                wall_rows.push((SpringRow::read(&mut r), None));
             }
         }
-        entries.sort_unstable_by_key(|e| e.0);
+        // Each sender's bodies (and the kept ones) come ascending: a stable sort merges
+        // the runs.
+        entries.sort_by_key(|e| e.0);
         let ids: Vec<u32> = entries.iter().map(|e| e.0).collect();
         let ghost: Vec<bool> = entries.iter().map(|e| !e.1).collect();
         let mut local = carry::blank(&self.skeleton, ids.len(), ghost);
@@ -819,26 +822,36 @@ impl Domain {
         local.step_count = self.local.step_count;
         local.time = self.local.time;
         local.rebuilds = self.local.rebuilds;
-        // The springs, in local ids, sorted as the broad phase sorts its lists.
+        // The springs, in local ids (a kept row's bodies renumbered, a received one's
+        // found by global id), sorted as the broad phase sorts its lists: each sender's
+        // rows come in its list's order, so a stable sort merges the runs. Two copies of a
+        // contact (from both owners) are equal: which one `dedup` keeps does not matter.
+        let renumber = carry::renumbering(&self.ids, &ids);
         let index = |g: u32| ids.binary_search(&g).ok().map(|i| i as u32);
+        let new = |old: u32| Some(renumber[old as usize]).filter(|&n| n != u32::MAX);
         let mut pairs: Vec<([u32; 2], u32, Vec3, f32)> = pair_rows
             .iter()
-            .filter_map(|r| {
-                Some((
-                    [index(r.key[0])?, index(r.key[1])?],
-                    r.piece,
-                    r.history,
-                    r.twist,
-                ))
+            .filter_map(|(r, old)| {
+                let key = match *old {
+                    Some([a, b]) => [new(a)?, new(b)?],
+                    None => [index(r.key[0])?, index(r.key[1])?],
+                };
+                Some((key, r.piece, r.history, r.twist))
             })
             .collect();
-        pairs.sort_unstable_by_key(|p| (p.0, p.1));
+        pairs.sort_by_key(|p| (p.0, p.1));
         pairs.dedup_by_key(|p| (p.0, p.1));
         let mut wall_list: Vec<([u32; 2], u32, Vec3, f32)> = wall_rows
             .iter()
-            .filter_map(|r| Some(([index(r.key[0])?, r.key[1]], r.piece, r.history, r.twist)))
+            .filter_map(|(r, old)| {
+                let body = match *old {
+                    Some(a) => new(a)?,
+                    None => index(r.key[0])?,
+                };
+                Some(([body, r.key[1]], r.piece, r.history, r.twist))
+            })
             .collect();
-        wall_list.sort_unstable_by_key(|p| (p.0, p.1));
+        wall_list.sort_by_key(|p| (p.0, p.1));
         wall_list.dedup_by_key(|p| (p.0, p.1));
         let all = pairs.iter().chain(&wall_list);
         let history = all.clone().map(|p| p.2).collect();
@@ -862,19 +875,4 @@ impl Domain {
         self.recv = recv;
         self.boxes = Some(boxes);
     }
-}
-
-/// The `from` of a body in `install`'s entries that stays on the rank (its `at` is then its
-/// old local id).
-const KEPT: usize = usize::MAX;
-
-/// What a rebuild keeps on the rank instead of sending it to itself: the owned bodies that
-/// stay (owned or as ghosts: global id, owned, old local id, in the order the message would
-/// have held them) and the springs of the contacts whose bodies it owns next (the rows the
-/// message would have held, in its order).
-#[derive(Default)]
-struct Kept {
-    bodies: Vec<(u32, bool, u32)>,
-    pairs: Vec<SpringRow>,
-    walls: Vec<SpringRow>,
 }
