@@ -32,7 +32,8 @@
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies (point to
 //!   point between neighbouring boxes when the boxes were kept, an all-to-all when they
-//!   were cut again); then the local broad phase carries them as one process does.
+//!   were cut again; what stays on a rank is kept in place, not sent to itself); then the
+//!   local broad phase carries them as one process does.
 //! - **Check steps** ([`Domain::check`], [`Domain::totals`]): the blow-up checks and the
 //!   energy samples reduce each rank's exact sums and extremes, never a body's state; the
 //!   last good state stays in shares on the ranks ([`Domain::share`]) until a blow-up.
