@@ -122,9 +122,20 @@ fn mpirun(ranks: usize, args: &[&str]) -> Output {
 }
 
 /// [`mpirun`] with environment variables set on every rank (`-x NAME=VALUE`, Open MPI's).
+///
+/// Each launch gets a session directory of its own (`orte_tmpdir_base`, removed after):
+/// Open MPI's default, `/tmp/ompi.<host>.<uid>`, is shared by every job of the user, and a
+/// job ending while another starts can remove it from under the other
+/// (open-mpi/ompi#8510), which then exits non-zero; this suite runs its tests, and so its
+/// launches, in parallel (and other suites may run beside it).
 #[cfg(feature = "mpi")]
 fn mpirun_with(ranks: usize, env: &[(&str, &str)], args: &[&str]) -> Output {
+    static LAUNCHES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = LAUNCHES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let session = std::env::temp_dir().join(format!("ompi-t{}-{n}", std::process::id()));
+    std::fs::create_dir_all(&session).expect("create the session directory");
     let mut cmd = Command::new("mpirun");
+    cmd.arg("--mca").arg("orte_tmpdir_base").arg(&session);
     for (name, value) in env {
         cmd.arg("-x").arg(format!("{name}={value}"));
     }
@@ -134,7 +145,9 @@ fn mpirun_with(ranks: usize, env: &[(&str, &str)], args: &[&str]) -> Output {
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
         .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
         .env("OMPI_MCA_rmaps_base_oversubscribe", "1");
-    output_within(cmd, Duration::from_secs(600))
+    let out = output_within(cmd, Duration::from_secs(600));
+    let _ = std::fs::remove_dir_all(&session);
+    out
 }
 
 /// Whether mpirun is on the PATH: a build with the feature is meant to be tested under it,

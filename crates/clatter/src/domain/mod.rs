@@ -32,7 +32,8 @@
 //!   their new owners and to the ranks that will hold them as ghosts, and the springs
 //!   (tangential, twisting) of their contacts to the new owners of their bodies (point to
 //!   point between neighbouring boxes when the boxes were kept, an all-to-all when they
-//!   were cut again); then the local broad phase carries them as one process does.
+//!   were cut again; what stays on a rank is kept in place, not sent to itself); then the
+//!   local broad phase carries them as one process does.
 //! - **Check steps** ([`Domain::check`], [`Domain::totals`]): the blow-up checks and the
 //!   energy samples reduce each rank's exact sums and extremes, never a body's state; the
 //!   last good state stays in shares on the ranks ([`Domain::share`]) until a blow-up.
@@ -62,6 +63,7 @@ use crate::contact_list::{ContactSprings, Contacts};
 use crate::mesh_boundary::MESH_SLOTS;
 use crate::step::{broad, contacts, integrate, mesh_contacts};
 use crate::world::{SimError, StepStats, World};
+use carry::{KEPT, Kept};
 use rows::{Reader, SpringRow, Writer};
 
 /// The boxes are cut again at a rebuild only when the fullest rank would own more than this
@@ -571,12 +573,10 @@ impl Domain {
         // 2. Bodies: to the new owner, and as ghosts to the ranks within reach.
         let me = comm.rank();
         let mut bodies: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
-        // Most owned bodies stay: this rank's message reserved for all of them (its rows
-        // without mesh slots), rather than regrown (and copied) a dozen times.
-        bodies[me]
-            .1
-            .0
-            .reserve(owned.len() * (8 + rows::STATE_BYTES + rows::CONST_BYTES));
+        // Most owned bodies stay: they are not written into a message to this rank, only
+        // named (`Kept`), and copied from the old local world by `install`.
+        let mut kept = Kept::default();
+        kept.bodies.reserve(owned.len());
         let mut new_owner = vec![usize::MAX; local.len()];
         for &i in &owned {
             let x = local.state.position[i];
@@ -589,6 +589,10 @@ impl Domain {
             // every rank's box tested).
             let ids = &self.ids;
             let mut send = |s: usize| {
+                if s == me {
+                    kept.bodies.push((ids[i], s == o, i as u32));
+                    return;
+                }
                 let (n, w) = &mut bodies[s];
                 *n += 1;
                 w.u32(ids[i]);
@@ -614,9 +618,8 @@ impl Domain {
         // 3. Springs: each owner sends its bodies' contacts to the bodies' new owners (a
         //    contact with two owners is sent by both; the copies are equal). Zero springs
         //    are not sent: a contact not found is carried as zero.
+        //    Those staying on this rank are kept as rows (`Kept`), not written.
         let mut springs: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
-        // A spring row is 28 bytes (`SpringRow::write`); most stay on this rank.
-        springs[me].1.0.reserve(local.contacts.pairs.len() * 28);
         let mut walls: Vec<(u32, Writer)> = (0..ranks).map(|_| (0, Writer::default())).collect();
         let c = &local.contacts;
         let np = c.pairs.len();
@@ -643,7 +646,9 @@ impl Domain {
             };
             let (da, db) = (new_owner[a as usize], new_owner[b as usize]);
             for (d, first) in [(da, true), (db, da != db)] {
-                if d != usize::MAX && first {
+                if d == me && first {
+                    kept.pairs.push((row, [a, b]));
+                } else if d != usize::MAX && first {
                     springs[d].0 += 1;
                     row.write(&mut springs[d].1);
                 }
@@ -654,14 +659,18 @@ impl Domain {
             if zero(np + k) || d == usize::MAX {
                 continue;
             }
-            walls[d].0 += 1;
-            SpringRow {
+            let row = SpringRow {
                 key: [self.ids[a as usize], wall],
                 piece: piece(np + k),
                 history: sp.history[np + k],
                 twist: sp.twist[np + k],
+            };
+            if d == me {
+                kept.walls.push((row, a));
+            } else {
+                walls[d].0 += 1;
+                row.write(&mut walls[d].1);
             }
-            .write(&mut walls[d].1);
         }
         let msgs: Vec<Vec<u8>> = bodies
             .into_iter()
@@ -698,7 +707,7 @@ impl Domain {
             }
             None => comm.all_to_all(msgs),
         };
-        self.install(&got, boxes);
+        self.install(&got, kept, me, boxes);
     }
 
     /// The ranks a rebuild with kept boxes exchanges with (collective; every rank finds the
@@ -739,20 +748,35 @@ impl Domain {
         self.sparse_migrations
     }
 
-    /// Builds the new local world from the messages of a rebuild (by sending rank) and runs
-    /// the local broad phase on it.
-    fn install(&mut self, got: &[Vec<u8>], boxes: Bisection) {
+    /// Builds the new local world from the messages of a rebuild (by sending rank; this
+    /// rank's own, `me`, is `kept`: its staying bodies are copied from the old local world)
+    /// and runs the local broad phase on it.
+    fn install(&mut self, got: &[Vec<u8>], kept: Kept, me: usize, boxes: Bisection) {
         // Mesh contact slots per body (none without boundaries).
         let slots = if self.skeleton.boundaries.is_empty() {
             0
         } else {
             MESH_SLOTS
         };
-        // Bodies: (global id, owned, sending rank, where its state starts).
+        // Bodies: (global id, owned, sending rank, where its state starts), or for a body
+        // that stays, (global id, owned, `KEPT`, its old local id).
         let mut entries = Vec::new();
         let mut pair_rows = Vec::new();
         let mut wall_rows = Vec::new();
-        for (from, m) in got.iter().enumerate().filter(|(_, m)| !m.is_empty()) {
+        let mut kept = Some(kept);
+        for (from, m) in got.iter().enumerate() {
+            if from == me {
+                // Where this rank's own message was read: the rows in the same order.
+                let k = kept.take().expect("one rank is this one");
+                debug_assert!(m.is_empty(), "nothing is sent to this rank itself");
+                entries.extend(k.bodies.iter().map(|&(id, o, i)| (id, o, KEPT, i as usize)));
+                pair_rows.extend(k.pairs.into_iter().map(|(r, old)| (r, Some(old))));
+                wall_rows.extend(k.walls.into_iter().map(|(r, old)| (r, Some(old))));
+                continue;
+            }
+            if m.is_empty() {
+                continue;
+            }
             let mut r = Reader::new(m);
             for _ in 0..r.u32() {
                 let id = r.u32();
@@ -763,18 +787,26 @@ impl Domain {
                 r.skip_slots(slots);
             }
             for _ in 0..r.u32() {
-                pair_rows.push(SpringRow::read(&mut r));
+                pair_rows.push((SpringRow::read(&mut r), None));
             }
             for _ in 0..r.u32() {
-                wall_rows.push(SpringRow::read(&mut r));
+                wall_rows.push((SpringRow::read(&mut r), None));
             }
         }
-        entries.sort_unstable_by_key(|e| e.0);
+        // Each sender's bodies (and the kept ones) come ascending: a stable sort merges
+        // the runs.
+        entries.sort_by_key(|e| e.0);
         let ids: Vec<u32> = entries.iter().map(|e| e.0).collect();
         let ghost: Vec<bool> = entries.iter().map(|e| !e.1).collect();
         let mut local = carry::blank(&self.skeleton, ids.len(), ghost);
         let mut mesh_slots = Vec::with_capacity(entries.len() * slots);
         for (i, &(_, _, from, at)) in entries.iter().enumerate() {
+            if from == KEPT {
+                carry::copy_body(&self.local, at, &mut local, i);
+                let old = self.local.mesh.body_slots(at);
+                mesh_slots.extend(old.iter().take(slots).map(rows::travelled));
+                continue;
+            }
             let mut r = Reader::at(&got[from], at);
             r.state(&mut local.state, i);
             r.consts(&mut local, i);
@@ -791,26 +823,36 @@ impl Domain {
         local.step_count = self.local.step_count;
         local.time = self.local.time;
         local.rebuilds = self.local.rebuilds;
-        // The springs, in local ids, sorted as the broad phase sorts its lists.
+        // The springs, in local ids (a kept row's bodies renumbered, a received one's
+        // found by global id), sorted as the broad phase sorts its lists: each sender's
+        // rows come in its list's order, so a stable sort merges the runs. Two copies of a
+        // contact (from both owners) are equal: which one `dedup` keeps does not matter.
+        let renumber = carry::renumbering(&self.ids, &ids);
         let index = |g: u32| ids.binary_search(&g).ok().map(|i| i as u32);
+        let new = |old: u32| Some(renumber[old as usize]).filter(|&n| n != u32::MAX);
         let mut pairs: Vec<([u32; 2], u32, Vec3, f32)> = pair_rows
             .iter()
-            .filter_map(|r| {
-                Some((
-                    [index(r.key[0])?, index(r.key[1])?],
-                    r.piece,
-                    r.history,
-                    r.twist,
-                ))
+            .filter_map(|(r, old)| {
+                let key = match *old {
+                    Some([a, b]) => [new(a)?, new(b)?],
+                    None => [index(r.key[0])?, index(r.key[1])?],
+                };
+                Some((key, r.piece, r.history, r.twist))
             })
             .collect();
-        pairs.sort_unstable_by_key(|p| (p.0, p.1));
+        pairs.sort_by_key(|p| (p.0, p.1));
         pairs.dedup_by_key(|p| (p.0, p.1));
         let mut wall_list: Vec<([u32; 2], u32, Vec3, f32)> = wall_rows
             .iter()
-            .filter_map(|r| Some(([index(r.key[0])?, r.key[1]], r.piece, r.history, r.twist)))
+            .filter_map(|(r, old)| {
+                let body = match *old {
+                    Some(a) => new(a)?,
+                    None => index(r.key[0])?,
+                };
+                Some(([body, r.key[1]], r.piece, r.history, r.twist))
+            })
             .collect();
-        wall_list.sort_unstable_by_key(|p| (p.0, p.1));
+        wall_list.sort_by_key(|p| (p.0, p.1));
         wall_list.dedup_by_key(|p| (p.0, p.1));
         let all = pairs.iter().chain(&wall_list);
         let history = all.clone().map(|p| p.2).collect();

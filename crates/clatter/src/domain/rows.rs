@@ -292,6 +292,22 @@ fn fields(record: &[u8; STATE_BYTES], s: &mut BodyStates, i: usize) {
     s.removed[i] = u32::from_le_bytes(record[92..96].try_into().expect("4 bytes")) != 0;
 }
 
+/// A mesh slot as it arrives through a message ([`Writer::slot`] then [`Reader::slot`]):
+/// the same fields, the force's padding zeroed. A slot that stays on its rank at a rebuild
+/// is copied through this, so it is what a message to the rank itself would have given.
+pub(crate) fn travelled(m: &MeshSlot) -> MeshSlot {
+    MeshSlot {
+        force: ContactForce {
+            force_b: m.force.force_b,
+            normal_force: m.force.normal_force,
+            torque_a: m.force.torque_a,
+            torque_b: m.force.torque_b,
+            ..ContactForce::default()
+        },
+        ..*m
+    }
+}
+
 /// A contact's springs on the move between ranks at a rebuild: the contact by global ids
 /// (`[body, body]` or `[body, wall]`) and piece code, its tangential and twisting springs.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -16,6 +16,7 @@ mod bitwise;
 mod checks;
 mod cuts;
 mod ghosts;
+mod migration;
 mod overlap;
 mod stats;
 mod traffic;
