@@ -134,6 +134,8 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     .sum::<usize>();
             }
             if w.spheres_only() {
+                // One radius, mass and material: the lanes' per-pair constants once a chunk.
+                let uniform = super::sphere_lanes::Uniform::of(w);
                 // Chunks of plain slices: the sphere law is cheap, so the per-item cost of
                 // a deep parallel zip would show.
                 let chunk = |p: &[[u32; 2]],
@@ -146,7 +148,7 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                         if super::avx2() {
                             // SAFETY: the CPU has AVX2.
                             return unsafe {
-                                super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
+                                super::sphere_lanes::sphere_chunk(w, x, uniform, p, h, c, f, t)
                             };
                         }
                         super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))

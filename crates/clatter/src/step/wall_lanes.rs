@@ -16,7 +16,7 @@ use glam::Vec3;
 
 use super::contacts::wall_pair;
 use super::lanes::{F8, M8, V3, gather, load_vec3_at};
-use super::law_lanes::{Contact8, law, split_pairs, store, was_touching};
+use super::law_lanes::{Contact8, Pair8, law, split_pairs, store, was_touching};
 use super::sphere_lanes::{Bodies, params_of, split_positions};
 use crate::contract::ContactForce;
 use crate::precise::Ds3A;
@@ -216,10 +216,8 @@ unsafe fn group(
         n,
         depth: depth + rest,
         vrel,
-        stiffness,
-        damping_factor,
-        friction,
-        m_eff,
+        // SAFETY: AVX2 (this function's).
+        pair: unsafe { Pair8::of(stiffness, damping_factor, friction, m_eff, b.dt) },
     };
     // A NaN overlap goes to the scalar code.
     let nan = depth.ne(depth);
