@@ -108,6 +108,13 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     let keep = |k: usize| groups.is_none_or(|(g, want)| g[(lo + k) / size] == want);
     // Every pair on the plain law: the law compiled without the tests for the others.
     let plain = w.materials.all_plain();
+    // Spheres of one radius, mass and material: the lanes' law constants once a chunk.
+    #[cfg(target_arch = "x86_64")]
+    let uniform = if w.spheres_only() && plain {
+        super::sphere_lanes::Uniform::of(w)
+    } else {
+        None
+    };
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
     let (pairs_touching, walls_touching) = rayon::join(
         || {
@@ -134,8 +141,6 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     .sum::<usize>();
             }
             if w.spheres_only() {
-                // One radius, mass and material: the lanes' per-pair constants once a chunk.
-                let uniform = super::sphere_lanes::Uniform::of(w);
                 // Chunks of plain slices: the sphere law is cheap, so the per-item cost of
                 // a deep parallel zip would show.
                 let chunk = |p: &[[u32; 2]],
@@ -236,7 +241,9 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     #[cfg(target_arch = "x86_64")]
                     if plain && w.spheres_only() && super::avx2() {
                         // SAFETY: the CPU has AVX2.
-                        return unsafe { super::wall_lanes::wall_chunk(w, x, p, h, tw, f, t) };
+                        return unsafe {
+                            super::wall_lanes::wall_chunk(w, x, uniform, p, h, tw, f, t)
+                        };
                     }
                     super::vex(|| {
                         let n = p.len();
