@@ -76,6 +76,9 @@ impl Pair8 {
 /// The law's results in lanes: the force on b `f`, the normal force `fn_`, the new spring
 /// `xi` and coverage `cov_after`, the springs and coverages read (`h`, `cov`), the lanes
 /// left to the scalar code (`scalar`) and those the lanes' results hold for (`done`).
+/// `f`, `fn_`, `xi` and `cov_after` are the scalar law's only in the `done` lanes (the
+/// Coulomb caps are computed only where a `done` lane needs them); other lanes hold
+/// anything and are not to be kept.
 pub(super) struct Law8 {
     pub(super) f: V3,
     pub(super) fn_: F8,
