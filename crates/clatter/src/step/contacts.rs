@@ -108,6 +108,13 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     let keep = |k: usize| groups.is_none_or(|(g, want)| g[(lo + k) / size] == want);
     // Every pair on the plain law: the law compiled without the tests for the others.
     let plain = w.materials.all_plain();
+    // Spheres of one radius, mass and material: the lanes' law constants once a chunk.
+    #[cfg(target_arch = "x86_64")]
+    let uniform = if w.spheres_only() && plain {
+        super::sphere_lanes::Uniform::of(w)
+    } else {
+        None
+    };
     // Body pairs and wall pairs in one fork-join (one synchronisation, not two).
     let (pairs_touching, walls_touching) = rayon::join(
         || {
@@ -146,7 +153,7 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                         if super::avx2() {
                             // SAFETY: the CPU has AVX2.
                             return unsafe {
-                                super::sphere_lanes::sphere_chunk(w, x, p, h, c, f, t)
+                                super::sphere_lanes::sphere_chunk(w, x, uniform, p, h, c, f, t)
                             };
                         }
                         super::vex(|| sphere_chunk::<true>(w, x, p, h, c, f, t))
@@ -234,7 +241,9 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     #[cfg(target_arch = "x86_64")]
                     if plain && w.spheres_only() && super::avx2() {
                         // SAFETY: the CPU has AVX2.
-                        return unsafe { super::wall_lanes::wall_chunk(w, x, p, h, tw, f, t) };
+                        return unsafe {
+                            super::wall_lanes::wall_chunk(w, x, uniform, p, h, tw, f, t)
+                        };
                     }
                     super::vex(|| {
                         let n = p.len();

@@ -13,21 +13,72 @@ use crate::contract::{ContactForce, LINEAR_TANGENTIAL_RATIO, TANGENTIAL_DAMPING_
 use crate::law::{EDGE_SLACK, RESOLVABLE};
 
 /// What the law takes of eight contacts: the normal `n` (from side a to side b), the
-/// overlap `depth`, the relative velocity `vrel` of b's contact point against a's, the pair
-/// parameters and the effective mass.
+/// overlap `depth`, the relative velocity `vrel` of b's contact point against a's, and the
+/// pairs' constants.
 pub(super) struct Contact8 {
     pub(super) n: V3,
     pub(super) depth: F8,
     pub(super) vrel: V3,
-    pub(super) stiffness: F8,
-    pub(super) damping_factor: F8,
+    pub(super) pair: Pair8,
+}
+
+/// What the law derives from a pair's parameters, its effective mass and the step alone
+/// (no state): computed per group of eight, or once per chunk where every pair has the
+/// same (a world of one material whose bodies all have one mass, `sphere_lanes`'s
+/// `Uniform`): each lane the same operations on the same values, so the same bits.
+#[derive(Clone, Copy)]
+pub(super) struct Pair8 {
+    pub(super) k: F8,
     pub(super) friction: F8,
     pub(super) m_eff: F8,
+    pub(super) eta: F8,
+    pub(super) half_eta: F8,
+    /// `1 / (m_eff + eta dt / 2)`.
+    pub(super) per_mass: F8,
+    /// Steps too long for the in-step normal law (the explicit law's lanes).
+    pub(super) explicit: M8,
+    pub(super) kt: F8,
+    pub(super) eta_t: F8,
+}
+
+impl Pair8 {
+    /// The constants of pairs with these parameters and effective masses, at step `dt`.
+    ///
+    /// # Safety
+    /// AVX2.
+    #[inline(always)]
+    pub(super) unsafe fn of(
+        stiffness: F8,
+        damping_factor: F8,
+        friction: F8,
+        m_eff: F8,
+        dt: f32,
+    ) -> Pair8 {
+        let k = stiffness;
+        let eta = damping_factor * (m_eff * k.max_const(0.0)).sqrt();
+        let dt = F8::splat(dt);
+        let explicit = (dt * (dt * k + eta)).gt(F8::splat(RESOLVABLE) * m_eff);
+        let half_eta = F8::splat(0.5) * eta;
+        Pair8 {
+            k,
+            friction,
+            m_eff,
+            eta,
+            half_eta,
+            per_mass: F8::splat(1.0) / (m_eff + half_eta * dt),
+            explicit,
+            kt: F8::splat(LINEAR_TANGENTIAL_RATIO) * k,
+            eta_t: F8::splat(TANGENTIAL_DAMPING_RATIO) * eta,
+        }
+    }
 }
 
 /// The law's results in lanes: the force on b `f`, the normal force `fn_`, the new spring
 /// `xi` and coverage `cov_after`, the springs and coverages read (`h`, `cov`), the lanes
 /// left to the scalar code (`scalar`) and those the lanes' results hold for (`done`).
+/// `f`, `fn_`, `xi` and `cov_after` are the scalar law's only in the `done` lanes (the
+/// Coulomb caps are computed only where a `done` lane needs them); other lanes hold
+/// anything and are not to be kept.
 pub(super) struct Law8 {
     pub(super) f: V3,
     pub(super) fn_: F8,
@@ -62,35 +113,32 @@ pub(super) unsafe fn law(
     coverage: &[f32; 8],
 ) -> Law8 {
     let zero = F8::splat(0.0);
-    let (n, depth, vrel, m_eff) = (c.n, c.depth, c.vrel, c.m_eff);
-    let (fs, k) = (c.stiffness * depth, c.stiffness);
-    let eta = c.damping_factor * (m_eff * k.max_const(0.0)).sqrt();
+    let (n, depth, vrel, p) = (c.n, c.depth, c.vrel, &c.pair);
+    let (m_eff, k, eta, half_eta) = (p.m_eff, p.k, p.eta, p.half_eta);
+    let fs = k * depth;
     let dt = F8::splat(dt);
     let vn = vrel.dot(n);
 
     // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
     let v = -vn;
-    let explicit = (dt * (dt * k + eta)).gt(F8::splat(RESOLVABLE) * m_eff);
     // SAFETY: 8 `f32`s.
     let cov = F8(unsafe { _mm256_loadu_ps(coverage.as_ptr()) });
     let first = cov.eq(zero);
     let g_start = F8::select(cov.gt(zero), cov, zero);
     let g_x = eta * depth;
-    let half_eta = F8::splat(0.5) * eta;
     let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
-    let per_mass = F8::splat(1.0) / (m_eff + half_eta * dt);
+    let per_mass = p.per_mass;
     let v_after = v - impulse * per_mass;
     let fn_ = impulse * per_mass * m_eff / dt;
     let stays = (depth + dt * v_after).gt(F8::splat(EDGE_SLACK) * dt * v_after.abs());
     let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
     let scalar = touch
-        .and(explicit.or(first).or(forced))
+        .and(p.explicit.or(first).or(forced))
         .or(stays.and_not(touch));
     let done = scalar.and_not(touch);
 
     // `tangential_law`.
-    let kt = F8::splat(LINEAR_TANGENTIAL_RATIO) * k;
-    let eta_t = F8::splat(TANGENTIAL_DAMPING_RATIO) * eta;
+    let (kt, eta_t) = (p.kt, p.eta_t);
     let vt = vrel - n * vn;
     // SAFETY: AVX2.
     let h = unsafe { load_vec3(hist) };
@@ -104,13 +152,26 @@ pub(super) unsafe fn law(
         turned,
     );
     let xi = V3::select(along.ne(zero), rescaled, h) + vt * dt;
-    let cap = c.friction * fn_.max_const(0.0);
+    let cap = p.friction * fn_.max_const(0.0);
     let cap2 = cap * cap;
     let spring2 = kt * kt * xi.length_squared();
-    let xi = V3::select(spring2.gt(cap2), xi * (cap / spring2.sqrt()), xi);
+    // The Coulomb caps' square roots and divisions only where a lane whose results are
+    // kept (`done`) is capped: in a settled pile few slide. Other lanes are thrown away by
+    // `store` (a lane that does not touch, whose cap is 0, would always count as capped).
+    let over = spring2.gt(cap2).and(done);
+    let xi = if over.bits() != 0 {
+        V3::select(over, xi * (cap / spring2.sqrt()), xi)
+    } else {
+        xi
+    };
     let ft = xi * -kt - vt * eta_t;
     let ft_len2 = ft.length_squared();
-    let ft = V3::select(ft_len2.gt(cap2), ft * (cap / ft_len2.sqrt()), ft);
+    let over = ft_len2.gt(cap2).and(done);
+    let ft = if over.bits() != 0 {
+        V3::select(over, ft * (cap / ft_len2.sqrt()), ft)
+    } else {
+        ft
+    };
     Law8 {
         f: n * fn_ + ft,
         fn_,

@@ -23,7 +23,7 @@ use glam::Vec3;
 
 use super::contacts::sphere_pair;
 use super::lanes::{F8, V3, gather, load_vec3_at};
-use super::law_lanes::{Contact8, law, split_pairs, store, was_touching};
+use super::law_lanes::{Contact8, Pair8, law, split_pairs, store, was_touching};
 use crate::contract::{ContactForce, PairParams};
 use crate::precise::Ds3A;
 use crate::world::World;
@@ -79,6 +79,75 @@ impl<'a> Bodies<'a> {
     }
 }
 
+/// A world whose pairs share their radii, masses and parameters: one material, and every
+/// body of one radius and one mass (a monodisperse pile). Its pairs' sums of radii and
+/// law constants ([`Pair8`]) are then computed once per chunk rather than per group of
+/// eight (the same operations on the same values, so the same bits), and the bodies'
+/// radii and masses are not gathered.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Uniform {
+    pub(super) radius: f32,
+    pub(super) mass: f32,
+}
+
+impl Uniform {
+    /// The world's uniform radius and mass, if it has one material and every body the
+    /// same radius and mass, bit for bit.
+    pub(super) fn of(w: &World) -> Option<Uniform> {
+        let (radius, mass) = (&w.consts.radius, &w.consts.mass);
+        let (&r, &m) = (radius.first()?, mass.first()?);
+        if w.materials.len() != 1 || mass.len() != radius.len() {
+            return None;
+        }
+        // Without early exits, in blocks: a loop the compiler vectorises (a step's cost).
+        let same = |v: &[f32], x: f32| {
+            v.chunks(64).all(|c| {
+                c.iter()
+                    .fold(true, |ok, &y| ok & (y.to_bits() == x.to_bits()))
+            })
+        };
+        (same(radius, r) && same(mass, m)).then_some(Uniform { radius: r, mass: m })
+    }
+}
+
+/// What a chunk's groups share in a [`Uniform`] world, in lanes.
+#[derive(Clone, Copy)]
+struct Shared {
+    radius: F8,
+    /// `ri + rj`.
+    sum: F8,
+    /// `(ri + rj) * (ri + rj)`.
+    reach2: F8,
+    pair: Pair8,
+}
+
+impl Shared {
+    /// # Safety
+    /// AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn of(b: &Bodies, u: Uniform) -> Shared {
+        let (r, m) = (F8::splat(u.radius), F8::splat(u.mass));
+        let sum = r + r;
+        let p = &b.table[0];
+        let pair = unsafe {
+            Pair8::of(
+                F8::splat(p.stiffness),
+                F8::splat(p.damping_factor),
+                F8::splat(p.friction),
+                m * m / (m + m),
+                b.dt,
+            )
+        };
+        Shared {
+            radius: r,
+            sum,
+            reach2: sum * sum,
+            pair,
+        }
+    }
+}
+
 /// The body-pair chunk's sphere pairs on the plain law (what `sphere_chunk::<true>` does),
 /// eight pairs at a time; returns the number that touch. The scalar code does the rest of
 /// the chunk (`pairs.len() % 8`) and the lanes this path leaves to it (see the module docs).
@@ -86,9 +155,11 @@ impl<'a> Bodies<'a> {
 /// # Safety
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
 pub(super) unsafe fn sphere_chunk(
     w: &World,
     x: &[Ds3A],
+    uniform: Option<Uniform>,
     pairs: &[[u32; 2]],
     hist: &mut [Vec3],
     coverage: &mut [f32],
@@ -103,6 +174,8 @@ pub(super) unsafe fn sphere_chunk(
         &mut touching[..n],
     );
     let bodies = Bodies::of(w, x);
+    // SAFETY: AVX2 (this function's).
+    let shared = uniform.map(|u| unsafe { Shared::of(&bodies, u) });
     let mut count = 0;
     let groups = n / 8;
     for g in 0..groups {
@@ -113,6 +186,7 @@ pub(super) unsafe fn sphere_chunk(
             group(
                 w,
                 &bodies,
+                shared.as_ref(),
                 pairs[r.clone()].try_into().unwrap(),
                 (&mut hist[r.clone()]).try_into().unwrap(),
                 (&mut coverage[r.clone()]).try_into().unwrap(),
@@ -255,9 +329,11 @@ unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
 /// AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn group(
     w: &World,
     b: &Bodies,
+    shared: Option<&Shared>,
     pairs: &[[u32; 2]; 8],
     hist: &mut [Vec3; 8],
     coverage: &mut [f32; 8],
@@ -275,9 +351,16 @@ unsafe fn group(
     // SAFETY (all gathers below): indices bounded above; the arrays cover every body
     // (checked by `sphere_chunk`).
     let d = unsafe { offset(b, i, j) };
-    let (ri, rj) = unsafe { (gather(b.radius.as_ptr(), i), gather(b.radius.as_ptr(), j)) };
+    // `ri`, `ri + rj` and its square: the chunk's where shared.
+    let (ri, sum, reach2) = match shared {
+        Some(s) => (s.radius, s.sum, s.reach2),
+        None => {
+            let (ri, rj) = unsafe { (gather(b.radius.as_ptr(), i), gather(b.radius.as_ptr(), j)) };
+            (ri, ri + rj, (ri + rj) * (ri + rj))
+        }
+    };
     let dist2 = d.length_squared();
-    let touch = dist2.lt((ri + rj) * (ri + rj));
+    let touch = dist2.lt(reach2);
     // SAFETY: AVX2 (this function's).
     let was = unsafe { was_touching(touching) };
     let (touch_bits, was_bits) = (touch.bits(), was.bits());
@@ -303,10 +386,21 @@ unsafe fn group(
     let zero = F8::splat(0.0);
     let dist = dist2.sqrt();
     let n = V3::select(dist.gt(zero), d / dist, V3::splat(Vec3::Z));
-    let depth = ri + rj - dist;
-    let (stiffness, damping_factor, friction) = unsafe { params(b, i, j) };
-    let (mi, mj) = unsafe { (gather(b.mass.as_ptr(), i), gather(b.mass.as_ptr(), j)) };
-    let m_eff = mi * mj / (mi + mj);
+    let depth = sum - dist;
+    let pair = match shared {
+        Some(s) => s.pair,
+        None => unsafe {
+            let (stiffness, damping_factor, friction) = params(b, i, j);
+            let (mi, mj) = (gather(b.mass.as_ptr(), i), gather(b.mass.as_ptr(), j));
+            Pair8::of(
+                stiffness,
+                damping_factor,
+                friction,
+                mi * mj / (mi + mj),
+                b.dt,
+            )
+        },
+    };
     let point = n * (ri - F8::splat(0.5) * depth);
 
     // `point_contact_force_in::<true>` with share 1, side a body i at the origin, side b
@@ -324,10 +418,7 @@ unsafe fn group(
         n,
         depth,
         vrel,
-        stiffness,
-        damping_factor,
-        friction,
-        m_eff,
+        pair,
     };
     // SAFETY: AVX2 (this function's).
     let out = unsafe { law(&contact, touch, touch.and_not(touch), b.dt, hist, coverage) };
@@ -437,12 +528,20 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// A dense random cloud of spheres of four sizes and one or three plain materials,
+    /// A dense random cloud of spheres of `sizes` sizes (one to four) and one or three plain
+    /// materials,
     /// overlapping at random (some pairs exactly on top of each other), with velocities
     /// and spins at random, some fast.
-    fn cloud(rng: &mut ChaCha8Rng, materials: usize, periodic: bool, dt: Option<f32>) -> World {
+    fn cloud(
+        rng: &mut ChaCha8Rng,
+        materials: usize,
+        sizes: u32,
+        periodic: bool,
+        dt: Option<f32>,
+    ) -> World {
         let side = 0.1f32;
-        let shapes = [0.004, 0.006, 0.008, 0.01]
+        let radii = [0.004f64, 0.006, 0.008, 0.01];
+        let shapes = radii
             .map(|radius| ShapeKind::Sphere { radius }.prepare().unwrap())
             .to_vec();
         let materials = [
@@ -465,12 +564,19 @@ mod tests {
                 rng.random_range(0.0..side as f64),
                 rng.random_range(0.0..side as f64),
             );
+            let shape = rng.random_range(0..sizes);
             if b % 50 == 1 {
                 // Exactly on the last body: a pair at zero distance.
                 position = bodies[b - 1].position;
             }
+            if b % 50 == 2 {
+                // Exactly the sum of the radii from the last body along x: the offset rounds
+                // to it, so the pair is on the edge of touching (apart, as `<` decides).
+                let sum = radii[shape as usize] as f32 + radii[bodies[b - 1].shape as usize] as f32;
+                position = bodies[b - 1].position + DVec3::X * sum as f64;
+            }
             bodies.push(BodyInit {
-                shape: rng.random_range(0..4),
+                shape,
                 material: rng.random_range(0..materials.len() as u32),
                 position,
                 orientation: Quat::IDENTITY,
@@ -552,13 +658,20 @@ mod tests {
         }
         let mut rng = ChaCha8Rng::seed_from_u64(23);
         let (mut pairs, mut touching, mut released, mut scalar_lanes) = (0, 0, 0, 0);
+        let mut uniforms = 0;
         for case in 0..24 {
             let materials = if case % 3 == 0 { 1 } else { 3 };
             let periodic = case % 4 == 1;
             // The automatic step, longer ones, and one too long for the in-step law.
             let dt = [None, Some(2e-4), Some(2e-5), Some(3e-3)][case % 4];
-            let mut w = cloud(&mut rng, materials, periodic, dt);
+            // One size and one material: the lanes' `Uniform` path.
+            let one = case % 3 == 0 && case % 8 != 0;
+            let sizes = if one { 1 } else { 4 };
+            let mut w = cloud(&mut rng, materials, sizes, periodic, dt);
             assert!(w.materials.all_plain());
+            let uniform = Uniform::of(&w);
+            assert_eq!(uniform.is_some(), one, "case {case}");
+            uniforms += uniform.is_some() as usize;
             w.rebuild_contacts();
             w.split_positions();
             let np = w.contacts.pairs.len();
@@ -580,6 +693,7 @@ mod tests {
                 sphere_chunk(
                     &w,
                     x,
+                    uniform,
                     pairs_k,
                     &mut b.history,
                     &mut b.twist,
@@ -608,6 +722,7 @@ mod tests {
         eprintln!("{pairs} {touching} {released} {scalar_lanes}");
         // The cases cover what they should.
         assert!(pairs > 50_000, "{pairs} pairs");
+        assert_eq!(uniforms, 7);
         assert!(
             touching > pairs / 5 && touching < pairs * 4 / 5,
             "{touching} of {pairs}"

@@ -16,8 +16,8 @@ use glam::Vec3;
 
 use super::contacts::wall_pair;
 use super::lanes::{F8, M8, V3, gather, load_vec3_at};
-use super::law_lanes::{Contact8, law, split_pairs, store, was_touching};
-use super::sphere_lanes::{Bodies, params_of, split_positions};
+use super::law_lanes::{Contact8, Pair8, law, split_pairs, store, was_touching};
+use super::sphere_lanes::{Bodies, Uniform, params_of, split_positions};
 use crate::contract::ContactForce;
 use crate::precise::Ds3A;
 use crate::world::{Wall, World};
@@ -30,9 +30,11 @@ use clatter_geom::narrow::Plane;
 /// # Safety
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
 pub(super) unsafe fn wall_chunk(
     w: &World,
     x: &[Ds3A],
+    uniform: Option<Uniform>,
     pairs: &[[u32; 2]],
     hist: &mut [Vec3],
     coverage: &mut [f32],
@@ -55,6 +57,23 @@ pub(super) unsafe fn wall_chunk(
             .iter()
             .all(|wall| (wall.material as usize) < bodies.materials)
     );
+    // A uniform world's spheres' radius and law constants, once for the chunk (its walls
+    // have its one material, so every lane's pair parameters are the table's one row and
+    // its effective mass the sphere's mass: the same values a group computes).
+    let shared = uniform.map(|u| {
+        let p = &bodies.table[0];
+        // SAFETY: AVX2 (this function's).
+        let pair = unsafe {
+            Pair8::of(
+                F8::splat(p.stiffness),
+                F8::splat(p.damping_factor),
+                F8::splat(p.friction),
+                F8::splat(u.mass),
+                bodies.dt,
+            )
+        };
+        (F8::splat(u.radius), pair)
+    });
     let mut count = 0;
     let groups = n / 8;
     for g in 0..groups {
@@ -64,6 +83,7 @@ pub(super) unsafe fn wall_chunk(
             group(
                 w,
                 &bodies,
+                shared.as_ref(),
                 pairs[r.clone()].try_into().unwrap(),
                 (&mut hist[r.clone()]).try_into().unwrap(),
                 (&mut coverage[r.clone()]).try_into().unwrap(),
@@ -148,9 +168,11 @@ unsafe fn plane_offset(n: V3, d: F8, hi: [F8; 3], lo: V3) -> (F8, F8) {
 /// AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
+#[allow(clippy::too_many_arguments)]
 unsafe fn group(
     w: &World,
     b: &Bodies,
+    shared: Option<&(F8, Pair8)>,
     pairs: &[[u32; 2]; 8],
     hist: &mut [Vec3; 8],
     coverage: &mut [f32; 8],
@@ -184,7 +206,10 @@ unsafe fn group(
     // `sphere_wall`: the sphere at the origin, the plane shifted by its position.
     let zero = F8::splat(0.0);
     let origin = V3::splat(Vec3::ZERO);
-    let radius = unsafe { gather(b.radius.as_ptr(), i) };
+    let radius = match shared {
+        Some(&(radius, _)) => radius,
+        None => unsafe { gather(b.radius.as_ptr(), i) },
+    };
     let centre_height = n.dot(origin) - offset;
     let depth = radius - centre_height;
     // `!(depth <= 0.0)`: NaN is a contact, as in the scalar test.
@@ -202,24 +227,22 @@ unsafe fn group(
     }
     let point = origin - n * (radius - F8::splat(0.5) * depth);
     // The wall is side a (at rest, at the origin), the sphere side b.
-    let mb = unsafe { _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, i) };
-    let (stiffness, damping_factor, friction) = unsafe { params_of(b, wall_material, mb) };
-    let (v, om, m_eff) = unsafe {
-        (
-            load_vec3_at(b.velocity, i),
-            load_vec3_at(b.omega, i),
-            gather(b.mass.as_ptr(), i),
-        )
+    let (v, om) = unsafe { (load_vec3_at(b.velocity, i), load_vec3_at(b.omega, i)) };
+    let pair = match shared {
+        Some(&(_, pair)) => pair,
+        None => unsafe {
+            let mb = _mm256_i32gather_epi32::<4>(b.material.as_ptr() as *const i32, i);
+            let (stiffness, damping_factor, friction) = params_of(b, wall_material, mb);
+            let m_eff = gather(b.mass.as_ptr(), i);
+            Pair8::of(stiffness, damping_factor, friction, m_eff, b.dt)
+        },
     };
     let vrel = (v + om.cross(point - origin)) - (origin + origin.cross(point - origin));
     let contact = Contact8 {
         n,
         depth: depth + rest,
         vrel,
-        stiffness,
-        damping_factor,
-        friction,
-        m_eff,
+        pair,
     };
     // A NaN overlap goes to the scalar code.
     let nan = depth.ne(depth);
@@ -300,7 +323,7 @@ mod tests {
 
     /// Spheres of four sizes scattered in the walled cube (many against its walls), with
     /// velocities and spins at random, some fast; one or three plain materials.
-    fn cloud(rng: &mut ChaCha8Rng, case: usize) -> World {
+    fn cloud(rng: &mut ChaCha8Rng, case: usize, sizes: u32) -> World {
         let side = 0.06f64;
         let origin = [
             DVec3::ZERO,
@@ -333,7 +356,7 @@ mod tests {
             .map(|_| {
                 let speed = if rng.random_bool(0.2) { 5.0 } else { 0.5 };
                 BodyInit {
-                    shape: rng.random_range(0..4),
+                    shape: rng.random_range(0..sizes),
                     material: rng.random_range(0..nm as u32),
                     position: origin
                         + DVec3::new(
@@ -408,8 +431,14 @@ mod tests {
         }
         let mut rng = ChaCha8Rng::seed_from_u64(25);
         let (mut pairs, mut touching, mut released, mut scalar_lanes) = (0, 0, 0, 0);
+        let mut uniforms = 0;
         for case in 0..24 {
-            let mut w = cloud(&mut rng, case);
+            // One size (and one material): the lanes' `Uniform` path.
+            let one = case % 6 == 0;
+            let mut w = cloud(&mut rng, case, if one { 1 } else { 4 });
+            let uniform = Uniform::of(&w);
+            assert_eq!(uniform.is_some(), one, "case {case}");
+            uniforms += one as usize;
             assert!(w.materials.all_plain() && w.spheres_only());
             w.rebuild_contacts();
             // Some spheres moved off the walls after the list was built: pairs apart.
@@ -445,7 +474,8 @@ mod tests {
                 ) as usize;
             }
             // SAFETY: the CPU has AVX2 (checked above).
-            let tb = unsafe { wall_chunk(&w, x, &wp, &mut b.0, &mut b.1, &mut b.2, &mut b.3) };
+            let tb =
+                unsafe { wall_chunk(&w, x, uniform, &wp, &mut b.0, &mut b.1, &mut b.2, &mut b.3) };
             assert_eq!(ta, tb, "case {case}: touching count");
             for (k, pair) in wp.iter().enumerate() {
                 assert_eq!(
@@ -465,6 +495,7 @@ mod tests {
             "{pairs} wall pairs, {touching} touching, {released} released, {scalar_lanes} first or last steps"
         );
         assert!(pairs > 5_000, "{pairs} wall pairs");
+        assert_eq!(uniforms, 4);
         assert!(
             touching > pairs / 5 && touching < pairs * 4 / 5,
             "{touching} of {pairs}"
