@@ -5,6 +5,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::motion::BodyBound;
 use super::{CHUNK, FINE_CHUNK};
 use crate::contact_list::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
@@ -370,7 +371,10 @@ fn body_pair<const PIECES: bool>(
     plain: bool,
 ) -> bool {
     let pair = [i, j];
-    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, pair, pieces, hint, bound, memory)
+    let b = w.body_bounds.as_slice();
+    debug_assert_eq!(b.len(), w.len(), "bounds made with the positions' split");
+    let of = |i: usize| b[i];
+    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, of, pair, pieces, hint, bound, memory)
     else {
         return *touching;
     };
@@ -537,9 +541,11 @@ pub(super) fn wall_pair<const PIECES: bool>(
 /// face's margin less this step's motion; then `j`'s offset from `i` ([`World::offset_of`],
 /// computed once for the pair) and the manifold, if any.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn remembered_narrow<const PIECES: bool>(
     w: &World,
     x: impl PositionPairs,
+    bound_of: impl Fn(usize) -> BodyBound,
     [i, j]: [u32; 2],
     pieces: u32,
     hint: &mut SatHint,
@@ -548,9 +554,10 @@ fn remembered_narrow<const PIECES: bool>(
 ) -> Option<(Vec3, Option<Manifold>)> {
     let (i, j) = (i as usize, j as usize);
     let remembered_face = narrow::is_contact_hint(*hint);
+    let (bi, bj) = (bound_of(i), bound_of(j));
     if !remembered_face && *bound > 0.0 {
         // Apart by more than both bodies can have moved: skip the test.
-        *bound -= motion_bound(w, i) + motion_bound(w, j);
+        *bound -= bi.moved + bj.moved;
         if *bound > 0.0 {
             return None;
         }
@@ -560,7 +567,7 @@ fn remembered_narrow<const PIECES: bool>(
         // Touching at a remembered face: its margin less what this step's motion can have
         // changed on both sides of each decision; the narrow phase uses the face while the
         // margin stays positive.
-        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d);
+        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d, &bi, &bj);
     }
     let (pa, pb) = piece_ids(pieces);
     Some((
@@ -585,16 +592,18 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
     let x = world.state.position.as_slice();
     let d = world.offset_in(x, i, j);
     // The margin the narrow phase will see, if a face is remembered.
+    let (bi, bj) = (BodyBound::of(world, i), BodyBound::of(world, j));
     let left = if composites {
-        bound - 2.0 * axis_motion_bound::<true>(world, i, j, d)
+        bound - 2.0 * axis_motion_bound::<true>(world, i, j, d, &bi, &bj)
     } else {
-        bound - 2.0 * axis_motion_bound::<false>(world, i, j, d)
+        bound - 2.0 * axis_motion_bound::<false>(world, i, j, d, &bi, &bj)
     };
     let before = narrow::is_contact_hint(hint).then_some((hint, left));
     let found = if composites {
         remembered_narrow::<true>(
             world,
             x,
+            |i| BodyBound::of(world, i),
             c.pairs[k],
             c.pieces[k],
             &mut hint,
@@ -605,7 +614,8 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
         // A copy of the pair's edge memory, as the step would use it.
         let mut memory = world.edge_memory.get(k).cloned();
         let memory = memory.as_mut();
-        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound, memory)
+        let of = |i| BodyBound::of(world, i);
+        remembered_narrow::<false>(world, x, of, c.pairs[k], 0, &mut hint, &mut bound, memory)
     };
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
@@ -670,17 +680,6 @@ fn narrow_pair<const PIECES: bool>(
     }
 }
 
-/// An upper bound of how far any point of body `i` moved in the last step, from its
-/// current velocities: `(|v| + |w| r) dt` (a point at most `r` from the centre moves with
-/// it and turns by at most `|w| dt`), plus margins for rounding (the square roots'
-/// relative error is a few ulps, well inside the relative margin).
-#[inline]
-fn motion_bound(w: &World, i: usize) -> f32 {
-    let (v, om) = (w.state.velocity[i].length(), w.state.omega[i].length());
-    let r = w.consts.radius[i];
-    (v + om * r) * w.dt * 1.000_001 + 1e-6 * r
-}
-
 /// An upper bound of how much the separation along any axis of the separating-axis test
 /// of bodies `i` and `j` (their pieces with `PIECES`) can have changed in the last step.
 ///
@@ -718,11 +717,18 @@ fn motion_bound(w: &World, i: usize) -> f32 {
 /// `2^-23 |x|_1` for both bodies), the quaternions' renormalisation (a few ulps of a turn),
 /// and a relative margin on the products and square roots.
 #[inline]
-fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize, d: Vec3) -> f32 {
+fn axis_motion_bound<const PIECES: bool>(
+    w: &World,
+    i: usize,
+    j: usize,
+    d: Vec3,
+    bi: &BodyBound,
+    bj: &BodyBound,
+) -> f32 {
     let s = &w.state;
     // Body i sits at the origin of the pair's frame, j at `d` (see `World::offset_of`).
     let xj = d.abs();
-    let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
+    let (ri, rj) = (bi.radius, bj.radius);
     let r = ri + rj;
     let rounding = (xj.x + xj.y + xj.z) * (1.0 / 8_388_608.0) + 4e-6 * r;
     if PIECES {
@@ -732,9 +738,9 @@ fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize, d: Vec3)
         let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * w.dt;
         return (moved + turned * 3.0 * r) * 1.000_01 + rounding;
     }
-    let (vi, vj) = (s.velocity[i], s.velocity[j]);
-    let moved = ((vj - vi).length() + (vi.length() + vj.length()) * (1.0 / 4_194_304.0)) * w.dt;
-    let (ti, tj) = (s.omega[i].length() * w.dt, s.omega[j].length() * w.dt);
+    let (vi, vj) = (bi.velocity, bj.velocity);
+    let moved = ((vj - vi).length() + (bi.speed + bj.speed) * (1.0 / 4_194_304.0)) * w.dt;
+    let (ti, tj) = (bi.turned, bj.turned);
     let far = d.length() + moved;
     // A's frame (B's vertices), then B's frame (A's vertices).
     let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));
