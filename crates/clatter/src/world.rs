@@ -557,10 +557,11 @@ impl World {
         precise::offset_a(self.periodic.as_ref(), x.pair(i), x.pair(j))
     }
 
-    /// Splits the stored positions into [`World::position_pairs`] and makes [`World::body_bounds`] (once per step, before
-    /// the contact stage), in parallel chunks: each body's pair depends on its position
-    /// alone, so the result does not depend on the thread count. Serial, this pass was a
-    /// few percent of a sphere step's work, which a second thread then waited for.
+    /// Splits the stored positions into [`World::position_pairs`] and makes
+    /// [`World::body_bounds`] (once per step, before the contact stage), in parallel chunks:
+    /// each body's pair depends on its position alone, so the result does not depend on the
+    /// thread count. Serial, this pass was a few percent of a sphere step's work, which a
+    /// second thread then waited for.
     pub(crate) fn split_positions(&mut self) {
         use rayon::prelude::*;
         /// Bodies per task: large enough that a task's work hides its overhead.
