@@ -179,22 +179,43 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     })
                     .sum::<usize>();
             }
+            // A task of `FINE_CHUNK` pairs each, the pairs in a plain loop: an item per
+            // pair of a deep parallel zip cost a call and the zip's bookkeeping per pair.
             pairs
-                .par_iter()
-                .zip(hist_pairs.par_iter_mut())
-                .zip(force_pairs.par_iter_mut())
-                .zip(touch_pairs.par_iter_mut())
-                .zip(hints.par_iter_mut())
-                .zip(twist_pairs.par_iter_mut())
-                .zip(separation_bound.par_iter_mut())
-                .zip(memory_part.par_iter_mut())
+                .par_chunks(FINE_CHUNK)
+                .zip(hist_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(force_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(touch_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(hints.par_chunks_mut(FINE_CHUNK))
+                .zip(twist_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(separation_bound.par_chunks_mut(FINE_CHUNK))
+                .zip(memory_part.par_chunks_mut(FINE_CHUNK))
                 .enumerate()
-                .with_max_len(FINE_CHUNK)
-                .map(|(k, (((((((p, h), f), t), hn), tw), b), m))| {
-                    if !keep(k) {
-                        return 0;
+                .with_max_len(1)
+                .map(|(c, (((((((p, h), f), t), hn), tw), b), m))| {
+                    let lens = [
+                        h.len(),
+                        f.len(),
+                        t.len(),
+                        hn.len(),
+                        tw.len(),
+                        b.len(),
+                        m.len(),
+                    ];
+                    let n = lens.into_iter().fold(p.len(), usize::min);
+                    let (p, h, f, t) = (&p[..n], &mut h[..n], &mut f[..n], &mut t[..n]);
+                    let (hn, tw, b, m) = (&mut hn[..n], &mut tw[..n], &mut b[..n], &mut m[..n]);
+                    let mut touching = 0;
+                    for k in 0..n {
+                        if !keep(c * FINE_CHUNK + k) {
+                            continue;
+                        }
+                        let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
+                        let (tw, b, m) = (&mut tw[k], &mut b[k], Some(&mut m[k]));
+                        touching += body_pair::<false>(w, x, p[k], 0, h, f, t, hn, tw, b, m, plain)
+                            as usize;
                     }
-                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b, Some(m), plain) as usize
+                    touching
                 })
                 .sum::<usize>()
         },
@@ -354,7 +375,8 @@ pub(super) fn sphere_pair<const PLAIN: bool>(
 /// mass) and the pieces' radii and point shares. `PIECES` is false in worlds without
 /// composites: the code is then the plain body-pair path, compiled without the piece lookups.
 /// `plain`: every pair's law is plain ([`law::is_plain`]), so the law's plain form serves.
-#[inline]
+/// Inlined into the loops over pairs (one call site each form).
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn body_pair<const PIECES: bool>(
     w: &World,
