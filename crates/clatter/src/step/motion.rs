@@ -27,8 +27,9 @@ pub(crate) struct BodyBound {
     pub(crate) turned: f32,
     /// The body's bounding radius.
     pub(crate) radius: f32,
-    /// How far any point of the body can have moved in the step: `(|v| + |w| r) dt`, with
-    /// margins for rounding: the separation bound of a pair apart falls by both bodies'.
+    /// How far any point of the body can have moved in the step: `(|v| + |w| r) dt` (a
+    /// point at most `r` from the centre moves with it and turns by at most `|w| dt`), with
+    /// margins for rounding; the separation bound of a pair apart falls by both bodies'.
     pub(crate) moved: f32,
 }
 
