@@ -396,13 +396,17 @@ fn body_pair<const PIECES: bool>(
     let b = w.body_bounds.as_slice();
     debug_assert_eq!(b.len(), w.len(), "bounds made with the positions' split");
     let of = |i: usize| b[i];
-    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, of, pair, pieces, hint, bound, memory)
-    else {
+    // The manifold is written in place and the law reads it there (returned in a tuple it
+    // was copied three times between the narrow phase and the law).
+    let mut found = None;
+    let narrow =
+        remembered_narrow::<PIECES>(w, x, of, pair, pieces, hint, bound, memory, &mut found);
+    let Some(d) = narrow else {
         return *touching;
     };
     let (i, j) = (i as usize, j as usize);
     let (pa, pb) = piece_ids(pieces);
-    match found {
+    match &found {
         Some(m) => {
             let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
             let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
@@ -411,9 +415,9 @@ fn body_pair<const PIECES: bool>(
             let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
             let (a, b) = (w.local_motion(i), w.motion_at(j, d));
             *force = if plain {
-                law::contact_force_in::<true>(&context, &m, &a, &b, hist, twist)
+                law::contact_force_in::<true>(&context, m, &a, &b, hist, twist)
             } else {
-                law::contact_force_in::<false>(&context, &m, &a, &b, hist, twist)
+                law::contact_force_in::<false>(&context, m, &a, &b, hist, twist)
             };
             *touching = true;
         }
@@ -561,7 +565,8 @@ pub(super) fn wall_pair<const PIECES: bool>(
 /// [`narrow::collide_with_hint`]): the separation bound first (`None`: still apart by
 /// more than both bodies can have moved, the pair is skipped), or a remembered contact
 /// face's margin less this step's motion; then `j`'s offset from `i` ([`World::offset_of`],
-/// computed once for the pair) and the manifold, if any.
+/// computed once for the pair), and the manifold, if any, written to `found` (left as it
+/// is for a skipped pair).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 fn remembered_narrow<const PIECES: bool>(
@@ -573,7 +578,8 @@ fn remembered_narrow<const PIECES: bool>(
     hint: &mut SatHint,
     bound: &mut f32,
     memory: Option<&mut EdgeMemory>,
-) -> Option<(Vec3, Option<Manifold>)> {
+    found: &mut Option<Manifold>,
+) -> Option<Vec3> {
     let (i, j) = (i as usize, j as usize);
     let remembered_face = narrow::is_contact_hint(*hint);
     let (bi, bj) = (bound_of(i), bound_of(j));
@@ -592,10 +598,8 @@ fn remembered_narrow<const PIECES: bool>(
         *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d, &bi, &bj);
     }
     let (pa, pb) = piece_ids(pieces);
-    Some((
-        d,
-        narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound, memory),
-    ))
+    *found = narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound, memory);
+    Some(d)
 }
 
 /// The narrow phase of body pair `k` (contact `k < world.contacts.pairs().len()`) as the
@@ -621,7 +625,8 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
         bound - 2.0 * axis_motion_bound::<false>(world, i, j, d, &bi, &bj)
     };
     let before = narrow::is_contact_hint(hint).then_some((hint, left));
-    let found = if composites {
+    let mut found = None;
+    if composites {
         remembered_narrow::<true>(
             world,
             x,
@@ -631,17 +636,19 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
             &mut hint,
             &mut bound,
             None,
-        )
+            &mut found,
+        );
     } else {
         // A copy of the pair's edge memory, as the step would use it.
         let mut memory = world.edge_memory.get(k).cloned();
         let memory = memory.as_mut();
         let of = |i| BodyBound::of(world, i);
-        remembered_narrow::<false>(world, x, of, c.pairs[k], 0, &mut hint, &mut bound, memory)
-    };
+        let (pair, out) = (c.pairs[k], &mut found);
+        remembered_narrow::<false>(world, x, of, pair, 0, &mut hint, &mut bound, memory, out);
+    }
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
-    (found.and_then(|(_, m)| m), used)
+    (found, used)
 }
 
 /// A contact that stopped touching: zero force and springs (written only on the change).
