@@ -133,6 +133,9 @@ pub struct World {
     /// stage starts ([`World::split_positions`]) and read by the contact stage and integrate:
     /// a pair's offset then needs no `f64` splits. Stale outside a step.
     pub(crate) position_pairs: Vec<precise::Ds3A>,
+    /// Per body, its motion over the last step as the contact stage's bounds read it, made
+    /// with [`World::position_pairs`] (`step::motion`). Stale outside a step.
+    pub(crate) body_bounds: Vec<crate::step::motion::BodyBound>,
     /// Per body pair (by contact slot), what its Gauss-map edge search remembers
     /// ([`clatter_geom::narrow::EdgeMemory`]): a cache that changes no result (a memory
     /// serves only the polyhedra and the rotation it was recorded for), so it is in no
@@ -230,6 +233,7 @@ impl World {
             rebuild_orientation: Vec::new(),
             rebuild_position: Vec::new(),
             position_pairs: Vec::new(),
+            body_bounds: Vec::new(),
             edge_memory: Vec::new(),
             needs_rebuild: true,
             ghost: Vec::new(),
@@ -330,6 +334,7 @@ impl World {
             needs_rebuild: true,
             ghost,
             position_pairs: Vec::new(),
+            body_bounds: Vec::new(),
             edge_memory: Vec::new(),
         }
     }
@@ -552,10 +557,11 @@ impl World {
         precise::offset_a(self.periodic.as_ref(), x.pair(i), x.pair(j))
     }
 
-    /// Splits the stored positions into [`World::position_pairs`] (once per step, before
-    /// the contact stage), in parallel chunks: each body's pair depends on its position
-    /// alone, so the result does not depend on the thread count. Serial, this pass was a
-    /// few percent of a sphere step's work, which a second thread then waited for.
+    /// Splits the stored positions into [`World::position_pairs`] and makes
+    /// [`World::body_bounds`] (once per step, before the contact stage), in parallel chunks:
+    /// each body's pair depends on its position alone, so the result does not depend on the
+    /// thread count. Serial, this pass was a few percent of a sphere step's work, which a
+    /// second thread then waited for.
     pub(crate) fn split_positions(&mut self) {
         use rayon::prelude::*;
         /// Bodies per task: large enough that a task's work hides its overhead.
@@ -592,6 +598,7 @@ impl World {
                     }
                 })
             });
+        crate::step::motion::update(self);
     }
 
     /// A world point `x` as seen from body `i` (`x - x_i` of the precise pairs, then rounded

@@ -156,6 +156,7 @@ impl Domain {
         for &g in self.recv.iter().flatten() {
             let g = g as usize;
             local.position_pairs[g] = precise::split_a(local.state.position[g]);
+            crate::step::motion::refresh(local, g);
         }
         self.overlapped.steps += 1;
         self.overlapped.interior_pairs += self.interior_pairs;

@@ -604,16 +604,31 @@ pub fn contact_force_in<const PLAIN: bool>(
     centroid *= inv_count;
     mean_depth *= inv_count;
     let eta_total = damping(p, m_eff, k_total);
+    // Each point's share of the damping, `eta_total k / k_total`. The linear law's points
+    // all have the same `k` (`share * stiffness`), so one evaluation gives every point's
+    // bits (a division a point saved); Hertz's `k` grows with each point's depth.
+    let share_of = |k: f32| {
+        if k_total > 0.0 {
+            eta_total * k / k_total
+        } else {
+            0.0
+        }
+    };
+    let linear_eta = if hertz::<PLAIN>(p) {
+        0.0
+    } else {
+        share_of(springs[0].1)
+    };
     // The force's sums, `ContactForce`'s fields in the same order of additions.
     let (mut force_b, mut torque_a, mut torque_b) = (Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO);
     let mut normal_force = 0.0;
     for (&(fs, k), cp) in springs.iter().zip(pts) {
         let point = Vec3A::from(cp.point);
         let vrel = mb.point_velocity(point) - ma.point_velocity(point);
-        let eta = if k_total > 0.0 {
-            eta_total * k / k_total
+        let eta = if hertz::<PLAIN>(p) {
+            share_of(k)
         } else {
-            0.0
+            linear_eta
         };
         let fn_i = fs - eta * vrel.dot(n_a);
         let f = n_a * fn_i;

@@ -5,6 +5,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::motion::BodyBound;
 use super::{CHUNK, FINE_CHUNK};
 use crate::contact_list::{ContactSprings, piece_ids};
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
@@ -185,22 +186,43 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     })
                     .sum::<usize>();
             }
+            // A task of `FINE_CHUNK` pairs each, the pairs in a plain loop: an item per
+            // pair of a deep parallel zip cost a call and the zip's bookkeeping per pair.
             pairs
-                .par_iter()
-                .zip(hist_pairs.par_iter_mut())
-                .zip(force_pairs.par_iter_mut())
-                .zip(touch_pairs.par_iter_mut())
-                .zip(hints.par_iter_mut())
-                .zip(twist_pairs.par_iter_mut())
-                .zip(separation_bound.par_iter_mut())
-                .zip(memory_part.par_iter_mut())
+                .par_chunks(FINE_CHUNK)
+                .zip(hist_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(force_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(touch_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(hints.par_chunks_mut(FINE_CHUNK))
+                .zip(twist_pairs.par_chunks_mut(FINE_CHUNK))
+                .zip(separation_bound.par_chunks_mut(FINE_CHUNK))
+                .zip(memory_part.par_chunks_mut(FINE_CHUNK))
                 .enumerate()
-                .with_max_len(FINE_CHUNK)
-                .map(|(k, (((((((p, h), f), t), hn), tw), b), m))| {
-                    if !keep(k) {
-                        return 0;
+                .with_max_len(1)
+                .map(|(c, (((((((p, h), f), t), hn), tw), b), m))| {
+                    let lens = [
+                        h.len(),
+                        f.len(),
+                        t.len(),
+                        hn.len(),
+                        tw.len(),
+                        b.len(),
+                        m.len(),
+                    ];
+                    let n = lens.into_iter().fold(p.len(), usize::min);
+                    let (p, h, f, t) = (&p[..n], &mut h[..n], &mut f[..n], &mut t[..n]);
+                    let (hn, tw, b, m) = (&mut hn[..n], &mut tw[..n], &mut b[..n], &mut m[..n]);
+                    let mut touching = 0;
+                    for k in 0..n {
+                        if !keep(c * FINE_CHUNK + k) {
+                            continue;
+                        }
+                        let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
+                        let (tw, b, m) = (&mut tw[k], &mut b[k], Some(&mut m[k]));
+                        touching += body_pair::<false>(w, x, p[k], 0, h, f, t, hn, tw, b, m, plain)
+                            as usize;
                     }
-                    body_pair::<false>(w, x, *p, 0, h, f, t, hn, tw, b, Some(m), plain) as usize
+                    touching
                 })
                 .sum::<usize>()
         },
@@ -362,7 +384,8 @@ pub(super) fn sphere_pair<const PLAIN: bool>(
 /// mass) and the pieces' radii and point shares. `PIECES` is false in worlds without
 /// composites: the code is then the plain body-pair path, compiled without the piece lookups.
 /// `plain`: every pair's law is plain ([`law::is_plain`]), so the law's plain form serves.
-#[inline]
+/// Inlined into the loops over pairs (one call site each form).
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn body_pair<const PIECES: bool>(
     w: &World,
@@ -379,13 +402,20 @@ fn body_pair<const PIECES: bool>(
     plain: bool,
 ) -> bool {
     let pair = [i, j];
-    let Some((d, found)) = remembered_narrow::<PIECES>(w, x, pair, pieces, hint, bound, memory)
-    else {
+    let b = w.body_bounds.as_slice();
+    debug_assert_eq!(b.len(), w.len(), "bounds made with the positions' split");
+    let of = |i: usize| b[i];
+    // The manifold is written in place and the law reads it there (returned in a tuple it
+    // was copied three times between the narrow phase and the law).
+    let mut found = None;
+    let narrow =
+        remembered_narrow::<PIECES>(w, x, of, pair, pieces, hint, bound, memory, &mut found);
+    let Some(d) = narrow else {
         return *touching;
     };
     let (i, j) = (i as usize, j as usize);
     let (pa, pb) = piece_ids(pieces);
-    match found {
+    match &found {
         Some(m) => {
             let params = w.pair_params(w.consts.material[i], w.consts.material[j]);
             let (mi, mj) = (w.consts.mass[i], w.consts.mass[j]);
@@ -394,9 +424,9 @@ fn body_pair<const PIECES: bool>(
             let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
             let (a, b) = (w.local_motion(i), w.motion_at(j, d));
             *force = if plain {
-                law::contact_force_in::<true>(&context, &m, &a, &b, hist, twist)
+                law::contact_force_in::<true>(&context, m, &a, &b, hist, twist)
             } else {
-                law::contact_force_in::<false>(&context, &m, &a, &b, hist, twist)
+                law::contact_force_in::<false>(&context, m, &a, &b, hist, twist)
             };
             *touching = true;
         }
@@ -544,22 +574,27 @@ pub(super) fn wall_pair<const PIECES: bool>(
 /// [`narrow::collide_with_hint`]): the separation bound first (`None`: still apart by
 /// more than both bodies can have moved, the pair is skipped), or a remembered contact
 /// face's margin less this step's motion; then `j`'s offset from `i` ([`World::offset_of`],
-/// computed once for the pair) and the manifold, if any.
+/// computed once for the pair), and the manifold, if any, written to `found` (left as it
+/// is for a skipped pair).
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn remembered_narrow<const PIECES: bool>(
     w: &World,
     x: impl PositionPairs,
+    bound_of: impl Fn(usize) -> BodyBound,
     [i, j]: [u32; 2],
     pieces: u32,
     hint: &mut SatHint,
     bound: &mut f32,
     memory: Option<&mut EdgeMemory>,
-) -> Option<(Vec3, Option<Manifold>)> {
+    found: &mut Option<Manifold>,
+) -> Option<Vec3> {
     let (i, j) = (i as usize, j as usize);
     let remembered_face = narrow::is_contact_hint(*hint);
+    let (bi, bj) = (bound_of(i), bound_of(j));
     if !remembered_face && *bound > 0.0 {
         // Apart by more than both bodies can have moved: skip the test.
-        *bound -= motion_bound(w, i) + motion_bound(w, j);
+        *bound -= bi.moved + bj.moved;
         if *bound > 0.0 {
             return None;
         }
@@ -569,13 +604,11 @@ fn remembered_narrow<const PIECES: bool>(
         // Touching at a remembered face: its margin less what this step's motion can have
         // changed on both sides of each decision; the narrow phase uses the face while the
         // margin stays positive.
-        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d);
+        *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d, &bi, &bj);
     }
     let (pa, pb) = piece_ids(pieces);
-    Some((
-        d,
-        narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound, memory),
-    ))
+    *found = narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound, memory);
+    Some(d)
 }
 
 /// The narrow phase of body pair `k` (contact `k < world.contacts.pairs().len()`) as the
@@ -594,31 +627,37 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
     let x = world.state.position.as_slice();
     let d = world.offset_in(x, i, j);
     // The margin the narrow phase will see, if a face is remembered.
+    let (bi, bj) = (BodyBound::of(world, i), BodyBound::of(world, j));
     let left = if composites {
-        bound - 2.0 * axis_motion_bound::<true>(world, i, j, d)
+        bound - 2.0 * axis_motion_bound::<true>(world, i, j, d, &bi, &bj)
     } else {
-        bound - 2.0 * axis_motion_bound::<false>(world, i, j, d)
+        bound - 2.0 * axis_motion_bound::<false>(world, i, j, d, &bi, &bj)
     };
     let before = narrow::is_contact_hint(hint).then_some((hint, left));
-    let found = if composites {
+    let mut found = None;
+    if composites {
         remembered_narrow::<true>(
             world,
             x,
+            |i| BodyBound::of(world, i),
             c.pairs[k],
             c.pieces[k],
             &mut hint,
             &mut bound,
             None,
-        )
+            &mut found,
+        );
     } else {
         // A copy of the pair's edge memory, as the step would use it.
         let mut memory = world.edge_memory.get(k).cloned();
         let memory = memory.as_mut();
-        remembered_narrow::<false>(world, x, c.pairs[k], 0, &mut hint, &mut bound, memory)
-    };
+        let of = |i| BodyBound::of(world, i);
+        let (pair, out) = (c.pairs[k], &mut found);
+        remembered_narrow::<false>(world, x, of, pair, 0, &mut hint, &mut bound, memory, out);
+    }
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
-    (found.and_then(|(_, m)| m), used)
+    (found, used)
 }
 
 /// A contact that stopped touching: zero force and springs (written only on the change).
@@ -679,17 +718,6 @@ fn narrow_pair<const PIECES: bool>(
     }
 }
 
-/// An upper bound of how far any point of body `i` moved in the last step, from its
-/// current velocities: `(|v| + |w| r) dt` (a point at most `r` from the centre moves with
-/// it and turns by at most `|w| dt`), plus margins for rounding (the square roots'
-/// relative error is a few ulps, well inside the relative margin).
-#[inline]
-fn motion_bound(w: &World, i: usize) -> f32 {
-    let (v, om) = (w.state.velocity[i].length(), w.state.omega[i].length());
-    let r = w.consts.radius[i];
-    (v + om * r) * w.dt * 1.000_001 + 1e-6 * r
-}
-
 /// An upper bound of how much the separation along any axis of the separating-axis test
 /// of bodies `i` and `j` (their pieces with `PIECES`) can have changed in the last step.
 ///
@@ -727,11 +755,18 @@ fn motion_bound(w: &World, i: usize) -> f32 {
 /// `2^-23 |x|_1` for both bodies), the quaternions' renormalisation (a few ulps of a turn),
 /// and a relative margin on the products and square roots.
 #[inline]
-fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize, d: Vec3) -> f32 {
+fn axis_motion_bound<const PIECES: bool>(
+    w: &World,
+    i: usize,
+    j: usize,
+    d: Vec3,
+    bi: &BodyBound,
+    bj: &BodyBound,
+) -> f32 {
     let s = &w.state;
     // Body i sits at the origin of the pair's frame, j at `d` (see `World::offset_of`).
     let xj = d.abs();
-    let (ri, rj) = (w.consts.radius[i], w.consts.radius[j]);
+    let (ri, rj) = (bi.radius, bj.radius);
     let r = ri + rj;
     let rounding = (xj.x + xj.y + xj.z) * (1.0 / 8_388_608.0) + 4e-6 * r;
     if PIECES {
@@ -741,9 +776,9 @@ fn axis_motion_bound<const PIECES: bool>(w: &World, i: usize, j: usize, d: Vec3)
         let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * w.dt;
         return (moved + turned * 3.0 * r) * 1.000_01 + rounding;
     }
-    let (vi, vj) = (s.velocity[i], s.velocity[j]);
-    let moved = ((vj - vi).length() + (vi.length() + vj.length()) * (1.0 / 4_194_304.0)) * w.dt;
-    let (ti, tj) = (s.omega[i].length() * w.dt, s.omega[j].length() * w.dt);
+    let (vi, vj) = (bi.velocity, bj.velocity);
+    let moved = ((vj - vi).length() + (bi.speed + bj.speed) * (1.0 / 4_194_304.0)) * w.dt;
+    let (ti, tj) = (bi.turned, bj.turned);
     let far = d.length() + moved;
     // A's frame (B's vertices), then B's frame (A's vertices).
     let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));

@@ -3,6 +3,7 @@
 use super::axis_motion_bound;
 use crate::World;
 use crate::pile::{PileParams, PileShape, poured};
+use crate::step::motion::BodyBound;
 use clatter_geom::Shape;
 use glam::DVec3;
 
@@ -63,7 +64,8 @@ fn axis_motion_bound_holds_over_real_steps() {
                 continue;
             }
             let d = w.offset_of(i, j);
-            let bound = axis_motion_bound::<false>(&w, i, j, d) as f64;
+            let (bi, bj) = (BodyBound::of(&w, i), BodyBound::of(&w, j));
+            let bound = axis_motion_bound::<false>(&w, i, j, d, &bi, &bj) as f64;
             let actual = moved(&before, &w, i, j);
             assert!(
                 actual <= bound,
