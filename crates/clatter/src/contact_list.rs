@@ -5,7 +5,7 @@
 
 use std::fmt;
 
-use glam::{Quat, Vec3, Vec4};
+use glam::{BVec4A, Quat, Vec3, Vec4};
 
 use crate::contract::ContactForce;
 use clatter_geom::narrow::{NO_HINT, SatHint};
@@ -385,28 +385,51 @@ impl Contacts {
         assert!(ascending(a, np) && ascending(bs, self.b_pairs.len()) && ascending(ws, total));
         let mut f = [Vec4::ZERO; 8];
         let mut t = [Vec4::ZERO; 8];
+        if total == 0 {
+            return (f, t);
+        }
         for l in 0..8 {
             if skip >> l & 1 != 0 {
                 // Not wanted (a ghost, which its owner integrates): left zero.
                 continue;
             }
             let (mut fl, mut tl) = (Vec4::ZERO, Vec4::ZERO);
-            // SAFETY: `a[l]..a[l + 1]` lies within `forces` (checked above).
-            let own = unsafe { forces.get_unchecked(a[l] as usize..a[l + 1] as usize) };
-            for c in own {
-                let [force_b, torque_a, _] = lanes(c);
-                fl -= force_b;
-                tl += torque_a;
+            // Side a and side b in blocks of four, the first always done, the places past a
+            // range's end read as +0 (`BLOCK`'s docs: the same bits): most bodies have at
+            // most four of each, so the loops' exits are then predictable.
+            let (start, end) = (a[l] as usize, a[l + 1] as usize);
+            let mut m = start;
+            loop {
+                for u in 0..BLOCK {
+                    // In range (`forces` is not empty: `total > 0` is checked above).
+                    let c = &forces[(m + u).min(total - 1)];
+                    let [force_b, torque_a, _] = lanes(c);
+                    let live = BVec4A::splat(m + u < end);
+                    fl -= Vec4::select(live, force_b, Vec4::ZERO);
+                    tl += Vec4::select(live, torque_a, Vec4::ZERO);
+                }
+                m += BLOCK;
+                if m >= end {
+                    break;
+                }
             }
-            // SAFETY: within `b_pairs` (checked above).
-            let other = unsafe {
-                self.b_pairs
-                    .get_unchecked(bs[l] as usize..bs[l + 1] as usize)
-            };
-            for &k in other {
-                let [force_b, _, torque_b] = lanes(&forces[k as usize]);
-                fl += force_b;
-                tl += torque_b;
+            let (start, end) = (bs[l] as usize, bs[l + 1] as usize);
+            let last = self.b_pairs.len().saturating_sub(1);
+            if !self.b_pairs.is_empty() {
+                let mut m = start;
+                loop {
+                    for u in 0..BLOCK {
+                        let k = self.b_pairs[(m + u).min(last)] as usize;
+                        let [force_b, _, torque_b] = lanes(&forces[k]);
+                        let live = BVec4A::splat(m + u < end);
+                        fl += Vec4::select(live, force_b, Vec4::ZERO);
+                        tl += Vec4::select(live, torque_b, Vec4::ZERO);
+                    }
+                    m += BLOCK;
+                    if m >= end {
+                        break;
+                    }
+                }
             }
             // SAFETY: within `forces` (checked above).
             let walls = unsafe { forces.get_unchecked(ws[l] as usize..ws[l + 1] as usize) };
@@ -420,6 +443,13 @@ impl Contacts {
         (f, t)
     }
 }
+
+/// How many side-a or side-b contacts [`Contacts::gather8`] sums a body's in at a time. A
+/// block's places past the range's end add (or subtract) +0 rather than branch out: a sum
+/// that starts at +0 and only ever adds or subtracts is never -0 (a zero result of a sum of
+/// nonzeros rounds to +0, and `+0 + -0`, `+0 - +0` are +0), and `x + 0` and `x - 0` are then
+/// `x` bit for bit, so the sums are the same bits as those without the padding.
+const BLOCK: usize = 4;
 
 /// A contact force's three vectors, each with the float stored after it as a fourth lane
 /// (`force_b` with `normal_force`, the torques with their pads).
