@@ -713,7 +713,7 @@ mod tests {
                 assert_eq!(bits(t[l].truncate()), bits(want_t), "torque, body {b}");
             }
             let a = (c.pairs_as_a[i + 1] - c.pairs_as_a[i]) as usize;
-            padded += (a % 4 != 0 && a > 4) as usize;
+            padded += (!a.is_multiple_of(4) && a > 4) as usize;
             zero_sums += [wf[i], wt[i]]
                 .iter()
                 .flat_map(|v| v.to_array())
