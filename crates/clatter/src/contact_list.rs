@@ -340,13 +340,32 @@ impl Contacts {
     #[inline(always)]
     pub(crate) fn gather8(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         // The near list's sums while one lives (see `gather4`).
+        // The padded loops where the step runs on one thread (each MPI rank's step): there
+        // they cut the sphere pile's one-thread step by 11% of its time; on two threads the
+        // loops of each body's own length were 7% faster (BENCHMARKS.md, sph20). The same
+        // bits either way.
+        if rayon::current_num_threads() == 1 {
+            self.gather8_with::<true>(i, skip)
+        } else {
+            self.gather8_with::<false>(i, skip)
+        }
+    }
+
+    /// [`Contacts::gather8`] with its side-a and side-b loops padded to blocks of four
+    /// (`PADDED`, see [`BLOCK`]) or of each body's own length: the same sums, the same bits.
+    #[inline(always)]
+    pub(crate) fn gather8_with<const PADDED: bool>(
+        &self,
+        i: usize,
+        skip: u32,
+    ) -> ([Vec4; 8], [Vec4; 8]) {
         let this = self.active();
         #[cfg(target_arch = "x86_64")]
         if crate::step::avx2() {
             // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
-            return unsafe { this.gather8_avx2(i, skip) };
+            return unsafe { this.gather8_avx2::<PADDED>(i, skip) };
         }
-        this.gather8_here(i, skip)
+        this.gather8_here::<PADDED>(i, skip)
     }
 
     /// [`Contacts::gather8_here`] compiled for AVX2 and called, not inlined: on its own it
@@ -358,13 +377,17 @@ impl Contacts {
     #[cfg(target_arch = "x86_64")]
     #[inline(never)]
     #[target_feature(enable = "avx2")]
-    unsafe fn gather8_avx2(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
-        self.gather8_here(i, skip)
+    unsafe fn gather8_avx2<const PADDED: bool>(
+        &self,
+        i: usize,
+        skip: u32,
+    ) -> ([Vec4; 8], [Vec4; 8]) {
+        self.gather8_here::<PADDED>(i, skip)
     }
 
     /// [`Contacts::gather8`] on this list itself.
     #[inline(always)]
-    fn gather8_here(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
+    fn gather8_here<const PADDED: bool>(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         let total = self.len();
         let np = self.pairs.len();
         let forces = &self.springs.forces[..total];
@@ -394,40 +417,60 @@ impl Contacts {
                 continue;
             }
             let (mut fl, mut tl) = (Vec4::ZERO, Vec4::ZERO);
-            // Side a and side b in blocks of four, the first always done, the places past a
-            // range's end read as +0 (`BLOCK`'s docs: the same bits): most bodies have at
-            // most four of each, so the loops' exits are then predictable.
-            let (start, end) = (a[l] as usize, a[l + 1] as usize);
-            let mut m = start;
-            loop {
-                for u in 0..BLOCK {
-                    // In range (`forces` is not empty: `total > 0` is checked above).
-                    let c = &forces[(m + u).min(total - 1)];
+            if !PADDED {
+                // SAFETY: `a[l]..a[l + 1]` lies within `forces` (checked above).
+                let own = unsafe { forces.get_unchecked(a[l] as usize..a[l + 1] as usize) };
+                for c in own {
                     let [force_b, torque_a, _] = lanes(c);
-                    let live = BVec4A::splat(m + u < end);
-                    fl -= Vec4::select(live, force_b, Vec4::ZERO);
-                    tl += Vec4::select(live, torque_a, Vec4::ZERO);
+                    fl -= force_b;
+                    tl += torque_a;
                 }
-                m += BLOCK;
-                if m >= end {
-                    break;
+                // SAFETY: within `b_pairs` (checked above).
+                let other = unsafe {
+                    self.b_pairs
+                        .get_unchecked(bs[l] as usize..bs[l + 1] as usize)
+                };
+                for &k in other {
+                    let [force_b, _, torque_b] = lanes(&forces[k as usize]);
+                    fl += force_b;
+                    tl += torque_b;
                 }
-            }
-            let (start, end) = (bs[l] as usize, bs[l + 1] as usize);
-            let last = self.b_pairs.len().saturating_sub(1);
-            if !self.b_pairs.is_empty() {
+            } else {
+                // Side a and side b in blocks of four, the first always done, the places past a
+                // range's end read as +0 (`BLOCK`'s docs: the same bits): most bodies have at
+                // most four of each, so the loops' exits are then predictable.
+                let (start, end) = (a[l] as usize, a[l + 1] as usize);
                 let mut m = start;
                 loop {
                     for u in 0..BLOCK {
-                        let k = self.b_pairs[(m + u).min(last)] as usize;
-                        let [force_b, _, torque_b] = lanes(&forces[k]);
+                        // In range (`forces` is not empty: `total > 0` is checked above).
+                        let c = &forces[(m + u).min(total - 1)];
+                        let [force_b, torque_a, _] = lanes(c);
                         let live = BVec4A::splat(m + u < end);
-                        fl += Vec4::select(live, force_b, Vec4::ZERO);
-                        tl += Vec4::select(live, torque_b, Vec4::ZERO);
+                        fl -= Vec4::select(live, force_b, Vec4::ZERO);
+                        tl += Vec4::select(live, torque_a, Vec4::ZERO);
                     }
                     m += BLOCK;
                     if m >= end {
                         break;
+                    }
+                }
+                let (start, end) = (bs[l] as usize, bs[l + 1] as usize);
+                let last = self.b_pairs.len().saturating_sub(1);
+                if !self.b_pairs.is_empty() {
+                    let mut m = start;
+                    loop {
+                        for u in 0..BLOCK {
+                            let k = self.b_pairs[(m + u).min(last)] as usize;
+                            let [force_b, _, torque_b] = lanes(&forces[k]);
+                            let live = BVec4A::splat(m + u < end);
+                            fl += Vec4::select(live, force_b, Vec4::ZERO);
+                            tl += Vec4::select(live, torque_b, Vec4::ZERO);
+                        }
+                        m += BLOCK;
+                        if m >= end {
+                            break;
+                        }
                     }
                 }
             }
@@ -701,7 +744,19 @@ mod tests {
         let (mut padded, mut zero_sums) = (0, 0);
         for i in 0..bodies - 7 {
             let skip = if i % 3 == 0 { 0b0100_1001 } else { 0 };
-            let (f, t) = c.gather8(i, skip);
+            let (f, t) = c.gather8_with::<true>(i, skip);
+            let (f2, t2) = c.gather8_with::<false>(i, skip);
+            let lane_bits = |v: &[glam::Vec4; 8]| v.map(|x| x.to_array().map(f32::to_bits));
+            assert_eq!(
+                lane_bits(&f),
+                lane_bits(&f2),
+                "padded against unpadded, bodies {i}.."
+            );
+            assert_eq!(
+                lane_bits(&t),
+                lane_bits(&t2),
+                "padded against unpadded, bodies {i}.."
+            );
             for l in 0..8 {
                 let b = i + l;
                 let (want_f, want_t) = if skip >> l & 1 != 0 {
