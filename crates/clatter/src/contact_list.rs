@@ -332,27 +332,24 @@ impl Contacts {
         (f, t)
     }
 
+    /// Whether [`Contacts::gather8_with`] should take its padded side loops (`true`) or
+    /// those of each body's own length, for a stage on the current rayon pool: the padded
+    /// loops where the step runs on one thread (each MPI rank's step): there they cut the
+    /// sphere pile's one-thread step by 11% of its time; on two threads the loops of each
+    /// body's own length were 7% faster (BENCHMARKS.md, sph20). The same bits either way.
+    /// Asked once a stage (it reads the pool's thread count), not once per eight bodies.
+    pub(crate) fn gather8_padded() -> bool {
+        rayon::current_num_threads() == 1
+    }
+
     /// [`Contacts::gather4`] of bodies `i..i + 8` at once (`f[l]`, `t[l]` for body `i + l`):
     /// the same sums in the same order (the same bits), with the eight bodies' ranges read
     /// and checked once rather than body by body. The bodies whose bit is set in `skip`
     /// (lane l in bit l: ghosts, whose states the exchange brings) are not gathered and come
-    /// back zero. Panics unless `i + 8` bodies exist.
-    #[inline(always)]
-    pub(crate) fn gather8(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
-        // The near list's sums while one lives (see `gather4`).
-        // The padded loops where the step runs on one thread (each MPI rank's step): there
-        // they cut the sphere pile's one-thread step by 11% of its time; on two threads the
-        // loops of each body's own length were 7% faster (BENCHMARKS.md, sph20). The same
-        // bits either way.
-        if rayon::current_num_threads() == 1 {
-            self.gather8_with::<true>(i, skip)
-        } else {
-            self.gather8_with::<false>(i, skip)
-        }
-    }
-
-    /// [`Contacts::gather8`] with its side-a and side-b loops padded to blocks of four
-    /// (`PADDED`, see [`BLOCK`]) or of each body's own length: the same sums, the same bits.
+    /// back zero. Panics unless `i + 8` bodies exist. The near list's sums while one lives
+    /// (see `gather4`). Its side-a and side-b loops are padded to blocks of four (`PADDED`,
+    /// see [`BLOCK`]) or of each body's own length ([`Contacts::gather8_padded`] says which
+    /// to take): the same sums, the same bits.
     #[inline(always)]
     pub(crate) fn gather8_with<const PADDED: bool>(
         &self,
@@ -385,7 +382,7 @@ impl Contacts {
         self.gather8_here::<PADDED>(i, skip)
     }
 
-    /// [`Contacts::gather8`] on this list itself.
+    /// [`Contacts::gather8_with`] on this list itself.
     #[inline(always)]
     fn gather8_here<const PADDED: bool>(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         let total = self.len();
@@ -487,7 +484,7 @@ impl Contacts {
     }
 }
 
-/// How many side-a or side-b contacts [`Contacts::gather8`] sums a body's in at a time. A
+/// How many side-a or side-b contacts [`Contacts::gather8_with`] sums a body's in at a time. A
 /// block's places past the range's end add (or subtract) +0 rather than branch out: a sum
 /// that starts at +0 and only ever adds or subtracts is never -0 (a zero result of a sum of
 /// nonzeros rounds to +0, and `+0 + -0`, `+0 - +0` are +0), and `x + 0` and `x - 0` are then

@@ -515,6 +515,34 @@ fn snap_a(p: Ds3A) -> Ds3A {
     }
 }
 
+/// Bodies per task of [`crate::World::split_positions`]: large enough that a task's work hides its
+/// overhead.
+pub(crate) const SPLIT_CHUNK: usize = 4096;
+
+/// Positions `x` split into their pairs `out` (`split_a` each; the slices of one
+/// length): one task's part of [`crate::World::split_positions`].
+pub(crate) fn split_chunk(x: &[DVec3], out: &mut [Ds3A]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::step::avx2() {
+        // Four at a time (`split4`: the same bits), the rest one by one.
+        let (out4, out_rest) = out.as_chunks_mut::<4>();
+        let (x4, x_rest) = x.as_chunks::<4>();
+        for (o, x) in out4.iter_mut().zip(x4) {
+            // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
+            unsafe { split4(x, o) };
+        }
+        for (o, &x) in out_rest.iter_mut().zip(x_rest) {
+            *o = split_a(x);
+        }
+        return;
+    }
+    crate::step::vex(|| {
+        for (o, &x) in out.iter_mut().zip(x) {
+            *o = split_a(x);
+        }
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -564,40 +564,17 @@ impl World {
     /// second thread then waited for.
     pub(crate) fn split_positions(&mut self) {
         use rayon::prelude::*;
-        /// Bodies per task: large enough that a task's work hides its overhead.
-        const SPLIT_CHUNK: usize = 4096;
-        let x = &self.state.position;
+        // Only the length changes here (no pass over kept elements): every slot is
+        // written below.
         let zero = precise::Ds3A {
             hi: glam::Vec3A::ZERO,
             lo: glam::Vec3A::ZERO,
         };
-        // Only the length changes here (no pass over kept elements): every slot is
-        // written below.
-        self.position_pairs.resize(x.len(), zero);
+        self.position_pairs.resize(self.state.position.len(), zero);
         self.position_pairs
-            .par_chunks_mut(SPLIT_CHUNK)
-            .zip(x.par_chunks(SPLIT_CHUNK))
-            .for_each(|(out, x)| {
-                #[cfg(target_arch = "x86_64")]
-                if crate::step::avx2() {
-                    // Four at a time (`precise::split4`: the same bits), the rest one by one.
-                    let (out4, out_rest) = out.as_chunks_mut::<4>();
-                    let (x4, x_rest) = x.as_chunks::<4>();
-                    for (o, x) in out4.iter_mut().zip(x4) {
-                        // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
-                        unsafe { precise::split4(x, o) };
-                    }
-                    for (o, &x) in out_rest.iter_mut().zip(x_rest) {
-                        *o = precise::split_a(x);
-                    }
-                    return;
-                }
-                crate::step::vex(|| {
-                    for (o, &x) in out.iter_mut().zip(x) {
-                        *o = precise::split_a(x);
-                    }
-                })
-            });
+            .par_chunks_mut(precise::SPLIT_CHUNK)
+            .zip(self.state.position.par_chunks(precise::SPLIT_CHUNK))
+            .for_each(|(out, x)| precise::split_chunk(x, out));
         crate::step::motion::update(self);
     }
 

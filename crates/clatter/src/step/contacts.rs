@@ -31,8 +31,9 @@ pub(crate) fn run(world: &mut World) -> usize {
 /// pair once, for every contact it takes part in; for spheres, the near list kept or made
 /// anew (the stage then runs on it). Reads every body's state (a rank's ghosts' too).
 pub(crate) fn prepare(world: &mut World) {
-    world.split_positions();
-    super::near::update(world);
+    // The split and the near list's reach test in one pass.
+    let held = super::near::split_and_test(world);
+    super::near::update(world, held);
 }
 
 /// Which contacts of the active list a run of the stage computes ([`run_part`]): all of

@@ -59,6 +59,7 @@ pub(super) fn run_in(world: &mut World, lanes: bool) -> Moved {
         sinks,
         has_sinks,
         ghost,
+        padded_gather: Contacts::gather8_padded(),
     };
     let s = &mut world.state;
     // Chunks of bodies, one task each; the loop body sees plain slices. A few thousand
@@ -146,6 +147,10 @@ pub(super) struct Ctx<'a> {
     /// Ghosts (`crate::domain`) are integrated by the rank that owns them; a world without
     /// ghosts (one process) has an empty list.
     pub(super) ghost: &'a [bool],
+    /// Whether the lanes gather with the padded side loops ([`Contacts::gather8_padded`]),
+    /// asked once a stage rather than once per eight bodies.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(super) padded_gather: bool,
 }
 
 /// One chunk's bodies (from body `first` on): the state the stage updates.

@@ -363,7 +363,12 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
         return None;
     }
     // The gather, per body as the scalar path does it; its sums' four lanes kept.
-    let (f, t) = c.contacts.gather8(i, ghosts);
+    // The loops `Contacts::gather8_padded` chose for the stage.
+    let (f, t) = if c.padded_gather {
+        c.contacts.gather8_with::<true>(i, ghosts)
+    } else {
+        c.contacts.gather8_with::<false>(i, ghosts)
+    };
     let dt = F8::splat(c.dt);
     let [fx, fy, fz, _] = unsafe { load4(f.as_ptr() as *const f32) };
     let [tx, ty, tz, _] = unsafe { load4(t.as_ptr() as *const f32) };

@@ -146,6 +146,58 @@ impl Near {
     }
 }
 
+/// [`World::split_positions`] and, where the world steps with a near list and has one of
+/// its length, that list's reach test ([`Near::holds`]) in the same parallel pass: one
+/// fork-join and one read of the positions a step, not two (on two threads each fork-join
+/// of a sphere step's few is a pause of both). Returns the test's answer (`None` where
+/// there was no test to do; [`update`] then does it). Every body's pair is split
+/// by the same function as `split_positions`' and the answer is the `&` of the same pieces'
+/// answers ([`within_reach_piece`]), whatever the pieces, so the same bits and the same
+/// boolean.
+pub(crate) fn split_and_test(world: &mut World) -> Option<bool> {
+    let n = world.state.position.len();
+    let near = match &world.contacts.near {
+        Some(near) if applies(world) && near.made_at.len() == n && near.reach2.len() == n => near,
+        _ => {
+            world.split_positions();
+            return None;
+        }
+    };
+    let zero = crate::precise::Ds3A {
+        hi: glam::Vec3A::ZERO,
+        lo: glam::Vec3A::ZERO,
+    };
+    // Only the length changes here: every slot is written below.
+    world.position_pairs.resize(n, zero);
+    const PIECE: usize = crate::precise::SPLIT_CHUNK;
+    let (x, made_at, reach2) = (&world.state.position, &near.made_at, &near.reach2);
+    let held = world
+        .position_pairs
+        .par_chunks_mut(PIECE)
+        .zip(x.par_chunks(PIECE))
+        .zip(made_at.par_chunks(PIECE))
+        .zip(reach2.par_chunks(PIECE))
+        .map(|(((out, x), made), reach2)| {
+            crate::precise::split_chunk(x, out);
+            within_reach_piece(x, made, reach2)
+        })
+        .reduce(|| true, |a, b| a & b);
+    // Spheres only (`applies`): this clears the bounds, as `split_positions` does.
+    super::motion::update(world);
+    Some(held)
+}
+
+/// One piece of the reach test ([`within_reach`]): four at a time where the CPU has AVX2,
+/// else body by body (the same answer).
+fn within_reach_piece(x: &[DVec3], made: &[DVec3], reach2: &[f64]) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if crate::step::avx2() {
+        // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
+        return unsafe { within_reach4(x, made, reach2) };
+    }
+    within_reach1(x, made, reach2)
+}
+
 /// Whether every body `k` is within `reach2[k]` (squared) of `made_at[k]` (the slices of
 /// one length). In parallel pieces (the test runs every step, over every body: on one
 /// thread it left the others waiting), each piece's bodies all tested with `&` (a loop
@@ -156,14 +208,7 @@ fn within_reach(positions: &[DVec3], made_at: &[DVec3], reach2: &[f64]) -> bool 
         .par_chunks(HOLDS_CHUNK)
         .zip(made_at.par_chunks(HOLDS_CHUNK))
         .zip(reach2.par_chunks(HOLDS_CHUNK))
-        .all(|((x, made), reach2)| {
-            #[cfg(target_arch = "x86_64")]
-            if crate::step::avx2() {
-                // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
-                return unsafe { within_reach4(x, made, reach2) };
-            }
-            within_reach1(x, made, reach2)
-        })
+        .all(|((x, made), reach2)| within_reach_piece(x, made, reach2))
 }
 
 /// One piece of [`within_reach`], body by body.
@@ -274,8 +319,10 @@ fn applies(world: &World) -> bool {
 }
 
 /// Before the contacts stage (positions split): keeps the near list while it holds, else
-/// writes it back and makes a new one from the broad phase's list.
-pub(crate) fn update(world: &mut World) {
+/// writes it back and makes a new one from the broad phase's list. `held`: the reach
+/// test's answer where [`split_and_test`] gave one (for this list, on these positions),
+/// else `None` and the test is done here.
+pub(crate) fn update(world: &mut World, held: Option<bool>) {
     if !applies(world) {
         world.contacts.end_near();
         return;
@@ -283,7 +330,7 @@ pub(crate) fn update(world: &mut World) {
     // The springs change this step: the readers' copy is void.
     world.contacts.view = std::sync::OnceLock::new();
     if let Some(near) = &world.contacts.near
-        && near.holds(&world.state.position)
+        && held.unwrap_or_else(|| near.holds(&world.state.position))
     {
         return;
     }
