@@ -440,6 +440,70 @@ mod tests {
         );
     }
 
+    /// The split and the reach test in one pass against each done alone: every body's pair
+    /// the bits of `precise::split_a` of its position (in every piece, also when the test
+    /// fails, and whichever piece fails it), and the answer the definition's: one body out
+    /// of reach (or at a NaN distance) in the first, a middle or the last piece fails it.
+    /// Without a near list (or one of another length) there is no test (`None`), and the
+    /// pairs are split all the same.
+    #[test]
+    fn the_split_and_the_reach_test_in_one_pass_are_each_alone() {
+        use crate::precise::{SPLIT_CHUNK, split_a};
+        use glam::DVec3;
+        let mut w = world();
+        w.step().expect("a stable run");
+        assert!(
+            w.contacts.near.is_some(),
+            "the scene steps with a near list"
+        );
+        let n = 3 * SPLIT_CHUNK + 17;
+        let made: Vec<DVec3> = (0..n)
+            .map(|k| DVec3::new(k as f64 * 0.013, 1.0 + (k % 7) as f64, -(k as f64) * 0.7))
+            .collect();
+        let reach2: Vec<f64> = (0..n).map(|k| 1e-6 * (1 + k % 5) as f64).collect();
+        let x: Vec<DVec3> = made
+            .iter()
+            .enumerate()
+            .map(|(k, &m)| m + DVec3::new(1e-4 * (k % 3) as f64, 3e-7 * (k % 11) as f64, 5e-4))
+            .collect();
+        let definition =
+            |x: &[DVec3]| (0..n).all(|k| (x[k] - made[k]).length_squared() <= reach2[k]);
+        // The world's bodies and its near list's reach replaced by `n` of them (all that
+        // the pass reads); every pair poisoned before each pass.
+        let mut check = |w: &mut World, x: &[DVec3], with_list: bool| {
+            w.state.position = x.to_vec();
+            let near = w.contacts.near.as_mut().expect("a near list");
+            near.made_at = if with_list {
+                made.clone()
+            } else {
+                made[1..].to_vec()
+            };
+            near.reach2 = reach2.clone();
+            w.position_pairs = vec![split_a(DVec3::splat(0.5)); n];
+            let held = super::split_and_test(w);
+            for (k, (pair, &x)) in w.position_pairs.iter().zip(x).enumerate() {
+                let want = split_a(x);
+                let bits = |p: &crate::precise::Ds3A| {
+                    [p.hi.to_array(), p.lo.to_array()].map(|v| v.map(f32::to_bits))
+                };
+                assert_eq!(bits(pair), bits(&want), "body {k}'s pair");
+            }
+            assert_eq!(w.position_pairs.len(), n);
+            held
+        };
+        assert!(definition(&x));
+        assert_eq!(check(&mut w, &x, true), Some(true));
+        assert_eq!(check(&mut w, &x, false), None);
+        for k in [0, SPLIT_CHUNK - 1, SPLIT_CHUNK, 2 * SPLIT_CHUNK + 5, n - 1] {
+            for away in [DVec3::new(0.0, 0.01, 0.0), DVec3::NAN] {
+                let mut y = x.clone();
+                y[k] = made[k] + away;
+                assert!(!definition(&y));
+                assert_eq!(check(&mut w, &y, true), Some(false), "body {k}, {away}");
+            }
+        }
+    }
+
     use std::cell::Cell;
 
     use crate::World;
