@@ -470,7 +470,7 @@ mod tests {
             |x: &[DVec3]| (0..n).all(|k| (x[k] - made[k]).length_squared() <= reach2[k]);
         // The world's bodies and its near list's reach replaced by `n` of them (all that
         // the pass reads); every pair poisoned before each pass.
-        let mut check = |w: &mut World, x: &[DVec3], with_list: bool| {
+        let check = |w: &mut World, x: &[DVec3], with_list: bool| {
             w.state.position = x.to_vec();
             let near = w.contacts.near.as_mut().expect("a near list");
             near.made_at = if with_list {
