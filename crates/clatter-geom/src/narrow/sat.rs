@@ -241,7 +241,7 @@ fn remembered_face(
         let mut m = clip_faces(a, face, b, inc_v, rot, clip, &plan).ok_or(None)?;
         if let Some(s) = slack.filter(|_| plan.measure) {
             let n_inc = rot.transpose() * a.faces[face].normal;
-            s.record(a, face, b, key, q, t, n_inc, inc_v, &m, delta);
+            s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, &m, delta);
         }
         let to_b = |p: Vec3| inv_rot * (p - t);
         if plan.certified
@@ -257,17 +257,16 @@ fn remembered_face(
         if face >= b.faces.len() {
             return Err(None);
         }
-        // A's origin in B's frame (A's vertex `v` is at `inv_rot v + o` there).
         let plan = match slack.as_deref() {
-            Some(s) => s.plan(b, a, key, q, -(inv_rot * t)),
+            Some(s) => s.plan(b, a, key, q, t),
             None => Plan::FULL,
         };
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip, &plan).ok_or(None)?;
         if let Some(s) = slack.filter(|_| plan.measure) {
             let n_inc = inv_rot.transpose() * b.faces[face].normal;
-            let o = -(inv_rot * t);
-            s.record(b, face, a, key, q, o, n_inc, inc_v, &m, delta);
+            let lever = a.radius + t.length() * (1.0 + 1e-6);
+            s.record(b, face, a, key, q, t, lever, n_inc, inc_v, &m, delta);
         }
         let to_a = |p: Vec3| rot * p + t;
         if plan.certified

@@ -12,6 +12,9 @@ use crate::ConvexPolyhedron;
 /// How many side planes of the reference face a slack record can name (a box's face has 4).
 const PLANES: usize = 8;
 
+/// How many corners of the incident face a record's planes take (a box's face has 4).
+const CORNERS: usize = 16;
+
 /// Room for rounding, relative to the two bodies' radii: of the incident corners (at the
 /// record and now), of the clip's crossings, of the side-plane distances and of the bound
 /// itself, each a few ulps of coordinates at most about twice the radii (about `3e-6`
@@ -21,7 +24,7 @@ const ALLOW: f32 = 1e-5;
 /// The smallest slack (relative to the radii) worth remembering: a plane or certificate
 /// nearer than this is computed every call, and a record with nothing in it is measured
 /// again once the bodies have moved this far.
-const KEEP: f32 = 2e-4;
+const KEEP: f32 = 5e-5;
 
 /// How far a quaternion's squared norm may be from 1 for the rotation bound below (the
 /// simulation's orientations are renormalised every step; a relative rotation is a product
@@ -32,14 +35,15 @@ const UNIT: f32 = 4e-6;
 /// the contact's reference face and incident body, their relative pose, and what is sure
 /// to come out the same at any pose whose incident points have moved less than `renew`
 /// (in the reference body's frame, rounding allowed for):
-/// - `skip`: the side planes of the reference face that every corner of the incident face
-///   (the one remembered: none without it) was inside by more than `renew`. Every point of the polygon a later clip hands to such
-///   a plane (a corner, or a crossing of earlier planes, in the incident face up to
-///   rounding) is then still strictly inside, so `clip_by_plane` would keep the polygon as
-///   it is and copy nothing: skipping it changes no bit.
 /// - `inc_face`: the incident face, when the smallest `normal . n_inc` led the next by
 ///   more than twice what the rotation since can change each product: the same face is the
 ///   first minimum again ([`NO_FACE`]: computed every call).
+/// - `skip`: the side planes of the reference face that every corner of the incident face
+///   (the one remembered: none without it) was inside by more than `renew`. Every point of
+///   the polygon a later clip hands to such a plane (a corner, or a crossing of earlier
+///   planes, in the incident face up to rounding) is then still strictly inside, so
+///   `clip_by_plane` would keep the polygon as it is and copy nothing: skipping it changes
+///   no bit.
 /// - `certified`: the centroid certificate of [`super::certify::overlap_certified`] held
 ///   with room `renew` to spare. The centroid `c` measured is a point of the incident body
 ///   (up to rounding); the same body point now is at most `renew` less deep in the
@@ -48,16 +52,21 @@ const UNIT: f32 = 4e-6;
 ///   reference body) holds for it, and no axis of the full test separates the bodies. The
 ///   certificate only decides whether the full test must run, never the manifold.
 ///
-/// How far the incident body's points moved: with `M`, `o` the incident frame's rotation
-/// matrix and origin in the reference frame (B's points `M v + o`), a point `v` moves by
-/// `|(M - M0) v + (o - o0)| <= |M - M0| r + |o - o0|_1` (`r` the incident body's radius).
-/// The matrices are glam's `from_quat` of the relative quaternions `q`, `q0`; for `|q|^2 =
-/// s`, that is `I + s (R(q/|q|) - I)`, within `2 |s - 1|` of the rotation `R`, and two
-/// rotations differ by at most `2 sin(phi / 2) = 2 |xyz(q0* q)| / |q0||q|` (`phi` the angle
-/// between them), so `|M - M0| <= 2 |xyz(q0* q)| + 2e-5` while both squared norms are within
-/// [`UNIT`] of 1. A record names its polyhedra by address, like [`super::EdgeMemory`], and
-/// checks the pose itself, so it serves any pair of those shapes at a nearby pose: a cache
-/// that changes no result (in no checkpoint; a fresh one measures again).
+/// How far the incident body's points moved: the clip puts B's vertex `v` at `M v + t` in
+/// A's frame (a reference face of A), A's at `M^T (v - t)` in B's (of B), with `M` glam's
+/// `from_quat` of the relative quaternion `q` and `t` B's offset in A's frame. A point moves
+/// by `|(M - M0) v + (t - t0)| <= |M - M0| r + |t - t0|` for A's frame (`r` B's radius),
+/// and by `|(M - M0)^T (v - t0) - M^T (t - t0)| <= |M - M0| (r + |t0|) + |M| |t - t0|`
+/// for B's (`r` A's radius): `lever` is `r`, or `r + |t0|`. For `|q|^2 = s`, `from_quat`
+/// is `I + s (R - I)` with `R` the rotation of `q / |q|`, within `2 |s - 1|` of it; two
+/// rotations of unit quaternions `p`, `p0` differ by at most `2 sin(phi / 2) <= 2 |p - p0|`
+/// (`phi` the angle between them, `|p - p0| = 2 |sin(phi / 4)|`), and `|q / |q| - q| <= |s -
+/// 1|`: so `|M - M0| <= 2 |q - q0| + 4 |s - 1| + 4 |s0 - 1|` (a few ulps more for the
+/// rounded entries), and `|M| <= 1 + 2 |s - 1|`. The record keeps `renew` less the `s0`
+/// term and [`ALLOW`]; the 1-norm bounds `|t - t0|`. A record names its polyhedra by
+/// address, like [`super::EdgeMemory`], and checks the pose itself, so it serves any pair
+/// of those shapes at a nearby pose: a cache that changes no result (in no checkpoint; a
+/// fresh one measures again).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub struct FaceSlack {
@@ -65,14 +74,17 @@ pub struct FaceSlack {
     q: Quat,
     /// The addresses of the reference body's and the incident body's polyhedra (0: none).
     shapes: [usize; 2],
-    /// The incident body's origin in the reference body's frame at the record.
-    origin: Vec3,
+    /// B's offset in A's frame (`Relative::t`) at the record.
+    t: Vec3,
     /// The reference face's kind and index (`HINT_FACE_A`/`HINT_FACE_B` | face).
     key: u32,
-    /// How far the incident points may move (with rounding) before this record expires.
+    /// How far the incident points may move before this record expires, less the
+    /// rounding allowed and the record's own rotation term (see above).
     renew: f32,
+    /// The lever of the rotation (see above).
+    lever: f32,
     /// The incident face, or [`NO_FACE`].
-    inc_face: u32,
+    inc_face: u8,
     /// The side planes skipped, a bit per plane of the reference face's loop.
     skip: u8,
     /// Whether the overlap certificate is remembered.
@@ -80,16 +92,17 @@ pub struct FaceSlack {
 }
 
 /// No incident face remembered.
-const NO_FACE: u32 = u32::MAX;
+const NO_FACE: u8 = u8::MAX;
 
 impl Default for FaceSlack {
     fn default() -> Self {
         FaceSlack {
             q: Quat::IDENTITY,
             shapes: [0; 2],
-            origin: Vec3::ZERO,
+            t: Vec3::ZERO,
             key: 0,
             renew: f32::NEG_INFINITY,
+            lever: 0.0,
             inc_face: NO_FACE,
             skip: 0,
             certified: false,
@@ -131,39 +144,11 @@ fn address(p: &ConvexPolyhedron) -> usize {
     p as *const ConvexPolyhedron as usize
 }
 
-/// Whether `q`'s squared norm is within [`UNIT`] of 1 (false for NaN).
-#[inline]
-fn unit(q: Quat) -> bool {
-    (q.length_squared() - 1.0).abs() < UNIT
-}
-
-/// The bound of how far the incident body's points moved in the reference frame between
-/// relative quaternions `q0` and `q` and incident origins `o0` and `o` (see
-/// [`FaceSlack`]), plus [`ALLOW`] of the radii: NaN or infinite when it cannot be told.
-#[inline]
-fn moved(
-    q0: Quat,
-    q: Quat,
-    o0: Vec3,
-    o: Vec3,
-    refp: &ConvexPolyhedron,
-    inc: &ConvexPolyhedron,
-) -> f32 {
-    let s = q.length_squared() - 1.0;
-    if !(s.abs() < UNIT) {
-        return f32::NAN;
-    }
-    let s0 = q0.length_squared() - 1.0;
-    let turn = 2.0 * (q0.conjugate() * q).xyz().length() + 2.0 * (s.abs() + s0.abs()) + 1e-6;
-    let d = (o - o0).abs();
-    turn * inc.radius + (d.x + d.y + d.z) + ALLOW * (refp.radius + inc.radius)
-}
-
 impl FaceSlack {
     /// What a clip of reference face `key` (kind | index) of `refp` against `inc`, at
-    /// relative quaternion `q` and incident origin `o` (see [`FaceSlack`]), may take from
-    /// this record: all of it while the incident points moved less than `renew`; else
-    /// nothing, and a new record is to be measured.
+    /// relative quaternion `q` and offset `t` (see [`FaceSlack`]), may take from this
+    /// record: all of it while the incident points moved less than `renew`; else nothing,
+    /// and a new record is to be measured.
     #[inline]
     pub(super) fn plan(
         &self,
@@ -171,13 +156,17 @@ impl FaceSlack {
         inc: &ConvexPolyhedron,
         key: u32,
         q: Quat,
-        o: Vec3,
+        t: Vec3,
     ) -> Plan {
         if self.key != key || self.shapes != [address(refp), address(inc)] {
             return Plan::MEASURE;
         }
+        let s = (q.length_squared() - 1.0).abs();
+        let dt = (t - self.t).abs();
+        let turn = 2.0 * (q - self.q).length() + 4.0 * s;
+        let moved = turn * self.lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5);
         // (Written so that a NaN measures again.)
-        if moved(self.q, q, self.origin, o, refp, inc) < self.renew {
+        if s < UNIT && moved < self.renew {
             Plan {
                 inc_face: (self.inc_face != NO_FACE).then_some(self.inc_face as usize),
                 skip: self.skip,
@@ -190,7 +179,8 @@ impl FaceSlack {
     }
 
     /// Measures a record for reference face `rf` (`key`: kind | index) of `refp` against
-    /// `inc`, at relative quaternion `q` and incident origin `o`: `n_inc` the reference
+    /// `inc`, at relative quaternion `q` and offset `t` with rotation lever `lever` (see
+    /// [`FaceSlack`]): `n_inc` the reference
     /// normal in `inc`'s frame, `inc_v(i)` vertex `i` of `inc` in `refp`'s frame (both as
     /// the clip computed them), `m` the clip's manifold in `refp`'s frame, `delta` the
     /// certificate's depth. Forgets what it held first; keeps nothing when the pose is
@@ -205,14 +195,16 @@ impl FaceSlack {
         inc: &ConvexPolyhedron,
         key: u32,
         q: Quat,
-        o: Vec3,
+        t: Vec3,
+        lever: f32,
         n_inc: Vec3,
         inc_v: impl Fn(usize) -> Vec3,
         m: &Manifold,
         delta: f32,
     ) {
         *self = FaceSlack::default();
-        if !unit(q) || !o.is_finite() || !n_inc.is_finite() {
+        let s0 = (q.length_squared() - 1.0).abs();
+        if !(s0 < UNIT) || !t.is_finite() || !n_inc.is_finite() || !lever.is_finite() {
             return;
         }
         let radii = refp.radius + inc.radius;
@@ -223,7 +215,7 @@ impl FaceSlack {
         // The incident face: the loop's first minimum and the gap to the next value (a tie
         // gives no gap). Each product moves by at most `|M - M0|` (unit normals) plus a
         // few ulps, and `|M - M0| r <= ` the bound, so the first minimum stays while the
-        // bound is below `r (gap / 2 - 1e-6)`.
+        // bound is below `lever (gap / 2 - 4e-6)`.
         let chosen = incident_face(inc, n_inc);
         let (mut best, mut next, mut first) = (f32::INFINITY, f32::INFINITY, 0);
         for (f, face) in inc.faces.iter().enumerate() {
@@ -236,20 +228,29 @@ impl FaceSlack {
                 next = d;
             }
         }
-        let limit = inc.radius * (0.5 * (next - best) - 1e-6) * shrink;
-        if first == chosen && limit >= keep {
-            self.inc_face = chosen as u32;
+        let limit = lever * (0.5 * (next - best) - 4e-6) * shrink;
+        if first == chosen && chosen < NO_FACE as usize && limit >= keep {
+            self.inc_face = chosen as u8;
             renew = renew.min(limit);
         }
         // The side planes every incident corner is inside by more than `keep`, by their
         // distance (the plane's vector is not a unit vector); only with the incident face
         // remembered (the corners are that face's).
         let il = inc.face_loop(chosen);
-        let planes = if self.inc_face == NO_FACE { 0 } else { PLANES };
+        let mut corners = [Vec3::ZERO; CORNERS];
+        let planes = if self.inc_face == NO_FACE || il.len() > CORNERS {
+            0
+        } else {
+            PLANES
+        };
+        for (c, &i) in corners.iter_mut().zip(il) {
+            *c = inc_v(i as usize);
+        }
+        let corners = &corners[..il.len().min(CORNERS)];
         for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate().take(planes) {
             let mut far = f32::NEG_INFINITY;
-            for &i in il {
-                let d = side.dot(inc_v(i as usize)) - off;
+            for &c in corners {
+                let d = side.dot(c) - off;
                 // (A NaN keeps the plane out.)
                 far = if d > far || d.is_nan() { d } else { far };
             }
@@ -265,9 +266,11 @@ impl FaceSlack {
             self.certified = true;
             renew = renew.min(room);
         }
-        self.renew = if renew.is_finite() { renew } else { keep };
+        let renew = if renew.is_finite() { renew } else { keep };
+        self.renew = renew - ALLOW * radii - 4.0 * s0 * lever;
+        self.lever = lever;
         self.q = q;
-        self.origin = o;
+        self.t = t;
         self.key = key;
         self.shapes = [address(refp), address(inc)];
     }
