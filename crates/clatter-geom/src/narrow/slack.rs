@@ -87,8 +87,10 @@ pub struct FaceSlack {
     inc_face: u8,
     /// The side planes skipped, a bit per plane of the reference face's loop.
     skip: u8,
-    /// Whether the overlap certificate is remembered.
-    certified: bool,
+    /// How far the incident points may move (the same terms taken off) while the overlap
+    /// certificate stands: negative when it is not remembered. Apart from `renew`, so that
+    /// a shallow contact's small room does not make the planes be measured again.
+    certified: f32,
 }
 
 /// No incident face remembered.
@@ -105,7 +107,7 @@ impl Default for FaceSlack {
             lever: 0.0,
             inc_face: NO_FACE,
             skip: 0,
-            certified: false,
+            certified: f32::NEG_INFINITY,
         }
     }
 }
@@ -170,7 +172,7 @@ impl FaceSlack {
             Plan {
                 inc_face: (self.inc_face != NO_FACE).then_some(self.inc_face as usize),
                 skip: self.skip,
-                certified: self.certified,
+                certified: moved < self.certified,
                 measure: false,
             }
         } else {
@@ -262,12 +264,12 @@ impl FaceSlack {
         }
         // The certificate's room.
         let room = (overlap_slack(refp, m) - delta) * shrink;
+        let taken = ALLOW * radii + 4.0 * s0 * lever;
         if room >= keep {
-            self.certified = true;
-            renew = renew.min(room);
+            self.certified = room - taken;
         }
         let renew = if renew.is_finite() { renew } else { keep };
-        self.renew = renew - ALLOW * radii - 4.0 * s0 * lever;
+        self.renew = renew - taken;
         self.lever = lever;
         self.q = q;
         self.t = t;
