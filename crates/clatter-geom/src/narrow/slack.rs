@@ -277,3 +277,7 @@ impl FaceSlack {
         self.shapes = [address(refp), address(inc)];
     }
 }
+
+#[cfg(test)]
+#[path = "slack_tests.rs"]
+mod tests;
