@@ -206,7 +206,8 @@ impl FaceSlack {
     ) {
         *self = FaceSlack::default();
         let s0 = (q.length_squared() - 1.0).abs();
-        if !(s0 < UNIT) || !t.is_finite() || !n_inc.is_finite() || !lever.is_finite() {
+        let usable = s0 < UNIT && t.is_finite() && n_inc.is_finite() && lever.is_finite();
+        if !usable {
             return;
         }
         let radii = refp.radius + inc.radius;

@@ -20,10 +20,13 @@ fn cuboid(h: Vec3) -> ConvexPolyhedron {
     crate::convex_hull(&v).expect("box hull")
 }
 
+/// A vertex of the incident body in the reference frame, by its index.
+type Vertex = Box<dyn Fn(&ConvexPolyhedron, usize) -> Vec3>;
+
 /// The incident body's vertex `i` in the reference frame, for a reference face of A
 /// (`kind` [`HINT_FACE_A`]: B's vertices `rot v + t`) or of B (A's, `rot^T (v - t)`), and
 /// the incident rotation the clip takes.
-fn frame(kind: u32, q: Quat, t: Vec3) -> (Mat3, Box<dyn Fn(&ConvexPolyhedron, usize) -> Vec3>) {
+fn frame(kind: u32, q: Quat, t: Vec3) -> (Mat3, Vertex) {
     let rot = Mat3::from_quat(q);
     if kind == HINT_FACE_A {
         (rot, Box::new(move |p, i| rot * p.vertices[i] + t))
