@@ -347,6 +347,7 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 ///
 /// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
