@@ -38,6 +38,19 @@ pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f3
         .all(|f| f.normal.dot(c) - f.offset <= -delta)
 }
 
+/// How far the centroid of [`overlap_certified`] is inside every face plane of `refp`
+/// (the smallest of `offset - normal . c`, by the same products; NaN when one is): the
+/// certificate holds with `delta` up to this.
+pub(super) fn overlap_slack(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
+    let c = incident_centroid(m);
+    let mut low = f32::INFINITY;
+    for f in &refp.faces {
+        let s = f.offset - f.normal.dot(c);
+        low = if s < low || s.is_nan() { s } else { low };
+    }
+    low
+}
+
 /// Whether the bodies certainly overlap by more than `delta` at a face contact `m` (in the
 /// reference body's frame, reference face `rf` of `refp`) where [`overlap_certified`]
 /// cannot tell: the incident body crossing a side of the reference face, its clipped points

@@ -9,6 +9,7 @@ use glam::{Mat3, Quat, Vec3};
 use super::SatHint;
 use super::edges::{EdgeOfA, separating_pair};
 use super::sat::EdgeAxis;
+use super::slack::FaceSlack;
 use super::sphere::SphereMemory;
 use crate::ConvexPolyhedron;
 
@@ -95,6 +96,8 @@ pub struct EdgeMemory {
     /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
     /// what the sphere's faces, edges and margins are (see `super::sphere`).
     sphere: SphereMemory,
+    /// A remembered face contact's clip record (see [`FaceSlack`]), its own cache line.
+    face: FaceSlack,
 }
 
 /// The second shape address of a memory of the sphere kind (no polyhedron lives at 1).
@@ -115,6 +118,7 @@ impl Default for EdgeMemory {
             levels: [0; LEVELS as usize],
             pairs: [[0; 2]; CAPACITY],
             sphere: SphereMemory::default(),
+            face: FaceSlack::default(),
         }
     }
 }
@@ -161,6 +165,13 @@ impl EdgeMemory {
             self.shapes = [address(p), SPHERE];
             self.sphere = record;
         }
+    }
+
+    /// The record of the pair's remembered face contact's clip ([`FaceSlack`]): kept apart
+    /// from the edge search's memory (it checks its own shapes and pose).
+    #[inline]
+    pub(super) fn face_slack(&mut self) -> &mut FaceSlack {
+        &mut self.face
     }
 
     /// Whether it holds the pairs of a finished search (for tests and statistics).

@@ -23,6 +23,7 @@ mod edges;
 mod lanes;
 mod memory;
 mod sat;
+mod slack;
 mod sphere;
 
 #[doc(hidden)]

@@ -9,6 +9,7 @@ use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
 use super::memory::EdgeMemory;
+use super::slack::{FaceSlack, Plan};
 use super::{
     HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
     NO_HINT, SatHint, is_contact_hint,
@@ -95,9 +96,11 @@ pub(super) fn polyhedron_pair(
             // The full test would choose the remembered face again (see `contact_margin`):
             // clip it alone. When the overlap is not certified, the clipped face serves the
             // full test below.
+            let slack = memory.as_deref_mut().map(EdgeMemory::face_slack);
+            let kind = *hint & HINT_KIND;
             SCRATCH
                 .with_borrow_mut(|sc| {
-                    remembered_face(a, pa, b, pb, &rel, sc, *hint & HINT_KIND, face as usize)
+                    remembered_face(a, pa, b, pb, &rel, sc, kind, face as usize, slack)
                 })
                 .map_err(|c| clipped = c)
                 .ok()
@@ -219,19 +222,32 @@ fn remembered_face(
     sc: &mut Scratch,
     kind: u32,
     face: usize,
+    slack: Option<&mut FaceSlack>,
 ) -> Result<Option<Manifold>, Option<Clipped>> {
     let Relative {
-        rot, inv_rot, t, ..
+        rot, inv_rot, t, q, ..
     } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
+    let key = kind | face as u32;
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
             return Err(None);
         }
-        let mut m = clip_faces(a, face, b, |i| rot * b.vertices[i] + t, rot, clip).ok_or(None)?;
+        let plan = slack
+            .as_deref()
+            .map_or(Plan::FULL, |s| s.plan(a, b, key, q, t));
+        let inc_v = |i| rot * b.vertices[i] + t;
+        let mut m = clip_faces(a, face, b, inc_v, rot, clip, &plan).ok_or(None)?;
+        if let Some(s) = slack.filter(|_| plan.measure) {
+            let n_inc = rot.transpose() * a.faces[face].normal;
+            s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, &m, delta);
+        }
         let to_b = |p: Vec3| inv_rot * (p - t);
-        if overlap_certified(a, &m, delta) || wedge_certified(a, face, b, to_b, rot, &m, delta) {
+        if plan.certified
+            || overlap_certified(a, &m, delta)
+            || wedge_certified(a, face, b, to_b, rot, &m, delta)
+        {
             to_world(&mut m, pa, false);
             Ok(Some(m))
         } else {
@@ -241,10 +257,21 @@ fn remembered_face(
         if face >= b.faces.len() {
             return Err(None);
         }
+        let plan = match slack.as_deref() {
+            Some(s) => s.plan(b, a, key, q, t),
+            None => Plan::FULL,
+        };
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
-        let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip).ok_or(None)?;
+        let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip, &plan).ok_or(None)?;
+        if let Some(s) = slack.filter(|_| plan.measure) {
+            let n_inc = inv_rot.transpose() * b.faces[face].normal;
+            let lever = a.radius + t.length() * (1.0 + 1e-6);
+            s.record(b, face, a, key, q, t, lever, n_inc, inc_v, &m, delta);
+        }
         let to_a = |p: Vec3| rot * p + t;
-        if overlap_certified(b, &m, delta) || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
+        if plan.certified
+            || overlap_certified(b, &m, delta)
+            || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
         {
             to_world(&mut m, pb, true);
             Ok(Some(m))
@@ -320,6 +347,7 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 ///
 /// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -661,14 +689,14 @@ fn sat_full(
         // Reference face on B: work in B's frame with A as incident.
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         clipped
-            .or_else(|| clip_faces(b, face, a, inc_v, inv_rot, clip))
+            .or_else(|| clip_faces(b, face, a, inc_v, inv_rot, clip, &Plan::FULL))
             .map(|mut m| {
                 to_world(&mut m, pb, true);
                 m
             })
     } else {
         clipped
-            .or_else(|| clip_faces(a, face, b, |i| bv[i], rot, clip))
+            .or_else(|| clip_faces(a, face, b, |i| bv[i], rot, clip, &Plan::FULL))
             .map(|mut m| {
                 to_world(&mut m, pa, false);
                 m
