@@ -67,6 +67,12 @@ pub struct ConvexPolyhedron {
     /// with the clipping's own expressions (the same floats), so that clipping an incident
     /// face against a reference face does not recompute them for every pair and step.
     side_planes: Vec<(Vec3, f32)>,
+    /// A lower bound of the radius of a ball about the local origin inside the hull: the
+    /// smallest face offset less `1e-4 * radius` (the hull merges faces within about
+    /// `5e-6 * radius`), never negative. For any unit `u`, the vertices reach at least this
+    /// far along `u`; the edge-axis search uses it to leave out axes that cannot matter
+    /// (see `edge_axes_by_direction`).
+    inner: f32,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -194,7 +200,9 @@ impl ConvexPolyhedron {
             face_axes: None,
             lanes: crate::narrow::SoaPoints::default(),
             side_planes: Vec::new(),
+            inner: 0.0,
         };
+        p.inner = Self::inner_bound(&p.faces, p.radius);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
         p.box_frame = crate::query::support::detect_box(&p);
@@ -271,6 +279,20 @@ impl ConvexPolyhedron {
     pub(crate) fn side_planes(&self, f: usize) -> &[(Vec3, f32)] {
         let face = &self.faces[f];
         &self.side_planes[face.first as usize..(face.first + face.count) as usize]
+    }
+
+    /// The smallest face offset less `1e-4 * radius`, at least 0 (see the field `inner`).
+    fn inner_bound(faces: &[Face], radius: f32) -> f32 {
+        let smallest = faces.iter().map(|f| f.offset).fold(f32::INFINITY, f32::min);
+        let inner = smallest - 1e-4 * radius;
+        if inner > 0.0 { inner } else { 0.0 }
+    }
+
+    /// A lower bound of how far the vertices reach along any unit direction from the
+    /// local origin (built by the constructor; see the field `inner`).
+    #[inline]
+    pub(crate) fn inner_radius(&self) -> f32 {
+        self.inner
     }
 
     /// The vertices as the separating-axis test's lanes (built by the constructor).

@@ -381,6 +381,32 @@ fn direction_pair(
     })
 }
 
+/// `inner_a + inner_b` (the bodies' inner radii, see `ConvexPolyhedron::inner_radius`) less
+/// `2e-5 * radii`, the rounding allowance of [`reach_bound`], or minus infinity when that
+/// is not positive (then no bound leaves an axis out).
+#[inline]
+fn reach_depth(a: &ConvexPolyhedron, b: &ConvexPolyhedron, radii: f32) -> f32 {
+    let deep = (a.inner_radius() + b.inner_radius()) - 2e-5 * radii;
+    if deep > 0.0 { deep } else { f32::NEG_INFINITY }
+}
+
+/// An upper bound of the separation that [`direction_pair`] computes along unit `axis`
+/// (either sign), B's centre at `t` in A's frame and `deep` from [`reach_depth`]:
+/// `|axis . t| - deep`.
+///
+/// Why: each body reaches at least its inner radius along any direction from its centre,
+/// so B's smallest projection is at most `axis . t - inner_b` and A's largest at least
+/// `inner_a` (and likewise against the axis): both separations are at most `|axis . t| -
+/// inner_a - inner_b` exactly. The computed extents (B's points transformed, then
+/// projected) and this bound's own dot product and subtraction are off by a few ulps of
+/// `radii` (`|t| < radii` for a pair the bounding spheres let through), far below the
+/// `2e-5 * radii` that `deep` keeps back: the computed separation is at most the computed
+/// bound.
+#[inline]
+pub(super) fn reach_bound(axis: Vec3, t: Vec3, deep: f32) -> f32 {
+    axis.dot(t).abs() - deep
+}
+
 /// Edge axes by enumerating pairs of unique edge directions and projecting both bodies
 /// (good for boxes: 3 x 3 axes). Any axis is a valid separating-axis candidate, and the
 /// Minkowski-face normals are among these, so the smallest overlap is still the exact one.
@@ -392,6 +418,7 @@ pub(super) fn edge_axes_by_direction(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
     rot: glam::Mat3,
+    t: Vec3,
     a_local: &SoaPoints,
     b_soa: &SoaPoints,
     bv: &[Vec3],
@@ -408,6 +435,10 @@ pub(super) fn edge_axes_by_direction(
     dirs_b.clear();
     dirs_b.extend(b.edge_dirs.iter().map(|ub| rot * *ub));
     let dirs_b: &[Vec3] = dirs_b;
+    // How far both bodies reach at least along any axis from their centres (A's origin and
+    // B's at `t`), less the rounding of the extents (see `reach_bound`); not positive
+    // (degenerate shapes): no axis is left out by it.
+    let deep = reach_depth(a, b, radii);
     // The pairs a memory found deep, left out while they cannot reach the floor (see
     // `DeepPairs`); a memory that serves none records this search. One that serves
     // evaluates the last search's winner first and, when it passes, leaves out more: the
@@ -482,7 +513,6 @@ pub(super) fn edge_axes_by_direction(
         // wins) nor separate (`best` is not positive); nor matter when they overlap by
         // at least `-floor` (its separation is at most `floor`, not positive either).
         // Exact: an axis above `floor` meets the same decisions.
-        let (mut ext_a, mut ext_b) = (a_local.head(axis), b_soa.head(axis));
         // (Before the winner evaluated first, `first.2`: just below its separation.)
         let low = if floor > best.0 { floor } else { best.0 };
         let low = if k < first.0 && first.2 > low {
@@ -490,6 +520,13 @@ pub(super) fn edge_axes_by_direction(
         } else {
             low
         };
+        // The centres' offset along the axis bounds the separation above (`reach_bound`):
+        // at or below `low`, the axis can neither win nor separate nor matter, as for the
+        // first points below. (A recording pair takes the head's bound, as before.)
+        if !rememberable && reach_bound(axis, t, deep) <= low {
+            continue;
+        }
+        let (mut ext_a, mut ext_b) = (a_local.head(axis), b_soa.head(axis));
         let [min_a, max_a, min_b, max_b] = Extent::bounds(&ext_a, &ext_b);
         let (head_plus, head_minus) = (min_b - max_a, min_a - max_b);
         if head_plus <= low && head_minus <= low {

@@ -433,6 +433,7 @@ fn edge_search(
             a,
             b,
             rel.rot,
+            rel.t,
             a_local,
             b_soa,
             bv,
