@@ -69,9 +69,10 @@ pub struct ConvexPolyhedron {
     side_planes: Vec<(Vec3, f32)>,
     /// A lower bound of the radius of a ball about the local origin inside the hull: the
     /// smallest face offset less `1e-4 * radius` (the hull merges faces within about
-    /// `5e-6 * radius`), never negative. For any unit `u`, the vertices reach at least this
-    /// far along `u`; the edge-axis search uses it to leave out axes that cannot matter
-    /// (see `edge_axes_by_direction`).
+    /// `5e-6 * radius`) when that is positive (the origin well inside), else minus
+    /// infinity (no bound). For any unit `u`, the vertices reach at least this far along
+    /// `u`; the edge-axis search uses it to leave out axes that cannot matter (see
+    /// `edge_axes_by_direction`).
     inner: f32,
 }
 
@@ -281,11 +282,16 @@ impl ConvexPolyhedron {
         &self.side_planes[face.first as usize..(face.first + face.count) as usize]
     }
 
-    /// The smallest face offset less `1e-4 * radius`, at least 0 (see the field `inner`).
+    /// The smallest face offset less `1e-4 * radius` when positive, else minus infinity
+    /// (see the field `inner`).
     fn inner_bound(faces: &[Face], radius: f32) -> f32 {
         let smallest = faces.iter().map(|f| f.offset).fold(f32::INFINITY, f32::min);
         let inner = smallest - 1e-4 * radius;
-        if inner > 0.0 { inner } else { 0.0 }
+        if inner > 0.0 && smallest.is_finite() {
+            inner
+        } else {
+            f32::NEG_INFINITY
+        }
     }
 
     /// A lower bound of how far the vertices reach along any unit direction from the

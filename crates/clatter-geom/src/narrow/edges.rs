@@ -358,7 +358,7 @@ fn crossing_candidates(row: &[Vec4], nfb: usize, by_face: &[u64; 64]) -> u64 {
 /// near-parallel directions. The same arithmetic in the same order, so the same bits (keep
 /// the two in step).
 #[inline]
-fn direction_pair(
+pub(super) fn direction_pair(
     ua: Vec3,
     wb: Vec3,
     a_local: &SoaPoints,
@@ -383,9 +383,10 @@ fn direction_pair(
 
 /// `inner_a + inner_b` (the bodies' inner radii, see `ConvexPolyhedron::inner_radius`) less
 /// `2e-5 * radii`, the rounding allowance of [`reach_bound`], or minus infinity when that
-/// is not positive (then no bound leaves an axis out).
+/// is not positive or either radius is unknown (minus infinity: then no bound leaves an
+/// axis out).
 #[inline]
-fn reach_depth(a: &ConvexPolyhedron, b: &ConvexPolyhedron, radii: f32) -> f32 {
+pub(super) fn reach_depth(a: &ConvexPolyhedron, b: &ConvexPolyhedron, radii: f32) -> f32 {
     let deep = (a.inner_radius() + b.inner_radius()) - 2e-5 * radii;
     if deep > 0.0 { deep } else { f32::NEG_INFINITY }
 }

@@ -22,6 +22,8 @@ mod clip;
 mod edges;
 mod lanes;
 mod memory;
+#[cfg(test)]
+mod reach_tests;
 mod sat;
 mod slack;
 mod sphere;
