@@ -203,7 +203,7 @@ impl ConvexPolyhedron {
             side_planes: Vec::new(),
             inner: 0.0,
         };
-        p.inner = Self::inner_bound(&p.faces, p.radius);
+        p.inner = Self::inner_bound(&p);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
         p.box_frame = crate::query::support::detect_box(&p);
@@ -283,11 +283,27 @@ impl ConvexPolyhedron {
     }
 
     /// The smallest face offset less `1e-4 * radius` when positive, else minus infinity
-    /// (see the field `inner`).
-    fn inner_bound(faces: &[Face], radius: f32) -> f32 {
-        let smallest = faces.iter().map(|f| f.offset).fold(f32::INFINITY, f32::min);
-        let inner = smallest - 1e-4 * radius;
-        if inner > 0.0 && smallest.is_finite() {
+    /// (see the field `inner`). The ball of that radius lies inside the hull only when the
+    /// faces close the shape (every edge between two faces) and each face's loop is planar
+    /// (every loop vertex within `1e-5 * radius` of its face's plane, which passes through
+    /// the loop's outermost vertex): a shape built by hand through [`Self::from_faces`]
+    /// that is open or has warped faces gets no bound, so no edge axis is left out for it.
+    fn inner_bound(p: &ConvexPolyhedron) -> f32 {
+        let tol = 1e-5 * p.radius;
+        let closed = p.edge_faces.iter().all(|&[a, b]| a != b);
+        let planar = (0..p.faces.len()).all(|f| {
+            let face = &p.faces[f];
+            p.face_loop(f)
+                .iter()
+                .all(|&v| face.normal.dot(p.vertices[v as usize]) >= face.offset - tol)
+        });
+        let smallest = p
+            .faces
+            .iter()
+            .map(|f| f.offset)
+            .fold(f32::INFINITY, f32::min);
+        let inner = smallest - 1e-4 * p.radius;
+        if closed && planar && inner > 0.0 && smallest.is_finite() {
             inner
         } else {
             f32::NEG_INFINITY

@@ -144,3 +144,53 @@ fn reach_bound_is_never_below_the_computed_separation() {
     assert!(left_out > checked / 10, "{left_out} of {checked}");
     assert!(tight > 100, "{tight}");
 }
+
+/// The unit cube's corners and its six outward face loops, for shapes built by hand.
+fn hand_cube() -> (Vec<Vec3>, Vec<Vec<u32>>) {
+    let v = (0..8)
+        .map(|k: u32| {
+            let s = |b: u32| if k & b != 0 { 0.5 } else { -0.5 };
+            Vec3::new(s(1), s(2), s(4))
+        })
+        .collect();
+    let loops = vec![
+        vec![0, 4, 6, 2], // -x
+        vec![1, 3, 7, 5], // +x
+        vec![0, 1, 5, 4], // -y
+        vec![2, 6, 7, 3], // +y
+        vec![0, 2, 3, 1], // -z
+        vec![4, 5, 7, 6], // +z
+    ];
+    (v, loops)
+}
+
+/// A shape built through `from_faces` gets an inner radius only when its faces close it and
+/// each face's loop is planar: an open shape or a warped face (whose plane, through the
+/// loop's outermost vertex, no longer bounds the hull from inside) gets none, so the search
+/// leaves no axis out for it. The closed cube's bound is its half size less the allowance.
+#[test]
+fn inner_radius_only_for_closed_planar_shapes() {
+    let (v, loops) = hand_cube();
+    let cube = ConvexPolyhedron::from_faces(v.clone(), &loops);
+    let inner = cube.inner_radius();
+    assert!(inner > 0.49 && inner <= 0.5, "closed cube: {inner}");
+
+    // Open: the +z face left out.
+    let open = ConvexPolyhedron::from_faces(v.clone(), &loops[..5]);
+    assert_eq!(
+        open.inner_radius(),
+        f32::NEG_INFINITY,
+        "an open shape has no bound"
+    );
+
+    // Warped: one corner of the +z face pulled in by a tenth, so the face's plane passes
+    // through its other corners and the hull's true surface there lies below it.
+    let mut warped = v;
+    warped[7].z -= 0.1;
+    let warped = ConvexPolyhedron::from_faces(warped, &loops);
+    assert_eq!(
+        warped.inner_radius(),
+        f32::NEG_INFINITY,
+        "a warped face gives no bound"
+    );
+}
