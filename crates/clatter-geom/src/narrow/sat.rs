@@ -257,10 +257,9 @@ fn remembered_face(
         if face >= b.faces.len() {
             return Err(None);
         }
-        let plan = match slack.as_deref() {
-            Some(s) => s.plan(b, a, key, q, t),
-            None => Plan::FULL,
-        };
+        let plan = slack
+            .as_deref()
+            .map_or(Plan::FULL, |s| s.plan(b, a, key, q, t));
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
         let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip, &plan).ok_or(None)?;
         if let Some(s) = slack.filter(|_| plan.measure) {
