@@ -74,6 +74,14 @@ pub struct ConvexPolyhedron {
     /// `u`; the edge-axis search uses it to leave out axes that cannot matter (see
     /// `edge_axes_by_direction`).
     inner: f32,
+    /// The edges of each direction, in increasing order: those of direction `d` are
+    /// `dir_edges[dir_first[d]..dir_first[d + 1]]` (built by the constructor from
+    /// `edge_dir_of`), so that the edge-axis search finds a direction's supporting edge
+    /// without scanning every edge's direction for each pair and step.
+    dir_edges: Vec<u32>,
+    /// Where each direction's edges start in `dir_edges` (one entry per direction, and the
+    /// end).
+    dir_first: Vec<u32>,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -202,8 +210,11 @@ impl ConvexPolyhedron {
             lanes: crate::narrow::SoaPoints::default(),
             side_planes: Vec::new(),
             inner: 0.0,
+            dir_edges: Vec::new(),
+            dir_first: Vec::new(),
         };
         p.inner = Self::inner_bound(&p);
+        (p.dir_edges, p.dir_first) = Self::edges_by_direction(&p);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
         p.box_frame = crate::query::support::detect_box(&p);
@@ -315,6 +326,40 @@ impl ConvexPolyhedron {
     #[inline]
     pub(crate) fn inner_radius(&self) -> f32 {
         self.inner
+    }
+
+    /// The edges of direction `d` (`edge_dir_of[e] == d`), in increasing order (built by
+    /// the constructor; empty for a direction that is not one of `edge_dirs`).
+    #[inline]
+    pub(crate) fn edges_of_dir(&self, d: usize) -> &[u32] {
+        match (self.dir_first.get(d), self.dir_first.get(d + 1)) {
+            (Some(&lo), Some(&hi)) => self.dir_edges.get(lo as usize..hi as usize).unwrap_or(&[]),
+            _ => &[],
+        }
+    }
+
+    /// The edges grouped by direction, in increasing order within each (a counting sort
+    /// of `edge_dir_of`), and where each direction's group starts (see `dir_edges`).
+    fn edges_by_direction(p: &Self) -> (Vec<u32>, Vec<u32>) {
+        let nd = p.edge_dirs.len();
+        let mut first = vec![0u32; nd + 1];
+        for &d in &p.edge_dir_of {
+            if let Some(c) = first.get_mut(d as usize + 1) {
+                *c += 1;
+            }
+        }
+        for k in 0..nd {
+            first[k + 1] += first[k];
+        }
+        let mut next = first.clone();
+        let mut edges = vec![0u32; first[nd] as usize];
+        for (e, &d) in p.edge_dir_of.iter().enumerate() {
+            if let Some(slot) = next.get_mut(d as usize).filter(|_| (d as usize) < nd) {
+                edges[*slot as usize] = e as u32;
+                *slot += 1;
+            }
+        }
+        (edges, first)
     }
 
     /// The vertices as the separating-axis test's lanes (built by the constructor).
