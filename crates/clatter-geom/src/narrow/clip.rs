@@ -68,7 +68,7 @@ pub(super) fn clip_faces(
             continue;
         }
         fit(tmp, 2 * len);
-        if let Some(kept) = clip_by_plane(&poly[..len], tmp, side, off) {
+        if let Some(kept) = clip_by_plane(&poly[..len], tmp, side, off, plan.scan) {
             len = kept;
             std::mem::swap(poly, tmp);
         }
@@ -183,11 +183,20 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
 
 /// Clips the convex polygon `src` by the side plane `side . x - off <= 0`, writing the
 /// kept corners and the edges' crossings in order into `dst` (at least `2 src.len()` long)
-/// and returning their count, or `None` when the plane keeps `src` as it is (no copy).
-/// Each corner's distance is computed by one expression (the same for it as the start and
-/// as the end of an edge, so the same bits), and the loop closes on the first corner.
+/// and returning their count, or, with `scan`, `None` when the plane keeps `src` as it is
+/// (no copy). Each corner's distance is computed by one expression (the same for it as the
+/// start and as the end of an edge, so the same bits), and the loop closes on the first
+/// corner. Without `scan`, a plane that keeps `src` as it is gets it copied into `dst`:
+/// every corner with `d <= 0` is kept, in order, and no edge crosses (a crossing needs a
+/// corner with `d > 0` or, for `dp < 0`, `dq > 0`), so the same polygon.
 #[inline(always)]
-fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> Option<usize> {
+fn clip_by_plane(
+    src: &[Vec3],
+    dst: &mut [Vec3],
+    side: Vec3,
+    off: f32,
+    scan: bool,
+) -> Option<usize> {
     let Some((&first, rest)) = src.split_first() else {
         return Some(0);
     };
@@ -204,7 +213,7 @@ fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> Option
             Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
         )
     };
-    if !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
+    if scan && !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
         return None;
     }
     let mut w = 0;
