@@ -63,17 +63,28 @@ pub(super) fn clip_faces(
         *slot = inc_v(i as usize);
     }
     let mut len = il.len();
-    for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate() {
-        if k < 8 && plan.skip >> k & 1 != 0 {
-            continue;
+    let planes = refp.side_planes(rf);
+    if planes.len() <= 8 {
+        // The planes not skipped, in order, by the bits of those left (a box's face has
+        // four planes): the skipped ones cost no turn of the loop.
+        let mut left = !plan.skip as u32 & ((1u32 << planes.len()) - 1);
+        while left != 0 {
+            let plane = planes[left.trailing_zeros() as usize];
+            left &= left - 1;
+            len = clip_one(poly, tmp, len, plane, plan.scan);
+            if len == 0 {
+                break;
+            }
         }
-        fit(tmp, 2 * len);
-        if let Some(kept) = clip_by_plane(&poly[..len], tmp, side, off, plan.scan) {
-            len = kept;
-            std::mem::swap(poly, tmp);
-        }
-        if len == 0 {
-            break;
+    } else {
+        for (k, &plane) in planes.iter().enumerate() {
+            if k < 8 && plan.skip >> k & 1 != 0 {
+                continue;
+            }
+            len = clip_one(poly, tmp, len, plane, plan.scan);
+            if len == 0 {
+                break;
+            }
         }
     }
     // The points with their depths, written straight into the manifold while there are
@@ -171,6 +182,26 @@ pub(super) fn incident_face(inc: &ConvexPolyhedron, n_inc: Vec3) -> usize {
         }
     }
     inc_face
+}
+
+/// The polygon `poly[..len]` clipped by one side plane `(side, off)` ([`clip_by_plane`],
+/// `tmp` its scratch, swapped in when the polygon changes): the new length.
+#[inline(always)]
+fn clip_one(
+    poly: &mut Vec<Vec3>,
+    tmp: &mut Vec<Vec3>,
+    len: usize,
+    (side, off): (Vec3, f32),
+    scan: bool,
+) -> usize {
+    fit(tmp, 2 * len);
+    match clip_by_plane(&poly[..len], tmp, side, off, scan) {
+        Some(kept) => {
+            std::mem::swap(poly, tmp);
+            kept
+        }
+        None => len,
+    }
 }
 
 /// Grows `buf` to at least `len` entries (never shrinks it).
