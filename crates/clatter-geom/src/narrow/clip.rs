@@ -63,17 +63,28 @@ pub(super) fn clip_faces(
         *slot = inc_v(i as usize);
     }
     let mut len = il.len();
-    for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate() {
-        if k < 8 && plan.skip >> k & 1 != 0 {
-            continue;
+    let planes = refp.side_planes(rf);
+    if planes.len() <= 8 {
+        // The planes not skipped, in order, by the bits of those left (a box's face has
+        // four planes): the skipped ones cost no turn of the loop.
+        let mut left = !plan.skip as u32 & ((1u32 << planes.len()) - 1);
+        while left != 0 {
+            let plane = planes[left.trailing_zeros() as usize];
+            left &= left - 1;
+            len = clip_one(poly, tmp, len, plane, plan.scan);
+            if len == 0 {
+                break;
+            }
         }
-        fit(tmp, 2 * len);
-        if let Some(kept) = clip_by_plane(&poly[..len], tmp, side, off) {
-            len = kept;
-            std::mem::swap(poly, tmp);
-        }
-        if len == 0 {
-            break;
+    } else {
+        for (k, &plane) in planes.iter().enumerate() {
+            if k < 8 && plan.skip >> k & 1 != 0 {
+                continue;
+            }
+            len = clip_one(poly, tmp, len, plane, plan.scan);
+            if len == 0 {
+                break;
+            }
         }
     }
     // The points with their depths, written straight into the manifold while there are
@@ -173,6 +184,26 @@ pub(super) fn incident_face(inc: &ConvexPolyhedron, n_inc: Vec3) -> usize {
     inc_face
 }
 
+/// The polygon `poly[..len]` clipped by one side plane `(side, off)` ([`clip_by_plane`],
+/// `tmp` its scratch, swapped in when the polygon changes): the new length.
+#[inline(always)]
+fn clip_one(
+    poly: &mut Vec<Vec3>,
+    tmp: &mut Vec<Vec3>,
+    len: usize,
+    (side, off): (Vec3, f32),
+    scan: bool,
+) -> usize {
+    fit(tmp, 2 * len);
+    match clip_by_plane(&poly[..len], tmp, side, off, scan) {
+        Some(kept) => {
+            std::mem::swap(poly, tmp);
+            kept
+        }
+        None => len,
+    }
+}
+
 /// Grows `buf` to at least `len` entries (never shrinks it).
 #[inline]
 fn fit(buf: &mut Vec<Vec3>, len: usize) {
@@ -183,11 +214,20 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
 
 /// Clips the convex polygon `src` by the side plane `side . x - off <= 0`, writing the
 /// kept corners and the edges' crossings in order into `dst` (at least `2 src.len()` long)
-/// and returning their count, or `None` when the plane keeps `src` as it is (no copy).
-/// Each corner's distance is computed by one expression (the same for it as the start and
-/// as the end of an edge, so the same bits), and the loop closes on the first corner.
+/// and returning their count, or, with `scan`, `None` when the plane keeps `src` as it is
+/// (no copy). Each corner's distance is computed by one expression (the same for it as the
+/// start and as the end of an edge, so the same bits), and the loop closes on the first
+/// corner. Without `scan`, a plane that keeps `src` as it is gets it copied into `dst`:
+/// every corner with `d <= 0` is kept, in order, and no edge crosses (a crossing needs a
+/// corner with `d > 0` or, for `dp < 0`, `dq > 0`), so the same polygon.
 #[inline(always)]
-fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> Option<usize> {
+fn clip_by_plane(
+    src: &[Vec3],
+    dst: &mut [Vec3],
+    side: Vec3,
+    off: f32,
+    scan: bool,
+) -> Option<usize> {
     let Some((&first, rest)) = src.split_first() else {
         return Some(0);
     };
@@ -204,7 +244,7 @@ fn clip_by_plane(src: &[Vec3], dst: &mut [Vec3], side: Vec3, off: f32) -> Option
             Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
         )
     };
-    if !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
+    if scan && !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
         return None;
     }
     let mut w = 0;
@@ -511,6 +551,132 @@ mod tests {
         assert!(
             cases > 5_000 && multi > 2_000 && many > 1_000,
             "{cases} {multi} {many}"
+        );
+    }
+
+    /// The whole manifold as bits (`None`: no contact).
+    fn manifold_bits(m: Option<Manifold>) -> Option<(usize, [u32; 3], Vec<[u32; 4]>)> {
+        m.map(|m| {
+            let pts: Vec<(Vec3, f32)> = m.points().iter().map(|p| (p.point, p.depth)).collect();
+            (m.count, m.normal.to_array().map(f32::to_bits), bits(&pts))
+        })
+    }
+
+    /// The clip without the scan for a corner outside (`Plan::scan` off, as a served
+    /// record's plan) against the clip with it, bitwise: boxes and random hulls turned at
+    /// random or onto the axes exactly (corners on side planes: distance `+0` or `-0`,
+    /// planes that cut nothing, corners outside by one ulp), incident corners with zeros of
+    /// either sign, and a corner NaN or infinite now and then (degenerate poses); and the
+    /// same with each plan's skipped planes taken from a plane that cuts nothing there.
+    #[test]
+    fn clip_without_the_scan_is_the_clip_with_it() {
+        let mut r = ChaCha8Rng::seed_from_u64(21);
+        let cube = |h: Vec3| {
+            let v: Vec<Vec3> = (0..8)
+                .map(|k| {
+                    let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
+                    Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
+                })
+                .collect();
+            crate::convex_hull(&v).expect("box hull")
+        };
+        let mut shapes = vec![cube(Vec3::splat(0.01)), cube(Vec3::new(0.5, 0.2, 0.3))];
+        for _ in 0..4 {
+            let v: Vec<Vec3> = (0..r.random_range(6..24))
+                .map(|_| Vec3::new(r.random(), r.random(), r.random()) - 0.5)
+                .collect();
+            shapes.push(crate::convex_hull(&v).expect("random hull"));
+        }
+        let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+        let (mut buf_a, mut buf_b) = (ClipBuffers::default(), ClipBuffers::default());
+        let (mut cut_nothing, mut contacts, mut odd) = (0, 0, 0);
+        for case in 0..40_000 {
+            let refp = &shapes[r.random_range(0..shapes.len())];
+            let inc = &shapes[r.random_range(0..shapes.len())];
+            let rf = r.random_range(0..refp.faces.len());
+            let face = refp.faces[rf];
+            let exact = case % 3 == 0;
+            let rot = if exact {
+                let a = axes[r.random_range(0..6)];
+                let b = loop {
+                    let b = axes[r.random_range(0..6)];
+                    if a.dot(b) == 0.0 {
+                        break b;
+                    }
+                };
+                Mat3::from_cols(a, b, a.cross(b))
+            } else {
+                let mut q = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
+                q[3] += 1e-3;
+                Mat3::from_quat(Quat::from_array(q).normalize())
+            };
+            let scale = refp.radius.max(inc.radius);
+            let lateral = if exact {
+                // Whole steps of the small cube's half size (corners on its side planes),
+                // or nothing (a box on a box of the same size: every plane cuts nothing).
+                Vec3::new(
+                    r.random_range(-2..=2) as f32,
+                    r.random_range(-2..=2) as f32,
+                    r.random_range(-2..=2) as f32,
+                ) * (0.005 * r.random_range(0..2) as f32)
+            } else {
+                Vec3::new(r.random(), r.random(), r.random()) * scale * 0.3
+            };
+            let t = face.normal * (face.offset + inc.radius * r.random_range(0.5..1.0)) + lateral;
+            // Zeros turned to `-0` (or not), a corner off by an ulp, a NaN or an infinity.
+            let flip = r.random_range(0..8u32);
+            let nudge = r.random_range(0..64usize);
+            let bad = if case % 97 == 0 {
+                [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][case / 97 % 3]
+            } else {
+                0.0
+            };
+            let inc_v = |i: usize| {
+                let mut p = (rot * inc.vertices[i] + t).to_array();
+                for (k, c) in p.iter_mut().enumerate() {
+                    if *c == 0.0 && flip >> k & 1 != 0 {
+                        *c = -*c;
+                    }
+                }
+                if i == nudge % inc.vertices.len() && nudge < 16 {
+                    p[nudge % 3] = f32::from_bits(p[nudge % 3].to_bits() + 1);
+                }
+                if bad != 0.0 && i == nudge % inc.vertices.len() {
+                    p[0] = bad;
+                }
+                Vec3::from_array(p)
+            };
+            odd += (bad != 0.0 || flip != 0) as usize;
+            let with = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_a, &Plan::FULL);
+            let without = Plan {
+                scan: false,
+                ..Plan::FULL
+            };
+            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_b, &without);
+            contacts += with.is_some() as usize;
+            assert_eq!(manifold_bits(got), manifold_bits(with), "case {case}");
+            // The planes that cut nothing here (every corner of the incident face inside
+            // or on them, as a record's skipped planes are): skipped, without the scan.
+            let n_inc = rot.transpose() * face.normal;
+            let il = inc.face_loop(incident_face(inc, n_inc));
+            let mut skip = 0u8;
+            for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate().take(8) {
+                if il.iter().all(|&i| side.dot(inc_v(i as usize)) - off < 0.0) {
+                    skip |= 1 << k;
+                }
+            }
+            cut_nothing += (skip != 0) as usize;
+            let skipping = Plan { skip, ..without };
+            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_b, &skipping);
+            assert_eq!(
+                manifold_bits(got),
+                manifold_bits(with),
+                "case {case} skip {skip:b}"
+            );
+        }
+        assert!(
+            contacts > 10_000 && cut_nothing > 5_000 && odd > 10_000,
+            "{contacts} {cut_nothing} {odd}"
         );
     }
 }
