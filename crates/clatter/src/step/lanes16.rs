@@ -371,11 +371,7 @@ impl Law16 {
     #[inline(always)]
     pub(super) fn half<const H: i32>(&self) -> Law8 {
         let m = |m: M16| {
-            if H == 0 {
-                m.half::<0>()
-            } else {
-                m.half::<1>()
-            }
+            if H == 0 { m.half::<0>() } else { m.half::<1>() }
         };
         Law8 {
             f: self.f.half::<H>(),

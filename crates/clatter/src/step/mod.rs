@@ -25,12 +25,12 @@ mod integrate_lanes;
 #[cfg(target_arch = "x86_64")]
 mod lanes;
 #[cfg(target_arch = "x86_64")]
+mod lanes16;
+#[cfg(target_arch = "x86_64")]
 mod law_lanes;
 pub mod mesh_contacts;
 pub(crate) mod motion;
 pub(crate) mod near;
-#[cfg(target_arch = "x86_64")]
-mod lanes16;
 #[cfg(target_arch = "x86_64")]
 mod sphere_lanes;
 #[cfg(target_arch = "x86_64")]

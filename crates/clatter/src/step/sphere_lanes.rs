@@ -307,7 +307,7 @@ pub(super) unsafe fn split_positions(x: &[Ds3A], idx: __m256i) -> [F8; 8] {
 /// AVX2; every index below `b.x.len()`.
 #[inline]
 #[target_feature(enable = "avx2")]
-pub(super) unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
+unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
     // SAFETY: the caller's bounds.
     let (xi, xj) = unsafe { (split_positions(b.x, i), split_positions(b.x, j)) };
     let (mut d_hi, mut d_lo) = ([F8::splat(0.0); 3], [F8::splat(0.0); 3]);

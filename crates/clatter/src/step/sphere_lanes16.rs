@@ -13,10 +13,10 @@ use std::arch::x86_64::*;
 use glam::Vec3;
 
 use super::contacts::sphere_pair;
-use super::lanes::{gather, load_vec3_at};
+use super::lanes::{F8, gather, load_vec3_at};
 use super::lanes16::{F16, M16, Pair16, W3, law16};
 use super::law_lanes::{split_pairs, store, was_touching};
-use super::sphere_lanes::{Bodies, Shared, Uniform, group, offset, params};
+use super::sphere_lanes::{Bodies, Shared, Uniform, group, params, split_positions};
 use crate::contract::ContactForce;
 use crate::precise::Ds3A;
 use crate::world::World;
@@ -136,6 +136,69 @@ fn halves_mut<T>(a: &mut [T; 16]) -> (&mut [T; 8], &mut [T; 8]) {
     (lo.try_into().unwrap(), hi.try_into().unwrap())
 }
 
+/// `j`'s offset from `i` in sixteen lanes (the indices in two halves of eight):
+/// [`super::sphere_lanes`]' `offset`, each lane the same operations (`precise::offset_a`:
+/// `ds_sub_a`, then the nearest periodic image).
+///
+/// # Safety
+/// AVX-512F and DQ; every index below `b.x.len()`.
+// Inlined, as `law16`: a call returned its lanes through memory.
+#[inline(always)]
+unsafe fn offset16(b: &Bodies, (i0, i1): (__m256i, __m256i), (j0, j1): (__m256i, __m256i)) -> W3 {
+    // SAFETY: the caller's bounds; AVX2 (implied).
+    let (xi, xj) = unsafe {
+        (
+            [split_positions(b.x, i0), split_positions(b.x, i1)],
+            [split_positions(b.x, j0), split_positions(b.x, j1)],
+        )
+    };
+    let zero = F16::splat(0.0);
+    let (mut d_hi, mut d_lo) = ([zero; 3], [zero; 3]);
+    for c in 0..3 {
+        let row = |x: &[[F8; 8]; 2], r: usize| F16::join(x[0][r], x[1][r]);
+        let (ih, il, jh, jl) = (row(&xi, c), row(&xi, 4 + c), row(&xj, c), row(&xj, 4 + c));
+        // `ds_sub_a(xj, xi)`.
+        let s = jh - ih;
+        let v = s - jh;
+        let e = ((jh - (s - v)) - (ih + v)) + (jl - il);
+        d_hi[c] = s + e;
+        d_lo[c] = e - (d_hi[c] - s);
+    }
+    if let Some(len) = b.periodic {
+        // `nearest`: each periodic axis's shift, then, where any axis shifts, `ds_add` of
+        // the shift (its low part 0) on all three.
+        let mut any = zero.ne(zero);
+        let mut shifted = d_hi;
+        for c in 0..3 {
+            let len = len[c];
+            let shift = if len > 0.0 {
+                let up = d_hi[c].gt(F16::splat(0.5 * len));
+                let down = d_hi[c].lt(F16::splat(-0.5 * len));
+                F16::select(
+                    up,
+                    F16::splat(-len),
+                    F16::select(down, F16::splat(len), zero),
+                )
+            } else {
+                zero
+            };
+            any = any.or(shift.ne(zero));
+            let s = d_hi[c] + shift;
+            let v = s - d_hi[c];
+            let e = ((d_hi[c] - (s - v)) + (shift - v)) + (d_lo[c] + zero);
+            shifted[c] = s + e;
+        }
+        for c in 0..3 {
+            d_hi[c] = F16::select(any, shifted[c], d_hi[c]);
+        }
+    }
+    W3 {
+        x: d_hi[0],
+        y: d_hi[1],
+        z: d_hi[2],
+    }
+}
+
 /// Sixteen pairs (`pairs`, with their slots): [`group`]'s work on two groups of eight at
 /// once. Returns the number that touch.
 ///
@@ -167,7 +230,7 @@ unsafe fn group16(
 
     // SAFETY (all reads below): indices bounded above; the arrays cover every body
     // (checked by `Bodies::of`).
-    let d = unsafe { W3::join(offset(b, i0, j0), offset(b, i1, j1)) };
+    let d = unsafe { offset16(b, (i0, i1), (j0, j1)) };
     let (ri, sum, reach2) = match shared {
         Some(s) => (s.radius, s.sum, s.reach2),
         None => {
@@ -361,14 +424,14 @@ mod tests {
                 start = r.end;
             }
             assert_eq!((ta, ta), (tb, tc), "case {case}: touching counts");
-            for k in 0..np {
+            for (k, pair) in p.iter().enumerate() {
                 let (sa, sb, sc) = (slot_bits(&a, k), slot_bits(&b, k), slot_bits(&c, k));
                 assert_eq!(sa, sb, "case {case}, pair {k}: scalar and 8 lanes");
                 assert_eq!(
                     sb,
                     sc,
                     "case {case}, pair {k} {:?}: 8 lanes {:?}, 16 lanes {:?}",
-                    p[k],
+                    pair,
                     (b.history[k], b.twist[k], b.forces[k], b.touching[k]),
                     (c.history[k], c.twist[k], c.forces[k], c.touching[k]),
                 );
