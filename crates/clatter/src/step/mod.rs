@@ -14,7 +14,9 @@
 //! lane of a register, with the scalar code's bits (`lanes`' operations): the sphere pairs
 //! (`sphere_lanes`) and the sphere-wall pairs (`wall_lanes`) on the plain law (their law
 //! and stores: `law_lanes`), and the body update after the gather (`integrate_lanes`).
-//! What they do not cover runs the scalar code, compiled for AVX2 too (`vex`).
+//! What they do not cover runs the scalar code, compiled for AVX2 too (`vex`). Where the
+//! CPU also has AVX-512 (`avx512`), the sphere pairs run sixteen at a time
+//! (`sphere_lanes16`, `lanes16`), with the same bits.
 
 pub mod broad;
 pub mod contacts;
