@@ -112,13 +112,13 @@ impl Uniform {
 
 /// What a chunk's groups share in a [`Uniform`] world, in lanes.
 #[derive(Clone, Copy)]
-struct Shared {
-    radius: F8,
+pub(super) struct Shared {
+    pub(super) radius: F8,
     /// `ri + rj`.
-    sum: F8,
+    pub(super) sum: F8,
     /// `(ri + rj) * (ri + rj)`.
-    reach2: F8,
-    pair: Pair8,
+    pub(super) reach2: F8,
+    pub(super) pair: Pair8,
 }
 
 impl Shared {
@@ -126,7 +126,7 @@ impl Shared {
     /// AVX2.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn of(b: &Bodies, u: Uniform) -> Shared {
+    pub(super) unsafe fn of(b: &Bodies, u: Uniform) -> Shared {
         let (r, m) = (F8::splat(u.radius), F8::splat(u.mass));
         let sum = r + r;
         let p = &b.table[0];
@@ -148,6 +148,36 @@ impl Shared {
     }
 }
 
+/// The body-pair chunk's sphere pairs on the plain law (what `sphere_chunk::<true>` does):
+/// sixteen pairs at a time where the CPU has AVX-512 ([`super::avx512`],
+/// [`super::sphere_lanes16`]), eight otherwise ([`sphere_chunk8`]); the same bits either
+/// way. Returns the number that touch.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[allow(clippy::too_many_arguments)]
+pub(super) unsafe fn sphere_chunk(
+    w: &World,
+    x: &[Ds3A],
+    uniform: Option<Uniform>,
+    pairs: &[[u32; 2]],
+    hist: &mut [Vec3],
+    coverage: &mut [f32],
+    force: &mut [ContactForce],
+    touching: &mut [bool],
+) -> usize {
+    if super::avx512() {
+        // SAFETY: the CPU has AVX-512F, DQ and VL (`avx512`).
+        return unsafe {
+            super::sphere_lanes16::sphere_chunk(
+                w, x, uniform, pairs, hist, coverage, force, touching,
+            )
+        };
+    }
+    // SAFETY: the caller's AVX2.
+    unsafe { sphere_chunk8(w, x, uniform, pairs, hist, coverage, force, touching) }
+}
+
 /// The body-pair chunk's sphere pairs on the plain law (what `sphere_chunk::<true>` does),
 /// eight pairs at a time; returns the number that touch. The scalar code does the rest of
 /// the chunk (`pairs.len() % 8`) and the lanes this path leaves to it (see the module docs).
@@ -156,7 +186,7 @@ impl Shared {
 /// The CPU must have AVX2.
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn sphere_chunk(
+pub(super) unsafe fn sphere_chunk8(
     w: &World,
     x: &[Ds3A],
     uniform: Option<Uniform>,
@@ -330,7 +360,7 @@ unsafe fn offset(b: &Bodies, i: __m256i, j: __m256i) -> V3 {
 #[inline]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn group(
+pub(super) unsafe fn group(
     w: &World,
     b: &Bodies,
     shared: Option<&Shared>,
@@ -464,7 +494,7 @@ unsafe fn group(
 /// AVX2; indices below the bodies' count.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn params(b: &Bodies, i: __m256i, j: __m256i) -> (F8, F8, F8) {
+pub(super) unsafe fn params(b: &Bodies, i: __m256i, j: __m256i) -> (F8, F8, F8) {
     if b.materials == 1 {
         let p = &b.table[0];
         return (
@@ -519,7 +549,7 @@ pub(super) unsafe fn params_of(b: &Bodies, ma: __m256i, mb: __m256i) -> (F8, F8,
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::contact_list::ContactSprings;
     use crate::geom::ShapeKind;
@@ -532,7 +562,7 @@ mod tests {
     /// materials,
     /// overlapping at random (some pairs exactly on top of each other), with velocities
     /// and spins at random, some fast.
-    fn cloud(
+    pub(in crate::step) fn cloud(
         rng: &mut ChaCha8Rng,
         materials: usize,
         sizes: u32,
@@ -612,7 +642,7 @@ mod tests {
     /// Springs as a step may find them: touching or not, histories zero, small or past
     /// the Coulomb cap, coverages of first steps (0), of released contacts (-1) and of
     /// contacts under way; forces only where touching.
-    fn springs(rng: &mut ChaCha8Rng, n: usize) -> ContactSprings {
+    pub(in crate::step) fn springs(rng: &mut ChaCha8Rng, n: usize) -> ContactSprings {
         let mut s = ContactSprings::default();
         for _ in 0..n {
             let touching = rng.random_bool(0.5);
@@ -642,7 +672,7 @@ mod tests {
     }
 
     /// Every bit of contact `k`'s slots.
-    fn slot_bits(s: &ContactSprings, k: usize) -> Vec<u32> {
+    pub(in crate::step) fn slot_bits(s: &ContactSprings, k: usize) -> Vec<u32> {
         let mut bits: Vec<u32> = s.history[k].to_array().map(f32::to_bits).to_vec();
         bits.push(s.twist[k].to_bits());
         bits.extend(bytemuck::cast::<ContactForce, [u32; 12]>(s.forces[k]));
@@ -690,7 +720,7 @@ mod tests {
             );
             // SAFETY: the CPU has AVX2 (checked above).
             let tb = unsafe {
-                sphere_chunk(
+                sphere_chunk8(
                     &w,
                     x,
                     uniform,
