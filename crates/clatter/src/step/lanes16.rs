@@ -16,9 +16,7 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 use glam::Vec3;
 
 use super::lanes::{F8, M8, V3, load_vec3};
-use super::law_lanes::{Law8, Pair8};
-use crate::contract::{LINEAR_TANGENTIAL_RATIO, TANGENTIAL_DAMPING_RATIO};
-use crate::law::{EDGE_SLACK, RESOLVABLE};
+use super::law_lanes::{Law8, Pair8, lane_law, pair_constants};
 
 /// Sixteen `f32` lanes. Values exist only inside AVX-512 functions (`avx512f`,
 /// `avx512dq`, `avx512vl`), so the CPU has those wherever one is used.
@@ -318,22 +316,7 @@ impl Pair16 {
         m_eff: F16,
         dt: f32,
     ) -> Pair16 {
-        let k = stiffness;
-        let eta = damping_factor * (m_eff * k.max_const(0.0)).sqrt();
-        let dt = F16::splat(dt);
-        let explicit = (dt * (dt * k + eta)).gt(F16::splat(RESOLVABLE) * m_eff);
-        let half_eta = F16::splat(0.5) * eta;
-        Pair16 {
-            k,
-            friction,
-            m_eff,
-            eta,
-            half_eta,
-            per_mass: F16::splat(1.0) / (m_eff + half_eta * dt),
-            explicit,
-            kt: F16::splat(LINEAR_TANGENTIAL_RATIO) * k,
-            eta_t: F16::splat(TANGENTIAL_DAMPING_RATIO) * eta,
-        }
+        pair_constants!(F16, Pair16; stiffness, damping_factor, friction, m_eff, dt)
     }
 
     /// The same constants in both halves (a uniform world's, computed once a chunk).
@@ -402,73 +385,13 @@ pub(super) unsafe fn law16(
     hist: &[Vec3; 16],
     coverage: &[f32; 16],
 ) -> Law16 {
-    let zero = F16::splat(0.0);
-    let (m_eff, k, eta, half_eta) = (p.m_eff, p.k, p.eta, p.half_eta);
-    let fs = k * depth;
-    let dt = F16::splat(dt);
-    let vn = vrel.dot(n);
-
-    // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
-    let v = -vn;
     // SAFETY: 16 `f32`s.
     let cov = F16(unsafe { _mm512_loadu_ps(coverage.as_ptr()) });
-    let first = cov.eq(zero);
-    let g_start = F16::select(cov.gt(zero), cov, zero);
-    let g_x = eta * depth;
-    let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
-    let per_mass = p.per_mass;
-    let v_after = v - impulse * per_mass;
-    let fn_ = impulse * per_mass * m_eff / dt;
-    let stays = (depth + dt * v_after).gt(F16::splat(EDGE_SLACK) * dt * v_after.abs());
-    let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
-    let scalar = touch.and(p.explicit.or(first)).or(stays.and_not(touch));
-    let done = scalar.and_not(touch);
-
-    // `tangential_law`.
-    let (kt, eta_t) = (p.kt, p.eta_t);
-    let vt = vrel - n * vn;
     let (lo, hi) = (
         <&[Vec3; 8]>::try_from(&hist[..8]).expect("8"),
         <&[Vec3; 8]>::try_from(&hist[8..]).expect("8"),
     );
     // SAFETY: AVX2 (implied by AVX-512F).
     let h = unsafe { W3::join(load_vec3(lo), load_vec3(hi)) };
-    let along = h.dot(n);
-    let old_len2 = h.length_squared();
-    let turned = h - n * along;
-    let new_len2 = turned.length_squared();
-    let rescaled = W3::select(
-        new_len2.gt(zero),
-        turned * (old_len2 / new_len2).sqrt(),
-        turned,
-    );
-    let xi = W3::select(along.ne(zero), rescaled, h) + vt * dt;
-    let cap = p.friction * fn_.max_const(0.0);
-    let cap2 = cap * cap;
-    let spring2 = kt * kt * xi.length_squared();
-    // The Coulomb caps only where a kept lane is capped, as `law`.
-    let over = spring2.gt(cap2).and(done);
-    let xi = if over.bits() != 0 {
-        W3::select(over, xi * (cap / spring2.sqrt()), xi)
-    } else {
-        xi
-    };
-    let ft = xi * -kt - vt * eta_t;
-    let ft_len2 = ft.length_squared();
-    let over = ft_len2.gt(cap2).and(done);
-    let ft = if over.bits() != 0 {
-        W3::select(over, ft * (cap / ft_len2.sqrt()), ft)
-    } else {
-        ft
-    };
-    Law16 {
-        f: n * fn_ + ft,
-        fn_,
-        xi,
-        cov_after,
-        h,
-        cov,
-        scalar,
-        done,
-    }
+    lane_law!(F16, W3, Law16; n, depth, vrel, p, touch, touch.and_not(touch), dt, cov, h)
 }

@@ -9,8 +9,7 @@ use std::arch::x86_64::*;
 use glam::Vec3;
 
 use super::lanes::{F8, M8, V3, load_vec3, store_vec3};
-use crate::contract::{ContactForce, LINEAR_TANGENTIAL_RATIO, TANGENTIAL_DAMPING_RATIO};
-use crate::law::{EDGE_SLACK, RESOLVABLE};
+use crate::contract::ContactForce;
 
 /// What the law takes of eight contacts: the normal `n` (from side a to side b), the
 /// overlap `depth`, the relative velocity `vrel` of b's contact point against a's, and the
@@ -41,6 +40,32 @@ pub(super) struct Pair8 {
     pub(super) eta_t: F8,
 }
 
+/// [`Pair8::of`]'s body, written once for every lane width (`$f` the lanes' float type,
+/// `$pair` the constants' type: [`F8`] and [`Pair8`], or `F16` and `Pair16` in
+/// [`super::lanes16`]), so that the widths do the same operations lane for lane.
+macro_rules! pair_constants {
+    ($f:ident, $pair:ident; $stiffness:expr, $damping_factor:expr, $friction:expr,
+     $m_eff:expr, $dt:expr) => {{
+        let (k, damping_factor, friction, m_eff) = ($stiffness, $damping_factor, $friction, $m_eff);
+        let eta = damping_factor * (m_eff * k.max_const(0.0)).sqrt();
+        let dt = $f::splat($dt);
+        let explicit = (dt * (dt * k + eta)).gt($f::splat($crate::law::RESOLVABLE) * m_eff);
+        let half_eta = $f::splat(0.5) * eta;
+        $pair {
+            k,
+            friction,
+            m_eff,
+            eta,
+            half_eta,
+            per_mass: $f::splat(1.0) / (m_eff + half_eta * dt),
+            explicit,
+            kt: $f::splat($crate::contract::LINEAR_TANGENTIAL_RATIO) * k,
+            eta_t: $f::splat($crate::contract::TANGENTIAL_DAMPING_RATIO) * eta,
+        }
+    }};
+}
+pub(super) use pair_constants;
+
 impl Pair8 {
     /// The constants of pairs with these parameters and effective masses, at step `dt`.
     ///
@@ -54,22 +79,7 @@ impl Pair8 {
         m_eff: F8,
         dt: f32,
     ) -> Pair8 {
-        let k = stiffness;
-        let eta = damping_factor * (m_eff * k.max_const(0.0)).sqrt();
-        let dt = F8::splat(dt);
-        let explicit = (dt * (dt * k + eta)).gt(F8::splat(RESOLVABLE) * m_eff);
-        let half_eta = F8::splat(0.5) * eta;
-        Pair8 {
-            k,
-            friction,
-            m_eff,
-            eta,
-            half_eta,
-            per_mass: F8::splat(1.0) / (m_eff + half_eta * dt),
-            explicit,
-            kt: F8::splat(LINEAR_TANGENTIAL_RATIO) * k,
-            eta_t: F8::splat(TANGENTIAL_DAMPING_RATIO) * eta,
-        }
+        pair_constants!(F8, Pair8; stiffness, damping_factor, friction, m_eff, dt)
     }
 }
 
@@ -89,6 +99,89 @@ pub(super) struct Law8 {
     pub(super) scalar: M8,
     pub(super) done: M8,
 }
+
+/// The lane law's body, written once for every lane width: `$f`, `$v` and `$law` are the
+/// width's float, vector and results types ([`F8`], [`V3`], [`Law8`] for [`law`];
+/// `F16`, `W3`, `Law16` for [`super::lanes16::law16`]), the rest the law's inputs, with the
+/// springs `h` and coverages `cov` already loaded. Why a macro: the two widths must do the
+/// same IEEE operations in the same order lane for lane (the same bits as the scalar law),
+/// so they share one text and cannot drift apart; the types' operations are inlined
+/// intrinsics, which a trait's generic code would hide behind `target_feature` boundaries.
+macro_rules! lane_law {
+    ($f:ident, $v:ident, $law:ident; $n:expr, $depth:expr, $vrel:expr, $p:expr, $touch:expr,
+     $forced:expr, $dt:expr, $cov:expr, $h:expr) => {{
+        let zero = $f::splat(0.0);
+        let (n, depth, vrel, p, touch, forced, cov, h) =
+            ($n, $depth, $vrel, $p, $touch, $forced, $cov, $h);
+        let (m_eff, k, eta, half_eta) = (p.m_eff, p.k, p.eta, p.half_eta);
+        let fs = k * depth;
+        let dt = $f::splat($dt);
+        let vn = vrel.dot(n);
+
+        // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
+        let v = -vn;
+        let first = cov.eq(zero);
+        let g_start = $f::select(cov.gt(zero), cov, zero);
+        let g_x = eta * depth;
+        let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
+        let per_mass = p.per_mass;
+        let v_after = v - impulse * per_mass;
+        let fn_ = impulse * per_mass * m_eff / dt;
+        let stays =
+            (depth + dt * v_after).gt($f::splat($crate::law::EDGE_SLACK) * dt * v_after.abs());
+        let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
+        let scalar = touch
+            .and(p.explicit.or(first).or(forced))
+            .or(stays.and_not(touch));
+        let done = scalar.and_not(touch);
+
+        // `tangential_law`.
+        let (kt, eta_t) = (p.kt, p.eta_t);
+        let vt = vrel - n * vn;
+        let along = h.dot(n);
+        let old_len2 = h.length_squared();
+        let turned = h - n * along;
+        let new_len2 = turned.length_squared();
+        let rescaled = $v::select(
+            new_len2.gt(zero),
+            turned * (old_len2 / new_len2).sqrt(),
+            turned,
+        );
+        let xi = $v::select(along.ne(zero), rescaled, h) + vt * dt;
+        let cap = p.friction * fn_.max_const(0.0);
+        let cap2 = cap * cap;
+        let spring2 = kt * kt * xi.length_squared();
+        // The Coulomb caps' square roots and divisions only where a lane whose results are
+        // kept (`done`) is capped: in a settled pile few slide. Other lanes are thrown away
+        // by `store` (a lane that does not touch, whose cap is 0, would always count as
+        // capped).
+        let over = spring2.gt(cap2).and(done);
+        let xi = if over.bits() != 0 {
+            $v::select(over, xi * (cap / spring2.sqrt()), xi)
+        } else {
+            xi
+        };
+        let ft = xi * -kt - vt * eta_t;
+        let ft_len2 = ft.length_squared();
+        let over = ft_len2.gt(cap2).and(done);
+        let ft = if over.bits() != 0 {
+            $v::select(over, ft * (cap / ft_len2.sqrt()), ft)
+        } else {
+            ft
+        };
+        $law {
+            f: n * fn_ + ft,
+            fn_,
+            xi,
+            cov_after,
+            h,
+            cov,
+            scalar,
+            done,
+        }
+    }};
+}
+pub(super) use lane_law;
 
 /// The law on eight contacts (`touch`: the lanes that touch now; `forced`: touching lanes
 /// to leave to the scalar code whatever the law says), with their springs `hist` and
@@ -112,76 +205,11 @@ pub(super) unsafe fn law(
     hist: &[Vec3; 8],
     coverage: &[f32; 8],
 ) -> Law8 {
-    let zero = F8::splat(0.0);
-    let (n, depth, vrel, p) = (c.n, c.depth, c.vrel, &c.pair);
-    let (m_eff, k, eta, half_eta) = (p.m_eff, p.k, p.eta, p.half_eta);
-    let fs = k * depth;
-    let dt = F8::splat(dt);
-    let vn = vrel.dot(n);
-
-    // `resolved_normal_force_in::<true>` inside a contact (not its first or last step).
-    let v = -vn;
     // SAFETY: 8 `f32`s.
     let cov = F8(unsafe { _mm256_loadu_ps(coverage.as_ptr()) });
-    let first = cov.eq(zero);
-    let g_start = F8::select(cov.gt(zero), cov, zero);
-    let g_x = eta * depth;
-    let impulse = fs * dt + (g_x - g_start) + half_eta * v * dt;
-    let per_mass = p.per_mass;
-    let v_after = v - impulse * per_mass;
-    let fn_ = impulse * per_mass * m_eff / dt;
-    let stays = (depth + dt * v_after).gt(F8::splat(EDGE_SLACK) * dt * v_after.abs());
-    let cov_after = (g_x + half_eta * dt * v_after).max_const(f32::MIN_POSITIVE);
-    let scalar = touch
-        .and(p.explicit.or(first).or(forced))
-        .or(stays.and_not(touch));
-    let done = scalar.and_not(touch);
-
-    // `tangential_law`.
-    let (kt, eta_t) = (p.kt, p.eta_t);
-    let vt = vrel - n * vn;
     // SAFETY: AVX2.
     let h = unsafe { load_vec3(hist) };
-    let along = h.dot(n);
-    let old_len2 = h.length_squared();
-    let turned = h - n * along;
-    let new_len2 = turned.length_squared();
-    let rescaled = V3::select(
-        new_len2.gt(zero),
-        turned * (old_len2 / new_len2).sqrt(),
-        turned,
-    );
-    let xi = V3::select(along.ne(zero), rescaled, h) + vt * dt;
-    let cap = p.friction * fn_.max_const(0.0);
-    let cap2 = cap * cap;
-    let spring2 = kt * kt * xi.length_squared();
-    // The Coulomb caps' square roots and divisions only where a lane whose results are
-    // kept (`done`) is capped: in a settled pile few slide. Other lanes are thrown away by
-    // `store` (a lane that does not touch, whose cap is 0, would always count as capped).
-    let over = spring2.gt(cap2).and(done);
-    let xi = if over.bits() != 0 {
-        V3::select(over, xi * (cap / spring2.sqrt()), xi)
-    } else {
-        xi
-    };
-    let ft = xi * -kt - vt * eta_t;
-    let ft_len2 = ft.length_squared();
-    let over = ft_len2.gt(cap2).and(done);
-    let ft = if over.bits() != 0 {
-        V3::select(over, ft * (cap / ft_len2.sqrt()), ft)
-    } else {
-        ft
-    };
-    Law8 {
-        f: n * fn_ + ft,
-        fn_,
-        xi,
-        cov_after,
-        h,
-        cov,
-        scalar,
-        done,
-    }
+    lane_law!(F8, V3, Law8; c.n, c.depth, c.vrel, &c.pair, touch, forced, dt, cov, h)
 }
 
 /// Stores the law's results (`torques`: on a and on b) in eight contacts' slots: the
