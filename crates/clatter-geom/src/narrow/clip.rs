@@ -449,6 +449,26 @@ mod tests {
         );
     }
 
+    /// A random rotation; where `exact`, one that maps the axes onto axes exactly (with the
+    /// boxes' faces on the axes, corners then land exactly on side planes: distance zero).
+    fn test_rotation(r: &mut ChaCha8Rng, exact: bool) -> Mat3 {
+        if exact {
+            let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+            let a = axes[r.random_range(0..6)];
+            let b = loop {
+                let b = axes[r.random_range(0..6)];
+                if a.dot(b) == 0.0 {
+                    break b;
+                }
+            };
+            Mat3::from_cols(a, b, a.cross(b))
+        } else {
+            let mut q = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
+            q[3] += 1e-3;
+            Mat3::from_quat(Quat::from_array(q).normalize())
+        }
+    }
+
     fn bits(p: &[(Vec3, f32)]) -> Vec<[u32; 4]> {
         p.iter()
             .map(|(v, d)| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits(), d.to_bits()])
@@ -497,24 +517,8 @@ mod tests {
             let inc = &shapes[r.random_range(0..shapes.len())];
             let rf = r.random_range(0..refp.faces.len());
             let face = refp.faces[rf];
-            let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
             let exact = case % 4 == 0;
-            let rot = if exact {
-                // A rotation that maps axes onto axes, exactly: with the boxes' faces on
-                // the axes, corners land exactly on side planes (distance zero).
-                let a = axes[r.random_range(0..6)];
-                let b = loop {
-                    let b = axes[r.random_range(0..6)];
-                    if a.dot(b) == 0.0 {
-                        break b;
-                    }
-                };
-                Mat3::from_cols(a, b, a.cross(b))
-            } else {
-                let mut q = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
-                q[3] += 1e-3;
-                Mat3::from_quat(Quat::from_array(q).normalize())
-            };
+            let rot = test_rotation(&mut r, exact);
             let scale = refp.radius.max(inc.radius);
             let lateral = if exact {
                 Vec3::new(
@@ -587,7 +591,6 @@ mod tests {
                 .collect();
             shapes.push(crate::convex_hull(&v).expect("random hull"));
         }
-        let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
         let (mut buf_a, mut buf_b) = (ClipBuffers::default(), ClipBuffers::default());
         let (mut cut_nothing, mut contacts, mut odd) = (0, 0, 0);
         for case in 0..40_000 {
@@ -596,20 +599,7 @@ mod tests {
             let rf = r.random_range(0..refp.faces.len());
             let face = refp.faces[rf];
             let exact = case % 3 == 0;
-            let rot = if exact {
-                let a = axes[r.random_range(0..6)];
-                let b = loop {
-                    let b = axes[r.random_range(0..6)];
-                    if a.dot(b) == 0.0 {
-                        break b;
-                    }
-                };
-                Mat3::from_cols(a, b, a.cross(b))
-            } else {
-                let mut q = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
-                q[3] += 1e-3;
-                Mat3::from_quat(Quat::from_array(q).normalize())
-            };
+            let rot = test_rotation(&mut r, exact);
             let scale = refp.radius.max(inc.radius);
             let lateral = if exact {
                 // Whole steps of the small cube's half size (corners on its side planes),
