@@ -17,6 +17,7 @@
 //! What they do not cover runs the scalar code, compiled for AVX2 too (`vex`).
 
 pub mod broad;
+pub(crate) mod caches;
 pub mod contacts;
 mod handover;
 pub mod integrate;
