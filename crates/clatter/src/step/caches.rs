@@ -143,7 +143,7 @@ mod tests {
                     _ => pairs(&mut rng, n, [20, 100, 500, 900][round % 4]),
                 };
                 // Each old pair's value names it; a value list up to all of `old` long.
-                let short = (rng.next() % 4 == 0) as usize * (rng.next() as usize % 7);
+                let short = rng.next().is_multiple_of(4) as usize * (rng.next() as usize % 7);
                 let len = old.len().saturating_sub(short);
                 let values: Vec<u64> = old[..len]
                     .iter()
