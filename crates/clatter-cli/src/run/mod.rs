@@ -685,7 +685,7 @@ fn step_loop(
         match watch.after(stepper, world, &stats, full) {
             Ok(checked) => {
                 if checked && full {
-                    // Without the edge memories (a cache): ~9 MB not copied every 100 steps.
+                    // Without the edge memories (a cache): ~8.5 MB not copied every 100 steps.
                     world.snapshot_into(last_good);
                 }
             }

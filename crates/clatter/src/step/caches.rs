@@ -2,11 +2,12 @@
 //! changes no result), kept cheap to move: carried across a broad-phase rebuild slot by slot
 //! ([`carry_by_pair`]), and left out of the run's snapshots ([`World::snapshot_into`]).
 //!
-//! A memory is ~770 bytes, ~9 MB for the default scene's ~11,000 pairs. Carried into a fresh
+//! A memory is several hundred bytes (whole cache lines), 8.4-8.6 MB for the default scene's
+//! pairs while it lands (the sizes of the vectors' `mmap`s). Carried into a fresh
 //! vector on one thread, every rebuild (one every ~40 steps) paid the kernel's page faults and
 //! zeroing for that much new memory, the copy, a default written back into each old slot and
 //! the old vector's unmap, while the other thread waited; the run loop's snapshot of the last
-//! good state (every 100 steps) cloned the nine megabytes again, into fresh pages. Now the
+//! good state (every 100 steps) cloned those megabytes again, into fresh pages. Now the
 //! new list is written in parallel into a spare vector kept from the last rebuild (its pages
 //! already mapped), the old vector becomes the next spare, and a snapshot copies no memory.
 //! Each slot gets the same value as before, so nothing else changes.
