@@ -141,6 +141,8 @@ pub struct World {
     /// serves only the polyhedra and the rotation it was recorded for), so it is in no
     /// checkpoint and need not follow its pair when the contact list is rebuilt.
     pub(crate) edge_memory: Vec<clatter_geom::narrow::EdgeMemory>,
+    /// The allocation the next rebuild carries the edge memories into (`step::caches`).
+    pub(crate) edge_memory_spare: crate::step::caches::Spare<clatter_geom::narrow::EdgeMemory>,
     needs_rebuild: bool,
     /// Per body, whether it is a ghost: a copy of a body another MPI rank owns
     /// ([`crate::domain`]), read by the contacts of this rank's bodies but never integrated,
@@ -235,6 +237,7 @@ impl World {
             position_pairs: Vec::new(),
             body_bounds: Vec::new(),
             edge_memory: Vec::new(),
+            edge_memory_spare: Default::default(),
             needs_rebuild: true,
             ghost: Vec::new(),
         };
@@ -336,6 +339,7 @@ impl World {
             position_pairs: Vec::new(),
             body_bounds: Vec::new(),
             edge_memory: Vec::new(),
+            edge_memory_spare: Default::default(),
         }
     }
 

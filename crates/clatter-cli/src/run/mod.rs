@@ -685,7 +685,8 @@ fn step_loop(
         match watch.after(stepper, world, &stats, full) {
             Ok(checked) => {
                 if checked && full {
-                    last_good.clone_from(world);
+                    // Without the edge memories (a cache): ~8.5 MB not copied every 100 steps.
+                    world.snapshot_into(last_good);
                 }
             }
             Err(WatchError::BlowUp(b)) => {

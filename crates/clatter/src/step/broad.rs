@@ -7,7 +7,6 @@
 //! once. Output is sorted by `(i, j)`, independent of the thread count.
 
 use clatter_geom::Shape;
-use clatter_geom::narrow::EdgeMemory;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -246,7 +245,8 @@ pub(crate) fn rebuild(world: &mut World) {
     let memory = if old_memory.is_empty() {
         old_memory
     } else {
-        carry_memory(&old.pairs, old_memory, &pairs)
+        let spare = &mut world.edge_memory_spare;
+        super::caches::carry_by_pair(&old.pairs, old_memory, &pairs, spare)
     };
     let springs = &old.springs;
     let (mut history, mut twist) = carry_springs(
@@ -267,29 +267,6 @@ pub(crate) fn rebuild(world: &mut World) {
     world.install_contacts(contacts);
     world.edge_memory = memory;
     super::mesh_contacts::rebuild(world);
-}
-
-/// The edge memories of the body pairs `new` (sorted) taken from those of the pairs `old`
-/// (sorted, with `memory` per pair where there is one), a fresh one for a new pair. Only
-/// a saving: a memory serves only the polyhedra and rotation it was recorded for, so which
-/// slot holds it changes no result.
-fn carry_memory(
-    old: &[[u32; 2]],
-    mut memory: Vec<EdgeMemory>,
-    new: &[[u32; 2]],
-) -> Vec<EdgeMemory> {
-    let mut out = Vec::with_capacity(new.len());
-    let mut k = 0;
-    for p in new {
-        while k < old.len() && old[k] < *p {
-            k += 1;
-        }
-        let kept = (k < old.len() && old[k] == *p)
-            .then(|| memory.get_mut(k))
-            .flatten();
-        out.push(kept.map(std::mem::take).unwrap_or_default());
-    }
-    out
 }
 
 /// The contact list of a world with composite bodies: each body pair (and body-wall pair)

@@ -19,6 +19,7 @@
 //! (`sphere_lanes16`, `lanes16`), with the same bits.
 
 pub mod broad;
+pub(crate) mod caches;
 pub mod contacts;
 mod handover;
 pub mod integrate;
