@@ -247,16 +247,19 @@ fn clip_by_plane(
     if scan && !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
         return None;
     }
+    // Without branches on the signs (they follow the poses, and mispredicted they cost
+    // more than the work they save: issue 23): each corner and each crossing is written
+    // at `w` whether or not it is kept, and `w` moves on only for those kept, so the kept
+    // ones are the same floats in the same order. (`w` stays below `2 src.len()` - 1 at
+    // each write, inside `dst`; a crossing not kept may be an infinity or a NaN, written
+    // over next.)
     let mut w = 0;
     let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
-        if dp <= 0.0 {
-            dst[w] = p;
-            w += 1;
-        }
-        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
-            dst[w] = p + (q - p) * (dp / (dp - dq));
-            w += 1;
-        }
+        dst[w] = p;
+        w += (dp <= 0.0) as usize;
+        let crosses = ((dp < 0.0) & (dq > 0.0)) | ((dp > 0.0) & (dq < 0.0));
+        dst[w] = p + (q - p) * (dp / (dp - dq));
+        w += crosses as usize;
     };
     let (mut p, mut dp) = (first, d_first);
     for &q in rest {
