@@ -91,29 +91,30 @@ pub(super) fn clip_faces(
     // four or fewer (the usual face contact: `reduce` keeps them all, in order); a fifth
     // sends the polygon through `reduce` with every point (each by the same expressions,
     // so the same floats).
-    let mut m = Manifold {
-        normal: n,
-        ..Default::default()
-    };
-    let mut more = false;
+    // Without a branch on the depths (they follow the poses: issue 23): each point is
+    // written at the next free slot of five and the count moves on only for a point with
+    // depth, so the kept ones are the same floats in the same order; a fifth slot taken
+    // means five or more points (the rest written over its slot).
+    let mut kept = [ContactPoint::default(); 5];
+    let mut count = 0;
     for &p in &poly[..len] {
         let depth = rface.offset - n.dot(p);
-        if depth > 0.0 {
-            if m.count == 4 {
-                more = true;
-                break;
-            }
-            m.points[m.count] = ContactPoint {
-                point: p + n * (0.5 * depth),
-                depth,
-            };
-            m.count += 1;
-        }
+        kept[count.min(4)] = ContactPoint {
+            point: p + n * (0.5 * depth),
+            depth,
+        };
+        count += (depth > 0.0) as usize;
     }
-    if more {
+    if count > 4 {
         return Some(reduce_all(&poly[..len], rface.offset, n, pts));
     }
-    if m.count > 0 {
+    if count > 0 {
+        let mut m = Manifold {
+            normal: n,
+            count,
+            ..Default::default()
+        };
+        m.points[..count].copy_from_slice(&kept[..count]);
         return Some(m);
     }
     // The separating-axis test found overlap but the incident face clips away entirely
@@ -559,6 +560,59 @@ mod tests {
             cases > 5_000 && multi > 2_000 && many > 1_000,
             "{cases} {multi} {many}"
         );
+    }
+
+    /// Cubes resting exactly face on face, turned onto the axes exactly and slid along the
+    /// face by steps of a quarter edge: the incident corners at depth exactly zero (kept by
+    /// neither, no contact) or, pressed in by a step, all at the same depth (kept): the
+    /// clip's manifold bitwise the reference's, for every face, both ways.
+    #[test]
+    fn exactly_touching_faces_are_the_reference() {
+        let mut r = ChaCha8Rng::seed_from_u64(29);
+        let h = 0.01f32;
+        let v: Vec<Vec3> = (0..8)
+            .map(|k| {
+                let s = |b: u32| if k & b != 0 { h } else { -h };
+                Vec3::new(s(1), s(2), s(4))
+            })
+            .collect();
+        let cube = crate::convex_hull(&v).expect("cube hull");
+        let (mut touching, mut pressed) = (0, 0);
+        let mut buffers = ClipBuffers::default();
+        for case in 0..4_000 {
+            let rf = r.random_range(0..cube.faces.len());
+            let face = cube.faces[rf];
+            let rot = test_rotation(&mut r, true);
+            let slide = Vec3::new(
+                r.random_range(-4..=4) as f32,
+                r.random_range(-4..=4) as f32,
+                r.random_range(-4..=4) as f32,
+            ) * (0.5 * h);
+            // Along the face only (the normal is an axis: exact).
+            let slide = slide - face.normal * face.normal.dot(slide);
+            let press = if case % 2 == 0 { 0.0 } else { 0.5 * h };
+            let t = face.normal * (face.offset + h - press) + slide;
+            let inc_v = |i: usize| rot * cube.vertices[i] + t;
+            let got = clip_faces(&cube, rf, &cube, inc_v, rot, &mut buffers, &Plan::FULL);
+            let want = reference(&cube, rf, &cube, inc_v, rot);
+            let got = got.map(|m| {
+                m.points()
+                    .iter()
+                    .map(|p| (p.point, p.depth))
+                    .collect::<Vec<_>>()
+            });
+            assert_eq!(
+                got.as_deref().map(bits),
+                want.as_deref().map(bits),
+                "case {case}"
+            );
+            match want {
+                None => touching += 1,
+                Some(_) => pressed += 1,
+            }
+        }
+        // Both outcomes met: corners at depth zero, and corners pressed in.
+        assert!(touching > 1_000 && pressed > 1_000, "{touching} {pressed}");
     }
 
     /// The whole manifold as bits (`None`: no contact).
