@@ -91,30 +91,29 @@ pub(super) fn clip_faces(
     // four or fewer (the usual face contact: `reduce` keeps them all, in order); a fifth
     // sends the polygon through `reduce` with every point (each by the same expressions,
     // so the same floats).
-    // Without a branch on the depths (they follow the poses: issue 23): each point is
-    // written at the next free slot of five and the count moves on only for a point with
-    // depth, so the kept ones are the same floats in the same order; a fifth slot taken
-    // means five or more points (the rest written over its slot).
-    let mut kept = [ContactPoint::default(); 5];
-    let mut count = 0;
+    let mut m = Manifold {
+        normal: n,
+        ..Default::default()
+    };
+    let mut more = false;
     for &p in &poly[..len] {
         let depth = rface.offset - n.dot(p);
-        kept[count.min(4)] = ContactPoint {
-            point: p + n * (0.5 * depth),
-            depth,
-        };
-        count += (depth > 0.0) as usize;
+        if depth > 0.0 {
+            if m.count == 4 {
+                more = true;
+                break;
+            }
+            m.points[m.count] = ContactPoint {
+                point: p + n * (0.5 * depth),
+                depth,
+            };
+            m.count += 1;
+        }
     }
-    if count > 4 {
+    if more {
         return Some(reduce_all(&poly[..len], rface.offset, n, pts));
     }
-    if count > 0 {
-        let mut m = Manifold {
-            normal: n,
-            count,
-            ..Default::default()
-        };
-        m.points[..count].copy_from_slice(&kept[..count]);
+    if m.count > 0 {
         return Some(m);
     }
     // The separating-axis test found overlap but the incident face clips away entirely
@@ -248,19 +247,16 @@ fn clip_by_plane(
     if scan && !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
         return None;
     }
-    // Without branches on the signs (they follow the poses, and mispredicted they cost
-    // more than the work they save: issue 23): each corner and each crossing is written
-    // at `w` whether or not it is kept, and `w` moves on only for those kept, so the kept
-    // ones are the same floats in the same order. (`w` stays below `2 src.len()` - 1 at
-    // each write, inside `dst`; a crossing not kept may be an infinity or a NaN, written
-    // over next.)
     let mut w = 0;
     let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
-        dst[w] = p;
-        w += (dp <= 0.0) as usize;
-        let crosses = ((dp < 0.0) & (dq > 0.0)) | ((dp > 0.0) & (dq < 0.0));
-        dst[w] = p + (q - p) * (dp / (dp - dq));
-        w += crosses as usize;
+        if dp <= 0.0 {
+            dst[w] = p;
+            w += 1;
+        }
+        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+            dst[w] = p + (q - p) * (dp / (dp - dq));
+            w += 1;
+        }
     };
     let (mut p, mut dp) = (first, d_first);
     for &q in rest {
