@@ -58,25 +58,34 @@ pub(super) fn clip_faces(
     // and one crossing at most), grown when needed and never shrunk, so that no push
     // checks its capacity.
     let il = inc.face_loop(inc_face);
-    fit(poly, 2 * il.len());
-    for (slot, &i) in poly.iter_mut().zip(il) {
-        *slot = inc_v(i as usize);
-    }
     let mut len = il.len();
     let planes = refp.side_planes(rf);
     if planes.len() <= 8 {
         // The planes not skipped, in order, by the bits of those left (a box's face has
-        // four planes): the skipped ones cost no turn of the loop.
+        // four planes): the skipped ones cost no turn of the loop. Both buffers are fitted
+        // once, for the longest polygon the planes can make (each plane at most doubles
+        // it, `len << k` after `k` planes, and its clip writes into `2 len`), not before
+        // each plane.
         let mut left = !plan.skip as u32 & ((1u32 << planes.len()) - 1);
+        let most = len << left.count_ones().max(1);
+        fit(poly, most);
+        fit(tmp, most);
+        for (slot, &i) in poly.iter_mut().zip(il) {
+            *slot = inc_v(i as usize);
+        }
         while left != 0 {
             let plane = planes[left.trailing_zeros() as usize];
             left &= left - 1;
-            len = clip_one(poly, tmp, len, plane, plan.scan);
+            len = clip_fitted(poly, tmp, len, plane, plan.scan);
             if len == 0 {
                 break;
             }
         }
     } else {
+        fit(poly, 2 * len);
+        for (slot, &i) in poly.iter_mut().zip(il) {
+            *slot = inc_v(i as usize);
+        }
         for (k, &plane) in planes.iter().enumerate() {
             if k < 8 && plan.skip >> k & 1 != 0 {
                 continue;
@@ -195,6 +204,18 @@ fn clip_one(
     scan: bool,
 ) -> usize {
     fit(tmp, 2 * len);
+    clip_fitted(poly, tmp, len, (side, off), scan)
+}
+
+/// [`clip_one`] with `tmp` already at least `2 len` long.
+#[inline(always)]
+fn clip_fitted(
+    poly: &mut Vec<Vec3>,
+    tmp: &mut Vec<Vec3>,
+    len: usize,
+    (side, off): (Vec3, f32),
+    scan: bool,
+) -> usize {
     match clip_by_plane(&poly[..len], tmp, side, off, scan) {
         Some(kept) => {
             std::mem::swap(poly, tmp);
