@@ -496,6 +496,35 @@ mod tests {
             .collect()
     }
 
+    /// `clip_faces` (the full plan) of `inc`, its corners at `inc_v`, on face `rf` of
+    /// `refp`, asserted bitwise the reference's and with the face's normal (`case` names a
+    /// failure): the reference's points, `None` for no contact.
+    fn clip_is_the_reference(
+        refp: &ConvexPolyhedron,
+        rf: usize,
+        inc: &ConvexPolyhedron,
+        inc_v: impl Fn(usize) -> Vec3 + Copy,
+        rot: Mat3,
+        buffers: &mut ClipBuffers,
+        case: usize,
+    ) -> Option<Vec<(Vec3, f32)>> {
+        let got = clip_faces(refp, rf, inc, inc_v, rot, buffers, &Plan::FULL);
+        let want = reference(refp, rf, inc, inc_v, rot);
+        let got = got.map(|m| {
+            assert_eq!(m.normal, refp.faces[rf].normal);
+            m.points()
+                .iter()
+                .map(|p| (p.point, p.depth))
+                .collect::<Vec<_>>()
+        });
+        assert_eq!(
+            got.as_deref().map(bits),
+            want.as_deref().map(bits),
+            "case {case}"
+        );
+        want
+    }
+
     /// Boxes (the pile's case: quads against rectangles) and random hulls, the incident
     /// body turned at random and placed just through each reference face (touching,
     /// crossing its sides, or clipped away), sometimes exactly aligned (corners on the side
@@ -552,20 +581,7 @@ mod tests {
             };
             let t = face.normal * (face.offset + inc.radius * r.random_range(0.5..1.0)) + lateral;
             let inc_v = |i: usize| rot * inc.vertices[i] + t;
-            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buffers, &Plan::FULL);
-            let want = reference(refp, rf, inc, inc_v, rot);
-            let got = got.map(|m| {
-                assert_eq!(m.normal, face.normal);
-                m.points()
-                    .iter()
-                    .map(|p| (p.point, p.depth))
-                    .collect::<Vec<_>>()
-            });
-            assert_eq!(
-                got.as_deref().map(bits),
-                want.as_deref().map(bits),
-                "case {case}"
-            );
+            let want = clip_is_the_reference(refp, rf, inc, inc_v, rot, &mut buffers, case);
             if let Some(w) = &want {
                 cases += 1;
                 multi += (w.len() > 1) as usize;
@@ -610,20 +626,7 @@ mod tests {
             let press = if case % 2 == 0 { 0.0 } else { 0.5 * h };
             let t = face.normal * (face.offset + h - press) + slide;
             let inc_v = |i: usize| rot * cube.vertices[i] + t;
-            let got = clip_faces(&cube, rf, &cube, inc_v, rot, &mut buffers, &Plan::FULL);
-            let want = reference(&cube, rf, &cube, inc_v, rot);
-            let got = got.map(|m| {
-                m.points()
-                    .iter()
-                    .map(|p| (p.point, p.depth))
-                    .collect::<Vec<_>>()
-            });
-            assert_eq!(
-                got.as_deref().map(bits),
-                want.as_deref().map(bits),
-                "case {case}"
-            );
-            match want {
+            match clip_is_the_reference(&cube, rf, &cube, inc_v, rot, &mut buffers, case) {
                 None => touching += 1,
                 Some(_) => pressed += 1,
             }
