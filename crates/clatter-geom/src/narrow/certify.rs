@@ -43,6 +43,13 @@ pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f3
         let inside = |code: usize, x: f32| x - refp.faces[of[code] as usize].offset <= -delta;
         return (0..3).all(|k| inside(k, v[k]) && inside(k | 4, -v[k]));
     }
+    inside_every_face(refp, c, delta)
+}
+
+/// Whether `c` is at least `delta` inside every face of `refp`, by each face's product
+/// (the general case of [`overlap_certified`], and the reference of its box's case).
+#[inline]
+fn inside_every_face(refp: &ConvexPolyhedron, c: Vec3, delta: f32) -> bool {
     refp.faces
         .iter()
         .all(|f| f.normal.dot(c) - f.offset <= -delta)
@@ -194,16 +201,6 @@ pub fn wedge_certificates() -> usize {
     WEDGE_CERTIFIED.with(|n| n.get())
 }
 
-/// [`overlap_certified`] by the products for every face (its general case), kept as the
-/// reference of the box's case.
-#[cfg(test)]
-fn overlap_certified_by_products(refp: &ConvexPolyhedron, m: &Manifold, delta: f32) -> bool {
-    let c = incident_centroid(m);
-    refp.faces
-        .iter()
-        .all(|f| f.normal.dot(c) - f.offset <= -delta)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -270,7 +267,7 @@ mod tests {
                     depth,
                 };
             }
-            let want = overlap_certified_by_products(b, &m, delta);
+            let want = inside_every_face(b, incident_centroid(&m), delta);
             assert_eq!(overlap_certified(b, &m, delta), want, "{c:?} {delta}");
             seen[want as usize] += 1;
         }

@@ -60,36 +60,44 @@ pub(super) fn clip_faces(
     let il = inc.face_loop(inc_face);
     let mut len = il.len();
     let planes = refp.side_planes(rf);
-    if planes.len() <= 8 {
-        // The planes not skipped, in order, by the bits of those left (a box's face has
-        // four planes): the skipped ones cost no turn of the loop. Both buffers are fitted
-        // once, for the longest polygon the planes can make (each plane at most doubles
-        // it, `len << k` after `k` planes, and its clip writes into `2 len`), not before
-        // each plane.
-        let mut left = !plan.skip as u32 & ((1u32 << planes.len()) - 1);
-        let most = len << left.count_ones().max(1);
-        fit(poly, most);
+    // A face of up to eight side planes (a box's has four) takes the planes not skipped,
+    // in order, by the bits of those left: the skipped ones cost no turn of the loop. Its
+    // buffers are fitted once, for the longest polygon the planes can make (each plane at
+    // most doubles it, `len << k` after `k` planes, and its clip writes into `2 len`), not
+    // before each plane; a face of more planes fits `tmp` before each.
+    let few = planes.len() <= 8;
+    let mut left = if few {
+        !plan.skip as u32 & ((1u32 << planes.len()) - 1)
+    } else {
+        0
+    };
+    let most = if few {
+        len << left.count_ones().max(1)
+    } else {
+        2 * len
+    };
+    fit(poly, most);
+    if few {
         fit(tmp, most);
-        for (slot, &i) in poly.iter_mut().zip(il) {
-            *slot = inc_v(i as usize);
-        }
+    }
+    for (slot, &i) in poly.iter_mut().zip(il) {
+        *slot = inc_v(i as usize);
+    }
+    if few {
         while left != 0 {
             let plane = planes[left.trailing_zeros() as usize];
             left &= left - 1;
-            len = clip_fitted(poly, tmp, len, plane, plan.scan);
+            len = clip_one(poly, tmp, len, plane, plan.scan);
             if len == 0 {
                 break;
             }
         }
     } else {
-        fit(poly, 2 * len);
-        for (slot, &i) in poly.iter_mut().zip(il) {
-            *slot = inc_v(i as usize);
-        }
         for (k, &plane) in planes.iter().enumerate() {
             if k < 8 && plan.skip >> k & 1 != 0 {
                 continue;
             }
+            fit(tmp, 2 * len);
             len = clip_one(poly, tmp, len, plane, plan.scan);
             if len == 0 {
                 break;
@@ -194,22 +202,10 @@ pub(super) fn incident_face(inc: &ConvexPolyhedron, n_inc: Vec3) -> usize {
 }
 
 /// The polygon `poly[..len]` clipped by one side plane `(side, off)` ([`clip_by_plane`],
-/// `tmp` its scratch, swapped in when the polygon changes): the new length.
+/// `tmp` its scratch, already at least `2 len` long, swapped in when the polygon changes):
+/// the new length.
 #[inline(always)]
 fn clip_one(
-    poly: &mut Vec<Vec3>,
-    tmp: &mut Vec<Vec3>,
-    len: usize,
-    (side, off): (Vec3, f32),
-    scan: bool,
-) -> usize {
-    fit(tmp, 2 * len);
-    clip_fitted(poly, tmp, len, (side, off), scan)
-}
-
-/// [`clip_one`] with `tmp` already at least `2 len` long.
-#[inline(always)]
-fn clip_fitted(
     poly: &mut Vec<Vec3>,
     tmp: &mut Vec<Vec3>,
     len: usize,
