@@ -573,16 +573,20 @@ fn sat_full(
     } = sc;
     // A's points in its own frame: the lanes the shape keeps (see `ConvexPolyhedron`).
     let a_local = a.lanes();
-    let Relative {
-        rot, inv_rot, t, ..
-    } = *rel;
+    let Relative { rot, inv_rot, t, q } = *rel;
+    let FullTest {
+        searched,
+        mut memory,
+        clipped,
+        prepared,
+    } = full;
     // (`rel.rot * v + rel.t` in `remembered_edge`: the same floats.)
-    if full.prepared == Prepared::Nothing {
+    if prepared == Prepared::Nothing {
         bv.clear();
         bv.extend(b.vertices.iter().map(|&v| rot * v + t));
     }
     let bv: &[Vec3] = bv;
-    if full.prepared != Prepared::Lanes {
+    if prepared != Prepared::Lanes {
         b_soa.fill(bv);
     }
     // Face axes of A.
@@ -634,7 +638,7 @@ fn sat_full(
     // Edge axes at or below the best face axis change no decision below (nor the margin:
     // `contact_margin` takes the larger of the two), so the search may leave them out.
     let face_best = best_a.0.max(best_b.0);
-    let found = match full.searched {
+    let found = match searched {
         Some(found) => found,
         None => edge_search(
             a,
@@ -645,7 +649,7 @@ fn sat_full(
             b_soa,
             tables,
             face_best,
-            full.memory,
+            memory.as_deref_mut(),
         ),
     };
     let best_e = match found {
@@ -681,22 +685,35 @@ fn sat_full(
     // Twice the margin (see `contact_margin`): the face serves while `margin + 2 s > 0`.
     let margin = 2.0 * (contact_margin(second, other, largest, ref_b, tol) - eps);
     // The face clipped already at these poses, if it is this one (see `Clipped`).
-    let clipped = match full.clipped {
+    let clipped = match clipped {
         Some((k, f, m)) if k == kind && f == face => Some(m),
         _ => None,
     };
+    // Else clipped here, with what the pair's record of this face's clip lets it skip
+    // (see `slack_clip`).
+    let slack = memory.map(EdgeMemory::face_slack);
     let m = if ref_b {
         // Reference face on B: work in B's frame with A as incident.
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        let lever = || a.radius + t.length() * (1.0 + 1e-6);
         clipped
-            .or_else(|| clip_faces(b, face, a, inc_v, inv_rot, clip, &Plan::FULL))
+            .or_else(|| {
+                let n_inc = || inv_rot.transpose() * b.faces[face].normal;
+                let pose = (kind, face, q, t, inv_rot);
+                slack_clip(b, a, pose, inc_v, (lever, n_inc), clip, slack)
+            })
             .map(|mut m| {
                 to_world(&mut m, pb, true);
                 m
             })
     } else {
+        let lever = || b.radius;
         clipped
-            .or_else(|| clip_faces(a, face, b, |i| bv[i], rot, clip, &Plan::FULL))
+            .or_else(|| {
+                let n_inc = || rot.transpose() * a.faces[face].normal;
+                let pose = (kind, face, q, t, rot);
+                slack_clip(a, b, pose, |i| bv[i], (lever, n_inc), clip, slack)
+            })
             .map(|mut m| {
                 to_world(&mut m, pa, false);
                 m
@@ -707,6 +724,56 @@ fn sat_full(
         *separation = margin;
     }
     m
+}
+
+/// [`clip_faces`] of reference face `face` of `refp` (`kind` [`HINT_FACE_A`] when `refp`
+/// is A, else [`HINT_FACE_B`]) against `inc`, whose vertex `i` is at `inc_v(i)` in
+/// `refp`'s frame and whose rotation there is `inc_rot` (`q`, `t`: B's rotation and offset
+/// in A's frame), with the plan of the pair's record of that face's clip ([`FaceSlack`],
+/// when the pair has one): the manifold in `refp`'s frame, bitwise the whole clip's
+/// (`Plan::FULL`): a plan skips only work the record proves to change no bit (see
+/// [`FaceSlack`]). When the plan asks for it, a new record is measured from this clip, as
+/// [`remembered_face`] measures one (`lever` and `n_inc` as it computes them: the record
+/// bounds a later clip of this face, whichever path makes it).
+///
+/// The full test clips here the face it chooses: on a resting cube pile nearly all of its
+/// calls choose the face the pair remembered, whose margin had run out (issue 23, full32),
+/// and that face's record usually still serves, as it does for [`remembered_face`].
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn slack_clip(
+    refp: &ConvexPolyhedron,
+    inc: &ConvexPolyhedron,
+    (kind, face, q, t, inc_rot): (u32, usize, Quat, Vec3, Mat3),
+    inc_v: impl Fn(usize) -> Vec3 + Copy,
+    (lever, n_inc): (impl Fn() -> f32, impl Fn() -> Vec3),
+    clip: &mut ClipBuffers,
+    slack: Option<&mut FaceSlack>,
+) -> Option<Manifold> {
+    let key = kind | face as u32;
+    let plan = slack
+        .as_deref()
+        .map_or(Plan::FULL, |s| s.plan(refp, inc, key, q, t));
+    // The certificate is not taken here (the full test checks every axis): a plan that
+    // offers it changes nothing.
+    let m = clip_faces(refp, face, inc, inc_v, inc_rot, clip, &plan)?;
+    if let Some(s) = slack.filter(|_| plan.measure) {
+        let delta = 2e-5 * (refp.radius + inc.radius);
+        s.record(
+            refp,
+            face,
+            inc,
+            key,
+            q,
+            t,
+            lever(),
+            n_inc(),
+            inc_v,
+            &m,
+            delta,
+        );
+    }
+    Some(m)
 }
 
 /// The best edge-edge axis `(separation, edge of A, edge of B, axis in A's frame)`, or `None`
