@@ -83,7 +83,8 @@ impl SoaPoints {
             Vec4::splat(c),
         );
         let mut mask = 0u64;
-        for (k, &[xs, ys, zs]) in self.chunks.iter().take(16).enumerate() {
+        let chunks = &self.chunks[..self.chunks.len().min(16)];
+        for (k, &[xs, ys, zs]) in chunks.iter().enumerate() {
             let h = nx * xs + ny * ys + nz * zs + cs;
             mask |= (h.cmplt(Vec4::ZERO).bitmask() as u64) << (4 * k);
         }
