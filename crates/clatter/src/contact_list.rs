@@ -70,6 +70,9 @@ pub struct Contacts {
     pub(crate) pairs_as_a: Vec<u32>,
     /// Body `i` is side b of the body pairs `b_pairs[b_pair_start[i]..b_pair_start[i+1]]`.
     pub(crate) b_pair_start: Vec<u32>,
+    /// The side-b pairs of each body in turn, then (when not empty) [`BLOCK`] zeros: the
+    /// gather reads side b in blocks of four from a range's start, and the padding keeps
+    /// every block's reads within the vector without clamping each index ([`pad_b_pairs`]).
     pub(crate) b_pairs: Vec<u32>,
     /// Body `i`'s wall contacts are `wall_contacts_of[i]..wall_contacts_of[i+1]`.
     pub(crate) wall_contacts_of: Vec<u32>,
@@ -136,6 +139,7 @@ impl Contacts {
             b_pairs[fill[p[1] as usize] as usize] = c as u32;
             fill[p[1] as usize] += 1;
         }
+        let b_pairs = pad_b_pairs(b_pairs);
         let total = pairs.len() + wall_pairs.len();
         Contacts {
             springs: ContactSprings {
@@ -402,7 +406,10 @@ impl Contacts {
             }
             ok
         };
-        assert!(ascending(a, np) && ascending(bs, self.b_pairs.len()) && ascending(ws, total));
+        // Side b's ranges end `BLOCK` entries before `b_pairs` does (its padding), so that
+        // a block of four from any start at or before a range's end reads within it.
+        let b_len = self.b_pairs.len().saturating_sub(BLOCK);
+        assert!(ascending(a, np) && ascending(bs, b_len) && ascending(ws, total));
         let mut f = [Vec4::ZERO; 8];
         let mut t = [Vec4::ZERO; 8];
         if total == 0 {
@@ -453,12 +460,14 @@ impl Contacts {
                     }
                 }
                 let (start, end) = (bs[l] as usize, bs[l + 1] as usize);
-                let last = self.b_pairs.len().saturating_sub(1);
                 if !self.b_pairs.is_empty() {
                     let mut m = start;
                     loop {
                         for u in 0..BLOCK {
-                            let k = self.b_pairs[(m + u).min(last)] as usize;
+                            // SAFETY: `m <= end` (`m` starts at `start <= end` and the
+                            // loop ends once `m >= end`), and `end + BLOCK <=
+                            // b_pairs.len()` (checked above), so `m + u < b_pairs.len()`.
+                            let k = unsafe { *self.b_pairs.get_unchecked(m + u) } as usize;
                             let [force_b, _, torque_b] = lanes(&forces[k]);
                             let live = BVec4A::splat(m + u < end);
                             fl += Vec4::select(live, force_b, Vec4::ZERO);
@@ -482,6 +491,16 @@ impl Contacts {
         }
         (f, t)
     }
+}
+
+/// `b_pairs` with [`BLOCK`] zeros after it when it is not empty (see [`Contacts`]'s
+/// `b_pairs`): a padded block's places read pair 0, whose force is then added as `+0`
+/// (`live` is false there), so the sums keep their bits.
+pub(crate) fn pad_b_pairs(mut b_pairs: Vec<u32>) -> Vec<u32> {
+    if !b_pairs.is_empty() {
+        b_pairs.resize(b_pairs.len() + BLOCK, 0);
+    }
+    b_pairs
 }
 
 /// How many side-a or side-b contacts [`Contacts::gather8_with`] sums a body's in at a time. A

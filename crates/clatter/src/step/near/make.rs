@@ -116,7 +116,7 @@ fn make_serial(world: &World) -> Near {
     let tables = Tables {
         pairs_as_a,
         b_pair_start,
-        b_pairs,
+        b_pairs: crate::contact_list::pad_b_pairs(b_pairs),
         wall_contacts_of,
     };
     // Less an allowance for the rounding (as in `make_in`).
@@ -324,7 +324,7 @@ fn make_in(world: &World, piece: usize) -> Near {
     let tables = Tables {
         pairs_as_a,
         b_pair_start,
-        b_pairs,
+        b_pairs: crate::contact_list::pad_b_pairs(b_pairs),
         wall_contacts_of,
     };
     let mut made_at = Vec::with_capacity(nb);
