@@ -444,20 +444,13 @@ impl Contacts {
                 // range's end read as +0 (`BLOCK`'s docs: the same bits): most bodies have at
                 // most four of each, so the loops' exits are then predictable.
                 let (start, end) = (a[l] as usize, a[l + 1] as usize);
-                let mut m = start;
-                loop {
-                    for u in 0..BLOCK {
-                        // In range (`forces` is not empty: `total > 0` is checked above).
-                        let c = &forces[(m + u).min(total - 1)];
-                        let [force_b, torque_a, _] = lanes(c);
-                        let live = BVec4A::splat(m + u < end);
-                        fl -= Vec4::select(live, force_b, Vec4::ZERO);
-                        tl += Vec4::select(live, torque_a, Vec4::ZERO);
-                    }
-                    m += BLOCK;
-                    if m >= end {
-                        break;
-                    }
+                // Blocks that read within `forces` unclamped when the range ends `BLOCK`
+                // before it (all bodies but the last few of a list with walls after its
+                // pairs), else clamped.
+                if end + BLOCK <= total {
+                    side_a::<true>(forces, start, end, &mut fl, &mut tl);
+                } else {
+                    side_a::<false>(forces, start, end, &mut fl, &mut tl);
                 }
                 let (start, end) = (bs[l] as usize, bs[l + 1] as usize);
                 if !self.b_pairs.is_empty() {
@@ -490,6 +483,42 @@ impl Contacts {
             (f[l], t[l]) = (fl, tl);
         }
         (f, t)
+    }
+}
+
+/// Side a's sum of a body's contacts `forces[start..end]` (`start <= end <= forces.len()`,
+/// `forces` not empty) in blocks of [`BLOCK`], the places past `end` added as `+0`. `FREE`:
+/// `end + BLOCK <= forces.len()`, so every block's places are read unclamped; else each
+/// index is clamped to the last force. The same loads and sums either way (same bits).
+#[inline(always)]
+fn side_a<const FREE: bool>(
+    forces: &[ContactForce],
+    start: usize,
+    end: usize,
+    fl: &mut Vec4,
+    tl: &mut Vec4,
+) {
+    debug_assert!(start <= end && end <= forces.len() && !forces.is_empty());
+    debug_assert!(!FREE || end + BLOCK <= forces.len());
+    let mut m = start;
+    loop {
+        for u in 0..BLOCK {
+            let c = if FREE {
+                // SAFETY: `m <= end` (`m` starts at `start <= end`, and the loop ends once
+                // `m >= end`), so `m + u < end + BLOCK <= forces.len()` (the caller's test).
+                unsafe { forces.get_unchecked(m + u) }
+            } else {
+                &forces[(m + u).min(forces.len() - 1)]
+            };
+            let [force_b, torque_a, _] = lanes(c);
+            let live = BVec4A::splat(m + u < end);
+            *fl -= Vec4::select(live, force_b, Vec4::ZERO);
+            *tl += Vec4::select(live, torque_a, Vec4::ZERO);
+        }
+        m += BLOCK;
+        if m >= end {
+            break;
+        }
     }
 }
 
