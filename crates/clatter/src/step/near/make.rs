@@ -394,6 +394,8 @@ mod tests {
             }
             b_pair_start.push(b_pairs.len() as u32);
         }
+        // The gather's padding after the side-b pairs (`pad_b_pairs`).
+        let b_pairs = crate::contact_list::pad_b_pairs(b_pairs);
         let allowance = 1e-5 * (2.0 * world.consts.max_radius() + world.skin) as f64;
         let reach2 = slack
             .iter()
