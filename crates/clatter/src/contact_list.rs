@@ -70,6 +70,9 @@ pub struct Contacts {
     pub(crate) pairs_as_a: Vec<u32>,
     /// Body `i` is side b of the body pairs `b_pairs[b_pair_start[i]..b_pair_start[i+1]]`.
     pub(crate) b_pair_start: Vec<u32>,
+    /// The side-b pairs of each body in turn, then (when not empty) [`BLOCK`] zeros: the
+    /// gather reads side b in blocks of four from a range's start, and the padding keeps
+    /// every block's reads within the vector without clamping each index ([`pad_b_pairs`]).
     pub(crate) b_pairs: Vec<u32>,
     /// Body `i`'s wall contacts are `wall_contacts_of[i]..wall_contacts_of[i+1]`.
     pub(crate) wall_contacts_of: Vec<u32>,
@@ -136,6 +139,7 @@ impl Contacts {
             b_pairs[fill[p[1] as usize] as usize] = c as u32;
             fill[p[1] as usize] += 1;
         }
+        let b_pairs = pad_b_pairs(b_pairs);
         let total = pairs.len() + wall_pairs.len();
         Contacts {
             springs: ContactSprings {
@@ -402,7 +406,10 @@ impl Contacts {
             }
             ok
         };
-        assert!(ascending(a, np) && ascending(bs, self.b_pairs.len()) && ascending(ws, total));
+        // Side b's ranges end `BLOCK` entries before `b_pairs` does (its padding), so that
+        // a block of four from any start at or before a range's end reads within it.
+        let b_len = self.b_pairs.len().saturating_sub(BLOCK);
+        assert!(ascending(a, np) && ascending(bs, b_len) && ascending(ws, total));
         let mut f = [Vec4::ZERO; 8];
         let mut t = [Vec4::ZERO; 8];
         if total == 0 {
@@ -437,28 +444,23 @@ impl Contacts {
                 // range's end read as +0 (`BLOCK`'s docs: the same bits): most bodies have at
                 // most four of each, so the loops' exits are then predictable.
                 let (start, end) = (a[l] as usize, a[l + 1] as usize);
-                let mut m = start;
-                loop {
-                    for u in 0..BLOCK {
-                        // In range (`forces` is not empty: `total > 0` is checked above).
-                        let c = &forces[(m + u).min(total - 1)];
-                        let [force_b, torque_a, _] = lanes(c);
-                        let live = BVec4A::splat(m + u < end);
-                        fl -= Vec4::select(live, force_b, Vec4::ZERO);
-                        tl += Vec4::select(live, torque_a, Vec4::ZERO);
-                    }
-                    m += BLOCK;
-                    if m >= end {
-                        break;
-                    }
+                // Blocks that read within `forces` unclamped when the range ends `BLOCK`
+                // before it (all bodies but the last few of a list with walls after its
+                // pairs), else clamped.
+                if end + BLOCK <= total {
+                    side_a::<true>(forces, start, end, &mut fl, &mut tl);
+                } else {
+                    side_a::<false>(forces, start, end, &mut fl, &mut tl);
                 }
                 let (start, end) = (bs[l] as usize, bs[l + 1] as usize);
-                let last = self.b_pairs.len().saturating_sub(1);
                 if !self.b_pairs.is_empty() {
                     let mut m = start;
                     loop {
                         for u in 0..BLOCK {
-                            let k = self.b_pairs[(m + u).min(last)] as usize;
+                            // SAFETY: `m <= end` (`m` starts at `start <= end` and the
+                            // loop ends once `m >= end`), and `end + BLOCK <=
+                            // b_pairs.len()` (checked above), so `m + u < b_pairs.len()`.
+                            let k = unsafe { *self.b_pairs.get_unchecked(m + u) } as usize;
                             let [force_b, _, torque_b] = lanes(&forces[k]);
                             let live = BVec4A::splat(m + u < end);
                             fl += Vec4::select(live, force_b, Vec4::ZERO);
@@ -482,6 +484,52 @@ impl Contacts {
         }
         (f, t)
     }
+}
+
+/// Side a's sum of a body's contacts `forces[start..end]` (`start <= end <= forces.len()`,
+/// `forces` not empty) in blocks of [`BLOCK`], the places past `end` added as `+0`. `FREE`:
+/// `end + BLOCK <= forces.len()`, so every block's places are read unclamped; else each
+/// index is clamped to the last force. The same loads and sums either way (same bits).
+#[inline(always)]
+fn side_a<const FREE: bool>(
+    forces: &[ContactForce],
+    start: usize,
+    end: usize,
+    fl: &mut Vec4,
+    tl: &mut Vec4,
+) {
+    debug_assert!(start <= end && end <= forces.len() && !forces.is_empty());
+    debug_assert!(!FREE || end + BLOCK <= forces.len());
+    let mut m = start;
+    loop {
+        for u in 0..BLOCK {
+            let c = if FREE {
+                // SAFETY: `m <= end` (`m` starts at `start <= end`, and the loop ends once
+                // `m >= end`), so `m + u < end + BLOCK <= forces.len()` (the caller's test).
+                unsafe { forces.get_unchecked(m + u) }
+            } else {
+                &forces[(m + u).min(forces.len() - 1)]
+            };
+            let [force_b, torque_a, _] = lanes(c);
+            let live = BVec4A::splat(m + u < end);
+            *fl -= Vec4::select(live, force_b, Vec4::ZERO);
+            *tl += Vec4::select(live, torque_a, Vec4::ZERO);
+        }
+        m += BLOCK;
+        if m >= end {
+            break;
+        }
+    }
+}
+
+/// `b_pairs` with [`BLOCK`] zeros after it when it is not empty (see [`Contacts`]'s
+/// `b_pairs`): a padded block's places read pair 0, whose force is then added as `+0`
+/// (`live` is false there), so the sums keep their bits.
+pub(crate) fn pad_b_pairs(mut b_pairs: Vec<u32>) -> Vec<u32> {
+    if !b_pairs.is_empty() {
+        b_pairs.resize(b_pairs.len() + BLOCK, 0);
+    }
+    b_pairs
 }
 
 /// How many side-a or side-b contacts [`Contacts::gather8_with`] sums a body's in at a time. A
@@ -676,6 +724,18 @@ mod tests {
     /// adding padding to -0 would show), skipped lanes; every bit.
     #[test]
     fn gather8_is_the_sums_in_contact_order() {
+        gather8_case(true);
+    }
+
+    /// [`gather8_is_the_sums_in_contact_order`] without walls: the last bodies' side-a
+    /// blocks then reach past the forces' end (the clamped reads of `side_a`).
+    #[test]
+    fn gather8_without_walls_is_the_sums_in_contact_order() {
+        gather8_case(false);
+    }
+
+    /// The check of [`gather8_is_the_sums_in_contact_order`], with walls or without.
+    fn gather8_case(with_walls: bool) {
         use super::{Contacts, Partner};
         use crate::contract::ContactForce;
         let mut seed = 777u64;
@@ -699,7 +759,7 @@ mod tests {
             }
         }
         let walls: Vec<[u32; 2]> = (0..bodies as u32)
-            .filter(|i| i % 5 == 0)
+            .filter(|i| with_walls && i % 5 == 0)
             .flat_map(|i| (0..i % 3).map(move |w| [i, w]))
             .collect();
         let mut c = Contacts::new(bodies, pairs, walls, Vec::new(), Vec::new());

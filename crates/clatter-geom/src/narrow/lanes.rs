@@ -68,6 +68,34 @@ impl SoaPoints {
         feed(n, self.chunks.get(1..).unwrap_or(&[]), e);
     }
 
+    /// Which of the first `len` points (at most 64, the chunks' points in order) have
+    /// `n.x * x + n.y * y + n.z * z + c < 0`, as bit `k` for point `k`: per lane the same
+    /// products and sums in the same order as `n.dot(p) + c` (glam's `Vec3::dot`), so the
+    /// same floats, and `cmpltps` is `<` (false for a NaN). For a polyhedron against a
+    /// plane: the vertices below it, without a scalar loop over them.
+    #[inline(always)]
+    pub(super) fn below(&self, n: Vec3, c: f32, len: usize) -> u64 {
+        debug_assert!(len <= 64 && len <= 4 * self.chunks.len());
+        let (nx, ny, nz, cs) = (
+            Vec4::splat(n.x),
+            Vec4::splat(n.y),
+            Vec4::splat(n.z),
+            Vec4::splat(c),
+        );
+        let mut mask = 0u64;
+        let chunks = &self.chunks[..self.chunks.len().min(16)];
+        for (k, &[xs, ys, zs]) in chunks.iter().enumerate() {
+            let h = nx * xs + ny * ys + nz * zs + cs;
+            mask |= (h.cmplt(Vec4::ZERO).bitmask() as u64) << (4 * k);
+        }
+        // The last chunk's padding lanes (copies of the first point) are not points.
+        if len < 64 {
+            mask & ((1u64 << len) - 1)
+        } else {
+            mask
+        }
+    }
+
     /// Smallest projection on `n`: per lane `n.x * x + n.y * y + n.z * z` over the chunks
     /// in order, the smaller kept (the first on a tie), then the lanes reduced as
     /// [`Extent::min`] does.

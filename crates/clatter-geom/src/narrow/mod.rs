@@ -23,6 +23,8 @@ mod edges;
 mod lanes;
 mod memory;
 #[cfg(test)]
+mod plane_tests;
+#[cfg(test)]
 mod reach_tests;
 mod sat;
 mod slack;
@@ -315,36 +317,79 @@ fn collide_plane_convex(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifol
                 return None;
             }
             let n_local = pose.rotation.conjugate() * n;
-            // Room for the usual patch (a face's vertices) without an allocation; more go to
-            // `extra`, in the same order. Not 64: the whole buffer is zeroed on every call,
-            // which at 1 KiB cost more than the test of the vertices itself.
-            let mut buf = [(Vec3::ZERO, 0.0f32); 16];
-            let mut count = 0;
-            let mut extra = Vec::new();
-            for &v in &p.vertices {
-                let h = n_local.dot(v) + centre_height;
-                if h < 0.0 {
-                    let world = pose.transform_point(v) - n * (0.5 * h);
-                    if count < buf.len() {
-                        buf[count] = (world, -h);
-                        count += 1;
-                    } else {
-                        extra.push((world, -h));
+            if p.vertices.len() <= 64 {
+                // The vertices below the plane from the SIMD lanes (the same heights), and
+                // the usual patch of at most four written straight into the manifold, in
+                // vertex order: what `reduce` returns for four or fewer.
+                let below = p.lanes().below(n_local, centre_height, p.vertices.len());
+                let count = below.count_ones() as usize;
+                if count == 0 {
+                    return None;
+                }
+                if count <= 4 {
+                    let mut m = Manifold {
+                        normal: n,
+                        count,
+                        ..Default::default()
+                    };
+                    let mut left = below;
+                    for slot in &mut m.points[..count] {
+                        let v = p.vertices[left.trailing_zeros() as usize];
+                        left &= left - 1;
+                        let h = n_local.dot(v) + centre_height;
+                        *slot = ContactPoint {
+                            point: pose.transform_point(v) - n * (0.5 * h),
+                            depth: -h,
+                        };
                     }
+                    return Some(m);
                 }
             }
-            if count == 0 {
-                return None;
-            }
-            if extra.is_empty() {
-                Some(reduce(&buf[..count], n))
-            } else {
-                let mut all = buf[..count].to_vec();
-                all.extend(extra);
-                Some(reduce(&all, n))
-            }
+            plane_patch_scan(p, n, n_local, centre_height, pose)
         }
         Shape::Composite(_) => None,
+    }
+}
+
+/// A polyhedron against a plane by a scan of its vertices (`n_local`: the plane's normal
+/// in the body's frame; `centre_height`: the body's centre above the plane): every vertex
+/// with `n_local . v + centre_height < 0`, in vertex order, reduced to at most four. The
+/// general case of [`collide_plane`] (patches of more than four points, hulls of more than
+/// 64 vertices), and the reference its lanes' path is tested against.
+fn plane_patch_scan(
+    p: &crate::ConvexPolyhedron,
+    n: Vec3,
+    n_local: Vec3,
+    centre_height: f32,
+    pose: &Pose,
+) -> Option<Manifold> {
+    // Room for the usual patch (a face's vertices) without an allocation; more go to
+    // `extra`, in the same order. Not 64: the whole buffer is zeroed on every call,
+    // which at 1 KiB cost more than the test of the vertices itself.
+    let mut buf = [(Vec3::ZERO, 0.0f32); 16];
+    let mut count = 0;
+    let mut extra = Vec::new();
+    for &v in &p.vertices {
+        let h = n_local.dot(v) + centre_height;
+        if h < 0.0 {
+            let world = pose.transform_point(v) - n * (0.5 * h);
+            if count < buf.len() {
+                buf[count] = (world, -h);
+                count += 1;
+            } else {
+                extra.push((world, -h));
+            }
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    if extra.is_empty() {
+        Some(reduce(&buf[..count], n))
+    } else {
+        let mut all = buf[..count].to_vec();
+        all.extend(extra);
+        Some(reduce(&all, n))
     }
 }
 

@@ -116,7 +116,7 @@ fn make_serial(world: &World) -> Near {
     let tables = Tables {
         pairs_as_a,
         b_pair_start,
-        b_pairs,
+        b_pairs: crate::contact_list::pad_b_pairs(b_pairs),
         wall_contacts_of,
     };
     // Less an allowance for the rounding (as in `make_in`).
@@ -324,7 +324,7 @@ fn make_in(world: &World, piece: usize) -> Near {
     let tables = Tables {
         pairs_as_a,
         b_pair_start,
-        b_pairs,
+        b_pairs: crate::contact_list::pad_b_pairs(b_pairs),
         wall_contacts_of,
     };
     let mut made_at = Vec::with_capacity(nb);
@@ -394,6 +394,8 @@ mod tests {
             }
             b_pair_start.push(b_pairs.len() as u32);
         }
+        // The gather's padding after the side-b pairs (`pad_b_pairs`).
+        let b_pairs = crate::contact_list::pad_b_pairs(b_pairs);
         let allowance = 1e-5 * (2.0 * world.consts.max_radius() + world.skin) as f64;
         let reach2 = slack
             .iter()
