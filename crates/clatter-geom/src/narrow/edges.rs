@@ -10,6 +10,7 @@ use crate::ConvexPolyhedron;
 
 /// Per-thread buffers of [`edge_axes_gauss_map`] and [`edge_axes_by_direction`] (no
 /// allocation or zeroing per pair).
+#[derive(Default)]
 pub(super) struct GaussTables {
     /// B's face normals (in B's frame), 4 faces per entry: x, y, z lanes (the padding lanes
     /// are zero).
@@ -23,27 +24,6 @@ pub(super) struct GaussTables {
     arcs_b: Vec<Vec3>,
     /// B's edge directions rotated into A's frame (by direction).
     dirs_b: Vec<Vec3>,
-    /// Whether a search by direction may take the winner-stays skip ([`super::lead::WinnerLead`];
-    /// off only in tests, to compare against the whole search).
-    pub(super) winner_stays: bool,
-    /// How many searches the winner-stays skip decided (for tests).
-    #[cfg(test)]
-    pub(super) decided: usize,
-}
-
-impl Default for GaussTables {
-    fn default() -> Self {
-        GaussTables {
-            normals_b: Vec::new(),
-            row: Vec::new(),
-            row_f: Vec::new(),
-            arcs_b: Vec::new(),
-            dirs_b: Vec::new(),
-            winner_stays: true,
-            #[cfg(test)]
-            decided: 0,
-        }
-    }
 }
 
 /// Edge axes by enumerating edge pairs that pass the Gauss-map test (good for many edges).
@@ -468,9 +448,6 @@ pub(super) fn edge_axes_by_direction(
     // bound them below it (the proof of `EdgeMemory::search`, the same here).
     let (mut skip, mut record, mut served) = (0, None, None);
     let mut first = (usize::MAX, None, f32::NEG_INFINITY);
-    // The winner-stays skip (see `WinnerLead`): the winner alone decides the search, or
-    // the winner evaluated first and a record measured after the search.
-    let (mut decided, mut measure) = (false, None);
     if let Some((m, q, t)) = memory {
         match m.deep_pairs(a, b, q, t, floor) {
             None => record = m.start_directions(a, b, q, t).then_some(&mut *m),
@@ -491,23 +468,9 @@ pub(super) fn edge_axes_by_direction(
                 } else {
                     None
                 };
-                if let Some((s, axis)) = found {
+                if let Some((s, _)) = found {
                     // (Written so that a NaN does not serve.)
-                    if s <= 0.0 && s > floor && tables.winner_stays {
-                        let lead = m.winner_lead();
-                        if lead.serves(a, b, q, t, winner, s) {
-                            // Every other pair stays below the winner: its answer is the
-                            // search's, and the memory's note below the same winner.
-                            (decided, best) = (true, (s, winner / ndb, winner % ndb, axis));
-                            #[cfg(test)]
-                            {
-                                tables.decided += 1;
-                            }
-                        } else if lead.wants_measure(a, b, q, t) {
-                            measure = Some((q, t, winner, s));
-                        }
-                    }
-                    if s <= 0.0 && s > floor && !decided {
+                    if s <= 0.0 && s > floor {
                         // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
                         let below = DeepPairs::top(top, grown, radii, s.next_down());
                         let after = DeepPairs::top(below, grown, radii, s);
@@ -526,8 +489,7 @@ pub(super) fn edge_axes_by_direction(
     // left out taken from the set's bits in increasing order (row by row, A's direction
     // `ia`): the same pairs in the same order as testing each pair's bit, without a `u128`
     // shift and test per pair, nor a shift per row.
-    let nda = if decided { 0 } else { a.edge_dirs.len() };
-    for (ia, ib, k) in Pairs::new(skip, nda, ndb) {
+    for (ia, ib, k) in Pairs::new(skip, a.edge_dirs.len(), ndb) {
         let (ua, wb) = (a.edge_dirs[ia], dirs_b[ib]);
         if k == first.0 {
             // The winner, evaluated first: the same answer as here.
@@ -608,17 +570,7 @@ pub(super) fn edge_axes_by_direction(
         m.finish_directions(a, b);
         m.note_direction_winner(best.1 * ndb + best.2);
     } else if let Some(m) = served {
-        let k = best.1 * ndb + best.2;
-        m.note_direction_winner(k);
-        if let Some((q, t, winner, s)) = measure {
-            // (The winner, evaluated first, is the best unless another pair beat it.)
-            let lead = m.winner_lead();
-            if k == winner {
-                lead.measure(a, b, dirs_b, (a_local, b_soa), (q, t), winner, s);
-            } else {
-                lead.trailed(a, b, (q, t), best.0 - s);
-            }
-        }
+        m.note_direction_winner(best.1 * ndb + best.2);
     }
     if best.0 == f32::NEG_INFINITY {
         return Some(best);

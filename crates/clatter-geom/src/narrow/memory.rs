@@ -8,7 +8,6 @@ use glam::{Mat3, Quat, Vec3};
 
 use super::SatHint;
 use super::edges::{EdgeOfA, separating_pair};
-use super::lead::WinnerLead;
 use super::sat::EdgeAxis;
 use super::slack::FaceSlack;
 use super::sphere::SphereMemory;
@@ -99,8 +98,6 @@ pub struct EdgeMemory {
     sphere: SphereMemory,
     /// A remembered face contact's clip record (see [`FaceSlack`]), its own cache line.
     face: FaceSlack,
-    /// The search by direction's winner-stays record (see [`WinnerLead`]), its own line.
-    lead: WinnerLead,
 }
 
 /// The second shape address of a memory of the sphere kind (no polyhedron lives at 1).
@@ -122,7 +119,6 @@ impl Default for EdgeMemory {
             pairs: [[0; 2]; CAPACITY],
             sphere: SphereMemory::default(),
             face: FaceSlack::default(),
-            lead: WinnerLead::default(),
         }
     }
 }
@@ -176,30 +172,6 @@ impl EdgeMemory {
     #[inline]
     pub(super) fn face_slack(&mut self) -> &mut FaceSlack {
         &mut self.face
-    }
-
-    /// The winner-stays record of the search by direction ([`WinnerLead`]): kept apart
-    /// from the memory's search state (it checks its own shapes and pose).
-    #[inline]
-    pub(super) fn winner_lead(&mut self) -> &mut WinnerLead {
-        &mut self.lead
-    }
-
-    /// The memory's search state (everything but the records that check themselves,
-    /// [`FaceSlack`] and [`WinnerLead`]), for tests comparing two memories bitwise.
-    #[cfg(test)]
-    pub(super) fn search_state(&self) -> String {
-        format!(
-            "{:?} {:?} {:?} {} {} {} {:?} {:?}",
-            self.shapes,
-            self.rot.to_array().map(f32::to_bits),
-            self.offset.to_array().map(f32::to_bits),
-            self.len,
-            self.directions,
-            self.winner,
-            self.levels,
-            self.pairs,
-        )
     }
 
     /// Whether it holds the pairs of a finished search (for tests and statistics).
@@ -552,26 +524,6 @@ impl DeepPairs {
     }
 }
 
-/// The most a direction pair's computed separation can have grown (see [`DeepPairs`])
-/// for `a` against `b` from relative rotation `rot0` and offset `t0` (where the pair was
-/// rememberable) to `rot` (a unit rotation, as `rot0`: the callers check it) and offset
-/// `t`.
-#[inline]
-pub(super) fn growth_from(
-    rot0: Quat,
-    t0: Vec3,
-    a: &ConvexPolyhedron,
-    b: &ConvexPolyhedron,
-    rot: Quat,
-    t: Vec3,
-) -> f32 {
-    let c = 2.0 * (rot0.conjugate() * rot).xyz().length() + 4e-5;
-    let moved = (t - t0).length();
-    let lever = a.radius + b.radius + t.length() + moved;
-    let turned = 11.0 * c + 4e-5;
-    (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01
-}
-
 impl EdgeMemory {
     /// What a search of `a` against `b` by direction, at relative rotation `rot` and offset
     /// `t` with floor `floor`, may take of this memory (see [`DeepPairs`]): `None` when it
@@ -619,7 +571,11 @@ impl EdgeMemory {
     /// callers check it) and offset `t`.
     #[inline]
     fn growth(&self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat, t: Vec3) -> f32 {
-        growth_from(self.rot, self.offset, a, b, rot, t)
+        let c = 2.0 * (self.rot.conjugate() * rot).xyz().length() + 4e-5;
+        let moved = (t - self.offset).length();
+        let lever = a.radius + b.radius + t.length() + moved;
+        let turned = 11.0 * c + 4e-5;
+        (lever * turned + c * b.radius + moved + 1e-4 * lever) * 1.01
     }
 
     /// Starts recording a search by direction of `a` against `b` at `rot` and offset `t`;

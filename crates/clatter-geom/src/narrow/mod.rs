@@ -21,9 +21,6 @@ mod certify;
 mod clip;
 mod edges;
 mod lanes;
-mod lead;
-#[cfg(test)]
-mod lead_tests;
 mod memory;
 #[cfg(test)]
 mod reach_tests;
