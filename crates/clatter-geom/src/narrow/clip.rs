@@ -7,12 +7,43 @@ use super::slack::Plan;
 use super::{ContactPoint, Manifold, reduce};
 use crate::{ConvexPolyhedron, Pose};
 
-/// Buffers of the face clipping.
-#[derive(Default)]
+/// Buffers of the face clipping: growable ones for any face, and two fixed ones of
+/// [`SMALL`] corners for the usual small case (see [`small_fits`]), whose stores the
+/// compiler can prove in bounds.
 pub(super) struct ClipBuffers {
     pub(super) poly: Vec<Vec3>,
     pub(super) tmp: Vec<Vec3>,
     pub(super) pts: Vec<(Vec3, f32)>,
+    small: [[Vec3; SMALL]; 2],
+}
+
+impl Default for ClipBuffers {
+    fn default() -> Self {
+        ClipBuffers {
+            poly: Vec::new(),
+            tmp: Vec::new(),
+            pts: Vec::new(),
+            small: [[Vec3::ZERO; SMALL]; 2],
+        }
+    }
+}
+
+/// The length of the fixed clip buffers (a power of two: an index is kept in them by a
+/// mask, `& (SMALL - 1)`, which never changes an index below [`SMALL`]).
+const SMALL: usize = 32;
+
+/// Whether a polygon of `len` corners clipped by `planes` side planes always fits the fixed
+/// buffers: `len + planes <= 8`. One plane's clip of `n` corners writes at most `n + n / 2`
+/// (rounded down): each kept corner (`d <= 0`) and each crossing edge (strict signs
+/// opposite) writes one; a crossing edge goes from a corner with `d < 0` to one with `d > 0`
+/// or back, so with `P` corners at `d > 0` and `N` at `d < 0` there are at most `2 min(N,
+/// P)` crossings (each corner starts one edge and ends one) and at most `n - P` kept
+/// corners: `n - P + 2 min(N, P) <= n + n / 2` (NaN distances keep and cross nothing). So
+/// the polygon grows at most `n -> n + n / 2` a plane; over `len + planes <= 8` the
+/// largest is a quad through four planes, `4, 6, 9, 13, 19`, below [`SMALL`].
+#[inline(always)]
+fn small_fits(len: usize, planes: u32) -> bool {
+    len + planes as usize <= 8
 }
 
 /// `m` (in `pose`'s body frame) turned into the world frame, in place, its normal then
@@ -52,7 +83,12 @@ pub(super) fn clip_faces(
         Some(f) => f,
         None => incident_face(inc, inc_rot.transpose() * n),
     };
-    let ClipBuffers { poly, tmp, pts } = clip;
+    let ClipBuffers {
+        poly,
+        tmp,
+        pts,
+        small,
+    } = clip;
     // The polygons are written by index into buffers at least twice as long as the polygon
     // clipped (clipping by one plane at most doubles a polygon: each corner gives itself
     // and one crossing at most), grown when needed and never shrunk, so that no push
@@ -71,6 +107,28 @@ pub(super) fn clip_faces(
     } else {
         0
     };
+    if few && small_fits(len, left.count_ones()) {
+        let [s0, s1] = small;
+        let (mut src, mut dst) = (s0, s1);
+        for (slot, &i) in src.iter_mut().zip(il) {
+            *slot = inc_v(i as usize);
+        }
+        while left != 0 {
+            let plane = planes[left.trailing_zeros() as usize];
+            left &= left - 1;
+            let (side, off) = plane;
+            if let Some(kept) =
+                clip_by_plane(&src[..len], &mut Masked(&mut *dst), side, off, plan.scan)
+            {
+                std::mem::swap(&mut src, &mut dst);
+                len = kept;
+            }
+            if len == 0 {
+                break;
+            }
+        }
+        return contact_points(&src[..len], rface.offset, n, pts, inc, inc_v);
+    }
     let most = if few {
         len << left.count_ones().max(1)
     } else {
@@ -104,6 +162,21 @@ pub(super) fn clip_faces(
             }
         }
     }
+    contact_points(&poly[..len], rface.offset, n, pts, inc, inc_v)
+}
+
+/// The manifold of the clipped polygon `poly` on the reference face's plane `n . x =
+/// offset` (the points below it, moved halfway up, with their depths), or, when none is
+/// below, of the incident body's deepest vertex (`inc_v` as in [`clip_faces`]).
+#[inline(always)]
+fn contact_points(
+    poly: &[Vec3],
+    offset: f32,
+    n: Vec3,
+    pts: &mut Vec<(Vec3, f32)>,
+    inc: &ConvexPolyhedron,
+    inc_v: impl Fn(usize) -> Vec3,
+) -> Option<Manifold> {
     // The points with their depths, written straight into the manifold while there are
     // four or fewer (the usual face contact: `reduce` keeps them all, in order); a fifth
     // sends the polygon through `reduce` with every point (each by the same expressions,
@@ -113,8 +186,8 @@ pub(super) fn clip_faces(
         ..Default::default()
     };
     let mut more = false;
-    for &p in &poly[..len] {
-        let depth = rface.offset - n.dot(p);
+    for &p in poly {
+        let depth = offset - n.dot(p);
         if depth > 0.0 {
             if m.count == 4 {
                 more = true;
@@ -128,7 +201,7 @@ pub(super) fn clip_faces(
         }
     }
     if more {
-        return Some(reduce_all(&poly[..len], rface.offset, n, pts));
+        return Some(reduce_all(poly, offset, n, pts));
     }
     if m.count > 0 {
         return Some(m);
@@ -139,7 +212,7 @@ pub(super) fn clip_faces(
     let deepest = (0..inc.vertices.len())
         .map(inc_v)
         .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
-    let depth = rface.offset - n.dot(deepest);
+    let depth = offset - n.dot(deepest);
     if depth <= 0.0 {
         return None;
     }
@@ -212,7 +285,7 @@ fn clip_one(
     (side, off): (Vec3, f32),
     scan: bool,
 ) -> usize {
-    match clip_by_plane(&poly[..len], tmp, side, off, scan) {
+    match clip_by_plane(&poly[..len], tmp.as_mut_slice(), side, off, scan) {
         Some(kept) => {
             std::mem::swap(poly, tmp);
             kept
@@ -238,9 +311,9 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
 /// every corner with `d <= 0` is kept, in order, and no edge crosses (a crossing needs a
 /// corner with `d > 0` or, for `dp < 0`, `dq > 0`), so the same polygon.
 #[inline(always)]
-fn clip_by_plane(
+fn clip_by_plane<D: Store + ?Sized>(
     src: &[Vec3],
-    dst: &mut [Vec3],
+    dst: &mut D,
     side: Vec3,
     off: f32,
     scan: bool,
@@ -267,11 +340,11 @@ fn clip_by_plane(
     let mut w = 0;
     let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
         if dp <= 0.0 {
-            dst[w] = p;
+            dst.put(w, p);
             w += 1;
         }
         if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
-            dst[w] = p + (q - p) * (dp / (dp - dq));
+            dst.put(w, p + (q - p) * (dp / (dp - dq)));
             w += 1;
         }
     };
@@ -283,6 +356,31 @@ fn clip_by_plane(
     }
     edge(p, dp, first, d_first);
     Some(w)
+}
+
+/// Where [`clip_by_plane`] writes its polygon: entry `w` set to `p`.
+trait Store {
+    fn put(&mut self, w: usize, p: Vec3);
+}
+
+/// A growable buffer, long enough by the caller's fitting (indexing checked).
+impl Store for [Vec3] {
+    #[inline(always)]
+    fn put(&mut self, w: usize, p: Vec3) {
+        self[w] = p;
+    }
+}
+
+/// A fixed buffer of [`SMALL`] entries, indexed through a mask so that no store needs a
+/// bounds check: only for polygons that fit ([`small_fits`]), where the mask never changes
+/// an index.
+struct Masked<'a>(&'a mut [Vec3; SMALL]);
+
+impl Store for Masked<'_> {
+    #[inline(always)]
+    fn put(&mut self, w: usize, p: Vec3) {
+        self.0[w & (SMALL - 1)] = p;
+    }
 }
 
 /// Closest points of segments `p0-p1` and `q0-q1`.
