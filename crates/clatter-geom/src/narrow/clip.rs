@@ -1,7 +1,9 @@
 //! The manifold of a face contact (the incident face clipped against the reference face's
 //! side planes) and of an edge contact (closest points of two segments).
 
-use glam::Vec3;
+use std::ops::{Add, Mul, Sub};
+
+use glam::{Vec3, Vec3A};
 
 use super::slack::Plan;
 use super::{ContactPoint, Manifold, reduce};
@@ -9,12 +11,13 @@ use crate::{ConvexPolyhedron, Pose};
 
 /// Buffers of the face clipping: growable ones for any face, and two fixed ones of
 /// [`SMALL`] corners for the usual small case (see [`small_fits`]), whose stores the
-/// compiler can prove in bounds.
+/// compiler can prove in bounds, of `Vec3A` (one 16-byte load or store a corner; the same
+/// floats, see [`ClipPoint`]).
 pub(super) struct ClipBuffers {
     pub(super) poly: Vec<Vec3>,
     pub(super) tmp: Vec<Vec3>,
     pub(super) pts: Vec<(Vec3, f32)>,
-    small: [[Vec3; SMALL]; 2],
+    small: [[Vec3A; SMALL]; 2],
 }
 
 impl Default for ClipBuffers {
@@ -23,7 +26,7 @@ impl Default for ClipBuffers {
             poly: Vec::new(),
             tmp: Vec::new(),
             pts: Vec::new(),
-            small: [[Vec3::ZERO; SMALL]; 2],
+            small: [[Vec3A::ZERO; SMALL]; 2],
         }
     }
 }
@@ -111,12 +114,12 @@ pub(super) fn clip_faces(
         let [s0, s1] = small;
         let (mut src, mut dst) = (s0, s1);
         for (slot, &i) in src.iter_mut().zip(il) {
-            *slot = inc_v(i as usize);
+            *slot = Vec3A::from(inc_v(i as usize));
         }
         while left != 0 {
             let plane = planes[left.trailing_zeros() as usize];
             left &= left - 1;
-            let (side, off) = plane;
+            let (side, off) = (Vec3A::from(plane.0), plane.1);
             if let Some(kept) =
                 clip_by_plane(&src[..len], &mut Masked(&mut *dst), side, off, plan.scan)
             {
@@ -169,8 +172,8 @@ pub(super) fn clip_faces(
 /// offset` (the points below it, moved halfway up, with their depths), or, when none is
 /// below, of the incident body's deepest vertex (`inc_v` as in [`clip_faces`]).
 #[inline(always)]
-fn contact_points(
-    poly: &[Vec3],
+fn contact_points<P: ClipPoint>(
+    poly: &[P],
     offset: f32,
     n: Vec3,
     pts: &mut Vec<(Vec3, f32)>,
@@ -186,15 +189,16 @@ fn contact_points(
         ..Default::default()
     };
     let mut more = false;
+    let np = P::from_vec3(n);
     for &p in poly {
-        let depth = offset - n.dot(p);
+        let depth = offset - np.dot(p);
         if depth > 0.0 {
             if m.count == 4 {
                 more = true;
                 break;
             }
             m.points[m.count] = ContactPoint {
-                point: p + n * (0.5 * depth),
+                point: (p + np * (0.5 * depth)).to_vec3(),
                 depth,
             };
             m.count += 1;
@@ -224,12 +228,18 @@ fn contact_points(
 /// than four, out of line.
 #[cold]
 #[inline(never)]
-fn reduce_all(poly: &[Vec3], offset: f32, n: Vec3, pts: &mut Vec<(Vec3, f32)>) -> Manifold {
+fn reduce_all<P: ClipPoint>(
+    poly: &[P],
+    offset: f32,
+    n: Vec3,
+    pts: &mut Vec<(Vec3, f32)>,
+) -> Manifold {
     pts.clear();
+    let np = P::from_vec3(n);
     for &p in poly {
-        let depth = offset - n.dot(p);
+        let depth = offset - np.dot(p);
         if depth > 0.0 {
-            pts.push((p + n * (0.5 * depth), depth));
+            pts.push(((p + np * (0.5 * depth)).to_vec3(), depth));
         }
     }
     reduce(pts, n)
@@ -311,10 +321,10 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
 /// every corner with `d <= 0` is kept, in order, and no edge crosses (a crossing needs a
 /// corner with `d > 0` or, for `dp < 0`, `dq > 0`), so the same polygon.
 #[inline(always)]
-fn clip_by_plane<D: Store + ?Sized>(
-    src: &[Vec3],
+fn clip_by_plane<P: ClipPoint, D: Store<P> + ?Sized>(
+    src: &[P],
     dst: &mut D,
-    side: Vec3,
+    side: P,
     off: f32,
     scan: bool,
 ) -> Option<usize> {
@@ -338,7 +348,7 @@ fn clip_by_plane<D: Store + ?Sized>(
         return None;
     }
     let mut w = 0;
-    let mut edge = |p: Vec3, dp: f32, q: Vec3, dq: f32| {
+    let mut edge = |p: P, dp: f32, q: P, dq: f32| {
         if dp <= 0.0 {
             dst.put(w, p);
             w += 1;
@@ -358,13 +368,53 @@ fn clip_by_plane<D: Store + ?Sized>(
     Some(w)
 }
 
+/// A point of the clip: `Vec3`, or `Vec3A` for the fixed buffers. Both give the same
+/// floats by the same expressions: glam's `Vec3A` adds, subtracts and scales lane by lane
+/// (each lane the IEEE operation `Vec3` does on that coordinate), and its dot product is
+/// `(x x' + y y') + z z'`, `Vec3`'s order; the fourth lane is never read.
+trait ClipPoint: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> {
+    fn dot(self, o: Self) -> f32;
+    fn from_vec3(v: Vec3) -> Self;
+    fn to_vec3(self) -> Vec3;
+}
+
+impl ClipPoint for Vec3 {
+    #[inline(always)]
+    fn dot(self, o: Self) -> f32 {
+        Vec3::dot(self, o)
+    }
+    #[inline(always)]
+    fn from_vec3(v: Vec3) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn to_vec3(self) -> Vec3 {
+        self
+    }
+}
+
+impl ClipPoint for Vec3A {
+    #[inline(always)]
+    fn dot(self, o: Self) -> f32 {
+        Vec3A::dot(self, o)
+    }
+    #[inline(always)]
+    fn from_vec3(v: Vec3) -> Self {
+        Vec3A::from(v)
+    }
+    #[inline(always)]
+    fn to_vec3(self) -> Vec3 {
+        Vec3::from(self)
+    }
+}
+
 /// Where [`clip_by_plane`] writes its polygon: entry `w` set to `p`.
-trait Store {
-    fn put(&mut self, w: usize, p: Vec3);
+trait Store<P> {
+    fn put(&mut self, w: usize, p: P);
 }
 
 /// A growable buffer, long enough by the caller's fitting (indexing checked).
-impl Store for [Vec3] {
+impl Store<Vec3> for [Vec3] {
     #[inline(always)]
     fn put(&mut self, w: usize, p: Vec3) {
         self[w] = p;
@@ -374,11 +424,11 @@ impl Store for [Vec3] {
 /// A fixed buffer of [`SMALL`] entries, indexed through a mask so that no store needs a
 /// bounds check: only for polygons that fit ([`small_fits`]), where the mask never changes
 /// an index.
-struct Masked<'a>(&'a mut [Vec3; SMALL]);
+struct Masked<'a>(&'a mut [Vec3A; SMALL]);
 
-impl Store for Masked<'_> {
+impl Store<Vec3A> for Masked<'_> {
     #[inline(always)]
-    fn put(&mut self, w: usize, p: Vec3) {
+    fn put(&mut self, w: usize, p: Vec3A) {
         self.0[w & (SMALL - 1)] = p;
     }
 }
