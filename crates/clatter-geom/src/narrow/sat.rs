@@ -2,7 +2,7 @@
 //! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]); the
 //! projections of the vertices on the axes in packed lanes ([`super::lanes`]).
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Mat3A, Quat, Vec3, Vec3A};
 
 use super::certify::{overlap_certified, wedge_certified};
 use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
@@ -229,6 +229,10 @@ fn remembered_face(
     } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
+    // The incident corners by glam's `Mat3A * Vec3A`: the columns scaled and summed lane by
+    // lane in `Mat3 * Vec3`'s order (`(x_axis x + y_axis y) + z_axis z`), then `t` added or
+    // taken lane by lane: the same floats as `rot * v + t` and `inv_rot * (v - t)`.
+    let t_a = Vec3A::from(t);
     let key = kind | face as u32;
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
@@ -237,7 +241,8 @@ fn remembered_face(
         let plan = slack
             .as_deref()
             .map_or(Plan::FULL, |s| s.plan(a, b, key, q, t));
-        let inc_v = |i| rot * b.vertices[i] + t;
+        let rot_a = Mat3A::from(rot);
+        let inc_v = |i: usize| Vec3::from(rot_a * Vec3A::from(b.vertices[i]) + t_a);
         let mut m = clip_faces(a, face, b, inc_v, rot, clip, &plan).ok_or(None)?;
         if let Some(s) = slack.filter(|_| plan.measure) {
             let n_inc = rot.transpose() * a.faces[face].normal;
@@ -260,7 +265,8 @@ fn remembered_face(
         let plan = slack
             .as_deref()
             .map_or(Plan::FULL, |s| s.plan(b, a, key, q, t));
-        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
+        let inv_rot_a = Mat3A::from(inv_rot);
+        let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
         let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip, &plan).ok_or(None)?;
         if let Some(s) = slack.filter(|_| plan.measure) {
             let n_inc = inv_rot.transpose() * b.faces[face].normal;
