@@ -83,6 +83,25 @@ pub(super) fn clip_faces(
     clip: &mut ClipBuffers,
     plan: &Plan,
 ) -> Option<Manifold> {
+    let mut m = Manifold::default();
+    clip_faces_into(refp, rf, inc, inc_v, inc_rot, clip, plan, &mut m).then_some(m)
+}
+
+/// [`clip_faces`] written into `m` (whole, unused points zero) instead of returned: `true`
+/// with the manifold, `false` for no contact (`m` then holds no point), so that a caller
+/// keeping the manifold where it is needed does not copy it (a manifold is 96 bytes).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn clip_faces_into(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    inc_v: impl Fn(usize) -> Vec3,
+    inc_rot: glam::Mat3,
+    clip: &mut ClipBuffers,
+    plan: &Plan,
+    m: &mut Manifold,
+) -> bool {
     let rface = refp.faces[rf];
     let n = rface.normal;
     // Incident face: the one most anti-parallel to the reference normal.
@@ -134,7 +153,7 @@ pub(super) fn clip_faces(
                 break;
             }
         }
-        return contact_points(&src[..len], rface.offset, n, pts, inc, inc_v);
+        return contact_points(&src[..len], rface.offset, n, pts, inc, inc_v, m);
     }
     let most = if few {
         len << left.count_ones().max(1)
@@ -169,12 +188,13 @@ pub(super) fn clip_faces(
             }
         }
     }
-    contact_points(&poly[..len], rface.offset, n, pts, inc, inc_v)
+    contact_points(&poly[..len], rface.offset, n, pts, inc, inc_v, m)
 }
 
 /// The manifold of the clipped polygon `poly` on the reference face's plane `n . x =
 /// offset` (the points below it, moved halfway up, with their depths), or, when none is
-/// below, of the incident body's deepest vertex (`inc_v` as in [`clip_faces`]).
+/// below, of the incident body's deepest vertex (`inc_v` as in [`clip_faces`]), written
+/// into `m`: `false` when there is no contact.
 #[inline(always)]
 fn contact_points<P: ClipPoint>(
     poly: &[P],
@@ -183,12 +203,13 @@ fn contact_points<P: ClipPoint>(
     pts: &mut Vec<(Vec3, f32)>,
     inc: &ConvexPolyhedron,
     inc_v: impl Fn(usize) -> Vec3,
-) -> Option<Manifold> {
+    m: &mut Manifold,
+) -> bool {
     // The points with their depths, written straight into the manifold while there are
     // four or fewer (the usual face contact: `reduce` keeps them all, in order); a fifth
     // sends the polygon through `reduce` with every point (each by the same expressions,
     // so the same floats).
-    let mut m = Manifold {
+    *m = Manifold {
         normal: n,
         ..Default::default()
     };
@@ -209,22 +230,27 @@ fn contact_points<P: ClipPoint>(
         }
     }
     if more {
-        return Some(reduce_all(poly, offset, n, pts));
+        *m = reduce_all(poly, offset, n, pts);
+        return true;
     }
     if m.count > 0 {
-        return Some(m);
+        return true;
     }
     // The separating-axis test found overlap but the incident face clips away entirely
     // (deep or oblique overlap): keep the contact with the incident body's deepest vertex
     // rather than losing it.
-    let deepest = (0..inc.vertices.len())
+    let Some(deepest) = (0..inc.vertices.len())
         .map(inc_v)
-        .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))?;
+        .min_by(|p, q| n.dot(*p).total_cmp(&n.dot(*q)))
+    else {
+        return false;
+    };
     let depth = offset - n.dot(deepest);
     if depth <= 0.0 {
-        return None;
+        return false;
     }
-    Some(Manifold::single(n, deepest + n * (0.5 * depth), depth))
+    *m = Manifold::single(n, deepest + n * (0.5 * depth), depth);
+    true
 }
 
 /// The contact points of the clipped polygon `poly` (those below the reference face's
