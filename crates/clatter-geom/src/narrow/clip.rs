@@ -6,7 +6,8 @@ use std::ops::{Add, Mul, Sub};
 use glam::{Vec3, Vec3A};
 
 use super::slack::Plan;
-use super::{ContactPoint, Manifold, reduce};
+use super::{ContactPoint, Manifold};
+use crate::reduce::PatchVec;
 use crate::{ConvexPolyhedron, Pose};
 
 /// Buffers of the face clipping: growable ones for any face, and two fixed ones of
@@ -18,6 +19,8 @@ pub(super) struct ClipBuffers {
     pub(super) tmp: Vec<Vec3>,
     pub(super) pts: Vec<(Vec3, f32)>,
     small: [[Vec3A; SMALL]; 2],
+    /// The fixed buffers' points for [`reduce_all`].
+    small_pts: Vec<(Vec3A, f32)>,
 }
 
 impl Default for ClipBuffers {
@@ -27,6 +30,7 @@ impl Default for ClipBuffers {
             tmp: Vec::new(),
             pts: Vec::new(),
             small: [[Vec3A::ZERO; SMALL]; 2],
+            small_pts: Vec::new(),
         }
     }
 }
@@ -114,6 +118,7 @@ pub(super) fn clip_faces_into(
         tmp,
         pts,
         small,
+        small_pts,
     } = clip;
     // The polygons are written by index into buffers at least twice as long as the polygon
     // clipped (clipping by one plane at most doubles a polygon: each corner gives itself
@@ -153,6 +158,7 @@ pub(super) fn clip_faces_into(
                 break;
             }
         }
+        let pts = (small_pts, pts);
         return contact_points(&src[..len], rface.offset, n, pts, inc, inc_v, m);
     }
     let most = if few {
@@ -188,7 +194,15 @@ pub(super) fn clip_faces_into(
             }
         }
     }
-    contact_points(&poly[..len], rface.offset, n, pts, inc, inc_v, m)
+    contact_points(
+        &poly[..len],
+        rface.offset,
+        n,
+        (pts, &mut Vec::new()),
+        inc,
+        inc_v,
+        m,
+    )
 }
 
 /// The manifold of the clipped polygon `poly` on the reference face's plane `n . x =
@@ -200,7 +214,7 @@ fn contact_points<P: ClipPoint>(
     poly: &[P],
     offset: f32,
     n: Vec3,
-    pts: &mut Vec<(Vec3, f32)>,
+    pts: (&mut Vec<(P, f32)>, &mut Vec<(Vec3, f32)>),
     inc: &ConvexPolyhedron,
     inc_v: impl Fn(usize) -> Vec3,
     m: &mut Manifold,
@@ -262,17 +276,40 @@ fn reduce_all<P: ClipPoint>(
     poly: &[P],
     offset: f32,
     n: Vec3,
-    pts: &mut Vec<(Vec3, f32)>,
+    (pts, plain): (&mut Vec<(P, f32)>, &mut Vec<(Vec3, f32)>),
 ) -> Manifold {
     pts.clear();
     let np = P::from_vec3(n);
     for &p in poly {
         let depth = offset - np.dot(p);
         if depth > 0.0 {
-            pts.push(((p + np * (0.5 * depth)).to_vec3(), depth));
+            pts.push((p + np * (0.5 * depth), depth));
         }
     }
-    reduce(pts, n)
+    // `narrow::reduce` of these points (more than four), by the same generic reduction:
+    // of `P`, where every coordinate is below `1e18` in magnitude (so that no product,
+    // difference or sum of the reduction overflows and no NaN arises, whose sign and
+    // payload may depend on the order of the operands a compiler picks), else of `Vec3`
+    // (the points as they are: each coordinate by the same lane-wise expression).
+    let (idx, count) = if pts.iter().all(|&(p, _)| p.moderate()) {
+        crate::reduce::reduce(pts, np)
+    } else {
+        plain.clear();
+        plain.extend(pts.iter().map(|&(p, d)| (p.to_vec3(), d)));
+        crate::reduce::reduce(plain, n)
+    };
+    let mut m = Manifold {
+        normal: n,
+        count,
+        ..Default::default()
+    };
+    for (k, &i) in idx[..count].iter().enumerate() {
+        m.points[k] = ContactPoint {
+            point: pts[i].0.to_vec3(),
+            depth: pts[i].1,
+        };
+    }
+    m
 }
 
 /// The face of `inc` most anti-parallel to `n_inc` (the reference normal in `inc`'s
@@ -402,17 +439,17 @@ fn clip_by_plane<P: ClipPoint, D: Store<P> + ?Sized>(
 /// floats by the same expressions: glam's `Vec3A` adds, subtracts and scales lane by lane
 /// (each lane the IEEE operation `Vec3` does on that coordinate), and its dot product is
 /// `(x x' + y y') + z z'`, `Vec3`'s order; the fourth lane is never read.
-trait ClipPoint: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> {
-    fn dot(self, o: Self) -> f32;
+trait ClipPoint:
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<f32, Output = Self> + PatchVec<S = f32>
+{
     fn from_vec3(v: Vec3) -> Self;
     fn to_vec3(self) -> Vec3;
+    /// Whether every coordinate is below `1e18` in magnitude (not NaN), where that matters
+    /// (see [`reduce_all`]).
+    fn moderate(self) -> bool;
 }
 
 impl ClipPoint for Vec3 {
-    #[inline(always)]
-    fn dot(self, o: Self) -> f32 {
-        Vec3::dot(self, o)
-    }
     #[inline(always)]
     fn from_vec3(v: Vec3) -> Self {
         v
@@ -421,13 +458,13 @@ impl ClipPoint for Vec3 {
     fn to_vec3(self) -> Vec3 {
         self
     }
+    #[inline(always)]
+    fn moderate(self) -> bool {
+        true
+    }
 }
 
 impl ClipPoint for Vec3A {
-    #[inline(always)]
-    fn dot(self, o: Self) -> f32 {
-        Vec3A::dot(self, o)
-    }
     #[inline(always)]
     fn from_vec3(v: Vec3) -> Self {
         Vec3A::from(v)
@@ -435,6 +472,10 @@ impl ClipPoint for Vec3A {
     #[inline(always)]
     fn to_vec3(self) -> Vec3 {
         Vec3::from(self)
+    }
+    #[inline(always)]
+    fn moderate(self) -> bool {
+        self.abs().cmplt(Vec3A::splat(1e18)).all()
     }
 }
 

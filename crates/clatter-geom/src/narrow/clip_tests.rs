@@ -579,3 +579,71 @@ fn fixed_buffers_are_the_growable_ones() {
         "{fixed} {contacts} {odd}"
     );
 }
+
+/// `reduce_all` of the fixed buffers' `Vec3A` points against that of the same `Vec3`
+/// points, bitwise: polygons of 5 to 19 corners (the fixed buffers' largest) below a face
+/// plane, coarse (ties, repeats, collinear corners) or fine, and now and then a corner
+/// huge, infinite or NaN (those reduced as `Vec3`: see `reduce_all`).
+#[test]
+fn reduce_all_of_vec3a_is_of_vec3() {
+    let mut r = ChaCha8Rng::seed_from_u64(33);
+    let odd = [
+        1e30,
+        -1e30,
+        1e17,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        -0.0,
+    ];
+    let (mut plain, mut wide, mut spare) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut reduced, mut unusual) = (0, 0);
+    for case in 0..40_000 {
+        let len = r.random_range(5..20usize);
+        let coarse = case % 3 == 0;
+        let n = Vec3::new(r.random_range(-0.3..0.3), r.random_range(-0.3..0.3), 1.0).normalize();
+        let offset = if coarse {
+            0.5
+        } else {
+            r.random_range(-1.0..1.0)
+        };
+        let mut odd_here = false;
+        let poly: Vec<Vec3> = (0..len)
+            .map(|_| {
+                let mut c = [0; 3].map(|_| {
+                    if coarse {
+                        r.random_range(-2..=2) as f32 * 0.5
+                    } else {
+                        r.random_range(-1.0f32..1.0)
+                    }
+                });
+                if case % 7 == 0 && r.random_range(0..4) == 0 {
+                    c[r.random_range(0..3)] = odd[r.random_range(0..odd.len())];
+                    odd_here = true;
+                }
+                // Corners far below the plane (overflowing, or NaN once moved halfway up).
+                if case % 7 == 1 && r.random_range(0..2) == 0 {
+                    c[2] = [f32::NEG_INFINITY, -1e38][r.random_range(0..2)];
+                    c[r.random_range(0..2)] *= [1.0, 1e38, f32::INFINITY][r.random_range(0..3)];
+                    odd_here = true;
+                }
+                Vec3::from_array(c)
+            })
+            .collect();
+        let below = poly.iter().filter(|&&p| offset - n.dot(p) > 0.0).count();
+        if below <= 4 {
+            continue;
+        }
+        reduced += 1;
+        unusual += odd_here as usize;
+        let want = reduce_all(&poly, offset, n, (&mut plain, &mut spare));
+        let poly_a: Vec<Vec3A> = poly.iter().map(|&p| p.into()).collect();
+        let got = reduce_all(&poly_a, offset, n, (&mut wide, &mut plain));
+        assert_eq!(
+            manifold_bits(Some(got)),
+            manifold_bits(Some(want)),
+            "case {case}: {poly:?}"
+        );
+    }
+    assert!(reduced > 10_000 && unusual > 500, "{reduced} {unusual}");
+}
