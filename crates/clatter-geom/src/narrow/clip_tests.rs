@@ -596,7 +596,7 @@ fn reduce_all_of_vec3a_is_of_vec3() {
         f32::NAN,
         -0.0,
     ];
-    let (mut plain, mut wide, mut spare) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut plain, mut wide) = (Vec::new(), Vec::new());
     let (mut reduced, mut unusual) = (0, 0);
     for case in 0..40_000 {
         let len = r.random_range(5..20usize);
@@ -636,9 +636,9 @@ fn reduce_all_of_vec3a_is_of_vec3() {
         }
         reduced += 1;
         unusual += odd_here as usize;
-        let want = reduce_all(&poly, offset, n, (&mut plain, &mut spare));
+        let want = reduce_all(&poly, offset, n, &mut plain);
         let poly_a: Vec<Vec3A> = poly.iter().map(|&p| p.into()).collect();
-        let got = reduce_all(&poly_a, offset, n, (&mut wide, &mut plain));
+        let got = reduce_all(&poly_a, offset, n, &mut wide);
         assert_eq!(
             manifold_bits(Some(got)),
             manifold_bits(Some(want)),
