@@ -4,7 +4,7 @@
 use std::cmp::Ordering;
 use std::ops::{Mul, Neg, Sub};
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec3, Vec3A};
 
 /// The vector and scalar operations of [`reduce`], implemented for glam's `Vec3` and `DVec3`
 /// by their own methods (so the f32 results are those of the original f32-only code).
@@ -57,6 +57,10 @@ macro_rules! patch_vec {
 
 patch_vec!(Vec3, f32);
 patch_vec!(DVec3, f64);
+// The face clip's points (`narrow::clip`): glam's `Vec3A` gives `Vec3`'s floats (lane-wise
+// arithmetic; the dot product in `Vec3`'s order; the cross product's lanes the same
+// products, multiplication commuting), so the same keys, candidates and ties.
+patch_vec!(Vec3A, f32);
 
 /// Which points of a contact patch `(point, depth)` to keep, and how many (at most four):
 /// all of them when there are four or fewer, else the deepest, the one furthest from it, the
@@ -194,5 +198,44 @@ mod tests {
                 "case {case}: {pts:?}"
             );
         }
+    }
+
+    /// The reduction of `Vec3A` points (the face clip's fixed buffers) chooses what that of
+    /// the same `Vec3` points chooses, on patches of 5 to 19 points (the clip's largest)
+    /// whose coordinates are below `1e18` in magnitude (where the clip uses it: no overflow,
+    /// no NaN): coarse coordinates (ties, repeats, collinear points), zeros of either sign,
+    /// fine ones, large (`1e17`) and tiny ones.
+    #[test]
+    fn vec3a_chooses_as_vec3() {
+        let mut r = ChaCha8Rng::seed_from_u64(32);
+        let odd = [0.0, -0.0, 1e17, -1e17, -1e-30, 1e-30];
+        let mut ties = 0;
+        for case in 0..40_000 {
+            let n = r.random_range(5..20usize);
+            let coarse = case % 3 == 0;
+            let v = |r: &mut ChaCha8Rng| {
+                if case % 50 == 0 && r.random_range(0..8) == 0 {
+                    odd[r.random_range(0..odd.len())]
+                } else if coarse {
+                    r.random_range(-2..=2) as f32 * 0.5
+                } else {
+                    r.random_range(-1.0f32..1.0)
+                }
+            };
+            let normal = Vec3::new(v(&mut r), v(&mut r), 1.0).normalize();
+            let pts: Vec<(Vec3, f32)> = (0..n)
+                .map(|_| {
+                    let p = Vec3::new(v(&mut r), v(&mut r), v(&mut r) * 0.01);
+                    (p, v(&mut r).abs())
+                })
+                .collect();
+            let wide: Vec<(Vec3A, f32)> = pts.iter().map(|&(p, d)| (p.into(), d)).collect();
+            let want = reduce(&pts, normal);
+            assert_eq!(reduce(&wide, normal.into()), want, "case {case}: {pts:?}");
+            // Patches whose deepest point is tied (the last of equals must win both ways).
+            let deepest = pts.iter().map(|p| p.1).fold(f32::NEG_INFINITY, f32::max);
+            ties += (pts.iter().filter(|p| p.1 == deepest).count() > 1) as usize;
+        }
+        assert!(ties > 100, "{ties}");
     }
 }

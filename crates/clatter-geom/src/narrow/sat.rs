@@ -2,10 +2,10 @@
 //! edge-edge axes ([`super::edges`]), then the manifold by clipping ([`super::clip`]); the
 //! projections of the vertices on the axes in packed lanes ([`super::lanes`]).
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Mat3A, Quat, Vec3, Vec3A};
 
 use super::certify::{overlap_certified, wedge_certified};
-use super::clip::{ClipBuffers, clip_faces, segment_closest, to_world};
+use super::clip::{ClipBuffers, clip_faces, clip_faces_into, segment_closest, to_world};
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
 use super::memory::EdgeMemory;
@@ -96,14 +96,23 @@ pub(super) fn polyhedron_pair(
             // The full test would choose the remembered face again (see `contact_margin`):
             // clip it alone. When the overlap is not certified, the clipped face serves the
             // full test below.
+            // Served: returned from where `remembered_face` wrote it (no copy through a
+            // `Result`), with the margin kept, as a found manifold below.
             let slack = memory.as_deref_mut().map(EdgeMemory::face_slack);
             let kind = *hint & HINT_KIND;
-            SCRATCH
-                .with_borrow_mut(|sc| {
-                    remembered_face(a, pa, b, pb, &rel, sc, kind, face as usize, slack)
-                })
-                .map_err(|c| clipped = c)
-                .ok()
+            let mut out = Manifold::default();
+            let face = face as usize;
+            let served = SCRATCH.with_borrow_mut(|sc| {
+                remembered_face(a, pa, b, pb, &rel, sc, kind, face, slack, &mut out)
+            });
+            match served {
+                Ok(()) => {
+                    *bound = margin;
+                    return Some(out);
+                }
+                Err(c) => clipped = c,
+            }
+            None
         } else {
             None
         };
@@ -205,8 +214,8 @@ enum Prepared {
 type Clipped = (u32, usize, Manifold);
 
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
-/// clipped with the full test's own expressions ([`sat_full`]): `Ok(manifold)` as the full
-/// test would return it, or `Err` when the overlap is not certain enough to rule out a
+/// clipped with the full test's own expressions ([`sat_full`]): `Ok` with the manifold as
+/// the full test would return it written into `out`, or `Err` when the overlap is not certain enough to rule out a
 /// separating axis ([`overlap_certified`]; the full test must run), with the clipped face
 /// when there is one (for the full test, if it chooses that face: [`Clipped`]).
 #[allow(clippy::too_many_arguments)]
@@ -223,12 +232,17 @@ fn remembered_face(
     kind: u32,
     face: usize,
     slack: Option<&mut FaceSlack>,
-) -> Result<Option<Manifold>, Option<Clipped>> {
+    out: &mut Manifold,
+) -> Result<(), Option<Clipped>> {
     let Relative {
         rot, inv_rot, t, q, ..
     } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
+    // The incident corners by glam's `Mat3A * Vec3A`: the columns scaled and summed lane by
+    // lane in `Mat3 * Vec3`'s order (`(x_axis x + y_axis y) + z_axis z`), then `t` added or
+    // taken lane by lane: the same floats as `rot * v + t` and `inv_rot * (v - t)`.
+    let t_a = Vec3A::from(t);
     let key = kind | face as u32;
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
@@ -237,21 +251,25 @@ fn remembered_face(
         let plan = slack
             .as_deref()
             .map_or(Plan::FULL, |s| s.plan(a, b, key, q, t));
-        let inc_v = |i| rot * b.vertices[i] + t;
-        let mut m = clip_faces(a, face, b, inc_v, rot, clip, &plan).ok_or(None)?;
+        let rot_a = Mat3A::from(rot);
+        let inc_v = |i: usize| Vec3::from(rot_a * Vec3A::from(b.vertices[i]) + t_a);
+        if !clip_faces_into(a, face, b, inc_v, rot, clip, &plan, out) {
+            return Err(None);
+        }
+        let m = out;
         if let Some(s) = slack.filter(|_| plan.measure) {
             let n_inc = rot.transpose() * a.faces[face].normal;
-            s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, &m, delta);
+            s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, m, delta);
         }
         let to_b = |p: Vec3| inv_rot * (p - t);
         if plan.certified
-            || overlap_certified(a, &m, delta)
-            || wedge_certified(a, face, b, to_b, rot, &m, delta)
+            || overlap_certified(a, m, delta)
+            || wedge_certified(a, face, b, to_b, rot, m, delta)
         {
-            to_world(&mut m, pa, false);
-            Ok(Some(m))
+            to_world(m, pa, false);
+            Ok(())
         } else {
-            Err(Some((kind, face, m)))
+            Err(Some((kind, face, *m)))
         }
     } else {
         if face >= b.faces.len() {
@@ -260,22 +278,26 @@ fn remembered_face(
         let plan = slack
             .as_deref()
             .map_or(Plan::FULL, |s| s.plan(b, a, key, q, t));
-        let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
-        let mut m = clip_faces(b, face, a, inc_v, inv_rot, clip, &plan).ok_or(None)?;
+        let inv_rot_a = Mat3A::from(inv_rot);
+        let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
+        if !clip_faces_into(b, face, a, inc_v, inv_rot, clip, &plan, out) {
+            return Err(None);
+        }
+        let m = out;
         if let Some(s) = slack.filter(|_| plan.measure) {
             let n_inc = inv_rot.transpose() * b.faces[face].normal;
             let lever = a.radius + t.length() * (1.0 + 1e-6);
-            s.record(b, face, a, key, q, t, lever, n_inc, inc_v, &m, delta);
+            s.record(b, face, a, key, q, t, lever, n_inc, inc_v, m, delta);
         }
         let to_a = |p: Vec3| rot * p + t;
         if plan.certified
-            || overlap_certified(b, &m, delta)
-            || wedge_certified(b, face, a, to_a, inv_rot, &m, delta)
+            || overlap_certified(b, m, delta)
+            || wedge_certified(b, face, a, to_a, inv_rot, m, delta)
         {
-            to_world(&mut m, pb, true);
-            Ok(Some(m))
+            to_world(m, pb, true);
+            Ok(())
         } else {
-            Err(Some((kind, face, m)))
+            Err(Some((kind, face, *m)))
         }
     }
 }
