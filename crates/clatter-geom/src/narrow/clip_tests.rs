@@ -323,15 +323,9 @@ fn manifold_bits(m: Option<Manifold>) -> Option<(usize, [u32; 3], Vec<[u32; 4]>)
     })
 }
 
-/// The clip without the scan for a corner outside (`Plan::scan` off, as a served
-/// record's plan) against the clip with it, bitwise: boxes and random hulls turned at
-/// random or onto the axes exactly (corners on side planes: distance `+0` or `-0`,
-/// planes that cut nothing, corners outside by one ulp), incident corners with zeros of
-/// either sign, and a corner NaN or infinite now and then (degenerate poses); and the
-/// same with each plan's skipped planes taken from a plane that cuts nothing there.
-#[test]
-fn clip_without_the_scan_is_the_clip_with_it() {
-    let mut r = ChaCha8Rng::seed_from_u64(21);
+/// The shapes of the random clip cases ([`ClipCase`]): a small cube, a box, with `prism` a
+/// triangular prism (faces of three and four corners), and four random hulls drawn from `r`.
+fn clip_shapes(r: &mut ChaCha8Rng, prism: bool) -> Vec<ConvexPolyhedron> {
     let cube = |h: Vec3| {
         let v: Vec<Vec3> = (0..8)
             .map(|k| {
@@ -342,25 +336,52 @@ fn clip_without_the_scan_is_the_clip_with_it() {
         crate::convex_hull(&v).expect("box hull")
     };
     let mut shapes = vec![cube(Vec3::splat(0.01)), cube(Vec3::new(0.5, 0.2, 0.3))];
+    if prism {
+        let tri = [(0.01, 0.005), (0.02, -0.005), (-0.005, -0.005)];
+        let v: Vec<Vec3> = [-0.01, 0.01]
+            .iter()
+            .flat_map(|&z| tri.map(|(x, y)| Vec3::new(x, y, z)))
+            .collect();
+        shapes.push(crate::convex_hull(&v).expect("prism hull"));
+    }
     for _ in 0..4 {
         let v: Vec<Vec3> = (0..r.random_range(6..24))
             .map(|_| Vec3::new(r.random(), r.random(), r.random()) - 0.5)
             .collect();
         shapes.push(crate::convex_hull(&v).expect("random hull"));
     }
-    let (mut buf_a, mut buf_b) = (ClipBuffers::default(), ClipBuffers::default());
-    let (mut cut_nothing, mut contacts, mut odd) = (0, 0, 0);
-    for case in 0..40_000 {
-        let refp = &shapes[r.random_range(0..shapes.len())];
-        let inc = &shapes[r.random_range(0..shapes.len())];
-        let rf = r.random_range(0..refp.faces.len());
-        let face = refp.faces[rf];
+    shapes
+}
+
+/// One random clip case: reference face `rf` of `shapes[refp]` against `shapes[inc]`
+/// turned by `rot` (at random, or onto the axes exactly every third case) and moved by `t`
+/// just above the face, slid sideways at random or (exact cases) by whole steps of the
+/// small cube's half size, so that corners lie on side planes; the incident corners with
+/// their zeros turned to `-0` by `flip`'s bits, one off by an ulp (`nudge`), and now and
+/// then one NaN or infinite (`bad`): degenerate poses.
+struct ClipCase {
+    refp: usize,
+    inc: usize,
+    rf: usize,
+    rot: Mat3,
+    t: Vec3,
+    flip: u32,
+    nudge: usize,
+    bad: f32,
+}
+
+impl ClipCase {
+    /// Case number `case`, drawn from `r`.
+    fn draw(r: &mut ChaCha8Rng, shapes: &[ConvexPolyhedron], case: usize) -> Self {
+        let refp = r.random_range(0..shapes.len());
+        let inc = r.random_range(0..shapes.len());
+        let (rp, ip) = (&shapes[refp], &shapes[inc]);
+        let rf = r.random_range(0..rp.faces.len());
+        let face = rp.faces[rf];
         let exact = case % 3 == 0;
-        let rot = test_rotation(&mut r, exact);
-        let scale = refp.radius.max(inc.radius);
+        let rot = test_rotation(r, exact);
+        let scale = rp.radius.max(ip.radius);
         let lateral = if exact {
-            // Whole steps of the small cube's half size (corners on its side planes),
-            // or nothing (a box on a box of the same size: every plane cuts nothing).
             Vec3::new(
                 r.random_range(-2..=2) as f32,
                 r.random_range(-2..=2) as f32,
@@ -369,8 +390,7 @@ fn clip_without_the_scan_is_the_clip_with_it() {
         } else {
             Vec3::new(r.random(), r.random(), r.random()) * scale * 0.3
         };
-        let t = face.normal * (face.offset + inc.radius * r.random_range(0.5..1.0)) + lateral;
-        // Zeros turned to `-0` (or not), a corner off by an ulp, a NaN or an infinity.
+        let t = face.normal * (face.offset + ip.radius * r.random_range(0.5..1.0)) + lateral;
         let flip = r.random_range(0..8u32);
         let nudge = r.random_range(0..64usize);
         let bad = if case % 97 == 0 {
@@ -378,22 +398,80 @@ fn clip_without_the_scan_is_the_clip_with_it() {
         } else {
             0.0
         };
-        let inc_v = |i: usize| {
-            let mut p = (rot * inc.vertices[i] + t).to_array();
-            for (k, c) in p.iter_mut().enumerate() {
-                if *c == 0.0 && flip >> k & 1 != 0 {
-                    *c = -*c;
-                }
+        ClipCase {
+            refp,
+            inc,
+            rf,
+            rot,
+            t,
+            flip,
+            nudge,
+            bad,
+        }
+    }
+
+    /// Incident corner `i` (of `inc`, `shapes[self.inc]`) in the reference body's frame.
+    fn inc_v(&self, inc: &ConvexPolyhedron, i: usize) -> Vec3 {
+        let mut p = (self.rot * inc.vertices[i] + self.t).to_array();
+        for (k, c) in p.iter_mut().enumerate() {
+            if *c == 0.0 && self.flip >> k & 1 != 0 {
+                *c = -*c;
             }
-            if i == nudge % inc.vertices.len() && nudge < 16 {
-                p[nudge % 3] = f32::from_bits(p[nudge % 3].to_bits() + 1);
-            }
-            if bad != 0.0 && i == nudge % inc.vertices.len() {
-                p[0] = bad;
-            }
-            Vec3::from_array(p)
-        };
-        odd += (bad != 0.0 || flip != 0) as usize;
+        }
+        let n = self.nudge;
+        if i == n % inc.vertices.len() && n < 16 {
+            p[n % 3] = f32::from_bits(p[n % 3].to_bits() + 1);
+        }
+        if self.bad != 0.0 && i == n % inc.vertices.len() {
+            p[0] = self.bad;
+        }
+        Vec3::from_array(p)
+    }
+
+    /// Whether a corner has a `-0` or a NaN or infinite coordinate here.
+    fn odd(&self) -> bool {
+        self.bad != 0.0 || self.flip != 0
+    }
+}
+
+/// The side planes of reference face `rf` (of the first 8) that cut nothing of the
+/// incident face (every corner inside or on them, as a record's skipped planes are), as
+/// a plan's `skip` bits, and the incident face's corner count.
+fn planes_cutting_nothing(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    rot: Mat3,
+    inc_v: impl Fn(usize) -> Vec3,
+) -> (u8, usize) {
+    let n_inc = rot.transpose() * refp.faces[rf].normal;
+    let il = inc.face_loop(incident_face(inc, n_inc));
+    let mut skip = 0u8;
+    for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate().take(8) {
+        if il.iter().all(|&i| side.dot(inc_v(i as usize)) - off < 0.0) {
+            skip |= 1 << k;
+        }
+    }
+    (skip, il.len())
+}
+
+/// The clip without the scan for a corner outside (`Plan::scan` off, as a served
+/// record's plan) against the clip with it, bitwise: boxes and random hulls turned at
+/// random or onto the axes exactly (corners on side planes: distance `+0` or `-0`,
+/// planes that cut nothing, corners outside by one ulp), incident corners with zeros of
+/// either sign, and a corner NaN or infinite now and then (degenerate poses); and the
+/// same with each plan's skipped planes taken from a plane that cuts nothing there.
+#[test]
+fn clip_without_the_scan_is_the_clip_with_it() {
+    let mut r = ChaCha8Rng::seed_from_u64(21);
+    let shapes = clip_shapes(&mut r, false);
+    let (mut buf_a, mut buf_b) = (ClipBuffers::default(), ClipBuffers::default());
+    let (mut cut_nothing, mut contacts, mut odd) = (0, 0, 0);
+    for case in 0..40_000 {
+        let c = ClipCase::draw(&mut r, &shapes, case);
+        let (refp, inc, rf, rot) = (&shapes[c.refp], &shapes[c.inc], c.rf, c.rot);
+        let inc_v = |i: usize| c.inc_v(inc, i);
+        odd += c.odd() as usize;
         let with = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_a, &Plan::FULL);
         let without = Plan {
             scan: false,
@@ -404,14 +482,7 @@ fn clip_without_the_scan_is_the_clip_with_it() {
         assert_eq!(manifold_bits(got), manifold_bits(with), "case {case}");
         // The planes that cut nothing here (every corner of the incident face inside
         // or on them, as a record's skipped planes are): skipped, without the scan.
-        let n_inc = rot.transpose() * face.normal;
-        let il = inc.face_loop(incident_face(inc, n_inc));
-        let mut skip = 0u8;
-        for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate().take(8) {
-            if il.iter().all(|&i| side.dot(inc_v(i as usize)) - off < 0.0) {
-                skip |= 1 << k;
-            }
-        }
+        let (skip, _) = planes_cutting_nothing(refp, rf, inc, rot, inc_v);
         cut_nothing += (skip != 0) as usize;
         let skipping = Plan { skip, ..without };
         let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_b, &skipping);
@@ -471,84 +542,17 @@ fn a_plane_grows_a_polygon_by_half_at_most() {
 #[test]
 fn fixed_buffers_are_the_growable_ones() {
     let mut r = ChaCha8Rng::seed_from_u64(32);
-    let cube = |h: Vec3| {
-        let v: Vec<Vec3> = (0..8)
-            .map(|k| {
-                let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
-                Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
-            })
-            .collect();
-        crate::convex_hull(&v).expect("box hull")
-    };
-    let tri = [(0.01, 0.005), (0.02, -0.005), (-0.005, -0.005)];
-    let prism: Vec<Vec3> = [-0.01, 0.01]
-        .iter()
-        .flat_map(|&z| tri.map(|(x, y)| Vec3::new(x, y, z)))
-        .collect();
-    let mut shapes = vec![
-        cube(Vec3::splat(0.01)),
-        cube(Vec3::new(0.5, 0.2, 0.3)),
-        crate::convex_hull(&prism).expect("prism hull"),
-    ];
-    for _ in 0..4 {
-        let v: Vec<Vec3> = (0..r.random_range(6..24))
-            .map(|_| Vec3::new(r.random(), r.random(), r.random()) - 0.5)
-            .collect();
-        shapes.push(crate::convex_hull(&v).expect("random hull"));
-    }
+    let shapes = clip_shapes(&mut r, true);
     let (mut buf_a, mut buf_b) = (ClipBuffers::default(), ClipBuffers::default());
     let (mut fixed, mut contacts, mut odd) = (0, 0, 0);
     for case in 0..40_000 {
-        let refp = &shapes[r.random_range(0..shapes.len())];
-        let inc = &shapes[r.random_range(0..shapes.len())];
-        let rf = r.random_range(0..refp.faces.len());
-        let face = refp.faces[rf];
-        let exact = case % 3 == 0;
-        let rot = test_rotation(&mut r, exact);
-        let scale = refp.radius.max(inc.radius);
-        let lateral = if exact {
-            Vec3::new(
-                r.random_range(-2..=2) as f32,
-                r.random_range(-2..=2) as f32,
-                r.random_range(-2..=2) as f32,
-            ) * (0.005 * r.random_range(0..2) as f32)
-        } else {
-            Vec3::new(r.random(), r.random(), r.random()) * scale * 0.3
-        };
-        let t = face.normal * (face.offset + inc.radius * r.random_range(0.5..1.0)) + lateral;
-        let flip = r.random_range(0..8u32);
-        let nudge = r.random_range(0..64usize);
-        let bad = if case % 97 == 0 {
-            [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][case / 97 % 3]
-        } else {
-            0.0
-        };
-        let inc_v = |i: usize| {
-            let mut p = (rot * inc.vertices[i] + t).to_array();
-            for (k, c) in p.iter_mut().enumerate() {
-                if *c == 0.0 && flip >> k & 1 != 0 {
-                    *c = -*c;
-                }
-            }
-            if i == nudge % inc.vertices.len() && nudge < 16 {
-                p[nudge % 3] = f32::from_bits(p[nudge % 3].to_bits() + 1);
-            }
-            if bad != 0.0 && i == nudge % inc.vertices.len() {
-                p[0] = bad;
-            }
-            Vec3::from_array(p)
-        };
-        odd += (bad != 0.0 || flip != 0) as usize;
-        let n_inc = rot.transpose() * face.normal;
-        let il = inc.face_loop(incident_face(inc, n_inc));
-        let mut skip = 0u8;
-        for (k, &(side, off)) in refp.side_planes(rf).iter().enumerate().take(8) {
-            if il.iter().all(|&i| side.dot(inc_v(i as usize)) - off < 0.0) {
-                skip |= 1 << k;
-            }
-        }
+        let c = ClipCase::draw(&mut r, &shapes, case);
+        let (refp, inc, rf, rot) = (&shapes[c.refp], &shapes[c.inc], c.rf, c.rot);
+        let inc_v = |i: usize| c.inc_v(inc, i);
+        odd += c.odd() as usize;
+        let (skip, il) = planes_cutting_nothing(refp, rf, inc, rot, inc_v);
         let planes = refp.side_planes(rf).len();
-        fixed += (planes <= 8 && small_fits(il.len(), planes as u32)) as usize;
+        fixed += (planes <= 8 && small_fits(il, planes as u32)) as usize;
         let plans = [
             Plan::FULL,
             Plan {
