@@ -12,7 +12,7 @@ use clatter_geom::{ConvexPolyhedron, Pose, PreparedShape, Shape};
 use glam::{Quat, Vec3};
 
 mod common;
-use common::Rng;
+use common::{Rng, with_and_without_memory};
 
 /// One pair stepped `steps` times, A still at the origin, touching face to vertex, edge or
 /// face: with `ref_b` false, a face of A (turned at random) has B laid on it, a face of B
@@ -72,16 +72,8 @@ fn run_pair(
         let pb = Pose::new(centre, qb);
         let (mut hint_m, mut bound_m) = (NO_HINT, 0.0f32);
         let (mut hint, mut bound) = (NO_HINT, 0.0f32);
-        let with =
-            narrow::collide_with_memory(a, &pa, b, &pb, &mut hint_m, &mut bound_m, &mut memory);
-        let without = narrow::collide_with_hint(a, &pa, b, &pb, &mut hint, &mut bound);
-        assert_eq!(with, without, "step {k}: manifolds differ");
-        assert_eq!(hint_m, hint, "step {k}: hints differ");
-        assert_eq!(
-            bound_m.to_bits(),
-            bound.to_bits(),
-            "step {k}: bounds differ"
-        );
+        let (with_m, without) = ((&mut hint_m, &mut bound_m), (&mut hint, &mut bound));
+        let with = with_and_without_memory(a, &pa, b, &pb, &mut memory, with_m, without, k);
         touching += with.is_some() as usize;
         let face = narrow::is_contact_hint(hint) && hint != narrow::HINT_EDGE_CONTACT;
         faces += face as usize;

@@ -378,7 +378,7 @@ impl ClipCase {
         let (rp, ip) = (&shapes[refp], &shapes[inc]);
         let rf = r.random_range(0..rp.faces.len());
         let face = rp.faces[rf];
-        let exact = case % 3 == 0;
+        let exact = case.is_multiple_of(3);
         let rot = test_rotation(r, exact);
         let scale = rp.radius.max(ip.radius);
         let lateral = if exact {
@@ -393,7 +393,7 @@ impl ClipCase {
         let t = face.normal * (face.offset + ip.radius * r.random_range(0.5..1.0)) + lateral;
         let flip = r.random_range(0..8u32);
         let nudge = r.random_range(0..64usize);
-        let bad = if case % 97 == 0 {
+        let bad = if case.is_multiple_of(97) {
             [f32::NAN, f32::INFINITY, f32::NEG_INFINITY][case / 97 % 3]
         } else {
             0.0

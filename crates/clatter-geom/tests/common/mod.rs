@@ -1,6 +1,8 @@
-//! Helpers shared by the memory tests (`edge_memory.rs`, `sphere_memory.rs`).
+//! Helpers shared by the memory tests (`edge_memory.rs`, `face_memory.rs`,
+//! `full_memory.rs`, `sphere_memory.rs`).
 
-use clatter_geom::{PreparedShape, RegularKind, ShapeKind};
+use clatter_geom::narrow::{self, EdgeMemory, Manifold, SatHint};
+use clatter_geom::{Pose, PreparedShape, RegularKind, Shape, ShapeKind};
 use glam::{Quat, Vec3};
 
 /// A small deterministic generator (xorshift), so the tests need no dependency.
@@ -52,4 +54,31 @@ pub fn solids_and_hull(hull_points: usize) -> Vec<PreparedShape> {
         .iter()
         .map(|k| k.prepare().expect("valid shape"))
         .collect()
+}
+
+/// The narrow phase of a pair at the same poses with its memory (`with`: its hint and
+/// bound) and without it (`without`: the test's own hint and bound): the manifold, after
+/// checking that both give the same manifold, hint and bound, bitwise (the panic names step
+/// `k`).
+#[allow(dead_code, clippy::too_many_arguments)]
+pub fn with_and_without_memory(
+    a: &Shape,
+    pa: &Pose,
+    b: &Shape,
+    pb: &Pose,
+    memory: &mut EdgeMemory,
+    (hint_m, bound_m): (&mut SatHint, &mut f32),
+    (hint, bound): (&mut SatHint, &mut f32),
+    k: usize,
+) -> Option<Manifold> {
+    let with = narrow::collide_with_memory(a, pa, b, pb, hint_m, bound_m, memory);
+    let without = narrow::collide_with_hint(a, pa, b, pb, hint, bound);
+    assert_eq!(with, without, "step {k}: manifolds differ");
+    assert_eq!(*hint_m, *hint, "step {k}: hints differ");
+    assert_eq!(
+        bound_m.to_bits(),
+        bound.to_bits(),
+        "step {k}: bounds differ"
+    );
+    with
 }
