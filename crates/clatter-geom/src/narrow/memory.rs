@@ -301,7 +301,8 @@ impl EdgeMemory {
         // The pairs to visit, by index (those at no level always).
         let all = u128::MAX.checked_shr(128 - len as u32).unwrap_or(0);
         let top = DeepPairs::top(0, grown, r, floor);
-        let mut todo = all & !self.up_to(top);
+        let served = self.up_to(top);
+        let mut todo = all & !served;
         // The winner first (`first`: its index and answer), if it is visited: then the
         // pairs before it at levels whose growth stays below its separation, and those
         // after it at levels whose growth stays at or below it, are not.
@@ -320,10 +321,9 @@ impl EdgeMemory {
                     let late = all & !early & !(1u128 << w);
                     // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
                     let below = DeepPairs::top(top, grown, r, s.next_down());
-                    let (before, after) = (
-                        self.up_to(below),
-                        self.up_to(DeepPairs::top(below, grown, r, s)),
-                    );
+                    // (Widened from `top`'s set: `top <= below <= after`.)
+                    let before = served | self.between(top, below);
+                    let after = before | self.between(below, DeepPairs::top(below, grown, r, s));
                     todo &= !((before & early) | (after & late));
                     first = (w, found);
                 }
@@ -556,8 +556,20 @@ impl EdgeMemory {
     /// The pairs at levels 1 to `top` (none when `top` is 0; see `levels`).
     #[inline]
     pub(super) fn up_to(&self, top: u8) -> u128 {
-        let top = (top as usize).min(LEVELS as usize);
-        self.levels[..top].iter().fold(0, |set, level| set | level)
+        self.between(0, top)
+    }
+
+    /// The pairs at levels `from + 1` to `to` (none when `to <= from`; see `levels`):
+    /// `up_to(to)` is `up_to(from) | between(from, to)` for `from <= to`, so a search
+    /// that widens its set of levels step by step ORs in only the new levels (the same
+    /// bits: OR is exact, and each level is taken once either way).
+    #[inline]
+    pub(super) fn between(&self, from: u8, to: u8) -> u128 {
+        let to = (to as usize).min(LEVELS as usize);
+        let from = (from as usize).min(to);
+        self.levels[from..to]
+            .iter()
+            .fold(0, |set, level| set | level)
     }
 
     /// Notes direction pair `k` (below 128) as the winner of a search by direction.
@@ -714,5 +726,50 @@ mod tests {
             }
         }
         assert!(checked > 400_000);
+    }
+
+    /// `between` and `up_to` against the levels read pair by pair (pair `k` is in the set
+    /// when some code from `from + 1` to `to`, at most [`LEVELS`], has its bit), and the
+    /// widening the searches use (`up_to(from) | between(from, to)` is `up_to(to)`), on
+    /// random levels for every `from` and `to` up to past the last code.
+    #[test]
+    fn level_sets_widened_step_by_step_are_the_sets_taken_whole() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut m = EdgeMemory::default();
+        for _ in 0..300 {
+            for level in m.levels.iter_mut() {
+                // Sparse and dense sets alike.
+                let (x, y) = (next() as u128, next() as u128);
+                *level = if next() % 2 == 0 {
+                    (x << 64) | y
+                } else {
+                    x & y & (y >> 3)
+                };
+            }
+            for from in 0..=LEVELS + 2 {
+                for to in 0..=LEVELS + 2 {
+                    let mut want = 0u128;
+                    for k in 0..128 {
+                        let codes = (from + 1)..=to.min(LEVELS);
+                        if codes
+                            .into_iter()
+                            .any(|c| (m.levels[c as usize - 1] >> k) & 1 != 0)
+                        {
+                            want |= 1 << k;
+                        }
+                    }
+                    assert_eq!(m.between(from, to), want, "from {from}, to {to}");
+                    if from <= to {
+                        assert_eq!(m.up_to(from) | m.between(from, to), m.up_to(to));
+                    }
+                }
+            }
+        }
     }
 }
