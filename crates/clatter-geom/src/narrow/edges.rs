@@ -477,11 +477,7 @@ pub(super) fn edge_axes_by_direction(
                         // Bits of the pairs before the winner, and after it.
                         let early = (1u128 << winner) - 1;
                         let late = !early & !(1u128 << winner);
-                        // (`up_to(below)` and `up_to(after)`, widened from `up_to(top)`,
-                        // `skip`: `top <= below <= after`.)
-                        let before = skip | m.between(top, below);
-                        let after = before | m.between(below, after);
-                        skip |= (before & early) | (after & late);
+                        skip |= (m.up_to(below) & early) | (m.up_to(after) & late);
                         first = (winner, found, s.next_down());
                     }
                 }

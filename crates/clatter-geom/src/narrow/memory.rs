@@ -85,7 +85,9 @@ pub struct EdgeMemory {
     /// [`EdgeMemory::deep_pairs`]).
     winner: u8,
     /// The pairs remembered at each level code `c` (1 to [`LEVELS`], at `c - 1`; see
-    /// [`DeepPairs`]), a bit per pair: by Gauss map, per index in `pairs` (a pair at no
+    /// [`DeepPairs`]) while recording, and once a recording ends ([`EdgeMemory::finish`],
+    /// [`EdgeMemory::finish_directions`]) the pairs at codes 1 to `c` (so that a search
+    /// served takes its set of levels with one read, [`EdgeMemory::up_to`]), a bit per pair: by Gauss map, per index in `pairs` (a pair at no
     /// level is always visited); by direction, per direction pair `ia * (B's directions) +
     /// ib`. A pair found at some depth is left out of later searches while it cannot rise
     /// above the search's floor (see [`EdgeMemory::search`]): those of a few sets joined,
@@ -255,6 +257,16 @@ impl EdgeMemory {
     /// Ends a recording of `a` against `b` that went through every edge pair.
     pub(super) fn finish(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron) {
         self.shapes = [address(a), address(b)];
+        self.join_levels();
+    }
+
+    /// Turns the levels recorded per code into the sets of codes 1 to each (see `levels`):
+    /// once per recording, instead of an OR of up to [`LEVELS`] sets per search served (the
+    /// same sets: OR is exact).
+    fn join_levels(&mut self) {
+        for c in 1..LEVELS as usize {
+            self.levels[c] |= self.levels[c - 1];
+        }
     }
 
     /// The Gauss-map edge search over the remembered pairs alone (see [`EdgeMemory`]):
@@ -301,8 +313,7 @@ impl EdgeMemory {
         // The pairs to visit, by index (those at no level always).
         let all = u128::MAX.checked_shr(128 - len as u32).unwrap_or(0);
         let top = DeepPairs::top(0, grown, r, floor);
-        let served = self.up_to(top);
-        let mut todo = all & !served;
+        let mut todo = all & !self.up_to(top);
         // The winner first (`first`: its index and answer), if it is visited: then the
         // pairs before it at levels whose growth stays below its separation, and those
         // after it at levels whose growth stays at or below it, are not.
@@ -321,9 +332,10 @@ impl EdgeMemory {
                     let late = all & !early & !(1u128 << w);
                     // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
                     let below = DeepPairs::top(top, grown, r, s.next_down());
-                    // (Widened from `top`'s set: `top <= below <= after`.)
-                    let before = served | self.between(top, below);
-                    let after = before | self.between(below, DeepPairs::top(below, grown, r, s));
+                    let (before, after) = (
+                        self.up_to(below),
+                        self.up_to(DeepPairs::top(below, grown, r, s)),
+                    );
                     todo &= !((before & early) | (after & late));
                     first = (w, found);
                 }
@@ -553,23 +565,12 @@ impl EdgeMemory {
         })
     }
 
-    /// The pairs at levels 1 to `top` (none when `top` is 0; see `levels`).
+    /// The pairs at levels 1 to `top` (none when `top` is 0) of a finished recording (see
+    /// `levels`: joined when it ended).
     #[inline]
     pub(super) fn up_to(&self, top: u8) -> u128 {
-        self.between(0, top)
-    }
-
-    /// The pairs at levels `from + 1` to `to` (none when `to <= from`; see `levels`):
-    /// `up_to(to)` is `up_to(from) | between(from, to)` for `from <= to`, so a search
-    /// that widens its set of levels step by step ORs in only the new levels (the same
-    /// bits: OR is exact, and each level is taken once either way).
-    #[inline]
-    pub(super) fn between(&self, from: u8, to: u8) -> u128 {
-        let to = (to as usize).min(LEVELS as usize);
-        let from = (from as usize).min(to);
-        self.levels[from..to]
-            .iter()
-            .fold(0, |set, level| set | level)
+        let top = (top as usize).min(LEVELS as usize);
+        if top == 0 { 0 } else { self.levels[top - 1] }
     }
 
     /// Notes direction pair `k` (below 128) as the winner of a search by direction.
@@ -620,6 +621,7 @@ impl EdgeMemory {
     /// Ends a recording by direction that went through every direction pair.
     pub(super) fn finish_directions(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron) {
         self.shapes = [address(a), address(b)];
+        self.join_levels();
     }
 }
 
@@ -728,12 +730,11 @@ mod tests {
         assert!(checked > 400_000);
     }
 
-    /// `between` and `up_to` against the levels read pair by pair (pair `k` is in the set
-    /// when some code from `from + 1` to `to`, at most [`LEVELS`], has its bit), and the
-    /// widening the searches use (`up_to(from) | between(from, to)` is `up_to(to)`), on
-    /// random levels for every `from` and `to` up to past the last code.
+    /// `up_to` of a finished recording against the levels as recorded, read pair by pair
+    /// (pair `k` is in the set when some code from 1 to `top`, at most [`LEVELS`], has its
+    /// bit), on random levels for every `top` up to past the last code.
     #[test]
-    fn level_sets_widened_step_by_step_are_the_sets_taken_whole() {
+    fn joined_levels_give_the_pairs_at_every_code_up_to_the_top() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
         let mut next = move || {
             seed ^= seed << 13;
@@ -752,23 +753,20 @@ mod tests {
                     x & y & (y >> 3)
                 };
             }
-            for from in 0..=LEVELS + 2 {
-                for to in 0..=LEVELS + 2 {
-                    let mut want = 0u128;
-                    for k in 0..128 {
-                        let codes = (from + 1)..=to.min(LEVELS);
-                        if codes
-                            .into_iter()
-                            .any(|c| (m.levels[c as usize - 1] >> k) & 1 != 0)
-                        {
-                            want |= 1 << k;
-                        }
-                    }
-                    assert_eq!(m.between(from, to), want, "from {from}, to {to}");
-                    if from <= to {
-                        assert_eq!(m.up_to(from) | m.between(from, to), m.up_to(to));
+            let recorded = m.levels;
+            m.join_levels();
+            for top in 0..=LEVELS + 2 {
+                let mut want = 0u128;
+                for k in 0..128 {
+                    let codes = 1..=top.min(LEVELS);
+                    if codes
+                        .into_iter()
+                        .any(|c| (recorded[c as usize - 1] >> k) & 1 != 0)
+                    {
+                        want |= 1 << k;
                     }
                 }
+                assert_eq!(m.up_to(top), want, "top {top}");
             }
         }
     }
