@@ -85,7 +85,9 @@ pub struct EdgeMemory {
     /// [`EdgeMemory::deep_pairs`]).
     winner: u8,
     /// The pairs remembered at each level code `c` (1 to [`LEVELS`], at `c - 1`; see
-    /// [`DeepPairs`]), a bit per pair: by Gauss map, per index in `pairs` (a pair at no
+    /// [`DeepPairs`]) while recording, and once a recording ends ([`EdgeMemory::finish`],
+    /// [`EdgeMemory::finish_directions`]) the pairs at codes 1 to `c` (so that a search
+    /// served takes its set of levels with one read, [`EdgeMemory::up_to`]), a bit per pair: by Gauss map, per index in `pairs` (a pair at no
     /// level is always visited); by direction, per direction pair `ia * (B's directions) +
     /// ib`. A pair found at some depth is left out of later searches while it cannot rise
     /// above the search's floor (see [`EdgeMemory::search`]): those of a few sets joined,
@@ -255,6 +257,16 @@ impl EdgeMemory {
     /// Ends a recording of `a` against `b` that went through every edge pair.
     pub(super) fn finish(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron) {
         self.shapes = [address(a), address(b)];
+        self.join_levels();
+    }
+
+    /// Turns the levels recorded per code into the sets of codes 1 to each (see `levels`):
+    /// once per recording, instead of an OR of up to [`LEVELS`] sets per search served (the
+    /// same sets: OR is exact).
+    fn join_levels(&mut self) {
+        for c in 1..LEVELS as usize {
+            self.levels[c] |= self.levels[c - 1];
+        }
     }
 
     /// The Gauss-map edge search over the remembered pairs alone (see [`EdgeMemory`]):
@@ -553,11 +565,12 @@ impl EdgeMemory {
         })
     }
 
-    /// The pairs at levels 1 to `top` (none when `top` is 0; see `levels`).
+    /// The pairs at levels 1 to `top` (none when `top` is 0) of a finished recording (see
+    /// `levels`: joined when it ended).
     #[inline]
     pub(super) fn up_to(&self, top: u8) -> u128 {
         let top = (top as usize).min(LEVELS as usize);
-        self.levels[..top].iter().fold(0, |set, level| set | level)
+        if top == 0 { 0 } else { self.levels[top - 1] }
     }
 
     /// Notes direction pair `k` (below 128) as the winner of a search by direction.
@@ -608,6 +621,7 @@ impl EdgeMemory {
     /// Ends a recording by direction that went through every direction pair.
     pub(super) fn finish_directions(&mut self, a: &ConvexPolyhedron, b: &ConvexPolyhedron) {
         self.shapes = [address(a), address(b)];
+        self.join_levels();
     }
 }
 
@@ -714,5 +728,46 @@ mod tests {
             }
         }
         assert!(checked > 400_000);
+    }
+
+    /// `up_to` of a finished recording against the levels as recorded, read pair by pair
+    /// (pair `k` is in the set when some code from 1 to `top`, at most [`LEVELS`], has its
+    /// bit), on random levels for every `top` up to past the last code.
+    #[test]
+    fn joined_levels_give_the_pairs_at_every_code_up_to_the_top() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        let mut m = EdgeMemory::default();
+        for _ in 0..300 {
+            for level in m.levels.iter_mut() {
+                // Sparse and dense sets alike.
+                let (x, y) = (next() as u128, next() as u128);
+                *level = if next() % 2 == 0 {
+                    (x << 64) | y
+                } else {
+                    x & y & (y >> 3)
+                };
+            }
+            let recorded = m.levels;
+            m.join_levels();
+            for top in 0..=LEVELS + 2 {
+                let mut want = 0u128;
+                for k in 0..128 {
+                    let codes = 1..=top.min(LEVELS);
+                    if codes
+                        .into_iter()
+                        .any(|c| (recorded[c as usize - 1] >> k) & 1 != 0)
+                    {
+                        want |= 1 << k;
+                    }
+                }
+                assert_eq!(m.up_to(top), want, "top {top}");
+            }
+        }
     }
 }
