@@ -735,13 +735,9 @@ mod tests {
     /// bit), on random levels for every `top` up to past the last code.
     #[test]
     fn joined_levels_give_the_pairs_at_every_code_up_to_the_top() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            seed
-        };
+        use rand::{Rng, SeedableRng};
+        let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(33);
+        let mut next = move || r.random::<u64>();
         let mut m = EdgeMemory::default();
         for _ in 0..300 {
             for level in m.levels.iter_mut() {
