@@ -590,19 +590,26 @@ pub fn contact_force_in<const PLAIN: bool>(
     let inv_count = 1.0 / pts.len() as f32;
     let n_a = Vec3A::from(n);
     let (ma, mb) = (MotionA::of(a), MotionA::of(b));
+    // The points' coordinates (in lanes on x86_64: `patch`).
+    let patch = Patch::of(manifold);
     // Springs and total stiffness first: damping is shared in proportion to stiffness.
+    // The linear law's points all have the same `k`; Hertz's grows with each point's depth.
     let mut springs = [(0.0f32, 0.0f32); 4];
     let mut k_total = 0.0;
-    let mut centroid = Vec3A::ZERO;
-    let mut mean_depth = 0.0;
-    for (s, cp) in springs.iter_mut().zip(pts) {
-        *s = spring_in::<PLAIN>(p, r_eff, cp.depth, share);
-        k_total += s.1;
-        centroid += Vec3A::from(cp.point);
-        mean_depth += cp.depth;
+    if hertz::<PLAIN>(p) {
+        for (s, cp) in springs.iter_mut().zip(pts) {
+            *s = spring_in::<PLAIN>(p, r_eff, cp.depth, share);
+            k_total += s.1;
+        }
+    } else {
+        for s in springs.iter_mut().take(pts.len()) {
+            s.1 = spring_in::<PLAIN>(p, r_eff, 0.0, share).1;
+            k_total += s.1;
+        }
     }
+    let (mut centroid, depth_sum) = patch.sums();
     centroid *= inv_count;
-    mean_depth *= inv_count;
+    let mean_depth = depth_sum * inv_count;
     let eta_total = damping(p, m_eff, k_total);
     // Each point's share of the damping, `eta_total k / k_total`. The linear law's points
     // all have the same `k` (`share * stiffness`), so one evaluation gives every point's
@@ -619,24 +626,25 @@ pub fn contact_force_in<const PLAIN: bool>(
     } else {
         share_of(springs[0].1)
     };
+    // Each point's spring force and damping (unused slots: zero, never added).
+    let (fs, etas) = if hertz::<PLAIN>(p) {
+        let (mut fs, mut etas) = ([0.0f32; 4], [0.0f32; 4]);
+        for (i, &(f, k)) in springs.iter().enumerate().take(pts.len()) {
+            fs[i] = f;
+            etas[i] = share_of(k);
+        }
+        (f4(fs), f4(etas))
+    } else {
+        // `share * stiffness * depth`: the same `k` times each depth.
+        (patch.linear_springs(springs[0].1), f4([linear_eta; 4]))
+    };
     // The force's sums, `ContactForce`'s fields in the same order of additions.
-    let (mut force_b, mut torque_a, mut torque_b) = (Vec3A::ZERO, Vec3A::ZERO, Vec3A::ZERO);
-    let mut normal_force = 0.0;
-    for (&(fs, k), cp) in springs.iter().zip(pts) {
-        let point = Vec3A::from(cp.point);
-        let vrel = mb.point_velocity(point) - ma.point_velocity(point);
-        let eta = if hertz::<PLAIN>(p) {
-            share_of(k)
-        } else {
-            linear_eta
-        };
-        let fn_i = fs - eta * vrel.dot(n_a);
-        let f = n_a * fn_i;
-        force_b += f;
-        torque_b += (point - mb.position).cross(f);
-        torque_a += f.cross(point - ma.position);
-        normal_force += fn_i;
-    }
+    let NormalSums {
+        mut force_b,
+        mut torque_a,
+        mut torque_b,
+        normal_force,
+    } = patch.normal_sums(n_a, &ma, &mb, fs, etas);
     // One tangential spring for the whole patch, at its centroid.
     let share_total = share * pts.len() as f32;
     let kt = tangential_stiffness::<PLAIN>(c, mean_depth, share_total);
@@ -647,15 +655,7 @@ pub fn contact_force_in<const PLAIN: bool>(
     torque_b += (centroid - mb.position).cross(ft);
     torque_a += ft.cross(centroid - ma.position);
     // Twisting about the normal, resisted over the patch radius.
-    let r_patch = pts
-        .iter()
-        .map(|cp| {
-            (Vec3A::from(cp.point) - centroid)
-                .reject_from_normalized(n_a)
-                .length()
-        })
-        .sum::<f32>()
-        * inv_count;
+    let r_patch = patch.radius_sum(centroid, n_a) * inv_count;
     if r_patch > 0.0 {
         let w_n = (mb.omega - ma.omega).dot(n_a);
         let r2 = r_patch * r_patch;
@@ -717,6 +717,9 @@ pub fn point_share(a_is_sphere: bool, b_is_sphere: bool) -> f32 {
         POLYHEDRON_POINT_SHARE
     }
 }
+
+mod patch;
+use patch::{NormalSums, Patch, f4};
 
 #[cfg(test)]
 mod tests;

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::material::{ContactLaw, Material};
+use glam::Vec4;
 
 fn params(law: ContactLaw) -> PairParams {
     let m = Material::new("m", 1000.0, law, 0.5, 0.3);
@@ -458,5 +459,198 @@ fn energy_and_depth_follow_the_spring() {
         let (f, _) = spring(&p, r, depth, share);
         let d = depth_at_force(&p, r, f, share);
         assert!((d - depth).abs() < 1e-5 * depth, "{law:?}: {d} vs {depth}");
+    }
+}
+
+/// Awkward values for the patch tests: signed zeros, tiny and ordinary magnitudes.
+fn awkward(rng: &mut rand_chacha::ChaCha8Rng, scale: f32) -> f32 {
+    use rand::Rng;
+    match rng.random_range(0..10) {
+        0 => 0.0,
+        1 => -0.0,
+        2 => rng.random_range(-1.0f32..1.0) * 1e-30,
+        _ => rng.random_range(-1.0f32..1.0) * scale,
+    }
+}
+
+fn awkward_vec(rng: &mut rand_chacha::ChaCha8Rng, scale: f32) -> Vec3 {
+    Vec3::new(
+        awkward(rng, scale),
+        awkward(rng, scale),
+        awkward(rng, scale),
+    )
+}
+
+/// A random manifold of two to four points for the patch tests: depths zero (both signs),
+/// negative or positive; points sometimes coincident (a zero patch radius) or with zero
+/// coordinates; the unused slots filled with garbage (NaN, infinities) that must not count.
+fn awkward_patch(rng: &mut rand_chacha::ChaCha8Rng, count: usize) -> Manifold {
+    use rand::Rng;
+    let n = awkward_vec(rng, 1.0).try_normalize().unwrap_or(Vec3::Z);
+    let mut m = Manifold {
+        normal: n,
+        count,
+        ..Default::default()
+    };
+    let shared = n * 0.01 + awkward_vec(rng, 0.004);
+    let coincident = rng.random_range(0..8) == 0;
+    for cp in &mut m.points[..count] {
+        cp.depth = match rng.random_range(0..6) {
+            0 => 0.0,
+            1 => -0.0,
+            2 => -rng.random_range(0.0f32..3e-4),
+            _ => rng.random_range(0.0f32..4e-4),
+        };
+        cp.point = if coincident {
+            shared
+        } else {
+            n * awkward(rng, 0.01) + awkward_vec(rng, 0.004)
+        };
+    }
+    let junk = [f32::NAN, f32::INFINITY, -f32::INFINITY, 1e30, -0.0];
+    for cp in &mut m.points[count..] {
+        cp.point = Vec3::new(
+            junk[rng.random_range(0..junk.len())],
+            junk[rng.random_range(0..junk.len())],
+            junk[rng.random_range(0..junk.len())],
+        );
+        cp.depth = junk[rng.random_range(0..junk.len())];
+    }
+    m
+}
+
+/// A body's motion for the patch tests: at rest (a wall) one time in five.
+fn awkward_motion(rng: &mut rand_chacha::ChaCha8Rng, position: Vec3) -> BodyMotion {
+    use rand::Rng;
+    if rng.random_range(0..5) == 0 {
+        return BodyMotion::default();
+    }
+    BodyMotion {
+        position,
+        velocity: awkward_vec(rng, 0.5),
+        omega: awkward_vec(rng, 20.0),
+    }
+}
+
+fn bits3(v: Vec3A) -> [u32; 3] {
+    v.to_array().map(f32::to_bits)
+}
+
+/// The four lanes of `v`.
+#[cfg(target_arch = "x86_64")]
+fn lanes_array(v: std::arch::x86_64::__m128) -> [f32; 4] {
+    Vec4::from(v).to_array()
+}
+
+/// The patch's lanes (four points at a time, `patch::lanes`) against its scalar loops
+/// (`patch::scalar`, the law's loops as written before the lanes) on random manifolds of
+/// two to four points with signed zeros, zero and negative depths, coincident points,
+/// bodies at rest and garbage in the unused slots: every sum bitwise the same.
+#[cfg(target_arch = "x86_64")]
+#[test]
+fn the_patch_lanes_match_the_scalar_loops_bitwise() {
+    use super::patch::{lanes, scalar};
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(34);
+    let mut zero_radius = 0;
+    for k in 0..50_000 {
+        let count = 2 + k % 3;
+        let m = awkward_patch(&mut rng, count);
+        let n = Vec3A::from(m.normal);
+        let at = awkward_vec(&mut rng, 0.001);
+        let a = awkward_motion(&mut rng, at);
+        let b = awkward_motion(&mut rng, m.normal * 0.02);
+        let (ma, mb) = (MotionA::of(&a), MotionA::of(&b));
+        let mut fs = [0.0f32; 4];
+        let mut eta = [awkward(&mut rng, 3.0); 4];
+        for i in 0..count {
+            fs[i] = awkward(&mut rng, 2.0);
+            if k % 2 == 0 {
+                eta[i] = awkward(&mut rng, 3.0);
+            }
+        }
+        let (lane, one) = (lanes::Patch::of(&m), scalar::Patch::of(&m));
+        let what = format!("manifold {k}: {m:?}");
+        let (ls, os) = (lane.sums(), one.sums());
+        assert_eq!(bits3(ls.0), bits3(os.0), "{what}");
+        assert_eq!(ls.1.to_bits(), os.1.to_bits(), "{what}");
+        let k = awkward(&mut rng, 2.0);
+        let (lf, of) = (lane.linear_springs(k), one.linear_springs(k));
+        let lf = lanes_array(lf);
+        for i in 0..count {
+            assert_eq!(lf[i].to_bits(), of[i].to_bits(), "{what}");
+        }
+        let (ln, on) = (
+            lane.normal_sums(n, &ma, &mb, lanes::f4(fs), lanes::f4(eta)),
+            one.normal_sums(n, &ma, &mb, scalar::f4(fs), scalar::f4(eta)),
+        );
+        assert_eq!(bits3(ln.force_b), bits3(on.force_b), "{what}");
+        assert_eq!(bits3(ln.torque_a), bits3(on.torque_a), "{what}");
+        assert_eq!(bits3(ln.torque_b), bits3(on.torque_b), "{what}");
+        assert_eq!(
+            ln.normal_force.to_bits(),
+            on.normal_force.to_bits(),
+            "{what}"
+        );
+        let centroid = os.0 * (1.0 / count as f32);
+        let (lr, or) = (lane.radius_sum(centroid, n), one.radius_sum(centroid, n));
+        assert_eq!(lr.to_bits(), or.to_bits(), "{what}");
+        zero_radius += (or == 0.0) as usize;
+    }
+    assert!(zero_radius > 1000, "{zero_radius}");
+}
+
+/// The law on the patch tests' awkward manifolds (two to four points) against
+/// [`reference::contact_force`]: linear and Hertz, plain forms on plain pairs, walls.
+#[test]
+fn the_patch_law_matches_its_reference_on_awkward_manifolds() {
+    use rand::SeedableRng;
+    let linear = params(ContactLaw::Linear { stiffness: 2.0e4 });
+    let hertz = params(ContactLaw::Hertz {
+        youngs_modulus: 1.0e7,
+        poisson_ratio: 0.3,
+    });
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3434);
+    for k in 0..40_000 {
+        let params = [linear, hertz][k % 2];
+        let count = 2 + (k / 2) % 3;
+        let m = awkward_patch(&mut rng, count);
+        let c = PairContext {
+            params,
+            m_eff: 0.01 * (1.5 + awkward(&mut rng, 1.0)),
+            r_eff: 0.005,
+            share: POLYHEDRON_POINT_SHARE,
+            dt: 3.3e-5,
+        };
+        let at = awkward_vec(&mut rng, 0.001);
+        let a = awkward_motion(&mut rng, at);
+        let b = awkward_motion(&mut rng, m.normal * 0.02);
+        let history = awkward_vec(&mut rng, 2e-4);
+        let twist = awkward(&mut rng, 0.05);
+        let (mut h0, mut t0) = (history, twist);
+        let want = reference::contact_force(&c, &m, &a, &b, &mut h0, &mut t0);
+        for plain in [false, true] {
+            if plain && !is_plain(&params) {
+                continue;
+            }
+            let (mut h, mut t) = (history, twist);
+            let got = if plain {
+                contact_force_in::<true>(&c, &m, &a, &b, &mut h, &mut t)
+            } else {
+                contact_force(&c, &m, &a, &b, &mut h, &mut t)
+            };
+            let what = format!("manifold {k}, plain form {plain}: {m:?}");
+            assert_eq!(
+                bytemuck::bytes_of(&got),
+                bytemuck::bytes_of(&want),
+                "{what}"
+            );
+            assert_eq!(
+                h.to_array().map(f32::to_bits),
+                h0.to_array().map(f32::to_bits),
+                "{what}"
+            );
+            assert_eq!(t.to_bits(), t0.to_bits(), "{what}");
+        }
     }
 }
