@@ -67,6 +67,15 @@ pub struct ConvexPolyhedron {
     /// with the clipping's own expressions (the same floats), so that clipping an incident
     /// face against a reference face does not recompute them for every pair and step.
     side_planes: Vec<(Vec3, f32)>,
+    /// For each side plane (in `side_planes`' order), the axis of its vector when that
+    /// vector is finite with exactly one component not zero (the other two `±0`), else
+    /// [`NO_AXIS`]: a box's. Then, for a finite point `p`, the plane's dot product is that
+    /// one product as a value (the products with `±0` are zeros, and adding a zero changes
+    /// no value but a zero's sign), so the clipping takes it alone (see
+    /// [`axis_of`]).
+    side_axes: Vec<u8>,
+    /// For each face, the axis of its normal as for `side_axes`, else [`NO_AXIS`].
+    normal_axes: Vec<u8>,
     /// A lower bound of the radius of a ball about the local origin inside the hull: the
     /// smallest face offset less `1e-4 * radius` (the hull merges faces within about
     /// `5e-6 * radius`) when that is positive (the origin well inside), else minus
@@ -94,6 +103,29 @@ pub struct BoxFrame {
     pub half: glam::DVec3,
     /// `axes` is the identity (the usual case: a box authored axis-aligned).
     pub aligned: bool,
+}
+
+/// No axis: a vector that is not a finite multiple of one axis with exact zeros (see
+/// [`axis_of`]).
+pub(crate) const NO_AXIS: u8 = 3;
+
+/// The axis `k` of `v` when `v[k]` is finite and not zero and the other two components
+/// are zeros (of either sign), else [`NO_AXIS`]. Then for any finite `p`, `v.dot(p)`
+/// (glam's `(x x' + y y') + z z'`) has the value `v[k] * p[k]`: the other products are
+/// zeros, and a zero added to a value gives that value (to a zero, a zero), so the value
+/// differs at most in the sign of a zero (an infinite `v[k] * p[k]` stays infinite).
+pub(crate) fn axis_of(v: Vec3) -> u8 {
+    let c = v.to_array();
+    let mut axis = NO_AXIS;
+    for (k, &x) in c.iter().enumerate() {
+        if x != 0.0 {
+            if axis != NO_AXIS || !x.is_finite() {
+                return NO_AXIS;
+            }
+            axis = k as u8;
+        }
+    }
+    axis
 }
 
 impl ConvexPolyhedron {
@@ -209,6 +241,8 @@ impl ConvexPolyhedron {
             face_axes: None,
             lanes: crate::narrow::SoaPoints::default(),
             side_planes: Vec::new(),
+            side_axes: Vec::new(),
+            normal_axes: Vec::new(),
             inner: 0.0,
             dir_edges: Vec::new(),
             dir_first: Vec::new(),
@@ -217,6 +251,12 @@ impl ConvexPolyhedron {
         (p.dir_edges, p.dir_first) = Self::edges_by_direction(&p);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
+        p.side_axes = p
+            .side_planes
+            .iter()
+            .map(|&(side, _)| axis_of(side))
+            .collect();
+        p.normal_axes = p.faces.iter().map(|f| axis_of(f.normal)).collect();
         p.box_frame = crate::query::support::detect_box(&p);
         p.corner_box = Self::detect_corner_box(&p.vertices);
         p.face_axes = Self::detect_face_axes(&p.faces);
@@ -291,6 +331,21 @@ impl ConvexPolyhedron {
     pub(crate) fn side_planes(&self, f: usize) -> &[(Vec3, f32)] {
         let face = &self.faces[f];
         &self.side_planes[face.first as usize..(face.first + face.count) as usize]
+    }
+
+    /// The axes of face `f`'s side planes' vectors, in loop order, as [`axis_of`] gives
+    /// them (see the field `side_axes`).
+    #[inline]
+    pub(crate) fn side_axes(&self, f: usize) -> &[u8] {
+        let face = &self.faces[f];
+        &self.side_axes[face.first as usize..(face.first + face.count) as usize]
+    }
+
+    /// The axis of face `f`'s normal as [`axis_of`] gives it (see the field
+    /// `normal_axes`).
+    #[inline]
+    pub(crate) fn normal_axis(&self, f: usize) -> u8 {
+        self.normal_axes[f]
     }
 
     /// The smallest face offset less `1e-4 * radius` when positive, else minus infinity
