@@ -67,15 +67,14 @@ pub struct ConvexPolyhedron {
     /// with the clipping's own expressions (the same floats), so that clipping an incident
     /// face against a reference face does not recompute them for every pair and step.
     side_planes: Vec<(Vec3, f32)>,
-    /// For each side plane (in `side_planes`' order), the axis of its vector when that
-    /// vector is finite with exactly one component not zero (the other two `±0`), else
-    /// [`NO_AXIS`]: a box's. Then, for a finite point `p`, the plane's dot product is that
-    /// one product as a value (the products with `±0` are zeros, and adding a zero changes
-    /// no value but a zero's sign), so the clipping takes it alone (see
+    /// For each face, the axes of its normal and of its side planes' vectors packed in one
+    /// word ([`AxisCode`], one load for the clip): each the axis of a vector that is finite
+    /// with exactly one component not zero (the other two `±0`), else [`NO_AXIS`] (a
+    /// box's are all axes). Then, for a finite point `p`, such a vector's dot product is
+    /// that one product as a value (the products with `±0` are zeros, and adding a zero
+    /// changes no value but a zero's sign), so the clipping takes it alone (see
     /// [`axis_of`]).
-    side_axes: Vec<u8>,
-    /// For each face, the axis of its normal as for `side_axes`, else [`NO_AXIS`].
-    normal_axes: Vec<u8>,
+    axis_codes: Vec<AxisCode>,
     /// A lower bound of the radius of a ball about the local origin inside the hull: the
     /// smallest face offset less `1e-4 * radius` (the hull merges faces within about
     /// `5e-6 * radius`) when that is positive (the origin well inside), else minus
@@ -126,6 +125,44 @@ pub(crate) fn axis_of(v: Vec3) -> u8 {
         }
     }
     axis
+}
+
+/// The axes ([`axis_of`]) of a face's normal (bits 0-1) and of the vectors of its first
+/// fifteen side planes, in loop order (plane `k` in bits `2k + 2` and `2k + 3`; [`NO_AXIS`]
+/// for the planes after them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct AxisCode(u32);
+
+impl AxisCode {
+    /// The code of a face of normal `normal` and side planes `planes`.
+    fn of(normal: Vec3, planes: &[(Vec3, f32)]) -> Self {
+        let mut code = u32::MAX;
+        let mut put = |slot: usize, axis: u8| {
+            code &= !(3 << (2 * slot));
+            code |= (axis as u32) << (2 * slot);
+        };
+        put(0, axis_of(normal));
+        for (k, &(side, _)) in planes.iter().enumerate().take(15) {
+            put(k + 1, axis_of(side));
+        }
+        AxisCode(code)
+    }
+
+    /// The axis of the face's normal.
+    #[inline]
+    pub(crate) fn normal(self) -> u8 {
+        (self.0 & 3) as u8
+    }
+
+    /// The axis of side plane `k`'s vector ([`NO_AXIS`] from the sixteenth on).
+    #[inline]
+    pub(crate) fn side(self, k: usize) -> u8 {
+        if k < 15 {
+            (self.0 >> (2 * k + 2) & 3) as u8
+        } else {
+            NO_AXIS
+        }
+    }
 }
 
 impl ConvexPolyhedron {
@@ -241,8 +278,7 @@ impl ConvexPolyhedron {
             face_axes: None,
             lanes: crate::narrow::SoaPoints::default(),
             side_planes: Vec::new(),
-            side_axes: Vec::new(),
-            normal_axes: Vec::new(),
+            axis_codes: Vec::new(),
             inner: 0.0,
             dir_edges: Vec::new(),
             dir_first: Vec::new(),
@@ -251,12 +287,9 @@ impl ConvexPolyhedron {
         (p.dir_edges, p.dir_first) = Self::edges_by_direction(&p);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
-        p.side_axes = p
-            .side_planes
-            .iter()
-            .map(|&(side, _)| axis_of(side))
+        p.axis_codes = (0..p.faces.len())
+            .map(|f| AxisCode::of(p.faces[f].normal, p.side_planes(f)))
             .collect();
-        p.normal_axes = p.faces.iter().map(|f| axis_of(f.normal)).collect();
         p.box_frame = crate::query::support::detect_box(&p);
         p.corner_box = Self::detect_corner_box(&p.vertices);
         p.face_axes = Self::detect_face_axes(&p.faces);
@@ -333,19 +366,10 @@ impl ConvexPolyhedron {
         &self.side_planes[face.first as usize..(face.first + face.count) as usize]
     }
 
-    /// The axes of face `f`'s side planes' vectors, in loop order, as [`axis_of`] gives
-    /// them (see the field `side_axes`).
+    /// The axes of face `f`'s normal and side planes (see the field `axis_codes`).
     #[inline]
-    pub(crate) fn side_axes(&self, f: usize) -> &[u8] {
-        let face = &self.faces[f];
-        &self.side_axes[face.first as usize..(face.first + face.count) as usize]
-    }
-
-    /// The axis of face `f`'s normal as [`axis_of`] gives it (see the field
-    /// `normal_axes`).
-    #[inline]
-    pub(crate) fn normal_axis(&self, f: usize) -> u8 {
-        self.normal_axes[f]
+    pub(crate) fn axis_code(&self, f: usize) -> AxisCode {
+        self.axis_codes[f]
     }
 
     /// The smallest face offset less `1e-4 * radius` when positive, else minus infinity

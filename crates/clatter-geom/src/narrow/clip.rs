@@ -153,7 +153,7 @@ pub(super) fn clip_faces_into(
             *slot = p;
         }
         // A box's planes (see `on_axes`): each distance and depth from one coordinate.
-        let axes = refp.side_axes(rf);
+        let axes = refp.axis_code(rf);
         let on_axes = on_axes(moderate);
         while left != 0 {
             let k = left.trailing_zeros() as usize;
@@ -162,7 +162,7 @@ pub(super) fn clip_faces_into(
             let (side, off) = (Vec3A::from(plane.0), plane.1);
             let out = &mut Masked(&mut *dst);
             let (src_now, scan) = (&src[..len], plan.scan);
-            let kept = match axes[k] {
+            let kept = match axes.side(k) {
                 0 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.x * p.x - off, scan),
                 1 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.y * p.y - off, scan),
                 2 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.z * p.z - off, scan),
@@ -177,7 +177,7 @@ pub(super) fn clip_faces_into(
             }
         }
         let (poly, o, nv) = (&src[..len], rface.offset, Vec3A::from(n));
-        return match refp.normal_axis(rf) {
+        return match axes.normal() {
             0 if on_axes => {
                 contact_points(poly, o, |p| o - nv.x * p.x, n, small_pts, inc, inc_v, m)
             }

@@ -693,11 +693,40 @@ fn box_planes_by_coordinate_are_the_products() {
         hull(&turned),
     ];
     let on_axes = |p: &ConvexPolyhedron, f: usize| {
-        p.normal_axis(f) != crate::polyhedron::NO_AXIS
-            && p.side_axes(f)
-                .iter()
-                .all(|&a| a != crate::polyhedron::NO_AXIS)
+        let code = p.axis_code(f);
+        code.normal() != crate::polyhedron::NO_AXIS
+            && (0..p.side_planes(f).len()).all(|k| code.side(k) != crate::polyhedron::NO_AXIS)
     };
+    // Each face's code is `axis_of` of its normal and of each side plane's vector (the
+    // first fifteen): of the boxes, and of hulls with faces of many corners (prisms).
+    let prism = |n: usize| {
+        let v: Vec<Vec3> = (0..2 * n)
+            .map(|i| {
+                let a = (i % n) as f32 * std::f32::consts::TAU / n as f32;
+                Vec3::new(a.cos(), a.sin(), if i < n { -0.5 } else { 0.5 })
+            })
+            .collect();
+        hull(&v)
+    };
+    let prisms = [prism(5), prism(17), prism(24)];
+    assert!(
+        prisms[2].faces.iter().any(|f| f.count > 15),
+        "a face past the code"
+    );
+    for p in shapes.iter().chain(&prisms) {
+        for f in 0..p.faces.len() {
+            let code = p.axis_code(f);
+            assert_eq!(code.normal(), crate::polyhedron::axis_of(p.faces[f].normal));
+            for (k, &(side, _)) in p.side_planes(f).iter().enumerate() {
+                let want = if k < 15 {
+                    crate::polyhedron::axis_of(side)
+                } else {
+                    crate::polyhedron::NO_AXIS
+                };
+                assert_eq!(code.side(k), want, "face {f} plane {k}");
+            }
+        }
+    }
     // Every face of every box on the axes but the turned one's.
     for (k, s) in shapes.iter().enumerate() {
         let all = (0..s.faces.len()).all(|f| on_axes(s, f));
