@@ -67,6 +67,14 @@ pub struct ConvexPolyhedron {
     /// with the clipping's own expressions (the same floats), so that clipping an incident
     /// face against a reference face does not recompute them for every pair and step.
     side_planes: Vec<(Vec3, f32)>,
+    /// For each face, the axes of its normal and of its side planes' vectors packed in one
+    /// word ([`AxisCode`], one load for the clip): each the axis of a vector that is finite
+    /// with exactly one component not zero (the other two `±0`), else [`NO_AXIS`] (a
+    /// box's are all axes). Then, for a finite point `p`, such a vector's dot product is
+    /// that one product as a value (the products with `±0` are zeros, and adding a zero
+    /// changes no value but a zero's sign), so the clipping takes it alone (see
+    /// [`axis_of`]).
+    axis_codes: Vec<AxisCode>,
     /// A lower bound of the radius of a ball about the local origin inside the hull: the
     /// smallest face offset less `1e-4 * radius` (the hull merges faces within about
     /// `5e-6 * radius`) when that is positive (the origin well inside), else minus
@@ -94,6 +102,67 @@ pub struct BoxFrame {
     pub half: glam::DVec3,
     /// `axes` is the identity (the usual case: a box authored axis-aligned).
     pub aligned: bool,
+}
+
+/// No axis: a vector that is not a finite multiple of one axis with exact zeros (see
+/// [`axis_of`]).
+pub(crate) const NO_AXIS: u8 = 3;
+
+/// The axis `k` of `v` when `v[k]` is finite and not zero and the other two components
+/// are zeros (of either sign), else [`NO_AXIS`]. Then for any finite `p`, `v.dot(p)`
+/// (glam's `(x x' + y y') + z z'`) has the value `v[k] * p[k]`: the other products are
+/// zeros, and a zero added to a value gives that value (to a zero, a zero), so the value
+/// differs at most in the sign of a zero (an infinite `v[k] * p[k]` stays infinite).
+pub(crate) fn axis_of(v: Vec3) -> u8 {
+    let c = v.to_array();
+    let mut axis = NO_AXIS;
+    for (k, &x) in c.iter().enumerate() {
+        if x != 0.0 {
+            if axis != NO_AXIS || !x.is_finite() {
+                return NO_AXIS;
+            }
+            axis = k as u8;
+        }
+    }
+    axis
+}
+
+/// The axes ([`axis_of`]) of a face's normal (bits 0-1) and of the vectors of its first
+/// fifteen side planes, in loop order (plane `k` in bits `2k + 2` and `2k + 3`; [`NO_AXIS`]
+/// for the planes after them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct AxisCode(u32);
+
+impl AxisCode {
+    /// The code of a face of normal `normal` and side planes `planes`.
+    fn of(normal: Vec3, planes: &[(Vec3, f32)]) -> Self {
+        let mut code = u32::MAX;
+        let mut put = |slot: usize, axis: u8| {
+            code &= !(3 << (2 * slot));
+            code |= (axis as u32) << (2 * slot);
+        };
+        put(0, axis_of(normal));
+        for (k, &(side, _)) in planes.iter().enumerate().take(15) {
+            put(k + 1, axis_of(side));
+        }
+        AxisCode(code)
+    }
+
+    /// The axis of the face's normal.
+    #[inline]
+    pub(crate) fn normal(self) -> u8 {
+        (self.0 & 3) as u8
+    }
+
+    /// The axis of side plane `k`'s vector ([`NO_AXIS`] from the sixteenth on).
+    #[inline]
+    pub(crate) fn side(self, k: usize) -> u8 {
+        if k < 15 {
+            (self.0 >> (2 * k + 2) & 3) as u8
+        } else {
+            NO_AXIS
+        }
+    }
 }
 
 impl ConvexPolyhedron {
@@ -209,6 +278,7 @@ impl ConvexPolyhedron {
             face_axes: None,
             lanes: crate::narrow::SoaPoints::default(),
             side_planes: Vec::new(),
+            axis_codes: Vec::new(),
             inner: 0.0,
             dir_edges: Vec::new(),
             dir_first: Vec::new(),
@@ -217,6 +287,9 @@ impl ConvexPolyhedron {
         (p.dir_edges, p.dir_first) = Self::edges_by_direction(&p);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
+        p.axis_codes = (0..p.faces.len())
+            .map(|f| AxisCode::of(p.faces[f].normal, p.side_planes(f)))
+            .collect();
         p.box_frame = crate::query::support::detect_box(&p);
         p.corner_box = Self::detect_corner_box(&p.vertices);
         p.face_axes = Self::detect_face_axes(&p.faces);
@@ -291,6 +364,12 @@ impl ConvexPolyhedron {
     pub(crate) fn side_planes(&self, f: usize) -> &[(Vec3, f32)] {
         let face = &self.faces[f];
         &self.side_planes[face.first as usize..(face.first + face.count) as usize]
+    }
+
+    /// The axes of face `f`'s normal and side planes (see the field `axis_codes`).
+    #[inline]
+    pub(crate) fn axis_code(&self, f: usize) -> AxisCode {
+        self.axis_codes[f]
     }
 
     /// The smallest face offset less `1e-4 * radius` when positive, else minus infinity

@@ -144,16 +144,31 @@ pub(super) fn clip_faces_into(
     if few && small_fits(len, left.count_ones()) {
         let [s0, s1] = small;
         let (mut src, mut dst) = (s0, s1);
+        // Whether every corner's coordinates are below `1e18` in magnitude (see `on_axes`),
+        // gathered lane by lane as they are made.
+        let (big, mut moderate) = (Vec3A::splat(1e18), glam::BVec3A::TRUE);
         for (slot, &i) in src.iter_mut().zip(il) {
-            *slot = Vec3A::from(inc_v(i as usize));
+            let p = Vec3A::from(inc_v(i as usize));
+            moderate &= p.abs().cmplt(big);
+            *slot = p;
         }
+        // A box's planes (see `on_axes`): each distance and depth from one coordinate.
+        let axes = refp.axis_code(rf);
+        let on_axes = on_axes(moderate);
         while left != 0 {
-            let plane = planes[left.trailing_zeros() as usize];
+            let k = left.trailing_zeros() as usize;
+            let plane = planes[k];
             left &= left - 1;
             let (side, off) = (Vec3A::from(plane.0), plane.1);
-            if let Some(kept) =
-                clip_by_plane(&src[..len], &mut Masked(&mut *dst), side, off, plan.scan)
-            {
+            let out = &mut Masked(&mut *dst);
+            let (src_now, scan) = (&src[..len], plan.scan);
+            let kept = match axes.side(k) {
+                0 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.x * p.x - off, scan),
+                1 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.y * p.y - off, scan),
+                2 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.z * p.z - off, scan),
+                _ => clip_by_plane(src_now, out, |p: Vec3A| side.dot(p) - off, scan),
+            };
+            if let Some(kept) = kept {
                 std::mem::swap(&mut src, &mut dst);
                 len = kept;
             }
@@ -161,7 +176,19 @@ pub(super) fn clip_faces_into(
                 break;
             }
         }
-        return contact_points(&src[..len], rface.offset, n, small_pts, inc, inc_v, m);
+        let (poly, o, nv) = (&src[..len], rface.offset, Vec3A::from(n));
+        return match axes.normal() {
+            0 if on_axes => {
+                contact_points(poly, o, |p| o - nv.x * p.x, n, small_pts, inc, inc_v, m)
+            }
+            1 if on_axes => {
+                contact_points(poly, o, |p| o - nv.y * p.y, n, small_pts, inc, inc_v, m)
+            }
+            2 if on_axes => {
+                contact_points(poly, o, |p| o - nv.z * p.z, n, small_pts, inc, inc_v, m)
+            }
+            _ => contact_points(poly, o, |p| o - nv.dot(p), n, small_pts, inc, inc_v, m),
+        };
     }
     let most = if few {
         len << left.count_ones().max(1)
@@ -196,17 +223,40 @@ pub(super) fn clip_faces_into(
             }
         }
     }
-    contact_points(&poly[..len], rface.offset, n, pts, inc, inc_v, m)
+    let o = rface.offset;
+    contact_points(&poly[..len], o, |p| o - n.dot(p), n, pts, inc, inc_v, m)
+}
+
+/// Whether the clip of the fixed buffers takes a box's planes from one coordinate
+/// ([`crate::polyhedron::axis_of`]): when every incident corner's coordinates are below
+/// `1e18` in magnitude (not NaN), `moderate` in every lane. Every point the clip makes is then finite (a crossing
+/// is within its edge up to rounding, so each of at most eight planes at most triples the
+/// largest coordinate), and for a finite point a plane vector or normal on an axis gives
+/// its dot product's value by that coordinate's product alone: the same distance and
+/// depth up to the sign of a zero, which changes nothing here (a distance is only compared
+/// with zero, and divided only when two of opposite strict signs are; a depth is kept only
+/// above zero). A NaN or infinite coordinate, whose products with zeros are NaNs, takes
+/// the products.
+#[inline(always)]
+fn on_axes(moderate: glam::BVec3A) -> bool {
+    #[cfg(test)]
+    if tests::PRODUCTS_ONLY.get() {
+        return false;
+    }
+    moderate.all()
 }
 
 /// The manifold of the clipped polygon `poly` on the reference face's plane `n . x =
-/// offset` (the points below it, moved halfway up, with their depths), or, when none is
+/// offset` (the points below it, moved halfway up, with their depths `depth_of(p)`,
+/// `offset - n . p` by value: see `on_axes`), or, when none is
 /// below, of the incident body's deepest vertex (`inc_v` as in [`clip_faces`]), written
 /// into `m`: `false` when there is no contact.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn contact_points<P: ClipPoint>(
     poly: &[P],
     offset: f32,
+    depth_of: impl Fn(P) -> f32,
     n: Vec3,
     pts: &mut Vec<(P, f32)>,
     inc: &ConvexPolyhedron,
@@ -224,7 +274,7 @@ fn contact_points<P: ClipPoint>(
     let mut more = false;
     let np = P::from_vec3(n);
     for &p in poly {
-        let depth = offset - np.dot(p);
+        let depth = depth_of(p);
         if depth > 0.0 {
             if m.count == 4 {
                 more = true;
@@ -361,7 +411,12 @@ fn clip_one(
     (side, off): (Vec3, f32),
     scan: bool,
 ) -> usize {
-    match clip_by_plane(&poly[..len], tmp.as_mut_slice(), side, off, scan) {
+    match clip_by_plane(
+        &poly[..len],
+        tmp.as_mut_slice(),
+        |p| side.dot(p) - off,
+        scan,
+    ) {
         Some(kept) => {
             std::mem::swap(poly, tmp);
             kept
@@ -378,7 +433,9 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
     }
 }
 
-/// Clips the convex polygon `src` by the side plane `side . x - off <= 0`, writing the
+/// Clips the convex polygon `src` by a side plane, `dist(x) <= 0` inside (`dist(x)` is
+/// `side . x - off`, or for a box's plane that value from one coordinate: see
+/// `on_axes`), writing the
 /// kept corners and the edges' crossings in order into `dst` (at least `2 src.len()` long)
 /// and returning their count, or, with `scan`, `None` when the plane keeps `src` as it is
 /// (no copy). Each corner's distance is computed by one expression (the same for it as the
@@ -390,14 +447,13 @@ fn fit(buf: &mut Vec<Vec3>, len: usize) {
 fn clip_by_plane<P: ClipPoint, D: Store<P> + ?Sized>(
     src: &[P],
     dst: &mut D,
-    side: P,
-    off: f32,
+    dist: impl Fn(P) -> f32,
     scan: bool,
 ) -> Option<usize> {
     let Some((&first, rest)) = src.split_first() else {
         return Some(0);
     };
-    let d_first = side.dot(first) - off;
+    let d_first = dist(first);
     // A plane that every corner is inside (or on) keeps the polygon as it is: no corner is
     // dropped and no edge crosses (a crossing needs a corner strictly outside); then
     // `None`, the polygon in `src` stands, and it is not copied. The scan stops at the
@@ -410,7 +466,7 @@ fn clip_by_plane<P: ClipPoint, D: Store<P> + ?Sized>(
             Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
         )
     };
-    if scan && !outside(d_first) && !rest.iter().any(|&q| outside(side.dot(q) - off)) {
+    if scan && !outside(d_first) && !rest.iter().any(|&q| outside(dist(q))) {
         return None;
     }
     let mut w = 0;
@@ -426,7 +482,7 @@ fn clip_by_plane<P: ClipPoint, D: Store<P> + ?Sized>(
     };
     let (mut p, mut dp) = (first, d_first);
     for &q in rest {
-        let dq = side.dot(q) - off;
+        let dq = dist(q);
         edge(p, dp, q, dq);
         (p, dp) = (q, dq);
     }

@@ -9,6 +9,9 @@ thread_local! {
     /// Set by a test to send every clip through the growable buffers (`small_fits` false),
     /// the reference of the fixed ones.
     pub(super) static GROWABLE_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Set by a test to have the fixed buffers' clip take every plane's and the reference
+    /// normal's dot products (`on_axes` false), the reference of a box's coordinates.
+    pub(super) static PRODUCTS_ONLY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
 /// The face clipping as it was before its buffers were written by index and its side
@@ -517,7 +520,7 @@ fn a_plane_grows_a_polygon_by_half_at_most() {
                     Vec3::new(d, i as f32, 0.0)
                 })
                 .collect();
-            let w = clip_by_plane(&src, dst.as_mut_slice(), Vec3::X, 0.0, false)
+            let w = clip_by_plane(&src, dst.as_mut_slice(), |p| Vec3::X.dot(p), false)
                 .expect("no scan: always a polygon");
             assert!(w <= n + n / 2, "{n} corners, code {code}: {w}");
             reached += (w == n + n / 2 && n % 2 == 0) as usize;
@@ -650,4 +653,176 @@ fn reduce_all_of_vec3a_is_of_vec3() {
         );
     }
     assert!(reduced > 10_000 && unusual > 500, "{reduced} {unusual}");
+}
+
+/// A box's side planes and reference normal taken from one coordinate (`on_axes`)
+/// against every product (`PRODUCTS_ONLY`), bitwise: boxes centred and off-centre (a face
+/// through the origin: side-plane offsets of zero), of the pile's size, tiny (products
+/// that underflow to zeros) and huge (corners about the `1e18` guard, either side), and a
+/// box turned off the axes (its planes take the products either way); incident bodies
+/// turned at random or onto the axes exactly (corners on side planes, at depth zero),
+/// zeros of either sign, a corner off by an ulp, a NaN or infinite corner now and then,
+/// with and without the scan, with the planes that cut nothing skipped.
+#[test]
+fn box_planes_by_coordinate_are_the_products() {
+    let mut r = ChaCha8Rng::seed_from_u64(34);
+    let corners = |h: Vec3, o: Vec3| -> Vec<Vec3> {
+        (0..8)
+            .map(|k| {
+                let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
+                Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z) + o
+            })
+            .collect()
+    };
+    let hull = |v: &[Vec3]| crate::convex_hull(v).expect("box hull");
+    let turn = Mat3::from_quat(Quat::from_rotation_y(0.3) * Quat::from_rotation_z(0.2));
+    let turned: Vec<Vec3> = corners(Vec3::splat(0.01), Vec3::ZERO)
+        .iter()
+        .map(|&v| turn * v)
+        .collect();
+    let shapes = vec![
+        hull(&corners(Vec3::splat(0.01), Vec3::ZERO)),
+        hull(&corners(Vec3::new(0.5, 0.2, 0.3), Vec3::ZERO)),
+        hull(&corners(Vec3::splat(0.01), Vec3::splat(0.01))),
+        hull(&corners(
+            Vec3::new(0.02, 0.01, 0.005),
+            Vec3::new(0.02, 0.0, -0.005),
+        )),
+        hull(&corners(Vec3::splat(3e-20), Vec3::ZERO)),
+        hull(&corners(Vec3::splat(3e17), Vec3::ZERO)),
+        hull(&turned),
+    ];
+    let on_axes = |p: &ConvexPolyhedron, f: usize| {
+        let code = p.axis_code(f);
+        code.normal() != crate::polyhedron::NO_AXIS
+            && (0..p.side_planes(f).len()).all(|k| code.side(k) != crate::polyhedron::NO_AXIS)
+    };
+    // Each face's code is `axis_of` of its normal and of each side plane's vector (the
+    // first fifteen): of the boxes, and of hulls with faces of many corners (prisms).
+    let prism = |n: usize| {
+        let v: Vec<Vec3> = (0..2 * n)
+            .map(|i| {
+                let a = (i % n) as f32 * std::f32::consts::TAU / n as f32;
+                Vec3::new(a.cos(), a.sin(), if i < n { -0.5 } else { 0.5 })
+            })
+            .collect();
+        hull(&v)
+    };
+    let prisms = [prism(5), prism(17), prism(24)];
+    assert!(
+        prisms[2].faces.iter().any(|f| f.count > 15),
+        "a face past the code"
+    );
+    for p in shapes.iter().chain(&prisms) {
+        for f in 0..p.faces.len() {
+            let code = p.axis_code(f);
+            assert_eq!(code.normal(), crate::polyhedron::axis_of(p.faces[f].normal));
+            for (k, &(side, _)) in p.side_planes(f).iter().enumerate() {
+                let want = if k < 15 {
+                    crate::polyhedron::axis_of(side)
+                } else {
+                    crate::polyhedron::NO_AXIS
+                };
+                assert_eq!(code.side(k), want, "face {f} plane {k}");
+            }
+        }
+    }
+    // Every face of every box on the axes but the turned one's.
+    for (k, s) in shapes.iter().enumerate() {
+        let all = (0..s.faces.len()).all(|f| on_axes(s, f));
+        assert_eq!(all, k + 1 < shapes.len(), "shape {k}");
+    }
+    let (mut buf_a, mut buf_b) = (ClipBuffers::default(), ClipBuffers::default());
+    let (mut axes, mut contacts, mut odd, mut large) = (0, 0, 0, 0);
+    for case in 0..60_000 {
+        let c = ClipCase::draw(&mut r, &shapes, case);
+        let (refp, inc, rf, rot) = (&shapes[c.refp], &shapes[c.inc], c.rf, c.rot);
+        // Now and then the incident body far along the reference normal (the huge box's
+        // scale: corners near the guard) or scaled down to the tiny box's.
+        let shift = match case % 5 {
+            0 => refp.faces[rf].normal * refp.radius.max(inc.radius) * r.random_range(0.0..0.5),
+            _ => Vec3::ZERO,
+        };
+        let inc_v = |i: usize| c.inc_v(inc, i) - shift;
+        odd += c.odd() as usize;
+        let il = inc.face_loop(incident_face(inc, rot.transpose() * refp.faces[rf].normal));
+        let moderate = il
+            .iter()
+            .all(|&i| inc_v(i as usize).abs().cmplt(Vec3::splat(1e18)).all());
+        axes += (on_axes(refp, rf) && moderate) as usize;
+        large += il
+            .iter()
+            .any(|&i| inc_v(i as usize).abs().max_element() > 1e17) as usize;
+        let (skip, _) = planes_cutting_nothing(refp, rf, inc, rot, inc_v);
+        let plans = [
+            Plan::FULL,
+            Plan {
+                scan: false,
+                ..Plan::FULL
+            },
+            Plan {
+                scan: false,
+                skip,
+                ..Plan::FULL
+            },
+        ];
+        for plan in plans {
+            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_a, &plan);
+            PRODUCTS_ONLY.set(true);
+            let want = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_b, &plan);
+            PRODUCTS_ONLY.set(false);
+            contacts += want.is_some() as usize;
+            assert_eq!(
+                manifold_bits(got),
+                manifold_bits(want),
+                "case {case} {plan:?}"
+            );
+        }
+    }
+    assert!(
+        axes > 30_000 && contacts > 30_000 && odd > 10_000 && large > 2_000,
+        "{axes} {contacts} {odd} {large}"
+    );
+}
+
+/// `axis_of` against its promise: for vectors with each component zero (of either sign),
+/// finite, infinite or NaN, an axis only when exactly one component is finite and not
+/// zero; and then, for points with coordinates at random scales (subnormal to `1e30`),
+/// zeros of either sign, the vector's dot product equals that one product as a value.
+#[test]
+fn axis_of_is_one_product() {
+    use crate::polyhedron::{NO_AXIS, axis_of};
+    let mut r = ChaCha8Rng::seed_from_u64(35);
+    let picks = [0.0, -0.0, 1.0, -2.5, 3e-39, 1e30, f32::INFINITY, f32::NAN];
+    let (mut on, mut off) = (0, 0);
+    for _ in 0..200_000 {
+        let v = Vec3::from_array([0; 3].map(|_| picks[r.random_range(0..picks.len())]));
+        let c = v.to_array();
+        let live: Vec<usize> = (0..3).filter(|&k| c[k] != 0.0).collect();
+        let want = if live.len() == 1 && c[live[0]].is_finite() {
+            live[0] as u8
+        } else {
+            NO_AXIS
+        };
+        let got = axis_of(v);
+        assert_eq!(got, want, "{v:?}");
+        if got == NO_AXIS {
+            off += 1;
+            continue;
+        }
+        on += 1;
+        let k = got as usize;
+        let p = Vec3::from_array([0; 3].map(|_| {
+            let s = [1e-42f32, 1e-20, 1.0, 1e20, 1e30][r.random_range(0..5)];
+            match r.random_range(0..6) {
+                0 => 0.0,
+                1 => -0.0,
+                _ => r.random_range(-1.0f32..1.0) * s,
+            }
+        }));
+        let (dot, one) = (v.dot(p), c[k] * p[k]);
+        let (dot_a, one_a) = (Vec3A::from(v).dot(Vec3A::from(p)), c[k] * p[k]);
+        assert!(dot == one && dot_a == one_a, "{v:?} {p:?}: {dot} {one}");
+    }
+    assert!(on > 10_000 && off > 100_000, "{on} {off}");
 }
