@@ -547,11 +547,17 @@ pub(super) struct GrownLevels([Vec4; 3]);
 impl GrownLevels {
     /// The powers of two of the levels, `2^-(c + 1)` for codes 1 to [`LEVELS`] (the
     /// factors of `DeepPairs::level`, exact), then a NaN.
-    const POWERS: [Vec4; 3] = [
-        Vec4::new(0.25, 0.125, 0.0625, 0.03125),
-        Vec4::new(0.015625, 0.0078125, 0.00390625, 0.001953125),
-        Vec4::new(0.0009765625, 0.00048828125, 0.000244140625, f32::NAN),
-    ];
+    const POWERS: [Vec4; 3] = {
+        // `DeepPairs::level`'s factor of code `c`.
+        const fn p(c: u32) -> f32 {
+            f32::from_bits((126 - c) << 23)
+        }
+        [
+            Vec4::new(p(1), p(2), p(3), p(4)),
+            Vec4::new(p(5), p(6), p(7), p(8)),
+            Vec4::new(p(9), p(10), p(11), f32::NAN),
+        ]
+    };
 
     /// The levels for bodies whose radii sum to `r`, grown by `grown`: per lane `-(r *
     /// 2^-(c + 1)) + grown`, the products, negations and sums of `DeepPairs::level(c, r) +
@@ -796,6 +802,8 @@ mod tests {
                 _ => (bits as f32 / u32::MAX as f32 - 0.3) * 2f32.powi((bits % 24) as i32 - 16),
             }
         };
+        // The lanes hold codes 1 to 11 and a NaN.
+        assert_eq!(LEVELS, 11);
         let mut checked = 0;
         for case in 0..20_000 {
             let (grown, r) = if case % 4 == 0 {
