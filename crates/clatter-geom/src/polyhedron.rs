@@ -90,6 +90,14 @@ pub struct ConvexPolyhedron {
     /// Where each direction's edges start in `dir_edges` (one entry per direction, and the
     /// end).
     dir_first: Vec<u32>,
+    /// The ends of each edge of `dir_edges` (`edges[dir_edges[i]]`), in the same order, so
+    /// that the search for B's supporting edge reads them in sequence.
+    dir_ends: Vec<[u32; 2]>,
+    /// The sum of the ends of each edge of `dir_edges` (`vertices[v0] + vertices[v1]`, the
+    /// same floats as the search's sum), in the same order: A's supporting edge along an
+    /// axis is the first largest `axis . sum`, without the vertices looked up per pair and
+    /// step.
+    dir_sums: Vec<Vec3>,
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -282,9 +290,17 @@ impl ConvexPolyhedron {
             inner: 0.0,
             dir_edges: Vec::new(),
             dir_first: Vec::new(),
+            dir_ends: Vec::new(),
+            dir_sums: Vec::new(),
         };
         p.inner = Self::inner_bound(&p);
         (p.dir_edges, p.dir_first) = Self::edges_by_direction(&p);
+        // (`dir_edges` holds edge indices, and the edges' ends are vertices: both indexed
+        // above already.)
+        p.dir_ends = p.dir_edges.iter().map(|&e| p.edges[e as usize]).collect();
+        p.dir_sums = (p.dir_ends.iter())
+            .map(|&[v0, v1]| p.vertices[v0 as usize] + p.vertices[v1 as usize])
+            .collect();
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
         p.axis_codes = (0..p.faces.len())
@@ -409,11 +425,33 @@ impl ConvexPolyhedron {
 
     /// The edges of direction `d` (`edge_dir_of[e] == d`), in increasing order (built by
     /// the constructor; empty for a direction that is not one of `edge_dirs`).
-    #[inline]
+    /// (The search reads [`ConvexPolyhedron::dir_group`]; this is the tests' oracle.)
+    #[cfg(test)]
     pub(crate) fn edges_of_dir(&self, d: usize) -> &[u32] {
         match (self.dir_first.get(d), self.dir_first.get(d + 1)) {
             (Some(&lo), Some(&hi)) => self.dir_edges.get(lo as usize..hi as usize).unwrap_or(&[]),
             _ => &[],
+        }
+    }
+
+    /// The edges of direction `d` as [`ConvexPolyhedron::edges_of_dir`] gives them, with
+    /// their ends and the sums of their ends (`vertices[v0] + vertices[v1]`), three slices
+    /// of the same length (all empty for a direction that is not one of `edge_dirs`).
+    #[inline]
+    pub(crate) fn dir_group(&self, d: usize) -> (&[u32], &[[u32; 2]], &[Vec3]) {
+        match (self.dir_first.get(d), self.dir_first.get(d + 1)) {
+            (Some(&lo), Some(&hi)) => {
+                let range = lo as usize..hi as usize;
+                match (
+                    self.dir_edges.get(range.clone()),
+                    self.dir_ends.get(range.clone()),
+                    self.dir_sums.get(range),
+                ) {
+                    (Some(e), Some(ends), Some(sums)) => (e, ends, sums),
+                    _ => (&[], &[], &[]),
+                }
+            }
+            _ => (&[], &[], &[]),
         }
     }
 

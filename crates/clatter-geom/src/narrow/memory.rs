@@ -4,7 +4,7 @@
 //! through the same tests in the same order, so it finds bitwise what the whole search
 //! finds (see [`EdgeMemory`]).
 
-use glam::{Mat3, Quat, Vec3};
+use glam::{Mat3, Quat, Vec3, Vec4};
 
 use super::SatHint;
 use super::edges::{EdgeOfA, separating_pair};
@@ -308,11 +308,11 @@ impl EdgeMemory {
         let mut best_at = NONE;
         let mut current = None;
         let grown = self.growth(a, b, q, t);
-        let r = a.radius + b.radius;
+        let levels = GrownLevels::new(grown, a.radius + b.radius);
         let len = self.len as usize;
         // The pairs to visit, by index (those at no level always).
         let all = u128::MAX.checked_shr(128 - len as u32).unwrap_or(0);
-        let top = DeepPairs::top(0, grown, r, floor);
+        let top = levels.top(0, floor);
         let mut todo = all & !self.up_to(top);
         // The winner first (`first`: its index and answer), if it is visited: then the
         // pairs before it at levels whose growth stays below its separation, and those
@@ -331,11 +331,8 @@ impl EdgeMemory {
                     let early = (1u128 << w) - 1;
                     let late = all & !early & !(1u128 << w);
                     // (`floor` <= `s.next_down()` <= `s`: the tops rise in turn.)
-                    let below = DeepPairs::top(top, grown, r, s.next_down());
-                    let (before, after) = (
-                        self.up_to(below),
-                        self.up_to(DeepPairs::top(below, grown, r, s)),
-                    );
+                    let below = levels.top(top, s.next_down());
+                    let (before, after) = (self.up_to(below), self.up_to(levels.top(below, s)));
                     todo &= !((before & early) | (after & late));
                     first = (w, found);
                 }
@@ -405,8 +402,9 @@ pub(super) struct Served {
     pub(super) skip: u128,
     /// The highest level code left out below the floor ([`DeepPairs::top`]).
     pub(super) top: u8,
-    /// The most a remembered pair's separation can have grown since the recording.
-    pub(super) grown: f32,
+    /// The levels grown by the most a remembered pair's separation can have grown since
+    /// the recording.
+    pub(super) levels: GrownLevels,
     /// The direction pair that won the last search (128 or more: none).
     pub(super) winner: usize,
 }
@@ -517,7 +515,10 @@ impl DeepPairs {
     /// `from`: a code known to qualify (0, or this function's answer for a lower floor):
     /// the levels rise with the code, and so do they grown (rounding is monotonic), so the
     /// codes that qualify are 1 to some top, and the count starts at `from`.
-    #[inline]
+    ///
+    /// The searches take it from [`GrownLevels::top`] (the same answer for every input,
+    /// four levels at a time); this, the rule it replaced, is the tests' oracle.
+    #[cfg(test)]
     pub(super) fn top(from: u8, grown: f32, r: f32, floor: f32) -> u8 {
         // The deepest levels that still reach no higher than the floor: codes 1 to `top`
         // (levels rise with the code). (Written so that a NaN serves nothing.)
@@ -533,6 +534,58 @@ impl DeepPairs {
     #[inline]
     pub(super) fn keeps_turn(h: f32, r_a: f32) -> bool {
         h.abs() >= 0.125 * r_a
+    }
+}
+
+/// The levels of codes 1 to [`LEVELS`] grown by the most a remembered pair's separation
+/// can have grown (`DeepPairs::level(c, r) + grown`, lane `c - 1`; the twelfth lane a NaN,
+/// which is at or below no floor), made once per search, so that each [`GrownLevels::top`]
+/// is a comparison of the twelve lanes with its floor instead of a loop over the codes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct GrownLevels([Vec4; 3]);
+
+impl GrownLevels {
+    /// The powers of two of the levels, `2^-(c + 1)` for codes 1 to [`LEVELS`] (the
+    /// factors of `DeepPairs::level`, exact), then a NaN.
+    const POWERS: [Vec4; 3] = {
+        // `DeepPairs::level`'s factor of code `c`.
+        const fn p(c: u32) -> f32 {
+            f32::from_bits((126 - c) << 23)
+        }
+        [
+            Vec4::new(p(1), p(2), p(3), p(4)),
+            Vec4::new(p(5), p(6), p(7), p(8)),
+            Vec4::new(p(9), p(10), p(11), f32::NAN),
+        ]
+    };
+
+    /// The levels for bodies whose radii sum to `r`, grown by `grown`: per lane `-(r *
+    /// 2^-(c + 1)) + grown`, the products, negations and sums of `DeepPairs::level(c, r) +
+    /// grown`, so the same floats (a lane of `mulps`, `xorps`, `addps` is the IEEE
+    /// operation of the scalar one).
+    #[inline(always)]
+    pub(super) fn new(grown: f32, r: f32) -> Self {
+        let (r, grown) = (Vec4::splat(r), Vec4::splat(grown));
+        Self(Self::POWERS.map(|p| -(r * p) + grown))
+    }
+
+    /// [`DeepPairs::top`] for these levels (its `grown` and `r`): from `from`, the codes
+    /// counted up while the next code's grown level is at or below `floor`. Bit `c - 1` of
+    /// `passes` is code `c`'s test (`<=`, false for a NaN, as the loop's; the twelfth lane
+    /// never passes), so the loop's count from `from` is `from` plus the run of passing
+    /// codes from `from + 1` up: the trailing ones of `passes >> from`. The same answer as
+    /// the loop for every input (no use of the levels' order), not only the ones that rise.
+    #[inline(always)]
+    pub(super) fn top(&self, from: u8, floor: f32) -> u8 {
+        if from >= LEVELS {
+            return from;
+        }
+        let floor = Vec4::splat(floor);
+        let [l0, l1, l2] = self.0;
+        let passes = l0.cmple(floor).bitmask()
+            | (l1.cmple(floor).bitmask() << 4)
+            | (l2.cmple(floor).bitmask() << 8);
+        from + (passes >> from).trailing_ones() as u8
     }
 }
 
@@ -554,13 +607,13 @@ impl EdgeMemory {
             return None;
         }
         let grown = self.growth(a, b, rot, t);
-        let r = a.radius + b.radius;
-        let top = DeepPairs::top(0, grown, r, floor);
+        let levels = GrownLevels::new(grown, a.radius + b.radius);
+        let top = levels.top(0, floor);
         let skip = self.up_to(top);
         (skip != 0).then_some(Served {
             skip,
             top,
-            grown,
+            levels,
             winner: self.winner as usize,
         })
     }
@@ -627,7 +680,7 @@ impl EdgeMemory {
 
 #[cfg(test)]
 mod tests {
-    use super::{DeepPairs, EdgeMemory, LEVELS};
+    use super::{DeepPairs, EdgeMemory, GrownLevels, LEVELS};
     use std::mem::{align_of, offset_of, size_of_val};
 
     /// The fields every search reads (the header and `levels`) lie in the first four cache
@@ -728,6 +781,55 @@ mod tests {
             }
         }
         assert!(checked > 400_000);
+    }
+
+    /// [`GrownLevels::top`] against the loop it replaced ([`DeepPairs::top`], kept as the
+    /// oracle), bitwise the same code: every start code (0 to past the last), radii sums
+    /// and growths of every scale (0, subnormal, usual, huge, infinite, NaN, negative,
+    /// raw bit patterns), and floors at every grown level and the floats next to it, as
+    /// well as random ones.
+    #[test]
+    fn grown_levels_give_the_tops_of_the_loop_over_the_codes() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(34);
+        let mut any = move || -> f32 {
+            let bits = rng.random::<u32>();
+            match rng.random::<u32>() % 8 {
+                0 => [0.0, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1e-40]
+                    [bits as usize % 6],
+                1 => f32::from_bits(bits),
+                // Usual sizes, either sign.
+                _ => (bits as f32 / u32::MAX as f32 - 0.3) * 2f32.powi((bits % 24) as i32 - 16),
+            }
+        };
+        // The lanes hold codes 1 to 11 and a NaN.
+        assert_eq!(LEVELS, 11);
+        let mut checked = 0;
+        for case in 0..20_000 {
+            let (grown, r) = if case % 4 == 0 {
+                (any(), any())
+            } else {
+                // The searches' sizes: a small growth, a positive radii sum.
+                (any().abs() * 1e-3, any().abs())
+            };
+            let levels = GrownLevels::new(grown, r);
+            let mut floors = vec![any(), any(), any(), 0.0, -0.0, f32::NAN, -grown];
+            for c in 1..=LEVELS {
+                let l = DeepPairs::level(c, r) + grown;
+                floors.extend([l, l.next_up(), l.next_down()]);
+            }
+            for &floor in &floors {
+                for from in 0..=LEVELS + 2 {
+                    assert_eq!(
+                        levels.top(from, floor),
+                        DeepPairs::top(from, grown, r, floor),
+                        "from {from}, grown {grown:e}, r {r:e}, floor {floor:e}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 5_000_000);
     }
 
     /// `up_to` of a finished recording against the levels as recorded, read pair by pair

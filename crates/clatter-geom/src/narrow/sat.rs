@@ -393,14 +393,16 @@ fn remembered_edge(
     bv.clear();
     bv.extend(b.vertices.iter().map(|&v| rel.rot * v + rel.t));
     *prepared = Prepared::Vertices;
-    if edges_by_direction(a, b) {
+    let by_direction = edges_by_direction(a, b);
+    if by_direction {
         b_soa.fill(bv);
         *prepared = Prepared::Lanes;
     }
     // The pair stores twice the room (see above): the edge serves while `best_e + half > 0`.
     let half = 0.5 * margin;
     // Axes at or below `-half` fail the test below whether they win or not: left out.
-    let found = edge_search(a, b, rel, bv, a_local, b_soa, tables, -half, memory);
+    let search = (tables, by_direction);
+    let found = edge_search(a, b, rel, bv, a_local, b_soa, search, -half, memory);
     let exact = exact_search(&found, -half);
     let keep = |found: EdgeFound| if exact { Some(found) } else { None };
     let best_e = found.map_err(|e| keep(Err(e)))?;
@@ -429,7 +431,8 @@ fn exact_search(found: &EdgeFound, floor: f32) -> bool {
 }
 
 /// The best edge-edge axis, by direction or by Gauss map (whichever is cheaper for the
-/// pair), or `Err((hint, separation))` when an edge axis separates the bodies.
+/// pair: `by_direction`, [`edges_by_direction`] of `a` and `b`, which the callers have at
+/// hand), or `Err((hint, separation))` when an edge axis separates the bodies.
 ///
 /// `floor` (not positive) is a level the caller does not care below: axes whose separation
 /// is at most `floor` may be left out unevaluated (see [`edge_axes_by_direction`]). When
@@ -443,12 +446,12 @@ fn edge_search(
     bv: &[Vec3],
     a_local: &SoaPoints,
     b_soa: &SoaPoints,
-    tables: &mut GaussTables,
+    (tables, by_direction): (&mut GaussTables, bool),
     floor: f32,
     memory: Option<&mut EdgeMemory>,
 ) -> Result<EdgeAxis, (SatHint, f32)> {
     let (mut hint, mut separation) = (NO_HINT, 0.0);
-    let found = if edges_by_direction(a, b) {
+    let found = if by_direction {
         let memory = memory.map(|m| (m, rel.q, rel.t));
         edge_axes_by_direction(
             a,
@@ -669,7 +672,7 @@ fn sat_full(
             bv,
             a_local,
             b_soa,
-            tables,
+            (tables, edges_by_direction(a, b)),
             face_best,
             memory.as_deref_mut(),
         ),
