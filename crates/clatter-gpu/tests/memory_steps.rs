@@ -28,11 +28,15 @@ fn axis_motion(w: &World, i: usize, j: usize) -> f32 {
     let d = w.pose_from(i, j).position;
     let (vi, vj) = (s.velocity[i], s.velocity[j]);
     let moved = ((vj - vi).length() + (vi.length() + vj.length()) * (1.0 / 4_194_304.0)) * w.dt;
-    let (ti, tj) = (s.omega[i].length() * w.dt, s.omega[j].length() * w.dt);
+    let rho = clatter::contract::TURN_ROUNDING;
+    let (ti, tj) = (
+        s.omega[i].length() * w.dt + rho,
+        s.omega[j].length() * w.dt + rho,
+    );
     let far = d.length() + moved;
     let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));
     let l1 = d.x.abs() + d.y.abs() + d.z.abs();
-    (moved + turn) * 1.000_01 + l1 * (1.0 / 8_388_608.0) + 4e-6 * (ri + rj)
+    (moved + turn) * 1.000_01 + (l1 * (1.0 / 8_388_608.0) + (ri + rj) * (1.0 / 16_777_216.0))
 }
 
 /// A stage buffer as words.

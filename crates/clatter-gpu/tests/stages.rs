@@ -569,10 +569,14 @@ fn pile_pairs_remember_their_contacts_on_the_gpu() {
         let d = w.pose_from(i, j).position;
         let (vi, vj) = (s.velocity[i], s.velocity[j]);
         let moved = ((vj - vi).length() + (vi.length() + vj.length()) * (1.0 / 4_194_304.0)) * w.dt;
-        let (ti, tj) = (s.omega[i].length() * w.dt, s.omega[j].length() * w.dt);
+        let rho = clatter::contract::TURN_ROUNDING;
+        let (ti, tj) = (
+            s.omega[i].length() * w.dt + rho,
+            s.omega[j].length() * w.dt + rho,
+        );
         let far = d.length() + moved;
         let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));
-        let rounding = l1(d) * (1.0 / 8_388_608.0) + 4e-6 * (ri + rj);
+        let rounding = l1(d) * (1.0 / 8_388_608.0) + (ri + rj) * (1.0 / 16_777_216.0);
         (moved + turn) * 1.000_01 + rounding
     };
     let words = |gpu: &GpuWorld, name: &str| -> Vec<u32> {

@@ -469,8 +469,15 @@ pub const PAIR_MEMORY_CONSTANTS: &[Constant] = {
         Constant::U32("HINT_KIND", n::HINT_KIND),
         Constant::U32("HINT_CONTACT", n::HINT_CONTACT),
         Constant::U32("HINT_EDGE_CONTACT", n::HINT_EDGE_CONTACT),
+        Constant::F32("TURN_ROUNDING", TURN_ROUNDING),
     ]
 };
+
+/// How far a body's stored orientation can turn in a step beyond `|w| dt` through the
+/// rounding of its update, in radians (`2^-21`, a third above the `6 * 2^-24` derived at
+/// the CPU's `axis_motion_bound`, step/contacts.rs): the margin of a remembered contact
+/// shrinks by it on both bodies each step (WGSL `axis_motion_bound`, contacts.wgsl).
+pub const TURN_ROUNDING: f32 = 1.0 / 2_097_152.0;
 
 /// The WGSL declarations of every record above and of the law's constants.
 pub fn wgsl_records() -> String {

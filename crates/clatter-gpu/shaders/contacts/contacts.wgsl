@@ -93,15 +93,17 @@ fn pair_contact(c: u32, use_hint: bool, kind: u32) -> bool {
 // An upper bound of how much the separation along any axis of the separating-axis test of
 // bodies i and j (j at offset xj) can have changed in the last step: the CPU's
 // `axis_motion_bound` (step/contacts.rs, see there why): with composites, 1-norms and the
-// lever 3 (r_i + r_j); else the norms themselves, the centres' relative motion and the larger
-// of the two frames' bounds; plus rounding.
+// lever 3 (r_i + r_j) and a flat rounding allowance; else the norms themselves, the centres'
+// relative motion and the larger of the two frames' bounds, each turn with the quaternion
+// update's rounding (TURN_ROUNDING, clatter::contract), plus the offset's and the positions' rounding.
 fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
     let x = abs(xj);
     let ri = statics[i].radius;
     let rj = statics[j].radius;
     let r = ri + rj;
-    let rounding = (x.x + x.y + x.z) * (1.0 / 8388608.0) + 4e-6 * r;
+    let l1 = x.x + x.y + x.z;
     if (params.composites != 0u) {
+        let rounding = l1 * (1.0 / 8388608.0) + 4e-6 * r;
         let vi = abs(bodies[i].velocity.xyz);
         let vj = abs(bodies[j].velocity.xyz);
         let oi = abs(bodies[i].omega.xyz);
@@ -113,11 +115,12 @@ fn axis_motion_bound(i: u32, j: u32, xj: vec3<f32>) -> f32 {
     let vi = bodies[i].velocity.xyz;
     let vj = bodies[j].velocity.xyz;
     let moved = (length(vj - vi) + (length(vi) + length(vj)) * (1.0 / 4194304.0)) * params.dt;
-    let ti = length(bodies[i].omega.xyz) * params.dt;
-    let tj = length(bodies[j].omega.xyz) * params.dt;
+    let ti = length(bodies[i].omega.xyz) * params.dt + TURN_ROUNDING;
+    let tj = length(bodies[j].omega.xyz) * params.dt + TURN_ROUNDING;
     let far = length(xj) + moved;
     // A's frame (B's vertices), then B's frame (A's vertices).
     let turn = max(tj * rj + ti * (far + rj), ti * ri + tj * (far + ri));
+    let rounding = l1 * (1.0 / 8388608.0) + r * (1.0 / 16777216.0);
     return (moved + turn) * 1.00001 + rounding;
 }
 

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 use super::motion::BodyBound;
 use super::{CHUNK, FINE_CHUNK};
 use crate::contact_list::{ContactSprings, piece_ids};
+use crate::contract::TURN_ROUNDING;
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::material::PairParams;
 use crate::precise::{Ds3A, PositionPairs};
@@ -756,9 +757,36 @@ fn narrow_pair<const PIECES: bool>(
 /// bounding 2-norms and the pair touching last step (centres closer than `r_a + r_b`), the
 /// lever is `3 (r_a + r_b)`.
 ///
-/// Plus rounding: the positions' own (half an ulp per coordinate per step, bounded by
-/// `2^-23 |x|_1` for both bodies), the quaternions' renormalisation (a few ulps of a turn),
-/// and a relative margin on the products and square roots.
+/// Plus rounding, against the truth the narrow phase's decisions are proved on (the f32
+/// offset `d` between the stored centres, and the rotations of the stored quaternions
+/// *normalised*; see below for the unnormalised ones). With `u = 2^-24`:
+/// - the offset: rounded to f32 at both steps, at most half an ulp per component each:
+///   `2^-23 |d|_1` (the term `l1 / 2^23`; `|d_then|_1` differs from `|d|_1` by the motion,
+///   whose `u` share is inside the relative margin below);
+/// - the centres' own advance: each step adds the f32 `v dt` to the double-single position
+///   and snaps it to 48 bits (`precise::advance_a`): the `v dt` rounding is in `moved`, the
+///   snap is at most `2^-49 |x|` per coordinate, below `2^-24 r` (the term `r / 2^24`) for
+///   any scene within `2^24 r` (300 km for centimetre bodies) of the origin;
+/// - the quaternions (`integrate::rotate`, WGSL integrate the same operations): the
+///   first-order step `dq = (w dt / 2, 0) q` is orthogonal to `q`, so it turns the unit
+///   quaternion by `atan(|w| dt / 2)`, the rotation by at most `|w| dt` (`turned`; its
+///   own products' rounding, a few `u` of it, inside the relative margin). The Kahan sum
+///   stores `q + dq - r_old + e`, `e` the sum's rounding and `r_old` the last step's
+///   (each at most half an ulp per component: `|e|, |r_old| <= u |q|`), so the stored
+///   quaternion is off the exact step by at most `2u |q|`, a quaternion angle of `2u`, a
+///   rotation of `4u`; the renormalisation, when it runs, scales each component with
+///   rounding `u |q|`: `2u` more. So each body turns by at most `|w| dt + 6u`; the bound
+///   adds `8u = 2^-21` ([`TURN_ROUNDING`]) to both `turned` (a third more), the rotation's levers as above.
+///   (Before, a flat `4e-6 r` stood for all rounding: on a settled cube pile it was 40-45%
+///   of a touching pair's bound, as much as the turns, and the stored margin of a resting
+///   face contact, about `tol - eps`, ran out after ~60 steps; issue 23, margin34.)
+///
+/// The narrow phase rotates by the stored quaternions as they are (glam's `Quat * Vec3`
+/// and `Mat3::from_quat` of a product, which scale and shear by `|1 - |q|^2|`, at most
+/// `4 eps_f32` plus a step's drift: `integrate::rotate` renormalises beyond it), so its
+/// separations are off the normalised truth's by a few ulps of the bodies' size at every
+/// pose: that is rounding at a pose, inside `clatter_geom::narrow`'s `eps` (`1e-4` of the
+/// larger radius, ~25 times more), not motion from step to step.
 #[inline]
 fn axis_motion_bound<const PIECES: bool>(
     w: &World,
@@ -773,17 +801,21 @@ fn axis_motion_bound<const PIECES: bool>(
     let xj = d.abs();
     let (ri, rj) = (bi.radius, bj.radius);
     let r = ri + rj;
-    let rounding = (xj.x + xj.y + xj.z) * (1.0 / 8_388_608.0) + 4e-6 * r;
+    let l1 = xj.x + xj.y + xj.z;
     if PIECES {
+        // (Composites keep the flat allowance: their levers are 1-norms already.)
+        let rounding = l1 * (1.0 / 8_388_608.0) + 4e-6 * r;
         let (vi, vj) = (s.velocity[i].abs(), s.velocity[j].abs());
         let (oi, oj) = (s.omega[i].abs(), s.omega[j].abs());
         let moved = (vi.x + vi.y + vi.z + vj.x + vj.y + vj.z) * w.dt;
         let turned = (oi.x + oi.y + oi.z + oj.x + oj.y + oj.z) * w.dt;
         return (moved + turned * 3.0 * r) * 1.000_01 + rounding;
     }
+    let rounding = l1 * (1.0 / 8_388_608.0) + r * (1.0 / 16_777_216.0);
     let (vi, vj) = (bi.velocity, bj.velocity);
     let moved = ((vj - vi).length() + (bi.speed + bj.speed) * (1.0 / 4_194_304.0)) * w.dt;
-    let (ti, tj) = (bi.turned, bj.turned);
+    // Each turn with the quaternion update's rounding (see above).
+    let (ti, tj) = (bi.turned + TURN_ROUNDING, bj.turned + TURN_ROUNDING);
     let far = d.length() + moved;
     // A's frame (B's vertices), then B's frame (A's vertices).
     let turn = (tj * rj + ti * (far + rj)).max(ti * ri + tj * (far + ri));
