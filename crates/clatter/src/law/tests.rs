@@ -399,31 +399,8 @@ fn the_law_matches_its_vec3_reference_bitwise() {
             (1, _) => (vec(1.0).z + 1.0) * 1e-3,
             _ => vec(0.05).x,
         };
-        let (mut h0, mut t0) = (history, twist);
-        let want = reference::contact_force(&c, &m, &a, &b, &mut h0, &mut t0);
-        let mut runs = vec![(false, history, twist)];
-        if is_plain(&params) {
-            runs.push((true, history, twist));
-        }
-        for (plain, mut h, mut t) in runs {
-            let got = if plain {
-                contact_force_in::<true>(&c, &m, &a, &b, &mut h, &mut t)
-            } else {
-                contact_force(&c, &m, &a, &b, &mut h, &mut t)
-            };
-            let what = format!("manifold {k}, plain form {plain}");
-            assert_eq!(
-                bytemuck::bytes_of(&got),
-                bytemuck::bytes_of(&want),
-                "{what}"
-            );
-            assert_eq!(
-                h.to_array().map(f32::to_bits),
-                h0.to_array().map(f32::to_bits),
-                "{what}"
-            );
-            assert_eq!(t.to_bits(), t0.to_bits(), "{what}");
-        }
+        let t0 =
+            assert_law_is_reference(&c, &m, (&a, &b), (history, twist), &format!("manifold {k}"));
         if count > 1 {
             let free = twist + (b.omega - a.omega).dot(n) * c.dt;
             capped[(t0 != free) as usize] += 1;
@@ -600,6 +577,44 @@ fn the_patch_lanes_match_the_scalar_loops_bitwise() {
     assert!(zero_radius > 1000, "{zero_radius}");
 }
 
+/// The law on manifold `m` (bodies `a`, `b`; springs `history`, `twist` before the step)
+/// against [`reference::contact_force`], bitwise: force, springs and twist, in the general
+/// form and, on plain parameters, the plain form. Returns the reference's twist after.
+fn assert_law_is_reference(
+    c: &PairContext,
+    m: &Manifold,
+    (a, b): (&BodyMotion, &BodyMotion),
+    (history, twist): (Vec3, f32),
+    what: &str,
+) -> f32 {
+    let (mut h0, mut t0) = (history, twist);
+    let want = reference::contact_force(c, m, a, b, &mut h0, &mut t0);
+    for plain in [false, true] {
+        if plain && !is_plain(&c.params) {
+            continue;
+        }
+        let (mut h, mut t) = (history, twist);
+        let got = if plain {
+            contact_force_in::<true>(c, m, a, b, &mut h, &mut t)
+        } else {
+            contact_force(c, m, a, b, &mut h, &mut t)
+        };
+        let what = format!("{what}, plain form {plain}");
+        assert_eq!(
+            bytemuck::bytes_of(&got),
+            bytemuck::bytes_of(&want),
+            "{what}"
+        );
+        assert_eq!(
+            h.to_array().map(f32::to_bits),
+            h0.to_array().map(f32::to_bits),
+            "{what}"
+        );
+        assert_eq!(t.to_bits(), t0.to_bits(), "{what}");
+    }
+    t0
+}
+
 /// The law on the patch tests' awkward manifolds (two to four points) against
 /// [`reference::contact_force`]: linear and Hertz, plain forms on plain pairs, walls.
 #[test]
@@ -627,30 +642,12 @@ fn the_patch_law_matches_its_reference_on_awkward_manifolds() {
         let b = awkward_motion(&mut rng, m.normal * 0.02);
         let history = awkward_vec(&mut rng, 2e-4);
         let twist = awkward(&mut rng, 0.05);
-        let (mut h0, mut t0) = (history, twist);
-        let want = reference::contact_force(&c, &m, &a, &b, &mut h0, &mut t0);
-        for plain in [false, true] {
-            if plain && !is_plain(&params) {
-                continue;
-            }
-            let (mut h, mut t) = (history, twist);
-            let got = if plain {
-                contact_force_in::<true>(&c, &m, &a, &b, &mut h, &mut t)
-            } else {
-                contact_force(&c, &m, &a, &b, &mut h, &mut t)
-            };
-            let what = format!("manifold {k}, plain form {plain}: {m:?}");
-            assert_eq!(
-                bytemuck::bytes_of(&got),
-                bytemuck::bytes_of(&want),
-                "{what}"
-            );
-            assert_eq!(
-                h.to_array().map(f32::to_bits),
-                h0.to_array().map(f32::to_bits),
-                "{what}"
-            );
-            assert_eq!(t.to_bits(), t0.to_bits(), "{what}");
-        }
+        assert_law_is_reference(
+            &c,
+            &m,
+            (&a, &b),
+            (history, twist),
+            &format!("manifold {k}: {m:?}"),
+        );
     }
 }
