@@ -537,6 +537,47 @@ fn a_plane_grows_a_polygon_by_half_at_most() {
     }
 }
 
+/// The clip of reference face `rf` of `refp` against `inc` (corners at `inc_v`, turned by
+/// `rot`) under a record's three plans (the whole clip, without the scan, and without the
+/// scan with the planes in `skip` left out), against the same clip with `reference` set
+/// (the path the test holds the other to), bitwise. Returns how many of the reference's
+/// clips found a contact.
+fn plans_match_reference(
+    reference: &'static std::thread::LocalKey<std::cell::Cell<bool>>,
+    (refp, rf, inc, rot): (&ConvexPolyhedron, usize, &ConvexPolyhedron, Mat3),
+    inc_v: impl Fn(usize) -> Vec3 + Copy,
+    skip: u8,
+    (buf_a, buf_b): (&mut ClipBuffers, &mut ClipBuffers),
+    case: usize,
+) -> usize {
+    let plans = [
+        Plan::FULL,
+        Plan {
+            scan: false,
+            ..Plan::FULL
+        },
+        Plan {
+            scan: false,
+            skip,
+            ..Plan::FULL
+        },
+    ];
+    let mut contacts = 0;
+    for plan in plans {
+        let got = clip_faces(refp, rf, inc, inc_v, rot, buf_a, &plan);
+        reference.set(true);
+        let want = clip_faces(refp, rf, inc, inc_v, rot, buf_b, &plan);
+        reference.set(false);
+        contacts += want.is_some() as usize;
+        assert_eq!(
+            manifold_bits(got),
+            manifold_bits(want),
+            "case {case} {plan:?}"
+        );
+    }
+    contacts
+}
+
 /// The fixed buffers (of `Vec3A`, stores through a mask) against the growable ones (of
 /// `Vec3`, checked stores), bitwise: boxes, a prism and random hulls (faces of three to
 /// about eight corners), turned at random or onto the axes exactly (corners on side
@@ -556,30 +597,15 @@ fn fixed_buffers_are_the_growable_ones() {
         let (skip, il) = planes_cutting_nothing(refp, rf, inc, rot, inc_v);
         let planes = refp.side_planes(rf).len();
         fixed += (planes <= 8 && small_fits(il, planes as u32)) as usize;
-        let plans = [
-            Plan::FULL,
-            Plan {
-                scan: false,
-                ..Plan::FULL
-            },
-            Plan {
-                scan: false,
-                skip,
-                ..Plan::FULL
-            },
-        ];
-        for plan in plans {
-            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_a, &plan);
-            GROWABLE_ONLY.set(true);
-            let want = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_b, &plan);
-            GROWABLE_ONLY.set(false);
-            contacts += want.is_some() as usize;
-            assert_eq!(
-                manifold_bits(got),
-                manifold_bits(want),
-                "case {case} {plan:?}"
-            );
-        }
+        let bufs = (&mut buf_a, &mut buf_b);
+        contacts += plans_match_reference(
+            &GROWABLE_ONLY,
+            (refp, rf, inc, rot),
+            inc_v,
+            skip,
+            bufs,
+            case,
+        );
     }
     assert!(
         fixed > 20_000 && contacts > 30_000 && odd > 10_000,
@@ -754,30 +780,15 @@ fn box_planes_by_coordinate_are_the_products() {
             .iter()
             .any(|&i| inc_v(i as usize).abs().max_element() > 1e17) as usize;
         let (skip, _) = planes_cutting_nothing(refp, rf, inc, rot, inc_v);
-        let plans = [
-            Plan::FULL,
-            Plan {
-                scan: false,
-                ..Plan::FULL
-            },
-            Plan {
-                scan: false,
-                skip,
-                ..Plan::FULL
-            },
-        ];
-        for plan in plans {
-            let got = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_a, &plan);
-            PRODUCTS_ONLY.set(true);
-            let want = clip_faces(refp, rf, inc, inc_v, rot, &mut buf_b, &plan);
-            PRODUCTS_ONLY.set(false);
-            contacts += want.is_some() as usize;
-            assert_eq!(
-                manifold_bits(got),
-                manifold_bits(want),
-                "case {case} {plan:?}"
-            );
-        }
+        let bufs = (&mut buf_a, &mut buf_b);
+        contacts += plans_match_reference(
+            &PRODUCTS_ONLY,
+            (refp, rf, inc, rot),
+            inc_v,
+            skip,
+            bufs,
+            case,
+        );
     }
     assert!(
         axes > 30_000 && contacts > 30_000 && odd > 10_000 && large > 2_000,
