@@ -774,13 +774,9 @@ mod tests {
     /// each side's last direction.
     #[test]
     fn supporting_edges_are_those_of_the_edge_by_edge_search() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-        };
+        use rand::{Rng, SeedableRng};
+        let mut r = rand_chacha::ChaCha8Rng::seed_from_u64(34);
+        let mut next = move || r.random::<f32>() - 0.5;
         let mut shapes = Vec::new();
         for case in 0..120 {
             let pts: Vec<Vec3> = (0..4 + case % 37)
