@@ -680,8 +680,10 @@ pub(super) fn edges_of_direction(
 /// `skip` (bit `k`: a search's set of pairs left out, none from the 129th pair on) is clear,
 /// in increasing order, as `(ia, ib, k)`.
 struct Pairs {
-    /// The pairs below 128 not left out.
-    todo: u128,
+    /// The pairs below 128 not left out, as two 64-bit words (pairs 0 to 63, then 64 to
+    /// 127): a cube pair's 9 pairs sit in the first, and each step's find-and-clear is one
+    /// word's, not a `u128`'s (issue 23).
+    todo: [u64; 2],
     /// The next pair from 128 on (never left out), and the end of all pairs.
     next: usize,
     end: usize,
@@ -695,9 +697,14 @@ impl Pairs {
     #[inline(always)]
     fn new(skip: u128, nda: usize, ndb: usize) -> Self {
         let end = nda.saturating_mul(ndb);
-        let low = if end >= 128 { !0 } else { (1u128 << end) - 1 };
+        // Each word's pairs below `end`: all, none, or the low `end - 64 w` bits.
+        let low = |w: usize| match end.saturating_sub(64 * w) {
+            0 => 0,
+            n if n >= 64 => !0,
+            n => (1u64 << n) - 1,
+        };
         Pairs {
-            todo: !skip & low,
+            todo: [!(skip as u64) & low(0), !((skip >> 64) as u64) & low(1)],
             next: 128,
             end,
             ndb,
@@ -712,9 +719,13 @@ impl Iterator for Pairs {
 
     #[inline(always)]
     fn next(&mut self) -> Option<(usize, usize, usize)> {
-        let k = if self.todo != 0 {
-            let k = self.todo.trailing_zeros() as usize;
-            self.todo &= self.todo - 1;
+        let k = if self.todo[0] != 0 {
+            let k = self.todo[0].trailing_zeros() as usize;
+            self.todo[0] &= self.todo[0] - 1;
+            k
+        } else if self.todo[1] != 0 {
+            let k = 64 + self.todo[1].trailing_zeros() as usize;
+            self.todo[1] &= self.todo[1] - 1;
             k
         } else if self.next < self.end {
             self.next += 1;
@@ -886,7 +897,8 @@ mod tests {
 
     /// The direction pairs `Pairs` visits against testing each pair's bit in
     /// turn (`skip`'s bit `k` for pair `k = ia * ndb + ib`, none from the 129th pair on), on
-    /// random sets of left-out pairs and row lengths 0 to 200.
+    /// random sets of left-out pairs and row lengths 0 to 200, and pair counts at the edges of
+    /// its two 64-bit words.
     #[test]
     fn pairs_visited_are_the_pairs_not_left_out_in_order() {
         let mut seed = 0x2545_f491_4f6c_dd1du64;
@@ -905,6 +917,15 @@ mod tests {
                 (next() % 201) as usize
             } else {
                 (next() % 20) as usize
+            };
+            // Every eleventh case, pair counts at the edges of `Pairs`'s two words (63, 64,
+            // 65, 127, 128, 129 pairs) and a cube pair's 9.
+            const EDGES: [(usize, usize); 7] =
+                [(9, 7), (8, 8), (5, 13), (1, 127), (8, 16), (3, 43), (3, 3)];
+            let (nda, ndb) = if case % 11 == 0 {
+                EDGES[case / 11 % EDGES.len()]
+            } else {
+                (nda, ndb)
             };
             let mut want = Vec::new();
             let mut bit = 1u128;
