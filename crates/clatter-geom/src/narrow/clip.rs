@@ -161,7 +161,9 @@ pub(super) fn clip_faces_into(
             left &= left - 1;
             let (side, off) = (Vec3A::from(plane.0), plane.1);
             let out = &mut Masked(&mut *dst);
-            let (src_now, scan) = (&src[..len], plan.scan);
+            // (`len` is below `SMALL` here, see `small_fits`: the mask never changes it and
+            // spares the slice's bound check.)
+            let (src_now, scan) = (&src[..len & (SMALL - 1)], plan.scan);
             let kept = match axes.side(k) {
                 0 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.x * p.x - off, scan),
                 1 if on_axes => clip_by_plane(src_now, out, |p: Vec3A| side.y * p.y - off, scan),
@@ -176,7 +178,7 @@ pub(super) fn clip_faces_into(
                 break;
             }
         }
-        let (poly, o, nv) = (&src[..len], rface.offset, Vec3A::from(n));
+        let (poly, o, nv) = (&src[..len & (SMALL - 1)], rface.offset, Vec3A::from(n));
         return match axes.normal() {
             0 if on_axes => {
                 contact_points(poly, o, |p| o - nv.x * p.x, n, small_pts, inc, inc_v, m)
@@ -271,27 +273,32 @@ fn contact_points<P: ClipPoint>(
         normal: n,
         ..Default::default()
     };
+    // The count is kept in a register and stored once (stored at each point, it was
+    // reloaded at each: callgrind).
     let mut more = false;
+    let mut count = 0;
     let np = P::from_vec3(n);
     for &p in poly {
         let depth = depth_of(p);
         if depth > 0.0 {
-            if m.count == 4 {
+            // (A fifth point finds no slot: one test for both the fifth and the bound.)
+            let Some(slot) = m.points.get_mut(count) else {
                 more = true;
                 break;
-            }
-            m.points[m.count] = ContactPoint {
+            };
+            *slot = ContactPoint {
                 point: (p + np * (0.5 * depth)).to_vec3(),
                 depth,
             };
-            m.count += 1;
+            count += 1;
         }
     }
     if more {
         *m = reduce_all(poly, offset, n, pts);
         return true;
     }
-    if m.count > 0 {
+    m.count = count;
+    if count > 0 {
         return true;
     }
     // The separating-axis test found overlap but the incident face clips away entirely
