@@ -478,11 +478,18 @@ fn clip_by_plane<P: ClipPoint, D: Store<P> + ?Sized>(
     }
     let mut w = 0;
     let mut edge = |p: P, dp: f32, q: P, dq: f32| {
-        if dp <= 0.0 {
+        // The crossing test `(dp < 0 && dq > 0) || (dp > 0 && dq < 0)` split by the keep
+        // test: a kept corner (`dp <= 0`) fails `dp > 0`, one not kept (`dp > 0` or NaN)
+        // fails `dp < 0`, so each branch takes only the half that can hold (fewer tests a
+        // corner: callgrind).
+        let cross = if dp <= 0.0 {
             dst.put(w, p);
             w += 1;
-        }
-        if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+            dp < 0.0 && dq > 0.0
+        } else {
+            dp > 0.0 && dq < 0.0
+        };
+        if cross {
             dst.put(w, p + (q - p) * (dp / (dp - dq)));
             w += 1;
         }

@@ -993,3 +993,85 @@ fn contact_points_are_the_reference() {
     // Every count of kept points met, from none (the deepest vertex) to more than four.
     assert!(seen.iter().all(|&s| s > 1_000), "{seen:?}");
 }
+
+/// `clip_by_plane` against the plane clip with the crossing test written whole, `(dp < 0
+/// && dq > 0) || (dp > 0 && dq < 0)` (as it was before the test was split by the keep
+/// test), kept as the reference, bitwise: polygons of 0 to 12 corners whose distances are
+/// drawn from negatives, zeros of either sign, positives, tiny and huge values and NaN
+/// (the distance is the corner's `x`), with and without the scan, into `Vec3` and `Vec3A`
+/// buffers.
+#[test]
+fn plane_clip_is_the_whole_crossing_test() {
+    fn reference(src: &[Vec3]) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        for i in 0..src.len() {
+            let (p, q) = (src[i], src[(i + 1) % src.len()]);
+            let (dp, dq) = (p.x, q.x);
+            if dp <= 0.0 {
+                out.push(p);
+            }
+            if (dp < 0.0 && dq > 0.0) || (dp > 0.0 && dq < 0.0) {
+                out.push(p + (q - p) * (dp / (dp - dq)));
+            }
+        }
+        out
+    }
+    let mut r = ChaCha8Rng::seed_from_u64(37);
+    let values = [
+        -1.0,
+        -0.25,
+        -0.0,
+        0.0,
+        0.5,
+        2.0,
+        1e-38,
+        -1e-38,
+        1e30,
+        -1e30,
+        f32::NAN,
+    ];
+    let (mut crossed, mut kept_whole) = (0, 0);
+    for case in 0..40_000 {
+        let len = r.random_range(0..13usize);
+        let src: Vec<Vec3> = (0..len)
+            .map(|_| {
+                let d = if case % 2 == 0 {
+                    values[r.random_range(0..values.len())]
+                } else {
+                    r.random_range(-1.0f32..1.0)
+                };
+                Vec3::new(
+                    d,
+                    r.random_range(-1.0f32..1.0),
+                    r.random_range(-1.0f32..1.0),
+                )
+            })
+            .collect();
+        let want = reference(&src);
+        let scan = case % 3 == 0;
+        let mut dst = vec![Vec3::ZERO; 2 * len + 1];
+        let got = match clip_by_plane(&src, dst.as_mut_slice(), |p: Vec3| p.x, scan) {
+            Some(w) => dst[..w].to_vec(),
+            None => {
+                kept_whole += 1;
+                src.clone()
+            }
+        };
+        let b = |v: &[Vec3]| -> Vec<[u32; 3]> {
+            v.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+        };
+        assert_eq!(b(&got), b(&want), "case {case}: {src:?}");
+        let src_a: Vec<Vec3A> = src.iter().map(|&p| p.into()).collect();
+        let mut fixed = [Vec3A::ZERO; SMALL];
+        let got_a = match clip_by_plane(&src_a, &mut Masked(&mut fixed), |p: Vec3A| p.x, scan) {
+            Some(w) => fixed[..w].iter().map(|&p| p.into()).collect(),
+            None => src.clone(),
+        };
+        assert_eq!(b(&got_a), b(&want), "case {case} (fixed): {src:?}");
+        crossed += (want.len() > src.iter().filter(|p| p.x <= 0.0).count()) as usize;
+    }
+    assert!(
+        crossed > 10_000 && kept_whole > 1_000,
+        "{crossed} {kept_whole}"
+    );
+}
