@@ -7,6 +7,9 @@ use rayon::prelude::*;
 
 use super::motion::BodyBound;
 use super::{CHUNK, FINE_CHUNK};
+
+// The pair loop's list of the pairs left after `skip_apart` holds chunk positions as `u8`.
+const _: () = assert!(FINE_CHUNK <= 256);
 use crate::contact_list::{ContactSprings, piece_ids};
 use crate::contract::TURN_ROUNDING;
 use crate::law::{self, BodyMotion, ContactForce, PairContext};
@@ -217,14 +220,28 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     let mut touching = 0;
                     // Every pair kept without groups: the test once, not once per pair.
                     let all = groups.is_none();
+                    // First the pairs still apart by more than both bodies can have moved
+                    // (most of a pile's list), in a short loop of their own; the others
+                    // after, in the list's order (see `skip_apart`).
+                    let mut rest = [0u8; FINE_CHUNK];
+                    let mut kept = 0;
                     for k in 0..n {
                         if !all && !keep(c * FINE_CHUNK + k) {
                             continue;
                         }
+                        if skip_apart(w, p[k], hn[k], &mut b[k]) {
+                            touching += t[k] as usize;
+                        } else {
+                            rest[kept] = k as u8;
+                            kept += 1;
+                        }
+                    }
+                    let v = PlainBodies::of(w, x);
+                    for &k in &rest[..kept] {
+                        let k = k as usize;
                         let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
-                        let (tw, b, m) = (&mut tw[k], &mut b[k], Some(&mut m[k]));
-                        touching += body_pair::<false>(w, x, p[k], 0, h, f, t, hn, tw, b, m, plain)
-                            as usize;
+                        let (tw, b, m) = (&mut tw[k], &mut b[k], &mut m[k]);
+                        touching += plain_pair(w, &v, p[k], h, f, t, hn, tw, b, m, plain) as usize;
                     }
                     touching
                 })
@@ -440,6 +457,108 @@ fn body_pair<const PIECES: bool>(
     *touching
 }
 
+/// The per-body arrays the plain body-pair path ([`plain_pair`]) reads, each cut to the
+/// world's body count `n`: one test that a pair's indices are below `n` then stands for
+/// every read's bounds check (a slice's length known to be `n`, the compiler drops them;
+/// read from the world's vectors, each read tested its index against that vector's length).
+/// Made once per chunk of pairs.
+struct PlainBodies<'a> {
+    /// The body count.
+    n: usize,
+    /// The step's motion bounds ([`World::body_bounds`]).
+    bounds: &'a [BodyBound],
+    /// The step's split positions ([`World::position_pairs`]).
+    x: &'a [Ds3A],
+    velocity: &'a [Vec3],
+    omega: &'a [Vec3],
+    material: &'a [u32],
+    mass: &'a [f32],
+    equivalent_radius: &'a [f32],
+    is_sphere: &'a [bool],
+}
+
+impl<'a> PlainBodies<'a> {
+    /// The arrays of `w` (with the step's positions `x`), cut to its body count (a panic
+    /// if one is shorter, as its first read out of range would have been).
+    #[inline(always)]
+    fn of(w: &'a World, x: &'a [Ds3A]) -> Self {
+        let n = w.len();
+        let (s, c) = (&w.state, &w.consts);
+        Self {
+            n,
+            bounds: &w.body_bounds[..n],
+            x: &x[..n],
+            velocity: &s.velocity[..n],
+            omega: &s.omega[..n],
+            material: &c.material[..n],
+            mass: &c.mass[..n],
+            equivalent_radius: &c.equivalent_radius[..n],
+            is_sphere: &c.is_sphere[..n],
+        }
+    }
+}
+
+/// [`body_pair`] of the plain path (no composites: `PIECES` false), for a pair with its
+/// edge memory, with body data read through `v` (the same values, so the same floats in
+/// the same order: the same bits).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn plain_pair(
+    w: &World,
+    v: &PlainBodies,
+    [i, j]: [u32; 2],
+    hist: &mut Vec3,
+    force: &mut ContactForce,
+    touching: &mut bool,
+    hint: &mut SatHint,
+    twist: &mut f32,
+    bound: &mut f32,
+    memory: &mut EdgeMemory,
+    plain: bool,
+) -> bool {
+    let (iu, ju) = (i as usize, j as usize);
+    // The one bounds check for every read of `v` below (and in `remembered_narrow`).
+    assert!(iu < v.n && ju < v.n, "a body pair's index out of range");
+    let of = |k: usize| v.bounds[k];
+    // The manifold is written in place and the law reads it there (see `body_pair`).
+    let mut found = None;
+    let memory = Some(memory);
+    let narrow = remembered_narrow::<false>(w, v.x, of, [i, j], 0, hint, bound, memory, &mut found);
+    let Some(d) = narrow else {
+        return *touching;
+    };
+    match &found {
+        Some(m) => {
+            let params = w.pair_params(v.material[iu], v.material[ju]);
+            let (mi, mj) = (v.mass[iu], v.mass[ju]);
+            let (ri, si) = (v.equivalent_radius[iu], v.is_sphere[iu]);
+            let (rj, sj) = (v.equivalent_radius[ju], v.is_sphere[ju]);
+            let share = law::point_share(si, sj);
+            let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
+            // `w.local_motion(i)` and `w.motion_at(j, d)`.
+            let a = BodyMotion {
+                position: Vec3::ZERO,
+                velocity: v.velocity[iu],
+                omega: v.omega[iu],
+            };
+            let b = BodyMotion {
+                position: d,
+                velocity: v.velocity[ju],
+                omega: v.omega[ju],
+            };
+            *force = if plain {
+                law::contact_force_in::<true>(&context, m, &a, &b, hist, twist)
+            } else {
+                law::contact_force_in::<false>(&context, m, &a, &b, hist, twist)
+            };
+            *touching = true;
+        }
+        None if *touching => release(force, hist, Some(twist), touching),
+        None => {}
+    }
+    *touching
+}
+
 /// What the law takes of body `i` (of its piece `piece` with composites): its equivalent
 /// radius and whether it is a sphere.
 #[inline(always)]
@@ -572,6 +691,41 @@ pub(super) fn wall_pair<const PIECES: bool>(
         None => {}
     }
     *touching
+}
+
+/// [`narrow::is_contact_hint`], the same answer for every `hint`, in fewer instructions
+/// for the pair loop's first test: a face hint (kind bits `0x` or `01`, so bit 31 clear)
+/// with [`narrow::HINT_CONTACT`] (bit 29) set is one; kind `10` (edges: bit 31 set, bit 30
+/// clear) never is; kind `11` is one when bit 29 is set, except [`narrow::NO_HINT`] (no
+/// hint of that kind but `NO_HINT` is made, but one read from a checkpoint may be).
+#[inline(always)]
+fn is_contact_hint(hint: SatHint) -> bool {
+    const BIT31: u32 = 1 << 31;
+    let face_contact = hint & (BIT31 | narrow::HINT_CONTACT) == narrow::HINT_CONTACT;
+    face_contact || (hint >= 0xe000_0000 && hint != narrow::NO_HINT)
+}
+
+/// Whether body pair `[i, j]` (with contact `hint`) is still apart by more than both bodies
+/// can have moved in the step: then its separation `bound` is lowered by both bodies' motion,
+/// as [`remembered_narrow`] would (the same subtraction, the same float), and the pair is
+/// skipped; else nothing is written, and the pair goes through [`body_pair`] (whose
+/// [`remembered_narrow`] makes the same test again and the same subtraction). A short path
+/// of its own: most pairs of a pile's list stop here, and inside the pair loop's body they
+/// paid for its register spills and reloads.
+#[inline(always)]
+fn skip_apart(w: &World, [i, j]: [u32; 2], hint: SatHint, bound: &mut f32) -> bool {
+    // Not `*bound <= 0.0`: a NaN bound is not skipped, as in `remembered_narrow`.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    if is_contact_hint(hint) || !(*bound > 0.0) {
+        return false;
+    }
+    let b = w.body_bounds.as_slice();
+    let left = *bound - (b[i as usize].moved + b[j as usize].moved);
+    if left > 0.0 {
+        *bound = left;
+        return true;
+    }
+    false
 }
 
 /// The narrow phase of a body pair with what it remembers (`hint`, `bound`; see

@@ -206,3 +206,137 @@ fn axis_motion_bound_holds_at_rest_and_spinning() {
         }
     }
 }
+
+/// The pair loop's own test of a contact hint gives [`clatter_geom::narrow::is_contact_hint`]'s
+/// answer for every kind of hint: all 16 values of the top four bits with low bits at
+/// their edges, the named hints, and a million pseudo-random ones.
+#[test]
+fn contact_hint_test_matches_narrow() {
+    use clatter_geom::narrow::{self, HINT_CONTACT, HINT_FACE_B, NO_HINT};
+    let check = |h: u32| {
+        assert_eq!(
+            super::is_contact_hint(h),
+            narrow::is_contact_hint(h),
+            "hint {h:#010x}"
+        );
+    };
+    let lows = [0, 1, 5, 0x7fff, 0x8000, HINT_CONTACT - 2, HINT_CONTACT - 1];
+    for top in 0u32..16 {
+        for &low in &lows {
+            check((top << 28) | low);
+        }
+    }
+    for h in [
+        NO_HINT,
+        NO_HINT - 1,
+        HINT_CONTACT,
+        HINT_FACE_B | HINT_CONTACT | 3,
+    ] {
+        check(h);
+    }
+    let mut s = 0x9e37_79b9_7f4a_7c15u64;
+    for _ in 0..1_000_000 {
+        s = s
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        check((s >> 32) as u32);
+    }
+}
+
+/// The body pairs of the contact stage as the loop ran them before the apart pairs got a
+/// pass of their own (loop36): every pair of the list in order through [`super::body_pair`]
+/// (the world's fields read directly, no [`super::PlainBodies`]); serial. Walls untouched.
+fn reference_body_pairs(w: &mut World) {
+    super::prepare(w);
+    assert!(w.contacts.near.is_none(), "polyhedra keep no near list");
+    let mut springs = std::mem::take(&mut w.contacts.springs);
+    let mut memory = std::mem::take(&mut w.edge_memory);
+    memory.resize(w.contacts.pairs.len(), Default::default());
+    let (x, pairs) = (w.position_pairs.clone(), w.contacts.pairs.clone());
+    let plain = w.materials.all_plain();
+    let s = &mut springs;
+    for (k, &p) in pairs.iter().enumerate() {
+        super::body_pair::<false>(
+            w,
+            &x,
+            p,
+            0,
+            &mut s.history[k],
+            &mut s.forces[k],
+            &mut s.touching[k],
+            &mut s.hints[k],
+            &mut s.twist[k],
+            &mut s.separation_bound[k],
+            Some(&mut memory[k]),
+            plain,
+        );
+    }
+    w.contacts.springs = springs;
+    w.edge_memory = memory;
+}
+
+/// The contact stage's body pairs (`run`: the apart pairs first, the others after through
+/// `plain_pair`) leave every pair's force, springs, touching flag, hint, separation bound
+/// and edge memory bitwise as the old loop does ([`reference_body_pairs`]), on cube and
+/// mixed piles over the steps of their pouring and settling, with 1 and 2 threads. Not
+/// vacuous: pairs are skipped as apart, go through the narrow phase apart, and touch.
+#[test]
+fn pair_loop_matches_the_plain_loop() {
+    for (shape, n) in [(PileShape::Cube, 64), (PileShape::Mixed, 64)] {
+        let mut w = World::new(poured(shape, n, &PileParams::default(), 11));
+        let (mut skipped, mut tested, mut touched) = (0usize, 0usize, 0usize);
+        for step in 0..20_000 {
+            if step % 397 == 0 {
+                let np = w.contacts.pairs.len();
+                let mut want = w.clone();
+                reference_body_pairs(&mut want);
+                for threads in [1, 2] {
+                    let mut got = w.clone();
+                    let pool = rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .build()
+                        .expect("pool");
+                    pool.install(|| super::run(&mut got));
+                    let cut = |s: &crate::contact_list::ContactSprings| {
+                        format!(
+                            "{:?} {:?} {:?} {:?} {:?} {:?}",
+                            &s.history[..np],
+                            &s.twist[..np],
+                            &s.forces[..np],
+                            &s.touching[..np],
+                            &s.hints[..np],
+                            &s.separation_bound[..np]
+                        )
+                    };
+                    let (a, b) = (&want.contacts.springs, &got.contacts.springs);
+                    assert!(cut(a) == cut(b), "{shape:?} step {step}, {threads} threads");
+                    let (a, b) = (&want.edge_memory, &got.edge_memory);
+                    assert!(
+                        format!("{a:?}") == format!("{b:?}"),
+                        "{shape:?} step {step}"
+                    );
+                }
+                let (before, after) = (&w.contacts.springs, &want.contacts.springs);
+                for k in 0..np {
+                    let apart = before.separation_bound[k] > 0.0
+                        && !clatter_geom::narrow::is_contact_hint(before.hints[k]);
+                    if apart && after.separation_bound[k] != before.separation_bound[k] {
+                        // Skipped (bound lowered, still positive) or tested.
+                        if after.separation_bound[k] > 0.0
+                            && after.hints[k] == before.hints[k]
+                            && after.separation_bound[k] < before.separation_bound[k]
+                        {
+                            skipped += 1;
+                        } else {
+                            tested += 1;
+                        }
+                    }
+                    touched += after.touching[k] as usize;
+                }
+            }
+            w.step().expect("step");
+        }
+        eprintln!("{shape:?}: skipped {skipped}, tested {tested}, touched {touched}");
+        assert!(skipped > 100 && tested > 10 && touched > 100, "{shape:?}");
+    }
+}
