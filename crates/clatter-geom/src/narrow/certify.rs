@@ -2,9 +2,10 @@
 //! separates them: what lets a remembered face contact stand in for the full test
 //! ([`super::sat`]'s `remembered_face`).
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
 use super::Manifold;
+use super::slack::{ALLOW, SHRINK, UNIT};
 use crate::ConvexPolyhedron;
 
 /// The centroid of the manifold's points moved back halfway along the normal: on the
@@ -46,6 +47,178 @@ pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f3
     inside_every_face(refp, c, delta)
 }
 
+/// A face contact's overlap certificate remembered at one pose, its anchor: which of
+/// [`overlap_certified`] (the centroid's) or [`wedge_certified`] (the ball's) held there,
+/// and with how much room, so that [`remembered_certified`] takes it at a later pose without
+/// measuring either while the incident body's points have moved less than that room.
+///
+/// Why it holds: each certificate names a ball that lies in both bodies at the anchor, with
+/// room `r` to spare inside the incident body (in the reference body's frame, where the
+/// reference body does not move):
+/// - the centroid's: the centroid `c` is a point of the incident body (up to rounding) at
+///   least `delta + r` inside every face plane of the reference body, so the ball of radius
+///   `delta + r` about `c` lies in the reference body. At a later pose the same point of the
+///   incident body, `c'`, is within `moved` of `c`, so the ball of radius `delta` about `c'`
+///   lies in the reference body while `moved < r`: the certificate's own argument holds for
+///   `c'` (a point of the incident body with a ball of radius `delta` about it in the
+///   reference body).
+/// - the ball's: its point `p` is at least `delta / 2 + r` inside every face plane of both
+///   bodies, so the ball of radius `delta / 2 + r` about `p` lies in both. The reference
+///   body's part does not change with the pose. The incident body's part is made of points
+///   of that body, each moved by at most `moved`: a rigid motion, it carries that ball to a
+///   ball of the same radius about a point within `moved` of `p`, which holds the ball of
+///   radius `delta / 2` about `p` while `moved < r`: the certificate's own argument holds for
+///   `p` (a ball of radius `delta / 2` about it in both bodies).
+///
+/// Either way no axis of the full test separates the bodies, by the certificate's argument,
+/// with the same room for the full test's rounding. `moved` is bounded as
+/// [`super::slack::FaceSlack`] bounds the incident points' motion from its record (the same
+/// expressions and the same `lever`, taken at the anchor), and the room kept is the one
+/// measured less [`ALLOW`] of the radii (the rounding of the measured distances, of `c` and
+/// of the pose) and the anchor's own rotation term, `4 |s0 - 1| lever`. The certificate
+/// only decides whether the full test must run, never the manifold. It is kept with the
+/// pair's clip record (inside [`super::slack::FaceSlack`]), which forgets it whenever it
+/// measures a new record: so it is only taken for the record's reference face and shapes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Certificate {
+    /// The relative quaternion (B's rotation in A's frame) at the anchor.
+    q: Quat,
+    /// B's offset in A's frame at the anchor.
+    t: Vec3,
+    /// The rotation's lever at the anchor (see [`super::slack::FaceSlack`]).
+    lever: f32,
+    /// How far the incident points may move from the anchor while the certificate holds,
+    /// the rounding and the anchor's rotation term taken off (`-inf`: none remembered).
+    room: f32,
+    /// Whether it is the ball's certificate ([`wedge_certified`]'s), for the count of
+    /// [`wedge_certificates`].
+    ball: bool,
+}
+
+impl Default for Certificate {
+    fn default() -> Self {
+        Certificate {
+            q: Quat::IDENTITY,
+            t: Vec3::ZERO,
+            lever: 0.0,
+            room: f32::NEG_INFINITY,
+            ball: false,
+        }
+    }
+}
+
+impl Certificate {
+    /// Whether the certificate holds at relative quaternion `q` and offset `t`: the
+    /// incident points have moved less than the room since the anchor (written so that a
+    /// NaN fails).
+    #[inline]
+    fn holds(&self, q: Quat, t: Vec3) -> bool {
+        let s = (q.length_squared() - 1.0).abs();
+        let dt = (t - self.t).abs();
+        let turn = 2.0 * (q - self.q).length() + 4.0 * s;
+        let moved = turn * self.lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5);
+        s < UNIT && moved < self.room
+    }
+
+    /// Anchors a certificate that held at `q`, `t` with room `room` (rotation lever
+    /// `lever`, `radii` the two bodies' radii); keeps the one it had when the pose is not
+    /// one a later bound can be taken from or no room is left.
+    #[inline]
+    fn anchor(&mut self, (q, t, lever): (Quat, Vec3, f32), room: f32, radii: f32, ball: bool) {
+        let s0 = (q.length_squared() - 1.0).abs();
+        let room = room * SHRINK - (ALLOW * radii + 4.0 * s0 * lever);
+        if s0 < UNIT && t.is_finite() && lever.is_finite() && room > 0.0 {
+            *self = Certificate {
+                q,
+                t,
+                lever,
+                room,
+                ball,
+            };
+        }
+    }
+}
+
+/// Whether no axis of the full test separates the bodies at a remembered face contact `m`
+/// (in the reference body's frame, reference face `rf` of `refp`; `to_inc`, `inc_rot` as
+/// for [`wedge_certified`]): by the pair's remembered certificate `cert` when it holds at
+/// the pose `q`, `t` (see [`Certificate`]), else by [`overlap_certified`] or
+/// [`wedge_certified`] measured now, the one that held then anchored in `cert` at this pose
+/// with the room it held with (`lever`: the rotation's lever at this pose, see
+/// [`super::slack::FaceSlack`]). Without a `cert`, the two certificates alone.
+///
+/// On a resting cube pile the clip record's own certificate (measured where the record
+/// was) is spent on about one served face in three: the bodies creep further than the
+/// contact's depth while the record's planes still hold; anchored again where it is
+/// measured, a certificate lasts for many steps more, and [`wedge_certified`]'s (about a
+/// thousand instructions) is measured rarely (issue 23).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(super) fn remembered_certified(
+    cert: Option<&mut Certificate>,
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+    (q, t, lever): (Quat, Vec3, impl Fn() -> f32),
+) -> bool {
+    let Some(cert) = cert else {
+        return overlap_certified(refp, m, delta)
+            || wedge_certified(refp, rf, inc, to_inc, inc_rot, m, delta);
+    };
+    if cert.holds(q, t) {
+        if cert.ball {
+            WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+        }
+        return true;
+    }
+    measure_certificate(
+        cert,
+        refp,
+        rf,
+        inc,
+        to_inc,
+        inc_rot,
+        m,
+        delta,
+        (q, t, lever),
+    )
+}
+
+/// The measuring part of [`remembered_certified`]: the centroid's certificate, else the
+/// ball's, anchored when one holds.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn measure_certificate(
+    cert: &mut Certificate,
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+    (q, t, lever): (Quat, Vec3, impl Fn() -> f32),
+) -> bool {
+    let radii = refp.radius + inc.radius;
+    let centroid = overlap_room(refp, m) - delta;
+    let (room, ball) = if centroid >= 0.0 {
+        (centroid, false)
+    } else {
+        let room = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta);
+        if room.is_nan() || room < 0.0 {
+            return false;
+        }
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+        (room, true)
+    };
+    cert.anchor((q, t, lever()), room, radii, ball);
+    true
+}
+
 /// Whether `c` is at least `delta` inside every face of `refp`, by each face's product
 /// (the general case of [`overlap_certified`], and the reference of its box's case).
 #[inline]
@@ -64,6 +237,27 @@ pub(super) fn overlap_slack(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
     for f in &refp.faces {
         let s = f.offset - f.normal.dot(c);
         low = if s < low || s.is_nan() { s } else { low };
+    }
+    low
+}
+
+/// [`overlap_slack`] by [`overlap_certified`]'s expressions: for a box, each face's `c[axis]`
+/// or `-c[axis]` without the products (the same values for a finite `c`; an infinite one
+/// gives `-inf`, a NaN NaN), else the products. The centroid certificate holds with `delta`
+/// exactly when this is at least `delta`: `x - offset <= -delta` and `offset - x >= delta`
+/// are the same comparison (a difference's rounding is symmetric).
+#[inline]
+fn overlap_room(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
+    let Some(of) = refp.face_axes else {
+        return overlap_slack(refp, m);
+    };
+    let v = incident_centroid(m).to_array();
+    let mut low = f32::INFINITY;
+    for (k, &x) in v.iter().enumerate() {
+        for (code, x) in [(k, x), (k | 4, -x)] {
+            let s = refp.faces[of[code] as usize].offset - x;
+            low = if s < low || s.is_nan() { s } else { low };
+        }
     }
     low
 }
@@ -98,23 +292,40 @@ pub(super) fn wedge_certified(
     m: &Manifold,
     delta: f32,
 ) -> bool {
+    let certified = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta) >= 0.0;
+    if certified {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+    }
+    certified
+}
+
+/// How much room [`wedge_certified`]'s point has: the smallest of its distances inside the
+/// face planes of both bodies (`offset - normal . p`, each body's products) less `delta /
+/// 2`, so that the certificate holds exactly when this is not negative (`x - offset <=
+/// -delta / 2` and `offset - x >= delta / 2` are the same comparison); negative or NaN
+/// when no point is tried or none holds.
+fn wedge_room(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+) -> f32 {
     // Clipped points on a side plane are crossings of the incident face's edges: one or two
     // (more are corners inside the face, where the first certificate failed for depth).
     if m.count > 2 {
-        return false;
+        return f32::NEG_INFINITY;
     }
     let n = m.normal;
     let c = incident_centroid(m);
     // Shallower than `delta` along the reference normal: no ball fits (and NaN returns).
     let s1 = n.dot(c) - refp.faces[rf].offset;
     if s1.partial_cmp(&-delta) != Some(std::cmp::Ordering::Less) {
-        return false;
+        return f32::NEG_INFINITY;
     }
-    let certified = ball_certified(refp, Some(rf), inc, to_inc, inc_rot, c, delta);
-    if certified {
-        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
-    }
-    certified
+    ball_room(refp, Some(rf), inc, to_inc, inc_rot, c, delta)
 }
 
 /// Whether a point at least `delta / 2` inside every face plane of both `refp` and `inc`
@@ -129,9 +340,12 @@ pub(super) fn wedge_certified(
 // Out of line and cold: reached by about one remembered face contact in fifteen (cube
 // pile), so its code (two instances, one per frame map) stays out of
 // `remembered_face`'s hot body and out of the instruction cache (issue 23).
+//
+// Returns the room of the first point tried that holds (see [`wedge_room`]), else of the
+// last tried.
 #[cold]
 #[inline(never)]
-fn ball_certified(
+fn ball_room(
     refp: &ConvexPolyhedron,
     first: Option<usize>,
     inc: &ConvexPolyhedron,
@@ -139,7 +353,7 @@ fn ball_certified(
     inc_rot: Mat3,
     c: Vec3,
     delta: f32,
-) -> bool {
+) -> f32 {
     // The face planes nearest `c`, (separation, normal in `refp`'s frame), nearest first
     // (`first`'s ahead of all).
     let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 4];
@@ -168,15 +382,18 @@ fn ball_certified(
         near[0] = (face.normal.dot(c) - face.offset, face.normal);
     }
     let half = 0.5 * delta;
-    let inside = |p: Vec3| {
+    // The smallest distance inside, by each face's product (a NaN kept).
+    let room = |p: Vec3| {
         let p_inc = to_inc(p);
+        let mut low = f32::INFINITY;
+        let mut take = |s: f32| low = if s < low || s.is_nan() { s } else { low };
         refp.faces
             .iter()
-            .all(|f| f.normal.dot(p) - f.offset <= -half)
-            && inc
-                .faces
-                .iter()
-                .all(|f| f.normal.dot(p_inc) - f.offset <= -half)
+            .for_each(|f| take(f.offset - f.normal.dot(p)));
+        inc.faces
+            .iter()
+            .for_each(|f| take(f.offset - f.normal.dot(p_inc)));
+        low - half
     };
     // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
     let [(s1, n1), (s2, n2), (s3, n3), (s4, n4)] = near;
@@ -185,7 +402,11 @@ fn ball_certified(
             glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last).transpose();
         c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
     };
-    inside(solve(n4.extend(1.0), -s4)) || inside(solve(n1.cross(n2).extend(0.0), 0.0))
+    let ball = room(solve(n4.extend(1.0), -s4));
+    if ball >= 0.0 {
+        return ball;
+    }
+    room(solve(n1.cross(n2).extend(0.0), 0.0))
 }
 
 thread_local! {
@@ -274,3 +495,7 @@ mod tests {
         assert!(seen[0] > 1000 && seen[1] > 1000, "{seen:?}");
     }
 }
+
+#[cfg(test)]
+#[path = "certify_tests.rs"]
+mod remembered_tests;
