@@ -127,7 +127,8 @@ impl Certificate {
     fn anchor(&mut self, (q, t, lever): (Quat, Vec3, f32), room: f32, radii: f32, ball: bool) {
         let s0 = (q.length_squared() - 1.0).abs();
         let room = room * SHRINK - (ALLOW * radii + 4.0 * s0 * lever);
-        if s0 < UNIT && t.is_finite() && lever.is_finite() && room > 0.0 {
+        // (A `t` or `lever` not finite leaves a room or a later bound that fails.)
+        if s0 < UNIT && room > 0.0 {
             *self = Certificate {
                 q,
                 t,
@@ -175,24 +176,36 @@ pub(super) fn remembered_certified(
         }
         return true;
     }
-    measure_certificate(
-        cert,
-        refp,
-        rf,
-        inc,
-        to_inc,
-        inc_rot,
-        m,
-        delta,
-        (q, t, lever),
-    )
+    let pose = (q, t, lever);
+    measure_centroid(cert, refp, inc.radius, m, delta, &pose)
+        || measure_ball(cert, refp, rf, inc, to_inc, inc_rot, m, delta, &pose)
 }
 
-/// The measuring part of [`remembered_certified`]: the centroid's certificate, else the
-/// ball's, anchored when one holds.
-#[allow(clippy::too_many_arguments)]
+/// The centroid's certificate ([`overlap_certified`]) measured for [`remembered_certified`],
+/// anchored when it holds (`inc_radius`: the incident body's radius).
 #[inline(never)]
-fn measure_certificate(
+fn measure_centroid(
+    cert: &mut Certificate,
+    refp: &ConvexPolyhedron,
+    inc_radius: f32,
+    m: &Manifold,
+    delta: f32,
+    (q, t, lever): &(Quat, Vec3, impl Fn() -> f32),
+) -> bool {
+    let room = overlap_room(refp, m) - delta;
+    let holds = room >= 0.0;
+    if holds {
+        cert.anchor((*q, *t, lever()), room, refp.radius + inc_radius, false);
+    }
+    holds
+}
+
+/// The ball's certificate ([`wedge_certified`]) measured for [`remembered_certified`],
+/// anchored when it holds.
+#[allow(clippy::too_many_arguments)]
+#[cold]
+#[inline(never)]
+fn measure_ball(
     cert: &mut Certificate,
     refp: &ConvexPolyhedron,
     rf: usize,
@@ -201,22 +214,15 @@ fn measure_certificate(
     inc_rot: Mat3,
     m: &Manifold,
     delta: f32,
-    (q, t, lever): (Quat, Vec3, impl Fn() -> f32),
+    (q, t, lever): &(Quat, Vec3, impl Fn() -> f32),
 ) -> bool {
-    let radii = refp.radius + inc.radius;
-    let centroid = overlap_room(refp, m) - delta;
-    let (room, ball) = if centroid >= 0.0 {
-        (centroid, false)
-    } else {
-        let room = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta);
-        if room.is_nan() || room < 0.0 {
-            return false;
-        }
+    let room = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta);
+    let holds = room >= 0.0;
+    if holds {
         WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
-        (room, true)
-    };
-    cert.anchor((q, t, lever()), room, radii, ball);
-    true
+        cert.anchor((*q, *t, lever()), room, refp.radius + inc.radius, true);
+    }
+    holds
 }
 
 /// Whether `c` is at least `delta` inside every face of `refp`, by each face's product
@@ -242,8 +248,9 @@ pub(super) fn overlap_slack(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
 }
 
 /// [`overlap_slack`] by [`overlap_certified`]'s expressions: for a box, each face's `c[axis]`
-/// or `-c[axis]` without the products (the same values for a finite `c`; an infinite one
-/// gives `-inf`, a NaN NaN), else the products. The centroid certificate holds with `delta`
+/// or `-c[axis]` without the products (the same values for a finite `c`: `offset -
+/// (-x)` is `offset + x`; NaN for a `c` not finite, which fails as it does there), else
+/// the products. The centroid certificate holds with `delta`
 /// exactly when this is at least `delta`: `x - offset <= -delta` and `offset - x >= delta`
 /// are the same comparison (a difference's rounding is symmetric).
 #[inline]
@@ -251,15 +258,13 @@ fn overlap_room(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
     let Some(of) = refp.face_axes else {
         return overlap_slack(refp, m);
     };
-    let v = incident_centroid(m).to_array();
-    let mut low = f32::INFINITY;
-    for (k, &x) in v.iter().enumerate() {
-        for (code, x) in [(k, x), (k | 4, -x)] {
-            let s = refp.faces[of[code] as usize].offset - x;
-            low = if s < low || s.is_nan() { s } else { low };
-        }
-    }
-    low
+    let c = incident_centroid(m);
+    let off = |code: usize| refp.faces[of[code] as usize].offset;
+    let low = (off(0) - c.x).min(off(1) - c.y).min(off(2) - c.z);
+    let high = (off(4) + c.x).min(off(5) + c.y).min(off(6) + c.z);
+    // (`min` passes a NaN over: a `c` not finite is NaN, as in the products.)
+    let room = low.min(high);
+    if c.is_finite() { room } else { f32::NAN }
 }
 
 /// Whether the bodies certainly overlap by more than `delta` at a face contact `m` (in the
@@ -429,7 +434,8 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// The box's case of [`overlap_certified`] against the products for every face: boxes
+    /// The box's case of [`overlap_certified`] (and of [`overlap_room`]) against the products
+    /// for every face: boxes
     /// (cubes and off-centre ones), manifolds of one to four points whose centroid falls
     /// inside, outside, exactly on a face plane `delta` in (and one ulp either side), at
     /// `±0`, or is infinite or NaN: the same answer every time, and both answers seen.
@@ -490,6 +496,12 @@ mod tests {
             }
             let want = inside_every_face(b, incident_centroid(&m), delta);
             assert_eq!(overlap_certified(b, &m, delta), want, "{c:?} {delta}");
+            // The room the remembered certificate takes, by the same expressions.
+            assert_eq!(
+                overlap_room(b, &m) - delta >= 0.0,
+                want,
+                "{c:?} {delta}: room"
+            );
             seen[want as usize] += 1;
         }
         assert!(seen[0] > 1000 && seen[1] > 1000, "{seen:?}");
