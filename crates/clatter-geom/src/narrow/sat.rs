@@ -216,8 +216,9 @@ type Clipped = (u32, usize, Manifold);
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
 /// clipped with the full test's own expressions ([`sat_full`]): `Ok` with the manifold as
 /// the full test would return it written into `out`, or `Err` when the overlap is not certain enough to rule out a
-/// separating axis ([`overlap_certified`]; the full test must run), with the clipped face
-/// when there is one (for the full test, if it chooses that face: [`Clipped`]).
+/// separating axis (the clip record's certificate, else [`remembered_certified`]: one
+/// anchored at an earlier pose or measured now; the full test must run), with the clipped
+/// face when there is one (for the full test, if it chooses that face: [`Clipped`]).
 #[allow(clippy::too_many_arguments)]
 // Out of line (as is `sat_full`): inlined into `polyhedron_pair` with
 // `reference_separation`, the cube pile took 3% more instructions (callgrind).
@@ -540,7 +541,7 @@ fn edge_manifold(
 ///   more than the bodies, and `face_best >= s`: `largest + w <= s + tol`, the term `tol -
 ///   largest`;
 /// - no axis separates: checked at each step instead, on the manifold found
-///   ([`overlap_certified`]): the bodies' overlap, not a decision's slack.
+///   ([`remembered_certified`]): the bodies' overlap, not a decision's slack.
 ///
 /// So the face serves while `s + margin - sum(w) > 0`, with the margin less `eps` for
 /// rounding and for edge axes skipped as near-parallel. The caller subtracts twice the
