@@ -73,7 +73,8 @@ pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f3
 /// Either way no axis of the full test separates the bodies, by the certificate's argument,
 /// with the same room for the full test's rounding. `moved` is bounded as
 /// [`super::slack::FaceSlack`] bounds the incident points' motion from its record (the same
-/// expressions and the same `lever`, taken at the anchor), and the room kept is the one
+/// expressions, and the same `lever` taken at the anchor for the ball's; for the centroid's
+/// the lever of its one point, see [`measure_centroid`]), and the room kept is the one
 /// measured less [`ALLOW`] of the radii (the rounding of the measured distances, of `c` and
 /// of the pose) and the anchor's own rotation term, `4 |s0 - 1| lever`. The certificate
 /// only decides whether the full test must run, never the manifold. It is kept with the
@@ -146,7 +147,9 @@ impl Certificate {
 /// the pose `q`, `t` (see [`Certificate`]), else by [`overlap_certified`] or
 /// [`wedge_certified`] measured now, the one that held then anchored in `cert` at this pose
 /// with the room it held with (`lever`: the rotation's lever at this pose, see
-/// [`super::slack::FaceSlack`]). Without a `cert`, the two certificates alone.
+/// [`super::slack::FaceSlack`], for the ball's; `origin_b`: B's origin in the reference
+/// frame, for the centroid's, see [`measure_centroid`]). Without a `cert`, the two
+/// certificates alone.
 ///
 /// On a resting cube pile the clip record's own certificate (measured where the record
 /// was) is spent on about one served face in three: the bodies creep further than the
@@ -164,7 +167,7 @@ pub(super) fn remembered_certified(
     inc_rot: Mat3,
     m: &Manifold,
     delta: f32,
-    (q, t, lever): (Quat, Vec3, impl Fn() -> f32),
+    (q, t, origin_b, lever): (Quat, Vec3, Vec3, impl Fn() -> f32),
 ) -> bool {
     let Some(cert) = cert else {
         return overlap_certified(refp, m, delta)
@@ -176,13 +179,34 @@ pub(super) fn remembered_certified(
         }
         return true;
     }
-    let pose = (q, t, lever);
-    measure_centroid(cert, refp, inc.radius, m, delta, &pose)
-        || measure_ball(cert, refp, rf, inc, to_inc, inc_rot, m, delta, &pose)
+    measure_centroid(cert, refp, inc.radius, m, delta, (q, t, origin_b))
+        || measure_ball(
+            cert,
+            refp,
+            rf,
+            inc,
+            to_inc,
+            inc_rot,
+            m,
+            delta,
+            (q, t, lever),
+        )
 }
 
 /// The centroid's certificate ([`overlap_certified`]) measured for [`remembered_certified`],
-/// anchored when it holds (`inc_radius`: the incident body's radius).
+/// anchored when it holds (`inc_radius`: the incident body's radius), with the lever of the
+/// centroid alone: its distance from B's origin, `origin_b` in the reference frame (`t` for
+/// A's face, 0 for B's), with a relative margin.
+///
+/// Why that lever: only the one point of the incident body at the centroid `c` needs to stay
+/// inside (see [`Certificate`]), and it moves by `(M - M0) c_b + (t - t0)` for A's face (`c_b`
+/// that point in B's frame, `|c_b| = |c - t0|` up to the `|s0 - 1|` of `M0`'s scale), or by
+/// `(M - M0)^T (c_a - t0) - M^T (t - t0)` for B's face (`c_a` the point in A's frame, `c_a -
+/// t0 = M0 c` up to the same): `|M - M0|` times `|c - origin_b|` bounds the turn's part as
+/// the body's lever (its radius, or `r + |t0|`) does for every point. The margin (`1e-5`
+/// relative) holds the scale (`4e-6` at most) and the rounding of the length. On a cube
+/// pile the turn's part is most of the bound, and the centroid's lever about a half to a
+/// third of the body's (B's face: `|c|` against `r_a + |t0|`).
 #[inline(never)]
 fn measure_centroid(
     cert: &mut Certificate,
@@ -190,12 +214,14 @@ fn measure_centroid(
     inc_radius: f32,
     m: &Manifold,
     delta: f32,
-    (q, t, lever): &(Quat, Vec3, impl Fn() -> f32),
+    (q, t, origin_b): (Quat, Vec3, Vec3),
 ) -> bool {
-    let room = overlap_room(refp, m) - delta;
+    let c = incident_centroid(m);
+    let room = overlap_room(refp, c) - delta;
     let holds = room >= 0.0;
     if holds {
-        cert.anchor((*q, *t, lever()), room, refp.radius + inc_radius, false);
+        let lever = (c - origin_b).length() * (1.0 + 1e-5);
+        cert.anchor((q, t, lever), room, refp.radius + inc_radius, false);
     }
     holds
 }
@@ -214,13 +240,13 @@ fn measure_ball(
     inc_rot: Mat3,
     m: &Manifold,
     delta: f32,
-    (q, t, lever): &(Quat, Vec3, impl Fn() -> f32),
+    (q, t, lever): (Quat, Vec3, impl Fn() -> f32),
 ) -> bool {
     let room = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta);
     let holds = room >= 0.0;
     if holds {
         WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
-        cert.anchor((*q, *t, lever()), room, refp.radius + inc.radius, true);
+        cert.anchor((q, t, lever()), room, refp.radius + inc.radius, true);
     }
     holds
 }
@@ -238,7 +264,11 @@ fn inside_every_face(refp: &ConvexPolyhedron, c: Vec3, delta: f32) -> bool {
 /// (the smallest of `offset - normal . c`, by the same products; NaN when one is): the
 /// certificate holds with `delta` up to this.
 pub(super) fn overlap_slack(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
-    let c = incident_centroid(m);
+    slack_at(refp, incident_centroid(m))
+}
+
+/// [`overlap_slack`] for the centroid `c`.
+fn slack_at(refp: &ConvexPolyhedron, c: Vec3) -> f32 {
     let mut low = f32::INFINITY;
     for f in &refp.faces {
         let s = f.offset - f.normal.dot(c);
@@ -247,18 +277,17 @@ pub(super) fn overlap_slack(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
     low
 }
 
-/// [`overlap_slack`] by [`overlap_certified`]'s expressions: for a box, each face's `c[axis]`
+/// [`overlap_slack`] for the centroid `c` by [`overlap_certified`]'s expressions: for a box, each face's `c[axis]`
 /// or `-c[axis]` without the products (the same values for a finite `c`: `offset -
 /// (-x)` is `offset + x`; NaN for a `c` not finite, which fails as it does there), else
 /// the products. The centroid certificate holds with `delta`
 /// exactly when this is at least `delta`: `x - offset <= -delta` and `offset - x >= delta`
 /// are the same comparison (a difference's rounding is symmetric).
 #[inline]
-fn overlap_room(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
+fn overlap_room(refp: &ConvexPolyhedron, c: Vec3) -> f32 {
     let Some(of) = refp.face_axes else {
-        return overlap_slack(refp, m);
+        return slack_at(refp, c);
     };
-    let c = incident_centroid(m);
     let off = |code: usize| refp.faces[of[code] as usize].offset;
     let low = (off(0) - c.x).min(off(1) - c.y).min(off(2) - c.z);
     let high = (off(4) + c.x).min(off(5) + c.y).min(off(6) + c.z);
@@ -498,7 +527,7 @@ mod tests {
             assert_eq!(overlap_certified(b, &m, delta), want, "{c:?} {delta}");
             // The room the remembered certificate takes, by the same expressions.
             assert_eq!(
-                overlap_room(b, &m) - delta >= 0.0,
+                overlap_room(b, incident_centroid(&m)) - delta >= 0.0,
                 want,
                 "{c:?} {delta}: room"
             );

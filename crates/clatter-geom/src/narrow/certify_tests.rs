@@ -189,8 +189,9 @@ fn old_ball_certified(
 /// certificate), both kinds of reference face: measured at one pose, the remembered
 /// certificate decides as [`overlap_certified`] `||` [`wedge_certified`] (the old path);
 /// anchored, at poses moved from the anchor by a fraction to a few times its room (pulled
-/// apart along the reference normal, where the bound is tight, or turned and shifted, the
-/// quaternion's norm off 1 by up to 5e-7), wherever it still holds, every axis of the full
+/// apart along the reference normal, where the bound is tight; turned about B's origin so
+/// that the centroid's point moves out along the normal, where the centroid's lever is
+/// tight; or turned and shifted; the quaternion's norm off 1 by up to 5e-7), wherever it still holds, every axis of the full
 /// test separates the bodies by at most `-delta` (the certificates' claim, less a part of
 /// `delta` for the f32 poses' rounding) and the full test with no hint finds them touching.
 #[test]
@@ -244,7 +245,10 @@ fn remembered_certificates_hold_at_moved_poses() {
         let size = refp.radius.min(inc.radius);
         let delta = 2e-5 * (a.radius + b.radius);
         let depth = delta * [0.5, 1.5, 3.0, 10.0, 50.0][r.random_range(0..5)];
-        let lateral = (Vec3::new(r.random(), r.random(), r.random()) - 0.5) * size * 1.5;
+        // (Up to the incident body's size half the time: the centroid then far from B's
+        // origin across the normal, where a turn about it moves the centroid's point out.)
+        let spread = if case % 8 < 4 { size } else { inc.radius };
+        let lateral = (Vec3::new(r.random(), r.random(), r.random()) - 0.5) * spread * 1.5;
         let place = |q: Quat, at: Vec3| {
             if kind == HINT_FACE_A {
                 at
@@ -311,7 +315,9 @@ fn remembered_certificates_hold_at_moved_poses() {
         );
         wedges += wedge as usize;
         let mut cert = Certificate::default();
-        let pose = (q0, t0, || lever);
+        let origin_b = if kind == HINT_FACE_A { t0 } else { Vec3::ZERO };
+        let centroid = incident_centroid(&m0);
+        let pose = (q0, t0, origin_b, || lever);
         let got = remembered_certified(
             Some(&mut cert),
             refp,
@@ -341,20 +347,37 @@ fn remembered_certificates_hold_at_moved_poses() {
             got && cert.room > 0.0,
             "case {case}: anchored without a certificate"
         );
-        for step in 0..12 {
-            let reach = cert.room * [0.3, 0.9, 0.99, 1.0, 1.01, 1.1, 2.0, 4.0][step % 8];
-            let (q1, at1) = if step % 2 == 0 {
-                // Pulled apart along the normal: the separation along it grows by as much.
-                (q0, at0 + n * reach)
-            } else {
-                let q = (q0 * jitter(&mut r, reach / lever)).normalize();
-                (
-                    q,
-                    at0 + (Vec3::new(r.random(), r.random(), r.random()) - 0.5) * reach,
-                )
+        for step in 0..15 {
+            let reach =
+                cert.room * [0.3, 0.9, 0.99, 1.0, 1.01, 1.1, 2.0, 4.0][r.random_range(0..8)];
+            let (q1, t1) = match step % 3 {
+                0 => {
+                    // Pulled apart along the normal: the separation along it grows by as
+                    // much.
+                    let q = q0 * (1.0 + r.random_range(-2.5e-7f32..2.5e-7));
+                    (q, place(q, at0 + n * reach))
+                }
+                1 => {
+                    let q = (q0 * jitter(&mut r, reach / lever)).normalize();
+                    let shift = (Vec3::new(r.random(), r.random(), r.random()) - 0.5) * reach;
+                    let q = q * (1.0 + r.random_range(-2.5e-7f32..2.5e-7));
+                    (q, place(q, at0 + shift))
+                }
+                _ => {
+                    // Turned about B's origin (`t` kept) so that the centroid's point moves
+                    // out along the normal by about `reach`: the centroid's own lever.
+                    let d = centroid - origin_b;
+                    let axis = d.cross(n).normalize_or_zero();
+                    let turn = Quat::from_axis_angle(axis, reach / d.length().max(1e-12));
+                    // B's vertices `M v + t` turned in A's frame, or A's `M^T (v - t)` in B's.
+                    let q = if kind == HINT_FACE_A {
+                        turn * q0
+                    } else {
+                        q0 * turn.conjugate()
+                    };
+                    (q * (1.0 + r.random_range(-2.5e-7f32..2.5e-7)), t0)
+                }
             };
-            let q1 = q1 * (1.0 + r.random_range(-2.5e-7f32..2.5e-7));
-            let t1 = place(q1, at1);
             let truth = largest_separation(kind, refp, inc, q1, t1);
             if !cert.holds(q1, t1) {
                 beyond += (truth > -0.5 * delta as f64) as usize;

@@ -264,7 +264,7 @@ fn remembered_face(
         }
         let to_b = |p: Vec3| inv_rot * (p - t);
         let cert = slack.map(FaceSlack::certificate);
-        let pose = (q, t, || b.radius);
+        let pose = (q, t, t, || b.radius);
         if plan.certified || remembered_certified(cert, a, face, b, to_b, rot, m, delta, pose) {
             to_world(m, pa, false);
             Ok(())
@@ -291,7 +291,7 @@ fn remembered_face(
         }
         let to_a = |p: Vec3| rot * p + t;
         let cert = slack.map(FaceSlack::certificate);
-        let pose = (q, t, lever);
+        let pose = (q, t, Vec3::ZERO, lever);
         if plan.certified || remembered_certified(cert, b, face, a, to_a, inv_rot, m, delta, pose) {
             to_world(m, pb, true);
             Ok(())
