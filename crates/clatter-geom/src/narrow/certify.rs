@@ -2,9 +2,10 @@
 //! separates them: what lets a remembered face contact stand in for the full test
 //! ([`super::sat`]'s `remembered_face`).
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Quat, Vec3};
 
 use super::Manifold;
+use super::slack::{ALLOW, SHRINK, UNIT};
 use crate::ConvexPolyhedron;
 
 /// The centroid of the manifold's points moved back halfway along the normal: on the
@@ -46,6 +47,210 @@ pub(super) fn overlap_certified(refp: &ConvexPolyhedron, m: &Manifold, delta: f3
     inside_every_face(refp, c, delta)
 }
 
+/// A face contact's overlap certificate remembered at one pose, its anchor: which of
+/// [`overlap_certified`] (the centroid's) or [`wedge_certified`] (the ball's) held there,
+/// and with how much room, so that [`remembered_certified`] takes it at a later pose without
+/// measuring either while the incident body's points have moved less than that room.
+///
+/// Why it holds: each certificate names a ball that lies in both bodies at the anchor, with
+/// room `r` to spare inside the incident body (in the reference body's frame, where the
+/// reference body does not move):
+/// - the centroid's: the centroid `c` is a point of the incident body (up to rounding) at
+///   least `delta + r` inside every face plane of the reference body, so the ball of radius
+///   `delta + r` about `c` lies in the reference body. At a later pose the same point of the
+///   incident body, `c'`, is within `moved` of `c`, so the ball of radius `delta` about `c'`
+///   lies in the reference body while `moved < r`: the certificate's own argument holds for
+///   `c'` (a point of the incident body with a ball of radius `delta` about it in the
+///   reference body).
+/// - the ball's: its point `p` is at least `delta / 2 + r` inside every face plane of both
+///   bodies, so the ball of radius `delta / 2 + r` about `p` lies in both. The reference
+///   body's part does not change with the pose. The incident body's part is made of points
+///   of that body, each moved by at most `moved`: a rigid motion, it carries that ball to a
+///   ball of the same radius about a point within `moved` of `p`, which holds the ball of
+///   radius `delta / 2` about `p` while `moved < r`: the certificate's own argument holds for
+///   `p` (a ball of radius `delta / 2` about it in both bodies).
+///
+/// Either way no axis of the full test separates the bodies, by the certificate's argument,
+/// with the same room for the full test's rounding. `moved` is bounded as
+/// [`super::slack::FaceSlack`] bounds the incident points' motion from its record (the same
+/// expressions, and the same `lever` taken at the anchor for the ball's; for the centroid's
+/// the lever of its one point, see [`measure_centroid`]), and the room kept is the one
+/// measured less [`ALLOW`] of the radii (the rounding of the measured distances, of `c` and
+/// of the pose) and the anchor's own rotation term, `4 |s0 - 1| lever`. The certificate
+/// only decides whether the full test must run, never the manifold. It is kept with the
+/// pair's clip record (inside [`super::slack::FaceSlack`]), which forgets it whenever it
+/// measures a new record: so it is only taken for the record's reference face and shapes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Certificate {
+    /// The relative quaternion (B's rotation in A's frame) at the anchor.
+    q: Quat,
+    /// B's offset in A's frame at the anchor.
+    t: Vec3,
+    /// The rotation's lever at the anchor (see [`super::slack::FaceSlack`]).
+    lever: f32,
+    /// How far the incident points may move from the anchor while the certificate holds,
+    /// the rounding and the anchor's rotation term taken off (`-inf`: none remembered).
+    room: f32,
+    /// Whether it is the ball's certificate ([`wedge_certified`]'s), for the count of
+    /// [`wedge_certificates`].
+    ball: bool,
+}
+
+impl Default for Certificate {
+    fn default() -> Self {
+        Certificate {
+            q: Quat::IDENTITY,
+            t: Vec3::ZERO,
+            lever: 0.0,
+            room: f32::NEG_INFINITY,
+            ball: false,
+        }
+    }
+}
+
+impl Certificate {
+    /// Whether the certificate holds at relative quaternion `q` and offset `t`: the
+    /// incident points have moved less than the room since the anchor (written so that a
+    /// NaN fails).
+    #[inline]
+    fn holds(&self, q: Quat, t: Vec3) -> bool {
+        let s = (q.length_squared() - 1.0).abs();
+        let dt = (t - self.t).abs();
+        let turn = 2.0 * (q - self.q).length() + 4.0 * s;
+        let moved = turn * self.lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5);
+        s < UNIT && moved < self.room
+    }
+
+    /// Anchors a certificate that held at `q`, `t` with room `room` (rotation lever
+    /// `lever`, `radii` the two bodies' radii); keeps the one it had when the pose is not
+    /// one a later bound can be taken from or no room is left.
+    #[inline]
+    fn anchor(&mut self, (q, t, lever): (Quat, Vec3, f32), room: f32, radii: f32, ball: bool) {
+        let s0 = (q.length_squared() - 1.0).abs();
+        let room = room * SHRINK - (ALLOW * radii + 4.0 * s0 * lever);
+        // (A `t` or `lever` not finite leaves a room or a later bound that fails.)
+        if s0 < UNIT && room > 0.0 {
+            *self = Certificate {
+                q,
+                t,
+                lever,
+                room,
+                ball,
+            };
+        }
+    }
+}
+
+/// Whether no axis of the full test separates the bodies at a remembered face contact `m`
+/// (in the reference body's frame, reference face `rf` of `refp`; `to_inc`, `inc_rot` as
+/// for [`wedge_certified`]): by the pair's remembered certificate `cert` when it holds at
+/// the pose `q`, `t` (see [`Certificate`]), else by [`overlap_certified`] or
+/// [`wedge_certified`] measured now, the one that held then anchored in `cert` at this pose
+/// with the room it held with (`lever`: the rotation's lever at this pose, see
+/// [`super::slack::FaceSlack`], for the ball's; `origin_b`: B's origin in the reference
+/// frame, for the centroid's, see [`measure_centroid`]). Without a `cert`, the two
+/// certificates alone.
+///
+/// On a resting cube pile the clip record's own certificate (measured where the record
+/// was) is spent on about one served face in three: the bodies creep further than the
+/// contact's depth while the record's planes still hold; anchored again where it is
+/// measured, a certificate lasts for many steps more, and [`wedge_certified`]'s (about a
+/// thousand instructions) is measured rarely (issue 23).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(super) fn remembered_certified(
+    cert: Option<&mut Certificate>,
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+    (q, t, origin_b, lever): (Quat, Vec3, Vec3, impl Fn() -> f32),
+) -> bool {
+    let Some(cert) = cert else {
+        return overlap_certified(refp, m, delta)
+            || wedge_certified(refp, rf, inc, to_inc, inc_rot, m, delta);
+    };
+    if cert.holds(q, t) {
+        if cert.ball {
+            WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+        }
+        return true;
+    }
+    measure_centroid(cert, refp, inc.radius, m, delta, (q, t, origin_b))
+        || measure_ball(
+            cert,
+            refp,
+            rf,
+            inc,
+            to_inc,
+            inc_rot,
+            m,
+            delta,
+            (q, t, lever),
+        )
+}
+
+/// The centroid's certificate ([`overlap_certified`]) measured for [`remembered_certified`],
+/// anchored when it holds (`inc_radius`: the incident body's radius), with the lever of the
+/// centroid alone: its distance from B's origin, `origin_b` in the reference frame (`t` for
+/// A's face, 0 for B's), with a relative margin.
+///
+/// Why that lever: only the one point of the incident body at the centroid `c` needs to stay
+/// inside (see [`Certificate`]), and it moves by `(M - M0) c_b + (t - t0)` for A's face (`c_b`
+/// that point in B's frame, `|c_b| = |c - t0|` up to the `|s0 - 1|` of `M0`'s scale), or by
+/// `(M - M0)^T (c_a - t0) - M^T (t - t0)` for B's face (`c_a` the point in A's frame, `c_a -
+/// t0 = M0 c` up to the same): `|M - M0|` times `|c - origin_b|` bounds the turn's part as
+/// the body's lever (its radius, or `r + |t0|`) does for every point. The margin (`1e-5`
+/// relative) holds the scale (`4e-6` at most) and the rounding of the length. On a cube
+/// pile the turn's part is most of the bound, and the centroid's lever about a half to a
+/// third of the body's (B's face: `|c|` against `r_a + |t0|`).
+#[inline(never)]
+fn measure_centroid(
+    cert: &mut Certificate,
+    refp: &ConvexPolyhedron,
+    inc_radius: f32,
+    m: &Manifold,
+    delta: f32,
+    (q, t, origin_b): (Quat, Vec3, Vec3),
+) -> bool {
+    let c = incident_centroid(m);
+    let room = overlap_room(refp, c) - delta;
+    let holds = room >= 0.0;
+    if holds {
+        let lever = (c - origin_b).length() * (1.0 + 1e-5);
+        cert.anchor((q, t, lever), room, refp.radius + inc_radius, false);
+    }
+    holds
+}
+
+/// The ball's certificate ([`wedge_certified`]) measured for [`remembered_certified`],
+/// anchored when it holds.
+#[allow(clippy::too_many_arguments)]
+#[cold]
+#[inline(never)]
+fn measure_ball(
+    cert: &mut Certificate,
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+    (q, t, lever): (Quat, Vec3, impl Fn() -> f32),
+) -> bool {
+    let room = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta);
+    let holds = room >= 0.0;
+    if holds {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+        cert.anchor((q, t, lever()), room, refp.radius + inc.radius, true);
+    }
+    holds
+}
+
 /// Whether `c` is at least `delta` inside every face of `refp`, by each face's product
 /// (the general case of [`overlap_certified`], and the reference of its box's case).
 #[inline]
@@ -59,13 +264,36 @@ fn inside_every_face(refp: &ConvexPolyhedron, c: Vec3, delta: f32) -> bool {
 /// (the smallest of `offset - normal . c`, by the same products; NaN when one is): the
 /// certificate holds with `delta` up to this.
 pub(super) fn overlap_slack(refp: &ConvexPolyhedron, m: &Manifold) -> f32 {
-    let c = incident_centroid(m);
+    slack_at(refp, incident_centroid(m))
+}
+
+/// [`overlap_slack`] for the centroid `c`.
+fn slack_at(refp: &ConvexPolyhedron, c: Vec3) -> f32 {
     let mut low = f32::INFINITY;
     for f in &refp.faces {
         let s = f.offset - f.normal.dot(c);
         low = if s < low || s.is_nan() { s } else { low };
     }
     low
+}
+
+/// [`overlap_slack`] for the centroid `c` by [`overlap_certified`]'s expressions: for a box, each face's `c[axis]`
+/// or `-c[axis]` without the products (the same values for a finite `c`: `offset -
+/// (-x)` is `offset + x`; NaN for a `c` not finite, which fails as it does there), else
+/// the products. The centroid certificate holds with `delta`
+/// exactly when this is at least `delta`: `x - offset <= -delta` and `offset - x >= delta`
+/// are the same comparison (a difference's rounding is symmetric).
+#[inline]
+fn overlap_room(refp: &ConvexPolyhedron, c: Vec3) -> f32 {
+    let Some(of) = refp.face_axes else {
+        return slack_at(refp, c);
+    };
+    let off = |code: usize| refp.faces[of[code] as usize].offset;
+    let low = (off(0) - c.x).min(off(1) - c.y).min(off(2) - c.z);
+    let high = (off(4) + c.x).min(off(5) + c.y).min(off(6) + c.z);
+    // (`min` passes a NaN over: a `c` not finite is NaN, as in the products.)
+    let room = low.min(high);
+    if c.is_finite() { room } else { f32::NAN }
 }
 
 /// Whether the bodies certainly overlap by more than `delta` at a face contact `m` (in the
@@ -98,23 +326,40 @@ pub(super) fn wedge_certified(
     m: &Manifold,
     delta: f32,
 ) -> bool {
+    let certified = wedge_room(refp, rf, inc, to_inc, inc_rot, m, delta) >= 0.0;
+    if certified {
+        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
+    }
+    certified
+}
+
+/// How much room [`wedge_certified`]'s point has: the smallest of its distances inside the
+/// face planes of both bodies (`offset - normal . p`, each body's products) less `delta /
+/// 2`, so that the certificate holds exactly when this is not negative (`x - offset <=
+/// -delta / 2` and `offset - x >= delta / 2` are the same comparison); negative or NaN
+/// when no point is tried or none holds.
+fn wedge_room(
+    refp: &ConvexPolyhedron,
+    rf: usize,
+    inc: &ConvexPolyhedron,
+    to_inc: impl Fn(Vec3) -> Vec3,
+    inc_rot: Mat3,
+    m: &Manifold,
+    delta: f32,
+) -> f32 {
     // Clipped points on a side plane are crossings of the incident face's edges: one or two
     // (more are corners inside the face, where the first certificate failed for depth).
     if m.count > 2 {
-        return false;
+        return f32::NEG_INFINITY;
     }
     let n = m.normal;
     let c = incident_centroid(m);
     // Shallower than `delta` along the reference normal: no ball fits (and NaN returns).
     let s1 = n.dot(c) - refp.faces[rf].offset;
     if s1.partial_cmp(&-delta) != Some(std::cmp::Ordering::Less) {
-        return false;
+        return f32::NEG_INFINITY;
     }
-    let certified = ball_certified(refp, Some(rf), inc, to_inc, inc_rot, c, delta);
-    if certified {
-        WEDGE_CERTIFIED.with(|n| n.set(n.get() + 1));
-    }
-    certified
+    ball_room(refp, Some(rf), inc, to_inc, inc_rot, c, delta)
 }
 
 /// Whether a point at least `delta / 2` inside every face plane of both `refp` and `inc`
@@ -129,9 +374,12 @@ pub(super) fn wedge_certified(
 // Out of line and cold: reached by about one remembered face contact in fifteen (cube
 // pile), so its code (two instances, one per frame map) stays out of
 // `remembered_face`'s hot body and out of the instruction cache (issue 23).
+//
+// Returns the room of the first point tried that holds (see [`wedge_room`]), else of the
+// last tried.
 #[cold]
 #[inline(never)]
-fn ball_certified(
+fn ball_room(
     refp: &ConvexPolyhedron,
     first: Option<usize>,
     inc: &ConvexPolyhedron,
@@ -139,7 +387,7 @@ fn ball_certified(
     inc_rot: Mat3,
     c: Vec3,
     delta: f32,
-) -> bool {
+) -> f32 {
     // The face planes nearest `c`, (separation, normal in `refp`'s frame), nearest first
     // (`first`'s ahead of all).
     let mut near = [(f32::NEG_INFINITY, Vec3::ZERO); 4];
@@ -168,15 +416,18 @@ fn ball_certified(
         near[0] = (face.normal.dot(c) - face.offset, face.normal);
     }
     let half = 0.5 * delta;
-    let inside = |p: Vec3| {
+    // The smallest distance inside, by each face's product (a NaN kept).
+    let room = |p: Vec3| {
         let p_inc = to_inc(p);
+        let mut low = f32::INFINITY;
+        let mut take = |s: f32| low = if s < low || s.is_nan() { s } else { low };
         refp.faces
             .iter()
-            .all(|f| f.normal.dot(p) - f.offset <= -half)
-            && inc
-                .faces
-                .iter()
-                .all(|f| f.normal.dot(p_inc) - f.offset <= -half)
+            .for_each(|f| take(f.offset - f.normal.dot(p)));
+        inc.faces
+            .iter()
+            .for_each(|f| take(f.offset - f.normal.dot(p_inc)));
+        low - half
     };
     // `c + u` with `n_i.u + r = -s_i` (`r` inside each plane), and `e.u = 0` for the disc.
     let [(s1, n1), (s2, n2), (s3, n3), (s4, n4)] = near;
@@ -185,7 +436,11 @@ fn ball_certified(
             glam::Mat4::from_cols(n1.extend(1.0), n2.extend(1.0), n3.extend(1.0), last).transpose();
         c + (rows.inverse() * glam::Vec4::new(-s1, -s2, -s3, rhs)).truncate()
     };
-    inside(solve(n4.extend(1.0), -s4)) || inside(solve(n1.cross(n2).extend(0.0), 0.0))
+    let ball = room(solve(n4.extend(1.0), -s4));
+    if ball >= 0.0 {
+        return ball;
+    }
+    room(solve(n1.cross(n2).extend(0.0), 0.0))
 }
 
 thread_local! {
@@ -208,7 +463,8 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// The box's case of [`overlap_certified`] against the products for every face: boxes
+    /// The box's case of [`overlap_certified`] (and of [`overlap_room`]) against the products
+    /// for every face: boxes
     /// (cubes and off-centre ones), manifolds of one to four points whose centroid falls
     /// inside, outside, exactly on a face plane `delta` in (and one ulp either side), at
     /// `±0`, or is infinite or NaN: the same answer every time, and both answers seen.
@@ -269,8 +525,18 @@ mod tests {
             }
             let want = inside_every_face(b, incident_centroid(&m), delta);
             assert_eq!(overlap_certified(b, &m, delta), want, "{c:?} {delta}");
+            // The room the remembered certificate takes, by the same expressions.
+            assert_eq!(
+                overlap_room(b, incident_centroid(&m)) - delta >= 0.0,
+                want,
+                "{c:?} {delta}: room"
+            );
             seen[want as usize] += 1;
         }
         assert!(seen[0] > 1000 && seen[1] > 1000, "{seen:?}");
     }
 }
+
+#[cfg(test)]
+#[path = "certify_tests.rs"]
+mod remembered_tests;

@@ -4,7 +4,7 @@
 
 use glam::{Mat3, Mat3A, Quat, Vec3, Vec3A};
 
-use super::certify::{overlap_certified, wedge_certified};
+use super::certify::remembered_certified;
 use super::clip::{ClipBuffers, clip_faces, clip_faces_into, segment_closest, to_world};
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
@@ -216,8 +216,9 @@ type Clipped = (u32, usize, Manifold);
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
 /// clipped with the full test's own expressions ([`sat_full`]): `Ok` with the manifold as
 /// the full test would return it written into `out`, or `Err` when the overlap is not certain enough to rule out a
-/// separating axis ([`overlap_certified`]; the full test must run), with the clipped face
-/// when there is one (for the full test, if it chooses that face: [`Clipped`]).
+/// separating axis (the clip record's certificate, else [`remembered_certified`]: one
+/// anchored at an earlier pose or measured now; the full test must run), with the clipped
+/// face when there is one (for the full test, if it chooses that face: [`Clipped`]).
 #[allow(clippy::too_many_arguments)]
 // Out of line (as is `sat_full`): inlined into `polyhedron_pair` with
 // `reference_separation`, the cube pile took 3% more instructions (callgrind).
@@ -231,7 +232,7 @@ fn remembered_face(
     sc: &mut Scratch,
     kind: u32,
     face: usize,
-    slack: Option<&mut FaceSlack>,
+    mut slack: Option<&mut FaceSlack>,
     out: &mut Manifold,
 ) -> Result<(), Option<Clipped>> {
     let Relative {
@@ -257,15 +258,14 @@ fn remembered_face(
             return Err(None);
         }
         let m = out;
-        if let Some(s) = slack.filter(|_| plan.measure) {
+        if let Some(s) = slack.as_deref_mut().filter(|_| plan.measure) {
             let n_inc = rot.transpose() * a.faces[face].normal;
             s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, m, delta);
         }
         let to_b = |p: Vec3| inv_rot * (p - t);
-        if plan.certified
-            || overlap_certified(a, m, delta)
-            || wedge_certified(a, face, b, to_b, rot, m, delta)
-        {
+        let cert = slack.map(FaceSlack::certificate);
+        let pose = (q, t, t, || b.radius);
+        if plan.certified || remembered_certified(cert, a, face, b, to_b, rot, m, delta, pose) {
             to_world(m, pa, false);
             Ok(())
         } else {
@@ -284,16 +284,15 @@ fn remembered_face(
             return Err(None);
         }
         let m = out;
-        if let Some(s) = slack.filter(|_| plan.measure) {
+        let lever = || a.radius + t.length() * (1.0 + 1e-6);
+        if let Some(s) = slack.as_deref_mut().filter(|_| plan.measure) {
             let n_inc = inv_rot.transpose() * b.faces[face].normal;
-            let lever = a.radius + t.length() * (1.0 + 1e-6);
-            s.record(b, face, a, key, q, t, lever, n_inc, inc_v, m, delta);
+            s.record(b, face, a, key, q, t, lever(), n_inc, inc_v, m, delta);
         }
         let to_a = |p: Vec3| rot * p + t;
-        if plan.certified
-            || overlap_certified(b, m, delta)
-            || wedge_certified(b, face, a, to_a, inv_rot, m, delta)
-        {
+        let cert = slack.map(FaceSlack::certificate);
+        let pose = (q, t, Vec3::ZERO, lever);
+        if plan.certified || remembered_certified(cert, b, face, a, to_a, inv_rot, m, delta, pose) {
             to_world(m, pb, true);
             Ok(())
         } else {
@@ -542,7 +541,7 @@ fn edge_manifold(
 ///   more than the bodies, and `face_best >= s`: `largest + w <= s + tol`, the term `tol -
 ///   largest`;
 /// - no axis separates: checked at each step instead, on the manifold found
-///   ([`overlap_certified`]): the bodies' overlap, not a decision's slack.
+///   ([`remembered_certified`]): the bodies' overlap, not a decision's slack.
 ///
 /// So the face serves while `s + margin - sum(w) > 0`, with the margin less `eps` for
 /// rounding and for edge axes skipped as near-parallel. The caller subtracts twice the

@@ -5,7 +5,7 @@
 use glam::{Quat, Vec3};
 
 use super::Manifold;
-use super::certify::overlap_slack;
+use super::certify::{Certificate, overlap_slack};
 use super::clip::incident_face;
 use crate::ConvexPolyhedron;
 
@@ -19,7 +19,10 @@ const CORNERS: usize = 16;
 /// record and now), of the clip's crossings, of the side-plane distances and of the bound
 /// itself, each a few ulps of coordinates at most about twice the radii (about `3e-6`
 /// relative all together), with room to spare.
-const ALLOW: f32 = 1e-5;
+pub(super) const ALLOW: f32 = 1e-5;
+
+/// What a remembered part's own limit keeps of it, a relative margin for its rounding.
+pub(super) const SHRINK: f32 = 1.0 - 1e-6;
 
 /// The smallest slack (relative to the radii) worth remembering: a plane or certificate
 /// nearer than this is computed every call, and a record with nothing in it is measured
@@ -29,7 +32,7 @@ const KEEP: f32 = 5e-5;
 /// How far a quaternion's squared norm may be from 1 for the rotation bound below (the
 /// simulation's orientations are renormalised every step; a relative rotation is a product
 /// of two).
-const UNIT: f32 = 4e-6;
+pub(super) const UNIT: f32 = 4e-6;
 
 /// What a remembered face contact's clip remembers, measured at one call (a "record"):
 /// the contact's reference face and incident body, their relative pose, and what is sure
@@ -91,6 +94,9 @@ pub struct FaceSlack {
     /// certificate stands: negative when it is not remembered. Apart from `renew`, so that
     /// a shallow contact's small room does not make the planes be measured again.
     certified: f32,
+    /// A certificate anchored at a later pose ([`Certificate`]): forgotten with the record,
+    /// so it serves only this record's reference face and shapes.
+    cert: Certificate,
 }
 
 /// No incident face remembered.
@@ -108,6 +114,7 @@ impl Default for FaceSlack {
             inc_face: NO_FACE,
             skip: 0,
             certified: f32::NEG_INFINITY,
+            cert: Certificate::default(),
         }
     }
 }
@@ -155,6 +162,12 @@ fn address(p: &ConvexPolyhedron) -> usize {
 }
 
 impl FaceSlack {
+    /// The certificate anchored with this record (see [`Certificate`]).
+    #[inline]
+    pub(super) fn certificate(&mut self) -> &mut Certificate {
+        &mut self.cert
+    }
+
     /// What a clip of reference face `key` (kind | index) of `refp` against `inc`, at
     /// relative quaternion `q` and offset `t` (see [`FaceSlack`]), may take from this
     /// record: all of it while the incident points moved less than `renew`; else nothing,
