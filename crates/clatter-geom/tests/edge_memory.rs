@@ -58,7 +58,9 @@ fn run_pair(a: &Shape, b: &Shape, rng: &mut Rng, spin: f32, steps: usize) -> usi
             let far = pb.position.length() + moved;
             let turned = 1.1 * spin;
             bound -= 2.0 * ((moved + turned * (far + ra + rb)) * 1.01 + 1e-5 * (ra + rb));
-            bound_m = bound;
+            if !narrow::is_contact_hint(hint_m) {
+                bound_m = bound;
+            }
         }
         qa = (Quat::from_axis_angle(wa, 0.1 * spin) * qa).normalize();
         qb = (Quat::from_axis_angle(wb, spin) * qb).normalize();
@@ -158,7 +160,9 @@ fn run_touching(
             let grown = 2.0 * moved * 1.01 + 1e-6 * (ra + rb);
             if bound > 0.0 {
                 bound -= grown;
-                bound_m = bound;
+                if !narrow::is_contact_hint(hint_m) {
+                    bound_m = bound;
+                }
             }
         }
         last = Some(centre);

@@ -278,6 +278,11 @@ buffers! {
     /// contact, the CPU's hint word (`contract::PAIR_MEMORY_CONSTANTS`), and the bits of its
     /// margin (the CPU's `separation_bound` of a touching pair).
     PairMemory = "pair_memory", ReadWrite, "array<vec2<u32>>", size_of::<[u32; 2]>(), Pairs;
+    /// Per pair whose `pair_memory` word remembers a contact (no composites): the relative
+    /// pose of the full test that stored it, two `vec4`s (B's relative quaternion; B's
+    /// offset in A's frame and the rotation lever), which its margin is anchored on (the
+    /// CPU's `EdgeMemory` anchor, clatter-geom `narrow::slack::Anchor`).
+    PairAnchor = "pair_anchor", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 8]>(), Pairs;
     /// The last step's force per pair.
     Forces = "forces", ReadWrite, "array<ContactForce>", size_of::<ContactForce>(), Pairs;
     /// Pairs per body as side b.

@@ -9,7 +9,7 @@ use glam::{Mat3, Quat, Vec3, Vec4};
 use super::SatHint;
 use super::edges::{EdgeOfA, separating_pair};
 use super::sat::EdgeAxis;
-use super::slack::FaceSlack;
+use super::slack::{Anchor, FaceSlack};
 use super::sphere::SphereMemory;
 use crate::ConvexPolyhedron;
 
@@ -98,6 +98,11 @@ pub struct EdgeMemory {
     /// The sphere kind (a sphere against a polyhedron, `shapes` = `[polyhedron, SPHERE]`):
     /// what the sphere's faces, edges and margins are (see `super::sphere`).
     sphere: SphereMemory,
+    /// The relative pose of the pair's last full separating-axis test that found a
+    /// remembered contact (see [`Anchor`]): the pair's stored margin is that test's, and
+    /// the served paths bound every separation's change since from it. Not cleared with
+    /// the edge search's record (which is recorded and served on its own terms).
+    anchor: Anchor,
     /// A remembered face contact's clip record (see [`FaceSlack`]), its own cache line.
     face: FaceSlack,
 }
@@ -120,6 +125,7 @@ impl Default for EdgeMemory {
             levels: [0; LEVELS as usize],
             pairs: [[0; 2]; CAPACITY],
             sphere: SphereMemory::default(),
+            anchor: Anchor::NONE,
             face: FaceSlack::default(),
         }
     }
@@ -174,6 +180,32 @@ impl EdgeMemory {
     #[inline]
     pub(super) fn face_slack(&mut self) -> &mut FaceSlack {
         &mut self.face
+    }
+
+    /// The pose of the pair's last full test that found a remembered contact ([`Anchor`]).
+    #[inline]
+    pub(super) fn anchor(&self) -> &Anchor {
+        &self.anchor
+    }
+
+    /// Anchors the pair's remembered contact on a full test's pose ([`Anchor::NONE`]: none).
+    #[inline]
+    pub(super) fn set_anchor(&mut self, anchor: Anchor) {
+        self.anchor = anchor;
+    }
+
+    /// The relative pose (B's rotation and offset in A's frame) of the pair's last full
+    /// separating-axis test that found a remembered contact, if one is anchored: the pose
+    /// its stored margin is measured from (for tests and statistics).
+    pub fn anchored_pose(&self) -> Option<(Quat, Vec3)> {
+        self.anchor.pose()
+    }
+
+    /// The anchored bound ([`Anchor`]'s): how much any separation of the anchored full
+    /// test can have changed with B at relative quaternion `q` and offset `t` in A's frame
+    /// (infinite when none is anchored): for tests that hold it against brute force.
+    pub fn anchored_motion(&self, q: Quat, t: Vec3) -> f32 {
+        self.anchor.moved(q, t)
     }
 
     /// Whether it holds the pairs of a finished search (for tests and statistics).

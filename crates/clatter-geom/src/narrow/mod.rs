@@ -170,7 +170,13 @@ pub fn collide_with_hint(
 }
 
 /// [`collide_with_hint`] with the pair's [`EdgeMemory`] as well (read and updated): the
-/// same manifold, hint and bound, bitwise; a polyhedron pair whose edge axes go by Gauss
+/// same manifold, bitwise. A touching polyhedron pair's remembered contact is then
+/// anchored on the relative pose of the full test that stored its margin (the memory keeps
+/// that pose): the caller takes nothing off `bound` for it, and the narrow phase takes off
+/// twice how much any separation can have changed since that pose, so jitter in place does
+/// not add up (see `slack::Anchor`); `bound` then stays the full test's margin while the
+/// contact serves (a pair apart keeps [`collide_with_hint`]'s hint and bound, bitwise).
+/// A polyhedron pair whose edge axes go by Gauss
 /// map then visits only the edge pairs the memory holds while B's rotation relative to A
 /// stays near the one it was recorded at, and a sphere against a polyhedron only the faces
 /// and edges that may still give its closest point while its centre stays near the one it

@@ -9,7 +9,7 @@ use super::clip::{ClipBuffers, clip_faces, clip_faces_into, segment_closest, to_
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
 use super::memory::EdgeMemory;
-use super::slack::{FaceSlack, Plan};
+use super::slack::{Anchor, FaceSlack, Plan};
 use super::{
     HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
     NO_HINT, SatHint, is_contact_hint,
@@ -49,7 +49,7 @@ pub(super) fn polyhedron_pair(
     bound: &mut f32,
     mut memory: Option<&mut EdgeMemory>,
 ) -> Option<Manifold> {
-    let margin = *bound;
+    let stored = *bound;
     *bound = 0.0;
     let d = pb.position - pa.position;
     let rs = a.radius + b.radius;
@@ -72,6 +72,18 @@ pub(super) fn polyhedron_pair(
         inv_rot,
         t,
         q: rot_q,
+    };
+    // The margin left of a remembered contact: with an edge memory, the stored margin of
+    // the full test less twice how much any separation can have changed since its pose
+    // (see `Anchor`; none anchored: the full test runs), and the stored margin is kept;
+    // without, the caller has taken the motion off step by step (see
+    // `super::collide_with_hint`), and what is left is kept.
+    let (margin, kept) = match memory.as_deref() {
+        Some(m) if is_contact_hint(*hint) => {
+            let moved = m.anchor().moved(rot_q, t);
+            (stored - 2.0 * moved, stored)
+        }
+        _ => (stored, stored),
     };
     // An edge search already made at these poses, if any (see `remembered_edge`).
     let mut searched = None;
@@ -107,7 +119,7 @@ pub(super) fn polyhedron_pair(
             });
             match served {
                 Ok(()) => {
-                    *bound = margin;
+                    *bound = kept;
                     return Some(out);
                 }
                 Err(c) => clipped = c,
@@ -117,7 +129,7 @@ pub(super) fn polyhedron_pair(
             None
         };
         if let Some(m) = found {
-            *bound = if m.is_some() { margin } else { 0.0 };
+            *bound = if m.is_some() { kept } else { 0.0 };
             if m.is_none() {
                 *hint = NO_HINT;
             }
@@ -696,6 +708,9 @@ fn sat_full(
         // edge serves while `stored / 2 + best_e > 0` (see `remembered_edge`).
         *hint = HINT_EDGE_CONTACT;
         *separation = 2.0 * (-(face_best + tol) - eps);
+        if let Some(m) = memory {
+            m.set_anchor(Anchor::at(a, b, q, t));
+        }
         return Some(edge_manifold(a, b, pa, bv, best_e));
     }
     // Face contact: prefer A's face unless B's is clearly better.
@@ -715,7 +730,7 @@ fn sat_full(
     };
     // Else clipped here, with what the pair's record of this face's clip lets it skip
     // (see `slack_clip`).
-    let slack = memory.map(EdgeMemory::face_slack);
+    let slack = memory.as_deref_mut().map(EdgeMemory::face_slack);
     let m = if ref_b {
         // Reference face on B: work in B's frame with A as incident.
         let inc_v = |i: usize| inv_rot * (a.vertices[i] - t);
@@ -746,6 +761,9 @@ fn sat_full(
     if m.is_some() && margin + 2.0 * best > 0.0 && face < EDGE_CONTACT as usize {
         *hint = kind | HINT_CONTACT | face as u32;
         *separation = margin;
+        if let Some(m) = memory {
+            m.set_anchor(Anchor::at(a, b, q, t));
+        }
     }
     m
 }

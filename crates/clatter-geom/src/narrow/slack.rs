@@ -184,10 +184,7 @@ impl FaceSlack {
         if self.key != key || self.shapes != [address(refp), address(inc)] {
             return Plan::MEASURE;
         }
-        let s = (q.length_squared() - 1.0).abs();
-        let dt = (t - self.t).abs();
-        let turn = 2.0 * (q - self.q).length() + 4.0 * s;
-        let moved = turn * self.lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5);
+        let (s, moved) = moved_since(self.q, self.t, self.lever, q, t);
         // (Written so that a NaN measures again.)
         if s < UNIT && moved < self.renew {
             Plan {
@@ -298,6 +295,90 @@ impl FaceSlack {
         self.t = t;
         self.key = key;
         self.shapes = [address(refp), address(inc)];
+    }
+}
+
+/// How far the points of the incident body can have moved from relative pose `(q0, t0)`
+/// to `(q, t)`, in the reference body's frame, with rotation lever `lever` (see
+/// [`FaceSlack`]): `(|s - 1|, bound)` for `s = |q|^2`, the bound without the `s0` term and
+/// the rounding allowance, which the caller takes off once at the record (`4 |s0 - 1|
+/// lever` and [`ALLOW`] of the radii). Valid only while `|s - 1|` stays below [`UNIT`].
+#[inline(always)]
+fn moved_since(q0: Quat, t0: Vec3, lever: f32, q: Quat, t: Vec3) -> (f32, f32) {
+    let s = (q.length_squared() - 1.0).abs();
+    let dt = (t - t0).abs();
+    let turn = 2.0 * (q - q0).length() + 4.0 * s;
+    (s, turn * lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5))
+}
+
+/// The relative pose of a touching polyhedron pair at its last full separating-axis test
+/// (an "anchor"), from which [`Anchor::moved`] bounds how much any separation the test
+/// decided on can have changed since: by [`FaceSlack`]'s argument, every point of B moved
+/// by at most `|M - M0| r_b + |t - t0|` in A's frame, and every point of A by at most
+/// `|M - M0| (r_a + |t0|) + |M| |t - t0|` in B's, with `|M - M0| <= 2 |q - q0| + 4 |s - 1| +
+/// 4 |s0 - 1|` (plus a few ulps of the rounded entries, in [`ALLOW`]). A face axis's
+/// separation is the smallest projection of the other body's points on a normal fixed in
+/// its body's frame, and the largest separation along any direction (which bounds the edge
+/// axes, see `sat::contact_margin`) moves no more than the points do: so every separation
+/// moves by at most the larger of the two, with the lever `max(r_b, r_a + |t0|)`. Unlike a
+/// sum of per-step bounds, this does not grow while the bodies jitter in place: a resting
+/// contact is served until the bodies have really moved (issue 23, anchor36).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Anchor {
+    /// The relative quaternion `Relative::q` at the full test.
+    q: Quat,
+    /// B's offset in A's frame at the full test.
+    t: Vec3,
+    /// The rotation lever `max(r_b, r_a + |t0|)` (rounded up).
+    lever: f32,
+    /// The terms taken off once, `ALLOW (r_a + r_b) + 4 |s0 - 1| lever` (infinite: no
+    /// anchor). The WGSL twin computes them at each use from the same floats by the same
+    /// expression (the same bits), to keep two words fewer per pair.
+    taken: f32,
+}
+
+impl Anchor {
+    /// No anchor: [`Anchor::moved`] is infinite.
+    pub(super) const NONE: Anchor = Anchor {
+        q: Quat::IDENTITY,
+        t: Vec3::ZERO,
+        lever: -1.0,
+        taken: f32::INFINITY,
+    };
+
+    /// The anchor of a full test of `a` against `b` at relative quaternion `q` and offset
+    /// `t` ([`Anchor::NONE`] when the pose is not one a later bound can be taken from; WGSL
+    /// twin `nrw_anchor_at`, narrow_poly.wgsl, which leaves that check to each use).
+    #[inline]
+    pub(super) fn at(a: &ConvexPolyhedron, b: &ConvexPolyhedron, q: Quat, t: Vec3) -> Anchor {
+        let lever = b.radius.max(a.radius + t.length() * (1.0 + 1e-6));
+        let s0 = (q.length_squared() - 1.0).abs();
+        if !(s0 < UNIT && lever >= 0.0) {
+            return Anchor::NONE;
+        }
+        let taken = ALLOW * (a.radius + b.radius) + 4.0 * s0 * lever;
+        Anchor { q, t, lever, taken }
+    }
+
+    /// An upper bound of how much any separation of the full test at the anchor can have
+    /// changed at relative quaternion `q` and offset `t` (see [`Anchor`]): the motion bound
+    /// of [`moved_since`] and the terms taken off once; infinite when none is known (no
+    /// anchor, or not a unit quaternion). WGSL twin `nrw_anchor_moved` (narrow_poly.wgsl):
+    /// the same operations in the same order.
+    #[inline]
+    pub(super) fn moved(&self, q: Quat, t: Vec3) -> f32 {
+        let (s, moved) = moved_since(self.q, self.t, self.lever, q, t);
+        // (Written so that a NaN gives no bound.)
+        if s < UNIT {
+            moved + self.taken
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// The pose anchored, if any (for tests and statistics).
+    pub(super) fn pose(&self) -> Option<(Quat, Vec3)> {
+        self.taken.is_finite().then_some((self.q, self.t))
     }
 }
 

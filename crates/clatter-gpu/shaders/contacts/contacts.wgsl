@@ -58,9 +58,17 @@ fn pair_contact(c: u32, use_hint: bool, kind: u32) -> bool {
         mem = pair_memory[c];
     }
     nrw_mem_in = mem;
+    // Without composites, a remembered contact's margin is anchored on the pose of its full
+    // test (CPU: the plain path's pairs have an `EdgeMemory`; narrow.wgsl nrw_anchored).
+    nrw_anchored = params.composites == 0u;
     if mem.x != NO_HINT {
-        let left = bitcast<f32>(mem.y) - 2.0 * axis_motion_bound(i, j, xj);
-        nrw_mem_in = vec2<u32>(mem.x, bitcast<u32>(left));
+        if nrw_anchored {
+            nrw_anchor_in[0] = pair_anchor[2u * c];
+            nrw_anchor_in[1] = pair_anchor[2u * c + 1u];
+        } else {
+            let left = bitcast<f32>(mem.y) - 2.0 * axis_motion_bound(i, j, xj);
+            nrw_mem_in = vec2<u32>(mem.x, bitcast<u32>(left));
+        }
     }
     let m = collide_kind(kind, pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
     if m.count > 0u {
@@ -69,6 +77,11 @@ fn pair_contact(c: u32, use_hint: bool, kind: u32) -> bool {
         // survive as this contact's, so it is always written then.
         if was != 1u || any(nrw_mem_out != mem) {
             pair_memory[c] = nrw_mem_out;
+        }
+        // The pose of the full test that remembered this contact (read only with its word).
+        if nrw_anchor_written {
+            pair_anchor[2u * c] = nrw_anchor_out[0];
+            pair_anchor[2u * c + 1u] = nrw_anchor_out[1];
         }
         let params_ij = pair_table[si.material * params.num_materials + sj.material];
         let share = select(POLYHEDRON_POINT_SHARE, SPHERE_POINT_SHARE,

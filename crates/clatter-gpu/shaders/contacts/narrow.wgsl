@@ -55,6 +55,19 @@ var<private> nrw_hint_out: u32 = 0u;
 var<private> nrw_mem_in: vec2<u32> = vec2<u32>(NO_HINT, 0u);
 var<private> nrw_mem_out: vec2<u32> = vec2<u32>(NO_HINT, 0u);
 
+// Anchored margins (the CPU's pairs with an `EdgeMemory`, clatter-geom narrow/slack.rs
+// `Anchor`): with nrw_anchored, nrw_mem_in.y is the margin the full test stored (not less
+// this step's motion), and a remembered contact's margin left is that less twice how much
+// any separation can have changed since the full test's relative pose, nrw_anchor_in
+// (B's relative quaternion, then B's offset in A's frame and the rotation lever; a
+// negative lever: none, the full test runs). A full test that remembers a contact leaves
+// its pose in nrw_anchor_out and sets nrw_anchor_written. Set by pair_contact (no
+// composites); off in the batch tests, as the CPU's narrow phase without a memory.
+var<private> nrw_anchored: bool = false;
+var<private> nrw_anchor_in: array<vec4<f32>, 2>;
+var<private> nrw_anchor_out: array<vec4<f32>, 2>;
+var<private> nrw_anchor_written: bool = false;
+
 fn nrw_hint(kind: u32, index: u32) -> u32 {
     return 1u + ((index << 2u) | kind);
 }
@@ -519,6 +532,7 @@ fn nrw_plane_pt(p: NrwShape, i: u32, n_local: vec3<f32>, centre_height: f32, n: 
 fn collide(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
     nrw_hint_out = 0u;
     nrw_mem_out = vec2<u32>(NO_HINT, 0u);
+    nrw_anchor_written = false;
     let a = nrw_shape(sa);
     let b = nrw_shape(sb);
     if a.kind == 0u || b.kind == 0u {

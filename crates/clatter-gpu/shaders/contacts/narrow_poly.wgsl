@@ -656,11 +656,46 @@ const NRW_EDGE: u32 = 2u;
 struct NrwPose {
     rot: mat3x3<f32>,
     t: vec3<f32>,
+    // The relative quaternion `rot` is built from (CPU `Relative::q`).
+    q: vec4<f32>,
 }
 
 fn nrw_relative_pose(qa: vec4<f32>, qb: vec4<f32>, d: vec3<f32>) -> NrwPose {
     let inv_a = quat_conj(qa);
-    return NrwPose(nrw_mat_from_quat(quat_mul(inv_a, qb)), quat_rotate(inv_a, d));
+    let q = quat_mul(inv_a, qb);
+    return NrwPose(nrw_mat_from_quat(q), quat_rotate(inv_a, d), q);
+}
+
+// How far from 1 a quaternion's squared norm may be for the anchored bound (CPU slack.rs
+// `UNIT`).
+const NRW_UNIT: f32 = 4e-6;
+
+// An upper bound of how much any separation of the full test at the anchored pose
+// (nrw_anchor_in) can have changed at relative quaternion q and offset t, for bodies whose
+// radii sum to `radii` (CPU slack.rs `Anchor::moved`, see there why, the same operations
+// in the same order); negative when none is known (no anchor, or not unit quaternions).
+fn nrw_anchor_moved(q: vec4<f32>, t: vec3<f32>, radii: f32) -> f32 {
+    let q0 = nrw_anchor_in[0];
+    let t0 = nrw_anchor_in[1].xyz;
+    let lever = nrw_anchor_in[1].w;
+    let s = abs(dot(q, q) - 1.0);
+    let s0 = abs(dot(q0, q0) - 1.0);
+    if !(lever >= 0.0 && s < NRW_UNIT && s0 < NRW_UNIT) {
+        return -1.0;
+    }
+    let dt = abs(t - t0);
+    let turn = 2.0 * length(q - q0) + 4.0 * s;
+    let moved = turn * lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5);
+    return moved + (1e-5 * radii + 4.0 * s0 * lever);
+}
+
+// Anchors the contact the full test remembers on relative pose (q, t) (CPU slack.rs
+// `Anchor::at`).
+fn nrw_anchor_at(a: NrwShape, b: NrwShape, q: vec4<f32>, t: vec3<f32>) {
+    let lever = max(b.radius, a.radius + length(t) * (1.0 + 1e-6));
+    nrw_anchor_out[0] = q;
+    nrw_anchor_out[1] = vec4<f32>(t, lever);
+    nrw_anchor_written = true;
 }
 
 // Two convex polyhedra (CPU `polyhedron_polyhedron`): what the pair remembers (nrw_mem_in)
@@ -672,6 +707,9 @@ fn nrw_relative_pose(qa: vec4<f32>, qb: vec4<f32>, d: vec3<f32>) -> NrwPose {
 // manifold is too; one call site each for the clipping, the edge manifold and the axes (an
 // inlined copy could round differently under FMA contraction, and costs compile time).
 fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec3<f32>, qb: vec4<f32>) -> Manifold {
+    // (Here, not only in `collide`: collide_kind calls this directly, and a thread may run
+    // several pairs.)
+    nrw_anchor_written = false;
     let d = xb - xa;
     let rs = a.radius + b.radius;
     if dot(d, d) >= rs * rs {
@@ -689,7 +727,13 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
     // The overlap the remembered paths need: above the rounding of the separations.
     let delta = 2e-5 * (a.radius + b.radius);
     let hint = nrw_mem_in.x;
-    let margin = bitcast<f32>(nrw_mem_in.y);
+    var margin = bitcast<f32>(nrw_mem_in.y);
+    if nrw_anchored && nrw_is_contact_hint(hint) {
+        // The stored margin less twice the motion since the full test (CPU
+        // `polyhedron_pair`); none known: no margin (the full test runs).
+        let w = nrw_anchor_moved(pose.q, t, a.radius + b.radius);
+        margin = select(-3.0e38, margin - 2.0 * w, w >= 0.0);
+    }
     let kind = hint & HINT_KIND;
     let face = hint & ~(HINT_KIND | HINT_CONTACT);
     var mode = NRW_FULL;
@@ -740,6 +784,7 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
                 if mode == NRW_FULL {
                     // Remembered with twice the room above the best face's level.
                     keep = vec2<u32>(HINT_EDGE_CONTACT, bitcast<u32>(2.0 * (-(face_best + tol) - eps)));
+                    nrw_anchor_at(a, b, pose.q, t);
                 }
                 nrw_mem_out = keep;
                 let mid = 0.5 * (cl[0] + cl[1]);
@@ -769,6 +814,7 @@ fn nrw_poly_poly(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: vec
             keep = vec2<u32>(NO_HINT, 0u);
             if m_now + 2.0 * best > 0.0 {
                 keep = vec2<u32>(kind_now | HINT_CONTACT | rf, bitcast<u32>(m_now));
+                nrw_anchor_at(a, b, pose.q, t);
             }
         }
         // One call site for the clipping.

@@ -13,6 +13,11 @@ var<private> nrw_hint_out: u32 = 0u;
 // The contact memory of narrow.wgsl: spheres remember nothing.
 var<private> nrw_mem_in: vec2<u32> = vec2<u32>(NO_HINT, 0u);
 var<private> nrw_mem_out: vec2<u32> = vec2<u32>(NO_HINT, 0u);
+// The anchored margins of narrow.wgsl: spheres anchor nothing (never written).
+var<private> nrw_anchored: bool = false;
+var<private> nrw_anchor_in: array<vec4<f32>, 2>;
+var<private> nrw_anchor_out: array<vec4<f32>, 2>;
+var<private> nrw_anchor_written: bool = false;
 
 struct Manifold {
     normal: vec3<f32>,

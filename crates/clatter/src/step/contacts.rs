@@ -760,10 +760,12 @@ fn remembered_narrow<const PIECES: bool>(
     }
     let (bi, bj) = (bound_of(i), bound_of(j));
     let d = w.offset_in(x, i, j);
-    if remembered_face {
+    if remembered_face && memory.is_none() {
         // Touching at a remembered face: its margin less what this step's motion can have
         // changed on both sides of each decision; the narrow phase uses the face while the
-        // margin stays positive.
+        // margin stays positive. (With an edge memory, the plain path's, the narrow phase
+        // takes off the motion since the full test itself, from the pose anchored there:
+        // see `narrow::collide_with_memory`.)
         *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d, &bi, &bj);
     }
     let (pa, pb) = piece_ids(pieces);
@@ -810,10 +812,18 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
     } else {
         // A copy of the pair's edge memory, as the step would use it.
         let mut memory = world.edge_memory.get(k).cloned();
-        let memory = memory.as_mut();
+        let anchored = memory.as_ref().and_then(EdgeMemory::anchored_pose);
         let of = |i| BodyBound::of(world, i);
         let (pair, out) = (c.pairs[k], &mut found);
-        remembered_narrow::<false>(world, x, of, pair, 0, &mut hint, &mut bound, memory, out);
+        let m = memory.as_mut();
+        remembered_narrow::<false>(world, x, of, pair, 0, &mut hint, &mut bound, m, out);
+        if memory.is_some() {
+            // Anchored (see `remembered_narrow`): the face stood in when the pair kept it,
+            // its stored margin and its anchor (a full test sets all three anew).
+            let kept = memory.as_ref().and_then(EdgeMemory::anchored_pose) == anchored;
+            let before = before.map(|(h, _)| (h, c.springs.separation_bound[k]));
+            return (found, kept && before == Some((hint, bound)));
+        }
     }
     // The face stood in when the pair kept it and its margin (a full test sets both anew).
     let used = before == Some((hint, bound));
