@@ -475,7 +475,7 @@ pub const PAIR_MEMORY_CONSTANTS: &[Constant] = {
 
 /// How far a body's stored orientation can turn in a step beyond `|w| dt` through the
 /// rounding of its update, in radians (`2^-21`, a third above the `6 * 2^-24` derived at
-/// the CPU's `axis_motion_bound`, step/contacts.rs): the margin of a remembered contact
+/// the CPU's `axis_motion_bound`, step/remembered.rs): the margin of a remembered contact
 /// shrinks by it on both bodies each step (WGSL `axis_motion_bound`, contacts.wgsl).
 pub const TURN_ROUNDING: f32 = 1.0 / 2_097_152.0;
 

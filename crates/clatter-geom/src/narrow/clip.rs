@@ -614,3 +614,7 @@ pub(super) fn segment_closest(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (Vec3, 
 #[cfg(test)]
 #[path = "clip_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "clip_points_tests.rs"]
+mod points_tests;

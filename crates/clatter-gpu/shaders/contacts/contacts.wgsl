@@ -105,7 +105,7 @@ fn pair_contact(c: u32, use_hint: bool, kind: u32) -> bool {
 
 // An upper bound of how much the separation along any axis of the separating-axis test of
 // bodies i and j (j at offset xj) can have changed in the last step: the CPU's
-// `axis_motion_bound` (step/contacts.rs, see there why): with composites, 1-norms and the
+// `axis_motion_bound` (step/remembered.rs, see there why): with composites, 1-norms and the
 // lever 3 (r_i + r_j) and a flat rounding allowance; else the norms themselves, the centres'
 // relative motion and the larger of the two frames' bounds, each turn with the quaternion
 // update's rounding (TURN_ROUNDING, clatter::contract), plus the offset's and the positions' rounding.

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::world::World;
 
 /// What the contact stage's motion bounds take of one body (see
-/// `contacts::axis_motion_bound`): 32 bytes, one load for all of them.
+/// `remembered::axis_motion_bound`): 32 bytes, one load for all of them.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 #[repr(C, align(32))]
 pub(crate) struct BodyBound {
