@@ -389,7 +389,7 @@ pub fn plane_offset(n: Vec3, d: f32, x: DVec3) -> (f32, f32) {
 
 /// [`plane_offset`] from a position already split (the step's pairs, [`Ds3A`]): the same
 /// bits. A wall whose normal is a coordinate axis (the usual box) takes
-/// [`plane_offset_axis`], the same bits in about a third of the instructions.
+/// `plane_offset_axis`, the same bits in about a third of the instructions.
 #[inline(always)]
 pub fn plane_offset_a(n: Vec3, d: f32, p: Ds3A) -> (f32, f32) {
     let a = n.abs();

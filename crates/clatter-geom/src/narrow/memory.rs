@@ -201,9 +201,10 @@ impl EdgeMemory {
         self.anchor.pose()
     }
 
-    /// The anchored bound ([`Anchor`]'s): how much any separation of the anchored full
-    /// test can have changed with B at relative quaternion `q` and offset `t` in A's frame
-    /// (infinite when none is anchored): for tests that hold it against brute force.
+    /// The anchored bound (the pair's `slack::Anchor`): how much any separation of the
+    /// anchored full test can have changed with B at relative quaternion `q` and offset `t`
+    /// in A's frame (infinite when none is anchored): for tests that hold it against brute
+    /// force.
     pub fn anchored_motion(&self, q: Quat, t: Vec3) -> f32 {
         self.anchor.moved(q, t)
     }
