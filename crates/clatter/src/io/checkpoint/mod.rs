@@ -28,8 +28,8 @@
 //! - `RBLD`: the positions the Verlet list was built at (3 f64 each; empty before the first
 //!   step).
 //! - `CONT`: the contact list: body pairs, body-wall pairs, tangential and twisting springs,
-//!   last forces, touching flags, separating-axis hints and separation budgets (for touching pairs:
-//!   the remembered contact and its margin). The derived gather ranges are rebuilt by
+//!   last forces, touching flags, separating-axis hints and separation budgets (a remembered
+//!   contact written as none: see `restored_contact`). The derived gather ranges are rebuilt by
 //!   running the broad phase at the `RBLD` positions, and the pairs it finds must equal the
 //!   stored ones.
 //! - `MESH` (only when the scene has `[[boundary]]` meshes): the time the mesh candidates
@@ -60,6 +60,7 @@ use crate::law::ContactForce;
 use crate::mesh_boundary::{MESH_SLOTS, MeshSlot};
 use crate::scene::{Scene, SceneError};
 use crate::world::World;
+use clatter_geom::narrow::{NO_HINT, SatHint, is_contact_hint};
 
 mod bytes;
 mod read;
@@ -462,11 +463,17 @@ impl World {
                 w.f32(f.normal_force);
                 w.buf.push(sp.touching[k] as u8);
             }
-            for &h in &sp.hints {
-                w.u32(h);
+            // A remembered contact (its hint and margin) is written as none: its margin is
+            // anchored on the relative pose of the full test that stored it, which the
+            // pair's edge memory keeps and a checkpoint does not, so a resumed run cannot
+            // serve it and runs the full test at its first step, for the same manifold
+            // (`restored_contact`). Written as it is, a resumed run's next checkpoint
+            // would differ from a straight run's in these words alone.
+            for (&h, &b) in sp.hints.iter().zip(&sp.separation_bound) {
+                w.u32(restored_contact(h, b).0);
             }
-            for &b in &sp.separation_bound {
-                w.f32(b);
+            for (&h, &b) in sp.hints.iter().zip(&sp.separation_bound) {
+                w.f32(restored_contact(h, b).1);
             }
         });
         if mesh {
@@ -607,4 +614,19 @@ fn read_pieces(r: &mut Reader, st: &mut State) -> Result<(), CheckpointError> {
         st.pieces.push(r.u32()?);
     }
     r.finish()
+}
+
+/// A pair's separating-axis hint and separation bound as a checkpoint holds them: a
+/// remembered contact ([`clatter_geom::narrow::is_contact_hint`]) as no hint and a bound
+/// of 0, what the full test leaves on a touching pair it does not remember. The step
+/// after a restore runs the full test for such a pair (a remembered margin needs its
+/// anchor, which no checkpoint holds; a composite's, which has none, would serve, for the
+/// full test's manifold, bitwise): the same results as the contact kept, and a straight
+/// run's checkpoint and a resumed run's are the same bytes.
+fn restored_contact(hint: SatHint, bound: f32) -> (SatHint, f32) {
+    if is_contact_hint(hint) {
+        (NO_HINT, 0.0)
+    } else {
+        (hint, bound)
+    }
 }
