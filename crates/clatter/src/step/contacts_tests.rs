@@ -160,6 +160,21 @@ fn hold_bound(w: &mut World, steps: usize, dense: usize) -> Held {
     held
 }
 
+/// A pile of `n` bodies of `shape` poured (restitution 0.1, seed `seed`), each body
+/// spinning at up to `spin` rad/s about an axis of its own: the bound tests' scenes.
+fn spun_pile(shape: PileShape, n: usize, seed: u64, spin: f32) -> World {
+    let params = PileParams {
+        restitution: 0.1,
+        ..PileParams::default()
+    };
+    let mut desc = poured(shape, n, &params, seed);
+    for (k, b) in desc.bodies.iter_mut().enumerate() {
+        let a = k as f32;
+        b.angular_velocity = Vec3::new(a.sin(), (1.7 * a).cos(), (0.3 * a).sin()) * spin;
+    }
+    World::new(desc)
+}
+
 /// The rounding allowance of `axis_motion_bound` (`TURN_ROUNDING` on each body's turn, the
 /// offset's and the positions' rounding) holds where it is most of the bound, on cube and
 /// mixed piles poured and come to rest (every pair, every step of the last thousands), and
@@ -170,21 +185,12 @@ fn hold_bound(w: &mut World, steps: usize, dense: usize) -> Held {
 /// smaller fails here).
 #[test]
 fn axis_motion_bound_holds_at_rest_and_spinning() {
-    let params = PileParams {
-        restitution: 0.1,
-        ..PileParams::default()
-    };
     for (shape, n, seed, spin, steps, dense) in [
         (PileShape::Cube, 64, 3, 0.0, 14_000, 11_000),
         (PileShape::Mixed, 64, 5, 0.0, 14_000, 11_000),
         (PileShape::Cube, 48, 9, 300.0, 3_000, 0),
     ] {
-        let mut desc = poured(shape, n, &params, seed);
-        for (k, b) in desc.bodies.iter_mut().enumerate() {
-            let a = k as f32;
-            b.angular_velocity = Vec3::new(a.sin(), (1.7 * a).cos(), (0.3 * a).sin()) * spin;
-        }
-        let mut w = World::new(desc);
+        let mut w = spun_pile(shape, n, seed, spin);
         let h = hold_bound(&mut w, steps, dense);
         eprintln!(
             "{shape:?} spin {spin}: checked {}, worst ratio where rounding dominates {}, \
@@ -419,21 +425,12 @@ fn hold_anchored(w: &mut World, steps: usize, from: usize) -> Anchored {
 /// passes (the other terms' slack covers the matrices' rounding on these piles).
 #[test]
 fn anchored_bound_holds_at_rest_and_spinning() {
-    let params = PileParams {
-        restitution: 0.1,
-        ..PileParams::default()
-    };
     for (shape, n, seed, spin, steps, from) in [
         (PileShape::Cube, 64, 3, 0.0, 6_000, 0),
         (PileShape::Mixed, 64, 5, 0.0, 6_000, 0),
         (PileShape::Cube, 48, 9, 300.0, 3_000, 0),
     ] {
-        let mut desc = poured(shape, n, &params, seed);
-        for (k, b) in desc.bodies.iter_mut().enumerate() {
-            let a = k as f32;
-            b.angular_velocity = Vec3::new(a.sin(), (1.7 * a).cos(), (0.3 * a).sin()) * spin;
-        }
-        let mut w = World::new(desc);
+        let mut w = spun_pile(shape, n, seed, spin);
         let h = hold_anchored(&mut w, steps, from);
         eprintln!(
             "{shape:?} spin {spin}: checked {}, worst ratio {}",
