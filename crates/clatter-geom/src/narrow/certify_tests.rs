@@ -15,15 +15,7 @@ use super::{
 };
 use crate::{ConvexPolyhedron, Pose};
 
-fn cuboid(h: Vec3) -> ConvexPolyhedron {
-    let v: Vec<Vec3> = (0..8)
-        .map(|k| {
-            let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
-            Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
-        })
-        .collect();
-    crate::convex_hull(&v).expect("box hull")
-}
+use crate::narrow::test_shapes::cuboid;
 
 /// The incident body's rotation in the reference frame and its vertex `i` there, for a
 /// reference face of A (`kind` [`HINT_FACE_A`]: B's vertices `rot v + t`) or of B (A's,

@@ -29,6 +29,8 @@ mod reach_tests;
 mod sat;
 mod slack;
 mod sphere;
+#[cfg(test)]
+mod test_shapes;
 
 #[doc(hidden)]
 pub use certify::wedge_certificates;

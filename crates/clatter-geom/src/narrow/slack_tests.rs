@@ -10,15 +10,7 @@ use super::super::{HINT_FACE_A, HINT_FACE_B, Manifold};
 use super::{FaceSlack, Plan};
 use crate::ConvexPolyhedron;
 
-fn cuboid(h: Vec3) -> ConvexPolyhedron {
-    let v: Vec<Vec3> = (0..8)
-        .map(|k| {
-            let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
-            Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
-        })
-        .collect();
-    crate::convex_hull(&v).expect("box hull")
-}
+use crate::narrow::test_shapes::cuboid;
 
 /// A vertex of the incident body in the reference frame, by its index.
 type Vertex = Box<dyn Fn(&ConvexPolyhedron, usize) -> Vec3>;
