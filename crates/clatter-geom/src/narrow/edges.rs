@@ -431,10 +431,6 @@ pub(super) fn edge_axes_by_direction(
 ) -> Option<EdgeAxis> {
     let mut best = (f32::NEG_INFINITY, 0usize, 0usize, Vec3::ZERO);
     let (radii, ndb) = (a.radius + b.radius, b.edge_dirs.len());
-    // How far both bodies reach at least along any axis from their centres (A's origin and
-    // B's at `t`), less the rounding of the extents (see `reach_bound`); not positive
-    // (degenerate shapes): no axis is left out by it.
-    let deep = reach_depth(a, b, radii);
     // The pairs a memory found deep, left out while they cannot reach the floor (see
     // `DeepPairs`); a memory that serves none records this search. One that serves
     // evaluates the last search's winner first and, when it passes, leaves out more: the
@@ -480,6 +476,23 @@ pub(super) fn edge_axes_by_direction(
             }
         }
     }
+    // The winner alone: when every other pair is left out, the loop below would visit the
+    // winner only and take its answer, `first.1` (its separation is above `floor`, so
+    // above the loop's starting minus infinity), and the memory's winner would stay the
+    // same pair: the same answer without the loop (issue 23, edge37).
+    if let Some((s, axis)) = first.1
+        && winner_alone(skip, first.0, a.edge_dirs.len() * ndb)
+    {
+        #[cfg(test)]
+        tests::ALONE.with(|n| n.set(n.get() + 1));
+        let (ia, ib) = (first.0 / ndb, first.0 % ndb);
+        let (ea, eb) = supporting_edges(a, b, bv, ia, ib, axis);
+        return Some((s, ea, eb, axis));
+    }
+    // How far both bodies reach at least along any axis from their centres (A's origin and
+    // B's at `t`), less the rounding of the extents (see `reach_bound`); not positive
+    // (degenerate shapes): no axis is left out by it.
+    let deep = reach_depth(a, b, radii);
     // B's directions in A's frame: rotated once, into the table, when every pair may be
     // visited (no memory serves); when one serves, few are, and each visit rotates its own
     // (about 2.4 of a cube pair's 9 on the settled pile, against 3 rotated in advance). The
@@ -591,6 +604,19 @@ pub(super) fn edge_axes_by_direction(
     let (_, ia, ib, axis) = best;
     let (ea, eb) = supporting_edges(a, b, bv, ia, ib, axis);
     Some((best.0, ea, eb, axis))
+}
+
+/// Whether `skip` (a search's direction pairs left out, bit `k` for pair `k`) leaves out
+/// every one of the `n` direction pairs but `winner` (below `n`): then [`Pairs`] visits
+/// the winner alone. Never with more than 128 pairs (those from the 129th on are never
+/// left out).
+#[inline(always)]
+fn winner_alone(skip: u128, winner: usize, n: usize) -> bool {
+    if n > 128 || winner >= n {
+        return false;
+    }
+    let all = u128::MAX >> (128 - n);
+    all & !skip == 1u128 << winner
 }
 
 /// The supporting edges of a direction pair's axis: A's edge of direction `ia` furthest
