@@ -437,7 +437,7 @@ impl ConvexPolyhedron {
     /// The edges of direction `d` as [`ConvexPolyhedron::edges_of_dir`] gives them, with
     /// their ends and the sums of their ends (`vertices[v0] + vertices[v1]`), three slices
     /// of the same length (all empty for a direction that is not one of `edge_dirs`).
-    #[inline]
+    #[inline(always)]
     pub(crate) fn dir_group(&self, d: usize) -> (&[u32], &[[u32; 2]], &[Vec3]) {
         match (self.dir_first.get(d), self.dir_first.get(d + 1)) {
             (Some(&lo), Some(&hi)) => {
