@@ -93,23 +93,30 @@ pub(super) fn polyhedron_pair(
     let mut prepared = Prepared::Nothing;
     if is_contact_hint(*hint) {
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
-        let found = if face == EDGE_CONTACT {
+        if face == EDGE_CONTACT {
             // The full edge search again, without the face axes; when it fails, its answer
             // (if it is the search's without a floor) serves the full test below.
-            SCRATCH
-                .with_borrow_mut(|sc| {
-                    let memory = memory.as_deref_mut();
-                    remembered_edge(a, pa, b, &rel, sc, margin, memory, &mut prepared)
-                })
-                .map_err(|e| searched = e)
-                .ok()
-                .map(Some)
+            // Served: returned from where `remembered_edge` wrote it (no copy through a
+            // `Result`, as for `remembered_face`), with the margin kept.
+            let mut out = Manifold::default();
+            let served = SCRATCH.with_borrow_mut(|sc| {
+                let memory = memory.as_deref_mut();
+                let prepared = &mut prepared;
+                remembered_edge(a, pa, b, &rel, sc, margin, memory, prepared, &mut out)
+            });
+            match served {
+                Ok(()) => {
+                    *bound = kept;
+                    return Some(out);
+                }
+                Err(e) => searched = e,
+            }
         } else if margin + 2.0 * reference_separation(a, b, &rel, *hint & HINT_KIND, face) > 0.0 {
             // The full test would choose the remembered face again (see `contact_margin`):
             // clip it alone. When the overlap is not certified, the clipped face serves the
             // full test below.
             // Served: returned from where `remembered_face` wrote it (no copy through a
-            // `Result`), with the margin kept, as a found manifold below.
+            // `Result`), with the margin kept.
             let slack = memory.as_deref_mut().map(EdgeMemory::face_slack);
             let kind = *hint & HINT_KIND;
             let mut out = Manifold::default();
@@ -124,16 +131,6 @@ pub(super) fn polyhedron_pair(
                 }
                 Err(c) => clipped = c,
             }
-            None
-        } else {
-            None
-        };
-        if let Some(m) = found {
-            *bound = if m.is_some() { kept } else { 0.0 };
-            if m.is_none() {
-                *hint = NO_HINT;
-            }
-            return m;
         }
         *hint = NO_HINT;
     }
@@ -377,7 +374,8 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 /// `face_best_then + W < best_e - tol - eps <= -tol`: the full test finds no separating
 /// face axis either, and keeps this edge contact.
 ///
-/// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]).
+/// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]);
+/// `out` (a default manifold) the manifold when it serves.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn remembered_edge(
@@ -389,7 +387,8 @@ fn remembered_edge(
     margin: f32,
     memory: Option<&mut EdgeMemory>,
     prepared: &mut Prepared,
-) -> Result<Manifold, Option<EdgeFound>> {
+    out: &mut Manifold,
+) -> Result<(), Option<EdgeFound>> {
     let Scratch {
         bv, b_soa, tables, ..
     } = sc;
@@ -421,7 +420,8 @@ fn remembered_edge(
     if (best_e.0 + half).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(keep(Ok(best_e)));
     }
-    Ok(edge_manifold(a, b, pa, bv, best_e))
+    edge_manifold_into(a, b, pa, bv, best_e, out);
+    Ok(())
 }
 
 /// An edge search's answer: the best edge axis, or the separating one (its hint and
@@ -517,6 +517,22 @@ fn edge_manifold(
     bv: &[Vec3],
     best_e: EdgeAxis,
 ) -> Manifold {
+    let mut m = Manifold::default();
+    edge_manifold_into(a, b, pa, bv, best_e, &mut m);
+    m
+}
+
+/// [`edge_manifold`] written into `out`, a default manifold (its normal, count and first
+/// point set as `Manifold::single` sets them: the same manifold, bitwise).
+#[inline(always)]
+fn edge_manifold_into(
+    a: &ConvexPolyhedron,
+    b: &ConvexPolyhedron,
+    pa: &Pose,
+    bv: &[Vec3],
+    best_e: EdgeAxis,
+    out: &mut Manifold,
+) {
     let (s, ea, eb, axis) = best_e;
     let [a0, a1] = a.edges[ea];
     let [b0, b1] = b.edges[eb];
@@ -527,7 +543,12 @@ fn edge_manifold(
         bv[b1 as usize],
     );
     let mid = 0.5 * (qa + qb);
-    Manifold::single(pa.rotation * axis, pa.transform_point(mid), -s)
+    out.normal = pa.rotation * axis;
+    out.count = 1;
+    out.points[0] = super::ContactPoint {
+        point: pa.transform_point(mid),
+        depth: -s,
+    };
 }
 
 /// The margin of the full test's decisions for a face contact, less the reference face's
