@@ -65,7 +65,15 @@ const ROUNDING: f32 = 1e-4;
 // line's miss 23% of the samples of `edges::edge_axes_by_direction` on the cube pile
 // (`perf`). Now a search by direction reads the lines 0 to 3 only (the header, then
 // `levels`), one by Gauss map those and the prefix of `pairs` it visits. No arithmetic
-// changes: the same answers, bitwise.
+// changes: the same answers, bitwise. With the served paths (768 bytes, 12 lines; the
+// test `the_served_paths_read_few_lines_of_a_memory` holds the lines): a remembered face
+// reads line 9 (`anchor`) and line 10 (`face`'s plan), line 11 too when its record's own
+// certificate does not stand; a remembered edge by direction reads line 0 (the header),
+// line 9 and the lines of the levels it takes (on the settled cube pile codes 2 to 8,
+// mostly 6 to 8: lines 1 and 2). Header and anchor (47 and 36 bytes) do not fit one
+// line, nor anchor and plan (36 and 62), so no order of these fields reads fewer lines
+// (layout37, BENCHMARKS.md); nearly every one of these lines misses a 1 MiB cache on the
+// 2,048-cube pile, once per pair and step.
 #[derive(Clone, Debug)]
 #[repr(C, align(64))]
 pub struct EdgeMemory {

@@ -1,5 +1,5 @@
 use super::{DeepPairs, EdgeMemory, GrownLevels, LEVELS};
-use std::mem::{align_of, offset_of, size_of_val};
+use std::mem::{align_of, offset_of, size_of, size_of_val};
 
 /// The fields every search reads (the header and `levels`) lie in the first four cache
 /// lines of a memory, and every memory of an array starts a line (see `EdgeMemory`):
@@ -22,6 +22,44 @@ fn a_memorys_searched_fields_lie_in_its_first_four_cache_lines() {
     }
     // A Gauss-map memory's first pairs follow on the next line.
     assert!(offset_of!(EdgeMemory, pairs) < 256);
+}
+
+/// The cache lines the served paths read of a memory (what `EdgeMemory`'s comment says):
+/// the anchor ([`super::Anchor`], read by a remembered face and a remembered edge alike)
+/// within one line; the face's clip record starting a line, its plan's fields in that line
+/// (`slack_tests`), so that a remembered face reads two lines of the memory (three when its
+/// record's own certificate does not stand and the anchored one is read); the search by
+/// direction's header in line 0, so that a remembered edge reads line 0, the anchor's line
+/// and the lines of the levels it takes. The line of each, from the offsets.
+#[test]
+fn the_served_paths_read_few_lines_of_a_memory() {
+    let m = EdgeMemory::default();
+    let line = |at: usize| at / 64;
+    let (anchor, face) = (offset_of!(EdgeMemory, anchor), offset_of!(EdgeMemory, face));
+    let anchor_end = anchor + size_of_val(&m.anchor) - 1;
+    assert_eq!(
+        line(anchor),
+        line(anchor_end),
+        "the anchor, bytes {anchor}..={anchor_end}"
+    );
+    assert_eq!(face % 64, 0, "the clip record starts a line");
+    assert_ne!(
+        line(anchor),
+        line(face),
+        "the anchor and the record: two lines"
+    );
+    let header_end = offset_of!(EdgeMemory, winner) + size_of_val(&m.winner) - 1;
+    assert_eq!(line(header_end), 0, "the header ends at byte {header_end}");
+    assert_eq!(size_of::<EdgeMemory>() % 64, 0);
+    eprintln!(
+        "EdgeMemory {} bytes: levels {}, pairs {}, sphere {}, anchor {anchor} (line {}), face {face} (line {})",
+        size_of::<EdgeMemory>(),
+        offset_of!(EdgeMemory, levels),
+        offset_of!(EdgeMemory, pairs),
+        offset_of!(EdgeMemory, sphere),
+        line(anchor),
+        line(face),
+    );
 }
 
 /// The level codes against the levels written out as `-r / 2^(c + 1)` in f64: the code

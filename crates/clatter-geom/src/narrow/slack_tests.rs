@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::super::clip::{ClipBuffers, clip_faces, incident_face};
 use super::super::{HINT_FACE_A, HINT_FACE_B, Manifold};
-use super::{FaceSlack, Plan};
+use super::{Anchor, FaceSlack, Plan};
 use crate::ConvexPolyhedron;
 
 use crate::narrow::test_shapes::cuboid;
@@ -226,4 +226,31 @@ fn plans_hold_at_moved_poses() {
         faces * 2 > served && skipped > served && certified * 10 > served,
         "{faces} {skipped} {certified}"
     );
+}
+
+/// A clip record's plan ([`FaceSlack::plan`]) reads its first cache line only (the fields
+/// before the certificate, which only a record whose own certificate does not stand reads),
+/// and the record is a line's multiple; an anchor fits in one line (see
+/// `memory_tests::the_served_paths_read_few_lines_of_a_memory`).
+#[test]
+fn a_plan_reads_one_line_of_its_record() {
+    use std::mem::{align_of, offset_of, size_of, size_of_val};
+    let r = FaceSlack::default();
+    assert_eq!(align_of::<FaceSlack>(), 64);
+    assert_eq!(size_of::<FaceSlack>() % 64, 0);
+    let ends = [
+        offset_of!(FaceSlack, q) + size_of_val(&r.q),
+        offset_of!(FaceSlack, shapes) + size_of_val(&r.shapes),
+        offset_of!(FaceSlack, t) + size_of_val(&r.t),
+        offset_of!(FaceSlack, key) + size_of_val(&r.key),
+        offset_of!(FaceSlack, renew) + size_of_val(&r.renew),
+        offset_of!(FaceSlack, lever) + size_of_val(&r.lever),
+        offset_of!(FaceSlack, inc_face) + size_of_val(&r.inc_face),
+        offset_of!(FaceSlack, skip) + size_of_val(&r.skip),
+        offset_of!(FaceSlack, certified) + size_of_val(&r.certified),
+    ];
+    for end in ends {
+        assert!(end <= 64, "a planned field ends at byte {end}");
+    }
+    assert!(size_of::<Anchor>() <= 64 && 64 % align_of::<Anchor>() == 0);
 }

@@ -285,7 +285,10 @@ impl Q8 {
 
 /// The stage's chunk `b` (what `integrate::run` does per chunk): eight bodies at a time where
 /// the lanes cover them, the scalar `body` elsewhere. Returns the largest squared distance
-/// moved.
+/// moved. Where `c.fresh`, from its last bodies down (the bodies past its last eight, then
+/// its eights from the last: freshest first, see `integrate::freshest_first`), else from
+/// its first up: each body is updated alone and the distance is a maximum, so the same
+/// bits either way.
 ///
 /// # Safety
 /// The CPU must have AVX2.
@@ -293,32 +296,50 @@ impl Q8 {
 pub(super) unsafe fn chunk(c: &Ctx, mut b: Bodies) -> f32 {
     let n = b.xs.len();
     let lanes_apply = c.periodic.is_none() && c.mesh.is_none() && !c.has_sinks;
+    // The eights the lanes take (`groups` of them from body 0), then the rest one by one.
+    let groups = if lanes_apply { n / 8 } else { 0 };
     let mut worst = 0.0f32;
-    let mut k = 0;
-    if lanes_apply {
-        while k + 8 <= n {
+    let mut take = |d2: f32| worst = if d2 > worst { d2 } else { worst };
+    if c.fresh {
+        for k in (8 * groups..n).rev() {
+            take(body(c, &mut b, k));
+        }
+        for g in (0..groups).rev() {
             // SAFETY: AVX2 (the caller's).
-            let group = unsafe { group(c, &mut b, k) };
-            let d2 = match group {
-                Some(d2) => d2,
-                None => {
-                    let mut worst = 0.0f32;
-                    for k in k..k + 8 {
-                        let d2 = body(c, &mut b, k);
-                        worst = if d2 > worst { d2 } else { worst };
-                    }
-                    worst
-                }
-            };
-            worst = if d2 > worst { d2 } else { worst };
-            k += 8;
+            take(unsafe { eight(c, &mut b, 8 * g) });
+        }
+    } else {
+        for g in 0..groups {
+            // SAFETY: AVX2 (the caller's).
+            take(unsafe { eight(c, &mut b, 8 * g) });
+        }
+        for k in 8 * groups..n {
+            take(body(c, &mut b, k));
         }
     }
-    for k in k..n {
-        let d2 = body(c, &mut b, k);
-        worst = if d2 > worst { d2 } else { worst };
-    }
     worst
+}
+
+/// Bodies `k..k + 8` of the chunk: in lanes ([`group`]) where they cover them, else one by
+/// one; the largest squared distance moved.
+///
+/// # Safety
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn eight(c: &Ctx, b: &mut Bodies, k: usize) -> f32 {
+    // SAFETY: AVX2 (the caller's).
+    match unsafe { group(c, b, k) } {
+        Some(d2) => d2,
+        None => {
+            let mut worst = 0.0f32;
+            for k in k..k + 8 {
+                let d2 = body(c, b, k);
+                worst = if d2 > worst { d2 } else { worst };
+            }
+            worst
+        }
+    }
 }
 
 /// Bodies `k..k + 8` of the chunk in lanes; `None` (nothing written) where a body is removed
@@ -479,7 +500,7 @@ unsafe fn group(c: &Ctx, b: &mut Bodies, k: usize) -> Option<f32> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::integrate::{Moved, run_in};
+    use super::super::integrate::{Moved, freshest_first, run_in, run_ordered};
     use crate::geom::ShapeKind;
     use crate::{BodyInit, ContactForce, ContactLaw, Material, World, WorldDesc};
     use glam::{DVec3, Quat, Vec3};
@@ -638,6 +659,88 @@ mod tests {
             }
             // The step did change the state.
             assert_ne!(state_bits(&w), a, "case {case}");
+        }
+    }
+
+    /// The stage's chunks freshest first ([`freshest_first`]) against the order written out
+    /// here: `threads` blocks of consecutive chunks (block `b` of `m`: `b m / threads` up
+    /// to `(b + 1) m / threads`), each from its last chunk down; every chunk once; and with
+    /// two threads the first half of the tasks (rayon's first split, at the middle) holds
+    /// exactly the first half of the chunks, so the thread that wrote the first half of the
+    /// forces reads them.
+    #[test]
+    fn chunks_go_freshest_first() {
+        for m in 0..40usize {
+            for threads in 1..6usize {
+                let mut got: Vec<usize> = (0..m).collect();
+                freshest_first(&mut got, threads);
+                let blocks = threads.min(m).max(1);
+                let mut want = Vec::new();
+                for b in 0..blocks {
+                    let (lo, hi) = (b * m / blocks, (b + 1) * m / blocks);
+                    want.extend((lo..hi).rev());
+                }
+                assert_eq!(got, want, "{m} chunks, {threads} threads");
+                let mut sorted = got.clone();
+                sorted.sort();
+                assert_eq!(sorted, (0..m).collect::<Vec<_>>(), "a permutation");
+                if threads == 2 {
+                    let mut first: Vec<usize> = got[..m / 2].to_vec();
+                    first.sort();
+                    assert_eq!(first, (0..m / 2).collect::<Vec<_>>(), "{m} chunks");
+                }
+            }
+        }
+        let mut eight: Vec<usize> = (0..8).collect();
+        freshest_first(&mut eight, 2);
+        assert_eq!(eight, [3, 2, 1, 0, 7, 6, 5, 4]);
+        let mut four: Vec<usize> = (0..4).collect();
+        freshest_first(&mut four, 1);
+        assert_eq!(four, [3, 2, 1, 0]);
+    }
+
+    /// The stage freshest first (chunks and each chunk's bodies from the last down, the
+    /// step's order) against the order before (chunks and bodies from the first up, kept as
+    /// `run_ordered(.., false)`): every word of every owned body's state and the distance
+    /// moved, bitwise, in lanes and body by body, on one to three threads (one to three
+    /// blocks of chunks), with tails past the last eight, boxes (not isotropic: the
+    /// scalar path inside a chunk of lanes), removed bodies, ghosts and a state that is
+    /// not finite.
+    #[test]
+    fn freshest_first_gives_the_bits_of_body_order() {
+        let mut rng = ChaCha8Rng::seed_from_u64(37);
+        for case in 0..6 {
+            let origin = [
+                DVec3::ZERO,
+                DVec3::new(100.0, -37.5, 2.0),
+                DVec3::splat(-1e4),
+            ][case % 3];
+            let w = cloud(&mut rng, origin, case % 2 == 1);
+            for threads in 1..=3 {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                for lanes in [false, true] {
+                    if lanes && !crate::step::avx2() {
+                        continue;
+                    }
+                    let (mut before, mut fresh) = (w.clone(), w.clone());
+                    let (a, b) = pool.install(|| {
+                        (
+                            run_ordered(&mut before, lanes, false),
+                            run_ordered(&mut fresh, lanes, true),
+                        )
+                    });
+                    let at = format!("case {case}, {threads} threads, lanes {lanes}");
+                    assert_eq!(moved_bits(a), moved_bits(b), "{at}: the distance moved");
+                    let (a, b) = (state_bits(&before), state_bits(&fresh));
+                    if let Some(k) = (0..a.len()).find(|&k| a[k] != b[k]) {
+                        panic!("{at}: owned body {}, word {}", k / 23, k % 23);
+                    }
+                    assert_ne!(state_bits(&w), a, "{at}: the step changed the state");
+                }
+            }
         }
     }
 }
