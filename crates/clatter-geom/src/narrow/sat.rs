@@ -118,11 +118,12 @@ pub(super) fn polyhedron_pair(
                 remembered_face(a, pa, b, pb, &rel, sc, kind, face, slack, &mut out)
             });
             match served {
-                Ok(()) => {
+                Served::Yes => {
                     *bound = kept;
                     return Some(out);
                 }
-                Err(c) => clipped = c,
+                Served::Unsure => clipped = Some((kind, face, out)),
+                Served::NoClip => {}
             }
             None
         } else {
@@ -225,12 +226,32 @@ enum Prepared {
 /// expressions), so the same manifold, bitwise.
 type Clipped = (u32, usize, Manifold);
 
+/// What [`remembered_face`] made of a remembered face: the answer is in its `out`
+/// ([`Served::Yes`]: in the world frame; [`Served::Unsure`]: in the reference body's frame,
+/// for [`Clipped`]), or there is none.
+///
+/// A word, not the manifold: returned through `SCRATCH`'s closure, a `Result` carrying a
+/// [`Clipped`] was copied twice on every call (issue 23, face37: ~30 instructions a served
+/// face, callgrind), though only the rare unsure calls need it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Served {
+    /// Served: `out` holds the manifold as the full test would return it.
+    Yes,
+    /// The overlap is not certain enough to rule out a separating axis (the full test must
+    /// run): `out` holds the clipped face in its body's frame, before [`to_world`].
+    Unsure,
+    /// No manifold (a face index out of range, or no contact in the clip): the full test
+    /// must run.
+    NoClip,
+}
+
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
-/// clipped with the full test's own expressions ([`sat_full`]): `Ok` with the manifold as
-/// the full test would return it written into `out`, or `Err` when the overlap is not certain enough to rule out a
-/// separating axis (the clip record's certificate, else [`remembered_certified`]: one
-/// anchored at an earlier pose or measured now; the full test must run), with the clipped
-/// face when there is one (for the full test, if it chooses that face: [`Clipped`]).
+/// clipped with the full test's own expressions ([`sat_full`]): [`Served::Yes`] with the
+/// manifold as the full test would return it written into `out`, or, when the overlap is
+/// not certain enough to rule out a separating axis (the clip record's certificate, else
+/// [`remembered_certified`]: one anchored at an earlier pose or measured now; the full test
+/// must run), [`Served::Unsure`] with the clipped face in `out` (for the full test, if it
+/// chooses that face: [`Clipped`]), or [`Served::NoClip`] when there is none.
 #[allow(clippy::too_many_arguments)]
 // Out of line (as is `sat_full`): inlined into `polyhedron_pair` with
 // `reference_separation`, the cube pile took 3% more instructions (callgrind).
@@ -246,7 +267,7 @@ fn remembered_face(
     face: usize,
     mut slack: Option<&mut FaceSlack>,
     out: &mut Manifold,
-) -> Result<(), Option<Clipped>> {
+) -> Served {
     let Relative {
         rot, inv_rot, t, q, ..
     } = *rel;
@@ -259,7 +280,7 @@ fn remembered_face(
     let key = kind | face as u32;
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
-            return Err(None);
+            return Served::NoClip;
         }
         let plan = slack
             .as_deref()
@@ -267,7 +288,7 @@ fn remembered_face(
         let rot_a = Mat3A::from(rot);
         let inc_v = |i: usize| Vec3::from(rot_a * Vec3A::from(b.vertices[i]) + t_a);
         if !clip_faces_into(a, face, b, inc_v, rot, clip, &plan, out) {
-            return Err(None);
+            return Served::NoClip;
         }
         let m = out;
         if let Some(s) = slack.as_deref_mut().filter(|_| plan.measure) {
@@ -279,13 +300,13 @@ fn remembered_face(
         let pose = (q, t, t, || b.radius);
         if plan.certified || remembered_certified(cert, a, face, b, to_b, rot, m, delta, pose) {
             to_world(m, pa, false);
-            Ok(())
+            Served::Yes
         } else {
-            Err(Some((kind, face, *m)))
+            Served::Unsure
         }
     } else {
         if face >= b.faces.len() {
-            return Err(None);
+            return Served::NoClip;
         }
         let plan = slack
             .as_deref()
@@ -293,7 +314,7 @@ fn remembered_face(
         let inv_rot_a = Mat3A::from(inv_rot);
         let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
         if !clip_faces_into(b, face, a, inc_v, inv_rot, clip, &plan, out) {
-            return Err(None);
+            return Served::NoClip;
         }
         let m = out;
         let lever = || a.radius + t.length() * (1.0 + 1e-6);
@@ -306,9 +327,9 @@ fn remembered_face(
         let pose = (q, t, Vec3::ZERO, lever);
         if plan.certified || remembered_certified(cert, b, face, a, to_a, inv_rot, m, delta, pose) {
             to_world(m, pb, true);
-            Ok(())
+            Served::Yes
         } else {
-            Err(Some((kind, face, *m)))
+            Served::Unsure
         }
     }
 }
