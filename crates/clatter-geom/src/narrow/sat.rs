@@ -9,7 +9,7 @@ use super::clip::{ClipBuffers, clip_faces, clip_faces_into, segment_closest, to_
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
 use super::memory::EdgeMemory;
-use super::slack::{Anchor, FaceSlack, Plan};
+use super::slack::{Anchor, FaceSlack, Plan, unit_error};
 use super::{
     HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
     NO_HINT, SatHint, is_contact_hint,
@@ -72,6 +72,7 @@ pub(super) fn polyhedron_pair(
         inv_rot,
         t,
         q: rot_q,
+        s: unit_error(rot_q),
     };
     // The margin left of a remembered contact: with an edge memory, the stored margin of
     // the full test less twice how much any separation can have changed since its pose
@@ -80,7 +81,7 @@ pub(super) fn polyhedron_pair(
     // `super::collide_with_hint`), and what is left is kept.
     let (margin, kept) = match memory.as_deref() {
         Some(m) if is_contact_hint(*hint) => {
-            let moved = m.anchor().moved(rot_q, t);
+            let moved = m.anchor().moved_at(rot_q, t, rel.s);
             (stored - 2.0 * moved, stored)
         }
         _ => (stored, stored),
@@ -193,6 +194,8 @@ struct Relative {
     t: Vec3,
     /// `rot` as the quaternion it was built from.
     q: Quat,
+    /// `slack::unit_error(q)`, for the motion bounds since an anchor or a clip record.
+    s: f32,
 }
 
 /// What [`sat_full`] may take instead of searching the edge axes itself: the answer of an
@@ -269,7 +272,12 @@ fn remembered_face(
     out: &mut Manifold,
 ) -> Served {
     let Relative {
-        rot, inv_rot, t, q, ..
+        rot,
+        inv_rot,
+        t,
+        q,
+        s: unit,
+        ..
     } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
@@ -284,7 +292,7 @@ fn remembered_face(
         }
         let plan = slack
             .as_deref()
-            .map_or(Plan::FULL, |s| s.plan(a, b, key, q, t));
+            .map_or(Plan::FULL, |s| s.plan_at(a, b, key, q, t, unit));
         let rot_a = Mat3A::from(rot);
         let inc_v = |i: usize| Vec3::from(rot_a * Vec3A::from(b.vertices[i]) + t_a);
         if !clip_faces_into(a, face, b, inc_v, rot, clip, &plan, out) {
@@ -310,7 +318,7 @@ fn remembered_face(
         }
         let plan = slack
             .as_deref()
-            .map_or(Plan::FULL, |s| s.plan(b, a, key, q, t));
+            .map_or(Plan::FULL, |s| s.plan_at(b, a, key, q, t, unit));
         let inv_rot_a = Mat3A::from(inv_rot);
         let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
         if !clip_faces_into(b, face, a, inc_v, inv_rot, clip, &plan, out) {
@@ -630,7 +638,9 @@ fn sat_full(
     } = sc;
     // A's points in its own frame: the lanes the shape keeps (see `ConvexPolyhedron`).
     let a_local = a.lanes();
-    let Relative { rot, inv_rot, t, q } = *rel;
+    let Relative {
+        rot, inv_rot, t, q, ..
+    } = *rel;
     let FullTest {
         searched,
         mut memory,
