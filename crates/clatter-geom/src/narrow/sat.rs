@@ -9,7 +9,7 @@ use super::clip::{ClipBuffers, clip_faces, clip_faces_into, segment_closest, to_
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
 use super::memory::EdgeMemory;
-use super::slack::{Anchor, FaceSlack, Plan};
+use super::slack::{Anchor, FaceSlack, Plan, unit_error};
 use super::{
     HINT_CONTACT, HINT_EDGE, HINT_EDGE_CONTACT, HINT_FACE_A, HINT_FACE_B, HINT_KIND, Manifold,
     NO_HINT, SatHint, is_contact_hint,
@@ -72,6 +72,7 @@ pub(super) fn polyhedron_pair(
         inv_rot,
         t,
         q: rot_q,
+        s: unit_error(rot_q),
     };
     // The margin left of a remembered contact: with an edge memory, the stored margin of
     // the full test less twice how much any separation can have changed since its pose
@@ -80,7 +81,7 @@ pub(super) fn polyhedron_pair(
     // `super::collide_with_hint`), and what is left is kept.
     let (margin, kept) = match memory.as_deref() {
         Some(m) if is_contact_hint(*hint) => {
-            let moved = m.anchor().moved(rot_q, t);
+            let moved = m.anchor().moved_at(rot_q, t, rel.s);
             (stored - 2.0 * moved, stored)
         }
         _ => (stored, stored),
@@ -125,11 +126,12 @@ pub(super) fn polyhedron_pair(
                 remembered_face(a, pa, b, pb, &rel, sc, kind, face, slack, &mut out)
             });
             match served {
-                Ok(()) => {
+                Served::Yes => {
                     *bound = kept;
                     return Some(out);
                 }
-                Err(c) => clipped = c,
+                Served::Unsure => clipped = Some((kind, face, out)),
+                Served::NoClip => {}
             }
         }
         *hint = NO_HINT;
@@ -189,6 +191,8 @@ struct Relative {
     t: Vec3,
     /// `rot` as the quaternion it was built from.
     q: Quat,
+    /// `slack::unit_error(q)`, for the motion bounds since an anchor or a clip record.
+    s: f32,
 }
 
 /// What [`sat_full`] may take instead of searching the edge axes itself: the answer of an
@@ -222,12 +226,32 @@ enum Prepared {
 /// expressions), so the same manifold, bitwise.
 type Clipped = (u32, usize, Manifold);
 
+/// What [`remembered_face`] made of a remembered face: the answer is in its `out`
+/// ([`Served::Yes`]: in the world frame; [`Served::Unsure`]: in the reference body's frame,
+/// for [`Clipped`]), or there is none.
+///
+/// A word, not the manifold: returned through `SCRATCH`'s closure, a `Result` carrying a
+/// [`Clipped`] was copied twice on every call (issue 23, face37: ~30 instructions a served
+/// face, callgrind), though only the rare unsure calls need it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+enum Served {
+    /// Served: `out` holds the manifold as the full test would return it.
+    Yes,
+    /// The overlap is not certain enough to rule out a separating axis (the full test must
+    /// run): `out` holds the clipped face in its body's frame, before [`to_world`].
+    Unsure,
+    /// No manifold (a face index out of range, or no contact in the clip): the full test
+    /// must run.
+    NoClip,
+}
+
 /// The remembered reference face `face` (of A for `kind` [`HINT_FACE_A`], else of B)
-/// clipped with the full test's own expressions ([`sat_full`]): `Ok` with the manifold as
-/// the full test would return it written into `out`, or `Err` when the overlap is not certain enough to rule out a
-/// separating axis (the clip record's certificate, else [`remembered_certified`]: one
-/// anchored at an earlier pose or measured now; the full test must run), with the clipped
-/// face when there is one (for the full test, if it chooses that face: [`Clipped`]).
+/// clipped with the full test's own expressions ([`sat_full`]): [`Served::Yes`] with the
+/// manifold as the full test would return it written into `out`, or, when the overlap is
+/// not certain enough to rule out a separating axis (the clip record's certificate, else
+/// [`remembered_certified`]: one anchored at an earlier pose or measured now; the full test
+/// must run), [`Served::Unsure`] with the clipped face in `out` (for the full test, if it
+/// chooses that face: [`Clipped`]), or [`Served::NoClip`] when there is none.
 #[allow(clippy::too_many_arguments)]
 // Out of line (as is `sat_full`): inlined into `polyhedron_pair` with
 // `reference_separation`, the cube pile took 3% more instructions (callgrind).
@@ -243,9 +267,14 @@ fn remembered_face(
     face: usize,
     mut slack: Option<&mut FaceSlack>,
     out: &mut Manifold,
-) -> Result<(), Option<Clipped>> {
+) -> Served {
     let Relative {
-        rot, inv_rot, t, q, ..
+        rot,
+        inv_rot,
+        t,
+        q,
+        s: unit,
+        ..
     } = *rel;
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
@@ -256,15 +285,15 @@ fn remembered_face(
     let key = kind | face as u32;
     if kind == HINT_FACE_A {
         if face >= a.faces.len() {
-            return Err(None);
+            return Served::NoClip;
         }
         let plan = slack
             .as_deref()
-            .map_or(Plan::FULL, |s| s.plan(a, b, key, q, t));
+            .map_or(Plan::FULL, |s| s.plan_at(a, b, key, q, t, unit));
         let rot_a = Mat3A::from(rot);
         let inc_v = |i: usize| Vec3::from(rot_a * Vec3A::from(b.vertices[i]) + t_a);
         if !clip_faces_into(a, face, b, inc_v, rot, clip, &plan, out) {
-            return Err(None);
+            return Served::NoClip;
         }
         let m = out;
         if let Some(s) = slack.as_deref_mut().filter(|_| plan.measure) {
@@ -276,21 +305,21 @@ fn remembered_face(
         let pose = (q, t, t, || b.radius);
         if plan.certified || remembered_certified(cert, a, face, b, to_b, rot, m, delta, pose) {
             to_world(m, pa, false);
-            Ok(())
+            Served::Yes
         } else {
-            Err(Some((kind, face, *m)))
+            Served::Unsure
         }
     } else {
         if face >= b.faces.len() {
-            return Err(None);
+            return Served::NoClip;
         }
         let plan = slack
             .as_deref()
-            .map_or(Plan::FULL, |s| s.plan(b, a, key, q, t));
+            .map_or(Plan::FULL, |s| s.plan_at(b, a, key, q, t, unit));
         let inv_rot_a = Mat3A::from(inv_rot);
         let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
         if !clip_faces_into(b, face, a, inc_v, inv_rot, clip, &plan, out) {
-            return Err(None);
+            return Served::NoClip;
         }
         let m = out;
         let lever = || a.radius + t.length() * (1.0 + 1e-6);
@@ -303,9 +332,9 @@ fn remembered_face(
         let pose = (q, t, Vec3::ZERO, lever);
         if plan.certified || remembered_certified(cert, b, face, a, to_a, inv_rot, m, delta, pose) {
             to_world(m, pb, true);
-            Ok(())
+            Served::Yes
         } else {
-            Err(Some((kind, face, *m)))
+            Served::Unsure
         }
     }
 }
@@ -630,7 +659,9 @@ fn sat_full(
     } = sc;
     // A's points in its own frame: the lanes the shape keeps (see `ConvexPolyhedron`).
     let a_local = a.lanes();
-    let Relative { rot, inv_rot, t, q } = *rel;
+    let Relative {
+        rot, inv_rot, t, q, ..
+    } = *rel;
     let FullTest {
         searched,
         mut memory,

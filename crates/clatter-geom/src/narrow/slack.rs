@@ -181,10 +181,25 @@ impl FaceSlack {
         q: Quat,
         t: Vec3,
     ) -> Plan {
+        self.plan_at(refp, inc, key, q, t, unit_error(q))
+    }
+
+    /// [`FaceSlack::plan`] with `s = unit_error(q)` computed by the caller (once for the
+    /// pair's anchor and the record: the same float).
+    #[inline]
+    pub(super) fn plan_at(
+        &self,
+        refp: &ConvexPolyhedron,
+        inc: &ConvexPolyhedron,
+        key: u32,
+        q: Quat,
+        t: Vec3,
+        s: f32,
+    ) -> Plan {
         if self.key != key || self.shapes != [address(refp), address(inc)] {
             return Plan::MEASURE;
         }
-        let (s, moved) = moved_since(self.q, self.t, self.lever, q, t);
+        let moved = moved_by(self.q, self.t, self.lever, q, t, s);
         // (Written so that a NaN measures again.)
         if s < UNIT && moved < self.renew {
             Plan {
@@ -300,15 +315,22 @@ impl FaceSlack {
 
 /// How far the points of the incident body can have moved from relative pose `(q0, t0)`
 /// to `(q, t)`, in the reference body's frame, with rotation lever `lever` (see
-/// [`FaceSlack`]): `(|s - 1|, bound)` for `s = |q|^2`, the bound without the `s0` term and
-/// the rounding allowance, which the caller takes off once at the record (`4 |s0 - 1|
-/// lever` and [`ALLOW`] of the radii). Valid only while `|s - 1|` stays below [`UNIT`].
+/// [`FaceSlack`]): the bound without the `s0` term and the rounding allowance, which the
+/// caller takes off once at the record (`4 |s0 - 1| lever` and [`ALLOW`] of the radii).
+/// Valid only while `|s - 1|` stays below [`UNIT`]; `s` here is `|s - 1|` for `s = |q|^2`
+/// ([`unit_error`] of `q`), which the caller computes once per pair and pose for both the
+/// pair's anchor and the clip record (issue 23, face37: the same float, computed once).
 #[inline(always)]
-fn moved_since(q0: Quat, t0: Vec3, lever: f32, q: Quat, t: Vec3) -> (f32, f32) {
-    let s = (q.length_squared() - 1.0).abs();
+fn moved_by(q0: Quat, t0: Vec3, lever: f32, q: Quat, t: Vec3, s: f32) -> f32 {
     let dt = (t - t0).abs();
     let turn = 2.0 * (q - q0).length() + 4.0 * s;
-    (s, turn * lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5))
+    turn * lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5)
+}
+
+/// `|s - 1|` for `s = |q|^2` (see [`FaceSlack`]): how far `q` is from a unit quaternion.
+#[inline(always)]
+pub(super) fn unit_error(q: Quat) -> f32 {
+    (q.length_squared() - 1.0).abs()
 }
 
 /// The relative pose of a touching polyhedron pair at its last full separating-axis test
@@ -362,12 +384,18 @@ impl Anchor {
 
     /// An upper bound of how much any separation of the full test at the anchor can have
     /// changed at relative quaternion `q` and offset `t` (see [`Anchor`]): the motion bound
-    /// of [`moved_since`] and the terms taken off once; infinite when none is known (no
+    /// of [`moved_by`] and the terms taken off once; infinite when none is known (no
     /// anchor, or not a unit quaternion). WGSL twin `nrw_anchor_moved` (narrow_poly.wgsl):
     /// the same operations in the same order.
     #[inline]
     pub(super) fn moved(&self, q: Quat, t: Vec3) -> f32 {
-        let (s, moved) = moved_since(self.q, self.t, self.lever, q, t);
+        self.moved_at(q, t, unit_error(q))
+    }
+
+    /// [`Anchor::moved`] with `s = unit_error(q)` computed by the caller.
+    #[inline]
+    pub(super) fn moved_at(&self, q: Quat, t: Vec3, s: f32) -> f32 {
+        let moved = moved_by(self.q, self.t, self.lever, q, t, s);
         // (Written so that a NaN gives no bound.)
         if s < UNIT {
             moved + self.taken

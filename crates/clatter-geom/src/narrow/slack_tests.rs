@@ -254,3 +254,97 @@ fn a_plan_reads_one_line_of_its_record() {
     }
     assert!(size_of::<Anchor>() <= 64 && 64 % align_of::<Anchor>() == 0);
 }
+
+/// The motion bound as it was computed before `|q|^2 - 1` was taken once per pose
+/// (`moved_since`, each caller computing `s` itself), kept as the reference.
+fn moved_since_reference(q0: Quat, t0: Vec3, lever: f32, q: Quat, t: Vec3) -> (f32, f32) {
+    let s = (q.length_squared() - 1.0).abs();
+    let dt = (t - t0).abs();
+    let turn = 2.0 * (q - q0).length() + 4.0 * s;
+    (s, turn * lever + (dt.x + dt.y + dt.z) * (1.0 + 1e-5))
+}
+
+/// `unit_error` and `moved_by` (the pair's `s` computed once, face37) against the bound
+/// as each caller computed it, bitwise: quaternions off the unit norm by up to `1e-5`
+/// (either side of `UNIT`), zeros of either sign, offsets from tiny to large, NaN and
+/// infinite entries now and then; and the anchor's and the record's answers with the
+/// given `s` against those computing it.
+#[test]
+fn motion_bound_with_the_pose_s_is_the_reference() {
+    use super::{Anchor, moved_by, unit_error};
+    let mut r = ChaCha8Rng::seed_from_u64(3737);
+    let odd = [f32::NAN, f32::INFINITY, -0.0, 0.0, 1e30];
+    let a = cuboid(Vec3::new(0.5, 0.5, 0.5));
+    let b = cuboid(Vec3::new(0.5, 0.3, 0.7));
+    let (mut near, mut served) = (0, 0);
+    for case in 0..200_000 {
+        let quat = |r: &mut ChaCha8Rng| {
+            let mut v = [0.0f32; 4].map(|_| r.random_range(-1.0f32..1.0));
+            if case % 17 == 0 {
+                v[r.random_range(0..4)] = odd[r.random_range(0..odd.len())];
+            }
+            let q = Quat::from_array(v).normalize();
+            q * (1.0 + r.random_range(-1e-5f32..1e-5))
+        };
+        let (q0, q) = (quat(&mut r), quat(&mut r));
+        let scale = [1e-6f32, 1e-2, 1.0, 1e3][case % 4];
+        let vec = |r: &mut ChaCha8Rng| {
+            Vec3::new(
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+                r.random_range(-1.0..1.0),
+            ) * scale
+        };
+        let (t0, t) = (vec(&mut r), vec(&mut r));
+        let lever = r.random_range(0.0f32..2.0);
+        let (s_want, want) = moved_since_reference(q0, t0, lever, q, t);
+        let s = unit_error(q);
+        assert_eq!(s.to_bits(), s_want.to_bits(), "case {case}");
+        let got = moved_by(q0, t0, lever, q, t, s);
+        assert_eq!(
+            got.to_bits(),
+            want.to_bits(),
+            "case {case}: {q0:?} {q:?} {t0:?} {t:?}"
+        );
+        near += (s < super::UNIT) as usize;
+        let anchor = Anchor::at(&a, &b, q0, t0);
+        assert_eq!(
+            anchor.moved_at(q, t, s).to_bits(),
+            anchor.moved(q, t).to_bits(),
+            "case {case}"
+        );
+        let mut slack = FaceSlack::default();
+        if case % 7 == 0 {
+            // B resting on A's top face near the identity, recorded at `(q0, t0)` and
+            // planned at a pose moved by up to `1e-4` (the record serves, or not).
+            let top = (0..a.faces.len())
+                .max_by(|&i, &j| a.faces[i].normal.z.total_cmp(&a.faces[j].normal.z))
+                .unwrap_or(0);
+            let key = HINT_FACE_A | top as u32;
+            let near_id = |r: &mut ChaCha8Rng, e: f32| {
+                let v = [0.0f32; 3].map(|_| r.random_range(-e..e));
+                Quat::from_xyzw(v[0], v[1], v[2], 1.0).normalize()
+                    * (1.0 + r.random_range(-2e-6f32..2e-6))
+            };
+            let q0 = near_id(&mut r, 1e-3);
+            let t0 = Vec3::new(r.random_range(-0.3..0.3), r.random_range(-0.3..0.3), 1.199);
+            let e = [1e-7f32, 1e-5, 1e-4][case % 3];
+            let q = q0 + near_id(&mut r, e) - Quat::IDENTITY;
+            let t = t0 + Vec3::new(r.random_range(-e..e), r.random_range(-e..e), 0.0);
+            let s = unit_error(q);
+            let rot = Mat3::from_quat(q0);
+            let inc_v = |i: usize| rot * b.vertices[i] + t0;
+            let plan_full = Plan::FULL;
+            let mut clip = ClipBuffers::default();
+            let Some(m) = clip_faces(&a, top, &b, inc_v, rot, &mut clip, &plan_full) else {
+                continue;
+            };
+            let n_inc = rot.transpose() * a.faces[top].normal;
+            slack.record(&a, top, &b, key, q0, t0, b.radius, n_inc, inc_v, &m, 1e-5);
+            let plan = slack.plan_at(&a, &b, key, q, t, s);
+            assert_eq!(plan, slack.plan(&a, &b, key, q, t), "case {case}");
+            served += (plan != Plan::MEASURE) as usize;
+        }
+    }
+    assert!(near > 30_000 && served > 1_000, "{near} {served}");
+}
