@@ -299,9 +299,19 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     super::vex(|| {
                         let n = p.len();
                         let (h, f, t, tw) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut tw[..n]);
+                        let mut touching = 0;
+                        if w.spheres_only() {
+                            // (No motion bounds in a world of spheres only: no gaps kept.)
+                            for k in 0..n {
+                                touching += wall_pair::<false>(
+                                    w, x, p[k], 0, &mut h[k], &mut f[k], &mut t[k], &mut tw[k],
+                                    plain,
+                                ) as usize;
+                            }
+                            return touching;
+                        }
                         let g = &mut g[..n];
                         let v = WallBodies::of(w, x);
-                        let mut touching = 0;
                         for k in 0..n {
                             let (h, f, t, tw, g) =
                                 (&mut h[k], &mut f[k], &mut t[k], &mut tw[k], &mut g[k]);
