@@ -88,6 +88,13 @@ pub struct Contacts {
     /// While a near list lives: `springs` with the near list's written in, made on the first
     /// read ([`Contacts::springs`]) after a step, emptied by the next.
     pub(crate) view: std::sync::OnceLock<ContactSprings>,
+    /// Per wall pair (by its place in `wall_pairs`), a cache that changes no result: for a
+    /// pair last found apart, how far apart (less a margin for rounding) less the most its
+    /// body can have moved since; the contact stage skips the pair while that is positive
+    /// (`step::plain_walls`). 0 (no skip) for a pair found touching or not known. Empty in a
+    /// new list (sized by its first step), emptied with new springs, in no checkpoint:
+    /// a list without it computes every wall pair once.
+    pub(crate) wall_gap: crate::step::plain_walls::WallGaps,
 }
 
 /// Bits per piece id in a contact's piece code (composites have at most 64 pieces).
@@ -159,6 +166,7 @@ impl Contacts {
             pieces: Vec::new(),
             near: None,
             view: std::sync::OnceLock::new(),
+            wall_gap: Default::default(),
         }
     }
 
@@ -272,9 +280,11 @@ impl Contacts {
                 return Err(format!("{got} {what} for a list of {want}"));
             }
         }
-        // Replaced whole: a near list's springs are void.
+        // Replaced whole: a near list's springs are void, and so are the wall gaps (the
+        // bodies' state may come with the springs).
         self.near = None;
         self.view = std::sync::OnceLock::new();
+        self.wall_gap = Default::default();
         self.springs = springs;
         Ok(())
     }

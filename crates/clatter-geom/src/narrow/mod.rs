@@ -359,6 +359,67 @@ fn collide_plane_convex(plane: &Plane, s: &Shape, pose: &Pose) -> Option<Manifol
     }
 }
 
+/// [`collide_plane`] for a polyhedron, for a caller that keeps its manifold in place and
+/// can use how far apart a pair was found: when something touches, `Ok(())` with `out`'s
+/// normal, count and used points set to those of `collide_plane`'s manifold, bit for bit
+/// (the same expressions in the same order; the unused points are no part of it);
+/// when nothing touches (`collide_plane` gives `None`), `Err(lowest)`:
+/// - at the bounding-sphere test, `centre_height - radius` (every vertex is at most
+///   `radius` from the centre, so none is lower, to the rounding of `radius`);
+/// - after the vertex test, the lowest vertex height `n_local . v + centre_height` as the
+///   test computed them (the smallest sum rounded once: rounding is monotonic), for a
+///   finite `n_local` and `centre_height`;
+/// - else (a NaN or infinite pose, the scan's path) minus infinity: nothing known.
+#[inline(always)]
+pub fn collide_plane_polyhedron(
+    plane: &Plane,
+    p: &crate::ConvexPolyhedron,
+    pose: &Pose,
+    out: &mut Manifold,
+) -> Result<(), f32> {
+    let n = plane.normal;
+    let centre_height = n.dot(pose.position) - plane.offset;
+    if centre_height >= p.radius {
+        return Err(centre_height - p.radius);
+    }
+    let n_local = pose.rotation.conjugate() * n;
+    if p.vertices.len() <= 64 {
+        // `collide_plane_convex`'s lanes, with the manifold written into `out`.
+        let below = p.lanes().below(n_local, centre_height, p.vertices.len());
+        let count = below.count_ones() as usize;
+        if count == 0 {
+            let finite = n_local.is_finite() && centre_height.is_finite();
+            return Err(if finite {
+                p.lanes().min_along(n_local) + centre_height
+            } else {
+                f32::NEG_INFINITY
+            });
+        }
+        if count <= 4 {
+            out.normal = n;
+            out.count = count;
+            let mut left = below;
+            for slot in &mut out.points[..count] {
+                let v = p.vertices[left.trailing_zeros() as usize];
+                left &= left - 1;
+                let h = n_local.dot(v) + centre_height;
+                *slot = ContactPoint {
+                    point: pose.transform_point(v) - n * (0.5 * h),
+                    depth: -h,
+                };
+            }
+            return Ok(());
+        }
+    }
+    match plane_patch_scan(p, n, n_local, centre_height, pose) {
+        Some(m) => {
+            *out = m;
+            Ok(())
+        }
+        None => Err(f32::NEG_INFINITY),
+    }
+}
+
 /// A polyhedron against a plane by a scan of its vertices (`n_local`: the plane's normal
 /// in the body's frame; `centre_height`: the body's centre above the plane): every vertex
 /// with `n_local . v + centre_height < 0`, in vertex order, reduced to at most four. The

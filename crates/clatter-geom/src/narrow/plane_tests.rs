@@ -173,3 +173,140 @@ fn plane_patch_from_lanes_is_the_scan_bitwise() {
     assert!(counts.iter().all(|&c| c > 100), "{counts:?}");
     assert!(cases > 5_000, "{cases} planes through a vertex");
 }
+
+/// [`super::collide_plane_polyhedron`] against [`collide_plane`]: the same manifold bit for
+/// bit where something touches (written over a manifold of NaNs), and where nothing does a lowest height no vertex is below: none of the heights
+/// as the test computes them (f32), nor the exact ones (f64) by more than `1e-6` of the
+/// radius and the centre's height; minus infinity for NaN and infinite poses. The cases of
+/// the test above, and huge and signed-zero positions and offsets.
+#[test]
+fn plane_polyhedron_in_place_is_collide_plane_and_bounds_the_gap() {
+    let mut r = ChaCha8Rng::seed_from_u64(37);
+    let shapes = shapes(&mut r);
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+    let (mut touching, mut at_sphere, mut at_vertices, mut unknown) = (0, 0, 0, 0);
+    for (s, p) in shapes.iter().enumerate() {
+        let shape = Shape::Polyhedron(std::sync::Arc::new(p.clone()));
+        for case in 0..600 {
+            let rotation = if case % 5 == 0 {
+                Quat::IDENTITY
+            } else {
+                Quat::from_xyzw(
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                )
+                .normalize()
+            };
+            let normal = if case % 2 == 0 {
+                axes[r.random_range(0..6)]
+            } else {
+                Vec3::new(
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                    r.random_range(-1.0..1.0),
+                )
+                .normalize_or(Vec3::Z)
+            };
+            let (position, offset) = match case % 8 {
+                0..=2 => {
+                    let v = p.vertices[r.random_range(0..p.vertices.len())];
+                    let d = (rotation.conjugate() * normal).dot(v);
+                    let nudge = [0i32, 1, -1][case % 4 % 3];
+                    let d = if nudge == 0 || d == 0.0 {
+                        d
+                    } else {
+                        f32::from_bits((d.to_bits() as i32 + nudge) as u32)
+                    };
+                    (Vec3::ZERO, d)
+                }
+                3 => (Vec3::ZERO, -0.0),
+                4 => (Vec3::splat(-0.0), 0.0),
+                // (The body is at the origin on the simulator's path: huge offsets only.)
+                5 => {
+                    let big = [
+                        1e30f32,
+                        -1e30,
+                        3e38,
+                        -3e38,
+                        f32::INFINITY,
+                        f32::NEG_INFINITY,
+                    ];
+                    (Vec3::ZERO, big[case / 8 % 6])
+                }
+                6 if case % 48 == 6 => (Vec3::NAN, 0.0),
+                6 => (Vec3::ZERO, f32::NAN),
+                _ => {
+                    let x = Vec3::new(
+                        r.random_range(-2.0..2.0),
+                        r.random_range(-2.0..2.0),
+                        r.random_range(-2.0..2.0),
+                    );
+                    (x, normal.dot(x) + r.random_range(-1.5..1.5) * p.radius)
+                }
+            };
+            let pose = Pose::new(position, rotation);
+            let plane = Plane { normal, offset };
+            let want = collide_plane(&plane, &shape, &pose);
+            let nan = super::ContactPoint {
+                point: Vec3::NAN,
+                depth: f32::NAN,
+            };
+            let mut out = Manifold {
+                normal: Vec3::NAN,
+                points: [nan; 4],
+                count: 7,
+            };
+            let got = super::collide_plane_polyhedron(&plane, p, &pose, &mut out);
+            match (got, &want) {
+                (Ok(()), Some(_)) => {
+                    touching += 1;
+                    assert_eq!(bits(&Some(out)), bits(&want), "shape {s} case {case}");
+                }
+                (Err(lowest), None) => {
+                    let n_local = pose.rotation.conjugate() * normal;
+                    let ch = normal.dot(pose.position) - offset;
+                    if lowest == f32::NEG_INFINITY {
+                        unknown += 1;
+                        continue;
+                    }
+                    assert!(!lowest.is_nan(), "shape {s} case {case}");
+                    if ch >= p.radius {
+                        at_sphere += 1;
+                    } else {
+                        at_vertices += 1;
+                    }
+                    let slack = 1e-6 * (p.radius + ch.abs());
+                    // The test's own heights.
+                    for &v in &p.vertices {
+                        let h = n_local.dot(v) + ch;
+                        assert!(
+                            ch >= p.radius || lowest <= h,
+                            "shape {s} case {case}: {lowest} above a vertex at {h}"
+                        );
+                    }
+                    // The exact heights.
+                    let q = pose.rotation.as_dquat().normalize();
+                    let c = normal.as_dvec3().dot(pose.position.as_dvec3()) - offset as f64;
+                    for &v in &p.vertices {
+                        let h = c + normal.as_dvec3().dot(q * v.as_dvec3());
+                        assert!(
+                            (lowest as f64) <= h + slack as f64,
+                            "shape {s} case {case}: {lowest} above an exact vertex at {h}"
+                        );
+                    }
+                }
+                (got, want) => panic!("shape {s} case {case}: {got:?} against {want:?}"),
+            }
+        }
+    }
+    eprintln!(
+        "touching {touching}, apart at the sphere {at_sphere}, at the vertices {at_vertices}, unknown {unknown}"
+    );
+    let counts = (touching, at_sphere, at_vertices, unknown);
+    assert!(
+        touching > 10_000 && at_sphere > 1_000 && at_vertices > 1_000 && unknown > 500,
+        "{counts:?}"
+    );
+}

@@ -6,6 +6,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::motion::BodyBound;
+use super::plain_walls::{WallBodies, plain_wall};
 #[cfg(test)]
 use super::remembered::axis_motion_bound;
 pub use super::remembered::pair_narrow;
@@ -77,6 +78,9 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     if !world.has_composites() && !world.spheres_only() {
         memory.resize(world.contacts.pairs.len(), EdgeMemory::default());
     }
+    // The plain wall path's gap bounds, one per wall pair (see `plain_walls`).
+    let mut wall_gap = std::mem::take(&mut world.contacts.wall_gap);
+    wall_gap.fit(&world.walls, world.contacts.active().wall_pairs.len());
     let w = &*world;
     let x = w.position_pairs.as_slice();
     let list = w.contacts.active();
@@ -282,8 +286,9 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                 .zip(force_walls.par_chunks_mut(chunk))
                 .zip(touch_walls.par_chunks_mut(chunk))
                 .zip(twist_walls.par_chunks_mut(chunk))
+                .zip(wall_gap.gaps.par_chunks_mut(chunk))
                 .with_max_len(most)
-                .map(|((((p, h), f), t), tw)| {
+                .map(|(((((p, h), f), t), tw), g)| {
                     #[cfg(target_arch = "x86_64")]
                     if plain && w.spheres_only() && super::avx2() {
                         // SAFETY: the CPU has AVX2.
@@ -295,10 +300,22 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                         let n = p.len();
                         let (h, f, t, tw) = (&mut h[..n], &mut f[..n], &mut t[..n], &mut tw[..n]);
                         let mut touching = 0;
+                        if w.spheres_only() {
+                            // (No motion bounds in a world of spheres only: no gaps kept.)
+                            for k in 0..n {
+                                touching += wall_pair::<false>(
+                                    w, x, p[k], 0, &mut h[k], &mut f[k], &mut t[k], &mut tw[k],
+                                    plain,
+                                ) as usize;
+                            }
+                            return touching;
+                        }
+                        let g = &mut g[..n];
+                        let v = WallBodies::of(w, x);
                         for k in 0..n {
-                            touching += wall_pair::<false>(
-                                w, x, p[k], 0, &mut h[k], &mut f[k], &mut t[k], &mut tw[k], plain,
-                            ) as usize;
+                            let (h, f, t, tw, g) =
+                                (&mut h[k], &mut f[k], &mut t[k], &mut tw[k], &mut g[k]);
+                            touching += plain_wall(w, &v, p[k], h, f, t, tw, g, plain) as usize;
                         }
                         touching
                     })
@@ -311,6 +328,7 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
         None => world.contacts.springs = springs,
     }
     world.edge_memory = memory;
+    world.contacts.wall_gap = wall_gap;
     pairs_touching + walls_touching
 }
 
@@ -579,7 +597,7 @@ fn law_side<const PIECES: bool>(w: &World, i: usize, piece: u32) -> (f32, bool) 
 /// same operations in the same order, so the same bits.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn sphere_wall<const PLAIN: bool>(
+pub(super) fn sphere_wall<const PLAIN: bool>(
     w: &World,
     i: usize,
     wall: &crate::world::Wall,
@@ -733,7 +751,7 @@ fn skip_apart(w: &World, [i, j]: [u32; 2], hint: SatHint, bound: &mut f32) -> bo
 
 /// A contact that stopped touching: zero force and springs (written only on the change).
 #[inline]
-fn release(
+pub(super) fn release(
     force: &mut ContactForce,
     hist: &mut Vec3,
     twist: Option<&mut f32>,

@@ -34,6 +34,7 @@ mod law_lanes;
 pub mod mesh_contacts;
 pub(crate) mod motion;
 pub(crate) mod near;
+pub(crate) mod plain_walls;
 mod remembered;
 #[cfg(target_arch = "x86_64")]
 mod sphere_lanes;

@@ -163,6 +163,7 @@ fn assemble(
         pieces: Vec::new(),
         near: None,
         view: std::sync::OnceLock::new(),
+        wall_gap: Default::default(),
     };
     Near {
         slots,
