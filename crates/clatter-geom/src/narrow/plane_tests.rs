@@ -89,6 +89,29 @@ fn shapes(r: &mut ChaCha8Rng) -> Vec<ConvexPolyhedron> {
     out
 }
 
+/// A wall normal for test case `case`: an axis (even cases; vertices then tie on the
+/// plane) or a random direction.
+fn plane_normal(r: &mut ChaCha8Rng, case: usize) -> Vec3 {
+    const AXES: [Vec3; 6] = [
+        Vec3::X,
+        Vec3::Y,
+        Vec3::Z,
+        Vec3::NEG_X,
+        Vec3::NEG_Y,
+        Vec3::NEG_Z,
+    ];
+    if case % 2 == 0 {
+        AXES[r.random_range(0..6)]
+    } else {
+        Vec3::new(
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+            r.random_range(-1.0..1.0),
+        )
+        .normalize_or(Vec3::Z)
+    }
+}
+
 #[test]
 fn plane_patch_from_lanes_is_the_scan_bitwise() {
     let mut r = ChaCha8Rng::seed_from_u64(32);
@@ -101,7 +124,6 @@ fn plane_patch_from_lanes_is_the_scan_bitwise() {
         Quat::from_xyzw(0.0, 1.0, 0.0, 0.0),
         Quat::from_xyzw(0.0, 0.0, 1.0, 0.0),
     ];
-    let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
     let mut counts = [0usize; 6];
     let mut cases = 0usize;
     for (s, p) in shapes.iter().enumerate() {
@@ -118,16 +140,7 @@ fn plane_patch_from_lanes_is_the_scan_bitwise() {
                 );
                 q.normalize()
             };
-            let normal = if case % 2 == 0 {
-                axes[r.random_range(0..6)]
-            } else {
-                Vec3::new(
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                )
-                .normalize_or(Vec3::Z)
-            };
+            let normal = plane_normal(&mut r, case);
             let (position, offset) = match case % 4 {
                 // At the origin, the plane through a vertex exactly, or an ulp either side:
                 // `centre_height` is then `-offset` and that vertex's height is `d - d`.
@@ -183,7 +196,6 @@ fn plane_patch_from_lanes_is_the_scan_bitwise() {
 fn plane_polyhedron_in_place_is_collide_plane_and_bounds_the_gap() {
     let mut r = ChaCha8Rng::seed_from_u64(37);
     let shapes = shapes(&mut r);
-    let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
     let (mut touching, mut at_sphere, mut at_vertices, mut unknown) = (0, 0, 0, 0);
     for (s, p) in shapes.iter().enumerate() {
         let shape = Shape::Polyhedron(std::sync::Arc::new(p.clone()));
@@ -199,16 +211,7 @@ fn plane_polyhedron_in_place_is_collide_plane_and_bounds_the_gap() {
                 )
                 .normalize()
             };
-            let normal = if case % 2 == 0 {
-                axes[r.random_range(0..6)]
-            } else {
-                Vec3::new(
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                    r.random_range(-1.0..1.0),
-                )
-                .normalize_or(Vec3::Z)
-            };
+            let normal = plane_normal(&mut r, case);
             let (position, offset) = match case % 8 {
                 0..=2 => {
                     let v = p.vertices[r.random_range(0..p.vertices.len())];
