@@ -767,4 +767,4 @@ pub(super) fn release(
 
 #[cfg(test)]
 #[path = "contacts_tests.rs"]
-mod tests;
+pub(super) mod tests;

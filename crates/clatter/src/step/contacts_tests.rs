@@ -163,6 +163,12 @@ fn hold_bound(w: &mut World, steps: usize, dense: usize) -> Held {
 /// A pile of `n` bodies of `shape` poured (restitution 0.1, seed `seed`), each body
 /// spinning at up to `spin` rad/s about an axis of its own: the bound tests' scenes.
 fn spun_pile(shape: PileShape, n: usize, seed: u64, spin: f32) -> World {
+    thrown_pile(shape, n, seed, spin, 0.0)
+}
+
+/// [`spun_pile`] with each body also moving at up to `speed` m/s (its poured velocity
+/// untouched when `speed` is 0).
+pub(crate) fn thrown_pile(shape: PileShape, n: usize, seed: u64, spin: f32, speed: f32) -> World {
     let params = PileParams {
         restitution: 0.1,
         ..PileParams::default()
@@ -171,6 +177,9 @@ fn spun_pile(shape: PileShape, n: usize, seed: u64, spin: f32) -> World {
     for (k, b) in desc.bodies.iter_mut().enumerate() {
         let a = k as f32;
         b.angular_velocity = Vec3::new(a.sin(), (1.7 * a).cos(), (0.3 * a).sin()) * spin;
+        if speed != 0.0 {
+            b.velocity += Vec3::new((2.3 * a).cos(), (0.7 * a).sin(), -(1.1 * a).cos()) * speed;
+        }
     }
     World::new(desc)
 }

@@ -5,7 +5,7 @@ use glam::Vec3;
 
 use super::super::contacts::{self, wall_pair};
 use crate::World;
-use crate::pile::{PileParams, PileShape, poured};
+use crate::pile::PileShape;
 use clatter_geom::Shape;
 
 /// The exact lowest height above wall `wall`'s plane of body `i` at its stored pose (f64,
@@ -112,17 +112,7 @@ fn hold(w: &mut World, steps: usize) -> Seen {
 /// A pile of `n` bodies of `shape` poured (restitution 0.1), each spinning at up to `spin`
 /// rad/s about an axis of its own, and moving at up to `speed` m/s.
 fn pile(shape: PileShape, n: usize, seed: u64, spin: f32, speed: f32) -> World {
-    let params = PileParams {
-        restitution: 0.1,
-        ..PileParams::default()
-    };
-    let mut desc = poured(shape, n, &params, seed);
-    for (k, b) in desc.bodies.iter_mut().enumerate() {
-        let a = k as f32;
-        b.angular_velocity = Vec3::new(a.sin(), (1.7 * a).cos(), (0.3 * a).sin()) * spin;
-        b.velocity += Vec3::new((2.3 * a).cos(), (0.7 * a).sin(), -(1.1 * a).cos()) * speed;
-    }
-    World::new(desc)
+    super::super::contacts::tests::thrown_pile(shape, n, seed, spin, speed)
 }
 
 /// The plain wall path gives the old path's forces and springs bit for bit, step after
