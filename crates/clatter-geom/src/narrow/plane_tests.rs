@@ -100,7 +100,7 @@ fn plane_normal(r: &mut ChaCha8Rng, case: usize) -> Vec3 {
         Vec3::NEG_Y,
         Vec3::NEG_Z,
     ];
-    if case % 2 == 0 {
+    if case.is_multiple_of(2) {
         AXES[r.random_range(0..6)]
     } else {
         Vec3::new(
