@@ -112,6 +112,36 @@ fn plane_normal(r: &mut ChaCha8Rng, case: usize) -> Vec3 {
     }
 }
 
+/// A body at the origin of rotation `rotation` and the offset of the plane of `normal`
+/// through one of its vertices, exactly (`nudge` 0) or an ulp either side (1, 2).
+fn through_vertex(
+    r: &mut ChaCha8Rng,
+    p: &ConvexPolyhedron,
+    rotation: Quat,
+    normal: Vec3,
+    nudge: usize,
+) -> (Vec3, f32) {
+    let v = p.vertices[r.random_range(0..p.vertices.len())];
+    let d = (rotation.conjugate() * normal).dot(v);
+    let nudge = [0i32, 1, -1][nudge];
+    let d = if nudge == 0 || d == 0.0 {
+        d
+    } else {
+        f32::from_bits((d.to_bits() as i32 + nudge) as u32)
+    };
+    (Vec3::ZERO, d)
+}
+
+/// A random position and a plane offset within 1.5 radii of it along `normal`.
+fn near_plane(r: &mut ChaCha8Rng, p: &ConvexPolyhedron, normal: Vec3) -> (Vec3, f32) {
+    let x = Vec3::new(
+        r.random_range(-2.0..2.0),
+        r.random_range(-2.0..2.0),
+        r.random_range(-2.0..2.0),
+    );
+    (x, normal.dot(x) + r.random_range(-1.5..1.5) * p.radius)
+}
+
 #[test]
 fn plane_patch_from_lanes_is_the_scan_bitwise() {
     let mut r = ChaCha8Rng::seed_from_u64(32);
@@ -144,25 +174,8 @@ fn plane_patch_from_lanes_is_the_scan_bitwise() {
             let (position, offset) = match case % 4 {
                 // At the origin, the plane through a vertex exactly, or an ulp either side:
                 // `centre_height` is then `-offset` and that vertex's height is `d - d`.
-                0..=2 => {
-                    let v = p.vertices[r.random_range(0..p.vertices.len())];
-                    let d = (rotation.conjugate() * normal).dot(v);
-                    let nudge = [0i32, 1, -1][case % 4];
-                    let d = if nudge == 0 || d == 0.0 {
-                        d
-                    } else {
-                        f32::from_bits((d.to_bits() as i32 + nudge) as u32)
-                    };
-                    (Vec3::ZERO, d)
-                }
-                _ => {
-                    let x = Vec3::new(
-                        r.random_range(-2.0..2.0),
-                        r.random_range(-2.0..2.0),
-                        r.random_range(-2.0..2.0),
-                    );
-                    (x, normal.dot(x) + r.random_range(-1.5..1.5) * p.radius)
-                }
+                0..=2 => through_vertex(&mut r, p, rotation, normal, case % 4),
+                _ => near_plane(&mut r, p, normal),
             };
             let pose = if case == 599 && s % 7 == 0 {
                 Pose::new(Vec3::NAN, rotation)
@@ -213,17 +226,7 @@ fn plane_polyhedron_in_place_is_collide_plane_and_bounds_the_gap() {
             };
             let normal = plane_normal(&mut r, case);
             let (position, offset) = match case % 8 {
-                0..=2 => {
-                    let v = p.vertices[r.random_range(0..p.vertices.len())];
-                    let d = (rotation.conjugate() * normal).dot(v);
-                    let nudge = [0i32, 1, -1][case % 4 % 3];
-                    let d = if nudge == 0 || d == 0.0 {
-                        d
-                    } else {
-                        f32::from_bits((d.to_bits() as i32 + nudge) as u32)
-                    };
-                    (Vec3::ZERO, d)
-                }
+                0..=2 => through_vertex(&mut r, p, rotation, normal, case % 4),
                 3 => (Vec3::ZERO, -0.0),
                 4 => (Vec3::splat(-0.0), 0.0),
                 // (The body is at the origin on the simulator's path: huge offsets only.)
@@ -240,14 +243,7 @@ fn plane_polyhedron_in_place_is_collide_plane_and_bounds_the_gap() {
                 }
                 6 if case % 48 == 6 => (Vec3::NAN, 0.0),
                 6 => (Vec3::ZERO, f32::NAN),
-                _ => {
-                    let x = Vec3::new(
-                        r.random_range(-2.0..2.0),
-                        r.random_range(-2.0..2.0),
-                        r.random_range(-2.0..2.0),
-                    );
-                    (x, normal.dot(x) + r.random_range(-1.5..1.5) * p.radius)
-                }
+                _ => near_plane(&mut r, p, normal),
             };
             let pose = Pose::new(position, rotation);
             let plane = Plane { normal, offset };
