@@ -1,7 +1,7 @@
 //! Tests of [`super`] (the edge-axis search), beside it to keep `edges.rs` short.
 
 use super::super::memory::EdgeMemory;
-use super::super::test_shapes::cuboid;
+use super::super::test_shapes::{cuboid, xorshift, xorshift_centred};
 use super::super::{NO_HINT, SoaPoints};
 use super::{
     GaussTables, Pairs, direction_pair, edge_axes_by_direction, edges_of_direction,
@@ -111,13 +111,7 @@ fn supporting_edges_are_those_of_the_edge_by_edge_search() {
 /// boxes (many edges per direction), for every direction and one past the last.
 #[test]
 fn edges_of_a_direction_are_those_the_filter_finds() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-    };
+    let mut next = xorshift_centred(0x9e37_79b9_7f4a_7c15u64);
     let mut shapes = Vec::new();
     for case in 0..300 {
         let count = 4 + case % 57;
@@ -163,13 +157,7 @@ fn edges_of_a_direction_are_those_the_filter_finds() {
 /// its two 64-bit words.
 #[test]
 fn pairs_visited_are_the_pairs_not_left_out_in_order() {
-    let mut seed = 0x2545_f491_4f6c_dd1du64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        seed
-    };
+    let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
     for case in 0..3000 {
         let skip =
             ((next() as u128) << 64 | next() as u128) & ((next() as u128) << 64 | next() as u128);
@@ -356,13 +344,7 @@ fn the_winner_alone_is_the_whole_searchs_answer() {
         octahedron,
         prism,
     ];
-    let mut seed = 0x05ee_de37_u64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-    };
+    let mut next = xorshift_centred(0x05ee_de37_u64);
     let mut unit = move || Vec3::new(next(), next(), next()).normalize_or(Vec3::Z);
     let (mut exact, mut alone, mut total) = (0, 0, 0);
     for a in &shapes {

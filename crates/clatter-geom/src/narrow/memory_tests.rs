@@ -1,4 +1,5 @@
 use super::{DeepPairs, EdgeMemory, GrownLevels, LEVELS};
+use crate::narrow::test_shapes::xorshift;
 use std::mem::{align_of, offset_of, size_of, size_of_val};
 
 /// The fields every search reads (the header and `levels`) lie in the first four cache
@@ -91,13 +92,7 @@ fn depth_codes_name_the_deepest_level_above_the_separation() {
 /// random separations from far below the deepest level to above the shallowest.
 #[test]
 fn bisected_codes_are_the_codes_tested_one_by_one() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        seed
-    };
+    let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
     let mut radii = vec![
         0.0f32,
         f32::from_bits(1),
