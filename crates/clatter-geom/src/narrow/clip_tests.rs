@@ -1,6 +1,7 @@
 //! Tests of [`super`] (the face clipping), beside it to keep `clip.rs` short.
 
 use super::*;
+use crate::narrow::test_shapes::cuboid;
 use glam::{Mat3, Quat};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -215,15 +216,6 @@ fn clip_is_the_reference(
 #[test]
 fn face_clipping_is_the_reference_bitwise() {
     let mut r = ChaCha8Rng::seed_from_u64(13);
-    let cube = |h: Vec3| {
-        let v: Vec<Vec3> = (0..8)
-            .map(|k| {
-                let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
-                Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
-            })
-            .collect();
-        crate::convex_hull(&v).expect("box hull")
-    };
     // A prism whose triangle, turned onto the cube's face exactly, has a corner on a
     // side plane of the cube (a coordinate of 0.01) while the plane cuts another
     // corner (0.02): a corner at distance zero on a plane that clips.
@@ -233,8 +225,8 @@ fn face_clipping_is_the_reference_bitwise() {
         .flat_map(|&z| tri.map(|(x, y)| Vec3::new(x, y, z)))
         .collect();
     let mut shapes = vec![
-        cube(Vec3::splat(0.01)),
-        cube(Vec3::new(0.5, 0.2, 0.3)),
+        cuboid(Vec3::splat(0.01)),
+        cuboid(Vec3::new(0.5, 0.2, 0.3)),
         crate::convex_hull(&prism).expect("prism hull"),
     ];
     for _ in 0..4 {
@@ -329,16 +321,7 @@ fn manifold_bits(m: Option<Manifold>) -> Option<(usize, [u32; 3], Vec<[u32; 4]>)
 /// The shapes of the random clip cases ([`ClipCase`]): a small cube, a box, with `prism` a
 /// triangular prism (faces of three and four corners), and four random hulls drawn from `r`.
 fn clip_shapes(r: &mut ChaCha8Rng, prism: bool) -> Vec<ConvexPolyhedron> {
-    let cube = |h: Vec3| {
-        let v: Vec<Vec3> = (0..8)
-            .map(|k| {
-                let s = |b: u32| if k & b != 0 { 1.0 } else { -1.0 };
-                Vec3::new(s(1) * h.x, s(2) * h.y, s(4) * h.z)
-            })
-            .collect();
-        crate::convex_hull(&v).expect("box hull")
-    };
-    let mut shapes = vec![cube(Vec3::splat(0.01)), cube(Vec3::new(0.5, 0.2, 0.3))];
+    let mut shapes = vec![cuboid(Vec3::splat(0.01)), cuboid(Vec3::new(0.5, 0.2, 0.3))];
     if prism {
         let tri = [(0.01, 0.005), (0.02, -0.005), (-0.005, -0.005)];
         let v: Vec<Vec3> = [-0.01, 0.01]
