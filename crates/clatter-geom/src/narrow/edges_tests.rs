@@ -279,10 +279,15 @@ fn run_winner_alone(
         let overlap = radii * (0.003 + 0.004 * phase.sin());
         let t = dir * (reach_a + reach_b - overlap) + slide * (0.01 * radii * phase.cos());
         let bv: Vec<Vec3> = b.vertices.iter().map(|&v| rot * v + t).collect();
-        let b_soa = SoaPoints::of(&bv);
+        // The search reads B's points moved as `remembered_edge` moves them (lane by lane
+        // from the shape's lanes, then back as points), the oracle B's vertices moved one
+        // by one and laid out.
+        let (mut b_soa, mut b_moved) = (SoaPoints::default(), Vec::new());
+        b_soa.fill_moved(b.lanes(), rot, t);
+        b_soa.points_into(&mut b_moved, b.vertices.len());
         // Below the best axis by a wandering room (as a remembered edge contact's floor
         // is), or above it every thirteenth step.
-        let want = search_by_brute_force(a, b, rot, &bv, &b_soa);
+        let want = search_by_brute_force(a, b, rot, &bv, &SoaPoints::of(&bv));
         let best = want.map_or(0.0, |e| e.0.clamp(-radii, 0.0));
         let room = depth * radii * (0.6 + 0.5 * (0.3 * phase).sin());
         let floor = if k % 13 == 0 { 0.5 * best } else { best - room };
@@ -294,7 +299,7 @@ fn run_winner_alone(
             t,
             a.lanes(),
             &b_soa,
-            &bv,
+            &b_moved,
             floor,
             &mut tables,
             Some((&mut memory, q, t)),
