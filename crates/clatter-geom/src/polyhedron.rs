@@ -90,14 +90,29 @@ pub struct ConvexPolyhedron {
     /// Where each direction's edges start in `dir_edges` (one entry per direction, and the
     /// end).
     dir_first: Vec<u32>,
-    /// The ends of each edge of `dir_edges` (`edges[dir_edges[i]]`), in the same order, so
-    /// that the search for B's supporting edge reads them in sequence.
-    dir_ends: Vec<[u32; 2]>,
-    /// The sum of the ends of each edge of `dir_edges` (`vertices[v0] + vertices[v1]`, the
-    /// same floats as the search's sum), in the same order: A's supporting edge along an
-    /// axis is the first largest `axis . sum`, without the vertices looked up per pair and
-    /// step.
-    dir_sums: Vec<Vec3>,
+    /// Each edge of `dir_edges` in the same order, with its ends (`edges[e]`, so that the
+    /// search for B's supporting edge reads them in sequence) and their sum
+    /// (`vertices[v0] + vertices[v1]`, the same floats as the search's sum: A's supporting
+    /// edge along an axis is the first largest `axis . sum`, without the vertices looked
+    /// up per pair and step). One record per edge, so that a direction's group is one
+    /// slice (one range check per search and body, not three; issue 23, edge38).
+    dir_records: Vec<DirEdge>,
+    /// One more than the largest vertex index among `dir_records`' ends (0 when there are
+    /// none): B's points in A's frame, when at least this many, hold every end, which the
+    /// search for B's supporting edge then reads without a check per end.
+    dir_end_bound: usize,
+}
+
+/// An edge of a direction group (see `ConvexPolyhedron::dir_group`): the sum of its ends'
+/// positions, its index and its ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct DirEdge {
+    /// `vertices[ends[0]] + vertices[ends[1]]`.
+    pub(crate) sum: Vec3,
+    /// The edge's index in `edges`.
+    pub(crate) edge: u32,
+    /// `edges[edge]`.
+    pub(crate) ends: [u32; 2],
 }
 
 /// The frame of a box-shaped polyhedron: orthonormal axes (columns, right-handed) and half
@@ -290,17 +305,24 @@ impl ConvexPolyhedron {
             inner: 0.0,
             dir_edges: Vec::new(),
             dir_first: Vec::new(),
-            dir_ends: Vec::new(),
-            dir_sums: Vec::new(),
+            dir_records: Vec::new(),
+            dir_end_bound: 0,
         };
         p.inner = Self::inner_bound(&p);
         (p.dir_edges, p.dir_first) = Self::edges_by_direction(&p);
         // (`dir_edges` holds edge indices, and the edges' ends are vertices: both indexed
         // above already.)
-        p.dir_ends = p.dir_edges.iter().map(|&e| p.edges[e as usize]).collect();
-        p.dir_sums = (p.dir_ends.iter())
-            .map(|&[v0, v1]| p.vertices[v0 as usize] + p.vertices[v1 as usize])
+        p.dir_records = (p.dir_edges.iter())
+            .map(|&edge| {
+                let ends = p.edges[edge as usize];
+                let sum = p.vertices[ends[0] as usize] + p.vertices[ends[1] as usize];
+                DirEdge { sum, edge, ends }
+            })
             .collect();
+        p.dir_end_bound = (p.dir_records.iter())
+            .map(|r| r.ends[0].max(r.ends[1]) as usize + 1)
+            .max()
+            .unwrap_or(0);
         p.lanes = crate::narrow::SoaPoints::of(&p.vertices);
         p.side_planes = Self::build_side_planes(&p);
         p.axis_codes = (0..p.faces.len())
@@ -434,25 +456,24 @@ impl ConvexPolyhedron {
         }
     }
 
-    /// The edges of direction `d` as [`ConvexPolyhedron::edges_of_dir`] gives them, with
-    /// their ends and the sums of their ends (`vertices[v0] + vertices[v1]`), three slices
-    /// of the same length (all empty for a direction that is not one of `edge_dirs`).
+    /// The edges of direction `d` as [`ConvexPolyhedron::edges_of_dir`] gives them, each
+    /// with its ends and the sum of their positions (`vertices[v0] + vertices[v1]`); empty
+    /// for a direction that is not one of `edge_dirs`.
     #[inline(always)]
-    pub(crate) fn dir_group(&self, d: usize) -> (&[u32], &[[u32; 2]], &[Vec3]) {
+    pub(crate) fn dir_group(&self, d: usize) -> &[DirEdge] {
         match (self.dir_first.get(d), self.dir_first.get(d + 1)) {
-            (Some(&lo), Some(&hi)) => {
-                let range = lo as usize..hi as usize;
-                match (
-                    self.dir_edges.get(range.clone()),
-                    self.dir_ends.get(range.clone()),
-                    self.dir_sums.get(range),
-                ) {
-                    (Some(e), Some(ends), Some(sums)) => (e, ends, sums),
-                    _ => (&[], &[], &[]),
-                }
-            }
-            _ => (&[], &[], &[]),
+            (Some(&lo), Some(&hi)) => (self.dir_records)
+                .get(lo as usize..hi as usize)
+                .unwrap_or(&[]),
+            _ => &[],
         }
+    }
+
+    /// Whether every end of the direction groups' edges is below `len` (see
+    /// `dir_end_bound`): B's points in A's frame, `len` of them, hold them all.
+    #[inline(always)]
+    pub(crate) fn dir_ends_below(&self, len: usize) -> bool {
+        self.dir_end_bound <= len
     }
 
     /// The edges grouped by direction, in increasing order within each (a counting sort

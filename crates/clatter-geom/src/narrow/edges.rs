@@ -636,19 +636,37 @@ fn supporting_edges(
     axis: Vec3,
 ) -> (usize, usize) {
     let mut ea_best = (f32::NEG_INFINITY, 0usize);
-    let (edges_a, _, sums_a) = a.dir_group(ia);
-    for (&e, &sum) in edges_a.iter().zip(sums_a) {
-        let h = axis.dot(sum);
+    for r in a.dir_group(ia) {
+        let h = axis.dot(r.sum);
         if h > ea_best.0 {
-            ea_best = (h, e as usize);
+            ea_best = (h, r.edge as usize);
         }
     }
     let mut eb_best = (f32::INFINITY, 0usize);
-    let (edges_b, ends_b, _) = b.dir_group(ib);
-    for (&e, &[v0, v1]) in edges_b.iter().zip(ends_b) {
-        let h = axis.dot(bv[v0 as usize] + bv[v1 as usize]);
+    let mut visit_b = |r: &crate::polyhedron::DirEdge, p0: Vec3, p1: Vec3| {
+        let h = axis.dot(p0 + p1);
         if h < eb_best.0 {
-            eb_best = (h, e as usize);
+            eb_best = (h, r.edge as usize);
+        }
+    };
+    if b.dir_ends_below(bv.len()) {
+        for r in b.dir_group(ib) {
+            let [v0, v1] = r.ends;
+            // SAFETY: every end of B's direction groups is below `bv.len()` (checked
+            // just above: `dir_end_bound`, built with the groups, is one more than the
+            // largest end).
+            let (p0, p1) = unsafe {
+                (
+                    *bv.get_unchecked(v0 as usize),
+                    *bv.get_unchecked(v1 as usize),
+                )
+            };
+            visit_b(r, p0, p1);
+        }
+    } else {
+        for r in b.dir_group(ib) {
+            let [v0, v1] = r.ends;
+            visit_b(r, bv[v0 as usize], bv[v1 as usize]);
         }
     }
     (ea_best.1, eb_best.1)

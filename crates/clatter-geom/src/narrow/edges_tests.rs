@@ -147,7 +147,33 @@ fn edges_of_a_direction_are_those_the_filter_finds() {
                 "shape {i} ({} edges), direction {d}",
                 p.edges.len()
             );
+            // The search's group: the same edges with their ends and their ends' sums
+            // (bitwise).
+            let group: Vec<_> = (p.dir_group(d).iter())
+                .map(|r| (r.edge as usize, r.ends, r.sum.to_array().map(f32::to_bits)))
+                .collect();
+            let sum = |[v0, v1]: [u32; 2]| p.vertices[v0 as usize] + p.vertices[v1 as usize];
+            let want: Vec<_> = (want.iter())
+                .map(|&(e, ends)| (e, ends, sum(ends).to_array().map(f32::to_bits)))
+                .collect();
+            assert_eq!(group, want, "shape {i}, direction {d}");
         }
+        // Every group's ends lie below `len` exactly when `dir_ends_below(len)` (the guard
+        // of B's unchecked reads in `supporting_edges`): against the largest end of all.
+        let largest = (0..p.edge_dirs.len())
+            .flat_map(|d| p.dir_group(d).iter().flat_map(|r| r.ends))
+            .max();
+        for len in [
+            0,
+            1,
+            p.vertices.len().saturating_sub(1),
+            p.vertices.len(),
+            p.vertices.len() + 1,
+        ] {
+            let want = largest.is_none_or(|v| (v as usize) < len);
+            assert_eq!(p.dir_ends_below(len), want, "shape {i}, {len} points");
+        }
+        assert!(p.dir_ends_below(p.vertices.len()), "shape {i}");
     }
 }
 
