@@ -72,6 +72,19 @@ fn supporting_edges_are_those_of_the_edge_by_edge_search() {
         let cube = convex_hull(&corners).expect("a box");
         shapes.extend([cube.clone(), cube.clone(), cube]);
     }
+    // Prisms of 5 to 9 sides: their long edges, one direction of 5 to 9 edges, all tied
+    // along the prism's axis (the first of equals must win).
+    for n in 5..10 {
+        let ring: Vec<Vec3> = (0..2 * n)
+            .map(|k| {
+                let th = (k % n) as f32 * std::f32::consts::TAU / n as f32;
+                Vec3::new(th.cos(), th.sin(), if k < n { -0.7 } else { 0.7 })
+            })
+            .collect();
+        let prism = convex_hull(&ring).expect("a prism");
+        assert!((0..prism.edge_dirs.len()).any(|d| prism.dir_group(d).len() == n));
+        shapes.push(prism);
+    }
     let mut checked = 0;
     let n = shapes.len();
     for (i, a) in shapes.iter().enumerate() {
