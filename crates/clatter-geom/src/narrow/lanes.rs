@@ -77,9 +77,9 @@ impl SoaPoints {
     }
 
     /// The first `len` points laid out (at most four per chunk), back as points into `out`
-    /// (cleared first): the same floats, moves and shuffles only. With [`SoaPoints::fill_moved`],
-    /// a body's points moved into another's frame both ways, as lanes and as points, for
-    /// about a third of the instructions of moving each point alone (issue 23, edge38).
+    /// (cleared first): the same floats, moves and shuffles only. With
+    /// [`SoaPoints::fill_moved`], a body's points moved into another's frame both ways, as
+    /// lanes and as points, without moving each point alone (issue 23, edge38).
     #[inline(always)]
     pub(super) fn points_into(&self, out: &mut Vec<Vec3>, len: usize) {
         let len = len.min(4 * self.chunks.len());

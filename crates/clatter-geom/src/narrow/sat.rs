@@ -221,9 +221,9 @@ enum Prepared {
 /// B's points in A's frame (`rel`), as lanes (`b_soa`) and as vertices (`bv`): moved lane
 /// by lane from B's own lanes, then laid back out as points. The same floats as moving
 /// each vertex, `rel.rot * v + rel.t`, and laying those out (`SoaPoints::fill`): see
-/// `SoaPoints::fill_moved` and `SoaPoints::points_into`. Where the points were moved one
-/// by one and then laid out, this is about a third of the instructions (a cube's eight:
-/// ~290 to ~90; issue 23, edge38).
+/// `SoaPoints::fill_moved` and `SoaPoints::points_into`. Moving the points one by one
+/// (`Vec::extend`, ~215 instructions a cube) and then laying them out cost the cube pile's
+/// step 1.4% more instructions (issue 23, edge38).
 #[inline(always)]
 fn moved_points(b: &ConvexPolyhedron, rel: &Relative, bv: &mut Vec<Vec3>, b_soa: &mut SoaPoints) {
     b_soa.fill_moved(b.lanes(), rel.rot, rel.t);
