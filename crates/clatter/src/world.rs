@@ -651,6 +651,12 @@ impl World {
         &self.shapes[self.consts.shape[i] as usize].shape
     }
 
+    /// The shape of body `i` and its orientation.
+    #[inline]
+    pub(crate) fn body_shape(&self, i: usize) -> (&Shape, Quat) {
+        (self.shape(i), self.state.orientation[i])
+    }
+
     /// Whether body `i` has been removed by a sink.
     #[inline]
     pub fn is_removed(&self, i: usize) -> bool {

@@ -234,21 +234,50 @@ pub fn point_contact_force_in<const PLAIN: bool>(
     history: &mut Vec3,
     coverage: &mut f32,
 ) -> ContactForce {
+    point_force_known::<PLAIN>(c, None, n, cp, a, b, history, coverage)
+}
+
+/// [`point_contact_force_in`], with the linear law's constants of context `c` taken from
+/// `known` when given ([`LinearLaw::of`]`(c)`, the same values: the same bits).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn point_force_known<const PLAIN: bool>(
+    c: &PairContext,
+    known: Option<&LinearLaw>,
+    n: Vec3,
+    cp: ContactPoint,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    history: &mut Vec3,
+    coverage: &mut f32,
+) -> ContactForce {
     debug_assert!(!PLAIN || is_plain(&c.params));
+    debug_assert!(known.is_none() || !hertz::<false>(&c.params));
     let (p, depth) = (&c.params, cp.depth);
     let (point, n_a) = (Vec3A::from(cp.point), Vec3A::from(n));
     let (ma, mb) = (MotionA::of(a), MotionA::of(b));
     let vrel = mb.point_velocity(point) - ma.point_velocity(point);
-    let (fs, k) = spring_in::<PLAIN>(p, c.r_eff, depth, c.share);
-    let eta = damping(p, c.m_eff, k);
+    let (fs, k, eta) = match known {
+        // `spring_in`'s linear form: `share * stiffness * depth`, the product taken first.
+        Some(l) => (l.k * depth, l.k, l.eta_point),
+        None => {
+            let (fs, k) = spring_in::<PLAIN>(p, c.r_eff, depth, c.share);
+            (fs, k, damping(p, c.m_eff, k))
+        }
+    };
     let fn_ = if c.share == SPHERE_POINT_SHARE {
         resolved_normal_force_in::<PLAIN>(c, depth, -vrel.dot(n_a), (fs, k, eta), coverage)
     } else {
         *coverage = 0.0;
         fs - eta * vrel.dot(n_a)
     };
-    let kt = tangential_stiffness::<PLAIN>(c, depth, c.share);
-    let eta_t = tangential_damping::<PLAIN>(c, kt, eta);
+    let (kt, eta_t) = match known {
+        Some(l) => (l.kt, l.eta_t_point),
+        None => {
+            let kt = tangential_stiffness::<PLAIN>(c, depth, c.share);
+            (kt, tangential_damping::<PLAIN>(c, kt, eta))
+        }
+    };
     let ft = tangential_law(c, kt, n_a, vrel, fn_, eta_t, history);
     let f = n_a * fn_ + ft;
     let mut out = ContactForce::new(
@@ -579,15 +608,41 @@ pub fn contact_force_in<const PLAIN: bool>(
     history: &mut Vec3,
     twist: &mut f32,
 ) -> ContactForce {
+    contact_force_known::<PLAIN>(c, None, manifold, a, b, history, twist)
+}
+
+/// [`contact_force_in`], with the linear law's constants of context `c` (those that depend
+/// on the context and the point count only: stiffness, damping, tangential stiffness and
+/// damping, `1 / count`) taken from `known` when given: `known` must be
+/// [`LinearLaw::of`]`(c)` (the same values computed once, so the same bits) and `c`'s law
+/// linear. A stage whose pairs all share one context (one material, mass, radius and
+/// shape kind: a pile of equal bodies) makes both once.
+#[inline(always)]
+pub fn contact_force_known<const PLAIN: bool>(
+    c: &PairContext,
+    known: Option<&LinearLaw>,
+    manifold: &Manifold,
+    a: &BodyMotion,
+    b: &BodyMotion,
+    history: &mut Vec3,
+    twist: &mut f32,
+) -> ContactForce {
     debug_assert!(!PLAIN || is_plain(&c.params));
+    debug_assert!(known.is_none() || !hertz::<false>(&c.params));
     let (p, m_eff, r_eff, share, dt) = (&c.params, c.m_eff, c.r_eff, c.share, c.dt);
     let n = manifold.normal;
     if manifold.count == 1 {
         // The twist slot holds the normal coverage of one-point contacts.
-        return point_contact_force_in::<PLAIN>(c, n, manifold.points[0], a, b, history, twist);
+        let point = manifold.points[0];
+        return point_force_known::<PLAIN>(c, known, n, point, a, b, history, twist);
     }
     let pts = manifold.points();
-    let inv_count = 1.0 / pts.len() as f32;
+    // The linear law's constants of this point count, if known (`LinearLaw`).
+    let known = known.map(|l| ((l.k, l.kt), &l.patch[pts.len()]));
+    let inv_count = match known {
+        Some((_, l)) => l.inv_count,
+        None => 1.0 / pts.len() as f32,
+    };
     let n_a = Vec3A::from(n);
     let (ma, mb) = (MotionA::of(a), MotionA::of(b));
     // The points' coordinates (in lanes on x86_64: `patch`).
@@ -601,6 +656,9 @@ pub fn contact_force_in<const PLAIN: bool>(
             *s = spring_in::<PLAIN>(p, r_eff, cp.depth, share);
             k_total += s.1;
         }
+    } else if let Some(((k, _), l)) = known {
+        springs[0].1 = k;
+        k_total = l.k_total;
     } else {
         for s in springs.iter_mut().take(pts.len()) {
             s.1 = spring_in::<PLAIN>(p, r_eff, 0.0, share).1;
@@ -610,7 +668,10 @@ pub fn contact_force_in<const PLAIN: bool>(
     let (mut centroid, depth_sum) = patch.sums();
     centroid *= inv_count;
     let mean_depth = depth_sum * inv_count;
-    let eta_total = damping(p, m_eff, k_total);
+    let eta_total = match known {
+        Some((_, l)) => l.eta_total,
+        None => damping(p, m_eff, k_total),
+    };
     // Each point's share of the damping, `eta_total k / k_total`. The linear law's points
     // all have the same `k` (`share * stiffness`), so one evaluation gives every point's
     // bits (a division a point saved); Hertz's `k` grows with each point's depth.
@@ -621,10 +682,10 @@ pub fn contact_force_in<const PLAIN: bool>(
             0.0
         }
     };
-    let linear_eta = if hertz::<PLAIN>(p) {
-        0.0
-    } else {
-        share_of(springs[0].1)
+    let linear_eta = match known {
+        _ if hertz::<PLAIN>(p) => 0.0,
+        Some((_, l)) => l.eta_point,
+        None => share_of(springs[0].1),
     };
     // Each point's spring force and damping (unused slots: zero, never added).
     let (fs, etas) = if hertz::<PLAIN>(p) {
@@ -646,9 +707,14 @@ pub fn contact_force_in<const PLAIN: bool>(
         normal_force,
     } = patch.normal_sums(n_a, &ma, &mb, fs, etas);
     // One tangential spring for the whole patch, at its centroid.
-    let share_total = share * pts.len() as f32;
-    let kt = tangential_stiffness::<PLAIN>(c, mean_depth, share_total);
-    let eta_t = tangential_damping::<PLAIN>(c, kt, eta_total);
+    let (kt, eta_t) = match known {
+        Some(((_, kt), l)) => (kt, l.eta_t),
+        None => {
+            let share_total = share * pts.len() as f32;
+            let kt = tangential_stiffness::<PLAIN>(c, mean_depth, share_total);
+            (kt, tangential_damping::<PLAIN>(c, kt, eta_total))
+        }
+    };
     let vrel = mb.point_velocity(centroid) - ma.point_velocity(centroid);
     let ft = tangential_law(c, kt, n_a, vrel, normal_force, eta_t, history);
     force_b += ft;
@@ -683,6 +749,83 @@ pub fn contact_force_in<const PLAIN: bool>(
     let normal_force = out.normal_force;
     adhesion_and_rolling::<PLAIN>(c, n, centroid, (a, b), normal_force, &mut out);
     out
+}
+
+/// The constants of the linear law for one contact context ([`PairContext`] with linear
+/// parameters): what [`contact_force_in`] computes from the context and a manifold's point
+/// count alone, computed here by the same operations on the same values (so the same bits).
+/// [`contact_force_known`] takes them instead of computing them per contact: for a stage
+/// whose pairs all share one context, once per stage.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LinearLaw {
+    /// One point's stiffness, `share * stiffness`.
+    k: f32,
+    /// A one-point contact's normal damping (for a patch: see [`PatchLaw::eta_point`]).
+    eta_point: f32,
+    /// The tangential spring's stiffness (the linear law's: whatever the point count).
+    kt: f32,
+    /// A one-point contact's tangential damping.
+    eta_t_point: f32,
+    /// By point count (slots 2 to 4 used).
+    patch: [PatchLaw; 5],
+}
+
+/// [`LinearLaw`]'s constants of a patch of a given point count.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+struct PatchLaw {
+    /// `1 / count`.
+    inv_count: f32,
+    /// The points' total stiffness, `k` added `count` times from 0.
+    k_total: f32,
+    /// The patch's total normal damping.
+    eta_total: f32,
+    /// Each point's share of it, `eta_total k / k_total` (0 if `k_total` is not positive).
+    eta_point: f32,
+    /// The tangential damping.
+    eta_t: f32,
+}
+
+impl LinearLaw {
+    /// The constants of context `c`, whose law must be linear (`None` for Hertz).
+    pub fn of(c: &PairContext) -> Option<Self> {
+        if hertz::<false>(&c.params) {
+            return None;
+        }
+        let (p, m_eff, r_eff, share) = (&c.params, c.m_eff, c.r_eff, c.share);
+        // `point_contact_force_in`'s.
+        let k = spring_in::<true>(p, r_eff, 0.0, share).1;
+        let eta_point = damping(p, m_eff, k);
+        let kt = tangential_stiffness::<true>(c, 0.0, share);
+        let eta_t_point = tangential_damping::<true>(c, kt, eta_point);
+        // `contact_force_in`'s, by point count.
+        let mut patch = [PatchLaw::default(); 5];
+        for (count, l) in patch.iter_mut().enumerate().skip(2) {
+            let mut k_total = 0.0;
+            for _ in 0..count {
+                k_total += k;
+            }
+            let eta_total = damping(p, m_eff, k_total);
+            let eta_point = if k_total > 0.0 {
+                eta_total * k / k_total
+            } else {
+                0.0
+            };
+            *l = PatchLaw {
+                inv_count: 1.0 / count as f32,
+                k_total,
+                eta_total,
+                eta_point,
+                eta_t: tangential_damping::<true>(c, kt, eta_total),
+            };
+        }
+        Some(LinearLaw {
+            k,
+            eta_point,
+            kt,
+            eta_t_point,
+            patch,
+        })
+    }
 }
 
 /// The overlap at which one point carrying `share` of the law has spring force `force`:

@@ -589,17 +589,20 @@ fn assert_law_is_reference(
 ) -> f32 {
     let (mut h0, mut t0) = (history, twist);
     let want = reference::contact_force(c, m, a, b, &mut h0, &mut t0);
-    for plain in [false, true] {
-        if plain && !is_plain(&c.params) {
+    // The linear law's constants made once (`LinearLaw`), where the law is linear.
+    let known = LinearLaw::of(c);
+    for (plain, constants) in [(false, false), (true, false), (false, true), (true, true)] {
+        if (plain && !is_plain(&c.params)) || (constants && known.is_none()) {
             continue;
         }
+        let known = known.as_ref().filter(|_| constants);
         let (mut h, mut t) = (history, twist);
         let got = if plain {
-            contact_force_in::<true>(c, m, a, b, &mut h, &mut t)
+            contact_force_known::<true>(c, known, m, a, b, &mut h, &mut t)
         } else {
-            contact_force(c, m, a, b, &mut h, &mut t)
+            contact_force_known::<false>(c, known, m, a, b, &mut h, &mut t)
         };
-        let what = format!("{what}, plain form {plain}");
+        let what = format!("{what}, plain form {plain}, constants made once {constants}");
         assert_eq!(
             bytemuck::bytes_of(&got),
             bytemuck::bytes_of(&want),
@@ -613,6 +616,110 @@ fn assert_law_is_reference(
         assert_eq!(t.to_bits(), t0.to_bits(), "{what}");
     }
     t0
+}
+
+/// The law with the linear law's constants made once ([`LinearLaw::of`], taken by
+/// [`contact_force_known`]) against the law computing them per contact
+/// ([`contact_force`]) and against [`reference::contact_force`], bitwise: forces, springs,
+/// twists and coverages, on random contexts (stiffness, restitution, mass, step, both
+/// point shares) and manifolds of one to four points; Hertz has none.
+#[test]
+fn the_linear_law_constants_made_once_give_the_same_bits() {
+    use rand::{Rng, SeedableRng};
+    let hertz = params(ContactLaw::Hertz {
+        youngs_modulus: 1.0e7,
+        poisson_ratio: 0.3,
+    });
+    assert!(
+        LinearLaw::of(&PairContext {
+            params: hertz,
+            m_eff: 0.01,
+            r_eff: 0.005,
+            share: POLYHEDRON_POINT_SHARE,
+            dt: 3.3e-5,
+        })
+        .is_none()
+    );
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3838);
+    let (mut sliding, mut sticking) = (0, 0);
+    for k in 0..40_000 {
+        // (Not 0: the combined stiffness is then NaN, whose sign bit the compiler's
+        // operand order decides.)
+        let stiffness = 10f32.powf(rng.random_range(-3.0..6.0));
+        let restitution = rng.random_range(0.05..0.95);
+        let m = Material::new(
+            "m",
+            1000.0,
+            ContactLaw::Linear { stiffness },
+            restitution,
+            0.4,
+        );
+        let count = 1 + k % 4;
+        let share = if count == 1 && k % 8 == 0 {
+            SPHERE_POINT_SHARE
+        } else {
+            POLYHEDRON_POINT_SHARE
+        };
+        let c = PairContext {
+            params: PairParams::combine(&m, &m),
+            m_eff: 10f32.powf(rng.random_range(-4.0..0.0)),
+            r_eff: 0.005,
+            share,
+            dt: 10f32.powf(rng.random_range(-6.0..-4.0)),
+        };
+        let known = LinearLaw::of(&c).expect("a linear law");
+        let manifold = if count == 1 {
+            let n = awkward_vec(&mut rng, 1.0)
+                .try_normalize()
+                .unwrap_or(Vec3::Z);
+            let mut m = Manifold {
+                normal: n,
+                count: 1,
+                ..Default::default()
+            };
+            m.points[0].depth = awkward(&mut rng, 3e-4) + 1e-4;
+            m.points[0].point = n * 0.01;
+            m
+        } else {
+            awkward_patch(&mut rng, count)
+        };
+        let at = awkward_vec(&mut rng, 0.001);
+        let a = awkward_motion(&mut rng, at);
+        let b = awkward_motion(&mut rng, manifold.normal * 0.02);
+        let history = awkward_vec(&mut rng, 2e-4);
+        let twist = match (count, k % 3) {
+            (1, 0) => 0.0,
+            (1, 1) => -1.0,
+            (1, _) => (awkward(&mut rng, 1.0) + 1.0) * 1e-3,
+            _ => awkward(&mut rng, 0.05),
+        };
+        let (mut h1, mut t1) = (history, twist);
+        let (mut h2, mut t2) = (history, twist);
+        let each = contact_force(&c, &manifold, &a, &b, &mut h1, &mut t1);
+        let once =
+            contact_force_known::<true>(&c, Some(&known), &manifold, &a, &b, &mut h2, &mut t2);
+        let what = format!("contact {k}: {c:?} {manifold:?}");
+        assert_eq!(
+            bytemuck::bytes_of(&each),
+            bytemuck::bytes_of(&once),
+            "{what}"
+        );
+        assert_eq!(
+            h1.to_array().map(f32::to_bits),
+            h2.to_array().map(f32::to_bits),
+            "{what}"
+        );
+        assert_eq!(t1.to_bits(), t2.to_bits(), "{what}");
+        assert_law_is_reference(&c, &manifold, (&a, &b), (history, twist), &what);
+        // Not vacuous: forces (and a spring) came out, and the Coulomb cap bound.
+        let cap = c.params.friction * each.normal_force.max(0.0);
+        if each.force_b.reject_from(manifold.normal).length() >= cap * 0.999 {
+            sliding += 1;
+        } else {
+            sticking += 1;
+        }
+    }
+    assert!(sliding > 1000 && sticking > 1000, "{sliding} {sticking}");
 }
 
 /// The law on the patch tests' awkward manifolds (two to four points) against

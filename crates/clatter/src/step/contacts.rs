@@ -2,7 +2,7 @@
 //! candidate body pair and body-wall pair, in parallel. Each contact writes only its own
 //! slot (force, springs, touching flag), so the result does not depend on the thread count.
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use rayon::prelude::*;
 
 use super::motion::BodyBound;
@@ -121,6 +121,13 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
     let keep = |k: usize| groups.is_none_or(|(g, want)| g[(lo + k) / size] == want);
     // Every pair on the plain law: the law compiled without the tests for the others.
     let plain = w.materials.all_plain();
+    // Bodies all alike on the plain law: one body-pair context and its constants.
+    let same = if plain && !w.has_composites() && !w.spheres_only() {
+        SamePair::of(w)
+    } else {
+        None
+    };
+    let same = same.as_ref();
     // Spheres of one radius, mass and material: the lanes' law constants once a chunk.
     #[cfg(target_arch = "x86_64")]
     let uniform = if w.spheres_only() && plain {
@@ -244,13 +251,15 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                         }
                     }
                     let v = PlainBodies::of(w, x);
-                    for &k in &rest[..kept] {
-                        let k = k as usize;
-                        let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
-                        let (tw, b, m) = (&mut tw[k], &mut b[k], &mut m[k]);
-                        touching += plain_pair(w, &v, p[k], h, f, t, hn, tw, b, m, plain) as usize;
-                    }
+                    let rest = &rest[..kept];
+                    let slots = (h, f, t, hn, tw, b, m);
+                    // The loop compiled twice: with one context for all pairs, or without
+                    // (each form with its own registers).
                     touching
+                        + match same {
+                            Some(s) => plain_pairs(w, &v, p, rest, slots, PairLaw::Same(s)),
+                            None => plain_pairs(w, &v, p, rest, slots, PairLaw::Each(plain)),
+                        }
                 })
                 .sum::<usize>()
         },
@@ -447,11 +456,13 @@ fn body_pair<const PIECES: bool>(
     let b = w.body_bounds.as_slice();
     debug_assert_eq!(b.len(), w.len(), "bounds made with the positions' split");
     let of = |i: usize| b[i];
+    let body = |i: usize| w.body_shape(i);
     // The manifold is written in place and the law reads it there (returned in a tuple it
     // was copied three times between the narrow phase and the law).
     let mut found = None;
-    let narrow =
-        remembered_narrow::<PIECES>(w, x, of, pair, pieces, hint, bound, memory, &mut found);
+    let narrow = remembered_narrow::<PIECES>(
+        w, x, of, body, pair, pieces, hint, bound, memory, &mut found,
+    );
     let Some(d) = narrow else {
         return *touching;
     };
@@ -492,6 +503,8 @@ struct PlainBodies<'a> {
     x: &'a [Ds3A],
     velocity: &'a [Vec3],
     omega: &'a [Vec3],
+    orientation: &'a [Quat],
+    shape: &'a [u32],
     material: &'a [u32],
     mass: &'a [f32],
     equivalent_radius: &'a [f32],
@@ -511,6 +524,8 @@ impl<'a> PlainBodies<'a> {
             x: &x[..n],
             velocity: &s.velocity[..n],
             omega: &s.omega[..n],
+            orientation: &s.orientation[..n],
+            shape: &c.shape[..n],
             material: &c.material[..n],
             mass: &c.mass[..n],
             equivalent_radius: &c.equivalent_radius[..n],
@@ -519,9 +534,90 @@ impl<'a> PlainBodies<'a> {
     }
 }
 
+/// The body-pair law's context when every body is alike (one material, mass, equivalent
+/// radius and shape kind, as in a pile of equal cubes) and the law plain: the context
+/// [`plain_pair`] would build for any pair, built once from body 0 by the same operations
+/// on the same values (so the same bits), and its linear law's constants
+/// ([`law::LinearLaw`]), which the law then takes instead of computing them per contact.
+struct SamePair {
+    context: PairContext,
+    law: law::LinearLaw,
+}
+
+impl SamePair {
+    /// `w`'s, if its bodies are all alike (compared by their bits), else `None`. Only for
+    /// a world whose every pair's law is plain ([`law::is_plain`]).
+    fn of(w: &World) -> Option<SamePair> {
+        let n = w.len();
+        let c = &w.consts;
+        // Whether every entry has the first's bits (no early exit: the loop vectorises).
+        fn alike<T: Copy>(v: &[T], bits: impl Fn(T) -> u32) -> bool {
+            v.first()
+                .is_some_and(|&f| v.iter().fold(0, |d, &x| d | (bits(x) ^ bits(f))) == 0)
+        }
+        let all = alike(&c.material[..n], |m| m)
+            && alike(&c.mass[..n], f32::to_bits)
+            && alike(&c.equivalent_radius[..n], f32::to_bits)
+            && alike(&c.is_sphere[..n], u32::from);
+        if !all {
+            return None;
+        }
+        // `plain_pair`'s context with body 0 on both sides.
+        let (m, r, s) = (c.mass[0], c.equivalent_radius[0], c.is_sphere[0]);
+        let params = w.pair_params(c.material[0], c.material[0]);
+        let share = law::point_share(s, s);
+        let context = pair_context(w, params, m * m / (m + m), r * r / (r + r), share);
+        let law = law::LinearLaw::of(&context)?;
+        Some(SamePair { context, law })
+    }
+}
+
+/// A chunk's per-pair slots: springs, forces, touching flags, hints, twists, separation
+/// bounds and edge memories.
+type Slots<'s> = (
+    &'s mut [Vec3],
+    &'s mut [ContactForce],
+    &'s mut [bool],
+    &'s mut [SatHint],
+    &'s mut [f32],
+    &'s mut [f32],
+    &'s mut [EdgeMemory],
+);
+
+/// [`plain_pair`] for the chunk's pairs `pairs[k]`, `k` in `rest` (in that order), with
+/// their slots; returns how many touch. Inlined into each of its call sites, each with
+/// its `law` (so each loop is compiled for its kind of context).
+#[inline(always)]
+fn plain_pairs(
+    w: &World,
+    v: &PlainBodies,
+    pairs: &[[u32; 2]],
+    rest: &[u8],
+    (h, f, t, hn, tw, b, m): Slots,
+    law: PairLaw,
+) -> usize {
+    let mut touching = 0;
+    for &k in rest {
+        let k = k as usize;
+        let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
+        let (tw, b, m) = (&mut tw[k], &mut b[k], &mut m[k]);
+        touching += plain_pair(w, v, pairs[k], h, f, t, hn, tw, b, m, law) as usize;
+    }
+    touching
+}
+
+/// Which law context [`plain_pair`] takes.
+#[derive(Clone, Copy)]
+enum PairLaw<'a> {
+    /// The one every pair has ([`SamePair`]).
+    Same(&'a SamePair),
+    /// Each pair's own, made from its bodies; whether every pair's law is plain.
+    Each(bool),
+}
+
 /// [`body_pair`] of the plain path (no composites: `PIECES` false), for a pair with its
 /// edge memory, with body data read through `v` (the same values, so the same floats in
-/// the same order: the same bits).
+/// the same order: the same bits), its law's context as `law` says.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn plain_pair(
@@ -535,7 +631,7 @@ fn plain_pair(
     twist: &mut f32,
     bound: &mut f32,
     memory: &mut EdgeMemory,
-    plain: bool,
+    law: PairLaw,
 ) -> bool {
     let (iu, ju) = (i as usize, j as usize);
     // The one bounds check for every read of `v` below (and in `remembered_narrow`).
@@ -544,18 +640,15 @@ fn plain_pair(
     // The manifold is written in place and the law reads it there (see `body_pair`).
     let mut found = None;
     let memory = Some(memory);
-    let narrow = remembered_narrow::<false>(w, v.x, of, [i, j], 0, hint, bound, memory, &mut found);
+    let body = |k: usize| (&w.shapes[v.shape[k] as usize].shape, v.orientation[k]);
+    let pair = [i, j];
+    let narrow =
+        remembered_narrow::<false>(w, v.x, of, body, pair, 0, hint, bound, memory, &mut found);
     let Some(d) = narrow else {
         return *touching;
     };
     match &found {
         Some(m) => {
-            let params = w.pair_params(v.material[iu], v.material[ju]);
-            let (mi, mj) = (v.mass[iu], v.mass[ju]);
-            let (ri, si) = (v.equivalent_radius[iu], v.is_sphere[iu]);
-            let (rj, sj) = (v.equivalent_radius[ju], v.is_sphere[ju]);
-            let share = law::point_share(si, sj);
-            let context = pair_context(w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
             // `w.local_motion(i)` and `w.motion_at(j, d)`.
             let a = BodyMotion {
                 position: Vec3::ZERO,
@@ -567,10 +660,25 @@ fn plain_pair(
                 velocity: v.velocity[ju],
                 omega: v.omega[ju],
             };
-            *force = if plain {
-                law::contact_force_in::<true>(&context, m, &a, &b, hist, twist)
-            } else {
-                law::contact_force_in::<false>(&context, m, &a, &b, hist, twist)
+            *force = match law {
+                PairLaw::Same(s) => {
+                    let known = Some(&s.law);
+                    law::contact_force_known::<true>(&s.context, known, m, &a, &b, hist, twist)
+                }
+                PairLaw::Each(plain) => {
+                    let params = w.pair_params(v.material[iu], v.material[ju]);
+                    let (mi, mj) = (v.mass[iu], v.mass[ju]);
+                    let (ri, si) = (v.equivalent_radius[iu], v.is_sphere[iu]);
+                    let (rj, sj) = (v.equivalent_radius[ju], v.is_sphere[ju]);
+                    let share = law::point_share(si, sj);
+                    let (m_eff, r_eff) = (mi * mj / (mi + mj), ri * rj / (ri + rj));
+                    let context = pair_context(w, params, m_eff, r_eff, share);
+                    if plain {
+                        law::contact_force_in::<true>(&context, m, &a, &b, hist, twist)
+                    } else {
+                        law::contact_force_in::<false>(&context, m, &a, &b, hist, twist)
+                    }
+                }
             };
             *touching = true;
         }

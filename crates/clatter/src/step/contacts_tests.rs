@@ -299,6 +299,10 @@ fn reference_body_pairs(w: &mut World) {
 fn pair_loop_matches_the_plain_loop() {
     for (shape, n) in [(PileShape::Cube, 64), (PileShape::Mixed, 64)] {
         let mut w = World::new(poured(shape, n, &PileParams::default(), 11));
+        // The cubes' loop takes the one context of equal bodies (`SamePair`), the mixed
+        // pile's each pair's own: both against the loop that made each pair's context.
+        let same = super::SamePair::of(&w).is_some();
+        assert_eq!(same, shape == PileShape::Cube, "{shape:?}");
         let (mut skipped, mut tested, mut touched) = (0usize, 0usize, 0usize);
         for step in 0..20_000 {
             if step % 397 == 0 {
@@ -448,4 +452,52 @@ fn anchored_bound_holds_at_rest_and_spinning() {
         assert!(h.checked > 10_000, "only {} pair-steps checked", h.checked);
         assert!(h.worst > 0.5, "bound loose everywhere: {}", h.worst);
     }
+}
+
+/// [`super::SamePair`]: on a pile of equal cubes, the context and linear constants every
+/// body pair of the list would make for itself (`pair_context` from both bodies' material,
+/// mass, equivalent radius and shape kind; `LinearLaw::of` of it), bitwise; `None` once a
+/// single body differs in any of the four, and on a mixed pile.
+#[test]
+fn same_pair_is_every_pairs_context() {
+    use crate::law::{self, LinearLaw};
+    let cubes = World::new(poured(PileShape::Cube, 64, &PileParams::default(), 5));
+    let mut w = cubes.clone();
+    while w.contacts.pairs.len() < 50 && w.step_count < 20_000 {
+        w.step().expect("step");
+    }
+    assert!(w.contacts.pairs.len() >= 50);
+    let same = super::SamePair::of(&w).expect("equal cubes");
+    let bits = |c: &law::PairContext| bytemuck::bytes_of(c).to_vec();
+    for &[i, j] in &w.contacts.pairs {
+        let (i, j) = (i as usize, j as usize);
+        let c = &w.consts;
+        let params = w.pair_params(c.material[i], c.material[j]);
+        let (mi, mj) = (c.mass[i], c.mass[j]);
+        let (ri, rj) = (c.equivalent_radius[i], c.equivalent_radius[j]);
+        let share = law::point_share(c.is_sphere[i], c.is_sphere[j]);
+        let own = super::pair_context(&w, params, mi * mj / (mi + mj), ri * rj / (ri + rj), share);
+        assert_eq!(bits(&own), bits(&same.context), "pair {i} {j}");
+        assert_eq!(LinearLaw::of(&own), Some(same.law), "pair {i} {j}");
+    }
+    // One body unlike the others in each of the four: no one context.
+    let last = w.len() - 1;
+    for field in 0..4 {
+        let mut v = w.clone();
+        let c = &mut v.consts;
+        match field {
+            0 => c.mass[last] *= 1.5,
+            1 => c.equivalent_radius[17] *= 0.5,
+            2 => c.is_sphere[0] = true,
+            _ => {
+                use crate::material::{ContactLaw, Material, Materials};
+                let m = Material::new("m", 1000.0, ContactLaw::Linear { stiffness: 2e4 }, 0.5, 0.3);
+                v.materials = Materials::new(vec![m.clone(), m]);
+                v.consts.material[3] = 1;
+            }
+        }
+        assert!(super::SamePair::of(&v).is_none(), "field {field}");
+    }
+    let mixed = World::new(poured(PileShape::Mixed, 64, &PileParams::default(), 5));
+    assert!(super::SamePair::of(&mixed).is_none());
 }

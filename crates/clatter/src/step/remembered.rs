@@ -4,7 +4,7 @@
 //! contacts stage's pair loops ([`super::contacts`]) call it for every pair not skipped
 //! as apart. (Split from `contacts.rs`, which passed 900 lines.)
 
-use glam::Vec3;
+use glam::{Quat, Vec3};
 
 use super::motion::BodyBound;
 use crate::contact_list::piece_ids;
@@ -19,13 +19,17 @@ use clatter_geom::{Pose, Shape};
 /// more than both bodies can have moved, the pair is skipped), or a remembered contact
 /// face's margin less this step's motion; then `j`'s offset from `i` ([`World::offset_of`],
 /// computed once for the pair), and the manifold, if any, written to `found` (left as it
-/// is for a skipped pair).
-#[inline]
+/// is for a skipped pair). `body_of(k)`: body `k`'s shape and orientation (as
+/// [`World::shape`] and the state's orientation give them; the plain path reads them
+/// through arrays cut to the body count, without a bounds check each). Inlined into each
+/// pair loop (out of line, its arguments and the manifold went through memory).
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn remembered_narrow<const PIECES: bool>(
-    w: &World,
+pub(super) fn remembered_narrow<'w, const PIECES: bool>(
+    w: &'w World,
     x: impl PositionPairs,
     bound_of: impl Fn(usize) -> BodyBound,
+    body_of: impl Fn(usize) -> (&'w Shape, Quat),
     [i, j]: [u32; 2],
     pieces: u32,
     hint: &mut SatHint,
@@ -55,7 +59,7 @@ pub(super) fn remembered_narrow<const PIECES: bool>(
         *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d, &bi, &bj);
     }
     let (pa, pb) = piece_ids(pieces);
-    *found = narrow_pair::<PIECES>(w, d, i, j, pa, pb, hint, bound, memory);
+    *found = narrow_pair::<PIECES>(w, body_of, d, i, j, pa, pb, hint, bound, memory);
     Some(d)
 }
 
@@ -88,6 +92,7 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
             world,
             x,
             |i| BodyBound::of(world, i),
+            |i| world.body_shape(i),
             c.pairs[k],
             c.pieces[k],
             &mut hint,
@@ -102,7 +107,8 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
         let of = |i| BodyBound::of(world, i);
         let (pair, out) = (c.pairs[k], &mut found);
         let m = memory.as_mut();
-        remembered_narrow::<false>(world, x, of, pair, 0, &mut hint, &mut bound, m, out);
+        let body = |i| world.body_shape(i);
+        remembered_narrow::<false>(world, x, of, body, pair, 0, &mut hint, &mut bound, m, out);
         if memory.is_some() {
             // Anchored (see `remembered_narrow`): the face stood in when the pair kept it,
             // its stored margin and its anchor (a full test sets all three anew).
@@ -121,8 +127,9 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
 /// returned the manifold through memory, which its caller then copied twice more.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn narrow_pair<const PIECES: bool>(
-    w: &World,
+fn narrow_pair<'w, const PIECES: bool>(
+    w: &'w World,
+    body_of: impl Fn(usize) -> (&'w Shape, Quat),
     d: Vec3,
     i: usize,
     j: usize,
@@ -134,12 +141,14 @@ fn narrow_pair<const PIECES: bool>(
 ) -> Option<Manifold> {
     if !PIECES {
         // The plain path (no composites in the world).
-        return match (w.shape(i), w.shape(j)) {
+        let ((si, qi), (sj, qj)) = (body_of(i), body_of(j));
+        return match (si, sj) {
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
                 narrow::sphere_sphere(Vec3::ZERO, *ri, d, *rj)
             }
             (si, sj) => {
-                let (pi, pj) = (w.local_pose(i), Pose::new(d, w.state.orientation[j]));
+                // `w.local_pose(i)` and `j` at its offset.
+                let (pi, pj) = (Pose::new(Vec3::ZERO, qi), Pose::new(d, qj));
                 match memory {
                     Some(m) => narrow::collide_with_memory(si, &pi, sj, &pj, hint, bound, m),
                     None => narrow::collide_with_hint(si, &pi, sj, &pj, hint, bound),
