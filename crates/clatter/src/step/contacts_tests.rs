@@ -527,3 +527,47 @@ fn the_touching_contacts_gather_gives_the_steps_bits() {
         }
     }
 }
+
+/// Springs handed over whole (`World::set_contact_state`, the other backend's way back):
+/// the gather of touching contacts stays on where the forces allow it (and the steps give
+/// the bits of the world that kept its list), and is off where a contact not touching
+/// holds a force, which the step then still adds, as the full gather always did.
+#[test]
+fn handed_over_springs_keep_or_drop_the_touching_gather() {
+    let mut w = thrown_pile(PileShape::Cube, 64, 9, 0.0, 0.0);
+    for _ in 0..2500 {
+        w.step().expect("step");
+    }
+    let state = w.contact_state();
+    assert!(state.touching.iter().any(|&t| t), "contacts touch");
+    let mut handed = w.clone();
+    handed.set_contact_state(state.clone());
+    assert!(handed.contacts.zero_apart, "the forces follow the flags");
+    let mut kept = w.clone();
+    for _ in 0..200 {
+        handed.step().expect("step");
+        kept.step().expect("step");
+    }
+    assert_eq!(
+        format!("{:?}", (&handed.state.position, &handed.state.velocity)),
+        format!("{:?}", (&kept.state.position, &kept.state.velocity))
+    );
+    // A force on a contact not touching: the full gather adds it (body i is pushed).
+    let mut odd = state;
+    let k = odd
+        .touching
+        .iter()
+        .position(|&t| !t)
+        .expect("a contact apart");
+    odd.forces[k].force_b = glam::Vec3::new(0.0, 0.0, 1e-3);
+    let i = odd.pairs[k][0] as usize;
+    let mut with_force = w.clone();
+    with_force.set_contact_state(odd);
+    assert!(
+        !with_force.contacts.zero_apart,
+        "a force on a contact apart"
+    );
+    let (f, _) = with_force.contacts.gather(i);
+    let (f0, _) = w.contacts.gather(i);
+    assert!(f.z != f0.z, "the stale force is summed");
+}
