@@ -95,6 +95,14 @@ pub struct Contacts {
     /// new list (sized by its first step), emptied with new springs, in no checkpoint:
     /// a list without it computes every wall pair once.
     pub(crate) wall_gap: crate::step::plain_walls::WallGaps,
+    /// Whether every contact not touching holds a zero force (each component of its force
+    /// and torques `+0` or `-0`): the gather then reads only the touching contacts' forces
+    /// ([`Contacts::gather_live`]), leaving out zeros that change no sum. True for a new
+    /// list (no force, nothing touching); the contact stage keeps it (a contact that stops
+    /// touching is released to zero force, one not touching is never given a force);
+    /// tested again on springs set whole ([`Contacts::set_springs`]); false (every
+    /// contact read) after [`Contacts::springs_mut`], until [`Contacts::recheck_zero_apart`].
+    pub(crate) zero_apart: bool,
 }
 
 /// Bits per piece id in a contact's piece code (composites have at most 64 pieces).
@@ -167,6 +175,7 @@ impl Contacts {
             near: None,
             view: std::sync::OnceLock::new(),
             wall_gap: Default::default(),
+            zero_apart: true,
         }
     }
 
@@ -253,6 +262,8 @@ impl Contacts {
     pub(crate) fn end_near(&mut self) {
         if let Some(near) = self.near.take() {
             near.write_back(&mut self.springs);
+            // The springs written back: tested again rather than assumed.
+            self.recheck_zero_apart();
         }
         self.view = std::sync::OnceLock::new();
     }
@@ -260,7 +271,15 @@ impl Contacts {
     /// The springs, for changing them: any near list is written back and dropped first.
     pub(crate) fn springs_mut(&mut self) -> &mut ContactSprings {
         self.end_near();
+        // Whatever the caller writes, the gather reads every contact until tested again.
+        self.zero_apart = false;
         &mut self.springs
+    }
+
+    /// Tests again whether every contact not touching holds a zero force (see
+    /// [`Contacts::zero_apart`]), after springs written through [`Contacts::springs_mut`].
+    pub(crate) fn recheck_zero_apart(&mut self) {
+        self.zero_apart = self.near.is_none() && zero_apart(&self.springs);
     }
 
     /// Replaces the per-contact state (a checkpoint's); fails when a length does not match
@@ -285,6 +304,7 @@ impl Contacts {
         self.near = None;
         self.view = std::sync::OnceLock::new();
         self.wall_gap = Default::default();
+        self.zero_apart = zero_apart(&springs);
         self.springs = springs;
         Ok(())
     }
@@ -318,6 +338,14 @@ impl Contacts {
     /// fourth is to be thrown away (for callers that keep the sums in SIMD registers).
     #[inline(always)]
     pub(crate) fn gather4(&self, i: usize) -> (Vec4, Vec4) {
+        // Only the touching contacts where the others hold zero forces (no near list).
+        if self.near.is_none() && self.zero_apart {
+            return self.gather_live(
+                self.pairs_as_a[i] as usize..self.pairs_as_a[i + 1] as usize,
+                self.b_pair_start[i] as usize..self.b_pair_start[i + 1] as usize,
+                self.wall_contacts_of[i] as usize..self.wall_contacts_of[i + 1] as usize,
+            );
+        }
         // A live near list holds every contact with a force (the others' are +0, and adding
         // or subtracting +0 leaves a sum started at +0 unchanged: `crate::step::near`).
         let this = self.active();
@@ -371,12 +399,24 @@ impl Contacts {
         skip: u32,
     ) -> ([Vec4; 8], [Vec4; 8]) {
         let this = self.active();
+        // Only the touching contacts where the others hold zero forces (no near list).
+        let live = self.near.is_none() && self.zero_apart;
         #[cfg(target_arch = "x86_64")]
         if crate::step::avx2() {
             // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
-            return unsafe { this.gather8_avx2::<PADDED>(i, skip) };
+            return unsafe {
+                if live {
+                    this.gather8_avx2::<PADDED, true>(i, skip)
+                } else {
+                    this.gather8_avx2::<PADDED, false>(i, skip)
+                }
+            };
         }
-        this.gather8_here::<PADDED>(i, skip)
+        if live {
+            this.gather8_here::<PADDED, true>(i, skip)
+        } else {
+            this.gather8_here::<PADDED, false>(i, skip)
+        }
     }
 
     /// [`Contacts::gather8_here`] compiled for AVX2 and called, not inlined: on its own it
@@ -388,17 +428,22 @@ impl Contacts {
     #[cfg(target_arch = "x86_64")]
     #[inline(never)]
     #[target_feature(enable = "avx2")]
-    unsafe fn gather8_avx2<const PADDED: bool>(
+    unsafe fn gather8_avx2<const PADDED: bool, const LIVE: bool>(
         &self,
         i: usize,
         skip: u32,
     ) -> ([Vec4; 8], [Vec4; 8]) {
-        self.gather8_here::<PADDED>(i, skip)
+        self.gather8_here::<PADDED, LIVE>(i, skip)
     }
 
-    /// [`Contacts::gather8_with`] on this list itself.
+    /// [`Contacts::gather8_with`] on this list itself; `LIVE`: only the touching contacts
+    /// ([`Contacts::gather_live`], where [`Contacts::zero_apart`] holds).
     #[inline(always)]
-    fn gather8_here<const PADDED: bool>(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
+    fn gather8_here<const PADDED: bool, const LIVE: bool>(
+        &self,
+        i: usize,
+        skip: u32,
+    ) -> ([Vec4; 8], [Vec4; 8]) {
         let total = self.len();
         let np = self.pairs.len();
         let forces = &self.springs.forces[..total];
@@ -428,6 +473,15 @@ impl Contacts {
         for l in 0..8 {
             if skip >> l & 1 != 0 {
                 // Not wanted (a ghost, which its owner integrates): left zero.
+                continue;
+            }
+            if LIVE {
+                let (a, b, w) = (
+                    a[l] as usize..a[l + 1] as usize,
+                    bs[l] as usize..bs[l + 1] as usize,
+                    ws[l] as usize..ws[l + 1] as usize,
+                );
+                (f[l], t[l]) = self.gather_live(a, b, w);
                 continue;
             }
             let (mut fl, mut tl) = (Vec4::ZERO, Vec4::ZERO);
@@ -497,6 +551,64 @@ impl Contacts {
         }
         (f, t)
     }
+}
+
+impl Contacts {
+    /// A body's force and torque from the touching contacts among its side-a body pairs
+    /// `a`, side-b places `b` (in `b_pairs`) and wall contacts `w`, in contact order (side
+    /// a, then side b, then the walls, each in its range's order): [`Contacts::gather4`]'s
+    /// sums with the contacts not touching left out. Where [`Contacts::zero_apart`] holds,
+    /// those hold zero forces, and leaving them out gives the same bits: a sum that starts
+    /// at `+0` and only adds or subtracts is never `-0` (see [`BLOCK`]), and `x + 0`,
+    /// `x - 0` are then `x` bit for bit, whatever the zero's sign. The touching flags are
+    /// one byte a contact, so the forces of the contacts apart (two thirds of a settled
+    /// pile's list) are not read at all.
+    #[inline(always)]
+    pub(crate) fn gather_live(
+        &self,
+        a: std::ops::Range<usize>,
+        b: std::ops::Range<usize>,
+        w: std::ops::Range<usize>,
+    ) -> (Vec4, Vec4) {
+        // Both cut to one length: a flag's index test then stands for its force's too.
+        let n = self.springs.touching.len();
+        let (forces, touching) = (&self.springs.forces[..n], &self.springs.touching[..n]);
+        let (mut f, mut t) = (Vec4::ZERO, Vec4::ZERO);
+        for (&live, c) in touching[a.clone()].iter().zip(&forces[a]) {
+            if live {
+                let [force_b, torque_a, _] = lanes(c);
+                f -= force_b;
+                t += torque_a;
+            }
+        }
+        for &k in &self.b_pairs[b] {
+            let k = k as usize;
+            if touching[k] {
+                let [force_b, _, torque_b] = lanes(&forces[k]);
+                f += force_b;
+                t += torque_b;
+            }
+        }
+        for (&live, c) in touching[w.clone()].iter().zip(&forces[w]) {
+            if live {
+                let [force_b, _, torque_b] = lanes(c);
+                f += force_b;
+                t += torque_b;
+            }
+        }
+        (f, t)
+    }
+}
+
+/// Whether every contact of `springs` not touching holds a zero force (each component of
+/// its force and torques `+0` or `-0`; see [`Contacts::zero_apart`]).
+fn zero_apart(springs: &ContactSprings) -> bool {
+    springs.touching.len() == springs.forces.len()
+        && springs.touching.iter().zip(&springs.forces).all(|(&t, f)| {
+            t || [f.force_b, f.torque_a, f.torque_b]
+                .iter()
+                .all(|v| v.to_array().iter().all(|&x| x == 0.0))
+        })
 }
 
 /// Side a's sum of a body's contacts `forces[start..end]` (`start <= end <= forces.len()`,
@@ -783,6 +895,191 @@ mod tests {
         }
     }
 
+    /// The gather of the touching contacts only ([`super::Contacts::gather_live`], taken by
+    /// `gather4` and `gather8_with` where `zero_apart` holds) against the full sums written
+    /// out here in contact order over every contact (side a, side b, walls), and against
+    /// the full loops themselves (`zero_apart` off): every bit, for bodies with no contacts
+    /// and up to eleven on a side, about a third of them touching, the others holding
+    /// zero forces with `+0` and `-0` components, forces with zero components and sums that
+    /// cancel to zero (where a wrongly signed zero would show), skipped lanes. Not vacuous:
+    /// most bodies have contacts not touching among their ranges, and some sums are zero.
+    #[test]
+    fn the_touching_contacts_alone_give_the_full_sums() {
+        use super::{Contacts, Partner};
+        use crate::contract::ContactForce;
+        use glam::{Vec3, Vec4};
+        let mut seed = 991u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) as u32
+        };
+        let bodies = 80usize;
+        let mut pairs = Vec::new();
+        for i in 0..bodies as u32 {
+            let degree = next() % 12;
+            for j in i + 1..bodies as u32 {
+                if (pairs.iter().filter(|p: &&[u32; 2]| p[0] == i).count() as u32) < degree
+                    && next() % 3 == 0
+                {
+                    pairs.push([i, j]);
+                }
+            }
+        }
+        let walls: Vec<[u32; 2]> = (0..bodies as u32)
+            .filter(|i| i % 4 == 0)
+            .flat_map(|i| (0..1 + i % 3).map(move |w| [i, w]))
+            .collect();
+        let mut c = Contacts::new(bodies, pairs, walls, Vec::new(), Vec::new());
+        assert!(c.zero_apart, "a new list");
+        let values = [0.0, -0.0, 1.5, -1.5, 0.25, -3.0e-7];
+        let zeros = [0.0, -0.0];
+        let n = c.len();
+        for k in 0..n {
+            let touching = next() % 3 == 0;
+            let mut v = || {
+                if touching {
+                    values[next() as usize % values.len()]
+                } else {
+                    zeros[next() as usize % 2]
+                }
+            };
+            c.springs.forces[k] = ContactForce {
+                force_b: Vec3::new(v(), v(), v()),
+                normal_force: v(),
+                torque_a: Vec3::new(v(), v(), v()),
+                pad0: v(),
+                torque_b: Vec3::new(v(), v(), v()),
+                pad1: v(),
+            };
+            c.springs.touching[k] = touching;
+        }
+        // The sums written out over every contact, in contact order.
+        let (mut wf, mut wt) = (vec![Vec3::ZERO; bodies], vec![Vec3::ZERO; bodies]);
+        for side in 0..3 {
+            for k in 0..n {
+                let f = c.springs.forces[k];
+                match (side, c.partners(k)) {
+                    (0, (i, Partner::Body(_))) => {
+                        wf[i as usize] -= f.force_b;
+                        wt[i as usize] += f.torque_a;
+                    }
+                    (1, (_, Partner::Body(j))) => {
+                        wf[j as usize] += f.force_b;
+                        wt[j as usize] += f.torque_b;
+                    }
+                    (2, (i, Partner::Wall(_))) => {
+                        wf[i as usize] += f.force_b;
+                        wt[i as usize] += f.torque_b;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let lane_bits = |v: &[Vec4; 8]| v.map(|x| x.to_array().map(f32::to_bits));
+        let mut full = c.clone();
+        full.zero_apart = false;
+        let (mut with_apart, mut zero_sums) = (0, 0);
+        for i in 0..bodies {
+            let (f, t) = c.gather(i);
+            assert_eq!(bits(f), bits(wf[i]), "force, body {i}");
+            assert_eq!(bits(t), bits(wt[i]), "torque, body {i}");
+            let (f4, t4) = (c.gather4(i), full.gather4(i));
+            assert_eq!(
+                f4.0.to_array().map(f32::to_bits),
+                t4.0.to_array().map(f32::to_bits)
+            );
+            assert_eq!(
+                f4.1.to_array().map(f32::to_bits),
+                t4.1.to_array().map(f32::to_bits)
+            );
+            let apart = (0..n).any(|k| {
+                !c.springs.touching[k]
+                    && match c.partners(k) {
+                        (a, Partner::Body(b)) => a as usize == i || b as usize == i,
+                        (a, _) => a as usize == i,
+                    }
+            });
+            with_apart += apart as usize;
+            zero_sums += [wf[i], wt[i]]
+                .iter()
+                .flat_map(|v| v.to_array())
+                .filter(|&x| x == 0.0)
+                .count();
+        }
+        for i in 0..bodies - 7 {
+            let skip = if i % 3 == 0 { 0b0100_1001 } else { 0 };
+            for padded in [false, true] {
+                let (got, want) = if padded {
+                    (
+                        c.gather8_with::<true>(i, skip),
+                        full.gather8_with::<true>(i, skip),
+                    )
+                } else {
+                    (
+                        c.gather8_with::<false>(i, skip),
+                        full.gather8_with::<false>(i, skip),
+                    )
+                };
+                assert_eq!(lane_bits(&got.0), lane_bits(&want.0), "bodies {i}..");
+                assert_eq!(lane_bits(&got.1), lane_bits(&want.1), "bodies {i}..");
+                for l in 0..8 {
+                    let b = i + l;
+                    let (want_f, want_t) = if skip >> l & 1 != 0 {
+                        (Vec3::ZERO, Vec3::ZERO)
+                    } else {
+                        (wf[b], wt[b])
+                    };
+                    assert_eq!(bits(got.0[l].truncate()), bits(want_f), "force, body {b}");
+                    assert_eq!(bits(got.1[l].truncate()), bits(want_t), "torque, body {b}");
+                }
+            }
+        }
+        assert!(
+            with_apart > bodies / 2 && zero_sums > 10,
+            "{with_apart} {zero_sums}"
+        );
+    }
+
+    /// Whether a list's contacts not touching hold zero forces (`zero_apart`): a new list's
+    /// do; springs set whole are tested (a force on a contact not touching turns the
+    /// shortcut off, `-0` components do not); written through `springs_mut`, it is off
+    /// until tested again.
+    #[test]
+    fn zero_apart_follows_the_springs() {
+        use super::Contacts;
+        use crate::contract::ContactForce;
+        use glam::Vec3;
+        let mut c = Contacts::new(4, vec![[0, 1], [1, 2]], vec![[3, 0]], vec![], vec![]);
+        assert!(c.zero_apart);
+        let mut s = c.springs().clone();
+        s.history = vec![Vec3::ZERO; 3];
+        s.twist = vec![0.0; 3];
+        s.forces[1].torque_b = Vec3::new(0.0, -0.0, 0.0);
+        c.set_springs(s.clone()).expect("springs");
+        assert!(c.zero_apart, "-0 is a zero force");
+        for v in 0..3 {
+            let mut bad = s.clone();
+            let f = &mut bad.forces[2];
+            *[&mut f.force_b, &mut f.torque_a, &mut f.torque_b][v] = Vec3::new(0.0, 0.0, 1e-30);
+            c.set_springs(bad).expect("springs");
+            assert!(
+                !c.zero_apart,
+                "a force on a contact not touching (vector {v})"
+            );
+        }
+        s.forces[2].force_b.z = 1e-30;
+        s.touching[2] = true;
+        c.set_springs(s.clone()).expect("springs");
+        assert!(c.zero_apart, "the force's contact touches");
+        c.springs_mut().forces[0] = ContactForce::default();
+        assert!(!c.zero_apart, "written through springs_mut");
+        c.recheck_zero_apart();
+        assert!(c.zero_apart);
+    }
+
     /// The check of [`gather8_is_the_sums_in_contact_order`], with walls or without.
     fn gather8_case(with_walls: bool) {
         use super::{Contacts, Partner};
@@ -812,6 +1109,8 @@ mod tests {
             .flat_map(|i| (0..i % 3).map(move |w| [i, w]))
             .collect();
         let mut c = Contacts::new(bodies, pairs, walls, Vec::new(), Vec::new());
+        // Forces on contacts not touching: every contact read (the full loops).
+        c.zero_apart = false;
         let values = [0.0, -0.0, -0.0, 1.5, -1.5, 0.25, -3.0e-7];
         for f in c.springs.forces.iter_mut() {
             let mut v = || values[next() as usize % values.len()];

@@ -239,15 +239,32 @@ pub(crate) fn run_part(world: &mut World, part: &Part) -> usize {
                     // after, in the list's order (see `skip_apart`).
                     let mut rest = [0u8; FINE_CHUNK];
                     let mut kept = 0;
-                    for k in 0..n {
-                        if !all && !keep(c * FINE_CHUNK + k) {
-                            continue;
+                    #[cfg(target_arch = "x86_64")]
+                    let lanes = all && super::avx2();
+                    #[cfg(not(target_arch = "x86_64"))]
+                    let lanes = false;
+                    if lanes {
+                        #[cfg(target_arch = "x86_64")]
+                        {
+                            let bounds = w.body_bounds.as_slice();
+                            // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
+                            let (k, tc) = unsafe {
+                                super::apart_lanes::skip_pass(bounds, p, hn, b, t, &mut rest)
+                            };
+                            kept = k;
+                            touching += tc;
                         }
-                        if skip_apart(w, p[k], hn[k], &mut b[k]) {
-                            touching += t[k] as usize;
-                        } else {
-                            rest[kept] = k as u8;
-                            kept += 1;
+                    } else {
+                        for k in 0..n {
+                            if !all && !keep(c * FINE_CHUNK + k) {
+                                continue;
+                            }
+                            if skip_apart(w, p[k], hn[k], &mut b[k]) {
+                                touching += t[k] as usize;
+                            } else {
+                                rest[kept] = k as u8;
+                                kept += 1;
+                            }
                         }
                     }
                     let v = PlainBodies::of(w, x);
@@ -842,13 +859,24 @@ fn is_contact_hint(hint: SatHint) -> bool {
 /// of its own: most pairs of a pile's list stop here, and inside the pair loop's body they
 /// paid for its register spills and reloads.
 #[inline(always)]
-fn skip_apart(w: &World, [i, j]: [u32; 2], hint: SatHint, bound: &mut f32) -> bool {
+fn skip_apart(w: &World, pair: [u32; 2], hint: SatHint, bound: &mut f32) -> bool {
+    skip_apart_in(w.body_bounds.as_slice(), pair, hint, bound)
+}
+
+/// [`skip_apart`] with the step's motion bounds `b` ([`World::body_bounds`]); also the
+/// scalar part of the lanes' pass (`apart_lanes::skip_pass`).
+#[inline(always)]
+pub(super) fn skip_apart_in(
+    b: &[BodyBound],
+    [i, j]: [u32; 2],
+    hint: SatHint,
+    bound: &mut f32,
+) -> bool {
     // Not `*bound <= 0.0`: a NaN bound is not skipped, as in `remembered_narrow`.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     if is_contact_hint(hint) || !(*bound > 0.0) {
         return false;
     }
-    let b = w.body_bounds.as_slice();
     let left = *bound - (b[i as usize].moved + b[j as usize].moved);
     if left > 0.0 {
         *bound = left;

@@ -501,3 +501,125 @@ fn same_pair_is_every_pairs_context() {
     let mixed = World::new(poured(PileShape::Mixed, 64, &PileParams::default(), 5));
     assert!(super::SamePair::of(&mixed).is_none());
 }
+
+/// The step with the gather of the touching contacts only (`Contacts::zero_apart`, which a
+/// new list and the contact stage keep) against the step reading every contact's force
+/// (the flag turned off before each step): every body's position, orientation, velocities
+/// and every contact's force, bitwise, on cube, mixed and sphere piles poured and thrown
+/// (spin and speed), over their landing and settling; after each step every contact not
+/// touching holds a zero force where the flag says so. Not vacuous: the flag holds on
+/// most steps, and contacts both touch and stand apart.
+#[test]
+fn the_touching_contacts_gather_gives_the_steps_bits() {
+    use crate::contract::ContactForce;
+    let zero = |f: &ContactForce| {
+        [f.force_b, f.torque_a, f.torque_b]
+            .iter()
+            .all(|v| v.to_array().iter().all(|&x| x == 0.0))
+    };
+    for (shape, spin, speed) in [
+        (PileShape::Cube, 0.0, 0.0),
+        (PileShape::Mixed, 0.0, 0.0),
+        (PileShape::Cube, 300.0, 2.0),
+        (PileShape::Mixed, 50.0, 1.0),
+        (PileShape::Sphere, 0.0, 0.0),
+    ] {
+        let mut live = thrown_pile(shape, 64, 5, spin, speed);
+        let mut full = live.clone();
+        let (mut live_steps, mut touching, mut apart) = (0usize, 0usize, 0usize);
+        for step in 0..5000 {
+            full.contacts.zero_apart = false;
+            live.step().expect("step");
+            full.step().expect("step");
+            let s = live.contacts.springs();
+            if live.contacts.zero_apart {
+                live_steps += 1;
+                for (k, f) in s.forces.iter().enumerate() {
+                    assert!(
+                        s.touching[k] || zero(f),
+                        "{shape:?} step {step}: contact {k}"
+                    );
+                }
+            }
+            touching += s.touching.iter().filter(|&&t| t).count();
+            apart += s.touching.iter().filter(|&&t| !t).count();
+            if step % 50 == 49 || step == 4999 {
+                let (a, b) = (&live.state, &full.state);
+                assert!(
+                    format!("{:?}", (&a.position, &a.orientation, &a.velocity))
+                        == format!("{:?}", (&b.position, &b.orientation, &b.velocity)),
+                    "{shape:?} step {step}: state"
+                );
+                assert!(
+                    format!(
+                        "{:?}",
+                        (&a.angular_momentum, &a.omega, &a.orientation_residual)
+                    ) == format!(
+                        "{:?}",
+                        (&b.angular_momentum, &b.omega, &b.orientation_residual)
+                    ),
+                    "{shape:?} step {step}: angular state"
+                );
+                let (fa, fb) = (
+                    &live.contacts.springs().forces,
+                    &full.contacts.springs().forces,
+                );
+                assert!(
+                    format!("{fa:?}") == format!("{fb:?}"),
+                    "{shape:?} step {step}: forces"
+                );
+            }
+        }
+        eprintln!(
+            "{shape:?}: {live_steps} steps on the shortcut, {touching} touching, {apart} apart"
+        );
+        assert!(touching > 1000 && apart > 1000, "{shape:?}");
+        if shape != PileShape::Sphere {
+            assert!(live_steps == 5000, "{shape:?}: {live_steps}");
+        }
+    }
+}
+
+/// Springs handed over whole (`World::set_contact_state`, the other backend's way back):
+/// the gather of touching contacts stays on where the forces allow it (and the steps give
+/// the bits of the world that kept its list), and is off where a contact not touching
+/// holds a force, which the step then still adds, as the full gather always did.
+#[test]
+fn handed_over_springs_keep_or_drop_the_touching_gather() {
+    let mut w = thrown_pile(PileShape::Cube, 64, 9, 0.0, 0.0);
+    for _ in 0..2500 {
+        w.step().expect("step");
+    }
+    let state = w.contact_state();
+    assert!(state.touching.iter().any(|&t| t), "contacts touch");
+    let mut handed = w.clone();
+    handed.set_contact_state(state.clone());
+    assert!(handed.contacts.zero_apart, "the forces follow the flags");
+    let mut kept = w.clone();
+    for _ in 0..200 {
+        handed.step().expect("step");
+        kept.step().expect("step");
+    }
+    assert_eq!(
+        format!("{:?}", (&handed.state.position, &handed.state.velocity)),
+        format!("{:?}", (&kept.state.position, &kept.state.velocity))
+    );
+    // A force on a contact not touching: the full gather adds it (body i is pushed).
+    let mut odd = state;
+    let k = odd
+        .touching
+        .iter()
+        .position(|&t| !t)
+        .expect("a contact apart");
+    odd.forces[k].force_b = glam::Vec3::new(0.0, 0.0, 1e-3);
+    let i = odd.pairs[k][0] as usize;
+    let mut with_force = w.clone();
+    with_force.set_contact_state(odd);
+    assert!(
+        !with_force.contacts.zero_apart,
+        "a force on a contact apart"
+    );
+    let (f, _) = with_force.contacts.gather(i);
+    let (f0, _) = w.contacts.gather(i);
+    assert!(f.z != f0.z, "the stale force is summed");
+}

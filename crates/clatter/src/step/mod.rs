@@ -18,6 +18,8 @@
 //! CPU also has AVX-512 (`avx512`), the sphere pairs run sixteen at a time
 //! (`sphere_lanes16`, `lanes16`), with the same bits.
 
+#[cfg(target_arch = "x86_64")]
+mod apart_lanes;
 pub mod broad;
 pub(crate) mod caches;
 pub mod contacts;
