@@ -106,18 +106,23 @@ pub(super) fn polyhedron_pair(
             // (if it is the search's without a floor) serves the full test below.
             // Served: written by `remembered_edge` straight into the caller's `found` (no
             // copy through a `Result`, as for `remembered_face`), with the margin kept.
+            // (The answer taken apart in the closure: matched after it, the whole `Result`
+            // was copied twice on every call, served or not.)
             let out = found.insert(Manifold::default());
             let served = SCRATCH.with_borrow_mut(|sc| {
                 let memory = memory.as_deref_mut();
                 let prepared = &mut prepared;
-                remembered_edge(a, pa, b, &rel, sc, margin, memory, prepared, out)
-            });
-            match served {
-                Ok(()) => {
-                    *bound = stored;
-                    return;
+                match remembered_edge(a, pa, b, &rel, sc, margin, memory, prepared, out) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        searched = e;
+                        false
+                    }
                 }
-                Err(e) => searched = e,
+            });
+            if served {
+                *bound = stored;
+                return;
             }
         } else if margin + 2.0 * reference_separation(a, b, &rel, *hint & HINT_KIND, face) > 0.0 {
             // The full test would choose the remembered face again (see `contact_margin`):
