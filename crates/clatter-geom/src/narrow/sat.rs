@@ -295,7 +295,8 @@ fn remembered_face(
     let Relative {
         rot, t, q, s: unit, ..
     } = *rel;
-    let inv_rot = rel.inv_rot();
+    // (`rel.inv_rot()` taken where it is used: transposed here, at the entry, it was made
+    // and spilled for A's faces too, which need it only for a certificate.)
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
     // The incident corners by glam's `Mat3A * Vec3A`: the columns scaled and summed lane by
@@ -320,7 +321,7 @@ fn remembered_face(
             let n_inc = rot.transpose() * a.faces[face].normal;
             s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, m, delta);
         }
-        let to_b = |p: Vec3| inv_rot * (p - t);
+        let to_b = |p: Vec3| rel.inv_rot() * (p - t);
         let cert = slack.map(FaceSlack::certificate);
         let pose = (q, t, t, || b.radius);
         if plan.certified || remembered_certified(cert, a, face, b, to_b, rot, m, delta, pose) {
@@ -336,6 +337,7 @@ fn remembered_face(
         let plan = slack
             .as_deref()
             .map_or(Plan::FULL, |s| s.plan_at(b, a, key, q, t, unit));
+        let inv_rot = rel.inv_rot();
         let inv_rot_a = Mat3A::from(inv_rot);
         let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
         if !clip_faces_into(b, face, a, inc_v, inv_rot, clip, &plan, out) {
