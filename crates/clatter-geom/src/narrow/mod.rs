@@ -192,9 +192,31 @@ pub fn collide_with_memory(
     bound: &mut f32,
     memory: &mut EdgeMemory,
 ) -> Option<Manifold> {
-    match (a, b) {
+    let mut found = None;
+    collide_with_memory_into(a, pa, b, pb, hint, bound, memory, &mut found);
+    found
+}
+
+/// [`collide_with_memory`] written to `found` (whatever it held before) instead of
+/// returned: the same manifold, bitwise. Inlined into the caller, so that a polyhedron
+/// pair's manifold is written where the caller reads it (the contacts stage's pair loop):
+/// returned, it went through this function's frame and the narrow phase's, ~35
+/// instructions a pair on a settled cube pile (issue 23, pp38, callgrind).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn collide_with_memory_into(
+    a: &Shape,
+    pa: &Pose,
+    b: &Shape,
+    pb: &Pose,
+    hint: &mut SatHint,
+    bound: &mut f32,
+    memory: &mut EdgeMemory,
+    found: &mut Option<Manifold>,
+) {
+    *found = match (a, b) {
         (Shape::Polyhedron(p), Shape::Polyhedron(q)) => {
-            sat::polyhedron_pair(p, pa, q, pb, hint, bound, Some(memory))
+            return sat::polyhedron_pair(p, pa, q, pb, hint, bound, Some(memory), found);
         }
         (Shape::Sphere { radius }, Shape::Polyhedron(p)) => {
             sphere::sphere_polyhedron_with(pa.position, *radius, p, pb, bound, Some(memory))
@@ -204,7 +226,7 @@ pub fn collide_with_memory(
                 .map(Manifold::flipped)
         }
         _ => collide_with_hint(a, pa, b, pb, hint, bound),
-    }
+    };
 }
 
 /// Two convex shapes (spheres or polyhedra); `None` for a composite. Kept apart from

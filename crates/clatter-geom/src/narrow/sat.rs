@@ -35,11 +35,19 @@ pub fn polyhedron_polyhedron(
     hint: &mut SatHint,
     bound: &mut f32,
 ) -> Option<Manifold> {
-    polyhedron_pair(a, pa, b, pb, hint, bound, None)
+    let mut found = None;
+    polyhedron_pair(a, pa, b, pb, hint, bound, None, &mut found);
+    found
 }
 
 /// [`polyhedron_polyhedron`] with the pair's [`EdgeMemory`], if it has one: the same
-/// answer, bitwise, with fewer edge pairs visited while the memory holds.
+/// answer, bitwise, with fewer edge pairs visited while the memory holds, written to
+/// `found` (whatever it held before).
+///
+/// Into the caller's `found`, not returned: a served contact is written where the caller
+/// reads it (the contacts stage's pair loop), where the returned `Option<Manifold>` was
+/// copied out of this function's frame on every call (issue 23, pp38).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn polyhedron_pair(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -48,7 +56,8 @@ pub(super) fn polyhedron_pair(
     hint: &mut SatHint,
     bound: &mut f32,
     mut memory: Option<&mut EdgeMemory>,
-) -> Option<Manifold> {
+    found: &mut Option<Manifold>,
+) {
     let stored = *bound;
     *bound = 0.0;
     let d = pb.position - pa.position;
@@ -59,7 +68,8 @@ pub(super) fn polyhedron_pair(
             *hint = NO_HINT;
         }
         *bound = d2.sqrt() - rs;
-        return None;
+        *found = None;
+        return;
     }
     // Everything in A's frame: B's rotation and offset relative to A.
     let inv_a = pa.rotation.conjugate();
@@ -69,22 +79,9 @@ pub(super) fn polyhedron_pair(
     let t = inv_a * d;
     let rel = Relative {
         rot,
-        inv_rot,
         t,
         q: rot_q,
         s: unit_error(rot_q),
-    };
-    // The margin left of a remembered contact: with an edge memory, the stored margin of
-    // the full test less twice how much any separation can have changed since its pose
-    // (see `Anchor`; none anchored: the full test runs), and the stored margin is kept;
-    // without, the caller has taken the motion off step by step (see
-    // `super::collide_with_hint`), and what is left is kept.
-    let (margin, kept) = match memory.as_deref() {
-        Some(m) if is_contact_hint(*hint) => {
-            let moved = m.anchor().moved_at(rot_q, t, rel.s);
-            (stored - 2.0 * moved, stored)
-        }
-        _ => (stored, stored),
     };
     // An edge search already made at these poses, if any (see `remembered_edge`).
     let mut searched = None;
@@ -93,44 +90,59 @@ pub(super) fn polyhedron_pair(
     // What of the scratch `remembered_edge` already filled at these poses (see `Prepared`).
     let mut prepared = Prepared::Nothing;
     if is_contact_hint(*hint) {
+        // The margin left of a remembered contact: with an edge memory, the stored margin
+        // of the full test less twice how much any separation can have changed since its
+        // pose (see `Anchor`; none anchored: the full test runs), and the stored margin is
+        // kept; without, the caller has taken the motion off step by step (see
+        // `super::collide_with_hint`), and what is left is kept. (Computed here, under the
+        // one test of the hint: the margin serves only a remembered contact.)
+        let margin = match memory.as_deref() {
+            Some(m) => stored - 2.0 * m.anchor().moved_at(rot_q, t, rel.s),
+            None => stored,
+        };
         let face = *hint & !(HINT_KIND | HINT_CONTACT);
         if face == EDGE_CONTACT {
             // The full edge search again, without the face axes; when it fails, its answer
             // (if it is the search's without a floor) serves the full test below.
-            // Served: returned from where `remembered_edge` wrote it (no copy through a
-            // `Result`, as for `remembered_face`), with the margin kept.
-            let mut out = Manifold::default();
+            // Served: written by `remembered_edge` straight into the caller's `found` (no
+            // copy through a `Result`, as for `remembered_face`), with the margin kept.
+            // (The answer taken apart in the closure: matched after it, the whole `Result`
+            // was copied twice on every call, served or not.)
+            let out = found.insert(Manifold::default());
             let served = SCRATCH.with_borrow_mut(|sc| {
                 let memory = memory.as_deref_mut();
                 let prepared = &mut prepared;
-                remembered_edge(a, pa, b, &rel, sc, margin, memory, prepared, &mut out)
-            });
-            match served {
-                Ok(()) => {
-                    *bound = kept;
-                    return Some(out);
+                match remembered_edge(a, pa, b, &rel, sc, margin, memory, prepared, out) {
+                    Ok(()) => true,
+                    Err(e) => {
+                        searched = e;
+                        false
+                    }
                 }
-                Err(e) => searched = e,
+            });
+            if served {
+                *bound = stored;
+                return;
             }
         } else if margin + 2.0 * reference_separation(a, b, &rel, *hint & HINT_KIND, face) > 0.0 {
             // The full test would choose the remembered face again (see `contact_margin`):
             // clip it alone. When the overlap is not certified, the clipped face serves the
             // full test below.
-            // Served: returned from where `remembered_face` wrote it (no copy through a
-            // `Result`), with the margin kept.
+            // Served: written by `remembered_face` straight into the caller's `found` (no
+            // copy through a `Result`), with the margin kept.
             let slack = memory.as_deref_mut().map(EdgeMemory::face_slack);
             let kind = *hint & HINT_KIND;
-            let mut out = Manifold::default();
+            let out = found.insert(Manifold::default());
             let face = face as usize;
             let served = SCRATCH.with_borrow_mut(|sc| {
-                remembered_face(a, pa, b, pb, &rel, sc, kind, face, slack, &mut out)
+                remembered_face(a, pa, b, pb, &rel, sc, kind, face, slack, out)
             });
             match served {
                 Served::Yes => {
-                    *bound = kept;
-                    return Some(out);
+                    *bound = stored;
+                    return;
                 }
-                Served::Unsure => clipped = Some((kind, face, out)),
+                Served::Unsure => clipped = Some((kind, face, *out)),
                 Served::NoClip => {}
             }
         }
@@ -170,10 +182,11 @@ pub(super) fn polyhedron_pair(
         };
         if gap > 0.0 {
             *bound = gap;
-            return None;
+            *found = None;
+            return;
         }
     }
-    SCRATCH.with_borrow_mut(|sc| {
+    *found = SCRATCH.with_borrow_mut(|sc| {
         let full = FullTest {
             searched,
             memory,
@@ -181,18 +194,29 @@ pub(super) fn polyhedron_pair(
             prepared,
         };
         sat_full(a, pa, b, pb, &rel, sc, full, hint, bound)
-    })
+    });
 }
 
 /// B's rotation and offset in A's frame.
+///
+/// Without its transpose (see [`Relative::inv_rot`]): the served paths read it from here,
+/// and storing it with the rest cost more than transposing on the read (issue 23, pp38).
 struct Relative {
     rot: Mat3,
-    inv_rot: Mat3,
     t: Vec3,
     /// `rot` as the quaternion it was built from.
     q: Quat,
     /// `slack::unit_error(q)`, for the motion bounds since an anchor or a clip record.
     s: f32,
+}
+
+impl Relative {
+    /// `rot`'s transpose, its inverse: A's rotation and offset in B's frame are
+    /// `inv_rot` and `-(inv_rot * t)`.
+    #[inline(always)]
+    fn inv_rot(&self) -> Mat3 {
+        self.rot.transpose()
+    }
 }
 
 /// What [`sat_full`] may take instead of searching the edge axes itself: the answer of an
@@ -280,13 +304,10 @@ fn remembered_face(
     out: &mut Manifold,
 ) -> Served {
     let Relative {
-        rot,
-        inv_rot,
-        t,
-        q,
-        s: unit,
-        ..
+        rot, t, q, s: unit, ..
     } = *rel;
+    // (`rel.inv_rot()` taken where it is used: transposed here, at the entry, it was made
+    // and spilled for A's faces too, which need it only for a certificate.)
     let Scratch { clip, .. } = sc;
     let delta = 2e-5 * (a.radius + b.radius);
     // The incident corners by glam's `Mat3A * Vec3A`: the columns scaled and summed lane by
@@ -311,7 +332,7 @@ fn remembered_face(
             let n_inc = rot.transpose() * a.faces[face].normal;
             s.record(a, face, b, key, q, t, b.radius, n_inc, inc_v, m, delta);
         }
-        let to_b = |p: Vec3| inv_rot * (p - t);
+        let to_b = |p: Vec3| rel.inv_rot() * (p - t);
         let cert = slack.map(FaceSlack::certificate);
         let pose = (q, t, t, || b.radius);
         if plan.certified || remembered_certified(cert, a, face, b, to_b, rot, m, delta, pose) {
@@ -327,6 +348,7 @@ fn remembered_face(
         let plan = slack
             .as_deref()
             .map_or(Plan::FULL, |s| s.plan_at(b, a, key, q, t, unit));
+        let inv_rot = rel.inv_rot();
         let inv_rot_a = Mat3A::from(inv_rot);
         let inc_v = |i: usize| Vec3::from(inv_rot_a * (Vec3A::from(a.vertices[i]) - t_a));
         if !clip_faces_into(b, face, a, inc_v, inv_rot, clip, &plan, out) {
@@ -373,7 +395,7 @@ fn reference_separation(
         let Some(f) = a.faces.get(face) else {
             return f32::NAN;
         };
-        smallest(b, rel.inv_rot * f.normal) + f.normal.dot(rel.t) - f.offset
+        smallest(b, rel.inv_rot() * f.normal) + f.normal.dot(rel.t) - f.offset
     } else {
         let Some(f) = b.faces.get(face) else {
             return f32::NAN;
@@ -417,7 +439,10 @@ const EDGE_CONTACT: u32 = HINT_CONTACT - 1;
 /// `prepared` receives what of the scratch it filled at these poses (for [`sat_full`]);
 /// `out` (a default manifold) the manifold when it serves.
 #[allow(clippy::too_many_arguments)]
-#[inline(always)]
+// Out of line, as `remembered_face` is: inlined into `SCRATCH`'s closure, the closure took
+// the thread-local access out of line with it (`LocalKey::with`, its accessor called
+// through a pointer, every capture passed through memory; issue 23, pp38).
+#[inline(never)]
 fn remembered_edge(
     a: &ConvexPolyhedron,
     pa: &Pose,
@@ -485,6 +510,9 @@ fn exact_search(found: &EdgeFound, floor: f32) -> bool {
 /// the best axis is above `floor` it is returned exactly as with no floor (the same pair,
 /// the first of equals, the same floats); else some axis at or below `floor` is.
 #[allow(clippy::too_many_arguments)]
+// Inlined into both callers: called from `remembered_edge`, its call and arguments cost
+// the remembered edge search ~23 Ir per cube body-step (issue 23, pp38, callgrind).
+#[inline(always)]
 fn edge_search(
     a: &ConvexPolyhedron,
     b: &ConvexPolyhedron,
@@ -514,7 +542,7 @@ fn edge_search(
             &mut separation,
         )
     } else {
-        let (rot, inv_rot) = (rel.rot, rel.inv_rot);
+        let (rot, inv_rot) = (rel.rot, rel.inv_rot());
         let memory = memory.map(|m| (m, rel.q, rel.t));
         edge_axes_gauss_map(
             a,
@@ -665,9 +693,8 @@ fn sat_full(
     } = sc;
     // A's points in its own frame: the lanes the shape keeps (see `ConvexPolyhedron`).
     let a_local = a.lanes();
-    let Relative {
-        rot, inv_rot, t, q, ..
-    } = *rel;
+    let Relative { rot, t, q, .. } = *rel;
+    let inv_rot = rel.inv_rot();
     let FullTest {
         searched,
         mut memory,

@@ -59,7 +59,7 @@ pub(super) fn remembered_narrow<'w, const PIECES: bool>(
         *bound -= 2.0 * axis_motion_bound::<PIECES>(w, i, j, d, &bi, &bj);
     }
     let (pa, pb) = piece_ids(pieces);
-    *found = narrow_pair::<PIECES>(w, body_of, d, i, j, pa, pb, hint, bound, memory);
+    narrow_pair::<PIECES>(w, body_of, d, i, j, pa, pb, hint, bound, memory, found);
     Some(d)
 }
 
@@ -123,8 +123,11 @@ pub fn pair_narrow(world: &World, k: usize) -> (Option<Manifold>, bool) {
 }
 
 /// The narrow phase for one body pair (pieces `pa` of `i` and `pb` of `j`, `j` at offset
-/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any. Inlined: called, it
-/// returned the manifold through memory, which its caller then copied twice more.
+/// `d` from `i`: [`World::offset_of`]): the contact manifold, if any, written to `found`.
+/// Inlined: called, it returned the manifold through memory, which its caller then copied
+/// twice more; and written, not returned, so that a pair with an edge memory has its
+/// manifold written by the narrow phase where the law reads it
+/// ([`narrow::collide_with_memory_into`]).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn narrow_pair<'w, const PIECES: bool>(
@@ -138,11 +141,12 @@ fn narrow_pair<'w, const PIECES: bool>(
     hint: &mut SatHint,
     bound: &mut f32,
     memory: Option<&mut EdgeMemory>,
-) -> Option<Manifold> {
+    found: &mut Option<Manifold>,
+) {
     if !PIECES {
         // The plain path (no composites in the world).
         let ((si, qi), (sj, qj)) = (body_of(i), body_of(j));
-        return match (si, sj) {
+        *found = match (si, sj) {
             (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
                 narrow::sphere_sphere(Vec3::ZERO, *ri, d, *rj)
             }
@@ -150,21 +154,25 @@ fn narrow_pair<'w, const PIECES: bool>(
                 // `w.local_pose(i)` and `j` at its offset.
                 let (pi, pj) = (Pose::new(Vec3::ZERO, qi), Pose::new(d, qj));
                 match memory {
-                    Some(m) => narrow::collide_with_memory(si, &pi, sj, &pj, hint, bound, m),
+                    Some(m) => {
+                        let (h, b) = (hint, bound);
+                        return narrow::collide_with_memory_into(si, &pi, sj, &pj, h, b, m, found);
+                    }
                     None => narrow::collide_with_hint(si, &pi, sj, &pj, hint, bound),
                 }
             }
         };
+        return;
     }
     // Body i at the origin, j at its offset (see `World::offset_of`).
     let (sa, posea) = w.piece_at(i, pa, Vec3::ZERO);
     let (sb, poseb) = w.piece_at(j, pb, d);
-    match (sa, sb) {
+    *found = match (sa, sb) {
         (Shape::Sphere { radius: ri }, Shape::Sphere { radius: rj }) => {
             narrow::sphere_sphere(posea.position, *ri, poseb.position, *rj)
         }
         (si, sj) => narrow::collide_with_hint(si, &posea, sj, &poseb, hint, bound),
-    }
+    };
 }
 
 /// An upper bound of how much the separation along any axis of the separating-axis test
