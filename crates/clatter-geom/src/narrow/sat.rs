@@ -5,7 +5,7 @@
 use glam::{Mat3, Mat3A, Quat, Vec3, Vec3A};
 
 use super::certify::remembered_certified;
-use super::clip::{ClipBuffers, clip_faces, clip_faces_into, segment_closest, to_world};
+use super::clip::{ClipBuffers, clip_faces_into, segment_closest, slack_clip, to_world};
 use super::edges::{GaussTables, edge_axes_by_direction, edge_axes_gauss_map};
 use super::lanes::SoaPoints;
 use super::memory::EdgeMemory;
@@ -847,56 +847,6 @@ fn sat_full(
         }
     }
     m
-}
-
-/// [`clip_faces`] of reference face `face` of `refp` (`kind` [`HINT_FACE_A`] when `refp`
-/// is A, else [`HINT_FACE_B`]) against `inc`, whose vertex `i` is at `inc_v(i)` in
-/// `refp`'s frame and whose rotation there is `inc_rot` (`q`, `t`: B's rotation and offset
-/// in A's frame), with the plan of the pair's record of that face's clip ([`FaceSlack`],
-/// when the pair has one): the manifold in `refp`'s frame, bitwise the whole clip's
-/// (`Plan::FULL`): a plan skips only work the record proves to change no bit (see
-/// [`FaceSlack`]). When the plan asks for it, a new record is measured from this clip, as
-/// [`remembered_face`] measures one (`lever` and `n_inc` as it computes them: the record
-/// bounds a later clip of this face, whichever path makes it).
-///
-/// The full test clips here the face it chooses: on a resting cube pile nearly all of its
-/// calls choose the face the pair remembered, whose margin had run out (issue 23, full32),
-/// and that face's record usually still serves, as it does for [`remembered_face`].
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-fn slack_clip(
-    refp: &ConvexPolyhedron,
-    inc: &ConvexPolyhedron,
-    (kind, face, q, t, inc_rot): (u32, usize, Quat, Vec3, Mat3),
-    inc_v: impl Fn(usize) -> Vec3 + Copy,
-    (lever, n_inc): (impl Fn() -> f32, impl Fn() -> Vec3),
-    clip: &mut ClipBuffers,
-    slack: Option<&mut FaceSlack>,
-) -> Option<Manifold> {
-    let key = kind | face as u32;
-    let plan = slack
-        .as_deref()
-        .map_or(Plan::FULL, |s| s.plan(refp, inc, key, q, t));
-    // The certificate is not taken here (the full test checks every axis): a plan that
-    // offers it changes nothing.
-    let m = clip_faces(refp, face, inc, inc_v, inc_rot, clip, &plan)?;
-    if let Some(s) = slack.filter(|_| plan.measure) {
-        let delta = 2e-5 * (refp.radius + inc.radius);
-        s.record(
-            refp,
-            face,
-            inc,
-            key,
-            q,
-            t,
-            lever(),
-            n_inc(),
-            inc_v,
-            &m,
-            delta,
-        );
-    }
-    Some(m)
 }
 
 /// The best edge-edge axis `(separation, edge of A, edge of B, axis in A's frame)`, or `None`

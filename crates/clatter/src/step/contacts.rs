@@ -6,6 +6,7 @@ use glam::{Quat, Vec3};
 use rayon::prelude::*;
 
 use super::motion::BodyBound;
+pub(super) use super::plain_walls::wall_pair;
 use super::plain_walls::{WallBodies, plain_wall};
 #[cfg(test)]
 use super::remembered::axis_motion_bound;
@@ -20,7 +21,6 @@ use crate::law::{self, BodyMotion, ContactForce, PairContext};
 use crate::material::PairParams;
 use crate::precise::Ds3A;
 use crate::world::World;
-use clatter_geom::Shape;
 use clatter_geom::narrow::{self, ContactPoint, EdgeMemory, SatHint};
 
 /// Runs the stage; returns the number of contacts that touch.
@@ -708,60 +708,12 @@ fn plain_pair(
 /// What the law takes of body `i` (of its piece `piece` with composites): its equivalent
 /// radius and whether it is a sphere.
 #[inline(always)]
-fn law_side<const PIECES: bool>(w: &World, i: usize, piece: u32) -> (f32, bool) {
+pub(super) fn law_side<const PIECES: bool>(w: &World, i: usize, piece: u32) -> (f32, bool) {
     if PIECES {
         w.piece_law(i, piece)
     } else {
         (w.consts.equivalent_radius[i], w.consts.is_sphere[i])
     }
-}
-
-/// A sphere (not a piece) against a wall: [`narrow::collide_plane`]'s sphere case (the
-/// sphere at the origin, the plane shifted by its position) with the depth's `rest` added,
-/// and [`law::contact_force`]'s one-point law, written out without building a manifold: the
-/// same operations in the same order, so the same bits.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub(super) fn sphere_wall<const PLAIN: bool>(
-    w: &World,
-    i: usize,
-    wall: &crate::world::Wall,
-    plane: &narrow::Plane,
-    radius: f32,
-    rest: f32,
-    hist: &mut Vec3,
-    force: &mut ContactForce,
-    touching: &mut bool,
-    coverage: &mut f32,
-) -> bool {
-    let n = plane.normal;
-    let centre_height = n.dot(Vec3::ZERO) - plane.offset;
-    let depth = radius - centre_height;
-    // Not `depth > 0.0`: a NaN depth is a contact there, as in `collide_plane`.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    if !(depth <= 0.0) {
-        let cp = ContactPoint {
-            point: Vec3::ZERO - n * (radius - 0.5 * depth),
-            depth: depth + rest,
-        };
-        let params = w.pair_params(wall.material, w.consts.material[i]);
-        let (r, sphere) = law_side::<false>(w, i, 0);
-        let share = law::point_share(sphere, sphere);
-        let context = pair_context(w, params, w.consts.mass[i], r, share);
-        *force = law::point_contact_force_in::<PLAIN>(
-            &context,
-            n,
-            cp,
-            &BodyMotion::default(),
-            &w.local_motion(i),
-            hist,
-            coverage,
-        );
-        *touching = true;
-    } else if *touching {
-        release(force, hist, Some(coverage), touching);
-    }
-    *touching
 }
 
 /// The law's context of a contact with these parameters, effective mass and radius and
@@ -781,62 +733,6 @@ pub(super) fn pair_context(
         share,
         dt: w.dt,
     }
-}
-
-/// A body (its piece `piece`: 0 unless a composite) against a wall (the wall is side a, at
-/// rest). The per-piece form is what other static boundaries can reuse. `plain`: every
-/// pair's law is plain ([`law::is_plain`]).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(super) fn wall_pair<const PIECES: bool>(
-    w: &World,
-    x: &[Ds3A],
-    [i, wall]: [u32; 2],
-    piece: u32,
-    hist: &mut Vec3,
-    force: &mut ContactForce,
-    touching: &mut bool,
-    twist: &mut f32,
-    plain: bool,
-) -> bool {
-    let (i, wall) = (i as usize, &w.walls[wall as usize]);
-    // Body i at the origin, the plane shifted by its position (in f64).
-    let (plane, rest) = w.plane_in(x, i, &wall.plane);
-    if let (false, Shape::Sphere { radius }) = (PIECES, w.shape(i)) {
-        // A sphere needs no pose (nor its orientation read).
-        return if plain {
-            sphere_wall::<true>(
-                w, i, wall, &plane, *radius, rest, hist, force, touching, twist,
-            )
-        } else {
-            sphere_wall::<false>(
-                w, i, wall, &plane, *radius, rest, hist, force, touching, twist,
-            )
-        };
-    }
-    let (shape, pose) = if PIECES {
-        w.piece_at(i, piece, Vec3::ZERO)
-    } else {
-        (w.shape(i), w.local_pose(i))
-    };
-    match narrow::collide_plane(&plane, shape, &pose).map(|m| World::add_rest(m, rest)) {
-        Some(m) => {
-            let params = w.pair_params(wall.material, w.consts.material[i]);
-            let (r, sphere) = law_side::<PIECES>(w, i, piece);
-            let share = law::point_share(sphere, sphere);
-            let context = pair_context(w, params, w.consts.mass[i], r, share);
-            let (a, b) = (BodyMotion::default(), w.local_motion(i));
-            *force = if plain {
-                law::contact_force_in::<true>(&context, &m, &a, &b, hist, twist)
-            } else {
-                law::contact_force_in::<false>(&context, &m, &a, &b, hist, twist)
-            };
-            *touching = true;
-        }
-        None if *touching => release(force, hist, Some(twist), touching),
-        None => {}
-    }
-    *touching
 }
 
 /// [`narrow::is_contact_hint`], the same answer for every `hint`, in fewer instructions
