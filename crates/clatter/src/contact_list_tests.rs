@@ -174,27 +174,7 @@ fn the_touching_contacts_alone_give_the_full_sums() {
         c.springs.touching[k] = touching;
     }
     // The sums written out over every contact, in contact order.
-    let (mut wf, mut wt) = (vec![Vec3::ZERO; bodies], vec![Vec3::ZERO; bodies]);
-    for side in 0..3 {
-        for k in 0..n {
-            let f = c.springs.forces[k];
-            match (side, c.partners(k)) {
-                (0, (i, Partner::Body(_))) => {
-                    wf[i as usize] -= f.force_b;
-                    wt[i as usize] += f.torque_a;
-                }
-                (1, (_, Partner::Body(j))) => {
-                    wf[j as usize] += f.force_b;
-                    wt[j as usize] += f.torque_b;
-                }
-                (2, (i, Partner::Wall(_))) => {
-                    wf[i as usize] += f.force_b;
-                    wt[i as usize] += f.torque_b;
-                }
-                _ => {}
-            }
-        }
-    }
+    let (wf, wt) = written_out_sums(&c, bodies);
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let lane_bits = |v: &[Vec4; 8]| v.map(|x| x.to_array().map(f32::to_bits));
     let mut full = c.clone();
@@ -300,7 +280,7 @@ fn zero_apart_follows_the_springs() {
 
 /// The check of [`gather8_is_the_sums_in_contact_order`], with walls or without.
 fn gather8_case(with_walls: bool) {
-    use super::{Contacts, Partner};
+    use super::Contacts;
     use crate::contract::ContactForce;
     let mut seed = 777u64;
     let mut next = || {
@@ -341,28 +321,7 @@ fn gather8_case(with_walls: bool) {
             pad1: v(),
         };
     }
-    let (mut wf, mut wt) = (vec![Vec3::ZERO; bodies], vec![Vec3::ZERO; bodies]);
-    let n = c.len();
-    for side in 0..3 {
-        for k in 0..n {
-            let f = c.springs.forces[k];
-            match (side, c.partners(k)) {
-                (0, (i, Partner::Body(_))) => {
-                    wf[i as usize] -= f.force_b;
-                    wt[i as usize] += f.torque_a;
-                }
-                (1, (_, Partner::Body(j))) => {
-                    wf[j as usize] += f.force_b;
-                    wt[j as usize] += f.torque_b;
-                }
-                (2, (i, Partner::Wall(_))) => {
-                    wf[i as usize] += f.force_b;
-                    wt[i as usize] += f.torque_b;
-                }
-                _ => {}
-            }
-        }
-    }
+    let (wf, wt) = written_out_sums(&c, bodies);
     let bits = |v: Vec3| v.to_array().map(f32::to_bits);
     let (mut padded, mut zero_sums) = (0, 0);
     for i in 0..bodies - 7 {
@@ -399,4 +358,33 @@ fn gather8_case(with_walls: bool) {
             .count();
     }
     assert!(padded > 3 && zero_sums > 10, "{padded} {zero_sums}");
+}
+
+/// Each body's force and torque summed over every contact of `c` written out, in the
+/// gathers' order (side a of each body pair, then side b, then the walls), each in contact
+/// order: the definition the gathers are held to.
+fn written_out_sums(c: &super::Contacts, bodies: usize) -> (Vec<Vec3>, Vec<Vec3>) {
+    let (mut wf, mut wt) = (vec![Vec3::ZERO; bodies], vec![Vec3::ZERO; bodies]);
+    let n = c.len();
+    for side in 0..3 {
+        for k in 0..n {
+            let f = c.springs.forces[k];
+            match (side, c.partners(k)) {
+                (0, (i, super::Partner::Body(_))) => {
+                    wf[i as usize] -= f.force_b;
+                    wt[i as usize] += f.torque_a;
+                }
+                (1, (_, super::Partner::Body(j))) => {
+                    wf[j as usize] += f.force_b;
+                    wt[j as usize] += f.torque_b;
+                }
+                (2, (i, super::Partner::Wall(_))) => {
+                    wf[i as usize] += f.force_b;
+                    wt[i as usize] += f.torque_b;
+                }
+                _ => {}
+            }
+        }
+    }
+    (wf, wt)
 }
