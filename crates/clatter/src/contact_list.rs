@@ -95,14 +95,6 @@ pub struct Contacts {
     /// new list (sized by its first step), emptied with new springs, in no checkpoint:
     /// a list without it computes every wall pair once.
     pub(crate) wall_gap: crate::step::plain_walls::WallGaps,
-    /// Whether every contact not touching holds a zero force (each component of its force
-    /// and torques `+0` or `-0`): the gather then reads only the touching contacts' forces
-    /// ([`Contacts::gather_live`]), leaving out zeros that change no sum. True for a new
-    /// list (no force, nothing touching); the contact stage keeps it (a contact that stops
-    /// touching is released to zero force, one not touching is never given a force);
-    /// tested again on springs set whole ([`Contacts::set_springs`]); false (every
-    /// contact read) after [`Contacts::springs_mut`], until [`Contacts::recheck_zero_apart`].
-    pub(crate) zero_apart: bool,
 }
 
 /// Bits per piece id in a contact's piece code (composites have at most 64 pieces).
@@ -175,7 +167,6 @@ impl Contacts {
             near: None,
             view: std::sync::OnceLock::new(),
             wall_gap: Default::default(),
-            zero_apart: true,
         }
     }
 
@@ -262,8 +253,6 @@ impl Contacts {
     pub(crate) fn end_near(&mut self) {
         if let Some(near) = self.near.take() {
             near.write_back(&mut self.springs);
-            // The springs written back: tested again rather than assumed.
-            self.recheck_zero_apart();
         }
         self.view = std::sync::OnceLock::new();
     }
@@ -271,15 +260,7 @@ impl Contacts {
     /// The springs, for changing them: any near list is written back and dropped first.
     pub(crate) fn springs_mut(&mut self) -> &mut ContactSprings {
         self.end_near();
-        // Whatever the caller writes, the gather reads every contact until tested again.
-        self.zero_apart = false;
         &mut self.springs
-    }
-
-    /// Tests again whether every contact not touching holds a zero force (see
-    /// [`Contacts::zero_apart`]), after springs written through [`Contacts::springs_mut`].
-    pub(crate) fn recheck_zero_apart(&mut self) {
-        self.zero_apart = self.near.is_none() && zero_apart(&self.springs);
     }
 
     /// Replaces the per-contact state (a checkpoint's); fails when a length does not match
@@ -304,7 +285,6 @@ impl Contacts {
         self.near = None;
         self.view = std::sync::OnceLock::new();
         self.wall_gap = Default::default();
-        self.zero_apart = zero_apart(&springs);
         self.springs = springs;
         Ok(())
     }
@@ -338,14 +318,6 @@ impl Contacts {
     /// fourth is to be thrown away (for callers that keep the sums in SIMD registers).
     #[inline(always)]
     pub(crate) fn gather4(&self, i: usize) -> (Vec4, Vec4) {
-        // Only the touching contacts where the others hold zero forces (no near list).
-        if self.near.is_none() && self.zero_apart {
-            return self.gather_live(
-                self.pairs_as_a[i] as usize..self.pairs_as_a[i + 1] as usize,
-                self.b_pair_start[i] as usize..self.b_pair_start[i + 1] as usize,
-                self.wall_contacts_of[i] as usize..self.wall_contacts_of[i + 1] as usize,
-            );
-        }
         // A live near list holds every contact with a force (the others' are +0, and adding
         // or subtracting +0 leaves a sum started at +0 unchanged: `crate::step::near`).
         let this = self.active();
@@ -399,24 +371,12 @@ impl Contacts {
         skip: u32,
     ) -> ([Vec4; 8], [Vec4; 8]) {
         let this = self.active();
-        // Only the touching contacts where the others hold zero forces (no near list).
-        let live = self.near.is_none() && self.zero_apart;
         #[cfg(target_arch = "x86_64")]
         if crate::step::avx2() {
             // SAFETY: the CPU has AVX2 (`avx2` is never true otherwise).
-            return unsafe {
-                if live {
-                    this.gather8_avx2::<PADDED, true>(i, skip)
-                } else {
-                    this.gather8_avx2::<PADDED, false>(i, skip)
-                }
-            };
+            return unsafe { this.gather8_avx2::<PADDED>(i, skip) };
         }
-        if live {
-            this.gather8_here::<PADDED, true>(i, skip)
-        } else {
-            this.gather8_here::<PADDED, false>(i, skip)
-        }
+        this.gather8_here::<PADDED>(i, skip)
     }
 
     /// [`Contacts::gather8_here`] compiled for AVX2 and called, not inlined: on its own it
@@ -428,22 +388,17 @@ impl Contacts {
     #[cfg(target_arch = "x86_64")]
     #[inline(never)]
     #[target_feature(enable = "avx2")]
-    unsafe fn gather8_avx2<const PADDED: bool, const LIVE: bool>(
+    unsafe fn gather8_avx2<const PADDED: bool>(
         &self,
         i: usize,
         skip: u32,
     ) -> ([Vec4; 8], [Vec4; 8]) {
-        self.gather8_here::<PADDED, LIVE>(i, skip)
+        self.gather8_here::<PADDED>(i, skip)
     }
 
-    /// [`Contacts::gather8_with`] on this list itself; `LIVE`: only the touching contacts
-    /// ([`Contacts::gather_live`], where [`Contacts::zero_apart`] holds).
+    /// [`Contacts::gather8_with`] on this list itself.
     #[inline(always)]
-    fn gather8_here<const PADDED: bool, const LIVE: bool>(
-        &self,
-        i: usize,
-        skip: u32,
-    ) -> ([Vec4; 8], [Vec4; 8]) {
+    fn gather8_here<const PADDED: bool>(&self, i: usize, skip: u32) -> ([Vec4; 8], [Vec4; 8]) {
         let total = self.len();
         let np = self.pairs.len();
         let forces = &self.springs.forces[..total];
@@ -473,15 +428,6 @@ impl Contacts {
         for l in 0..8 {
             if skip >> l & 1 != 0 {
                 // Not wanted (a ghost, which its owner integrates): left zero.
-                continue;
-            }
-            if LIVE {
-                let (a, b, w) = (
-                    a[l] as usize..a[l + 1] as usize,
-                    bs[l] as usize..bs[l + 1] as usize,
-                    ws[l] as usize..ws[l + 1] as usize,
-                );
-                (f[l], t[l]) = self.gather_live(a, b, w);
                 continue;
             }
             let (mut fl, mut tl) = (Vec4::ZERO, Vec4::ZERO);
@@ -551,64 +497,6 @@ impl Contacts {
         }
         (f, t)
     }
-}
-
-impl Contacts {
-    /// A body's force and torque from the touching contacts among its side-a body pairs
-    /// `a`, side-b places `b` (in `b_pairs`) and wall contacts `w`, in contact order (side
-    /// a, then side b, then the walls, each in its range's order): [`Contacts::gather4`]'s
-    /// sums with the contacts not touching left out. Where [`Contacts::zero_apart`] holds,
-    /// those hold zero forces, and leaving them out gives the same bits: a sum that starts
-    /// at `+0` and only adds or subtracts is never `-0` (see [`BLOCK`]), and `x + 0`,
-    /// `x - 0` are then `x` bit for bit, whatever the zero's sign. The touching flags are
-    /// one byte a contact, so the forces of the contacts apart (two thirds of a settled
-    /// pile's list) are not read at all.
-    #[inline(always)]
-    pub(crate) fn gather_live(
-        &self,
-        a: std::ops::Range<usize>,
-        b: std::ops::Range<usize>,
-        w: std::ops::Range<usize>,
-    ) -> (Vec4, Vec4) {
-        // Both cut to one length: a flag's index test then stands for its force's too.
-        let n = self.springs.touching.len();
-        let (forces, touching) = (&self.springs.forces[..n], &self.springs.touching[..n]);
-        let (mut f, mut t) = (Vec4::ZERO, Vec4::ZERO);
-        for (&live, c) in touching[a.clone()].iter().zip(&forces[a]) {
-            if live {
-                let [force_b, torque_a, _] = lanes(c);
-                f -= force_b;
-                t += torque_a;
-            }
-        }
-        for &k in &self.b_pairs[b] {
-            let k = k as usize;
-            if touching[k] {
-                let [force_b, _, torque_b] = lanes(&forces[k]);
-                f += force_b;
-                t += torque_b;
-            }
-        }
-        for (&live, c) in touching[w.clone()].iter().zip(&forces[w]) {
-            if live {
-                let [force_b, _, torque_b] = lanes(c);
-                f += force_b;
-                t += torque_b;
-            }
-        }
-        (f, t)
-    }
-}
-
-/// Whether every contact of `springs` not touching holds a zero force (each component of
-/// its force and torques `+0` or `-0`; see [`Contacts::zero_apart`]).
-fn zero_apart(springs: &ContactSprings) -> bool {
-    springs.touching.len() == springs.forces.len()
-        && springs.touching.iter().zip(&springs.forces).all(|(&t, f)| {
-            t || [f.force_b, f.torque_a, f.torque_b]
-                .iter()
-                .all(|v| v.to_array().iter().all(|&x| x == 0.0))
-        })
 }
 
 /// Side a's sum of a body's contacts `forces[start..end]` (`start <= end <= forces.len()`,

@@ -99,8 +99,6 @@ impl World {
         let springs = self.contacts.springs_mut();
         springs.touching = touching;
         springs.forces = forces;
-        // The other backend's forces: the gather's shortcut only where they allow it.
-        self.contacts.recheck_zero_apart();
         self.rebuild_position = state.rebuild_position;
         if self.has_composites() {
             self.rebuild_orientation = state.rebuild_orientation;

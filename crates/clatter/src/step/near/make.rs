@@ -164,8 +164,6 @@ fn assemble(
         near: None,
         view: std::sync::OnceLock::new(),
         wall_gap: Default::default(),
-        // Not read: the gather takes the near list's contacts whole (`Contacts::gather4`).
-        zero_apart: false,
     };
     Near {
         slots,
