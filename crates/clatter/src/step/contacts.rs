@@ -6,8 +6,7 @@ use glam::{Quat, Vec3};
 use rayon::prelude::*;
 
 use super::motion::BodyBound;
-pub(super) use super::plain_walls::wall_pair;
-use super::plain_walls::{WallBodies, plain_wall};
+use super::plain_walls::{WallBodies, plain_wall, wall_pair};
 #[cfg(test)]
 use super::remembered::axis_motion_bound;
 pub use super::remembered::pair_narrow;

@@ -1,5 +1,5 @@
 //! The wall pairs of the plain path (no composites, not spheres only): a body against a
-//! plane wall, as [`super::contacts::wall_pair`] computes it (the same floats in the same
+//! plane wall, as [`wall_pair`] computes it (the same floats in the same
 //! order, so the same bits), with two savings:
 //!
 //! - **A pair still apart is skipped.** A pair found apart keeps a lower bound of its gap
@@ -117,7 +117,7 @@ pub(super) fn apart_bound(lowest: f32, r: f32, c: f32, d: f32, x: &Ds3A) -> f32 
 }
 
 /// Body `i` against wall `wall` on the plain path (see the module docs): the same result as
-/// [`super::contacts::wall_pair`]`::<false>`, bit for bit, and `gap` kept.
+/// [`wall_pair`]`::<false>`, bit for bit, and `gap` kept.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn plain_wall(

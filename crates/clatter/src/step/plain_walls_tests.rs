@@ -1,9 +1,10 @@
-//! Tests of the plain wall path: against the old path (`contacts::wall_pair`, kept as the
+//! Tests of the plain wall path: against the old path (`wall_pair`, kept as the
 //! reference) bit for bit over real piles, and its skips against brute force.
 
 use glam::Vec3;
 
-use super::super::contacts::{self, wall_pair};
+use super::super::contacts;
+use super::wall_pair;
 use crate::World;
 use crate::pile::PileShape;
 use clatter_geom::Shape;

@@ -14,9 +14,9 @@ use std::mem::offset_of;
 
 use glam::Vec3;
 
-use super::contacts::wall_pair;
 use super::lanes::{F8, M8, V3, gather, load_vec3_at};
 use super::law_lanes::{Contact8, Pair8, law, split_pairs, store, was_touching};
+use super::plain_walls::wall_pair;
 use super::sphere_lanes::{Bodies, Uniform, params_of, split_positions};
 use crate::contract::ContactForce;
 use crate::precise::Ds3A;
