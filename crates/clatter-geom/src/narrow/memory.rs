@@ -217,6 +217,20 @@ impl EdgeMemory {
         self.anchor.moved(q, t)
     }
 
+    /// The addresses of the three cache lines a served pair reads first (the header, the
+    /// anchor's line and the face's clip record: see
+    /// `memory_tests::the_served_paths_read_few_lines_of_a_memory`), for a caller that
+    /// prefetches the next pair's memory while it computes this one. Addresses only:
+    /// nothing is read.
+    #[inline(always)]
+    pub fn served_lines(&self) -> [*const u8; 3] {
+        [
+            (self as *const Self).cast::<u8>(),
+            (&self.anchor as *const Anchor).cast::<u8>(),
+            (&self.face as *const FaceSlack).cast::<u8>(),
+        ]
+    }
+
     /// Whether it holds the pairs of a finished search (for tests and statistics).
     pub fn remembers(&self) -> bool {
         self.shapes != [0; 2]

@@ -218,3 +218,29 @@ fn joined_levels_give_the_pairs_at_every_code_up_to_the_top() {
         }
     }
 }
+
+/// The lines a caller prefetches for a served pair ([`EdgeMemory::served_lines`]) are the
+/// memory's header (line 0), its anchor's line and its face record's line, each inside the
+/// memory: against the fields' offsets, on memories of an array (as the pair loop holds them).
+#[test]
+fn served_lines_are_the_header_the_anchor_and_the_face_record() {
+    let memories = vec![EdgeMemory::default(); 5];
+    for m in &memories {
+        let base = (m as *const EdgeMemory).cast::<u8>() as usize;
+        let lines = m.served_lines().map(|p| p as usize);
+        let want = [
+            base,
+            base + offset_of!(EdgeMemory, anchor),
+            base + offset_of!(EdgeMemory, face),
+        ];
+        assert_eq!(lines, want);
+        for at in lines {
+            assert!((base..base + size_of::<EdgeMemory>()).contains(&at));
+        }
+        // Three different lines (the anchor's record does not cross a line: see above).
+        let line = |at: usize| (at - base) / 64;
+        assert_eq!(line(lines[0]), 0);
+        assert_ne!(line(lines[1]), 0);
+        assert_ne!(line(lines[1]), line(lines[2]));
+    }
+}
