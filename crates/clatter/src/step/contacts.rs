@@ -613,7 +613,14 @@ fn plain_pairs(
     law: PairLaw,
 ) -> usize {
     let mut touching = 0;
-    for &k in rest {
+    // Each pair's edge memory fetched one pair ahead (a hint: see `EdgeMemory::prefetch`).
+    if let Some(&first) = rest.first() {
+        m[first as usize].prefetch();
+    }
+    for (n, &k) in rest.iter().enumerate() {
+        if let Some(&next) = rest.get(n + 1) {
+            m[next as usize].prefetch();
+        }
         let k = k as usize;
         let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
         let (tw, b, m) = (&mut tw[k], &mut b[k], &mut m[k]);
