@@ -576,7 +576,7 @@ impl Store<Vec3A> for Masked<'_> {
 /// Closest points of segments `p0-p1` and `q0-q1`.
 // Inlined into the edge manifold (without the hint the compiler took it out of line once
 // this file grew: 3% more instructions in `edge_manifold`, callgrind).
-#[inline]
+#[inline(always)]
 pub(super) fn segment_closest(p0: Vec3, p1: Vec3, q0: Vec3, q1: Vec3) -> (Vec3, Vec3) {
     let d1 = p1 - p0;
     let d2 = q1 - q0;

@@ -820,3 +820,80 @@ fn axis_of_is_one_product() {
     }
     assert!(on > 10_000 && off > 100_000, "{on} {off}");
 }
+
+/// `segment_closest` (inlined into the edge manifold, edge39) against a search in f64: on
+/// random segments in general position, near-parallel, and with the first one a point,
+/// the two points it returns lie on their segments and are as close as the closest pair
+/// that nested ternary searches over both parameters find (the distance is convex in
+/// them), within rounding (wider for the ill-conditioned near-parallel pairs).
+#[test]
+fn segment_closest_points_are_the_closest_by_brute_force() {
+    let mut rng = ChaCha8Rng::seed_from_u64(39);
+    let dist = |p0: Vec3, d1: Vec3, s: f64, q0: Vec3, d2: Vec3, t: f64| {
+        let p = p0.as_dvec3() + d1.as_dvec3() * s;
+        let q = q0.as_dvec3() + d2.as_dvec3() * t;
+        (p - q).length()
+    };
+    // The smallest distance over s of the best t (the distance is convex in each).
+    let best_t = |p0: Vec3, d1: Vec3, s: f64, q0: Vec3, d2: Vec3| {
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        for _ in 0..80 {
+            let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+            if dist(p0, d1, s, q0, d2, m1) <= dist(p0, d1, s, q0, d2, m2) {
+                hi = m2;
+            } else {
+                lo = m1;
+            }
+        }
+        dist(p0, d1, s, q0, d2, 0.5 * (lo + hi))
+    };
+    for case in 0..3000 {
+        let mut v = || {
+            Vec3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            )
+        };
+        let (p0, q0, q1) = (v(), v(), v());
+        let p1 = match case % 3 {
+            0 => v(),
+            // Near-parallel to `q0-q1`.
+            1 => p0 + (q1 - q0) * 0.7 + v() * 1e-4,
+            // A point (the first segment only: a second segment that is a point gets
+            // `p0`, not the closest point, as it always did; a hull's edges are never
+            // points).
+            _ => p0,
+        };
+        let (qa, qb) = segment_closest(p0, p1, q0, q1);
+        let (d1, d2) = (p1 - p0, q1 - q0);
+        let got = (qa - qb).length() as f64;
+        let (mut lo, mut hi) = (0.0f64, 1.0f64);
+        for _ in 0..80 {
+            let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+            if best_t(p0, d1, m1, q0, d2) <= best_t(p0, d1, m2, q0, d2) {
+                hi = m2;
+            } else {
+                lo = m1;
+            }
+        }
+        let want = best_t(p0, d1, 0.5 * (lo + hi), q0, d2);
+        // (Near-parallel segments are ill-conditioned in f32: the parameters' rounding
+        // moves the distance by up to ~1e-4 on these.)
+        let room = if case % 3 == 1 { 2e-4 } else { 1e-5 };
+        assert!(got <= want + room, "case {case}: {got} against {want}");
+        // On the segments: each point's distance to its segment is rounding.
+        let on = |x: Vec3, a: Vec3, d: Vec3| {
+            let s = if d.length_squared() > 0.0 {
+                ((x - a).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (a + d * s - x).length()
+        };
+        assert!(
+            on(qa, p0, d1) < 1e-5 && on(qb, q0, d2) < 1e-5,
+            "case {case}: off a segment"
+        );
+    }
+}

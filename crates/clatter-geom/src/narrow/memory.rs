@@ -154,7 +154,45 @@ fn unit(q: Quat) -> bool {
     (q.length_squared() - 1.0).abs() < 4e-6
 }
 
+/// The cache lines of a memory (from its start, 64 bytes each) that a pair's served paths
+/// read, in the order a remembered edge reads them: the header (line 0: shapes, pose, kind,
+/// winner), the levels of codes 2 to 9 (what a settled pile's searches take: codes 2 to 5
+/// on line 1, 6 to 9 on line 2), the anchor (read first of all, by a remembered face and a
+/// remembered edge alike) and the face's clip record's plan. See [`EdgeMemory::prefetch`].
+pub(super) const SERVED_LINES: [usize; 5] = [
+    std::mem::offset_of!(EdgeMemory, shapes) / 64,
+    (std::mem::offset_of!(EdgeMemory, levels) + 16) / 64,
+    (std::mem::offset_of!(EdgeMemory, levels) + 16 * 5) / 64,
+    std::mem::offset_of!(EdgeMemory, anchor) / 64,
+    std::mem::offset_of!(EdgeMemory, face) / 64,
+];
+
 impl EdgeMemory {
+    /// Asks the CPU to bring the cache lines of this memory that a served pair reads
+    /// (`SERVED_LINES`) into its caches, so that a pair loop can fetch the next pair's
+    /// memory while it works on this one. A hint only: it reads and changes nothing (a
+    /// prefetch never faults), so every answer stays the same, bitwise. The memories of a
+    /// pile's pair list do not fit the L2 cache, and each served pair read three to five
+    /// lines of its memory one after the other, each a miss that its code waited on: on
+    /// the 2,048-cube pile (`perf`, 1 thread) the anchor's first read held 78% of
+    /// `polyhedron_pair`'s samples and the header's and the levels' reads 75% of
+    /// `EdgeMemory::deep_pairs`' (issue 23, edge39). A no-op off x86-64.
+    #[inline(always)]
+    pub fn prefetch(&self) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            let start = (self as *const Self).cast::<i8>();
+            for line in SERVED_LINES {
+                // SAFETY: a prefetch is a hint that never faults nor reads into the
+                // program's state; the address is inside `self` (every line of
+                // `SERVED_LINES` is below `size_of::<EdgeMemory>() / 64`, see the test
+                // `prefetched_lines_hold_what_the_served_paths_read`).
+                unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(64 * line)) };
+            }
+        }
+    }
+
     /// Whether this memory serves `a` and `b` at relative rotation `rot`.
     #[inline]
     pub(super) fn holds(&self, a: &ConvexPolyhedron, b: &ConvexPolyhedron, rot: Quat) -> bool {
@@ -215,20 +253,6 @@ impl EdgeMemory {
     /// force.
     pub fn anchored_motion(&self, q: Quat, t: Vec3) -> f32 {
         self.anchor.moved(q, t)
-    }
-
-    /// The addresses of the three cache lines a served pair reads first (the header, the
-    /// anchor's line and the face's clip record: see
-    /// `memory_tests::the_served_paths_read_few_lines_of_a_memory`), for a caller that
-    /// prefetches the next pair's memory while it computes this one. Addresses only:
-    /// nothing is read.
-    #[inline(always)]
-    pub fn served_lines(&self) -> [*const u8; 3] {
-        [
-            (self as *const Self).cast::<u8>(),
-            (&self.anchor as *const Anchor).cast::<u8>(),
-            (&self.face as *const FaceSlack).cast::<u8>(),
-        ]
     }
 
     /// Whether it holds the pairs of a finished search (for tests and statistics).

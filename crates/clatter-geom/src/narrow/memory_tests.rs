@@ -1,4 +1,4 @@
-use super::{DeepPairs, EdgeMemory, GrownLevels, LEVELS};
+use super::{DeepPairs, EdgeMemory, GrownLevels, LEVELS, SERVED_LINES};
 use crate::narrow::test_shapes::xorshift;
 use std::mem::{align_of, offset_of, size_of, size_of_val};
 
@@ -61,6 +61,47 @@ fn the_served_paths_read_few_lines_of_a_memory() {
         line(anchor),
         line(face),
     );
+}
+
+/// The lines [`EdgeMemory::prefetch`] asks for ([`SERVED_LINES`]) hold every byte the
+/// served paths read of a memory, from the fields' own offsets and sizes: the header
+/// (shapes, pose, kind, winner), the levels of codes 2 to 9 (those a settled pile's
+/// searches take), the anchor whole and the face record's first line (its plan); and each
+/// line is one of the memory's own, named once.
+#[test]
+fn prefetched_lines_hold_what_the_served_paths_read() {
+    let m = EdgeMemory::default();
+    let held =
+        |at: usize, len: usize| (at / 64..=(at + len - 1) / 64).all(|l| SERVED_LINES.contains(&l));
+    let mut read = vec![
+        (offset_of!(EdgeMemory, shapes), size_of_val(&m.shapes)),
+        (offset_of!(EdgeMemory, rot), size_of_val(&m.rot)),
+        (offset_of!(EdgeMemory, offset), size_of_val(&m.offset)),
+        (
+            offset_of!(EdgeMemory, directions),
+            size_of_val(&m.directions),
+        ),
+        (offset_of!(EdgeMemory, winner), size_of_val(&m.winner)),
+        (offset_of!(EdgeMemory, anchor), size_of_val(&m.anchor)),
+        (offset_of!(EdgeMemory, face), 64),
+    ];
+    for code in 2..=9 {
+        read.push((offset_of!(EdgeMemory, levels) + 16 * (code - 1), 16));
+    }
+    for (at, len) in read {
+        assert!(held(at, len), "bytes {at}..{} not prefetched", at + len);
+    }
+    for (i, line) in SERVED_LINES.iter().enumerate() {
+        assert!(
+            *line < size_of::<EdgeMemory>() / 64,
+            "line {line} past the memory"
+        );
+        assert!(!SERVED_LINES[..i].contains(line), "line {line} twice");
+    }
+    // A hint only: the memory reads the same after it.
+    let before = format!("{m:?}");
+    m.prefetch();
+    assert_eq!(format!("{m:?}"), before);
 }
 
 /// The level codes against the levels written out as `-r / 2^(c + 1)` in f64: the code
@@ -216,31 +257,5 @@ fn joined_levels_give_the_pairs_at_every_code_up_to_the_top() {
             }
             assert_eq!(m.up_to(top), want, "top {top}");
         }
-    }
-}
-
-/// The lines a caller prefetches for a served pair ([`EdgeMemory::served_lines`]) are the
-/// memory's header (line 0), its anchor's line and its face record's line, each inside the
-/// memory: against the fields' offsets, on memories of an array (as the pair loop holds them).
-#[test]
-fn served_lines_are_the_header_the_anchor_and_the_face_record() {
-    let memories = vec![EdgeMemory::default(); 5];
-    for m in &memories {
-        let base = (m as *const EdgeMemory).cast::<u8>() as usize;
-        let lines = m.served_lines().map(|p| p as usize);
-        let want = [
-            base,
-            base + offset_of!(EdgeMemory, anchor),
-            base + offset_of!(EdgeMemory, face),
-        ];
-        assert_eq!(lines, want);
-        for at in lines {
-            assert!((base..base + size_of::<EdgeMemory>()).contains(&at));
-        }
-        // Three different lines (the anchor's record does not cross a line: see above).
-        let line = |at: usize| (at - base) / 64;
-        assert_eq!(line(lines[0]), 0);
-        assert_ne!(line(lines[1]), 0);
-        assert_ne!(line(lines[1]), line(lines[2]));
     }
 }

@@ -613,36 +613,20 @@ fn plain_pairs(
     law: PairLaw,
 ) -> usize {
     let mut touching = 0;
-    let last = rest.len().saturating_sub(1);
+    // Each pair's edge memory fetched one pair ahead (a hint: see `EdgeMemory::prefetch`).
+    if let Some(&first) = rest.first() {
+        m[first as usize].prefetch();
+    }
     for (n, &k) in rest.iter().enumerate() {
+        if let Some(&next) = rest.get(n + 1) {
+            m[next as usize].prefetch();
+        }
         let k = k as usize;
-        // The next pair's memory lines asked for now, read while this pair is computed
-        // (the last pair asks for its own again: no branch). Two pairs ahead measured
-        // no faster (BENCHMARKS.md, loop39).
-        prefetch_memory(m, rest[(n + 1).min(last)] as usize);
         let (h, f, t, hn) = (&mut h[k], &mut f[k], &mut t[k], &mut hn[k]);
         let (tw, b, m) = (&mut tw[k], &mut b[k], &mut m[k]);
         touching += plain_pair(w, v, pairs[k], h, f, t, hn, tw, b, m, law) as usize;
     }
     touching
-}
-
-/// Asks for the cache lines a served pair reads of `memory[k]` ([`EdgeMemory::served_lines`])
-/// (nothing if `k` is past the end). A hint to the cache only: no value read or written
-/// changes, so the results do not.
-#[inline(always)]
-fn prefetch_memory(memory: &[EdgeMemory], k: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(m) = memory.get(k) {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        for line in m.served_lines() {
-            // SAFETY: a prefetch reads nothing and never faults, whatever the address (and
-            // these lie in a live memory).
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(line.cast::<i8>()) };
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (memory, k);
 }
 
 /// Which law context [`plain_pair`] takes.
