@@ -834,19 +834,22 @@ fn segment_closest_points_are_the_closest_by_brute_force() {
         let q = q0.as_dvec3() + d2.as_dvec3() * t;
         (p - q).length()
     };
-    // The smallest distance over s of the best t (the distance is convex in each).
-    let best_t = |p0: Vec3, d1: Vec3, s: f64, q0: Vec3, d2: Vec3| {
+    // The smallest value of a convex `f` over [0, 1], by ternary search.
+    let smallest = |f: &dyn Fn(f64) -> f64| {
         let (mut lo, mut hi) = (0.0f64, 1.0f64);
         for _ in 0..80 {
             let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
-            if dist(p0, d1, s, q0, d2, m1) <= dist(p0, d1, s, q0, d2, m2) {
+            if f(m1) <= f(m2) {
                 hi = m2;
             } else {
                 lo = m1;
             }
         }
-        dist(p0, d1, s, q0, d2, 0.5 * (lo + hi))
+        f(0.5 * (lo + hi))
     };
+    // The distance at s for the best t (the distance is convex in each).
+    let best_t =
+        |p0: Vec3, d1: Vec3, s: f64, q0: Vec3, d2: Vec3| smallest(&|t| dist(p0, d1, s, q0, d2, t));
     for case in 0..3000 {
         let mut v = || {
             Vec3::new(
@@ -868,16 +871,7 @@ fn segment_closest_points_are_the_closest_by_brute_force() {
         let (qa, qb) = segment_closest(p0, p1, q0, q1);
         let (d1, d2) = (p1 - p0, q1 - q0);
         let got = (qa - qb).length() as f64;
-        let (mut lo, mut hi) = (0.0f64, 1.0f64);
-        for _ in 0..80 {
-            let (m1, m2) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
-            if best_t(p0, d1, m1, q0, d2) <= best_t(p0, d1, m2, q0, d2) {
-                hi = m2;
-            } else {
-                lo = m1;
-            }
-        }
-        let want = best_t(p0, d1, 0.5 * (lo + hi), q0, d2);
+        let want = smallest(&|s| best_t(p0, d1, s, q0, d2));
         // (Near-parallel segments are ill-conditioned in f32: the parameters' rounding
         // moves the distance by up to ~1e-4 on these.)
         let room = if case % 3 == 1 { 2e-4 } else { 1e-5 };
