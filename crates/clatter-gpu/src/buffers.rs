@@ -257,8 +257,12 @@ buffers! {
     CellCount = "cell_count", ReadWrite, "array<atomic<u32>>", size_of::<u32>(), CellsPlusOne;
     /// First body of each cell in `sorted`.
     CellStart = "cell_start", ReadWrite, "array<u32>", size_of::<u32>(), CellsPlusOne;
-    /// Positions at the last rebuild; with composites, then their orientations (body `i`'s
-    /// at `n + i`).
+    /// Positions at the last rebuild (xyz); with composites, then their orientations (body
+    /// `i`'s at `n + i`). Body `i`'s `w` (written with the position by a rebuild's commit,
+    /// then by every integrate in scenes with polyhedra): how far any point of the body can
+    /// have moved in the last step (the CPU's `BodyBound::moved`), which `contacts_sat`
+    /// takes off each pair's gap (see [`Buf::NewHist`]). (A field of an existing buffer:
+    /// the shared group 0 is at lavapipe's limit of 32 storage buffers a stage.)
     RebuildPos = "rebuild_pos", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), RebuildSlots;
     /// The new pair list's per-body offsets (during a rebuild).
     NewAStart = "new_a_start", ReadWrite, "array<u32>", size_of::<u32>(), BodiesPlusOne;
@@ -268,7 +272,13 @@ buffers! {
     NewPairs = "new_pairs", ReadWrite, "array<vec2<u32>>", size_of::<[u32; 2]>(), Pairs;
     /// Candidate pairs `(i, j)`, `i < j`, sorted.
     Pairs = "pairs", ReadWrite, "array<vec2<u32>>", size_of::<[u32; 2]>(), Pairs, keep;
-    /// The new list's springs (during a rebuild).
+    /// The new list's springs (during a rebuild). Outside a rebuild (zeroed by its commit,
+    /// and by [`crate::GpuWorld::write_states`]), `x` of pair `c` is the pair's gap: for a
+    /// pair not touching (0 for a touching one), a lower bound of its bodies' distance (0:
+    /// none), from the bounding spheres or the separating axis that `contacts_sat` proved it
+    /// apart with, less both bodies' motion since (`w` of [`Buf::RebuildPos`]); while it stays
+    /// positive, `contacts_sat` skips the pair as apart (the CPU's `separation_bound` of a
+    /// pair apart, `step::contacts::skip_apart`).
     NewHist = "new_hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), Pairs;
     /// Springs per pair: xyz tangential, w twist.
     Hist = "hist", ReadWrite, "array<vec4<f32>>", size_of::<[f32; 4]>(), Pairs, keep;

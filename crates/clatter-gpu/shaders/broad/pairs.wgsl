@@ -210,6 +210,9 @@ fn commit(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: v
     if t < new_a_start[params.n] {
         pairs[t] = new_pairs[t];
         hist[t] = new_hist[t];
+        // Outside a rebuild new_hist holds the pairs' gaps (contacts_split.wgsl `pair_gap`):
+        // none yet for the new list.
+        new_hist[t] = vec4<f32>(0.0);
         touching[t] = 0u;
         forces[t] = ContactForce();
     }

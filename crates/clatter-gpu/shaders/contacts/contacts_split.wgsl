@@ -120,23 +120,62 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
 
 // Whether candidate pair c is certainly apart this step; if so, releases it (zero force and
 // spring if it was touching) and keeps its separating axis as the next step's hint.
+//
+// A pair proved apart keeps in pair_gap a lower bound of its bodies' distance; each later
+// step takes off how far both bodies can have moved (body_moved, written by integrate), and
+// while that stays positive the pair is still apart and is skipped without a test (the
+// CPU's `skip_apart`). The test it saves would have found the pair apart as well, so no
+// result changes: at most the separating axis kept as its hint, which only speed depends
+// on. A pair not skipped is tested, and its gap is rewritten: the new bound, or 0 (so a
+// pair the full narrow phase finds touching has none). With `params.full_test` (the tests'
+// check that what pairs remember changes nothing) no pair is skipped.
 fn pair_apart(c: u32) -> bool {
     let p = pairs[c];
     let i = body_of(p.x);
     let j = body_of(p.y);
+    let gap = pair_gap(c);
+    if gap > 0.0 && params.full_test == 0u {
+        let left = gap - (body_moved(i) + body_moved(j));
+        if left > 0.0 {
+            set_pair_gap(c, left);
+            return true;
+        }
+    }
     let was = touching[c];
     if was == 1u && pair_memory[c].x != NO_HINT && params.full_test == 0u {
         // Touching last step, with a remembered contact: contacts_full tries it first.
+        // (A touching pair's gap is 0 already.)
         return false;
     }
     nrw_hint_in = select(0u, was - 1u, was >= 2u);
     let pa = piece_at(statics[i], piece_of(p.x), vec3<f32>(0.0), bodies[i].orientation);
     let pb = piece_at(statics[j], piece_of(p.y), offset_of(i, j), bodies[j].orientation);
-    if !separated(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q) {
+    let apart = separated(pa.shape, pa.x, pa.q, pb.shape, pb.x, pb.q);
+    let now = select(0.0, nrw_gap_out, apart);
+    if now != gap {
+        set_pair_gap(c, now);
+    }
+    if !apart {
         return false;
     }
     release_pair(c, was);
     return true;
+}
+
+// Pair c's gap (see pair_apart): kept in the rebuild's spare new_hist outside a rebuild
+// (src/buffers.rs `NewHist`), zeroed by the rebuild's commit.
+fn pair_gap(c: u32) -> f32 {
+    return new_hist[c].x;
+}
+
+fn set_pair_gap(c: u32, g: f32) {
+    new_hist[c].x = g;
+}
+
+// How far any point of body i can have moved in the last step (integrate.wgsl), kept in its
+// rebuild position's spare w (src/buffers.rs `RebuildPos`).
+fn body_moved(i: u32) -> f32 {
+    return rebuild_pos[i].w;
 }
 
 @compute @workgroup_size(1)

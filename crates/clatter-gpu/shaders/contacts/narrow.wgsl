@@ -45,6 +45,10 @@ struct NrwShape {
 // 2 = edge directions (index ia * b.num_dirs + ib), 3 = edges (index ea * b.num_edges + eb).
 var<private> nrw_hint_in: u32 = 0u;
 var<private> nrw_hint_out: u32 = 0u;
+// When the separating-axis test stops at an axis that separates: the gap along it, in
+// length units (a lower bound of the bodies' distance, up to rounding); 0 when the axis
+// found does not say (the Gauss-map edge search's). Read only by `separated`.
+var<private> nrw_sep_out: f32 = 0.0;
 
 // What a touching polyhedron pair remembers of its contact, the twin of the CPU's hint word
 // and margin (clatter-geom narrow/sat.rs `polyhedron_polyhedron`): `collide` reads
@@ -109,7 +113,12 @@ fn nrw_hint_separates(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec3<f32>, 
     let max_a = nrw_max_a(a, axis);
     let min_b = nrw_min_b(b, axis, rot, t);
     let max_b = nrw_max_b(b, axis, rot, t);
-    return min_b > max_a || min_a > max_b;
+    let apart = min_b > max_a || min_a > max_b;
+    if apart {
+        // The whole bodies projected: the gap between the extents, per unit of the axis.
+        nrw_sep_out = max(min_b - max_a, min_a - max_b) / length(axis);
+    }
+    return apart;
 }
 
 // Scratch for clipping and reduction: NRW_MAX_CLIP points (xyz, depth in w). Two separate
@@ -565,7 +574,9 @@ fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: 
     let b = nrw_shape(sb);
     let d = xb - xa;
     let rs = a.radius + b.radius;
+    nrw_gap_out = 0.0;
     if dot(d, d) >= rs * rs {
+        nrw_gap_out = nrw_gap_allowed(length(d) - rs, rs, d);
         return true;
     }
     if a.kind == 0u || b.kind == 0u {
@@ -573,5 +584,25 @@ fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: 
     }
     let inv_a = quat_conj(qa);
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
-    return nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d), true, 0.0).separated;
+    nrw_sep_out = 0.0;
+    let apart = nrw_sat(a, b, rot, transpose(rot), quat_rotate(inv_a, d), true, 0.0).separated;
+    if apart {
+        nrw_gap_out = nrw_gap_allowed(nrw_sep_out, rs, d);
+    }
+    return apart;
+}
+
+// After `separated` found the pair apart: a lower bound of the distance between the two
+// bodies at these poses (0 when none is known), for contacts_split.wgsl's `pair_apart`.
+var<private> nrw_gap_out: f32 = 0.0;
+
+// The gap `s` measured along a separating direction (or between the bounding spheres, radii
+// summing to `rs`, centres `d` apart), less what the f32 arithmetic may have got wrong:
+// 1e-5 of the radii (the rotations' and projections' rounding, a few ulps of the bodies'
+// size, and the stored quaternions' scale, within 1e-6) and 2^-20 of the offset's 1-norm.
+// Not positive (or NaN): 0, no bound.
+fn nrw_gap_allowed(s: f32, rs: f32, d: vec3<f32>) -> f32 {
+    let ad = abs(d);
+    let g = s - (1e-5 * rs + (ad.x + ad.y + ad.z) * (1.0 / 1048576.0));
+    return select(0.0, g, g > 0.0);
 }

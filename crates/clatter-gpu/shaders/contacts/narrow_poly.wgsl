@@ -339,6 +339,7 @@ fn nrw_edge_axes_by_direction(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, t: vec
             if s > 0.0 {
                 r.separated = true;
                 r.hint = nrw_hint(2u, ia * b.num_dirs + ib);
+                nrw_sep_out = s;
                 return r;
             }
             if !r.found || s > r.s {
@@ -531,6 +532,7 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
             let s = nrw_min_b(b, fc.xyz, rot, t) - fc.w;
             if s > 0.0 {
                 nrw_hint_out = nrw_hint(0u, f);
+                nrw_sep_out = s;
                 return r;
             }
             if f == 0u || s > r.best_a {
@@ -548,6 +550,7 @@ fn nrw_sat(a: NrwShape, b: NrwShape, rot: mat3x3<f32>, inv_rot: mat3x3<f32>, t: 
             let s = nrw_min_a(a, n) - (fc.w + dot(n, t));
             if s > 0.0 {
                 nrw_hint_out = nrw_hint(1u, f);
+                nrw_sep_out = s;
                 return r;
             }
             if f == 0u || s > r.best_b {

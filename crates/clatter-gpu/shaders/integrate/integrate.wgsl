@@ -161,6 +161,16 @@ fn integrate_body(i: u32) -> u32 {
     b.orientation = qn;
     b.residual = residual;
     bodies[i] = b;
+    if params.spheres_only == 0u {
+        // How far any point of the body can have moved in this step, which contacts_split.wgsl
+        // `pair_apart` takes off pairs' gaps (the CPU's `BodyBound::moved`): the centre by
+        // |v| dt, a point at the bounding radius r turned by at most |w| dt (the chord is
+        // below the arc); a relative margin for the norms' rounding, and 4e-6 r for the
+        // quaternion update's (at most 6 ulps of a turn, see the CPU's `axis_motion_bound`)
+        // and the position's snap. A NaN or infinity spends every gap. Kept in the rebuild
+        // position's spare w (src/buffers.rs `RebuildPos`).
+        rebuild_pos[i].w = (length(v) + length(w) * st.radius) * dt * 1.00001 + 4e-6 * st.radius;
+    }
     // The rebuild positions keep the high part only (the broad phase bins and pairs at it).
     let d = periodic_nearest((xw - rebuild_pos[i].xyz) + xs.lo);
     var d2 = dot(d, d);

@@ -241,7 +241,9 @@ impl GpuWorld {
     /// Uploads the body states of `world` (the world this was created from, at the step this
     /// has reached) over the GPU's, and keeps everything else: the contact list, springs,
     /// pair memories and the broad phase's rebuild positions, as the CPU's `World::step`
-    /// keeps them when a caller edits `world.state` between steps. For callers that change
+    /// keeps them when a caller edits `world.state` between steps (only the pairs' gaps
+    /// are dropped, which skip pairs as apart while the bodies' measured motion cannot
+    /// have closed them: so the next step tests every pair). For callers that change
     /// the bodies' state between steps (a test integrating orientations itself), where
     /// [`GpuWorld::new`] would rebuild the pipeline and carry the contacts at every step.
     /// Refuses a world with another body count or step count.
@@ -260,6 +262,10 @@ impl GpuWorld {
         self.ctx
             .queue
             .write_buffer(&self.bufs[Buf::Bodies], 0, bytemuck::cast_slice(&states));
+        // The pairs' gaps were spent by the motion integrate measured, not by this edit.
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&self.bufs[Buf::NewHist], 0, None);
+        self.ctx.queue.submit([enc.finish()]);
         Ok(())
     }
 

@@ -135,7 +135,8 @@ impl GpuWorld {
 
     /// Reads a named stage buffer (for the stage-by-stage tests): `keys`, `sorted`,
     /// `cell_start`, `a_start`, `pairs`, `b_start`, `b_adj`, `forces`, `grid`, `status`,
-    /// `mesh`, `touching`, `pair_memory`.
+    /// `mesh`, `touching`, `pair_memory`, `new_hist` (outside a rebuild: each pair's gap in
+    /// `x`), `rebuild_pos` (each body's last motion bound in `w`).
     pub fn debug_buffer(&self, name: &str) -> Result<Vec<u8>, GpuError> {
         const STAGE_BUFFERS: &[&str] = &[
             "keys",
@@ -152,6 +153,8 @@ impl GpuWorld {
             "mesh",
             "touching",
             "pair_memory",
+            "new_hist",
+            "rebuild_pos",
         ];
         let Some(b) = STAGE_BUFFERS
             .contains(&name)
