@@ -105,6 +105,10 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
     let (mut before, mut after) = (cpu.clone(), cpu.clone());
     // Pair-steps apart (not touching before the step), skipped, and gaps checked.
     let (mut apart, mut skipped, mut checked) = (0usize, 0usize, 0usize);
+    // ... of which a sphere against a polyhedron (proved apart by a face plane, or by the
+    // bounding spheres).
+    let (mut sphere_apart, mut sphere_skipped) = (0usize, 0usize);
+    let is_sphere = |i: usize| matches!(cpu.shape(i), Shape::Sphere { .. });
     // The smallest room a checked gap left below the distance, relative to the radii.
     let mut least_room = f64::INFINITY;
     let steps = 160;
@@ -171,9 +175,12 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
             }
             apart += 1;
             let (i, j) = (pairs[2 * k] as usize, pairs[2 * k + 1] as usize);
+            let with_sphere = is_sphere(i) != is_sphere(j);
+            sphere_apart += with_sphere as usize;
             let left = g0[k] - (m0[i] + m0[j]);
             if g0[k] > 0.0 && left > 0.0 {
                 skipped += 1;
+                sphere_skipped += with_sphere as usize;
                 assert_eq!(
                     g1[k].to_bits(),
                     left.to_bits(),
@@ -186,12 +193,128 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
         }
     }
     eprintln!(
-        "{apart} pair-steps apart, {skipped} skipped; {checked} gaps checked, least room {least_room:.3e} of the radii"
+        "{apart} pair-steps apart, {skipped} skipped ({sphere_apart} and {sphere_skipped} of a sphere and a polyhedron); {checked} gaps checked, least room {least_room:.3e} of the radii"
     );
     // After the first step proves them apart, most pairs apart are skipped.
     assert!(
         skipped * 2 > apart,
         "only {skipped} of {apart} pair-steps apart were skipped"
     );
+    assert!(
+        sphere_skipped * 2 > sphere_apart,
+        "only {sphere_skipped} of {sphere_apart} pair-steps of a sphere and a polyhedron apart were skipped"
+    );
     assert!(checked > 1000, "only {checked} gaps checked");
+}
+
+/// Composites (clumps of spheres and a box) drifting across the seams of a periodic box,
+/// onto a floor and into a sink: a pair of pieces is skipped by its own gap (the bodies'
+/// bounds cover their pieces, which lie within the bounding radius), through the nearest
+/// image. The world that skips stays bitwise equal, body by body, to one that tests every
+/// pair, at every step, and pairs are skipped.
+#[test]
+fn composite_pairs_across_periodic_seams_skip_with_the_same_bits() {
+    let Some(ctx) = clatter_gpu::test_context() else {
+        return;
+    };
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/test.toml");
+    let text = r#"[simulation]
+steps = 2000
+dt = 2.0e-5
+periodic = { min = [0.0, 0.0, 0.0], max = [0.08, 0.08, 0.1], axes = "xy" }
+gravity = [0.0, 0.0, -9.81]
+[[material]]
+name = "m"
+density = 2500.0
+stiffness = 1.0e4
+restitution = 0.3
+friction = 0.5
+[[wall]]
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+material = "m"
+[[sink]]
+min = [0.0, 0.0, 0.0]
+max = [0.02, 0.02, 0.012]
+[[shape]]
+name = "ball"
+sphere = { radius = 0.005 }
+[[shape]]
+name = "cube"
+box = { half_extents = [0.004, 0.004, 0.004] }
+[[shape]]
+name = "peanut"
+composite = [ { shape = "ball", offset = [-0.003, 0.0, 0.0] },
+              { shape = "ball", offset = [0.003, 0.0, 0.0] } ]
+[[shape]]
+name = "hammer"
+composite = [ { shape = "ball", offset = [-0.005, 0.0, 0.0] },
+              { shape = "cube", offset = [0.004, 0.0, 0.0] } ]
+[[group]]
+shape = "peanut"
+material = "m"
+random = { min = [0.0, 0.0, 0.01], max = [0.08, 0.08, 0.09], count = 20, seed = 11 }
+random_orientation = true
+velocity = [1.5, 0.8, -0.2]
+[[group]]
+shape = "hammer"
+material = "m"
+random = { min = [0.0, 0.0, 0.01], max = [0.08, 0.08, 0.09], count = 12, seed = 12 }
+random_orientation = true
+velocity = [-1.2, 0.5, -0.3]
+[[group]]
+shape = "cube"
+material = "m"
+random = { min = [0.0, 0.0, 0.01], max = [0.08, 0.08, 0.09], count = 12, seed = 13 }
+random_orientation = true
+angular_velocity = [0.0, 0.0, 60.0]
+"#;
+    let scene = clatter::scene::Scene::parse(text, &file.display().to_string())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let world = scene.world();
+    let mut gpu = GpuWorld::new(ctx.clone(), &world).expect("scene fits");
+    let mut full = GpuWorld::new(ctx, &world).expect("scene fits");
+    full.set_full_test(true);
+    let (mut skipped, mut apart) = (0usize, 0usize);
+    for step in 0..2000 {
+        let np = gpu.pairs();
+        let (touching, g0) = (words(&gpu, "touching"), gaps(&gpu, np));
+        let m0 = moved(&gpu, world.len());
+        let pairs = words(&gpu, "pairs");
+        let rebuilds = gpu.rebuilds();
+        gpu.step(1).expect("GPU step");
+        full.step(1).expect("GPU step, full test");
+        let (a, b) = (gpu.read_states().unwrap(), full.read_states().unwrap());
+        assert!(
+            bytemuck::cast_slice::<_, u8>(&a) == bytemuck::cast_slice::<_, u8>(&b),
+            "step {step}: the world that skips pairs differs from the one that tests them"
+        );
+        if gpu.rebuilds() != rebuilds {
+            continue;
+        }
+        for k in 0..np {
+            // Pair entries carry piece codes above the body index.
+            let body = (1u32 << clatter_gpu::shapes::PIECE_SHIFT) - 1;
+            let (i, j) = (pairs[2 * k] & body, pairs[2 * k + 1] & body);
+            if touching[k] != 1 {
+                apart += 1;
+                let left = g0[k] - (m0[i as usize] + m0[j as usize]);
+                skipped += (g0[k] > 0.0 && left > 0.0) as usize;
+            }
+        }
+    }
+    eprintln!("{apart} piece pair-steps apart, {skipped} skipped");
+    assert!(skipped * 4 > apart, "only {skipped} of {apart} skipped");
+    // Bodies crossed the seams (or were wrapped there), and the sink took bodies (their
+    // pairs went with the rebuilds): the runs stayed equal through both.
+    let end = gpu.read_states().unwrap();
+    let crossed = (0..world.len())
+        .filter(|&i| (end[i].position[0] as f64 - world.state.position[i].x).abs() > 0.03)
+        .count();
+    let removed = end.iter().filter(|s| s.position[3] != 0.0).count();
+    eprintln!("{crossed} bodies crossed a seam, {removed} in the sink");
+    assert!(
+        crossed > 0 && removed > 0,
+        "{crossed} crossed, {removed} removed"
+    );
 }

@@ -80,46 +80,84 @@ fn count_classes(lid: u32, counted: bool, kind: u32, word: u32) -> u32 {
     return rank;
 }
 
+// The workgroup's pairs left to test (wg_test) and those the full narrow phase runs
+// (wg_full), gathered so that the workgroup's first threads run them side by side (see
+// contacts_sat), with their counts.
+var<workgroup> wg_test: array<u32, WG>;
+var<workgroup> wg_test_count: atomic<u32>;
+var<workgroup> wg_full: array<u32, WG>;
+var<workgroup> wg_full_count: atomic<u32>;
+
+// What contacts_sat's first look at a pair found (pair_quick).
+const QUICK_APART: u32 = 0u;
+const QUICK_FULL: u32 = 1u;
+const QUICK_TEST: u32 = 2u;
+
+// Proves pairs apart cheaply and lists the rest for the full narrow phase, in three rounds
+// within the workgroup, so that the threads of a subgroup (which run in lockstep) take the
+// same path: each thread's pair is first looked at cheaply (pair_quick: most of a pile's
+// pairs apart are skipped by their gap, and a touching pair that remembers its contact goes
+// to the full phase); the pairs left to test are gathered and tested (pair_test) by the
+// workgroup's first threads; then the pairs for the full phase, gathered the same way, are
+// counted by class and listed by the first threads. Tested where they lay, one skipped pair
+// beside one tested cost its subgroup the whole test.
 @compute @workgroup_size(256)
 fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>,
                 @builtin(local_invocation_index) lid: u32) {
     clear_wg_classes(lid);
+    if lid == 0u {
+        atomicStore(&wg_test_count, 0u);
+        atomicStore(&wg_full_count, 0u);
+    }
+    // (Its uniform load is the barrier after the clears.)
     if halted_wg(lid) {
         return;
     }
-    let c = dealt_item(wid, nwg, lid, a_start[params.n]);
-    var needs = false;
-    var kind = 0u;
-    if c < a_start[params.n] {
-        needs = !pair_apart(c);
-        if needs {
-            kind = pair_class(c);
+    let count = a_start[params.n];
+    let c = dealt_item(wid, nwg, lid, count);
+    if c < count {
+        let quick = pair_quick(c);
+        if quick == QUICK_TEST {
+            wg_test[atomicAdd(&wg_test_count, 1u)] = c;
+        } else if quick == QUICK_FULL {
+            wg_full[atomicAdd(&wg_full_count, 1u)] = c;
         }
     }
-    // The pairs' counts per class (for contacts_size), and the list in any order: a slot in
-    // the workgroup, then one global atomic per workgroup.
-    count_classes(lid, needs, kind, ST_CLASSES);
-    var local = 0u;
-    if needs {
-        local = atomicAdd(&wg_sum, 1u);
+    let tests = workgroupUniformLoad(&wg_test_count);
+    if lid < tests {
+        let t = wg_test[lid];
+        if !pair_test(t) {
+            wg_full[atomicAdd(&wg_full_count, 1u)] = t;
+        }
     }
-    workgroupBarrier();
+    let fulls = workgroupUniformLoad(&wg_full_count);
+    let listed = lid < fulls;
+    var f = 0u;
+    var kind = 0u;
+    if listed {
+        f = wg_full[lid];
+        kind = pair_class(f);
+    }
+    // The pairs' counts per class (for contacts_size), and the list in any order: the
+    // workgroup's pairs (on its first threads) from one global atomic per workgroup.
+    count_classes(lid, listed, kind, ST_CLASSES);
     if lid == 0u {
-        let total = atomicLoad(&wg_sum);
         var base = 0u;
-        if total > 0u {
-            base = atomicAdd(&status[ST_WORK], total);
+        if fulls > 0u {
+            base = atomicAdd(&status[ST_WORK], fulls);
         }
         wg_base = base;
     }
     let base = workgroupUniformLoad(&wg_base);
-    if needs {
-        new_pairs[base + local] = vec2<u32>(c, 0u);
+    if listed {
+        new_pairs[base + lid] = vec2<u32>(f, 0u);
     }
 }
 
-// Whether candidate pair c is certainly apart this step; if so, releases it (zero force and
-// spring if it was touching) and keeps its separating axis as the next step's hint.
+// The first, cheap look at candidate pair c: QUICK_APART when it is still apart by more
+// than both bodies can have moved since it was proved apart (its gap, less their motion,
+// kept), QUICK_FULL when it touched last step with a remembered contact (contacts_full
+// tries that first), else QUICK_TEST (pair_test decides).
 //
 // A pair proved apart keeps in pair_gap a lower bound of its bodies' distance; each later
 // step takes off how far both bodies can have moved (body_moved, written by integrate), and
@@ -129,24 +167,32 @@ fn contacts_sat(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
 // on. A pair not skipped is tested, and its gap is rewritten: the new bound, or 0 (so a
 // pair the full narrow phase finds touching has none). With `params.full_test` (the tests'
 // check that what pairs remember changes nothing) no pair is skipped.
-fn pair_apart(c: u32) -> bool {
+fn pair_quick(c: u32) -> u32 {
+    let gap = pair_gap(c);
+    if gap > 0.0 && params.full_test == 0u {
+        let p = pairs[c];
+        let left = gap - (body_moved(body_of(p.x)) + body_moved(body_of(p.y)));
+        if left > 0.0 {
+            set_pair_gap(c, left);
+            return QUICK_APART;
+        }
+    }
+    if touching[c] == 1u && pair_memory[c].x != NO_HINT && params.full_test == 0u {
+        // (A touching pair's gap is 0 already.)
+        return QUICK_FULL;
+    }
+    return QUICK_TEST;
+}
+
+// Whether candidate pair c (QUICK_TEST) is certainly apart this step (`separated`, its
+// hint first); if so, releases it (zero force and spring if it was touching) and keeps its
+// separating axis as the next step's hint. Its gap is rewritten either way (pair_quick).
+fn pair_test(c: u32) -> bool {
     let p = pairs[c];
     let i = body_of(p.x);
     let j = body_of(p.y);
     let gap = pair_gap(c);
-    if gap > 0.0 && params.full_test == 0u {
-        let left = gap - (body_moved(i) + body_moved(j));
-        if left > 0.0 {
-            set_pair_gap(c, left);
-            return true;
-        }
-    }
     let was = touching[c];
-    if was == 1u && pair_memory[c].x != NO_HINT && params.full_test == 0u {
-        // Touching last step, with a remembered contact: contacts_full tries it first.
-        // (A touching pair's gap is 0 already.)
-        return false;
-    }
     nrw_hint_in = select(0u, was - 1u, was >= 2u);
     let pa = piece_at(statics[i], piece_of(p.x), vec3<f32>(0.0), bodies[i].orientation);
     let pb = piece_at(statics[j], piece_of(p.y), offset_of(i, j), bodies[j].orientation);

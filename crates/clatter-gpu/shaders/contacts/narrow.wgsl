@@ -566,7 +566,9 @@ fn nrw_with_sphere(a: NrwShape, xa: vec3<f32>, qa: vec4<f32>, b: NrwShape, xb: v
 
 // Whether shapes sa and sb are certainly apart: their bounding spheres are, or, for two
 // polyhedra, an axis of the separating-axis test separates them (the hinted one first; the
-// separating axis is left in nrw_hint_out). False means "maybe touching": `collide` decides.
+// separating axis is left in nrw_hint_out), or, for a sphere and a polyhedron, one of the
+// polyhedron's face planes does with room to spare; a lower bound of their distance is left
+// in nrw_gap_out. False means "maybe touching": `collide` decides.
 // Lets the contact stage find the few pairs that need a manifold with a light kernel.
 fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: vec4<f32>) -> bool {
     nrw_hint_out = 0u;
@@ -579,8 +581,34 @@ fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: 
         nrw_gap_out = nrw_gap_allowed(length(d) - rs, rs, d);
         return true;
     }
-    if a.kind == 0u || b.kind == 0u {
+    if a.kind == 0u && b.kind == 0u {
         return false;
+    }
+    if a.kind == 0u || b.kind == 0u {
+        // A sphere against a polyhedron: apart when the sphere's centre lies outside one of
+        // the polyhedron's face planes by more than its radius and the rounding allowance
+        // (the polyhedron lies inside each plane), so that nrw_sphere_poly, whose best face
+        // separation is the same up to rounding, finds no contact either.
+        var centre = xa;
+        var radius = a.radius;
+        var p = b;
+        var x = xb;
+        var q = qb;
+        if b.kind == 0u {
+            centre = xb;
+            radius = b.radius;
+            p = a;
+            x = xa;
+            q = qa;
+        }
+        let c = quat_rotate_inv(q, centre - x);
+        var best = NRW_LOWEST;
+        for (var f = 0u; f < p.num_faces; f += 1u) {
+            let fc = nrw_face(p, f);
+            best = max(best, dot(fc.xyz, c) - fc.w);
+        }
+        nrw_gap_out = nrw_gap_allowed(best - radius, rs, d);
+        return nrw_gap_out > 0.0;
     }
     let inv_a = quat_conj(qa);
     let rot = nrw_mat_from_quat(quat_mul(inv_a, qb));
