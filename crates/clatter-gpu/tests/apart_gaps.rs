@@ -156,12 +156,11 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
         // Every body's bound covers its motion in the step.
         gpu.read_into(&mut after).expect("read-back");
         let m1 = moved(&gpu, n);
-        for i in 0..n {
+        for (i, &bound) in m1.iter().enumerate() {
             let moved = displacement(&before, &after, i);
             assert!(
-                moved <= m1[i] as f64,
-                "step {step}: body {i} moved {moved}, beyond its bound {}",
-                m1[i]
+                moved <= bound as f64,
+                "step {step}: body {i} moved {moved}, beyond its bound {bound}"
             );
         }
         if gpu.rebuilds() != rebuilds {
