@@ -39,6 +39,16 @@ fn moved(gpu: &GpuWorld, n: usize) -> Vec<f32> {
     (0..n).map(|i| f32::from_bits(w[4 * i + 3])).collect()
 }
 
+/// The world that skips pairs (`gpu`) and the one that tests every pair (`full`) hold the
+/// same body states, bitwise.
+fn assert_same_bodies(gpu: &GpuWorld, full: &GpuWorld, step: usize) {
+    let (a, b) = (gpu.read_states().unwrap(), full.read_states().unwrap());
+    assert!(
+        bytemuck::cast_slice::<_, u8>(&a) == bytemuck::cast_slice::<_, u8>(&b),
+        "step {step}: the world that skips pairs differs from the one that tests them"
+    );
+}
+
 fn pv(v: DVec3) -> PVec {
     PVec::new(v.x, v.y, v.z)
 }
@@ -148,11 +158,7 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
         let rebuilds = gpu.rebuilds();
         gpu.step(1).expect("GPU step");
         full.step(1).expect("GPU step, full test");
-        let (a, b) = (gpu.read_states().unwrap(), full.read_states().unwrap());
-        assert!(
-            bytemuck::cast_slice::<_, u8>(&a) == bytemuck::cast_slice::<_, u8>(&b),
-            "step {step}: the world that skips pairs differs from the one that tests them"
-        );
+        assert_same_bodies(&gpu, &full, step);
         // Every body's bound covers its motion in the step.
         gpu.read_into(&mut after).expect("read-back");
         let m1 = moved(&gpu, n);
@@ -283,11 +289,7 @@ angular_velocity = [0.0, 0.0, 60.0]
         let rebuilds = gpu.rebuilds();
         gpu.step(1).expect("GPU step");
         full.step(1).expect("GPU step, full test");
-        let (a, b) = (gpu.read_states().unwrap(), full.read_states().unwrap());
-        assert!(
-            bytemuck::cast_slice::<_, u8>(&a) == bytemuck::cast_slice::<_, u8>(&b),
-            "step {step}: the world that skips pairs differs from the one that tests them"
-        );
+        assert_same_bodies(&gpu, &full, step);
         if gpu.rebuilds() != rebuilds {
             continue;
         }
