@@ -305,6 +305,35 @@ pub(crate) struct Row {
     /// bandwidth floor of the step.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub copy_bandwidth_gb_s: Option<f64>,
+    /// With `--profile` (GPU, scenes with polyhedra): what the full narrow phase ran in the
+    /// last step.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub full_phase: Option<FullPhaseRow>,
+}
+
+/// [`clatter_gpu::FullPhase`] in the bench's JSON: the pairs the GPU's full narrow phase ran
+/// in the last step, by path.
+#[derive(Debug, Clone, Copy, serde::Serialize)]
+pub struct FullPhaseRow {
+    /// Pairs with a sphere body.
+    pub with_sphere: u32,
+    /// Polyhedron pairs through the whole separating-axis test.
+    pub full_tests: u32,
+    /// Polyhedron pairs at a remembered reference face.
+    pub remembered_faces: u32,
+    /// Polyhedron pairs at a remembered edge contact.
+    pub remembered_edges: u32,
+}
+
+impl From<clatter_gpu::FullPhase> for FullPhaseRow {
+    fn from(f: clatter_gpu::FullPhase) -> Self {
+        FullPhaseRow {
+            with_sphere: f.with_sphere,
+            full_tests: f.full_tests,
+            remembered_faces: f.remembered_faces,
+            remembered_edges: f.remembered_edges,
+        }
+    }
 }
 
 /// What `clatter bench` was asked to time, checked: the pile's shape and name, the scene's
@@ -496,9 +525,11 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         let kinetic_energy = world.kinetic_energy();
         let mut kernels = Vec::new();
         let mut pairs = None;
+        let mut full_phase = None;
         if let (Some(steps), Some(gpu)) = (args.profiled_steps(), stepper.as_gpu_mut()) {
             kernels = gpu.profile(steps)?;
             pairs = Some(gpu.pairs());
+            full_phase = gpu.full_phase().map(FullPhaseRow::from);
             if bandwidth.is_none() {
                 let bw = clatter_gpu::bandwidth::copy_bandwidth(gpu.context(), 9)?;
                 bandwidth = Some(bw * 1e-9);
@@ -536,6 +567,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             kernels,
             pairs,
             copy_bandwidth_gb_s: args.profiled_steps().and(bandwidth),
+            full_phase,
         };
         if !args.json {
             print_row(&row);
@@ -615,6 +647,12 @@ pub(crate) fn print_row(row: &Row) {
         println!(
             "#   {p} candidate pairs ({:.2} per body)",
             p as f64 / row.bodies as f64
+        );
+    }
+    if let Some(f) = row.full_phase {
+        println!(
+            "#   full narrow phase, last step: {} pairs with a sphere; polyhedron pairs: {} full tests, {} remembered faces, {} remembered edge contacts",
+            f.with_sphere, f.full_tests, f.remembered_faces, f.remembered_edges
         );
     }
     if !row.kernels.is_empty() {

@@ -219,6 +219,12 @@ fn gpu_bench_profile_times_every_kernel() {
         row["copy_bandwidth_gb_s"].as_f64().unwrap_or(0.0) > 0.0,
         "{row}"
     );
+    // What the full phase ran: no sphere bodies here, and at most every candidate pair.
+    let full = &row["full_phase"];
+    let count = |k: &str| full[k].as_u64().unwrap_or_else(|| panic!("{k} in {row}"));
+    assert_eq!(count("with_sphere"), 0, "{row}");
+    let poly = count("full_tests") + count("remembered_faces") + count("remembered_edges");
+    assert!(poly <= pairs, "{poly} of {pairs} pairs in the full phase");
 }
 
 #[test]

@@ -45,4 +45,4 @@ pub use narrow::{
 };
 pub use readback::{read_buffer, read_buffers};
 pub use shapes::GpuShapes;
-pub use world::{EnergySample, GpuWorld, HealthSetup, IN_FLIGHT_VAR, StepReport};
+pub use world::{EnergySample, FullPhase, GpuWorld, HealthSetup, IN_FLIGHT_VAR, StepReport};

@@ -121,6 +121,8 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
     let is_sphere = |i: usize| matches!(cpu.shape(i), Shape::Sphere { .. });
     // The smallest room a checked gap left below the distance, relative to the radii.
     let mut least_room = f64::INFINITY;
+    // Pair-steps the full phase ran at a remembered contact (`GpuWorld::full_phase`).
+    let mut remembered = 0usize;
     let steps = 160;
     for step in 0..steps {
         gpu.read_into(&mut before).expect("read-back");
@@ -161,6 +163,7 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
         assert_same_bodies(&gpu, &full, step);
         // Every body's bound covers its motion in the step.
         gpu.read_into(&mut after).expect("read-back");
+        check_full_phase(&gpu, &full, &after, step, &mut remembered);
         let m1 = moved(&gpu, n);
         for (i, &bound) in m1.iter().enumerate() {
             let moved = displacement(&before, &after, i);
@@ -210,6 +213,50 @@ fn apart_pairs_are_skipped_only_while_their_gap_holds() {
         "only {sphere_skipped} of {sphere_apart} pair-steps of a sphere and a polyhedron apart were skipped"
     );
     assert!(checked > 1000, "only {checked} gaps checked");
+    assert!(
+        remembered > 100,
+        "only {remembered} remembered contacts counted"
+    );
+}
+
+/// `GpuWorld::full_phase` after a step of both worlds (`world`: their bodies after it):
+/// every pair touching after the step was one the full phase ran (pairs with a sphere body
+/// among those with a sphere, the others among the polyhedron paths), and the world that
+/// tests every pair (`set_full_test`) ran no remembered contact. Adds the remembering
+/// world's remembered contacts to `remembered`.
+fn check_full_phase(
+    gpu: &GpuWorld,
+    full: &GpuWorld,
+    world: &World,
+    step: usize,
+    remembered: &mut usize,
+) {
+    let (f, t) = (gpu.full_phase().unwrap(), full.full_phase().unwrap());
+    assert_eq!(
+        (t.remembered_faces, t.remembered_edges),
+        (0, 0),
+        "step {step}: the full-test world ran remembered contacts: {t:?}"
+    );
+    let c = gpu.contact_state().expect("contacts");
+    let sphere = |i: u32| matches!(world.shape(i as usize), Shape::Sphere { .. });
+    let (mut with_sphere, mut poly) = (0u32, 0u32);
+    for (p, &touching) in c.pairs.iter().zip(&c.touching) {
+        if touching {
+            if sphere(p[0]) || sphere(p[1]) {
+                with_sphere += 1;
+            } else {
+                poly += 1;
+            }
+        }
+    }
+    for (name, p) in [("remembering", f), ("full test", t)] {
+        assert!(
+            with_sphere <= p.with_sphere
+                && poly <= p.full_tests + p.remembered_faces + p.remembered_edges,
+            "step {step}, {name}: {with_sphere} touching pairs with a sphere and {poly} without, but the full phase ran {p:?}"
+        );
+    }
+    *remembered += (f.remembered_faces + f.remembered_edges) as usize;
 }
 
 /// Composites (clumps of spheres and a box) drifting across the seams of a periodic box,

@@ -186,6 +186,7 @@ fn time(
         kernels: Vec::new(),
         pairs: None,
         copy_bandwidth_gb_s: None,
+        full_phase: None,
     }))
 }
 

@@ -29,7 +29,8 @@ fn pair_class(c: u32) -> u32 {
     let sa = class_key(body_of(p.x));
     let sb = class_key(body_of(p.y));
     var path = 0u;
-    if touching[c] == 1u {
+    // (With params.full_test every pair runs the full test: path 0.)
+    if touching[c] == 1u && params.full_test == 0u {
         let h = pair_memory[c].x;
         if h == HINT_EDGE_CONTACT {
             // An edge contact with no margin left runs the full test (narrow_poly.wgsl).

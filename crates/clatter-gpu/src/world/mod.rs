@@ -24,6 +24,7 @@ mod build;
 mod health;
 mod plan;
 mod profile;
+pub use profile::FullPhase;
 mod readback;
 
 use std::sync::Arc;

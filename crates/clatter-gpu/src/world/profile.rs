@@ -3,14 +3,62 @@
 use super::GpuWorld;
 use crate::GpuError;
 use crate::buffers::Buf;
-use crate::layout::status;
+use crate::layout::{SPHERE_CLASSES, SPLIT_CLASSES, status};
 use crate::pipeline::Dispatch;
 use crate::readback::read_buffers_after;
 
 /// Bytes of one timestamp.
 const STAMP_BYTES: u64 = std::mem::size_of::<u64>() as u64;
 
+/// What the full narrow phase ran in the last step of a scene with polyhedra: the pairs
+/// `contacts_sat` left for it (the rest were proved apart or skipped by their gap), by the
+/// path each was offered (its class in the list `contacts_place` orders). For profiling:
+/// which part of the contact stage a pile's time goes to.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FullPhase {
+    /// Pairs with a sphere body (`contacts_full_spheres`).
+    pub with_sphere: u32,
+    /// Polyhedron pairs sent to the whole separating-axis test (every pair with
+    /// [`GpuWorld::set_full_test`]).
+    pub full_tests: u32,
+    /// Polyhedron pairs that touched at a remembered reference face: the face is clipped
+    /// alone while its margin lasts, else the full test runs.
+    pub remembered_faces: u32,
+    /// Polyhedron pairs that touched at a remembered edge contact with margin left: the edge
+    /// axes are searched alone, and the full test runs if the edge loses.
+    pub remembered_edges: u32,
+}
+
 impl GpuWorld {
+    /// [`FullPhase`] of the last step taken (as of the last status read, which every
+    /// [`GpuWorld::step`] ends with); `None` in a sphere-only scene, whose one contact pass
+    /// runs every pair. From the per-class status words, which after a step hold where each
+    /// class's pairs end in the list `contacts_place` ordered (contacts_split.wgsl; classes
+    /// by shape pair, then path: full test, remembered face, remembered edge contact).
+    pub fn full_phase(&self) -> Option<FullPhase> {
+        if self.params.spheres_only != 0 {
+            return None;
+        }
+        let mut out = FullPhase::default();
+        let mut start = 0u32;
+        for k in 0..SPLIT_CLASSES {
+            let end = self.last_status[status::CLASSES + k];
+            let n = end.wrapping_sub(start);
+            start = end;
+            let count = if k < SPHERE_CLASSES {
+                &mut out.with_sphere
+            } else {
+                match k % 3 {
+                    0 => &mut out.full_tests,
+                    1 => &mut out.remembered_faces,
+                    _ => &mut out.remembered_edges,
+                }
+            };
+            *count += n;
+        }
+        Some(out)
+    }
+
     /// Times every kernel of the step with timestamp queries over `steps` steps (which are
     /// taken: the simulation advances): each dispatch in its own compute pass, so the
     /// numbers include no overlap between kernels. Returns `(kernel, milliseconds per step)`
