@@ -1,7 +1,7 @@
 //! The GPU's apart pairs skipped by their gap (issue 23): `contacts_sat` keeps, for each
 //! pair it proves apart, a lower bound of the bodies' distance, takes off both bodies'
 //! motion bound (written by integrate) every step, and skips the pair while that stays
-//! positive (contacts_split.wgsl `pair_apart`). Checked on a settling poured pile of the
+//! positive (contacts_split.wgsl `pair_quick`). Checked on a settling poured pile of the
 //! five Platonic solids and spheres, step by step, against independent truth:
 //! - every gap kept is at most the bodies' distance at that step, measured by parry3d's
 //!   f64 distance query (an independent library) on the same poses;

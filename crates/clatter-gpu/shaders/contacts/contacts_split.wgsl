@@ -209,7 +209,7 @@ fn pair_test(c: u32) -> bool {
     return true;
 }
 
-// Pair c's gap (see pair_apart): kept in the rebuild's spare new_hist outside a rebuild
+// Pair c's gap (see pair_quick): kept in the rebuild's spare new_hist outside a rebuild
 // (src/buffers.rs `NewHist`), zeroed by the rebuild's commit.
 fn pair_gap(c: u32) -> f32 {
     return new_hist[c].x;

@@ -621,7 +621,7 @@ fn separated(sa: u32, xa: vec3<f32>, qa: vec4<f32>, sb: u32, xb: vec3<f32>, qb: 
 }
 
 // After `separated` found the pair apart: a lower bound of the distance between the two
-// bodies at these poses (0 when none is known), for contacts_split.wgsl's `pair_apart`.
+// bodies at these poses (0 when none is known), for contacts_split.wgsl's `pair_test`.
 var<private> nrw_gap_out: f32 = 0.0;
 
 // The gap `s` measured along a separating direction (or between the bounding spheres, radii

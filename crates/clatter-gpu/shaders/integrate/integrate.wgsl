@@ -163,7 +163,7 @@ fn integrate_body(i: u32) -> u32 {
     bodies[i] = b;
     if params.spheres_only == 0u {
         // How far any point of the body can have moved in this step, which contacts_split.wgsl
-        // `pair_apart` takes off pairs' gaps (the CPU's `BodyBound::moved`): the centre by
+        // `pair_quick` takes off pairs' gaps (the CPU's `BodyBound::moved`): the centre by
         // |v| dt, a point at the bounding radius r turned by at most |w| dt (the chord is
         // below the arc); a relative margin for the norms' rounding, and 4e-6 r for the
         // quaternion update's (at most 6 ulps of a turn, see the CPU's `axis_motion_bound`)
