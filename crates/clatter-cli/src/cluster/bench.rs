@@ -45,7 +45,8 @@ pub fn bench(comm: &MpiComm, args: BenchArgs) -> anyhow::Result<()> {
     let plan = comm.agree(plan)?;
     if let Some(&n) = plan.counts.iter().find(|&&n| n < ranks) {
         comm.agree::<()>(Err(anyhow::anyhow!(
-            "{ranks} MPI ranks for {n} bodies: use at most one rank per body (mpirun -np {n})"
+            "{ranks} MPI ranks for {n} {}: a benchmark on ranks wants at most one rank per body (mpirun -np {n})",
+            if n == 1 { "body" } else { "bodies" }
         )))?;
     }
     let params = PileParams::default();

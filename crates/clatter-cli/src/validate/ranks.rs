@@ -114,12 +114,6 @@ impl Ctx {
             return Ok(Spread::One(Box::new(self.sim(world)?)));
         };
         let (rank, ranks) = (comm.rank(), comm.size());
-        if ranks > world.len() {
-            anyhow::bail!(
-                "{ranks} MPI ranks for {} bodies: use at most one rank per body",
-                world.len()
-            );
-        }
         Ok(Spread::Ranks(Box::new(OnRanks {
             domain: Domain::new(world, rank, ranks),
             comm: comm.clone(),
