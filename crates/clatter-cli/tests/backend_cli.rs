@@ -72,6 +72,18 @@ fn gpu_run_matches_cpu_run_through_the_same_outputs() {
         summary["backend"].as_str().unwrap_or("").starts_with("gpu"),
         "{summary}"
     );
+    // The GPU's broad-phase rebuilds reach the summary (they read 0 before): the CPU's
+    // count, give or take one that f32 rounding may move.
+    let cpu_summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(cpu.join("summary.json")).expect("summary.json"),
+    )
+    .expect("valid JSON");
+    let rebuilds = |s: &serde_json::Value| s["broad_phase_rebuilds"].as_u64().expect("rebuilds");
+    let (r_cpu, r_gpu) = (rebuilds(&cpu_summary), rebuilds(&summary));
+    assert!(
+        r_cpu > 0 && r_gpu + 1 >= r_cpu && r_gpu <= r_cpu + 1,
+        "rebuilds: cpu {r_cpu}, gpu {r_gpu}"
+    );
     for f in ["trace.csv", "bodies.pvd", "bodies_000600.vtu", "energy.csv"] {
         assert!(gpu.join(f).exists(), "{f} written by the GPU run");
     }

@@ -219,6 +219,9 @@ pub const HEALTH_LOG: u32 = 128;
 /// - `snapshot_pairs`: per pair its entry, springs and touching word
 ///   ([`PAIR`](snapshot::PAIR) words, so that a larger pair capacity only extends it);
 /// - `snapshot_forces`: a copy of `forces`.
+///
+/// Of the pair buffers only the live pairs are copied (as many as the status block copied
+/// with them counts), not the list's room to grow.
 pub mod snapshot {
     /// Words of the status block.
     pub const STATUS: u64 = 32;

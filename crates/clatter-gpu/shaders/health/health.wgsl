@@ -245,10 +245,14 @@ fn snapshot_state(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
     }
     let n = params.n;
     let slots = n * params.num_walls * params.max_pieces;
+    // The live pairs only (the host reads back as many as the status words copied here
+    // say, `GpuWorld::read_last_good`), not the whole capacity: a pair list keeps room to
+    // grow, 2.7x its pairs for a 4M-sphere lattice (8 slots a body, 2.98 pairs).
+    let np = min(atomicLoad(&status[ST_PAIRS]), params.pair_capacity);
     let stride = nwg.x * WG;
-    let end = max(max(max(n, slots), snap_mesh_words(n)), max(params.pair_capacity, ST_CLASSES));
+    let end = max(max(max(n, slots), snap_mesh_words(n)), max(np, ST_CLASSES));
     for (var i = thread_index(wid, nwg, lid); i < end; i += stride) {
-        snapshot_one(i, n, slots);
+        snapshot_one(i, n, slots, np);
     }
 }
 
@@ -261,8 +265,8 @@ fn snap_mesh_words(n: u32) -> u32 {
 }
 
 // Copies element `i` of every state buffer that has one (the buffers of the last good
-// state: src/layout.rs `snapshot`).
-fn snapshot_one(i: u32, n: u32, slots: u32) {
+// state: src/layout.rs `snapshot`), the pairs below `np`, the live ones.
+fn snapshot_one(i: u32, n: u32, slots: u32, np: u32) {
     // The status words before the class counts (shader-internal, recounted every step),
     // which fit the snapshot's status block (SNAP_STATUS words).
     if i < ST_CLASSES {
@@ -293,7 +297,7 @@ fn snapshot_one(i: u32, n: u32, slots: u32) {
         snapshot_wall_hist[i] = wall_hist[i];
         snapshot_wall_forces[i] = wall_forces[i];
     }
-    if i < params.pair_capacity {
+    if i < np {
         let at = SNAP_PAIR * i;
         snapshot_pairs[at] = pairs[i].x;
         snapshot_pairs[at + 1u] = pairs[i].y;

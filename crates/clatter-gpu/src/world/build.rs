@@ -78,6 +78,7 @@ impl GpuWorld {
             gpu_steps: 0,
             base_step: world.step_count,
             base_time: world.time,
+            base_rebuilds: world.rebuilds,
             dt: world.dt,
             last_status: contents.status,
             health: None,

@@ -214,6 +214,7 @@ impl GpuWorld {
         let back = (self.gpu_steps as u32).wrapping_sub(st[status::STEPS]) as u64;
         let g = self.gpu_steps.saturating_sub(back);
         world.step_count = self.base_step + g;
+        world.rebuilds = self.base_rebuilds + st[status::REBUILDS] as u64;
         let mut t = self.base_time;
         for _ in 0..g {
             t += self.dt as f64;

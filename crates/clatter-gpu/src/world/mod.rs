@@ -80,6 +80,8 @@ pub struct GpuWorld {
     /// The world's step count and time at upload.
     base_step: u64,
     base_time: f64,
+    /// The world's broad-phase rebuild count at upload (a read-back adds the GPU's).
+    base_rebuilds: u64,
     dt: f32,
     last_status: [u32; status::LEN],
     /// The blow-up checks and energy samples, when a run turned them on.
@@ -340,7 +342,8 @@ impl GpuWorld {
         self.time_after(self.gpu_steps)
     }
 
-    /// Broad-phase rebuilds so far on the GPU.
+    /// Broad-phase rebuilds on the GPU since upload (a read-back's world counts the world's
+    /// own before upload too).
     pub fn rebuilds(&self) -> u64 {
         self.last_status[status::REBUILDS] as u64
     }

@@ -57,12 +57,13 @@ impl GpuWorld {
             .map_err(GpuError::Unsupported)
     }
 
-    /// Body state, step count and time into `world`.
+    /// Body state, step count, time and broad-phase rebuild count into `world`.
     pub(super) fn apply_states(&self, states: &[BodyState], world: &mut World) {
         for (i, s) in states.iter().enumerate() {
             world.state.set_record(i, s);
         }
         world.step_count = self.base_step + self.gpu_steps;
+        world.rebuilds = self.base_rebuilds + self.rebuilds();
         // The same sum as the CPU's `time += dt` per step, continued from the last call's.
         world.time = self.time_after(self.gpu_steps);
     }
