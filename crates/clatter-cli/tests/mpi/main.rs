@@ -170,6 +170,14 @@ fn read(path: &Path) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("read {}: {e}", path.display()))
 }
 
+/// The example scene `name` of the repository's `scenes/`.
+#[cfg(feature = "mpi")]
+fn scene_file(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+}
+
 /// `scene` (None: the default scene) for `steps` steps on one process, then on 1, 2 and 3
 /// ranks: final.csv, energy.csv (and discharge.csv) byte for byte the same, and the
 /// summary's contacts, rebuilds and energies.
@@ -356,8 +364,7 @@ fn messages_over_the_limit_are_split_bitwise() {
 #[test]
 fn sink_scene_on_1_2_3_ranks_is_bitwise_one_process() {
     if have_mpirun() {
-        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/sink-floor.toml");
-        bitwise_on_ranks("sink", Some(&scene), "4000");
+        bitwise_on_ranks("sink", Some(&scene_file("sink-floor.toml")), "4000");
     }
 }
 
@@ -366,8 +373,11 @@ fn sink_scene_on_1_2_3_ranks_is_bitwise_one_process() {
 #[test]
 fn periodic_scene_on_1_2_3_ranks_is_bitwise_one_process() {
     if have_mpirun() {
-        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/periodic-floor.toml");
-        bitwise_on_ranks("periodic", Some(&scene), "20000");
+        bitwise_on_ranks(
+            "periodic",
+            Some(&scene_file("periodic-floor.toml")),
+            "20000",
+        );
     }
 }
 
@@ -376,8 +386,7 @@ fn periodic_scene_on_1_2_3_ranks_is_bitwise_one_process() {
 #[test]
 fn mesh_scene_on_1_2_3_ranks_is_bitwise_one_process() {
     if have_mpirun() {
-        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
-        bitwise_on_ranks("mesh", Some(&scene), "3000");
+        bitwise_on_ranks("mesh", Some(&scene_file("mesh-floor.toml")), "3000");
     }
 }
 
@@ -387,8 +396,7 @@ fn mesh_scene_on_1_2_3_ranks_is_bitwise_one_process() {
 #[test]
 fn composite_scene_on_1_2_3_ranks_is_bitwise_one_process() {
     if have_mpirun() {
-        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/clumps.toml");
-        bitwise_on_ranks("clumps", Some(&scene), "1500");
+        bitwise_on_ranks("clumps", Some(&scene_file("clumps.toml")), "1500");
     }
 }
 
@@ -399,8 +407,7 @@ fn composite_scene_on_1_2_3_ranks_is_bitwise_one_process() {
 #[test]
 fn moving_mesh_scene_on_1_2_3_ranks_is_bitwise_one_process() {
     if have_mpirun() {
-        let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/drum.toml");
-        bitwise_on_ranks("drum", Some(&scene), "9000");
+        bitwise_on_ranks("drum", Some(&scene_file("drum.toml")), "9000");
     }
 }
 
@@ -411,9 +418,8 @@ fn moving_mesh_scene_on_1_2_3_ranks_is_bitwise_one_process() {
 #[test]
 fn more_ranks_than_bodies_is_bitwise_one_process() {
     if have_mpirun() {
-        let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
-        bitwise_on_ranks("few-cube", Some(&scenes.join("cube-on-floor.toml")), "3000");
-        bitwise_on_ranks("few-ball", Some(&scenes.join("bouncing-ball.toml")), "3000");
+        bitwise_on_ranks("few-cube", Some(&scene_file("cube-on-floor.toml")), "3000");
+        bitwise_on_ranks("few-ball", Some(&scene_file("bouncing-ball.toml")), "3000");
     }
 }
 
@@ -427,7 +433,7 @@ fn every_output_file_on_3_ranks_is_one_process_file() {
         return;
     }
     let dir = test_dir("outputs");
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/mesh-floor.toml");
+    let scene = scene_file("mesh-floor.toml");
     let (one, three) = (dir.join("one"), dir.join("three"));
     let s = scene.display().to_string();
     let outputs = [
