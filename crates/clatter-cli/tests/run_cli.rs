@@ -15,6 +15,14 @@ fn test_dir(name: &str) -> PathBuf {
     common::test_dir("run-cli", name)
 }
 
+/// The run's `summary.json` in `out`, parsed.
+fn read_summary(out: &Path) -> serde_json::Value {
+    let path = out.join("summary.json");
+    let text =
+        std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("read {}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 /// Parses a CSV file into its header and rows of numbers.
 fn read_csv(path: &Path) -> (String, Vec<Vec<f64>>) {
     let text =
@@ -175,9 +183,7 @@ fn small_scene_outputs() {
     assert_eq!(rows[1][10], 1.0);
 
     // summary.json
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-            .expect("valid JSON");
+    let summary = read_summary(&out);
     assert_eq!(summary["steps"].as_u64(), Some(23));
     assert_eq!(summary["bodies"].as_u64(), Some(n as u64));
     assert_eq!(summary["walls"].as_u64(), Some(1));
@@ -323,9 +329,7 @@ fn thread_count_does_not_change_results() {
             &"--quiet",
         ]);
         assert_ok(&output, &format!("clatter run --threads {threads}"));
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
+        let summary = read_summary(&out);
         assert_eq!(summary["threads"].as_u64(), Some(threads.parse().unwrap()));
         assert!(
             summary["max_contacts"].as_u64().unwrap() >= 50,
@@ -474,9 +478,7 @@ fn every_example_scene_runs_to_its_end() {
         let out = dir.join(&stem);
         let output = clatter(&[&"run", &path, &"--backend", &"cpu", &"--out", &out, &"-q"]);
         assert_ok(&output, &format!("clatter run {}", path.display()));
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
+        let summary = read_summary(&out);
         let scene = Scene::load(&path).unwrap();
         let world = scene.world();
         assert_eq!(
@@ -512,8 +514,7 @@ fn the_mixed_bench_scene_collapses_and_runs_to_its_end() {
     assert_ok(&output, "clatter run (one column of bench-mixed-20k)");
     let (_, rows) = read_csv(&out.join("final.csv"));
     assert_eq!(rows.len(), 432);
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let summary = read_summary(&out);
     // The end of the scene's 0.2 s, well past the collapse.
     assert!(
         summary["simulated_time"].as_f64().unwrap() > 0.199,
