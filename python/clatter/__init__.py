@@ -170,6 +170,10 @@ class Scene:
         self._base: Optional[str] = None
         self._source = "<scene built in Python>"
         self._parts: List[str] = []
+        # The ``[simulation]`` table's fields and its place in ``_parts``: one table, however
+        # many calls set its keys (a second ``[simulation]`` is a TOML duplicate key).
+        self._sim: Dict[str, Any] = {}
+        self._sim_part: Optional[int] = None
         self._parsed_cache: Optional[ParsedScene] = None
         sim = dict(duration=duration, steps=steps, dt=dt, gravity=gravity, skin=skin)
         if any(v is not None for v in sim.values()):
@@ -226,13 +230,36 @@ class Scene:
         periodic: Optional[Mapping[str, Any]] = None,
     ) -> "Scene":
         """``[simulation]``: ``duration`` (s) or ``steps``, and optionally ``dt``, ``gravity``,
-        ``skin`` and ``periodic`` (``{"min": [..], "max": [..], "axes": "xy"}``)."""
-        return self._add(
-            "[simulation]",
-            dict(
-                duration=duration, steps=steps, dt=dt, gravity=gravity, skin=skin, periodic=periodic
-            ),
+        ``skin`` and ``periodic`` (``{"min": [..], "max": [..], "axes": "xy"}``).
+
+        Calls add to the one table: ``Scene(duration=1).simulation(periodic=...)`` sets both
+        keys (a key given again replaces its value; ``duration`` replaces ``steps`` and the
+        other way round). A scene read from a file keeps its file's table: this raises
+        ``ValueError`` there."""
+        if self._base is not None and any(
+            line.strip().startswith("[simulation]") for line in self._base.splitlines()
+        ):
+            raise ValueError(
+                f"{self._source} has its own [simulation] table: change it in the scene text "
+                "(Scene.from_toml) instead of adding a second one"
+            )
+        given = dict(
+            duration=duration, steps=steps, dt=dt, gravity=gravity, skin=skin, periodic=periodic
         )
+        given = {k: v for k, v in given.items() if v is not None}
+        if "duration" in given:
+            self._sim.pop("steps", None)
+        if "steps" in given:
+            self._sim.pop("duration", None)
+        self._sim.update(given)
+        table = _table("[simulation]", self._sim)
+        if self._sim_part is None:
+            self._sim_part = len(self._parts)
+            self._parts.append(table)
+        else:
+            self._parts[self._sim_part] = table
+        self._parsed_cache = None
+        return self
 
     def material(
         self,
@@ -332,9 +359,20 @@ class Scene:
         *,
         velocities: Union[np.ndarray, Sequence[Vec3], None] = None,
     ) -> "Scene":
-        """Many ``[[body]]`` entries at once: one per row of ``positions`` (K, 3)."""
-        positions = np.asarray(positions, dtype=float).reshape(-1, 3)
-        vel = None if velocities is None else np.asarray(velocities, dtype=float).reshape(-1, 3)
+        """Many ``[[body]]`` entries at once: one per row of ``positions`` (K, 3), with
+        ``velocities`` (K, 3) if given; other shapes raise ``ValueError``."""
+        positions = np.asarray(positions, dtype=float)
+        if positions.ndim == 1 and positions.shape == (3,):
+            positions = positions.reshape(1, 3)
+        if positions.ndim != 2 or positions.shape[1] != 3:
+            raise ValueError(f"positions must have shape (K, 3), got {positions.shape}")
+        vel = None
+        if velocities is not None:
+            vel = np.asarray(velocities, dtype=float)
+            if vel.shape != positions.shape:
+                raise ValueError(
+                    f"velocities must have the shape of positions {positions.shape}, got {vel.shape}"
+                )
         for k, p in enumerate(positions):
             self.body(shape, material, p, velocity=None if vel is None else vel[k])
         return self
@@ -514,7 +552,9 @@ def query(
           witness points and normal (they replace the distance's, as in ``clatter query``);
           ``contacts`` (4, 3): the manifold, NaN-padded, with ``contact_count`` points;
         - ``toi``: the first time of contact, NaN when none within the horizon;
-          ``toi_points`` (2, 3), ``toi_normal`` (3,).
+          ``toi_points`` (2, 3), ``toi_normal`` (3,); ``toi_converged`` False where the
+          search stopped at its iteration cap (a very fast spin grazing the other shape):
+          ``toi`` is then the time reached without contact, not an impact.
 
     Raises:
         QueryError: an invalid shape, pose or option (the message names it).

@@ -31,6 +31,7 @@ struct Row {
     toi: f32,
     toi_points: [Vec3; 2],
     toi_normal: Vec3,
+    toi_converged: bool,
 }
 
 const NAN3: Vec3 = Vec3::splat(f32::NAN);
@@ -48,6 +49,7 @@ impl Default for Row {
             toi: f32::NAN,
             toi_points: [NAN3; 2],
             toi_normal: NAN3,
+            toi_converged: true,
         }
     }
 }
@@ -169,6 +171,8 @@ pub fn query_arrays<'py>(
         d.set_item("toi", scalars(&|r| r.toi).into_pyarray(py))?;
         d.set_item("toi_points", flat2(&|r| r.toi_points).into_pyarray(py))?;
         d.set_item("toi_normal", vec3s(&|r| r.toi_normal).into_pyarray(py))?;
+        let v = Array1::from_iter(rows.iter().map(|r| r.toi_converged));
+        d.set_item("toi_converged", v.into_pyarray(py))?;
     }
     Ok(d)
 }
@@ -295,6 +299,7 @@ fn answer(
         r.toi = t.time;
         r.toi_points = t.points;
         r.toi_normal = t.normal;
+        r.toi_converged = t.converged;
     }
     r
 }

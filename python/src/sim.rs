@@ -190,9 +190,9 @@ impl Simulation {
         &self.text
     }
 
-    /// Centres of mass, m: (N, 3) float64 (a copy; positions are kept in double precision,
-    /// so a step's displacement is kept anywhere in a large domain). Settable, at full
-    /// precision (the broad phase is rebuilt before the next step).
+    /// Centres of mass, m: (N, 3) float64 (a copy; positions are kept to 48 bits, so a
+    /// step's displacement is kept anywhere in a domain of kilometres). Settable (rounded to
+    /// that grid by the next step; the broad phase is rebuilt before it).
     #[getter]
     fn positions<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let p = &self.bodies(py)?.state.position;
@@ -263,6 +263,15 @@ impl Simulation {
     #[getter]
     fn masses<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f32>> {
         Array1::from(self.world.consts.mass.clone()).into_pyarray(py)
+    }
+
+    /// Whether each body has been removed by a `[[sink]]`: (N,) bool. A removed body's rows
+    /// of the state arrays are its state when it was removed (setters do not move it); the
+    /// energies and the momentum leave it out, so sums over the arrays should too.
+    #[getter]
+    fn removed<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let r = self.bodies(py)?.state.removed.clone();
+        Ok(Array1::from(r).into_pyarray(py))
     }
 
     /// Bounding-sphere radii, m: (N,) float32.
@@ -450,6 +459,12 @@ impl Simulation {
         let pool = match threads {
             None => None,
             Some(0) => return Err(PyValueError::new_err("threads must be at least 1")),
+            Some(n) if n > clatter::thread_limit() => {
+                return Err(PyValueError::new_err(format!(
+                    "threads={n} is more than {} (16 per core of this machine): results are identical for any count, so threads beyond the cores only slow the run",
+                    clatter::thread_limit()
+                )));
+            }
             Some(n) => Some(
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(n)
@@ -606,9 +621,12 @@ fn dvec3_input(
     }
     let mut out = Vec::with_capacity(n);
     for (i, row) in a.rows().into_iter().enumerate() {
-        if !row.iter().all(|x| x.is_finite()) {
+        // Finite also as f32: the step bins positions and keeps velocities in f32 (1e39
+        // was infinite there, and a step of a position that large never ended).
+        if !row.iter().all(|&x| x.is_finite() && (x as f32).is_finite()) {
             return Err(PyValueError::new_err(format!(
-                "{what}[{i}] must be finite, got {row}"
+                "{what}[{i}] must be finite (at most {:e} in size), got {row}",
+                f32::MAX
             )));
         }
         out.push(glam::DVec3::new(row[0], row[1], row[2]));

@@ -100,6 +100,12 @@ def test_setters_move_bodies_and_are_checked(pile):
         pile.velocities = v
     with pytest.raises(ValueError):
         pile.positions = "not an array"
+    # Finite as float64 but not as float32: refused (1e39 made the next step never end).
+    for name in ("positions", "velocities", "angular_velocities"):
+        v = np.zeros((n, 3))
+        v[1, 0] = 1e39
+        with pytest.raises(ValueError, match=rf"{name}\[1\] must be finite"):
+            setattr(pile, name, v)
 
 
 def test_scene_builder_writes_the_scene_format():
@@ -121,6 +127,34 @@ def test_scene_builder_writes_the_scene_format():
     np.testing.assert_allclose(sim.velocities[:2], [[0, 0, -1], [0, 0, -2]])
     np.testing.assert_allclose(sim.gravity, [0, 0, -1.62], rtol=1e-6)
     assert sim.dt > 0 and scene.steps == math.ceil(0.01 / sim.dt - 1e-6)
+
+
+def test_simulation_calls_add_to_one_table_and_bodies_check_shapes(tmp_path):
+    # Scene(duration=...) then .simulation(periodic=...): one [simulation] table with both.
+    scene = (
+        clatter.Scene(duration=0.01)
+        .simulation(periodic={"min": [0, 0, 0], "max": [1, 1, 1], "axes": "xy"})
+        .material("m", density=1000, stiffness=1e5)
+        .shape("b", sphere=0.1)
+        .body("b", "m", [0.5, 0.5, 0.5])
+    )
+    text = scene.to_toml()
+    assert text.count("[simulation]") == 1 and "duration = 0.01" in text and "periodic" in text
+    scene.validate()
+    assert scene.duration == 0.01
+    # steps replaces duration.
+    assert "duration" not in clatter.Scene(duration=1).simulation(steps=5).to_toml()
+    # A file's scene keeps its own table.
+    with pytest.raises(ValueError, match=r"has its own \[simulation\] table"):
+        clatter.Scene.from_toml(PILE).simulation(dt=1e-5)
+    base = clatter.Scene(steps=5).material("m", density=1000, stiffness=1e5).shape("b", sphere=0.01)
+    with pytest.raises(ValueError, match=r"positions must have shape \(K, 3\)"):
+        base.bodies("b", "m", np.arange(6.0).reshape(3, 2))
+    with pytest.raises(ValueError, match="velocities must have the shape of positions"):
+        base.bodies("b", "m", np.zeros((4, 3)), velocities=np.zeros((8, 3)))
+    # A duration below dt runs one step (ceil), not none.
+    one = clatter.Scene(duration=1e-9, dt=1e-3).material("m", density=1000, stiffness=1e5)
+    assert one.shape("b", sphere=0.01).body("b", "m", [0, 0, 0]).steps == 1
 
 
 def test_scene_from_file_can_be_extended(tmp_path):
@@ -189,6 +223,8 @@ def test_bad_arguments_raise_clear_errors(tmp_path):
         clatter.Simulation(scene, backend="tpu")
     with pytest.raises(ValueError, match="threads must be at least 1"):
         clatter.Simulation(scene, threads=0)
+    with pytest.raises(ValueError, match="threads=100000 is more than"):
+        clatter.Simulation(scene, threads=100000)
     with pytest.raises(TypeError, match="scene must be a clatter.Scene"):
         clatter.Simulation(42)
     with pytest.raises(OSError, match="cannot read"):
@@ -294,3 +330,16 @@ def test_step_releases_the_gil(pile):
     during = [x for x in ticks if start < x < start + took]
     # Without releasing the GIL the ticker would be frozen for the whole step call.
     assert took < 0.05 or len(during) >= 5, (took, len(during))
+
+
+def test_removed_bodies_are_flagged():
+    sim = clatter.Simulation(clatter.Scene.example("sink-floor"), backend="cpu")
+    assert sim.removed.dtype == np.bool_ and sim.removed.shape == (sim.n_bodies,)
+    assert not sim.removed.any()
+    sim.step(4000)
+    removed = sim.removed
+    assert removed.any() and not removed.all()
+    # The momentum is the kept bodies' alone: the arrays' sum over them.
+    kept = ~removed
+    p = (sim.masses[kept, None].astype(np.float64) * sim.velocities[kept]).sum(axis=0)
+    np.testing.assert_allclose(sim.momentum(), p, rtol=1e-5, atol=1e-12)

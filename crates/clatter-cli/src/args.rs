@@ -26,6 +26,12 @@ impl Pipeline {
         if self.threads == Some(0) {
             anyhow::bail!("--threads must be at least 1");
         }
+        let limit = clatter::thread_limit();
+        if let Some(n) = self.threads.filter(|&n| n > limit) {
+            anyhow::bail!(
+                "--threads {n} is more than {limit} (16 per core of this machine): results are identical for any count, so threads beyond the cores only slow the run"
+            );
+        }
         rayon::ThreadPoolBuilder::new()
             .num_threads(self.threads.unwrap_or(0))
             .stack_size(POOL_STACK)
@@ -50,7 +56,7 @@ pub fn on_pool<T: Send>(f: impl FnOnce() -> T + Send) -> T {
 /// `--quiet` and `--log-every`: what a long-running subcommand prints on the way.
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct Progress {
-    /// Print nothing but errors (no progress bar or lines).
+    /// Print nothing but errors and warnings (no progress bar or lines, no summary).
     #[arg(long, short)]
     pub quiet: bool,
     #[command(flatten)]

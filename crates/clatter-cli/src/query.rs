@@ -110,6 +110,10 @@ struct Answer {
     toi_points: Option<Option<[[f32; 3]; 2]>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     toi_normal: Option<Option<[f32; 3]>>,
+    /// `false` when the search stopped at its iteration cap: `toi` is then the time reached
+    /// without contact, not an impact (see `query::Toi::converged`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    toi_converged: Option<bool>,
 }
 
 #[derive(Serialize)]
@@ -269,7 +273,17 @@ const LINE_SHAPE: &str = r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "positi
 /// an example of a query line), or an object with wrong keys or values; serde's detail comes
 /// last.
 fn parse_line(n: usize, text: &str) -> Result<Line, String> {
-    serde_json::from_str(text).map_err(|e| {
+    let mut de = serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(&mut de)
+        .map_err(|e| {
+            // Where in the line the bad value is (`a.position`), before serde's detail.
+            let path = e.path().to_string();
+            let e = e.into_inner();
+            (e, (path != ".").then_some(path))
+        })
+        .and_then(|line| de.end().map(|()| line).map_err(|e| (e, None)))
+        .map_err(|(e, path)| {
+        let at = path.map_or(String::new(), |p| format!("`{p}`: "));
         // Each query is one line, so serde's "line 1" says nothing: the column does.
         let detail = e.to_string();
         let detail = match detail.strip_suffix(&format!(" at line 1 column {}", e.column())) {
@@ -281,7 +295,7 @@ fn parse_line(n: usize, text: &str) -> Result<Line, String> {
                 "is not valid JSON"
             }
             _ if !text.trim_start().starts_with('{') => "is JSON but not an object",
-            _ => return format!("input line {n} is not a valid query: {detail}"),
+            _ => return format!("input line {n} is not a valid query: {at}{detail}"),
         };
         format!(
             "input line {n} {what}; a query line is one JSON object such as {LINE_SHAPE} (see docs/queries.md). Parser: {detail}"
@@ -332,6 +346,7 @@ fn answer_line(n: usize, text: &str, cache: &Cache) -> Result<String, String> {
         out.toi = Some(t.map(|t| num(t.time)));
         out.toi_points = Some(t.map(|t| [arr(t.points[0]), arr(t.points[1])]));
         out.toi_normal = Some(t.map(|t| arr(t.normal)));
+        out.toi_converged = Some(t.is_none_or(|t| t.converged));
     }
     serde_json::to_string(&out).map_err(|e| e.to_string())
 }

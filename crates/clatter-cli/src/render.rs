@@ -26,7 +26,7 @@ use crate::scene_io::load_scene;
 #[command(
     mut_arg("threads", |a| a.help("Worker threads of the simulation (default: all cores)")),
     mut_arg("backend", |a| a.help("Which pipeline steps the world: gpu (frames drawn straight from its buffers), cpu, or auto (the GPU when a hardware adapter is found and the scene fits it, else the CPU, saying which and why)")),
-    mut_arg("quiet", |a| a.help("Print nothing but errors (and whether the MP4 was skipped)")),
+    mut_arg("quiet", |a| a.help("Print nothing but errors and warnings (and whether the MP4 was skipped)")),
 )]
 pub struct RenderArgs {
     /// Scene file (TOML, see docs/scene-format.md); the embedded default when omitted.
@@ -68,6 +68,7 @@ pub fn render(args: RenderArgs) -> anyhow::Result<()> {
     let end = args.steps.unwrap_or_else(|| scene.steps(world.dt));
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create the output directory {}", args.out.display()))?;
+    remove_old_frames(&args.out)?;
     let ctx = Arc::new(GpuContext::new()?);
     let (w, h) = args.size;
     let mut off = Offscreen::new(&ctx, &world, w, h)?;
@@ -255,6 +256,28 @@ pub fn view(args: ViewArgs) -> anyhow::Result<()> {
         }
         other => Ok(other?),
     }
+}
+
+/// Removes the `frame_NNNNNN.png` files of an earlier render from `dir` (and its
+/// `frames.mp4`): the frames of a shorter render would otherwise sit beside old ones, and
+/// ffmpeg's `frame_%06d.png` would read those too.
+fn remove_old_frames(dir: &Path) -> anyhow::Result<()> {
+    let entries = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read the output directory {}", dir.display()))?;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let frame = name
+            .strip_prefix("frame_")
+            .and_then(|r| r.strip_suffix(".png"))
+            .is_some_and(|n| n.len() == 6 && n.bytes().all(|b| b.is_ascii_digit()));
+        if frame || name == "frames.mp4" {
+            std::fs::remove_file(entry.path()).with_context(|| {
+                format!("cannot remove the old frame {}", entry.path().display())
+            })?;
+        }
+    }
+    Ok(())
 }
 
 /// Encodes `DIR/frame_%06d.png` into `DIR/frames.mp4` with ffmpeg, or says why not.

@@ -118,6 +118,17 @@ fn render_writes_frames_of_the_asked_size() {
         "neither frames.mp4 nor a skip message:\n{}",
         text(&o)
     );
+    // A shorter render into the same directory leaves only its own frames (ffmpeg's
+    // `frame_%06d.png` would read the old ones after them).
+    let o = clatter(&[
+        &"render", &scene, &"--out", &out, &"--steps", &"1", &"--size", &"96x64", &"--quiet",
+    ]);
+    assert_ok(&o, "clatter render again");
+    let pngs: Vec<String> = names(&out)
+        .into_iter()
+        .filter(|n| n.ends_with(".png"))
+        .collect();
+    assert_eq!(pngs, ["frame_000000.png", "frame_000001.png"]);
     // --only-contacts and an explicit eye point work too.
     let out2 = dir.join("only");
     let o = clatter(&[

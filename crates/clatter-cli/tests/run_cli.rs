@@ -396,6 +396,111 @@ fn missing_scene_file() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// `--energy-every` writes `energy.csv`, so it needs `--out` like the other series
+/// options (it was accepted and silently did nothing).
+#[test]
+fn energy_every_needs_out() {
+    let dir = test_dir("energy-no-out");
+    let scene = dir.join("small.toml");
+    std::fs::write(&scene, SMALL).unwrap();
+    let output = clatter(&[&"run", &scene, &"--energy-every", &"5"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--energy-every") && stderr.contains("--out"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A thread count far beyond the machine's cores is refused before anything is created
+/// (`--threads 100000` started that many OS threads and never reached the first step).
+#[test]
+fn absurd_thread_counts_are_refused() {
+    let dir = test_dir("threads");
+    let scene = dir.join("small.toml");
+    std::fs::write(&scene, SMALL).unwrap();
+    let out = dir.join("out");
+    let too_many = (clatter::thread_limit() + 1).to_string();
+    let output = clatter(&[&"run", &scene, &"--threads", &too_many, &"--out", &out]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--threads") && stderr.contains(&too_many),
+        "{stderr}"
+    );
+    assert!(
+        !out.exists(),
+        "--out created although the arguments were rejected"
+    );
+    // The limit itself is allowed.
+    let output = clatter(&[&"run", &scene, &"--threads", &"3", &"--steps", &"2"]);
+    assert_ok(&output, "3 threads");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A checkpoint resumed into the directory of a run of another scene starts its series
+/// afresh, with a warning, instead of splicing its rows onto the other run's; resumed
+/// into its own run's directory it continues them. A missing checkpoint's error says its
+/// cause once.
+#[test]
+fn resume_continues_only_its_own_scenes_series() {
+    let dir = test_dir("resume-other");
+    let small = dir.join("small.toml");
+    std::fs::write(&small, SMALL).unwrap();
+    let other = dir.join("other.toml");
+    std::fs::write(&other, SMALL.replace("steps = 23", "steps = 40")).unwrap();
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let o = clatter(&[
+        &"run",
+        &small,
+        &"--out",
+        &a,
+        &"--energy-every",
+        &"5",
+        &"--checkpoint-every",
+        &"1.0e-3",
+        &"--quiet",
+    ]);
+    assert_ok(&o, "the small scene");
+    let o = clatter(&[
+        &"run",
+        &other,
+        &"--out",
+        &b,
+        &"--energy-every",
+        &"5",
+        &"--quiet",
+    ]);
+    assert_ok(&o, "the other scene");
+    let ckpt = a.join("checkpoint.ckpt");
+    let start = clatter::Checkpoint::load(&ckpt).unwrap().step_count();
+    assert!(start > 0);
+    // Into the other scene's directory: a warning, and energy.csv from the resume step.
+    let o = clatter(&[&"resume", &ckpt, &"--out", &b, &"--steps", &"5", &"--quiet"]);
+    assert_ok(&o, "resume into the other run's directory");
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("another scene"), "{stderr}");
+    let (_, rows) = read_csv(&b.join("energy.csv"));
+    assert_eq!(
+        rows[0][0] as u64, start,
+        "the series starts at the resume step"
+    );
+    // Into its own directory: the rows before the resume step are kept.
+    let o = clatter(&[&"resume", &ckpt, &"--out", &a, &"--steps", &"5", &"--quiet"]);
+    assert_ok(&o, "resume into its own directory");
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("another scene"));
+    let (_, rows) = read_csv(&a.join("energy.csv"));
+    assert_eq!(rows[0][0], 0.0, "the series goes on from step 0");
+    // A missing checkpoint: the cause once, not twice.
+    let missing = dir.join("missing.ckpt");
+    let o = clatter(&[&"resume", &missing, &"--out", &dir.join("c")]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.matches("No such file").count(), 1, "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn example_scenes() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     let mut scenes: Vec<PathBuf> = std::fs::read_dir(&dir)

@@ -223,3 +223,26 @@ fn one_check_alone_counts_in_the_singular_and_keeps_time_within_the_total() {
     let (t, total) = rest.split_once(" s of ").unwrap_or_default();
     assert_eq!(t, total.split(',').next().unwrap_or_default(), "{last}");
 }
+
+/// `--only` with an empty name (a trailing comma, or `""`) is refused, listing the checks:
+/// an empty string is in every name, and the whole suite ran where one check was asked for.
+#[test]
+fn an_empty_only_name_is_refused() {
+    for only in ["chung-ooi-1,", ",", ""] {
+        let o = clatter(&[
+            &"validate",
+            &"--quick",
+            &"--backend",
+            &"cpu",
+            &"--only",
+            &only,
+        ]);
+        let all = text(&o);
+        assert_eq!(o.status.code(), Some(1), "--only {only:?}: {all}");
+        assert!(
+            all.contains("empty check name") && all.contains("chung-ooi-1"),
+            "--only {only:?}: {all}"
+        );
+        assert!(!all.contains("validation passed"), "--only {only:?}: {all}");
+    }
+}

@@ -27,8 +27,9 @@ use thiserror::Error;
 /// Why a shape could not be built.
 #[derive(Debug, Error, Clone, PartialEq)]
 pub enum GeomError {
-    /// A length (radius, half extent) that must be positive and finite was not.
-    #[error("{what} must be a positive finite number, got {value}")]
+    /// A length (radius, half extent) that must be positive and finite, within
+    /// [`shape::LENGTH_RANGE`], was not.
+    #[error("{what} must be a positive finite number from 1e-7 to 1e7 (m), got {value}")]
     NotPositive { what: &'static str, value: f64 },
     /// A point coordinate was NaN or infinite.
     #[error("point {index} has a non-finite coordinate")]

@@ -184,8 +184,13 @@ pub struct PreparedShape {
     pub com: Vec3,
 }
 
+/// The smallest and largest lengths (radius, half extent; m) a shape may have: a body's
+/// mass and inertia (`density * r^3`, `density * r^5`) are 32-bit floats, which are zero
+/// (or below their normal range) for a grain of 1e-100 m and infinite for one of 1e100 m.
+pub const LENGTH_RANGE: (f64, f64) = (1e-7, 1e7);
+
 fn positive(what: &'static str, value: f64) -> Result<f64, GeomError> {
-    if value.is_finite() && value > 0.0 {
+    if value.is_finite() && value > 0.0 && (LENGTH_RANGE.0..=LENGTH_RANGE.1).contains(&value) {
         Ok(value)
     } else {
         Err(GeomError::NotPositive { what, value })

@@ -546,6 +546,54 @@ fn toi_spinning_box() {
     assert!(vclose(t.normal, Vec3::Y, 1e-4), "{t:?}");
 }
 
+/// A unit cube spinning fast about z next to a wall it never reaches: its largest reach in x
+/// is the half diagonal sqrt(0.5) = 0.70711, the wall's face is at x = 0.71711 (0.01 beyond
+/// it), so there is no impact. Conservative advancement creeps by about gap / (omega r) a
+/// step (~9,000 steps over the horizon at 100 rad/s); it must end with `None`, and a
+/// search stopped by its cap must say `converged = false`, never report a time as an impact.
+#[test]
+fn toi_fast_spin_grazing_a_wall_finds_no_impact() {
+    let a = Body::boxed([1.0, 1.0, 1.0]);
+    let wall = Body::boxed([1.0, 2.0, 2.0]);
+    let pa = a.at(Vec3::ZERO, Quat::IDENTITY);
+    let face = 0.5f64.sqrt() + 0.01;
+    let pw = wall.at(Vec3::new((face + 0.5) as f32, 0.0, 0.0), Quat::IDENTITY);
+    let mw = Motion::default();
+    for spin in [100.0f32, 1000.0] {
+        let ma = Motion {
+            linear: Vec3::ZERO,
+            angular: Vec3::new(0.0, 0.0, spin),
+        };
+        let t = query::time_of_impact(a.shape(), &pa, &ma, wall.shape(), &pw, &mw, 1.0);
+        if let Some(t) = t {
+            assert!(
+                !t.converged,
+                "spin {spin}: an impact reported where none is: {t:?}"
+            );
+        }
+        if spin == 100.0 {
+            assert!(t.is_none(), "spin {spin}: {t:?}");
+        }
+    }
+    // The same wall 0.01 nearer than the half diagonal is hit: the corner (0.5, -0.5), at
+    // radius sqrt(0.5) and angle -45 deg, turns towards +x and reaches the face x = 0.69711
+    // when sqrt(0.5) cos(w t - pi/4) = 0.69711, at w = 100 rad/s.
+    let face = 0.5f64.sqrt() - 0.01;
+    let pw = wall.at(Vec3::new((face + 0.5) as f32, 0.0, 0.0), Quat::IDENTITY);
+    let ma = Motion {
+        linear: Vec3::ZERO,
+        angular: Vec3::new(0.0, 0.0, 100.0),
+    };
+    let exact = ((std::f64::consts::FRAC_PI_4 - (face / 0.5f64.sqrt()).acos()) / 100.0) as f32;
+    let t = query::time_of_impact(a.shape(), &pa, &ma, wall.shape(), &pw, &mw, 1.0).unwrap();
+    assert!(t.converged, "{t:?}");
+    assert!(
+        t.time <= exact + 1e-6 && t.time >= exact - 1e-4,
+        "{} vs {exact}",
+        t.time
+    );
+}
+
 /// Degenerate inputs never produce NaN: zero-length motion, identical shapes at one pose,
 /// huge and tiny scales.
 #[test]

@@ -491,10 +491,14 @@ fn run_contact(seed: u64, mixed: bool) {
                 c.label()
             );
         }
-        let gap = (ours.points[1] - ours.points[0]).dot(ours.normal);
+        // The whole offset, not only its part along the normal (docs/queries.md:
+        // `points[0] - points[1] = depth * normal`).
+        let off = ours.points[0] - ours.points[1] - ours.normal * ours.depth;
         assert!(
-            (gap + ours.depth).abs() <= 1e-4 * (1.0 + ours.depth),
-            "pair {i}"
+            off.length() <= 1e-4 * (1.0 + ours.depth),
+            "pair {i} ({}): witness points {:?} differ from depth * normal by {off:?}",
+            c.label(),
+            ours.points
         );
         assert!(!ours.manifold.is_empty());
     }

@@ -583,7 +583,7 @@ impl Renderer {
         let counts = match contacts {
             Some(c) => c,
             None => {
-                owned = world.contacts.counts(world.len());
+                owned = world.contact_counts();
                 &owned
             }
         };

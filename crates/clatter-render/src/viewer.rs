@@ -458,7 +458,7 @@ impl App {
                 style.speed_max = Some(if vmax > 0.0 { vmax } else { 1.0 });
             }
         } else {
-            let counts = self.world.contacts.counts(self.world.len());
+            let counts = self.world.contact_counts();
             self.contacts_now = self.world.contact_count();
             g.renderer.update(&self.world, Some(&counts));
         }

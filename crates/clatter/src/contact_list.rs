@@ -289,7 +289,9 @@ impl Contacts {
         Ok(())
     }
 
-    /// Per body, the number of contacts (body and wall) that touched in the last step.
+    /// Per body, the number of contacts (body and wall) that touched in the last step; the
+    /// mesh boundaries' are in the bodies' mesh slots ([`crate::World::contact_counts`]
+    /// adds them).
     pub fn counts(&self, bodies: usize) -> Vec<u32> {
         let mut counts = vec![0u32; bodies];
         // Only the active list's contacts can touch.

@@ -50,3 +50,14 @@ pub use mesh_boundary::{Boundary, BoundaryMotion};
 pub use periodic::Periodic;
 pub use sink::{Discharged, Sink};
 pub use world::{BodyInit, SimError, StepStats, Wall, World, WorldDesc};
+
+/// The most worker threads a run may ask for: 16 per core this machine has (at least 64).
+///
+/// Results are identical for any thread count, so more threads than cores only slow a run
+/// down; a typo such as `--threads 100000` would start that many OS threads (gigabytes of
+/// stacks, minutes before the first step). The CLI's `--threads` and Python's `threads=`
+/// refuse more than this, saying so.
+pub fn thread_limit() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (16 * cores).max(64)
+}

@@ -83,7 +83,17 @@ impl Combine {
     #[inline]
     pub fn apply(self, a: f32, b: f32) -> f32 {
         match self {
-            Combine::GeometricMean => (a * b).sqrt(),
+            Combine::GeometricMean => {
+                // In f32 where the product is a normal number (the bits every run has had);
+                // below that in f64: two restitutions of 1e-30 multiply to 0 in f32, and the
+                // pair's damping from ln(0) was NaN at the first contact.
+                let p = a * b;
+                if p >= f32::MIN_POSITIVE || p == 0.0 && (a == 0.0 || b == 0.0) {
+                    p.sqrt()
+                } else {
+                    ((a as f64) * (b as f64)).sqrt() as f32
+                }
+            }
         }
     }
 }

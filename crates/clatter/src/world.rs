@@ -757,6 +757,22 @@ impl World {
             + self.mesh.slots.iter().filter(|s| s.touching).count()
     }
 
+    /// Per body, the number of contacts (body, wall and mesh boundary) that touched in the
+    /// last step: what the VTK `contacts` array and the renderers' contact colours show.
+    /// They add up to [`World::contact_count`] with each body-body contact counted twice.
+    pub fn contact_counts(&self) -> Vec<u32> {
+        let mut counts = self.contacts.counts(self.len());
+        for (i, c) in counts.iter_mut().enumerate() {
+            *c += self
+                .mesh
+                .body_slots(i)
+                .iter()
+                .filter(|s| s.touching)
+                .count() as u32;
+        }
+        counts
+    }
+
     /// Body pairs currently in contact, sorted (for tests and output).
     pub fn touching_pairs(&self) -> Vec<[u32; 2]> {
         let c = self.contacts.active();

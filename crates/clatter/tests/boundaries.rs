@@ -503,6 +503,16 @@ end = 0.06"#,
     assert_eq!(full.state.velocity, resumed.state.velocity);
     assert_eq!(full.state.angular_momentum, resumed.state.angular_momentum);
     assert_eq!(full.mesh_slots(), resumed.mesh_slots());
+    // The checkpoint holds the scene's text, not its mesh file, which restoring reads
+    // again: a file changed since (every vertex 1 cm further out) is refused, not run on.
+    let moved: Vec<[f64; 3]> = v.iter().map(|p| [p[0] * 1.1, p[1], p[2] * 1.1]).collect();
+    std::fs::write(d.join("drum.obj"), obj(&moved, &t)).unwrap();
+    let err = Checkpoint::from_bytes(&bytes).unwrap().world().unwrap_err();
+    assert!(
+        matches!(err, clatter::CheckpointError::Mismatch(_)) && err.to_string().contains("mesh"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 /// The error of a scene whose boundary mesh file `drum.<ext>` holds `contents`.
@@ -733,6 +743,11 @@ fn mesh_contacts_are_reported_like_wall_contacts() {
     );
     // The checks see the mesh contact: the full check passes at rest.
     Health::new(&mesh).check(&mesh, true).unwrap();
+    // So do the per-body counts of the VTK `contacts` array and the renderers' contact
+    // colours: one contact for the cube on the mesh, as on the plane.
+    assert_eq!(plane.contact_counts(), vec![1]);
+    assert_eq!(mesh.contact_counts(), vec![1]);
+    assert_eq!(mesh.contact_count(), 1);
 }
 
 /// A body placed halfway through a mesh floor is refused before the first step, naming the

@@ -104,6 +104,32 @@ fn identical_materials_keep_their_own_values() {
     }
 }
 
+/// A restitution far below f32's square root of its smallest normal (1e-30: the scene
+/// format allows any e in (0, 1]) keeps its own value and a finite damping, close to the
+/// critical 2: the product of two such values is 0 in f32, and ln(0) made the pair's
+/// damping NaN, blowing the run up at its first contact.
+#[test]
+fn tiny_restitutions_combine_without_underflow() {
+    for e in [1e-30f32, 1e-25, 1e-20, 1e-19] {
+        let m = linear(1e4, e, 0.3);
+        let p = PairParams::combine(&m, &m);
+        assert!(
+            close(p.restitution as f64, e as f64, 1e-6),
+            "e {e}: {}",
+            p.restitution
+        );
+        assert!(
+            close(p.damping_factor as f64, beta(e as f64), 1e-6),
+            "e {e}: damping {} against {}",
+            p.damping_factor,
+            beta(e as f64)
+        );
+        assert!(p.damping_factor < 2.0);
+        let t = p.contact_duration(0.01, 0.01, 1.0);
+        assert!(t.is_finite() && t < 1.0, "e {e}: t_c {t}");
+    }
+}
+
 #[test]
 fn different_materials_combine_as_documented_and_symmetrically() {
     let (a, b) = (linear(1.0e4, 0.9, 0.2), linear(4.0e4, 0.4, 0.8));

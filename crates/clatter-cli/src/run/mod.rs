@@ -63,7 +63,9 @@ pub struct OutputArgs {
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Format(s) of the series written every --output-every steps: csv (DIR/trace.csv), vtk
-    /// (DIR/bodies_NNNNNN.vtu and DIR/bodies.pvd), or csv,vtk. Default csv.
+    /// (DIR/bodies_NNNNNN.vtu and DIR/bodies.pvd, DIR/shapes_NNNNNN.vtu and DIR/shapes.pvd,
+    /// and with mesh boundaries DIR/boundaries_NNNNNN.vtu and DIR/boundaries.pvd), or
+    /// csv,vtk. Default csv.
     #[arg(long, value_enum, value_delimiter = ',', value_name = "FORMAT")]
     pub format: Vec<Format>,
     /// Write the series every N steps (vtk without it: the first and last step only).
@@ -283,6 +285,9 @@ fn resolve(o: &OutputArgs, stored: Option<&RunState>) -> anyhow::Result<Resolved
         if o.checkpoint_every.is_some() {
             anyhow::bail!("--checkpoint-every needs --out DIR (checkpoint.ckpt is written there)");
         }
+        if o.energy_every.is_some() {
+            anyhow::bail!("--energy-every needs --out DIR (energy.csv is written there)");
+        }
     }
     if o.contacts && !vtk {
         anyhow::bail!("--contacts needs --format vtk (the contact series is VTK only)");
@@ -441,6 +446,9 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     outputs.finish(&plan, dir, &world)?;
     let summary = serde_json::json!({
         "scene": plan.scene.source,
+        // The scene text's fingerprint: a run resumed into this directory continues its
+        // series only when it is the same scene's (`outputs::continues_in`).
+        "scene_hash": outputs::scene_hash(&plan.scene_text),
         "bodies": world.len(),
         "walls": world.walls.len(),
         // Via the f32 shortest decimal, so a scene's dt = 2e-5 reads 2e-5, not 1.9999999494757503e-5.
@@ -469,6 +477,21 @@ fn execute(plan: Plan, mut world: World) -> anyhow::Result<()> {
     let mut written = "final.csv, summary.json, energy.csv, energy.svg".to_string();
     if !world.sinks.is_empty() {
         written.push_str(", discharge.csv");
+    }
+    if plan.csv && plan.output_every.is_some() {
+        written.push_str(", trace.csv");
+    }
+    if plan.vtk {
+        written.push_str(", bodies.pvd and shapes.pvd (VTK)");
+        if !world.boundaries.is_empty() {
+            written.push_str(", boundaries.pvd");
+        }
+        if plan.contacts {
+            written.push_str(", contacts.pvd");
+        }
+    }
+    if plan.checkpoint_every.is_some() {
+        written.push_str(", checkpoint.ckpt");
     }
     if plan.picture {
         match crate::picture::final_picture(&world, &dir.join("final.png")) {
@@ -799,4 +822,27 @@ pub(crate) fn blown_up(
         None => msg.push_str("\nno checkpoint was written (no --out DIR)"),
     }
     anyhow::Error::new(BlownUp(msg))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunState;
+
+    /// The stored run state reads back bit for bit: the health baseline is a double that
+    /// `serde_json` without `float_roundtrip` parsed one ulp off (3.6994718373504694 came
+    /// back as 3.69947183735047), so a resumed run's final checkpoint differed from a
+    /// straight run's in that byte.
+    #[test]
+    fn the_stored_run_state_reads_back_bit_for_bit() {
+        for x in [3.6994718373504694f64, 0.1 + 0.2, 1e-300, 123456.78901234567] {
+            let s = RunState {
+                health_baseline: Some(x),
+                checkpoint_every: Some(x),
+                ..Default::default()
+            };
+            let back: RunState = serde_json::from_slice(&serde_json::to_vec(&s).unwrap()).unwrap();
+            assert_eq!(back.health_baseline.map(f64::to_bits), Some(x.to_bits()));
+            assert_eq!(back.checkpoint_every.map(f64::to_bits), Some(x.to_bits()));
+        }
+    }
 }

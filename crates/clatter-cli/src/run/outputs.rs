@@ -42,6 +42,18 @@ impl Outputs {
         if let Some(dir) = &plan.out {
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("cannot create output directory {}", dir.display()))?;
+            // The series of the directory go on only when they are this scene's: a checkpoint
+            // resumed into another run's directory starts them afresh, not spliced onto rows
+            // of another scene.
+            let start = if start > 0 && !continues_in(dir, plan) {
+                eprintln!(
+                    "warning: {} holds the outputs of a run of another scene (its summary.json says so): the series start afresh at step {start}, not continued from that run's rows",
+                    dir.display()
+                );
+                0
+            } else {
+                start
+            };
             if plan.csv && plan.output_every.is_some() {
                 let mut f = AtomicFile::create(&dir.join("trace.csv"))?;
                 let header = format!("step,time,{STATE_HEADER}");
@@ -181,27 +193,51 @@ impl Series {
 
     fn write_vtk(&mut self, dir: &Path, world: &World) -> anyhow::Result<()> {
         let step = world.step_count;
-        if let Some(pvd) = &mut self.bodies {
-            let name = format!("bodies_{step:06}.vtu");
-            vtk::write_bodies(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        if let Some(pvd) = &mut self.shapes {
-            let name = format!("shapes_{step:06}.vtu");
-            vtk::write_shapes(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        if let Some(pvd) = &mut self.boundaries {
-            let name = format!("boundaries_{step:06}.vtu");
-            vtk::write_boundaries(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
-        }
-        if let Some(pvd) = &mut self.contacts {
-            let name = format!("contacts_{step:06}.vtu");
-            vtk::write_contacts(&dir.join(&name), world)?;
-            pvd.push(step, world.time, name)?;
+        type Writer = fn(&Path, &World) -> std::io::Result<()>;
+        let kinds: [(&mut Option<vtk::Pvd>, &str, Writer); 4] = [
+            (&mut self.bodies, "bodies", vtk::write_bodies),
+            (&mut self.shapes, "shapes", vtk::write_shapes),
+            (&mut self.boundaries, "boundaries", vtk::write_boundaries),
+            (&mut self.contacts, "contacts", vtk::write_contacts),
+        ];
+        for (pvd, kind, write) in kinds {
+            let Some(pvd) = pvd else { continue };
+            let name = format!("{kind}_{step:06}.vtu");
+            let path = dir.join(&name);
+            write(&path, world).with_context(|| format!("cannot write {}", path.display()))?;
+            pvd.push(step, world.time, name).with_context(|| {
+                format!("cannot write {}", dir.join(format!("{kind}.pvd")).display())
+            })?;
         }
         self.last_frame = Some(step);
         Ok(())
+    }
+}
+
+/// A fingerprint of a scene's text (64-bit FNV-1a, as hex): `summary.json`'s `scene_hash`,
+/// by which a resumed run knows the directory's series are its own scene's.
+pub(crate) fn scene_hash(text: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in text.bytes() {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0100_0000_01b3);
+    }
+    format!("{h:016x}")
+}
+
+/// Whether `dir`'s series may be `plan`'s scene's: not when its `summary.json` names
+/// another scene by its `scene_hash`. Without a summary (or one written before the field
+/// existed) they may be: a killed run of this scene leaves its VTK frames and indexes, and
+/// no summary.
+fn continues_in(dir: &Path, plan: &Plan) -> bool {
+    let Ok(bytes) = std::fs::read(dir.join("summary.json")) else {
+        return true;
+    };
+    let Ok(summary) = serde_json::from_slice::<serde_json::Value>(&bytes) else {
+        return true;
+    };
+    match summary.get("scene_hash").and_then(|h| h.as_str()) {
+        Some(h) => h == scene_hash(&plan.scene_text),
+        None => true,
     }
 }

@@ -560,6 +560,14 @@ pub fn validate_on(args: ValidateArgs, ranks: Option<Rc<dyn Comm>>) -> anyhow::R
 /// Why the suite asked for cannot run: an `--only` name that names no check, or checks
 /// that do not run on MPI ranks when it runs on ranks.
 fn suite_refused(args: &ValidateArgs, names: &[&str], ctx: &Ctx) -> anyhow::Result<()> {
+    // An empty name (`--only a,` or `--only ""`) is in every name: it would run the whole
+    // suite where one check was asked for.
+    if args.only.iter().any(|o| o.trim().is_empty()) {
+        anyhow::bail!(
+            "--only: an empty check name (a trailing comma?); the checks are {}",
+            names.join(", ")
+        );
+    }
     if let Some(o) = args
         .only
         .iter()

@@ -686,3 +686,94 @@ fn wall_across_a_periodic_axis() {
         &["wall 0", "parallel to the periodic axes"],
     );
 }
+
+/// Numbers finite as f64 but not as the 32-bit floats the simulation keeps are refused,
+/// naming the field: 1e300 was infinite there, 1e-300 zero (a NaN at the first step, or a
+/// dt of 0 s that ran without moving).
+#[test]
+fn numbers_outside_the_f32_range_are_refused() {
+    let cases = [
+        (
+            "f32-density-big",
+            "density = 7800.0\n",
+            "density = 1e300\n",
+            "1e300",
+        ),
+        (
+            "f32-density-small",
+            "density = 7800.0\n",
+            "density = 1e-300\n",
+            "1e-300",
+        ),
+        (
+            "f32-stiffness",
+            "stiffness = 1.0e5\n",
+            "stiffness = 1e300\n",
+            "1e300",
+        ),
+        (
+            "f32-dt",
+            "steps = 10\n",
+            "steps = 10\ndt = 1e-300\n",
+            "1e-300",
+        ),
+        (
+            "f32-gravity",
+            "gravity = [0.0, 0.0, -9.81]",
+            "gravity = [0.0, 0.0, -1e300]",
+            "-1e300",
+        ),
+        (
+            "f32-position",
+            "position = [0.0, 0.0, 0.1]",
+            "position = [0.0, 0.0, 1e300]",
+            "1e300",
+        ),
+    ];
+    for (case, from, to, marker) in cases {
+        let text = edit(from, to);
+        check(case, &text, marker, &["32-bit float"]);
+    }
+    // A shape's lengths have their own range: the mass and inertia (r^3, r^5) must be
+    // normal 32-bit floats.
+    for (case, r) in [("radius-tiny", "1e-300"), ("radius-huge", "1e30")] {
+        let text = edit("radius = 0.01", &format!("radius = {r}"));
+        check(case, &text, r, &["1e-7 to 1e7"]);
+    }
+}
+
+/// A direction is taken in double precision: a wall normal of length 1e39 or 1e-13 is the
+/// direction it points in (it was infinite, then NaN, or refused as zero in f32), and a
+/// quaternion of 1e20s is a rotation. The scene parses with those directions.
+#[test]
+fn directions_of_any_finite_length_are_normalised() {
+    for normal in [
+        "[0.0, 0.0, 1e39]",
+        "[0.0, 0.0, 1e-13]",
+        "[0.0, 0.0, 3.5e38]",
+    ] {
+        let text = format!(
+            "{BASE}\n[[wall]]\npoint = [0.0, 0.0, 0.0]\nnormal = {normal}\nmaterial = \"steel\"\n"
+        );
+        let scene = clatter::scene::Scene::parse(&text, "walls.toml")
+            .unwrap_or_else(|e| panic!("normal {normal}: {e}"));
+        let n = scene.world().walls[0].plane.normal;
+        assert_eq!(n, glam::Vec3::Z, "normal {normal}");
+    }
+    let text = edit(
+        "position = [0.0, 0.0, 0.1]",
+        "position = [0.0, 0.0, 0.1]\norientation = [1e20, 0.0, 0.0, 1e20]",
+    );
+    let scene = clatter::scene::Scene::parse(&text, "quat.toml").expect("a big quaternion");
+    let q = scene.world().user_orientation(0);
+    let want = glam::Quat::from_rotation_z(std::f32::consts::FRAC_PI_2);
+    assert!(q.angle_between(want) < 1e-5, "{q:?}");
+}
+
+/// A duration shorter than dt runs one step (`ceil(duration / dt)`), not zero.
+#[test]
+fn a_duration_below_dt_runs_one_step() {
+    let text = edit("steps = 10\n", "duration = 1e-12\ndt = 1e-5\n");
+    let scene = clatter::scene::Scene::parse(&text, "short.toml").expect("valid");
+    assert_eq!(scene.steps(1e-5), 1);
+}

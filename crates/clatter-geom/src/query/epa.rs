@@ -66,6 +66,26 @@ fn sup<A: Support, B: Support>(a: &A, b: &B, d: DVec3) -> Vert {
     }
 }
 
+/// Barycentric coordinates of the origin's projection on face `f`'s plane (a third each
+/// for a face without area).
+fn barycentric(verts: &[Vert], f: &Face) -> (f64, f64, f64) {
+    let (x0, x1, x2) = (
+        verts[f.v[0] as usize].w,
+        verts[f.v[1] as usize].w,
+        verts[f.v[2] as usize].w,
+    );
+    let p = f.n * f.d;
+    let nn = (x1 - x0).cross(x2 - x0);
+    let den = nn.length_squared();
+    if den > 0.0 {
+        let l0 = (x1 - p).cross(x2 - p).dot(nn) / den;
+        let l1 = (x2 - p).cross(x0 - p).dot(nn) / den;
+        (l0, l1, 1.0 - l0 - l1)
+    } else {
+        (1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0)
+    }
+}
+
 fn make_face(verts: &[Vert], i: u32, j: u32, k: u32) -> Face {
     let (x0, x1, x2) = (
         verts[i as usize].w,
@@ -278,6 +298,26 @@ pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
             }
         }
     }
+    // The origin's projection on the closest face's plane lies in that face for a convex
+    // polytope around the origin; with rounding (or a polytope that only touches the
+    // origin) it can fall outside, and the face's barycentric witnesses are then not
+    // `depth * normal` apart. Another live face at the same distance (within the
+    // tolerance) that holds the projection gives the witnesses that are.
+    let tol = EPA_ABS_TOL * scale + EPA_REL_TOL * faces[best].d.max(0.0);
+    let inside = |f: &Face| {
+        let (l0, l1, l2) = barycentric(&verts, f);
+        l0.min(l1).min(l2) >= -1e-9
+    };
+    if !inside(&faces[best]) {
+        let d0 = faces[best].d;
+        if let Some(k) = (0..faces.len())
+            .filter(|&k| faces[k].alive && faces[k].d.is_finite() && faces[k].d <= d0 + tol)
+            .filter(|&k| inside(&faces[k]))
+            .min_by(|&x, &y| faces[x].d.total_cmp(&faces[y].d))
+        {
+            best = k;
+        }
+    }
     let f = faces[best];
     let depth = f.d.max(0.0);
     let (x0, x1, x2) = (
@@ -285,16 +325,7 @@ pub(crate) fn epa<A: Support, B: Support>(a: &A, b: &B, s: &Simplex) -> Epa {
         verts[f.v[1] as usize],
         verts[f.v[2] as usize],
     );
-    let p = f.n * f.d;
-    let nn = (x1.w - x0.w).cross(x2.w - x0.w);
-    let den = nn.length_squared();
-    let (mut l0, mut l1, mut l2) = if den > 0.0 {
-        let l0 = (x1.w - p).cross(x2.w - p).dot(nn) / den;
-        let l1 = (x2.w - p).cross(x0.w - p).dot(nn) / den;
-        (l0, l1, 1.0 - l0 - l1)
-    } else {
-        (1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0)
-    };
+    let (mut l0, mut l1, mut l2) = barycentric(&verts, &f);
     if l0 < 0.0 || l1 < 0.0 || l2 < 0.0 {
         l0 = l0.max(0.0);
         l1 = l1.max(0.0);

@@ -21,7 +21,8 @@ pub const FACE_ALIGNMENT_COS: f64 = 0.999;
 pub(crate) struct Points {
     pub p: [DVec3; MAX_MANIFOLD_POINTS],
     pub n: usize,
-    /// Deepest clipped point pair `(on a, on b)` when it agrees with the given separation:
+    /// Deepest clipped point pair `(on a, on b)` when it is the given separation apart along
+    /// the normal:
     /// witness points inside the overlap of the two faces (the separating-axis path otherwise
     /// only knows a support vertex, which may lie beside the other face).
     pub witness: Option<(DVec3, DVec3)>,
@@ -155,7 +156,10 @@ pub(crate) fn clip(
     let (s, p) = deepest;
     let on_ref = p - rn * s;
     let (wa, wb) = if ref_is_a { (on_ref, p) } else { (p, on_ref) };
-    if ((wb - wa).dot(n) - sep).abs() <= 1e-6 * size {
+    // Only when the pair is `sep` apart along `n` itself, not just in its part along `n`
+    // (the reference face may lean by up to `FACE_ALIGNMENT_COS` from `n`): the witness
+    // points of the query API are `depth * normal` apart (docs/queries.md).
+    if (wb - wa - n * sep).length() <= 1e-6 * size {
         out.witness = Some((wa, wb));
     }
     out

@@ -232,7 +232,7 @@ pub fn base64(bytes: &[u8]) -> String {
 /// (1 for the bodies file, the face count for the shapes file).
 fn body_arrays(world: &World, repeat: impl Fn(usize) -> usize) -> Vec<Array> {
     let n = world.len();
-    let counts = world.contacts.counts(n);
+    let counts = world.contact_counts();
     // Bodies removed by a sink are left out (repeated 0 times).
     let each = |i: usize| std::iter::repeat_n(i, if world.is_removed(i) { 0 } else { repeat(i) });
     let bodies = || (0..n).flat_map(each);

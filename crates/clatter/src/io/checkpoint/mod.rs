@@ -36,6 +36,9 @@
 //!   were found at, then per body its `MESH_SLOTS` mesh contact slots (boundary, piece, touching,
 //!   normal, tangential spring, twist, last force). The candidates are found again by the
 //!   broad phase at the `RBLD` positions and that time.
+//! - `MSHF` (with `MESH`; optional, absent in older files): a CRC-32 of the boundary meshes
+//!   as built (vertices, triangles). The mesh files are read again on restore: one that
+//!   changed since is refused (`checkpoint does not match its scene`).
 //! - `PIEC` (worlds with composite bodies; optional): the orientations the Verlet list was
 //!   built at (piece pairs are found at them) and one piece code per contact
 //!   (`contacts::piece_code`). Restore rebuilds at the `RBLD` positions and these
@@ -96,11 +99,10 @@ const MAX_COORDINATE: f64 = 1e30;
 #[derive(Debug, Error)]
 pub enum CheckpointError {
     /// The file could not be read.
-    #[error("cannot read {path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    // The cause is in the message and not also the error's `source`: a chain printer
+    // (anyhow's `{:#}`) would print it twice.
+    #[error("cannot read {path}: {error}")]
+    Io { path: String, error: std::io::Error },
     /// The magic bytes are missing.
     #[error("not a clatter checkpoint (the file does not start with the bytes `CLATCKPT`)")]
     NotACheckpoint,
@@ -128,9 +130,16 @@ pub enum CheckpointError {
     /// The stored scene builds a world that does not fit the stored state.
     #[error("checkpoint does not match its scene: {0}")]
     Mismatch(String),
-    /// The stored scene text no longer parses.
+    /// The stored scene text no longer parses (its message in this one, not also a
+    /// `source`: see `Io`).
     #[error("the checkpoint's scene is invalid: {0}")]
-    Scene(#[from] SceneError),
+    Scene(SceneError),
+}
+
+impl From<SceneError> for CheckpointError {
+    fn from(e: SceneError) -> Self {
+        CheckpointError::Scene(e)
+    }
 }
 
 /// A parsed checkpoint: the scene it came from, the dynamic state, and the writer's app data.
@@ -168,6 +177,8 @@ struct State {
     mesh_slots: Vec<MeshSlot>,
     rebuild_orientation: Vec<Quat>,
     pieces: Vec<u32>,
+    /// The boundary meshes' fingerprint (section `MSHF`; `None` in files written before it).
+    mesh_fingerprint: Option<u32>,
 }
 
 impl Checkpoint {
@@ -182,6 +193,7 @@ impl Checkpoint {
         };
         let mut found: Vec<[u8; 4]> = Vec::new();
         let mut piec = None;
+        let mut mshf = None;
         let (mut scene, mut meta, mut body, mut rbld, mut cont, mut app) =
             (None, None, None, None, None, None);
         let mut sink = None;
@@ -212,6 +224,7 @@ impl Checkpoint {
                 b"APP " => app = Some(payload.to_vec()),
                 b"MESH" => mesh = Some(reader),
                 b"PIEC" => piec = Some(reader),
+                b"MSHF" => mshf = Some(reader),
                 _ => {} // optional section of a later version
             }
         }
@@ -250,6 +263,10 @@ impl Checkpoint {
         if let Some(mut r) = piec {
             read_pieces(&mut r, &mut st)?;
         }
+        if let Some(mut r) = mshf {
+            st.mesh_fingerprint = Some(r.u32()?);
+            r.finish()?;
+        }
         Ok(Checkpoint {
             producer,
             scene_source,
@@ -261,9 +278,9 @@ impl Checkpoint {
 
     /// Reads and checks a checkpoint file.
     pub fn load(path: &Path) -> Result<Checkpoint, CheckpointError> {
-        let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io {
+        let bytes = std::fs::read(path).map_err(|error| CheckpointError::Io {
             path: path.display().to_string(),
-            source,
+            error,
         })?;
         Checkpoint::from_bytes(&bytes)
     }
@@ -308,6 +325,15 @@ impl Checkpoint {
                 st.bodies,
                 st.walls
             )));
+        }
+        if st
+            .mesh_fingerprint
+            .is_some_and(|f| f != mesh_fingerprint(&w.boundaries))
+        {
+            return Err(CheckpointError::Mismatch(
+                "the scene's boundary meshes are not the ones the checkpoint was written with (a mesh file changed since?): the run would not go on as it was"
+                    .to_string(),
+            ));
         }
         if fingerprint(&w) != st.fingerprint {
             return Err(CheckpointError::Mismatch(
@@ -397,7 +423,7 @@ impl World {
         w.u32(FORMAT_VERSION);
         w.u64(0); // length, patched below
         let mesh = !self.boundaries.is_empty();
-        w.u32(7 + mesh as u32 + self.has_composites() as u32);
+        w.u32(7 + 2 * mesh as u32 + self.has_composites() as u32);
         w.section(b"SCEN", |w| {
             w.string(concat!("clatter ", env!("CARGO_PKG_VERSION")));
             w.string(scene_source);
@@ -495,6 +521,9 @@ impl World {
                 }
             });
         }
+        if mesh {
+            w.section(b"MSHF", |w| w.u32(mesh_fingerprint(&self.boundaries)));
+        }
         if self.has_composites() {
             w.section(b"PIEC", |w| {
                 w.u64(self.rebuild_orientation().len() as u64);
@@ -531,6 +560,28 @@ fn fingerprint(w: &World) -> u32 {
             bytes.extend_from_slice(&x.to_le_bytes());
         }
         bytes.extend_from_slice(&c.radius[i].to_le_bytes());
+    }
+    crc32(&bytes)
+}
+
+/// A fingerprint of the boundary meshes as built (vertices and triangles, after scaling
+/// and repair): a checkpoint stores the scene's text, not its mesh files, which `resume`
+/// reads again; a file changed since is refused rather than run on silently.
+fn mesh_fingerprint(boundaries: &[crate::Boundary]) -> u32 {
+    let mut bytes = Vec::new();
+    for b in boundaries {
+        bytes.extend_from_slice(&(b.vertices.len() as u64).to_le_bytes());
+        for v in &b.vertices {
+            for x in v.to_array() {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        bytes.extend_from_slice(&(b.triangles.len() as u64).to_le_bytes());
+        for t in &b.triangles {
+            for i in t {
+                bytes.extend_from_slice(&i.to_le_bytes());
+            }
+        }
     }
     crc32(&bytes)
 }

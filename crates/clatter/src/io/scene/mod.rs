@@ -155,7 +155,8 @@ impl Scene {
                 } else {
                     n.ceil()
                 };
-                n.max(0.0) as u64
+                // At least one step: `ceil` of any positive duration over dt.
+                n.max(1.0) as u64
             }
         }
     }
@@ -196,11 +197,22 @@ impl SourceFile<'_> {
         })
     }
 
-    /// `v`, which must be positive and finite.
+    /// `v`, which must be positive and finite, also as the 32-bit float the simulation
+    /// keeps (1e300 would be infinite there, 1e-300 zero).
     fn positive(&self, v: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
         let x = *v.get_ref();
-        if x.is_finite() && x > 0.0 {
+        if x.is_finite() && x > 0.0 && fits_f32(x) && x as f32 >= f32::MIN_POSITIVE {
             Ok(x)
+        } else if x.is_finite() && x > 0.0 {
+            self.err(
+                v.span(),
+                field,
+                format!(
+                    "must be between {:e} and {:e} (it is kept as a 32-bit float), got {x:e}",
+                    f32::MIN_POSITIVE,
+                    f32::MAX
+                ),
+            )
         } else {
             self.err(
                 v.span(),
@@ -210,30 +222,36 @@ impl SourceFile<'_> {
         }
     }
 
-    /// `v`, which must be finite and >= 0.
+    /// `v`, which must be finite and >= 0, also as a 32-bit float.
     fn non_negative(&self, v: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
         let x = *v.get_ref();
-        if x.is_finite() && x >= 0.0 {
+        if x.is_finite() && x >= 0.0 && fits_f32(x) {
             Ok(x)
         } else {
             self.err(
                 v.span(),
                 field,
-                format!("must be a finite number >= 0, got {x}"),
+                format!(
+                    "must be a finite number >= 0 (at most {:e}), got {x}",
+                    f32::MAX
+                ),
             )
         }
     }
 
-    /// `v` as a vector, whose three components must be finite.
+    /// `v` as a vector, whose three components must be finite, also as 32-bit floats.
     fn vec3(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<Vec3, SceneError> {
         let a = v.get_ref();
-        if a.iter().all(|c| c.is_finite()) {
+        if a.iter().all(|&c| fits_f32(c)) {
             Ok(Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32))
         } else {
             self.err(
                 v.span(),
                 field,
-                format!("must have three finite numbers, got {a:?}"),
+                format!(
+                    "must have three finite numbers (kept as 32-bit floats: at most {:e} in size), got {a:?}",
+                    f32::MAX
+                ),
             )
         }
     }
@@ -249,13 +267,28 @@ impl SourceFile<'_> {
         v.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, field))
     }
 
-    /// `v` normalised; the zero vector is refused.
+    /// `v` normalised (in double precision: any finite non-zero direction, 1e-13 or 1e39
+    /// long, is the direction it gives); the zero vector is refused.
     fn unit(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<Vec3, SceneError> {
-        let n = self.vec3(v, field)?;
-        if n.length() < 1e-12 {
-            return self.err(v.span(), field, "must not be the zero vector");
+        let a = v.get_ref();
+        if !a.iter().all(|c| c.is_finite()) {
+            return self.err(
+                v.span(),
+                field,
+                format!("must have three finite numbers, got {a:?}"),
+            );
         }
-        Ok(n.normalize())
+        // In f32 where its length is a normal f32 (the bits scenes have always had), else
+        // in f64 first.
+        let n = Vec3::new(a[0] as f32, a[1] as f32, a[2] as f32);
+        let len = n.length();
+        if len.is_finite() && len >= 1e-12 {
+            return Ok(n.normalize());
+        }
+        match normalized(a) {
+            Some(n) => Ok(Vec3::new(n[0] as f32, n[1] as f32, n[2] as f32).normalize()),
+            None => self.err(v.span(), field, "must not be the zero vector"),
+        }
     }
 
     /// `[w, x, y, z]` normalised (identity when absent); zero or non-finite is refused.
@@ -264,15 +297,27 @@ impl SourceFile<'_> {
             return Ok(Quat::IDENTITY);
         };
         let a = v.get_ref();
-        let norm = a.iter().map(|c| c * c).sum::<f64>().sqrt();
-        if !a.iter().all(|c| c.is_finite()) || norm < 1e-12 {
+        let n = a
+            .iter()
+            .all(|c| c.is_finite())
+            .then(|| normalized(a))
+            .flatten();
+        let Some(n) = n else {
             return self.err(
                 v.span(),
                 field,
                 format!("must be a non-zero quaternion [w, x, y, z] of finite numbers, got {a:?}"),
             );
+        };
+        // In f32 where its length is a normal f32 (the bits scenes have always had), else
+        // normalised in double precision first (a quaternion of 1e20s overflows f32's
+        // square), then once more in f32 for the rounding of the cast.
+        let q = Quat::from_xyzw(a[1] as f32, a[2] as f32, a[3] as f32, a[0] as f32);
+        let len = q.length();
+        if len.is_finite() && len >= 1e-12 {
+            return Ok(q.normalize());
         }
-        Ok(Quat::from_xyzw(a[1] as f32, a[2] as f32, a[3] as f32, a[0] as f32).normalize())
+        Ok(Quat::from_xyzw(n[1] as f32, n[2] as f32, n[3] as f32, n[0] as f32).normalize())
     }
 
     /// The index of the `what` named `v` in `names`; an unknown name lists the known ones.
@@ -304,6 +349,23 @@ impl SourceFile<'_> {
             }
         }
     }
+}
+
+/// Whether `x` is finite also as the 32-bit float the simulation keeps.
+fn fits_f32(x: f64) -> bool {
+    x.is_finite() && (x as f32).is_finite()
+}
+
+/// `a` over its length, computed without overflow or underflow (scaled by its largest
+/// component first); `None` for the zero vector.
+fn normalized<const N: usize>(a: &[f64; N]) -> Option<[f64; N]> {
+    let big = a.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    if !(big > 0.0 && big.is_finite()) {
+        return None;
+    }
+    let scaled = a.map(|c| c / big);
+    let len = scaled.iter().map(|c| c * c).sum::<f64>().sqrt();
+    Some(scaled.map(|c| c / len))
 }
 
 /// Most bodies a scene may create (keeps a typo from allocating the machine away).
@@ -372,11 +434,14 @@ fn build(cx: &SourceFile, raw: RawScene) -> Result<Scene, SceneError> {
         );
     }
     if let Some((lo, hi)) = container_bounds {
+        // Along a periodic axis the container has no faces and a body starts at its wrapped
+        // position: only the other axes can leave it outside.
+        let wraps = glam::BVec3::from(periodic.as_ref().map_or([false; 3], |(p, _)| p.axes));
         let outside = bodies
             .iter()
             .filter(|b| {
                 let p = b.position.as_vec3();
-                !(p.cmpge(lo).all() && p.cmple(hi).all())
+                !((p.cmpge(lo) | wraps).all() && (p.cmple(hi) | wraps).all())
             })
             .count();
         if outside > 0 {
