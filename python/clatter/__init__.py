@@ -323,7 +323,11 @@ class Scene:
         return self._add("[[wall]]", dict(point=point, normal=normal, material=material))
 
     def container(self, min: Vec3, max: Vec3, material: str, top: bool = True) -> "Scene":
-        """``[container]``: an axis-aligned box of walls from ``min`` to ``max`` (``top=False``: open at the top)."""
+        """``[container]``: an axis-aligned box of walls from ``min`` to ``max`` (``top=False``: open at the top).
+        A scene has one container: a second raises ``ValueError``."""
+        texts = [self._base or ""] + self._parts
+        if any(line.strip().startswith("[container]") for t in texts for line in t.splitlines()):
+            raise ValueError(f"{self._source} already has a [container] (a scene has one; add walls with .wall())")
         return self._add("[container]", dict(min=min, max=max, material=material, top=top))
 
     def body(

@@ -152,6 +152,8 @@ def test_simulation_calls_add_to_one_table_and_bodies_check_shapes(tmp_path):
         base.bodies("b", "m", np.arange(6.0).reshape(3, 2))
     with pytest.raises(ValueError, match="velocities must have the shape of positions"):
         base.bodies("b", "m", np.zeros((4, 3)), velocities=np.zeros((8, 3)))
+    with pytest.raises(ValueError, match=r"already has a \[container\]"):
+        base.container([0, 0, 0], [1, 1, 1], "m").container([0, 0, 0], [2, 2, 2], "m")
     # A duration below dt runs one step (ceil), not none.
     one = clatter.Scene(duration=1e-9, dt=1e-3).material("m", density=1000, stiffness=1e5)
     assert one.shape("b", sphere=0.01).body("b", "m", [0, 0, 0]).steps == 1
