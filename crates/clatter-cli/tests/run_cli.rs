@@ -501,6 +501,86 @@ fn resume_continues_only_its_own_scenes_series() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A mesh scene run by a relative path and resumed from another working directory: the
+/// checkpoint names the scene file by its absolute path, so the mesh files (relative to the
+/// scene file) are found again, and the resumed run ends where a straight one does.
+#[test]
+fn a_mesh_scene_resumes_from_another_working_directory() {
+    let dir = test_dir("resume-cwd");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
+    let work = dir.join("work");
+    std::fs::create_dir_all(work.join("meshes")).unwrap();
+    std::fs::copy(scenes.join("mesh-floor.toml"), work.join("mesh-floor.toml")).unwrap();
+    for m in ["bowl.obj", "plate.obj"] {
+        std::fs::copy(scenes.join("meshes").join(m), work.join("meshes").join(m)).unwrap();
+    }
+    let run_in = |cwd: &Path, args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_clatter"))
+            .current_dir(cwd)
+            .args(args)
+            .output()
+            .expect("run clatter")
+    };
+    let common = ["--backend", "cpu", "--quiet"];
+    let o = run_in(
+        &work,
+        &[
+            &[
+                "run",
+                "mesh-floor.toml",
+                "--steps",
+                "40",
+                "--out",
+                "straight",
+            ],
+            &common[..],
+        ]
+        .concat(),
+    );
+    assert_ok(&o, "the straight run");
+    let o = run_in(
+        &work,
+        &[
+            &[
+                "run",
+                "mesh-floor.toml",
+                "--steps",
+                "20",
+                "--out",
+                "half",
+                "--checkpoint-every",
+                "1e9",
+            ],
+            &common[..],
+        ]
+        .concat(),
+    );
+    assert_ok(&o, "the first half");
+    // From the directory above, where `meshes/bowl.obj` is not.
+    let o = run_in(
+        &dir,
+        &[
+            &[
+                "resume",
+                "work/half/checkpoint.ckpt",
+                "--steps",
+                "20",
+                "--out",
+                "resumed",
+            ],
+            &common[..],
+        ]
+        .concat(),
+    );
+    assert_ok(&o, "resume from another directory");
+    assert_eq!(
+        std::fs::read(work.join("straight/final.csv")).unwrap(),
+        std::fs::read(dir.join("resumed/final.csv")).unwrap(),
+        "the resumed run ends where the straight one does"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn example_scenes() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     let mut scenes: Vec<PathBuf> = std::fs::read_dir(&dir)

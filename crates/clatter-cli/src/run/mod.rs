@@ -189,12 +189,26 @@ impl Plan {
         let app = serde_json::to_vec(&self.run_state())?;
         let mut f = AtomicFile::create(path)?;
         f.writer().write_all(&world.checkpoint_bytes(
-            &self.scene.source,
+            &checkpoint_source(&self.scene.source),
             &self.scene_text,
             &app,
         ))?;
         f.commit()
     }
+}
+
+/// The scene's name as a checkpoint stores it: a scene file's absolute path, so that
+/// `resume` from another working directory finds the mesh files it names (relative to the
+/// scene file) again; anything else (the embedded default scene) as it is.
+fn checkpoint_source(source: &str) -> String {
+    let path = Path::new(source);
+    if path.is_relative()
+        && path.is_file()
+        && let Ok(abs) = std::path::absolute(path)
+    {
+        return abs.display().to_string();
+    }
+    source.to_string()
 }
 
 /// The output options after checking, with a resumed run's stored ones filled in.
