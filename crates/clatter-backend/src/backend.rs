@@ -389,7 +389,7 @@ impl Stepper {
                     Readback::Bodies | Readback::All => gpu.step_into(steps, world)?,
                 };
                 if back == Readback::All {
-                    world.set_contact_state(gpu.contact_state()?);
+                    gpu.read_contacts_into(world)?;
                 } else if report.alarm {
                     gpu.read_into(world)?;
                 }

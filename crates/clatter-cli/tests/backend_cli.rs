@@ -438,3 +438,91 @@ fn gpu_runs_the_clumps_scene_as_the_cpu_does() {
     assert_eq!(final_rows(&resumed).len(), bodies);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A checkpoint written on the GPU while a ball rolls on a mesh floor resumes where the
+/// uninterrupted GPU run goes, and the run's summary counts that mesh contact: the run
+/// loop's read-back brought the contact list back but not the mesh contact slots, so the
+/// checkpoint lost the contact's friction spring and `summary.json` said 0 contacts.
+#[test]
+fn a_gpu_checkpoint_keeps_its_mesh_contacts() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = test_dir("backend", "gpu-mesh-ckpt");
+    std::fs::write(
+        dir.join("floor.obj"),
+        "v -0.2 -0.2 0\nv 0.2 -0.2 0\nv 0.2 0.2 0\nv -0.2 0.2 0\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let scene = dir.join("drop.toml");
+    std::fs::write(
+        &scene,
+        r#"[simulation]
+steps = 60
+dt = 5.0e-5
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 2.0e3
+restitution = 0.5
+friction = 0.5
+[[shape]]
+name = "ball"
+sphere = { radius = 0.005 }
+[[boundary]]
+mesh = { file = "floor.obj" }
+material = "m"
+[[body]]
+shape = "ball"
+material = "m"
+position = [0.07, 0.01, 0.0053]
+velocity = [0.3, 0.0, -0.6]
+"#,
+    )
+    .unwrap();
+    let (straight, half, resumed) = (dir.join("straight"), dir.join("half"), dir.join("resumed"));
+    let gpu = ["--backend", "gpu", "--quiet"];
+    let o = clatter(&[
+        &"run", &scene, &"--out", &straight, &gpu[0], &gpu[1], &gpu[2],
+    ]);
+    assert_ok(&o, "the straight GPU run");
+    let o = clatter(&[
+        &"run",
+        &scene,
+        &"--steps",
+        &"20",
+        &"--checkpoint-every",
+        &"1",
+        &"--out",
+        &half,
+        &gpu[0],
+        &gpu[1],
+        &gpu[2],
+    ]);
+    assert_ok(&o, "the first 20 steps");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(half.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["contacts"].as_u64(),
+        Some(1),
+        "the ball on the mesh: {summary}"
+    );
+    let o = clatter(&[
+        &"resume",
+        &half.join("checkpoint.ckpt"),
+        &"--steps",
+        &"40",
+        &"--out",
+        &resumed,
+        &gpu[0],
+        &gpu[1],
+        &gpu[2],
+    ]);
+    assert_ok(&o, "resume on the GPU");
+    assert_eq!(
+        std::fs::read(straight.join("final.csv")).unwrap(),
+        std::fs::read(resumed.join("final.csv")).unwrap(),
+        "the resumed GPU run ends where the straight one does"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

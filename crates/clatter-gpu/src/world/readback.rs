@@ -35,6 +35,14 @@ impl GpuWorld {
     pub fn read_into(&self, world: &mut World) -> Result<(), GpuError> {
         let states = self.read_states()?;
         self.apply_states(&states, world);
+        self.read_contacts_into(world)
+    }
+
+    /// The contact list with its springs and forces, and the mesh contact slots, into
+    /// `world` (whose bodies a caller has read already): everything of [`Self::read_into`]
+    /// but the bodies. Without the mesh slots, a checkpoint written while a body touched a
+    /// mesh boundary lost that contact's spring, and the counts missed it.
+    pub fn read_contacts_into(&self, world: &mut World) -> Result<(), GpuError> {
         world.set_contact_state(self.contact_state()?);
         self.read_mesh_into(world)
     }

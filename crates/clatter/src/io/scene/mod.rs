@@ -125,11 +125,18 @@ impl Scene {
     pub fn parse(text: &str, file: &str) -> Result<Scene, SceneError> {
         let dir = Path::new(file).parent().unwrap_or(Path::new(""));
         let cx = SourceFile { file, text, dir };
-        let raw: RawScene = toml::from_str(text).map_err(|e| SceneError {
+        let toml_error = |e: toml::de::Error, field: Option<String>| SceneError {
             file: file.to_string(),
             line: e.span().map(|s| cx.line_col(s.start)),
-            field: None,
+            field,
             message: e.message().trim().to_string(),
+        };
+        let de = toml::Deserializer::parse(text).map_err(|e| toml_error(e, None))?;
+        // With the path of the value that did not fit (`material[0].density`), as the
+        // validators' errors name their field.
+        let raw: RawScene = serde_path_to_error::deserialize(de).map_err(|e| {
+            let field = field_path(e.path());
+            toml_error(e.into_inner(), field)
         })?;
         build(&cx, raw)
     }
@@ -349,6 +356,29 @@ impl SourceFile<'_> {
             }
         }
     }
+}
+
+/// A deserialization error's path as a scene field (`body[2].position`), without the
+/// segments of toml's `Spanned` wrapper; `None` at the top level.
+fn field_path(path: &serde_path_to_error::Path) -> Option<String> {
+    use serde_path_to_error::Segment;
+    let mut out = String::new();
+    for segment in path.iter() {
+        match segment {
+            Segment::Seq { index } => out.push_str(&format!("[{index}]")),
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if key.starts_with("$__") {
+                    continue;
+                }
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Unknown => {}
+        }
+    }
+    (!out.is_empty()).then_some(out)
 }
 
 /// Whether `x` is finite also as the 32-bit float the simulation keeps.
