@@ -77,11 +77,22 @@ pub enum BackendError {
     /// The device was found but the scene does not fit it, or uses something the GPU
     /// pipeline does not support.
     #[cfg(feature = "gpu")]
-    #[error("cannot run this scene on the GPU: {0}")]
+    #[error("cannot run this scene on the GPU: {}", scene_reason(.0))]
     Scene(GpuError),
     /// This build has no GPU executor (the `gpu` feature is off).
     #[error("this module was built without GPU support (build it with the `gpu` feature)")]
     NotBuilt,
+}
+
+/// Why the GPU cannot run a scene, without repeating what [`BackendError::Scene`]'s own
+/// words say ("the GPU backend cannot run this scene", "use --backend cpu" twice).
+#[cfg(feature = "gpu")]
+fn scene_reason(e: &GpuError) -> String {
+    match e {
+        GpuError::Unsupported(why) if why.contains("--backend cpu") => why.clone(),
+        GpuError::Unsupported(why) => format!("{why}; use --backend cpu"),
+        other => other.to_string(),
+    }
 }
 
 impl BackendError {

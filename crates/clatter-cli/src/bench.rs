@@ -403,6 +403,11 @@ pub(crate) fn plan(
         BenchShape::Cube => (PileShape::Cube, "cube"),
         BenchShape::Mixed => (PileShape::Mixed, "mixed"),
     };
+    if args.emit_lammps.is_some() && args.scene.is_some() {
+        anyhow::bail!(
+            "--emit-lammps writes the bench's own sphere pile for LAMMPS: it cannot be combined with --scene"
+        );
+    }
     if args.emit_lammps.is_some() && (shape != PileShape::Sphere || args.bodies.len() != 1) {
         anyhow::bail!("--emit-lammps needs --shape sphere and exactly one --bodies count");
     }

@@ -159,6 +159,10 @@ fn answer_stream(mut reader: impl BufRead, mut out: impl Write) -> anyhow::Resul
                 break;
             }
             line_no += 1;
+            // A UTF-8 byte-order mark (Windows editors write one) before the first line.
+            if line_no == 1 && buf.starts_with(b"\xEF\xBB\xBF") {
+                buf.drain(..3);
+            }
             match String::from_utf8(std::mem::take(&mut buf)) {
                 Ok(s) if s.trim().is_empty() => {}
                 Ok(s) => block.push((line_no, Ok(s))),
@@ -212,11 +216,27 @@ fn shape_of(v: &Value, cache: &Cache) -> Result<Arc<PreparedShape>, String> {
     Ok(prepared)
 }
 
+/// The largest coordinate or speed a query takes: the answers are 32-bit floats, and
+/// squared distances of bodies beyond ~1e19 m overflow them (`null`s in the answer).
+const MAX_QUERY_NUMBER: f64 = 1e18;
+
 fn finite<const N: usize>(what: &str, v: &[f64; N]) -> Result<(), String> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
         Err(format!("{what} must be finite"))
+    }
+}
+
+/// [`finite`], and every component at most [`MAX_QUERY_NUMBER`] in size.
+fn in_range<const N: usize>(what: &str, v: &[f64; N]) -> Result<(), String> {
+    finite(what, v)?;
+    if v.iter().all(|x| x.abs() <= MAX_QUERY_NUMBER) {
+        Ok(())
+    } else {
+        Err(format!(
+            "{what} must be at most {MAX_QUERY_NUMBER:e} in size, got {v:?}"
+        ))
     }
 }
 
@@ -229,10 +249,10 @@ struct Body {
 
 fn body(name: &str, b: &BodySpec, cache: &Cache) -> Result<Body, String> {
     let prepared = shape_of(&b.shape, cache).map_err(|e| format!("{name}.shape: {e}"))?;
-    finite(&format!("{name}.position"), &b.position)?;
+    in_range(&format!("{name}.position"), &b.position)?;
     finite(&format!("{name}.orientation"), &b.orientation)?;
-    finite(&format!("{name}.velocity"), &b.velocity)?;
-    finite(&format!("{name}.angular_velocity"), &b.angular_velocity)?;
+    in_range(&format!("{name}.velocity"), &b.velocity)?;
+    in_range(&format!("{name}.angular_velocity"), &b.angular_velocity)?;
     let [w, x, y, z] = b.orientation;
     let q = DQuat::from_xyzw(x, y, z, w);
     let len = q.length();

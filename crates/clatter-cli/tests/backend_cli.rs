@@ -526,3 +526,56 @@ velocity = [0.3, 0.0, -0.6]
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A first pair list larger than the GPU's initial pair buffers (48 spheres within a 5 cm
+/// skin: ~1,100 candidate pairs) grows them and runs the stopped rebuild again: that is one
+/// rebuild, as on the CPU (the run again counted a second one).
+#[test]
+fn a_growing_gpu_pair_list_counts_one_rebuild() {
+    if !gpu_available() {
+        return;
+    }
+    let dir = test_dir("backend", "gpu-grow");
+    let scene = dir.join("skin.toml");
+    std::fs::write(
+        &scene,
+        r#"[simulation]
+steps = 3
+dt = 1e-5
+gravity = [0, 0, 0]
+skin = 0.05
+[[material]]
+name = "m"
+density = 1000.0
+stiffness = 1e4
+[[shape]]
+name = "b"
+sphere = { radius = 0.004 }
+[[group]]
+shape = "b"
+material = "m"
+lattice = { min = [0, 0, 0], max = [0.0255, 0.0255, 0.017], spacing = 0.0085 }
+"#,
+    )
+    .unwrap();
+    let mut rebuilds = Vec::new();
+    for backend in ["cpu", "gpu"] {
+        let out = dir.join(backend);
+        let o = clatter(&[
+            &"run",
+            &scene,
+            &"--backend",
+            &backend,
+            &"--out",
+            &out,
+            &"--quiet",
+        ]);
+        assert_ok(&o, backend);
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        rebuilds.push(summary["broad_phase_rebuilds"].as_u64());
+    }
+    assert_eq!(rebuilds, [Some(1), Some(1)], "cpu, gpu");
+    let _ = std::fs::remove_dir_all(&dir);
+}

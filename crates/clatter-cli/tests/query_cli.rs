@@ -176,7 +176,7 @@ fn non_json_line_says_what_a_query_line_looks_like() {
     assert_eq!(v[2]["line"], 4);
     let e = v[2]["error"].as_str().expect("an error");
     assert!(
-        e.starts_with("input line 4 is not a valid query: invalid type: integer `1`"),
+        e.starts_with("input line 4 is not a valid query: `a`: invalid type: integer `1`"),
         "{e}"
     );
 }
@@ -214,3 +214,43 @@ const NEGATIVE_ZERO_LINES: &str = concat!(
     r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "position": [0, 0, 0]}, "b": {"shape": {"sphere": {"radius": 0.5}}, "position": [-3, 0, 0]}}"#,
     "\n",
 );
+
+/// A bad value is named by its path in the line (`a.position`, `b.velocity[1]`); numbers
+/// beyond what the 32-bit answers can hold are refused rather than answered with `null`s; a
+/// byte-order mark before the first line is skipped; and a time of impact says whether its
+/// search converged.
+#[test]
+fn query_errors_name_the_field_and_refuse_huge_numbers() {
+    let ball = r#"{"shape": {"sphere": {"radius": 1}}, "position": [0, 0, 0]}"#;
+    let lines = [
+        format!(
+            r#"{{"a": {{"shape": {{"sphere": {{"radius": 1}}}}, "position": [0, 0]}}, "b": {ball}}}"#
+        ),
+        format!(
+            r#"{{"a": {ball}, "b": {{"shape": {{"sphere": {{"radius": 1}}}}, "position": [3, 0, 0], "velocity": [1, "x", 0]}}}}"#
+        ),
+        format!(
+            r#"{{"a": {ball}, "b": {{"shape": {{"sphere": {{"radius": 1}}}}, "position": [1e39, 0, 0]}}}}"#
+        ),
+        format!(
+            r#"{{"a": {ball}, "b": {{"shape": {{"sphere": {{"radius": 1}}}}, "position": [3, 0, 0], "velocity": [-1, 0, 0]}}, "queries": ["toi"], "toi_horizon": 5}}"#
+        ),
+    ];
+    let input = format!("\u{feff}{}\n", lines.join("\n"));
+    let v = query_lines(&input);
+    assert_eq!(v.len(), 4, "{v:?}");
+    let err = |i: usize| v[i]["error"].as_str().unwrap_or_default().to_string();
+    assert!(err(0).contains("`a.position`"), "{}", err(0));
+    assert!(err(1).contains("`b.velocity[1]`"), "{}", err(1));
+    assert!(
+        err(2).contains("b.position") && err(2).contains("1e18"),
+        "{}",
+        err(2)
+    );
+    assert!(
+        (v[3]["toi"].as_f64().unwrap() - 1.0).abs() < 1e-6,
+        "{:?}",
+        v[3]
+    );
+    assert_eq!(v[3]["toi_converged"], true);
+}

@@ -234,10 +234,25 @@ impl ShapeKind {
             ShapeKind::Convex { points } => {
                 let mut out = Vec::with_capacity(points.len());
                 for (index, p) in points.iter().enumerate() {
-                    if !p.iter().all(|c| c.is_finite()) {
+                    if !p.iter().all(|&c| c.is_finite() && (c as f32).is_finite()) {
                         return Err(GeomError::NonFinitePoint { index });
                     }
                     out.push(Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32));
+                }
+                // Its size (half its largest extent) within the lengths a sphere or a box may have:
+                // a hull of 1e-9 m had a mass of 0 in f32, one of 1e9 m infinite.
+                let (lo, hi) = points.iter().fold(
+                    ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+                    |(lo, hi), p| {
+                        (
+                            [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
+                            [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
+                        )
+                    },
+                );
+                let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+                if extent > 0.0 {
+                    positive("size", 0.5 * extent)?;
                 }
                 out
             }

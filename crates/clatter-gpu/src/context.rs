@@ -14,7 +14,7 @@ use thiserror::Error;
 pub enum GpuError {
     /// No adapter (GPU or software rasteriser) was found.
     #[error(
-        "no GPU adapter found ({0}); install a Vulkan driver (e.g. `apt-get install mesa-vulkan-drivers libvulkan1` for the CPU rasteriser lavapipe), or set WGPU_BACKEND=gl to use OpenGL, or use --backend cpu"
+        "no GPU adapter found ({0}); install a Vulkan driver (e.g. `apt-get install mesa-vulkan-drivers libvulkan1` for the CPU rasteriser lavapipe), or use --backend cpu"
     )]
     NoAdapter(String),
     /// The adapter refused the device we asked for.
@@ -98,9 +98,36 @@ impl GpuContext {
         let instance = wgpu::Instance::new(desc);
         let power =
             wgpu::PowerPreference::from_env().unwrap_or(wgpu::PowerPreference::HighPerformance);
-        let adapter = match wgpu::util::initialize_adapter_from_env(&instance, None).await {
+        // `WGPU_ADAPTER_NAME` as wgpu's `initialize_adapter_from_env` reads it (a
+        // case-insensitive part of the adapter's name), which panics when no adapter
+        // matches: here that is an error naming the adapters there are.
+        let by_name = match std::env::var("WGPU_ADAPTER_NAME") {
+            Ok(want) if !want.is_empty() => {
+                let want_lc = want.to_lowercase();
+                let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+                let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+                match adapters
+                    .into_iter()
+                    .find(|a| a.get_info().name.to_lowercase().contains(&want_lc))
+                {
+                    Some(a) => Ok(a),
+                    None => {
+                        return Err(GpuError::NoAdapter(format!(
+                            "WGPU_ADAPTER_NAME={want} matches no adapter (found: {})",
+                            if names.is_empty() {
+                                "none".to_string()
+                            } else {
+                                names.join(", ")
+                            }
+                        )));
+                    }
+                }
+            }
+            _ => Err(()),
+        };
+        let adapter = match by_name {
             Ok(a) => a,
-            Err(_) => instance
+            Err(()) => instance
                 .request_adapter(&wgpu::RequestAdapterOptions {
                     power_preference: power,
                     force_fallback_adapter: false,

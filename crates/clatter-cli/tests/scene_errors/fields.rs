@@ -730,6 +730,10 @@ fn numbers_outside_the_f32_range_are_refused() {
             "1e300",
         ),
     ];
+    // A position that fits an f32 but is far past any domain (the broad phase's f32 cells
+    // lose meaning there: a lone body at 1e28 m went NaN at its first step).
+    let text = edit("position = [0.0, 0.0, 0.1]", "position = [1e28, 0.0, 0.1]");
+    check("far-position", &text, "1e28", &["within 1e15 m"]);
     for (case, from, to, marker) in cases {
         let text = edit(from, to);
         check(case, &text, marker, &["32-bit float"]);
@@ -739,6 +743,14 @@ fn numbers_outside_the_f32_range_are_refused() {
     for (case, r) in [("radius-tiny", "1e-300"), ("radius-huge", "1e30")] {
         let text = edit("radius = 0.01", &format!("radius = {r}"));
         check(case, &text, r, &["1e-7 to 1e7"]);
+    }
+    // So do convex hulls, by half their largest extent.
+    for (case, c) in [("hull-tiny", "1e-9"), ("hull-huge", "1e9")] {
+        let text = edit(
+            "sphere = { radius = 0.01 }",
+            &format!("convex = {{ points = [[0,0,0],[{c},0,0],[0,{c},0],[0,0,{c}]] }}"),
+        );
+        check(case, &text, "convex", &["size", "1e-7 to 1e7"]);
     }
 }
 

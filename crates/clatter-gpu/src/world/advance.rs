@@ -344,6 +344,9 @@ impl GpuWorld {
         st[status::OVERFLOW] = 0;
         st[status::STALL] = 0;
         st[status::REBUILD] = 1;
+        // The stopped step's rebuild was counted when it began (`bin.wgsl`); its run again
+        // counts it once more: one rebuild, as on the CPU.
+        st[status::REBUILDS] = st[status::REBUILDS].saturating_sub(1);
         self.ctx
             .queue
             .write_buffer(&self.bufs[Buf::Status], 0, bytemuck::cast_slice(&st));

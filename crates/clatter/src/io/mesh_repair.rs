@@ -186,11 +186,12 @@ fn scaled_vertices(vertices: &[[f64; 3]], scale: [f64; 3]) -> Result<Vec<DVec3>,
         .enumerate()
         .map(|(i, v)| {
             let s = DVec3::new(v[0] * scale[0], v[1] * scale[1], v[2] * scale[2]);
-            if s.is_finite() {
+            // Finite also as the f32 the mesh is kept in (a scale of 1e39 was NaN geometry).
+            if s.is_finite() && s.as_vec3().is_finite() {
                 Ok(s + DVec3::ZERO) // -0.0 and 0.0 weld together
             } else {
                 Err(format!(
-                    "vertex {i} has a non-finite coordinate: [{}, {}, {}]",
+                    "vertex {i} has a non-finite coordinate (as a 32-bit float, after scaling): [{}, {}, {}]",
                     v[0], v[1], v[2]
                 ))
             }

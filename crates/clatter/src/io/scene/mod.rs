@@ -264,9 +264,18 @@ impl SourceFile<'_> {
     }
 
     /// `v` as a double-precision vector (body positions, kept at full precision).
+    /// Within [`MAX_POSITION`] of the origin on each axis.
     fn dvec3(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<glam::DVec3, SceneError> {
         self.vec3(v, field)?;
-        Ok(glam::DVec3::from_array(*v.get_ref()))
+        let a = *v.get_ref();
+        if a.iter().any(|c| c.abs() > MAX_POSITION) {
+            return self.err(
+                v.span(),
+                field,
+                format!("must be within {MAX_POSITION:e} m of the origin on each axis, got {a:?}"),
+            );
+        }
+        Ok(glam::DVec3::from_array(a))
     }
 
     /// `v` as a vector, zero when absent.
@@ -397,6 +406,12 @@ fn normalized<const N: usize>(a: &[f64; N]) -> Option<[f64; N]> {
     let len = scaled.iter().map(|c| c * c).sum::<f64>().sqrt();
     Some(scaled.map(|c| c / len))
 }
+
+/// The farthest a body may start from the origin along any axis, m: the broad phase bins
+/// positions in f32 cells, which lose all meaning long before f32's range (a lone body at
+/// 1e28 m went NaN at its first step). Positions are exact to 3.6e-13 m at 100 m; 1e15 m is
+/// far past any physical domain.
+pub const MAX_POSITION: f64 = 1e15;
 
 /// Most bodies a scene may create (keeps a typo from allocating the machine away).
 pub const MAX_BODIES: usize = 50_000_000;
