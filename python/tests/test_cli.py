@@ -105,7 +105,7 @@ BAD_SCENES = [
     ("[simulation]\nduration = 1\n[[material]]\nname = 'a'\ndensity = -1\nstiffness = 1\n", "material[0].density", 5),
     ("[simulation]\nsteps = 10\n[[material]]\nname = 'a'\ndensity = 1\nstiffness = 1\n[[shape]]\nname = 's'\nsphere = { radius = 1 }\n[[body]]\nshape = 'nope'\nmaterial = 'a'\nposition = [0, 0, 0]\n",
      "body[0].shape", 11),
-    ("[simulation]\nsteps = 10\nbogus = 3\n", None, 3),
+    ("[simulation]\nsteps = 10\nbogus = 3\n", "simulation.bogus", 3),
 ]
 
 
