@@ -38,6 +38,12 @@ fn gpu_available() -> bool {
     clatter_gpu::test_context().is_some()
 }
 
+/// The run's `summary.json` in `out`, parsed.
+fn summary(out: &std::path::Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
 #[test]
 fn gpu_run_matches_cpu_run_through_the_same_outputs() {
     if !gpu_available() {
@@ -64,22 +70,19 @@ fn gpu_run_matches_cpu_run_through_the_same_outputs() {
     }
     let bodies = same_final_positions(&cpu, &gpu, 1e-5);
     assert!(bodies > 1, "the scene has bodies");
-    let summary: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(gpu.join("summary.json")).expect("summary.json"),
-    )
-    .expect("valid JSON");
+    let gpu_summary = summary(&gpu);
     assert!(
-        summary["backend"].as_str().unwrap_or("").starts_with("gpu"),
-        "{summary}"
+        gpu_summary["backend"]
+            .as_str()
+            .unwrap_or("")
+            .starts_with("gpu"),
+        "{gpu_summary}"
     );
     // The GPU's broad-phase rebuilds reach the summary (they read 0 before): the CPU's
     // count, give or take one that f32 rounding may move.
-    let cpu_summary: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(cpu.join("summary.json")).expect("summary.json"),
-    )
-    .expect("valid JSON");
+    let cpu_summary = summary(&cpu);
     let rebuilds = |s: &serde_json::Value| s["broad_phase_rebuilds"].as_u64().expect("rebuilds");
-    let (r_cpu, r_gpu) = (rebuilds(&cpu_summary), rebuilds(&summary));
+    let (r_cpu, r_gpu) = (rebuilds(&cpu_summary), rebuilds(&gpu_summary));
     assert!(
         r_cpu > 0 && r_gpu + 1 >= r_cpu && r_gpu <= r_cpu + 1,
         "rebuilds: cpu {r_cpu}, gpu {r_gpu}"
@@ -500,12 +503,11 @@ velocity = [0.3, 0.0, -0.6]
         &gpu[2],
     ]);
     assert_ok(&o, "the first 20 steps");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(half.join("summary.json")).unwrap()).unwrap();
+    let half_summary = summary(&half);
     assert_eq!(
-        summary["contacts"].as_u64(),
+        half_summary["contacts"].as_u64(),
         Some(1),
-        "the ball on the mesh: {summary}"
+        "the ball on the mesh: {half_summary}"
     );
     let o = clatter(&[
         &"resume",
@@ -571,10 +573,7 @@ lattice = { min = [0, 0, 0], max = [0.0255, 0.0255, 0.017], spacing = 0.0085 }
             &"--quiet",
         ]);
         assert_ok(&o, backend);
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
-        rebuilds.push(summary["broad_phase_rebuilds"].as_u64());
+        rebuilds.push(summary(&out)["broad_phase_rebuilds"].as_u64());
     }
     assert_eq!(rebuilds, [Some(1), Some(1)], "cpu, gpu");
     let _ = std::fs::remove_dir_all(&dir);
