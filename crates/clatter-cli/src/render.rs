@@ -214,8 +214,9 @@ pub struct ViewArgs {
     /// exit.
     #[arg(long, value_name = "PATH")]
     pub screenshot: Option<PathBuf>,
-    /// Frames to show before the screenshot (with --screenshot).
-    #[arg(long, value_name = "N", default_value_t = 30)]
+    /// Frames to show before the screenshot (with --screenshot; alone it would leave the
+    /// window open and never end, so it is refused).
+    #[arg(long, value_name = "N", default_value_t = 30, requires = "screenshot")]
     pub frames: u64,
     #[command(flatten)]
     pub pipeline: Pipeline,

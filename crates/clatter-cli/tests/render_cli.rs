@@ -455,3 +455,30 @@ fn bench_render_adds_frames_per_second() {
     ]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--render-frames"));
 }
+
+/// `view --frames N` without `--screenshot` is refused (the window would stay open and the
+/// command never end), and without a display the error says why in a user's words, not with
+/// the windowing library's source path.
+#[test]
+fn view_refuses_frames_alone_and_says_why_there_is_no_window() {
+    let o = clatter(&[&"view", &"--frames", &"4"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--screenshot"), "{}", text(&o));
+    let o = Command::new(env!("CARGO_BIN_EXE_clatter"))
+        .arg("view")
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .expect("run clatter view");
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let all = text(&o);
+    assert!(
+        all.contains("cannot open a window") && all.contains("xvfb-run"),
+        "{all}"
+    );
+    assert!(
+        !all.contains("os error at") && !all.contains(".cargo"),
+        "{all}"
+    );
+}

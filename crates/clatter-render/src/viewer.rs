@@ -51,6 +51,18 @@ pub struct ViewerOptions {
     pub backend: BackendChoice,
 }
 
+/// winit's OS errors begin "os error at FILE:LINE: " (a path in the build machine's cargo
+/// registry): the reason alone, for a user's message.
+fn without_source_path(message: &str) -> String {
+    match message.strip_prefix("os error at ") {
+        Some(rest) => rest
+            .split_once(": ")
+            .map_or(message, |(_, why)| why)
+            .to_string(),
+        None => message.to_string(),
+    }
+}
+
 /// Errors of the viewer.
 #[derive(Debug, thiserror::Error)]
 pub enum ViewerError {
@@ -132,7 +144,8 @@ struct App {
 
 /// Opens the window and runs until it is closed (or the screenshot is saved).
 pub fn run(options: ViewerOptions) -> Result<(), ViewerError> {
-    let event_loop = EventLoop::new().map_err(|e| ViewerError::Window(e.to_string()))?;
+    let event_loop =
+        EventLoop::new().map_err(|e| ViewerError::Window(without_source_path(&e.to_string())))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let world = options.world.clone();
     let mut app = App {
