@@ -581,6 +581,27 @@ fn a_mesh_scene_resumes_from_another_working_directory() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A time step so small that a step's gravity is a few f32 spacings of a 1 m/s velocity is
+/// warned about (slow accelerations are rounded: at dt = 1e-7 s gravity reads 9.54 m/s² at
+/// 3 m/s); the scene's own 1e-4 s is not.
+#[test]
+fn a_tiny_time_step_is_warned_about() {
+    let dir = test_dir("tiny-dt");
+    for (dt, warned) in [("1.0e-4", false), ("1.0e-7", true)] {
+        let scene = dir.join(format!("small-{dt}.toml"));
+        std::fs::write(&scene, SMALL.replace("dt = 1.0e-4", &format!("dt = {dt}"))).unwrap();
+        let o = clatter(&[&"run", &scene, &"--steps", &"2", &"--backend", &"cpu"]);
+        assert_ok(&o, dt);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            stderr.contains("Velocities are f32"),
+            warned,
+            "dt {dt}: {stderr}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn example_scenes() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
     let mut scenes: Vec<PathBuf> = std::fs::read_dir(&dir)

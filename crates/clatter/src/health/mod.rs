@@ -196,6 +196,10 @@ pub struct Health {
     force_floor: f32,
 }
 
+/// How many f32 spacings of a 1 m/s velocity a step's gravity must span at least before
+/// [`Health::warnings`] warns that slow accelerations are rounded (64: under 1% error).
+pub const SLOW_STEP_SPACINGS: f64 = 64.0;
+
 impl Health {
     /// The checks for a run starting from `world`'s current state (the baseline energy is
     /// measured now; overlaps are found from scratch).
@@ -287,7 +291,8 @@ impl Health {
         self.stable_dt
     }
 
-    /// Warnings before the run: a time step above the stability bound, or above `t_c / 10`.
+    /// Warnings before the run: a time step above the stability bound, or above `t_c / 10`,
+    /// or so small that gravity's change of a velocity per step is a few f32 spacings.
     pub fn warnings(&self, world: &World) -> Vec<String> {
         let dt = world.dt as f64;
         let mut out = Vec::new();
@@ -300,6 +305,14 @@ impl Health {
             out.push(format!(
                 "dt = {dt:.3e} s is more than 1/10 of the shortest contact duration {:.3e} s: contacts will be poorly resolved or blow up",
                 self.t_c
+            ));
+        }
+        // Velocities are f32: a step's gravity within 64 spacings of a 1 m/s velocity is
+        // rounded by more than 1% (docs/scene-format.md, "Velocities are f32").
+        let g_dt = world.gravity.length() as f64 * dt;
+        if g_dt > 0.0 && g_dt < SLOW_STEP_SPACINGS * f32::EPSILON as f64 {
+            out.push(format!(
+                "dt = {dt:.3e} s is so small that a step's gravity, {g_dt:.2e} m/s, is within {SLOW_STEP_SPACINGS} float spacings of a 1 m/s velocity: velocities are 32-bit floats, so slow accelerations (gravity, friction) are rounded by a percent or more at such speeds; soften the stiffness for a larger automatic dt (docs/scene-format.md, \"Velocities are f32\")"
             ));
         }
         out
