@@ -214,6 +214,12 @@ class Scene:
 
     # --- building: one method per table of the scene format ---
 
+    def _has_table(self, header: str, base_only: bool = False) -> bool:
+        """Whether the scene's text (the file's, and the tables added unless ``base_only``)
+        has a table ``header`` (a single table such as ``[container]``)."""
+        texts = [self._base or ""] + ([] if base_only else self._parts)
+        return any(line.strip().startswith(header) for t in texts for line in t.splitlines())
+
     def _add(self, header: str, fields: Mapping[str, Any]) -> "Scene":
         self._parts.append(_table(header, fields))
         self._parsed_cache = None
@@ -236,9 +242,7 @@ class Scene:
         keys (a key given again replaces its value; ``duration`` replaces ``steps`` and the
         other way round). A scene read from a file keeps its file's table: this raises
         ``ValueError`` there."""
-        if self._base is not None and any(
-            line.strip().startswith("[simulation]") for line in self._base.splitlines()
-        ):
+        if self._has_table("[simulation]", base_only=True):
             raise ValueError(
                 f"{self._source} has its own [simulation] table: change it in the scene text "
                 "(Scene.from_toml) instead of adding a second one"
@@ -325,8 +329,7 @@ class Scene:
     def container(self, min: Vec3, max: Vec3, material: str, top: bool = True) -> "Scene":
         """``[container]``: an axis-aligned box of walls from ``min`` to ``max`` (``top=False``: open at the top).
         A scene has one container: a second raises ``ValueError``."""
-        texts = [self._base or ""] + self._parts
-        if any(line.strip().startswith("[container]") for t in texts for line in t.splitlines()):
+        if self._has_table("[container]"):
             raise ValueError(f"{self._source} already has a [container] (a scene has one; add walls with .wall())")
         return self._add("[container]", dict(min=min, max=max, material=material, top=top))
 

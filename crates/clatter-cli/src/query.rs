@@ -294,33 +294,36 @@ const LINE_SHAPE: &str = r#"{"a": {"shape": {"sphere": {"radius": 1.0}}, "positi
 /// last.
 fn parse_line(n: usize, text: &str) -> Result<Line, String> {
     let mut de = serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(&mut de)
-        .map_err(|e| {
+    let parsed = match serde_path_to_error::deserialize::<_, Line>(&mut de) {
+        Ok(line) => de.end().map(|()| line).map_err(|e| (e, None)),
+        Err(e) => {
             // Where in the line the bad value is (`a.position`), before serde's detail.
             let path = e.path().to_string();
-            let e = e.into_inner();
-            (e, (path != ".").then_some(path))
-        })
-        .and_then(|line| de.end().map(|()| line).map_err(|e| (e, None)))
-        .map_err(|(e, path)| {
-        let at = path.map_or(String::new(), |p| format!("`{p}`: "));
-        // Each query is one line, so serde's "line 1" says nothing: the column does.
-        let detail = e.to_string();
-        let detail = match detail.strip_suffix(&format!(" at line 1 column {}", e.column())) {
-            Some(d) if e.line() == 1 => format!("{d} at column {}", e.column()),
-            _ => detail,
-        };
-        let what = match e.classify() {
-            serde_json::error::Category::Syntax | serde_json::error::Category::Eof => {
-                "is not valid JSON"
-            }
-            _ if !text.trim_start().starts_with('{') => "is JSON but not an object",
-            _ => return format!("input line {n} is not a valid query: {at}{detail}"),
-        };
-        format!(
-            "input line {n} {what}; a query line is one JSON object such as {LINE_SHAPE} (see docs/queries.md). Parser: {detail}"
-        )
-    })
+            Err((e.into_inner(), (path != ".").then_some(path)))
+        }
+    };
+    parsed.map_err(|(e, path)| line_error(n, text, &e, path))
+}
+
+/// [`parse_line`]'s message for serde's error `e` at `path` (if known) in line `n`.
+fn line_error(n: usize, text: &str, e: &serde_json::Error, path: Option<String>) -> String {
+    let at = path.map_or(String::new(), |p| format!("`{p}`: "));
+    // Each query is one line, so serde's "line 1" says nothing: the column does.
+    let detail = e.to_string();
+    let detail = match detail.strip_suffix(&format!(" at line 1 column {}", e.column())) {
+        Some(d) if e.line() == 1 => format!("{d} at column {}", e.column()),
+        _ => detail,
+    };
+    let what = match e.classify() {
+        serde_json::error::Category::Syntax | serde_json::error::Category::Eof => {
+            "is not valid JSON"
+        }
+        _ if !text.trim_start().starts_with('{') => "is JSON but not an object",
+        _ => return format!("input line {n} is not a valid query: {at}{detail}"),
+    };
+    format!(
+        "input line {n} {what}; a query line is one JSON object such as {LINE_SHAPE} (see docs/queries.md). Parser: {detail}"
+    )
 }
 
 /// Answers input line `n` (the JSON text of the answer) or says why it cannot.

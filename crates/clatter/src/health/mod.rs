@@ -197,7 +197,8 @@ pub struct Health {
 }
 
 /// How many f32 spacings of a 1 m/s velocity a step's gravity must span at least before
-/// [`Health::warnings`] warns that slow accelerations are rounded (64: under 1% error).
+/// [`Health::warnings`] warns that slow accelerations are rounded (64: half a spacing is
+/// 0.8% of the step's change).
 pub const SLOW_STEP_SPACINGS: f64 = 64.0;
 
 impl Health {
@@ -308,11 +309,12 @@ impl Health {
             ));
         }
         // Velocities are f32: a step's gravity within 64 spacings of a 1 m/s velocity is
-        // rounded by more than 1% (docs/scene-format.md, "Velocities are f32").
+        // rounded by up to half a spacing, 0.8% there and more as dt shrinks
+        // (docs/scene-format.md, "Velocities are f32").
         let g_dt = world.gravity.length() as f64 * dt;
         if g_dt > 0.0 && g_dt < SLOW_STEP_SPACINGS * f32::EPSILON as f64 {
             out.push(format!(
-                "dt = {dt:.3e} s is so small that a step's gravity, {g_dt:.2e} m/s, is within {SLOW_STEP_SPACINGS} float spacings of a 1 m/s velocity: velocities are 32-bit floats, so slow accelerations (gravity, friction) are rounded by a percent or more at such speeds; soften the stiffness for a larger automatic dt (docs/scene-format.md, \"Velocities are f32\")"
+                "dt = {dt:.3e} s is so small that a step's gravity, {g_dt:.2e} m/s, is within {SLOW_STEP_SPACINGS} float spacings of a 1 m/s velocity: velocities are 32-bit floats, so slow accelerations (gravity, friction) are rounded by about a percent or more at such speeds; soften the stiffness for a larger automatic dt (docs/scene-format.md, \"Velocities are f32\")"
             ));
         }
         out

@@ -208,9 +208,13 @@ impl SourceFile<'_> {
     /// keeps (1e300 would be infinite there, 1e-300 zero).
     fn positive(&self, v: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
         let x = *v.get_ref();
-        if x.is_finite() && x > 0.0 && fits_f32(x) && x as f32 >= f32::MIN_POSITIVE {
-            Ok(x)
-        } else if x.is_finite() && x > 0.0 {
+        if !(x.is_finite() && x > 0.0) {
+            self.err(
+                v.span(),
+                field,
+                format!("must be a positive finite number, got {x}"),
+            )
+        } else if !(fits_f32(x) && x as f32 >= f32::MIN_POSITIVE) {
             self.err(
                 v.span(),
                 field,
@@ -221,18 +225,14 @@ impl SourceFile<'_> {
                 ),
             )
         } else {
-            self.err(
-                v.span(),
-                field,
-                format!("must be a positive finite number, got {x}"),
-            )
+            Ok(x)
         }
     }
 
     /// `v`, which must be finite and >= 0, also as a 32-bit float.
     fn non_negative(&self, v: &Spanned<f64>, field: &str) -> Result<f64, SceneError> {
         let x = *v.get_ref();
-        if x.is_finite() && x >= 0.0 && fits_f32(x) {
+        if x >= 0.0 && fits_f32(x) {
             Ok(x)
         } else {
             self.err(
@@ -263,8 +263,8 @@ impl SourceFile<'_> {
         }
     }
 
-    /// `v` as a double-precision vector (body positions, kept at full precision).
-    /// Within [`MAX_POSITION`] of the origin on each axis.
+    /// `v` as a double-precision vector (body positions, kept to 48 bits), within
+    /// [`MAX_POSITION`] of the origin on each axis.
     fn dvec3(&self, v: &Spanned<[f64; 3]>, field: &str) -> Result<glam::DVec3, SceneError> {
         self.vec3(v, field)?;
         let a = *v.get_ref();
